@@ -1,0 +1,178 @@
+"""The one interface every FE code sits behind.
+
+An adapter maps a named parameter vector to a :class:`ModalResult`: natural
+frequencies (Hz), mass-normalised mode shapes at named measurement coordinates, and
+metadata (solver, mesh size, wall time, log path). Linear receptances at those
+coordinates follow by modal superposition (:meth:`ModalResult.to_modal_model`).
+
+Every evaluation is keyed by a hash of (adapter name, model fingerprint, parameter
+values), so a point that was already computed is never computed again — neither in
+this process (memory cache) nor, when ``cache_dir`` is set, in a later one (disk cache).
+Subclasses implement only :meth:`FEAdapter.model_fingerprint` and :meth:`FEAdapter._solve`.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import threading
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from nlupdate.linear import ModalModel
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """An updating parameter.
+
+    ``relative_step`` is the finite-difference step as a fraction of the current value
+    (h = relative_step·|p|, or relative_step·(upper − lower) when p = 0).
+    """
+
+    name: str
+    unit: str
+    start: float
+    lower: float
+    upper: float
+    relative_step: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if not (self.lower <= self.start <= self.upper):
+            raise ValueError(
+                f"parameter {self.name!r}: start {self.start} {self.unit} is outside its bounds "
+                f"[{self.lower}, {self.upper}]"
+            )
+        if not (0 < self.relative_step < 1):
+            raise ValueError(f"parameter {self.name!r}: relative_step must be in (0, 1), got {self.relative_step}")
+
+
+@dataclass(frozen=True, eq=False)
+class ModalResult:
+    """Outcome of one FE evaluation.
+
+    natural_frequencies_hz: shape (n_modes,), ascending, Hz.
+    mode_shapes: shape (n_coordinates, n_modes), mass-normalised (1/√kg), rows in the
+        order of ``coordinates``.
+    coordinates: names of the measurement coordinates (e.g. ``"tip:uz"``).
+    metadata: ``solver``, ``mesh_size`` (elements or dofs), ``wall_time_s``,
+        ``log_path`` (None for in-process solvers) and anything solver-specific.
+    """
+
+    natural_frequencies_hz: np.ndarray
+    mode_shapes: np.ndarray
+    coordinates: tuple[str, ...]
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_modal_model(self, damping_ratios: float | np.ndarray = 0.0, loss_factors: float | np.ndarray = 0.0) -> ModalModel:
+        """Modal model at the measurement coordinates with the given modal damping."""
+        return ModalModel(
+            natural_frequencies_hz=self.natural_frequencies_hz,
+            mode_shapes=self.mode_shapes,
+            damping_ratios=damping_ratios,
+            loss_factors=loss_factors,
+            dof_names=self.coordinates,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "natural_frequencies_hz": self.natural_frequencies_hz.tolist(),
+            "mode_shapes": self.mode_shapes.tolist(),
+            "coordinates": list(self.coordinates),
+            "metadata": dict(self.metadata),
+        }
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> "ModalResult":
+        return cls(
+            natural_frequencies_hz=np.asarray(data["natural_frequencies_hz"], dtype=float),
+            mode_shapes=np.asarray(data["mode_shapes"], dtype=float).reshape(len(data["coordinates"]), -1),
+            coordinates=tuple(data["coordinates"]),
+            metadata=data.get("metadata", {}),
+        )
+
+
+class AdapterError(RuntimeError):
+    """An FE run failed; the message names the run directory and log."""
+
+
+def parameter_key(adapter_name: str, model_fingerprint: str, parameters: Mapping[str, float]) -> str:
+    """Hash of (adapter, model, parameters); parameter values are hashed exactly (repr)."""
+    payload = json.dumps(
+        {"adapter": adapter_name, "model": model_fingerprint, "parameters": {k: repr(float(v)) for k, v in sorted(parameters.items())}},
+        sort_keys=True,
+    )
+    return hashlib.sha256(payload.encode()).hexdigest()[:20]
+
+
+class FEAdapter(ABC):
+    """Base class: caching, bookkeeping and input checks around ``_solve``."""
+
+    name: str = "adapter"
+
+    def __init__(self, parameter_names: Sequence[str], cache_dir: str | os.PathLike | None = None) -> None:
+        self.parameter_names = tuple(parameter_names)
+        self.cache_dir = Path(cache_dir) if cache_dir is not None else None
+        self._memory: dict[str, ModalResult] = {}
+        self._lock = threading.Lock()
+        self.new_evaluations = 0
+        self.cached_evaluations = 0
+
+    @abstractmethod
+    def model_fingerprint(self) -> str:
+        """A string that changes whenever the model (deck, mesh options, …) changes."""
+
+    @abstractmethod
+    def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
+        """Run the FE code for one parameter set (no caching here)."""
+
+    def key(self, parameters: Mapping[str, float]) -> str:
+        return parameter_key(self.name, self.model_fingerprint(), parameters)
+
+    def _check(self, parameters: Mapping[str, float]) -> dict[str, float]:
+        unknown = set(parameters) - set(self.parameter_names)
+        if unknown:
+            raise ValueError(
+                f"{self.name} adapter: unknown parameter(s) {sorted(unknown)}; it accepts {list(self.parameter_names)}"
+            )
+        checked = {}
+        for name, value in parameters.items():
+            value = float(value)
+            if not np.isfinite(value):
+                raise ValueError(f"{self.name} adapter: parameter {name!r} is not finite ({value})")
+            checked[name] = value
+        return checked
+
+    def evaluate(self, parameters: Mapping[str, float]) -> ModalResult:
+        """Modal result at ``parameters``, from cache when this point was seen before."""
+        parameters = self._check(parameters)
+        key = self.key(parameters)
+        with self._lock:
+            if key in self._memory:
+                self.cached_evaluations += 1
+                return self._memory[key]
+        disk_file = self.cache_dir / f"{key}.json" if self.cache_dir is not None else None
+        if disk_file is not None and disk_file.exists():
+            result = ModalResult.from_json(json.loads(disk_file.read_text()))
+            with self._lock:
+                self._memory[key] = result
+                self.cached_evaluations += 1
+            return result
+        result = self._solve(parameters)
+        with self._lock:
+            self._memory[key] = result
+            self.new_evaluations += 1
+        if disk_file is not None:
+            disk_file.parent.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile("w", dir=disk_file.parent, suffix=".tmp", delete=False) as handle:
+                json.dump(result.to_json(), handle, default=str)
+            os.replace(handle.name, disk_file)
+        return result
+
+    def counts(self) -> dict[str, int]:
+        return {"new": self.new_evaluations, "cached": self.cached_evaluations}

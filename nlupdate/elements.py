@@ -1,0 +1,359 @@
+"""Local nonlinear elements and their single-harmonic describing functions (METHODS §2).
+
+Every element acts on the relative displacement ``x = x_r − x_j`` of two coordinates, or
+``x = x_r`` when it connects coordinate r to ground (``dofs=(r,)``).
+
+For a relative motion ``x(t) = Re(A e^{iωt}) = A cos ωt`` the describing function (DF) is
+the complex ratio of the first harmonic of the element force to the displacement
+amplitude: ``ν(A, ω) = F₁/A`` with ``F₁ = (1/π)∫₀^{2π} f(θ) e^{−iθ} dθ``.
+``Re ν`` is a stiffness (N/m), ``Im ν > 0`` dissipates energy (same sign as ``iωc``).
+
+Each element provides
+* ``describing_function(A, ω)`` and its derivatives ``(∂ν/∂A, ∂ν/∂ω)`` (for Newton);
+* ``force(x, v, state, ω)``: the time-domain force law, vectorised, with a history
+  state for hysteretic elements (return mapping); used for time integration and for
+  the Fourier-integral check of the DF;
+* ``stiffness_bound(A)``: an upper bound of the tangent stiffness up to amplitude A,
+  used to choose stable time steps.
+
+Elements are frozen dataclasses of plain floats and tuples, hence hashable.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import gamma, pi, sqrt
+from typing import Protocol, Sequence, Union
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+_TINY_AMPLITUDE = 1e-300
+
+
+class NonlinearElement(Protocol):
+    dofs: tuple[int, ...]
+
+    def describing_function(self, amplitude: ArrayLike, omega: ArrayLike) -> NDArray[np.complex128]: ...
+
+    def describing_function_derivatives(
+        self, amplitude: ArrayLike, omega: ArrayLike
+    ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]: ...
+
+    def force(
+        self, displacement: NDArray, velocity: NDArray, state: NDArray | None, omega: ArrayLike
+    ) -> tuple[NDArray, NDArray | None]: ...
+
+    def initial_state(self, shape: tuple[int, ...]) -> NDArray | None: ...
+
+    def stiffness_bound(self, amplitude: float) -> float: ...
+
+
+def _check_dofs(dofs: Sequence[int]) -> tuple[int, ...]:
+    dofs = tuple(int(d) for d in dofs)
+    if len(dofs) not in (1, 2):
+        raise ValueError(f"an element connects one dof to ground or two dofs, got dofs={list(dofs)}")
+    if any(d < 0 for d in dofs):
+        raise ValueError(f"dof indices must be non-negative, got {list(dofs)}")
+    if len(dofs) == 2 and dofs[0] == dofs[1]:
+        raise ValueError(f"an element cannot connect dof {dofs[0]} to itself")
+    return dofs
+
+
+def _positive(name: str, value: float, allow_zero: bool = False) -> float:
+    value = float(value)
+    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        raise ValueError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} number, got {value}")
+    return value
+
+
+def _amplitude(amplitude: ArrayLike) -> NDArray[np.float64]:
+    return np.maximum(np.abs(np.asarray(amplitude, dtype=float)), _TINY_AMPLITUDE)
+
+
+class _Stateless:
+    def initial_state(self, shape: tuple[int, ...]) -> None:
+        return None
+
+
+@dataclass(frozen=True)
+class CubicStiffness(_Stateless):
+    """Cubic spring ``f = k3·x³`` (k3 in N/m³); ``ν = ¾ k3 A²``."""
+
+    dofs: tuple[int, ...]
+    k3: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        if not np.isfinite(self.k3):
+            raise ValueError(f"k3 must be finite, got {self.k3}")
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = np.asarray(amplitude, dtype=float)
+        return (0.75 * self.k3 * a**2) + 0j
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = np.asarray(amplitude, dtype=float)
+        return 1.5 * self.k3 * a + 0j, np.zeros_like(a) + 0j
+
+    def force(self, displacement, velocity, state, omega=0.0):
+        return self.k3 * displacement**3, None
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return 3.0 * abs(self.k3) * amplitude**2
+
+
+@dataclass(frozen=True)
+class JenkinsFriction:
+    """Jenkins element: spring kf (N/m) in series with a Coulomb slider of slip force Fs (N).
+
+    Stuck below ``A = Fs/kf`` (ν = kf); above, with ``β = arccos(1 − 2Fs/(kf A))``:
+    ``Re ν = (kf/π)(β − ½ sin 2β)``, ``Im ν = (4Fs/(πA))(1 − Fs/(kf A))``.
+    The time-domain state is the slider position (m).
+    """
+
+    dofs: tuple[int, ...]
+    kf: float
+    slip_force: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        _positive("kf", self.kf)
+        _positive("slip_force", self.slip_force)
+
+    @property
+    def slip_amplitude(self) -> float:
+        """Amplitude (m) at which the slider starts to slip."""
+        return self.slip_force / self.kf
+
+    def _beta(self, a: NDArray) -> NDArray:
+        ratio = np.clip(1.0 - 2.0 * self.slip_amplitude / a, -1.0, 1.0)
+        return np.arccos(ratio)
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        stuck = a <= self.slip_amplitude
+        beta = self._beta(a)
+        real = self.kf / pi * (beta - 0.5 * np.sin(2 * beta))
+        imag = 4 * self.slip_force / (pi * a) * (1 - self.slip_amplitude / a)
+        return np.where(stuck, self.kf + 0j, real + 1j * imag)
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        a0 = self.slip_amplitude
+        stuck = a <= a0
+        beta = self._beta(a)
+        ratio = 1.0 - 2.0 * a0 / a
+        dbeta = -(2.0 * a0 / a**2) / np.sqrt(np.maximum(1.0 - ratio**2, 1e-300))
+        dreal = self.kf / pi * (1.0 - np.cos(2 * beta)) * dbeta
+        dimag = 4 * self.slip_force / pi * (-1.0 / a**2 + 2.0 * a0 / a**3)
+        d_da = np.where(stuck, 0.0 + 0j, dreal + 1j * dimag)
+        return d_da, np.zeros_like(d_da)
+
+    def force(self, displacement, velocity, state, omega=0.0):
+        """Return mapping: trial stick force, slider moves when it exceeds Fs."""
+        slider = np.zeros_like(displacement) if state is None else state
+        trial = self.kf * (displacement - slider)
+        slipping = np.abs(trial) > self.slip_force
+        force = np.where(slipping, np.sign(trial) * self.slip_force, trial)
+        new_slider = np.where(slipping, displacement - force / self.kf, slider)
+        return force, new_slider
+
+    def initial_state(self, shape: tuple[int, ...]) -> NDArray:
+        return np.zeros(shape)
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return self.kf
+
+
+@dataclass(frozen=True)
+class CoulombFriction(_Stateless):
+    """Coulomb friction ``f = Fs·sign(ẋ)``; ``ν = i·4Fs/(πA)``."""
+
+    dofs: tuple[int, ...]
+    slip_force: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        _positive("slip_force", self.slip_force)
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        return 1j * 4 * self.slip_force / (pi * a)
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        d_da = -1j * 4 * self.slip_force / (pi * a**2)
+        return d_da, np.zeros_like(d_da)
+
+    def force(self, displacement, velocity, state, omega=0.0):
+        return self.slip_force * np.sign(velocity), None
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class QuadraticDamping(_Stateless):
+    """Quadratic damper ``f = cq·ẋ·|ẋ|`` (cq in N·s²/m²); ``ν = i·8 cq ω² A/(3π)``."""
+
+    dofs: tuple[int, ...]
+    cq: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        _positive("cq", self.cq)
+
+    def describing_function(self, amplitude, omega=1.0):
+        a = np.asarray(amplitude, dtype=float)
+        w = np.asarray(omega, dtype=float)
+        return 1j * 8 * self.cq * w**2 * a / (3 * pi)
+
+    def describing_function_derivatives(self, amplitude, omega=1.0):
+        a = np.asarray(amplitude, dtype=float)
+        w = np.asarray(omega, dtype=float)
+        return 1j * 8 * self.cq * w**2 / (3 * pi) + 0 * a, 1j * 16 * self.cq * w * a / (3 * pi)
+
+    def force(self, displacement, velocity, state, omega=1.0):
+        return self.cq * velocity * np.abs(velocity), None
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class SymmetricGap(_Stateless):
+    """Contact spring kc (N/m) engaged beyond a clearance ±g (m).
+
+    ``f = kc·(x − g·sign(x))`` for ``|x| > g``, else 0;
+    ``ν = kc·[1 − (2/π)(asin(g/A) + (g/A)√(1 − (g/A)²))]`` for ``A > g``, else 0.
+    """
+
+    dofs: tuple[int, ...]
+    gap: float
+    kc: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        _positive("gap", self.gap, allow_zero=True)
+        _positive("kc", self.kc)
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        r = np.clip(self.gap / a, 0.0, 1.0)
+        value = self.kc * (1 - 2 / pi * (np.arcsin(r) + r * np.sqrt(1 - r**2)))
+        return np.where(a <= self.gap, 0.0, value) + 0j
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        r = np.clip(self.gap / a, 0.0, 1.0)
+        d_da = 4 * self.kc * self.gap / (pi * a**2) * np.sqrt(1 - r**2)
+        d_da = np.where(a <= self.gap, 0.0, d_da) + 0j
+        return d_da, np.zeros_like(d_da)
+
+    def force(self, displacement, velocity, state, omega=0.0):
+        excess = np.abs(displacement) - self.gap
+        return np.where(excess > 0, self.kc * np.sign(displacement) * excess, 0.0), None
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return self.kc
+
+
+def _cos_power_mean(power: int) -> float:
+    """``(1/π)∫₀^{2π} |cos θ|^{power+2} dθ``: DF gain of the force ``x|x|^power``."""
+    n = power + 2
+    return 2.0 / sqrt(pi) * gamma((n + 1) / 2) / gamma(n / 2 + 1)
+
+
+@dataclass(frozen=True)
+class PolynomialDF(_Stateless):
+    """Identified describing function ``ν(A) = Σ p_k A^k + i Σ q_k A^k``.
+
+    ``real`` and ``imag`` hold the coefficients highest order first (``numpy.polyval``
+    convention), in SI units (N/m^(k+1) for the A^k term).
+
+    The matching time-domain law (used for time integration) is
+    ``f = Σ (p_k/γ_k)·x|x|^k + Σ (q_k/γ_k)·u|u|^k`` with ``u = ẋ/ω`` and
+    ``γ_k = (1/π)∫|cos θ|^{k+2} dθ``, whose DF is exactly ν.
+    """
+
+    dofs: tuple[int, ...]
+    real: tuple[float, ...]
+    imag: tuple[float, ...] = (0.0,)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        for name in ("real", "imag"):
+            coefficients = tuple(float(c) for c in np.atleast_1d(getattr(self, name)))
+            if not coefficients or not all(np.isfinite(coefficients)):
+                raise ValueError(f"polynomial DF '{name}' coefficients must be a non-empty list of finite numbers")
+            object.__setattr__(self, name, coefficients)
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = np.asarray(amplitude, dtype=float)
+        return np.polyval(self.real, a) + 1j * np.polyval(self.imag, a)
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = np.asarray(amplitude, dtype=float)
+        d_da = np.polyval(np.polyder(self.real), a) + 1j * np.polyval(np.polyder(self.imag), a)
+        return d_da + 0 * a, np.zeros_like(a) + 0j
+
+    def _law(self, coefficients: tuple[float, ...], x: NDArray) -> NDArray:
+        order = len(coefficients) - 1
+        total = np.zeros_like(x, dtype=float)
+        for index, coefficient in enumerate(coefficients):
+            power = order - index
+            if coefficient != 0.0:
+                total = total + coefficient / _cos_power_mean(power) * x * np.abs(x) ** power
+        return total
+
+    def force(self, displacement, velocity, state, omega=1.0):
+        return self._law(self.real, displacement) + self._law(self.imag, velocity / omega), None
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        order = len(self.real) - 1
+        return sum(
+            abs(c) / _cos_power_mean(order - i) * (order - i + 1) * amplitude ** (order - i)
+            for i, c in enumerate(self.real)
+        )
+
+
+Element = Union[CubicStiffness, JenkinsFriction, CoulombFriction, QuadraticDamping, SymmetricGap, PolynomialDF]
+
+ELEMENT_TYPES: dict[str, type] = {
+    "cubic": CubicStiffness,
+    "jenkins": JenkinsFriction,
+    "coulomb": CoulombFriction,
+    "quadratic_damping": QuadraticDamping,
+    "gap": SymmetricGap,
+    "polynomial": PolynomialDF,
+}
+
+
+def nonlinear_dofs(elements: Sequence[NonlinearElement]) -> tuple[int, ...]:
+    """Sorted coordinates touched by any element (the ``a`` set of METHODS §3)."""
+    return tuple(sorted({d for element in elements for d in element.dofs}))
+
+
+def assemble_delta(
+    elements: Sequence[NonlinearElement], displacement: ArrayLike, omega: float, dofs: Sequence[int] | None = None
+) -> NDArray[np.complex128]:
+    """Nonlinearity matrix Δ (METHODS §1) at complex amplitudes ``displacement``.
+
+    ``displacement`` holds the complex amplitudes at ``dofs`` (default: the element
+    coordinates :func:`nonlinear_dofs`); Δ is returned on the same coordinates.
+    """
+    dofs = tuple(dofs) if dofs is not None else nonlinear_dofs(elements)
+    x = np.asarray(displacement, dtype=complex)
+    position = {d: i for i, d in enumerate(dofs)}
+    delta = np.zeros((len(dofs), len(dofs)), dtype=complex)
+    for element in elements:
+        r = position[element.dofs[0]]
+        relative = x[r] - (x[position[element.dofs[1]]] if len(element.dofs) == 2 else 0.0)
+        nu = complex(element.describing_function(abs(relative), omega))
+        delta[r, r] += nu
+        if len(element.dofs) == 2:
+            j = position[element.dofs[1]]
+            delta[j, j] += nu
+            delta[r, j] -= nu
+            delta[j, r] -= nu
+    return delta
