@@ -1,0 +1,243 @@
+"""Newton + pseudo-arclength continuation of nonlinear frequency responses.
+
+The condensed single-harmonic balance ``R(y, ω) = 0`` (see :mod:`nlupdate.system`) is
+traced as a curve in (y, ω̃) with ω̃ = (ω − ω_start)/(ω_end − ω_start), so both the
+scaled amplitudes and the scaled frequency are O(1). Each step predicts along the unit
+tangent and corrects with Newton on the pseudo-arclength system (Keller)::
+
+    R(y, ω) = 0,   tᵀ (z − z_pred) = 0.
+
+The step length adapts to the number of corrector iterations and to the turning angle
+of the tangent, so folds are passed without manual tuning.
+
+Stability criterion (documented simplification): a point is *unstable* when the
+determinant of the real Jacobian ``∂R/∂y`` has the opposite sign to that of the
+underlying linear system (which is +1 in receptance form). The determinant changes
+sign exactly at turning points (saddle-node bifurcations), so this flags the middle
+branches between folds — the branches a stepped-sine test jumps over. It does not
+detect Neimark–Sacker or symmetry-breaking bifurcations of multi-harmonic motion.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlupdate.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
+
+
+class ContinuationError(RuntimeError):
+    """The continuation could not start or stalled; the message says where."""
+
+
+@dataclass(frozen=True, eq=False)
+class FrequencyResponse:
+    """A traced nonlinear frequency response (one force vector).
+
+    omega: angular frequencies (rad/s) of the curve points, in curve order.
+    x_nonlinear: complex amplitudes (m) at the nonlinear coordinates, (n_points, n_a).
+    stable: stability flag of each point (see module docstring).
+    turning_point: True at the refined fold points (dω/ds = 0).
+    """
+
+    problem: CondensedProblem
+    omega: NDArray[np.float64]
+    x_nonlinear: NDArray[np.complex128]
+    stable: NDArray[np.bool_]
+    turning_point: NDArray[np.bool_]
+
+    @property
+    def frequency_hz(self) -> NDArray[np.float64]:
+        return self.omega / (2 * np.pi)
+
+    @property
+    def nonlinear_dofs(self) -> tuple[int, ...]:
+        return self.problem.a
+
+    @property
+    def fold_frequencies_hz(self) -> NDArray[np.float64]:
+        return self.frequency_hz[self.turning_point]
+
+    def response(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
+        """Complex amplitudes (m) at any coordinates for every curve point."""
+        return self.problem.response_at(self.omega, self.x_nonlinear, dofs)
+
+
+def default_x_scale(problem: CondensedProblem, omega_start: float, omega_end: float) -> float:
+    """Amplitude scale: the largest linear response at the nonlinear dofs over the band."""
+    grid = np.linspace(omega_start, omega_end, 201)
+    linear = problem.linear_response(grid, problem.a)
+    scale = float(np.max(np.abs(linear))) if linear.size else 0.0
+    return scale if scale > 0 else 1.0
+
+
+def _tangent(jac: NDArray, jac_w: NDArray, previous: NDArray) -> NDArray:
+    """Unit null vector of [J, J_ω̃] oriented like ``previous``."""
+    size = jac.shape[0]
+    augmented = np.zeros((size + 1, size + 1))
+    augmented[:size, :size] = jac
+    augmented[:size, size] = jac_w
+    augmented[size] = previous
+    rhs = np.zeros(size + 1)
+    rhs[size] = 1.0
+    t = np.linalg.solve(augmented, rhs)
+    return t / np.linalg.norm(t)
+
+
+def trace_frequency_response(
+    system: NonlinearSystem,
+    forcing: Mapping[int | str, complex],
+    omega_start: float,
+    omega_end: float,
+    *,
+    x_scale: float | None = None,
+    step: float = 0.02,
+    max_step: float = 0.05,
+    min_step: float = 1e-7,
+    tolerance: float = 1e-10,
+    max_points: int = 20000,
+    max_angle_deg: float = 15.0,
+) -> FrequencyResponse:
+    """Trace the single-harmonic frequency response from ``omega_start`` to ``omega_end`` (rad/s).
+
+    Step lengths are in the scaled space (frequency band = 1, amplitude scale = 1).
+    Returns every point of the curve in order, including the branches between folds.
+    """
+    if not (np.isfinite(omega_start) and np.isfinite(omega_end) and 0 <= omega_start < omega_end):
+        raise ValueError(f"need 0 ≤ omega_start < omega_end, got {omega_start}, {omega_end} rad/s")
+    problem = CondensedProblem(system, forcing)
+    if problem.n == 0:
+        grid = np.linspace(omega_start, omega_end, 201)
+        empty = np.zeros((grid.size, 0), dtype=complex)
+        return FrequencyResponse(problem, grid, empty, np.ones(grid.size, bool), np.zeros(grid.size, bool))
+    problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
+    band = omega_end - omega_start
+    size = 2 * problem.n
+
+    def evaluate(z: NDArray):
+        r, jac, jac_w = problem.residual_and_jacobians(z[:size], omega_start + band * z[size])
+        return r, jac, jac_w * band
+
+    # starting point: Newton at omega_start from the linear response, then from zero
+    _, x_lin = problem.linear_terms(omega_start, derivative=False)
+    for guess in (problem.to_real(x_lin), np.zeros(size)):
+        y, converged, _ = newton_fixed_frequency(problem, omega_start, guess, tol=tolerance)
+        if converged:
+            break
+    else:
+        raise ContinuationError(
+            f"no converged starting solution at {omega_start / (2 * np.pi):.6g} Hz; "
+            "start the band where the response is closer to linear"
+        )
+    z = np.append(y, 0.0)
+    r, jac, jac_w = evaluate(z)
+    direction = np.zeros(size + 1)
+    direction[size] = 1.0
+    t = _tangent(jac, jac_w, direction)
+
+    points = [z]
+    dets = [np.linalg.det(jac)]
+    turning = [False]
+    ds = step
+    cos_max = np.cos(np.radians(max_angle_deg))
+    augmented = np.zeros((size + 1, size + 1))
+
+    while len(points) < max_points:
+        z_pred = z + ds * t
+        z_new = z_pred.copy()
+        converged = False
+        for iteration in range(1, 9):
+            r, jac, jac_w = evaluate(z_new)
+            augmented[:size, :size] = jac
+            augmented[:size, size] = jac_w
+            augmented[size] = t
+            rhs = np.append(-r, -t @ (z_new - z_pred))
+            try:
+                dz = np.linalg.solve(augmented, rhs)
+            except np.linalg.LinAlgError:
+                break
+            z_new = z_new + dz
+            if np.max(np.abs(dz)) < 1e-9 and np.max(np.abs(r)) < 10 * tolerance:
+                converged = True
+                break
+        if converged:  # the last Jacobian was taken within 1e-9 of z_new: reuse it
+            t_new = _tangent(jac, jac_w, t)
+        if not converged or (t_new @ t < cos_max and ds > min_step):
+            ds *= 0.5
+            if ds < min_step:
+                warnings.warn(
+                    f"continuation stalled at {(omega_start + band * z[size]) / (2 * np.pi):.6g} Hz "
+                    "(step below minimum); the curve is returned up to there",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+                break
+            continue
+        if t_new[size] * t[size] < 0:
+            z_fold, jac_fold = _refine_fold(evaluate, z, t, z_new, t_new, augmented)
+            points.append(z_fold)
+            dets.append(np.linalg.det(jac_fold))
+            turning.append(True)
+        points.append(z_new)
+        dets.append(np.linalg.det(jac))
+        turning.append(False)
+        z, t = z_new, t_new
+        ds = min(ds * 1.6, max_step) if iteration <= 2 else ds * 0.6 if iteration >= 5 else ds
+        if z[size] >= 1.0 or z[size] <= 0.0:
+            break
+
+    points_arr = np.array(points)
+    # land exactly on the band edge the curve left through
+    if points_arr[-1, size] > 1.0 or points_arr[-1, size] < 0.0:
+        edge = 1.0 if points_arr[-1, size] > 1.0 else 0.0
+        z_prev, z_last = points_arr[-2], points_arr[-1]
+        weight = (edge - z_prev[size]) / (z_last[size] - z_prev[size])
+        guess = z_prev[:size] + weight * (z_last[:size] - z_prev[:size])
+        y_edge, ok, _ = newton_fixed_frequency(problem, omega_start + band * edge, guess, tol=tolerance)
+        if ok:
+            points_arr[-1] = np.append(y_edge, edge)
+            dets[-1] = np.linalg.det(evaluate(points_arr[-1])[1])
+    omega = omega_start + band * points_arr[:, size]
+    x = (points_arr[:, : problem.n] + 1j * points_arr[:, problem.n : size]) * problem.x_scale
+    stable = np.array(dets) > 0
+    turning_arr = np.array(turning)
+    stable[turning_arr] = False
+    return FrequencyResponse(problem, omega, x, stable, turning_arr)
+
+
+def _refine_fold(evaluate, z0, t0, z1, t1, augmented, iterations: int = 12):
+    """Locate the turning point between two curve points (secant on t_ω along the chord)."""
+    size = z0.size - 1
+    s_low, s_high = 0.0, float(np.linalg.norm(z1 - z0))
+    f_low, f_high = t0[size], t1[size]
+    direction = (z1 - z0) / s_high
+    z_best, jac_best = z1, evaluate(z1)[1]
+    for _ in range(iterations):
+        s = s_low - f_low * (s_high - s_low) / (f_high - f_low)
+        s = min(max(s, s_low + 0.05 * (s_high - s_low)), s_high - 0.05 * (s_high - s_low))
+        z_pred = z0 + s * direction
+        z_try = z_pred.copy()
+        for _ in range(10):
+            r, jac, jac_w = evaluate(z_try)
+            augmented[:size, :size] = jac
+            augmented[:size, size] = jac_w
+            augmented[size] = direction
+            dz = np.linalg.solve(augmented, np.append(-r, -direction @ (z_try - z_pred)))
+            z_try = z_try + dz
+            if np.max(np.abs(dz)) < 1e-12:
+                break
+        r, jac, jac_w = evaluate(z_try)
+        t_try = _tangent(jac, jac_w, t0)
+        z_best, jac_best = z_try, jac
+        if abs(t_try[size]) < 1e-10:
+            break
+        if t_try[size] * f_low > 0:
+            s_low, f_low = s, t_try[size]
+        else:
+            s_high, f_high = s, t_try[size]
+        if s_high - s_low < 1e-12:
+            break
+    return z_best, jac_best
