@@ -100,10 +100,12 @@ def trace_frequency_response(
     tolerance: float = 1e-10,
     max_points: int = 20000,
     max_angle_deg: float = 15.0,
+    kink_step: float = 1e-4,
 ) -> FrequencyResponse:
     """Trace the single-harmonic frequency response from ``omega_start`` to ``omega_end`` (rad/s).
 
-    Step lengths are in the scaled space (frequency band = 1, amplitude scale = 1).
+    Step lengths are in the scaled space (frequency band = 1, amplitude scale = 1);
+    below ``kink_step`` a turn sharper than ``max_angle_deg`` is accepted as a kink.
     Returns every point of the curve in order, including the branches between folds.
     """
     if not (np.isfinite(omega_start) and np.isfinite(omega_end) and 0 <= omega_start < omega_end):
@@ -165,7 +167,9 @@ def trace_frequency_response(
                 break
         if converged:  # the last Jacobian was taken within 1e-9 of z_new: reuse it
             t_new = _tangent(jac, jac_w, t)
-        if not converged or (t_new @ t < cos_max and ds > min_step):
+        # A sharp turn is refined by smaller steps, except at a kink (e.g. stick–slip onset
+        # of a Jenkins element, where the DF slope jumps) which no step size smooths.
+        if not converged or (t_new @ t < cos_max and ds > kink_step):
             ds *= 0.5
             if ds < min_step:
                 warnings.warn(
