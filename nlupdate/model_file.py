@@ -1,0 +1,163 @@
+"""TOML model descriptions: a linear model plus ``[[nonlinear]]`` elements.
+
+Lumped form (matrices in SI units; ``damping`` viscous N·s/m, ``loss_factor`` gives
+structural damping ``D = loss_factor·K``, ``structural_damping`` gives D directly)::
+
+    [model]
+    kind = "lumped"
+    mass = [[0.1, 0.0], [0.0, 0.5]]
+    stiffness = [[2e6, -1e6], [-1e6, 2e6]]
+    damping = [[0.0, 0.0], [0.0, 0.0]]     # optional
+    loss_factor = 0.005                    # optional
+    dof_names = ["m1", "m2"]               # optional, default "0", "1", …
+
+Modal form (mass-normalised shapes, one row per coordinate)::
+
+    [model]
+    kind = "modal"
+    natural_frequencies_hz = [712.0, 1500.0]
+    mode_shapes = [[3.1, 0.2], [0.5, -2.0]]
+    damping_ratios = [0.005, 0.005]        # optional (or one number)
+    loss_factors = 0.0                     # optional
+
+Elements (``dofs`` = one dof to ground or two dofs, by index or name)::
+
+    [[nonlinear]]
+    type = "jenkins"
+    dofs = [0]
+    kf = 8e4
+    slip_force = 1.0
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from nlupdate.elements import ELEMENT_TYPES
+from nlupdate.linear import LumpedModel, ModalModel, dof_index
+from nlupdate.system import NonlinearSystem
+
+ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
+    "cubic": ("k3",),
+    "jenkins": ("kf", "slip_force"),
+    "coulomb": ("slip_force",),
+    "quadratic_damping": ("cq",),
+    "gap": ("gap", "kc"),
+    "polynomial": ("real", "imag"),
+}
+OPTIONAL_ELEMENT_KEYS = {"polynomial": ("imag",)}
+LUMPED_KEYS = {"kind", "mass", "stiffness", "damping", "loss_factor", "structural_damping", "dof_names"}
+MODAL_KEYS = {"kind", "natural_frequencies_hz", "mode_shapes", "damping_ratios", "loss_factors", "dof_names"}
+
+
+class ModelFileError(ValueError):
+    """A model file that cannot be used; the message names file, table and key."""
+
+
+def _require(table: Mapping[str, Any], key: str, where: str) -> Any:
+    if key not in table:
+        raise ModelFileError(f"{where}: missing key '{key}'")
+    return table[key]
+
+
+def _matrix(table: Mapping[str, Any], key: str, where: str) -> np.ndarray:
+    value = _require(table, key, where)
+    try:
+        matrix = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelFileError(f"{where}: '{key}' must be a square matrix of numbers (list of rows)") from None
+    if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1]:
+        raise ModelFileError(f"{where}: '{key}' must be a square matrix (list of equal-length rows), got shape {matrix.shape}")
+    return matrix
+
+
+def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel | ModalModel:
+    """Build the linear model from the ``[model]`` table."""
+    kind = _require(table, "kind", where)
+    if kind == "lumped":
+        unknown = set(table) - LUMPED_KEYS
+        if unknown:
+            raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)}; a lumped model accepts {sorted(LUMPED_KEYS)}")
+        mass = _matrix(table, "mass", where)
+        stiffness = _matrix(table, "stiffness", where)
+        damping = _matrix(table, "damping", where) if "damping" in table else None
+        structural = _matrix(table, "structural_damping", where) if "structural_damping" in table else None
+        if "loss_factor" in table:
+            if structural is not None:
+                raise ModelFileError(f"{where}: give either 'loss_factor' or 'structural_damping', not both")
+            structural = float(table["loss_factor"]) * stiffness
+        try:
+            return LumpedModel(mass, stiffness, damping, structural, tuple(str(n) for n in table.get("dof_names", ())))
+        except ValueError as error:
+            raise ModelFileError(f"{where}: {error}") from None
+    if kind == "modal":
+        unknown = set(table) - MODAL_KEYS
+        if unknown:
+            raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)}; a modal model accepts {sorted(MODAL_KEYS)}")
+        try:
+            return ModalModel(
+                natural_frequencies_hz=np.array(_require(table, "natural_frequencies_hz", where), dtype=float),
+                mode_shapes=np.array(_require(table, "mode_shapes", where), dtype=float),
+                damping_ratios=np.array(table.get("damping_ratios", 0.0), dtype=float),
+                loss_factors=np.array(table.get("loss_factors", 0.0), dtype=float),
+                dof_names=tuple(str(n) for n in table.get("dof_names", ())),
+            )
+        except ValueError as error:
+            raise ModelFileError(f"{where}: {error}") from None
+    raise ModelFileError(f"{where}: kind must be \"lumped\" or \"modal\", got {kind!r}")
+
+
+def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel, where: str):
+    """Build one nonlinear element from a ``[[nonlinear]]`` table."""
+    kind = _require(table, "type", where)
+    if kind not in ELEMENT_TYPES:
+        raise ModelFileError(f"{where}: unknown type {kind!r}; expected one of {sorted(ELEMENT_TYPES)}")
+    allowed = set(ELEMENT_KEYS[kind]) | {"type", "dofs"}
+    unknown = set(table) - allowed
+    if unknown:
+        raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)} for a {kind} element; expected {sorted(allowed)}")
+    dofs = _require(table, "dofs", where)
+    if not isinstance(dofs, list) or len(dofs) not in (1, 2):
+        raise ModelFileError(f"{where}: 'dofs' must be a list of one dof (to ground) or two dofs, got {dofs!r}")
+    try:
+        indices = tuple(dof_index(model, d) for d in dofs)
+    except ValueError as error:
+        raise ModelFileError(f"{where}: {error}") from None
+    values = {}
+    for key in ELEMENT_KEYS[kind]:
+        if key in table:
+            values[key] = tuple(table[key]) if kind == "polynomial" else table[key]
+        elif key not in OPTIONAL_ELEMENT_KEYS.get(kind, ()):
+            raise ModelFileError(f"{where}: missing key '{key}' for a {kind} element")
+    try:
+        return ELEMENT_TYPES[kind](indices, **values)
+    except (TypeError, ValueError) as error:
+        raise ModelFileError(f"{where}: {error}") from None
+
+
+def system_from_dict(data: Mapping[str, Any], source: str = "<model>") -> NonlinearSystem:
+    """Nonlinear system from parsed TOML data; ``source`` names the file in errors."""
+    unknown = set(data) - {"model", "nonlinear"}
+    if unknown:
+        raise ModelFileError(f"{source}: unknown top-level table(s) {sorted(unknown)}; expected [model] and [[nonlinear]]")
+    model = linear_model_from_table(_require(data, "model", source), f"{source} [model]")
+    elements = data.get("nonlinear", [])
+    if not isinstance(elements, list):
+        raise ModelFileError(f"{source}: 'nonlinear' must be an array of tables ([[nonlinear]])")
+    built = tuple(element_from_table(t, model, f"{source} [[nonlinear]] #{i + 1}") for i, t in enumerate(elements))
+    return NonlinearSystem(model, built)
+
+
+def load_system(path: str | Path) -> NonlinearSystem:
+    """Read a TOML model file (see module docstring)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"model file {path} does not exist")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ModelFileError(f"{path}: not valid TOML ({error})") from None
+    return system_from_dict(data, str(path))
