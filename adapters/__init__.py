@@ -1,4 +1,10 @@
-"""FE adapters: every FE code behind one small interface (:class:`FEAdapter`)."""
+"""FE adapters: every FE code behind one small interface (:class:`FEAdapter`).
+
+* :mod:`nlupdate.adapters.surrogate` — built-in beam FE (T-beam, gun barrel), in process;
+* :mod:`nlupdate.adapters.calculix` (+ :mod:`~nlupdate.adapters.calculix_tbeam`) — CalculiX ``ccx`` in batch;
+* :mod:`nlupdate.adapters.mapdl` — ANSYS MAPDL in batch on a user's parametric APDL deck;
+* :mod:`nlupdate.adapters.runner` — the process runner both external adapters share.
+"""
 from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult, Parameter, parameter_key
 
 __all__ = ["AdapterError", "FEAdapter", "ModalResult", "Parameter", "parameter_key"]

@@ -1,0 +1,207 @@
+"""Run an external FE executable in a fresh working directory of its own.
+
+Used by every file-based adapter (CalculiX, MAPDL). One run = one directory: FE codes
+write scratch files into their working directory (ccx writes ``spooles.out``, MAPDL
+writes ``job.*`` files), so two runs must never share one. :meth:`ProcessRunner.new_run_dir`
+creates ``work_root/<name>`` atomically (``<name>-2``, ``<name>-3``, … when that name
+is taken, e.g. by an earlier failed run of the same evaluation key or by a concurrent
+run of the same point), hence runs in different threads or processes never collide.
+
+:meth:`ProcessRunner.run` starts the command in that directory, in a new process
+group, with stdout and stderr both written to one log file; on timeout the whole
+process group is killed (SIGTERM, then SIGKILL after a grace period). Every failure
+raises :class:`~nlupdate.adapters.base.AdapterError` whose message names the run
+directory, the log file and the last lines of the log.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Sequence
+
+from nlupdate.adapters.base import AdapterError
+
+LOG_TAIL_LINES = 20
+KILL_GRACE_S = 2.0
+
+
+class ExecutableNotFoundError(AdapterError):
+    """The FE executable is not installed or not configured."""
+
+
+class RunTimeoutError(AdapterError):
+    """The FE run exceeded its time limit and was killed."""
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Outcome of one successful process run (return code 0)."""
+
+    returncode: int
+    wall_time_s: float
+    log_path: Path
+    run_dir: Path
+
+
+def resolve_executable(executable: str | os.PathLike[str], install_hint: str) -> str:
+    """Absolute path of ``executable`` (a name on PATH or a path to a file).
+
+    Raises :class:`ExecutableNotFoundError` with ``install_hint`` appended when it is
+    missing or not executable.
+    """
+    candidate = os.fspath(executable)
+    if not candidate:
+        raise ExecutableNotFoundError(f"no FE executable configured. {install_hint}")
+    if os.sep in candidate or (os.altsep is not None and os.altsep in candidate):
+        path = Path(candidate).expanduser()
+        if path.is_file() and os.access(path, os.X_OK):
+            return str(path.resolve())
+        raise ExecutableNotFoundError(f"FE executable {candidate!r} does not exist or is not executable. {install_hint}")
+    found = shutil.which(candidate)
+    if found is None:
+        raise ExecutableNotFoundError(f"FE executable {candidate!r} was not found on PATH. {install_hint}")
+    return found
+
+
+def log_tail(path: Path, n_lines: int = LOG_TAIL_LINES) -> str:
+    """Last ``n_lines`` lines of a text file ('' when it does not exist)."""
+    try:
+        text = path.read_text(errors="replace")
+    except OSError:
+        return ""
+    return "\n".join(text.rstrip().splitlines()[-n_lines:])
+
+
+def run_failure(reason: str, run_dir: Path, log_path: Path) -> AdapterError:
+    """An :class:`AdapterError` naming the run directory, the log and its last lines."""
+    return AdapterError(_failure_message(reason, run_dir, log_path))
+
+
+def _failure_message(reason: str, run_dir: Path, log_path: Path) -> str:
+    tail = log_tail(log_path)
+    indented = "\n".join("    " + line for line in tail.splitlines()) if tail else "    (log is empty or missing)"
+    return f"{reason}\n  run directory: {run_dir}\n  log: {log_path}\n  last lines of the log:\n{indented}"
+
+
+def _kill_group(process: subprocess.Popen[bytes]) -> None:
+    """Terminate the process group of ``process`` (it leads its own session)."""
+    for sig, wait_s in ((signal.SIGTERM, KILL_GRACE_S), (signal.SIGKILL, None)):
+        try:
+            os.killpg(process.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            process.wait(timeout=wait_s)
+            # The leader is gone; members of the group may linger, make sure they die.
+            os.killpg(process.pid, signal.SIGKILL)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+        except ProcessLookupError:
+            break
+    process.wait()
+
+
+@dataclass
+class ProcessRunner:
+    """Runs one FE executable, one fresh directory per run.
+
+    executable: name on PATH or path of the program (resolved at each run, so a
+        missing program is reported when it is needed, with ``install_hint``).
+    work_root: directory under which the run directories are created.
+    timeout_s: wall-clock limit per run in seconds (None: no limit).
+    env: extra environment variables for the child (merged over ``os.environ``).
+    install_hint: sentence telling the user how to install/configure the program.
+    log_name: file name of the combined stdout/stderr log inside the run directory.
+    """
+
+    executable: str
+    work_root: Path
+    timeout_s: float | None = None
+    env: Mapping[str, str] = field(default_factory=dict)
+    install_hint: str = ""
+    log_name: str = "run.log"
+
+    def __post_init__(self) -> None:
+        self.work_root = Path(self.work_root)
+        if self.timeout_s is not None and not self.timeout_s > 0:
+            raise ValueError(f"timeout_s must be positive seconds or None, got {self.timeout_s}")
+
+    def resolve(self) -> str:
+        """Absolute path of the executable, or :class:`ExecutableNotFoundError`."""
+        return resolve_executable(self.executable, self.install_hint)
+
+    def new_run_dir(self, name: str) -> Path:
+        """Create and return a directory ``work_root/name`` that no other run uses."""
+        if not name or "/" in name or name in {".", ".."}:
+            raise ValueError(f"run directory name must be a plain file name, got {name!r}")
+        self.work_root.mkdir(parents=True, exist_ok=True)
+        for attempt in range(1, 10_000):
+            candidate = self.work_root / (name if attempt == 1 else f"{name}-{attempt}")
+            try:
+                candidate.mkdir()
+            except FileExistsError:
+                continue
+            return candidate
+        raise AdapterError(f"could not create a fresh run directory for {name!r} under {self.work_root}")
+
+    def run(self, arguments: Sequence[str], run_dir: Path) -> RunResult:
+        """Run ``executable arguments…`` with ``run_dir`` as working directory.
+
+        Raises :class:`ExecutableNotFoundError` (before starting), :class:`RunTimeoutError`
+        (process group killed) or :class:`AdapterError` (non-zero exit or signal).
+        """
+        executable = self.resolve()
+        run_dir = Path(run_dir)
+        log_path = run_dir / self.log_name
+        environment = {**os.environ, **self.env}
+        command = [executable, *arguments]
+        start = time.perf_counter()
+        with open(log_path, "wb") as log:
+            process = subprocess.Popen(
+                command,
+                cwd=run_dir,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=environment,
+                start_new_session=True,
+            )
+            try:
+                returncode = process.wait(timeout=self.timeout_s)
+            except subprocess.TimeoutExpired:
+                _kill_group(process)
+                raise RunTimeoutError(
+                    _failure_message(
+                        f"{Path(executable).name} timed out after {self.timeout_s} s; its process group was killed",
+                        run_dir,
+                        log_path,
+                    )
+                ) from None
+            except BaseException:
+                _kill_group(process)
+                raise
+        wall_time = time.perf_counter() - start
+        if returncode != 0:
+            how = f"was killed by signal {-returncode}" if returncode < 0 else f"exited with code {returncode}"
+            raise run_failure(f"{Path(executable).name} {how} (command: {' '.join(command)})", run_dir, log_path)
+        return RunResult(returncode=returncode, wall_time_s=wall_time, log_path=log_path, run_dir=run_dir)
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and ``os.replace``."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise

@@ -1,0 +1,188 @@
+"""Process runner: fresh directories, logs, failures, timeouts, parallel runs."""
+from __future__ import annotations
+
+import os
+import stat
+import sys
+import textwrap
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+from nlupdate.adapters.base import AdapterError
+from nlupdate.adapters.runner import (
+    ExecutableNotFoundError,
+    ProcessRunner,
+    RunTimeoutError,
+    resolve_executable,
+    write_text_atomic,
+)
+
+
+def make_script(path: Path, body: str) -> Path:
+    """An executable Python script at ``path``."""
+    path.write_text(f"#!{sys.executable}\n" + textwrap.dedent(body))
+    path.chmod(path.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+    return path
+
+
+@pytest.fixture
+def echo_exe(tmp_path: Path) -> Path:
+    return make_script(
+        tmp_path / "fake_solver",
+        """
+        import os, sys
+        print("stdout line", " ".join(sys.argv[1:]))
+        print("stderr line", file=sys.stderr)
+        open("cwd.txt", "w").write(os.getcwd() + "\\n" + os.environ.get("RUNNER_TEST_VAR", ""))
+        """,
+    )
+
+
+def test_run_writes_log_in_fresh_directory(tmp_path: Path, echo_exe: Path) -> None:
+    runner = ProcessRunner(str(echo_exe), tmp_path / "runs", env={"RUNNER_TEST_VAR": "xyz"}, log_name="solver.log")
+    run_dir = runner.new_run_dir("abc123")
+    result = runner.run(["-i", "job"], run_dir)
+    assert result.returncode == 0
+    assert result.run_dir == run_dir == tmp_path / "runs" / "abc123"
+    assert result.log_path == run_dir / "solver.log"
+    log = result.log_path.read_text()
+    assert "stdout line -i job" in log and "stderr line" in log
+    cwd, variable = (run_dir / "cwd.txt").read_text().splitlines()
+    assert Path(cwd).resolve() == run_dir.resolve()
+    assert variable == "xyz"
+    assert result.wall_time_s > 0
+
+
+def test_run_directories_are_never_reused(tmp_path: Path) -> None:
+    runner = ProcessRunner("true", tmp_path)
+    first, second, third = (runner.new_run_dir("key") for _ in range(3))
+    assert [p.name for p in (first, second, third)] == ["key", "key-2", "key-3"]
+    with pytest.raises(ValueError, match="plain file name"):
+        runner.new_run_dir("../escape")
+
+
+def test_nonzero_exit_names_directory_log_and_last_lines(tmp_path: Path) -> None:
+    exe = make_script(
+        tmp_path / "failing",
+        """
+        import sys
+        for i in range(100):
+            print(f"progress line {i}")
+        print("fatal: matrix is singular", file=sys.stderr)
+        sys.exit(3)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs")
+    run_dir = runner.new_run_dir("k1")
+    with pytest.raises(AdapterError) as info:
+        runner.run([], run_dir)
+    message = str(info.value)
+    assert "exited with code 3" in message
+    assert str(run_dir) in message and str(run_dir / "run.log") in message
+    assert "fatal: matrix is singular" in message and "progress line 99" in message
+    assert "progress line 10\n" not in message  # only the tail of the log is quoted
+
+
+def test_missing_executable_explains_how_to_install(tmp_path: Path) -> None:
+    hint = "Install it with `apt-get install something`."
+    with pytest.raises(ExecutableNotFoundError, match="was not found on PATH.*apt-get install something"):
+        resolve_executable("surely-not-an-installed-solver-7f3a", hint)
+    with pytest.raises(ExecutableNotFoundError, match="does not exist or is not executable"):
+        resolve_executable(str(tmp_path / "missing" / "solver"), hint)
+    with pytest.raises(ExecutableNotFoundError, match="no FE executable configured"):
+        resolve_executable("", hint)
+    not_executable = tmp_path / "plain.txt"
+    not_executable.write_text("x")
+    with pytest.raises(ExecutableNotFoundError):
+        resolve_executable(str(not_executable), hint)
+    runner = ProcessRunner("surely-not-an-installed-solver-7f3a", tmp_path, install_hint=hint)
+    with pytest.raises(ExecutableNotFoundError, match="apt-get install something"):
+        runner.run([], runner.new_run_dir("k"))
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # A zombie (exited, not yet reaped by its parent) counts as dead.
+    try:
+        with open(f"/proc/{pid}/stat") as handle:
+            return handle.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_timeout_kills_the_whole_process_group(tmp_path: Path) -> None:
+    exe = make_script(
+        tmp_path / "hanging",
+        f"""
+        import subprocess, time
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
+        open("child.pid", "w").write(str(child.pid))
+        print("started child", flush=True)
+        time.sleep(60)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
+    run_dir = runner.new_run_dir("slow")
+    start = time.perf_counter()
+    with pytest.raises(RunTimeoutError) as info:
+        runner.run([], run_dir)
+    elapsed = time.perf_counter() - start
+    assert elapsed < 10
+    message = str(info.value)
+    assert "timed out after 1.0 s" in message and str(run_dir) in message and "started child" in message
+    child = int((run_dir / "child.pid").read_text())
+    deadline = time.time() + 5
+    while _alive(child) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not _alive(child), "the solver's child process survived the timeout"
+
+
+def test_parallel_runs_use_separate_directories(tmp_path: Path) -> None:
+    exe = make_script(
+        tmp_path / "scratch_writer",
+        """
+        import os, sys, time
+        me = sys.argv[1]
+        if os.path.exists("scratch.out"):
+            sys.exit(f"scratch.out already exists in {os.getcwd()}")
+        open("scratch.out", "w").write(me)   # like ccx's spooles.out
+        time.sleep(0.5)
+        if open("scratch.out").read() != me:
+            sys.exit("another run overwrote scratch.out")
+        open("result.txt", "w").write(me)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs")
+
+    def one(tag: str):
+        run_dir = runner.new_run_dir("same-key")  # even the same key gets its own directory
+        return runner.run([tag], run_dir)
+
+    tags = [f"run{i}" for i in range(4)]
+    start = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        results = list(pool.map(one, tags))
+    elapsed = time.perf_counter() - start
+    assert len({r.run_dir for r in results}) == 4
+    for tag, result in zip(tags, results):
+        assert (result.run_dir / "result.txt").read_text() == tag
+    assert elapsed < 4 * 0.5, f"runs did not overlap ({elapsed:.2f} s)"
+
+
+def test_write_text_atomic_leaves_no_temporary_files(tmp_path: Path) -> None:
+    target = tmp_path / "job.inp"
+    write_text_atomic(target, "first")
+    write_text_atomic(target, "second")
+    assert target.read_text() == "second"
+    assert [p.name for p in tmp_path.iterdir()] == ["job.inp"]
+
+
+def test_invalid_timeout_is_rejected(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="timeout_s"):
+        ProcessRunner("true", tmp_path, timeout_s=0)
