@@ -1,0 +1,25 @@
+"""Linear model updating against measured (or PRD-extracted) natural frequencies.
+
+* :mod:`~nlupdate.updating.sensitivity` — finite-difference sensitivities (4 formulas)
+* :mod:`~nlupdate.updating.targets`, :mod:`~nlupdate.updating.pairing`,
+  :mod:`~nlupdate.updating.residuals` — targets, mode pairing, response vector
+* :mod:`~nlupdate.updating.eigensensitivity` — inverse eigensensitivity iteration
+* :mod:`~nlupdate.updating.optimisation` — bounded weighted least-squares fit
+* :mod:`~nlupdate.updating.candidates` — parallel sweeps, candidate comparison, ranking
+* :mod:`~nlupdate.updating.study` — TOML study files (``nlupdate update``)
+* :mod:`~nlupdate.updating.plots` — PNG plots
+"""
+from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_task, run_tasks
+from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
+from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
+from nlupdate.updating.pairing import ModePairing, pair_modes
+from nlupdate.updating.sensitivity import FORMULAS, jacobian
+from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies
+
+__all__ = [
+    "AdapterSpec", "build_adapter", "UpdatingTask", "compare_candidates", "rank_candidates", "run_task", "run_tasks",
+    "EigensensitivityOptions", "UpdatingResult", "inverse_eigensensitivity", "OptimisationOptions",
+    "optimise_frequencies", "ModePairing", "pair_modes", "FORMULAS", "jacobian", "UpdatingTargets", "peak_frequencies",
+    "frf_natural_frequencies",
+]

@@ -1,0 +1,270 @@
+"""Inverse eigensensitivity updating (METHODS §6).
+
+Linearising the paired response r (relative natural frequencies, optionally scaled
+mode shapes; :mod:`nlupdate.updating.residuals`) about the current parameters,
+``r_target − r(p) ≈ S Δp``, each iteration solves the weighted, Tikhonov-regularised,
+bounded least-squares problem
+
+    min ‖W (S_x Δx − Δr)‖² + λ² ‖Δx‖²   subject to   lower ≤ p + Δp ≤ upper,
+                                                        |Δx_j| ≤ max_step
+
+in normalised parameters ``x_j = p_j / s_j`` (``s_j = |start_j|``, or the bound width
+when the start is 0), so ``S_x = S · diag(s)`` is well scaled whatever the units. The
+sensitivity S comes from one of the finite-difference formulas of
+:mod:`nlupdate.updating.sensitivity`; the step is solved with
+``scipy.optimize.lsq_linear`` on the stacked system ``[W S_x; λ I] Δx = [W Δr; 0]``.
+
+Iteration k (k = 1, 2, …) computes S at p_k−1, the step, and evaluates the model at the
+new point p_k. It stops when the largest relative frequency error of the paired modes
+is within ``frequency_tolerance`` (converged: ``"frequency"``), when the largest
+normalised parameter change of the last step is within ``parameter_tolerance``
+(converged: ``"parameter change"`` — the usual end when the targets cannot all be met),
+or after ``max_iterations`` steps (not converged).
+
+Evaluation counts: the initial point costs one new evaluation; each iteration costs
+``n_parameters × new_points(formula)`` new evaluations for the stencil (forward and
+backward 1, central O(h²) 2, central O(h⁴) 4 per parameter) plus one for the new point.
+The one-sided formulas also request the base point once per parameter; it comes from
+the adapter cache (counted as cached), never recomputed.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.optimize
+
+from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
+from nlupdate.updating.pairing import PAIRING_METHODS, ModePairing
+from nlupdate.updating.residuals import ModalResponse
+from nlupdate.updating.sensitivity import jacobian, stencil
+from nlupdate.updating.targets import UpdatingTargets
+
+
+@dataclass(frozen=True)
+class EigensensitivityOptions:
+    """Settings of :func:`inverse_eigensensitivity` (see the module docstring).
+
+    frequency_tolerance: relative (0.0001 = 0.01 %) on the largest paired frequency error.
+    parameter_tolerance: on the largest normalised parameter change of a step.
+    regularisation: Tikhonov weight λ on the normalised step (0 = none).
+    max_step: largest normalised change of any parameter per iteration.
+    pairing, min_mac: see :mod:`nlupdate.updating.pairing`.
+    use_mode_shapes, mode_shape_weight: see :mod:`nlupdate.updating.residuals`.
+    max_workers: threads for the stencil evaluations (None = sequential).
+    """
+
+    formula: str = "forward"
+    max_iterations: int = 20
+    frequency_tolerance: float = 1e-4
+    parameter_tolerance: float = 1e-6
+    regularisation: float = 0.0
+    max_step: float = 0.5
+    pairing: str = "order"
+    min_mac: float = 0.0
+    use_mode_shapes: bool = False
+    mode_shape_weight: float = 1.0
+    max_workers: int | None = None
+
+    def __post_init__(self) -> None:
+        stencil(self.formula)
+        if self.pairing not in PAIRING_METHODS:
+            raise ValueError(f"pairing must be one of {list(PAIRING_METHODS)}, got {self.pairing!r}")
+        if self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be ≥ 1, got {self.max_iterations}")
+        for name in ("frequency_tolerance", "parameter_tolerance", "max_step"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.regularisation < 0:
+            raise ValueError(f"regularisation must be ≥ 0, got {self.regularisation}")
+
+
+@dataclass(frozen=True, eq=False)
+class UpdatingResult:
+    """Outcome of one updating run.
+
+    name: label of the run (task or candidate name); parameters: updated values (parameter units); history: one row per iteration
+    (see :func:`history_columns`); initial/final: adapter results at the start and the
+    updated point; counts: adapter evaluations (``new``, ``cached``) of the run.
+    """
+
+    method: str
+    parameters: dict[str, float]
+    converged: bool
+    reason: str
+    iterations: int
+    history: pd.DataFrame
+    initial: ModalResult
+    final: ModalResult
+    initial_pairing: ModePairing
+    final_pairing: ModePairing
+    counts: dict[str, int]
+    wall_time_s: float
+    targets: UpdatingTargets = field(repr=False)
+    name: str = ""
+
+    def frequencies_hz(self, which: str = "final") -> np.ndarray:
+        """Paired model frequencies (Hz) of the ``initial`` or ``final`` model."""
+        result, pairing = (self.initial, self.initial_pairing) if which == "initial" else (self.final, self.final_pairing)
+        return np.asarray(result.natural_frequencies_hz)[list(pairing.model_indices)]
+
+
+def normalisation(parameters: Sequence[Parameter]) -> np.ndarray:
+    """Scale s_j of each parameter: |start|, or the bound width when the start is 0."""
+    scales = []
+    for p in parameters:
+        scale = abs(p.start) if p.start != 0 else p.upper - p.lower
+        if not p.lower < p.upper:
+            raise ValueError(f"parameter {p.name!r}: updating needs lower < upper, got [{p.lower}, {p.upper}]")
+        if not scale > 0:
+            raise ValueError(f"parameter {p.name!r}: cannot normalise (start 0 and zero bound width)")
+        scales.append(scale)
+    return np.asarray(scales)
+
+
+def history_row(
+    response: ModalResponse,
+    result: ModalResult,
+    pairing: ModePairing,
+    values: Mapping[str, float],
+    **extra: object,
+) -> dict[str, object]:
+    """One history record: parameter values, paired frequencies, errors (%) and MAC."""
+    row: dict[str, object] = dict(extra)
+    for name, value in values.items():
+        row[f"p:{name}"] = float(value)
+    frequencies = response.frequencies(result, pairing)
+    errors = response.errors_pct(result, pairing)
+    for i, label in enumerate(response.targets.labels):
+        row[f"f_hz:{label}"] = float(frequencies[i])
+        row[f"error_pct:{label}"] = float(errors[i])
+        row[f"mac:{label}"] = pairing.mac[i]
+    row["model_modes"] = ",".join(str(i + 1) for i in pairing.model_indices)
+    row["max_abs_error_pct"] = float(np.max(np.abs(errors)))
+    return row
+
+
+def history_columns(parameter_names: Sequence[str], labels: Sequence[str]) -> list[str]:
+    """Column order of the history table."""
+    columns = ["method", "formula", "iteration"]
+    columns += [f"p:{n}" for n in parameter_names]
+    for label in labels:
+        columns += [f"f_hz:{label}", f"error_pct:{label}", f"mac:{label}"]
+    return columns + ["model_modes", "max_abs_error_pct", "step_norm", "new_evaluations", "cached_evaluations", "wall_time_s"]
+
+
+def inverse_eigensensitivity(
+    adapter: FEAdapter,
+    parameters: Sequence[Parameter],
+    targets: UpdatingTargets,
+    options: EigensensitivityOptions = EigensensitivityOptions(),
+    fixed: Mapping[str, float] | None = None,
+) -> UpdatingResult:
+    """Update ``parameters`` (starting from their ``start``) so the model meets ``targets``.
+
+    ``fixed`` holds values of other adapter parameters used in every evaluation.
+    Returns an :class:`UpdatingResult`; see the module docstring for the algorithm,
+    stopping rules and evaluation counts.
+    """
+    parameters = tuple(parameters)
+    if not parameters:
+        raise ValueError("inverse eigensensitivity needs at least one updating parameter")
+    response = ModalResponse(
+        adapter, parameters, targets, fixed, options.pairing, options.min_mac, options.use_mode_shapes, options.mode_shape_weight
+    )
+    names = [p.name for p in parameters]
+    scale = normalisation(parameters)
+    lower = np.array([p.lower for p in parameters]) / scale
+    upper = np.array([p.upper for p in parameters]) / scale
+    weights = response.weights()
+    target = response.target_vector()
+
+    start_time = time.perf_counter()
+    counts_before = adapter.counts()
+    last_counts = dict(counts_before)
+    x = np.array([p.start for p in parameters]) / scale
+
+    def values_of(x_vector: np.ndarray) -> dict[str, float]:
+        p = np.clip(x_vector * scale, [q.lower for q in parameters], [q.upper for q in parameters])
+        return dict(zip(names, (float(v) for v in p)))
+
+    def counts_since() -> tuple[int, int]:
+        now = adapter.counts()
+        delta = (now["new"] - last_counts["new"], now["cached"] - last_counts["cached"])
+        last_counts.update(now)
+        return delta
+
+    values = values_of(x)
+    result = response.evaluate(values)
+    pairing = response.pair(result)
+    initial, initial_pairing = result, pairing
+    rows = []
+    step_norm = float("nan")
+    converged, reason, iteration = False, "maximum iterations reached", 0
+    while True:
+        new, cached = counts_since()
+        row = history_row(
+            response, result, pairing, values,
+            method="eigensensitivity", formula=options.formula, iteration=iteration,
+            step_norm=step_norm, new_evaluations=new, cached_evaluations=cached,
+            wall_time_s=time.perf_counter() - start_time,
+        )
+        rows.append(row)
+        if row["max_abs_error_pct"] <= 100.0 * options.frequency_tolerance:
+            converged, reason = True, "frequency"
+            break
+        if iteration > 0 and step_norm <= options.parameter_tolerance:
+            converged, reason = True, "parameter change"
+            break
+        if iteration == options.max_iterations:
+            break
+        iteration += 1
+        s_p = jacobian(response.tracked_response(result, pairing), values, parameters, options.formula, options.max_workers)
+        s_x = s_p * scale[None, :]
+        residual = target - response.vector(result, pairing)
+        step = _bounded_step(s_x, residual, weights, options.regularisation,
+                             np.maximum(lower - x, -options.max_step), np.minimum(upper - x, options.max_step))
+        x = np.clip(x + step, lower, upper)
+        step_norm = float(np.max(np.abs(step)))
+        values = values_of(x)
+        result = response.evaluate(values)
+        pairing = response.pair(result)
+
+    counts_after = adapter.counts()
+    history = pd.DataFrame(rows, columns=history_columns(names, targets.labels))
+    return UpdatingResult(
+        method="eigensensitivity",
+        parameters=values,
+        converged=converged,
+        reason=reason,
+        iterations=iteration,
+        history=history,
+        initial=initial,
+        final=result,
+        initial_pairing=initial_pairing,
+        final_pairing=pairing,
+        counts={k: counts_after[k] - counts_before[k] for k in ("new", "cached")},
+        wall_time_s=time.perf_counter() - start_time,
+        targets=targets,
+    )
+
+
+def _bounded_step(
+    sensitivity: np.ndarray,
+    residual: np.ndarray,
+    weights: np.ndarray,
+    regularisation: float,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> np.ndarray:
+    """Solve ``min ‖W(SΔx − Δr)‖² + λ²‖Δx‖²`` with ``lower ≤ Δx ≤ upper``."""
+    n = sensitivity.shape[1]
+    a = weights[:, None] * sensitivity
+    b = weights * residual
+    if regularisation > 0:
+        a = np.vstack([a, regularisation * np.eye(n)])
+        b = np.concatenate([b, np.zeros(n)])
+    return scipy.optimize.lsq_linear(a, b, bounds=(lower, upper), method="trf", lsq_solver="exact", tol=1e-12).x

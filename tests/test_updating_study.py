@@ -1,0 +1,265 @@
+"""Study files and the ``nlupdate update`` command."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nlupdate.adapters.lumped import LumpedAdapter
+from nlupdate.cli import main
+from nlupdate.linear import LumpedModel
+from nlupdate.measurements import frf_table, write_frf_table
+from nlupdate.updating.study import StudyError, load_study
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+MASSES = [0.1, 0.3, 0.2]
+NOMINAL_K = [1e6, 1e6, 1e6, 1e6]
+TRUTH = {"k1": 1.25e6, "k2": 0.8e6, "k3": 1.1e6, "k4": 1e6}
+GAMMA = 0.002  # the |H| peaks are biased by ~γ² (neighbouring modes): 4e-5 here
+
+STUDY = """
+[study]
+name = "lumped truth"
+
+[adapter]
+kind = "lumped"
+[adapter.options]
+masses = [0.1, 0.3, 0.2]
+stiffnesses = [1e6, 1e6, 1e6, 1e6]
+[adapter.fixed]
+k3 = 1.1e6
+
+[[parameters]]
+name = "k1"
+unit = "N/m"
+start = 0.7e6
+lower = 0.4e6
+upper = 2.5e6
+relative_step = 1e-4
+
+[[parameters]]
+name = "k2"
+unit = "N/m"
+start = 1.4e6
+lower = 0.4e6
+upper = 2.5e6
+relative_step = 1e-4
+
+[targets]
+identification = "ident"
+n_modes = 3
+response_dof = "x1"
+input_dof = "x1"
+
+[eigensensitivity]
+formulas = ["forward", "backward", "central2", "central4"]
+
+[optimisation]
+formula = "central2"
+
+[[optimisation.candidates]]
+name = "k1 only"
+parameters = ["k1"]
+
+[[optimisation.candidates]]
+name = "k1 and k2, mode 3 first"
+parameters = ["k1", "k2"]
+weights = [0.1, 0.1, 1.0]
+start = {k2 = 1.0e6}
+
+[comparison]
+loss_factors = 0.002
+user_weights = {mode1 = 1.0}
+"""
+
+
+def write_identification(directory: Path) -> None:
+    """Linear FRF of the truth model (direct solve, D = γK) as an identification result."""
+    mass, stiffness = LumpedAdapter(MASSES, NOMINAL_K).matrices(TRUTH)
+    frequencies = np.arange(100.0, 1000.0, 0.05)
+    h = LumpedModel.with_loss_factor(mass, stiffness, GAMMA).receptance(2 * np.pi * frequencies, [0], [0])[:, 0, 0]
+    directory.mkdir()
+    write_frf_table(frf_table(frequencies, 1.0, "x1", "x1", h), directory / "linear_frf.parquet")
+
+
+@pytest.fixture
+def study_file(tmp_path):
+    write_identification(tmp_path / "ident")
+    path = tmp_path / "study.toml"
+    path.write_text(STUDY)
+    return path
+
+
+def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["update", str(study_file), "--out", str(out), "--max-workers", "2"]) == 0
+    assert "converged (frequency)" in capsys.readouterr().out
+
+    expected = {"history.parquet", "candidates.parquet", "comparison.parquet", "ranking.parquet", "summary.json",
+                "study.toml", "convergence.png", "frequency_errors.png", "frf_comparison.png"}
+    assert {p.name for p in out.iterdir()} == expected
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]  # temporary directory renamed
+    for png in out.glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    truth_frequencies = LumpedAdapter(MASSES, NOMINAL_K).evaluate(TRUTH).natural_frequencies_hz
+    summary = json.loads((out / "summary.json").read_text())
+    np.testing.assert_allclose(summary["targets"]["frequencies_hz"], truth_frequencies, rtol=1e-4)  # peaks of the FRF
+
+    candidates = pd.read_parquet(out / "candidates.parquet").set_index("candidate")
+    formulas = ["forward O(h)", "backward O(h)", "central O(h²)", "central O(h⁴)"]
+    for formula in formulas:
+        row = candidates.loc[f"eigensensitivity {formula}"]
+        assert row["converged"]
+        assert row["p:k1"] == pytest.approx(TRUTH["k1"], rel=5e-3)
+        assert row["p:k2"] == pytest.approx(TRUTH["k2"], rel=5e-3)
+    assert np.isnan(candidates.loc["k1 only", "p:k2"])
+
+    comparison = pd.read_parquet(out / "comparison.parquet")
+    updated = comparison[comparison["candidate"] == "eigensensitivity central O(h⁴)"]
+    assert updated["frac"].min() > 0.999
+    initial = comparison[comparison["candidate"] == "initial"]
+    assert (initial["frac"].to_numpy() < updated["frac"].to_numpy()).all()
+
+    ranking = pd.read_parquet(out / "ranking.parquet")
+    assert ranking["candidate"].iloc[-1] == "initial"  # user weights: mode 1 only
+    history = pd.read_parquet(out / "history.parquet")
+    assert set(history["run"]) == set(candidates.index)
+
+    assert main(["update", str(study_file), "--out", str(out)]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(["update", str(study_file), "--out", str(out), "--overwrite"]) == 0
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda s: s.replace("formulas =", "formulae ="), "unknown key(s) ['formulae'] in [eigensensitivity]"),
+        (lambda s: s.replace('"central4"]', '"central6"]'), "[eigensensitivity] key 'formulas': expected distinct names"),
+        (lambda s: s.replace('kind = "lumped"', 'kind = "abaqus"'), "[adapter] key 'kind': expected one of"),
+        (lambda s: s.replace("start = 0.7e6", 'start = "0.7e6"'), "[parameters #1] key 'start': expected a finite number"),
+        (lambda s: s.replace("start = 0.7e6", "start = 3e6"), "[parameters #1]: parameter 'k1': start"),
+        (lambda s: s.replace("n_modes = 3", 'frequencies_hz = [1.0]\nn_modes = 3'), "[targets]: expected exactly one of"),
+        (lambda s: s.replace("n_modes = 3", 'n_modes = 3\nfrf_method = "circle"'), "[targets] key 'frf_method': expected one of"),
+        (lambda s: s.replace('parameters = ["k1"]', 'parameters = ["k9"]'), "[optimisation.candidates #1] key 'parameters'"),
+        (lambda s: s.replace("k3 = 1.1e6", "k1 = 1.1e6"), "[adapter.fixed] key 'k1'"),
+        (lambda s: s.replace("[comparison]", "[comparison]\nband_fraction = -1"), "[comparison] key 'band_fraction': expected a number > 0"),
+        (lambda s: s.replace("{mode1 = 1.0}", "{mode9 = 1.0}"), "[comparison] key 'user_weights': expected weights of target modes"),
+        (lambda s: s.replace("weights = [0.1, 0.1, 1.0]", "weights = [0.1, 1.0]"),
+         "[optimisation.candidates #2] key 'weights': expected a list of 3 numbers"),
+        (lambda s: s.split("[eigensensitivity]")[0], "needs an [eigensensitivity] table, an [optimisation] table or both"),
+        (lambda s: s.replace("[study]", "[study\n"), "not valid TOML"),
+    ],
+)
+def test_study_errors_name_the_file_table_and_expected_form(tmp_path, edit, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(edit(STUDY))
+    with pytest.raises(StudyError) as error:
+        load_study(path)
+    assert str(path) in str(error.value)
+    assert message in str(error.value)
+
+
+def test_cli_reports_study_errors_in_one_line(tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text(STUDY.replace('kind = "lumped"', ""))
+    assert main(["update", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "[adapter] key 'kind'" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["tbeam_single_mode.toml", "tbeam_three_modes.toml", "gunbarrel_motor_stiffness.toml"])
+def test_example_studies_are_valid(name):
+    study = load_study(EXAMPLES / name)
+    assert study.adapter.kind == "surrogate"
+
+
+def test_single_mode_example_reaches_the_target(tmp_path):
+    out = tmp_path / "single"
+    assert main(["update", str(EXAMPLES / "tbeam_single_mode.toml"), "--out", str(out)]) == 0
+    comparison = pd.read_parquet(out / "comparison.parquet")
+    updated = comparison[comparison["candidate"] != "initial"]
+    assert len(updated) == 4 and updated["error_pct"].abs().max() <= 0.01
+
+
+CALCULIX_STUDY = """
+[adapter]
+kind = "calculix"
+model = "tbeam"
+[adapter.options]
+n_modes = 4
+work_root = "ccx_runs"
+[adapter.options.mesh]
+n_l1 = 12
+n_l2 = 6
+n_h1 = 1
+n_w1 = 1
+n_w2 = 1
+
+[[parameters]]
+name = "E"
+unit = "Pa"
+start = 210e9
+lower = 100e9
+upper = 300e9
+
+[targets]
+frequencies_hz = [40.75]
+model_modes = [1]
+
+[eigensensitivity]
+formulas = ["forward"]
+frequency_tolerance = 1e-6
+"""
+
+
+@pytest.mark.calculix
+def test_calculix_study_follows_the_square_root_law(tmp_path):
+    """Solid T-beam in CalculiX: every frequency scales with √E, so E for f1 = 40.75 Hz
+    is 210 GPa · (40.75 / f1(210 GPa))²."""
+    path = tmp_path / "ccx.toml"
+    path.write_text(CALCULIX_STUDY.replace('"ccx_runs"', repr(str(tmp_path / "runs")).replace("'", '"')))
+    out = tmp_path / "out"
+    assert main(["update", str(path), "--out", str(out)]) == 0
+    history = pd.read_parquet(out / "history.parquet")
+    f_initial = history["f_hz:mode1"].iloc[0]
+    expected = 210e9 * (40.75 / f_initial) ** 2
+    assert history["p:E"].iloc[-1] == pytest.approx(expected, rel=1e-5)
+    assert history["new_evaluations"].iloc[1:].eq(2).all() and history["cached_evaluations"].iloc[1:].eq(1).all()
+
+
+def test_mapdl_adapter_is_built_from_a_study(tmp_path):
+    """Construction only (no MAPDL here): deck path relative to the study, coordinates."""
+    (tmp_path / "beam.inp").write_text("/PREP7\n*SET,E,2.1e11\nET,1,BEAM188\n")
+    study = tmp_path / "mapdl.toml"
+    study.write_text(textwrap.dedent("""
+        [adapter]
+        kind = "mapdl"
+        [adapter.options]
+        deck = "beam.inp"
+        parameter_names = ["E"]
+        coordinates = {tip = [12, "uz"]}
+        n_modes = 4
+        [[parameters]]
+        name = "E"
+        start = 2.1e11
+        lower = 1e11
+        upper = 3e11
+        [targets]
+        frequencies_hz = [10.0]
+        [eigensensitivity]
+    """))
+    from nlupdate.adapters.mapdl import MapdlAdapter
+    from nlupdate.updating.adapter_factory import build_adapter
+
+    spec = load_study(study).adapter
+    spec = dataclasses.replace(spec, options={**spec.options, "work_root": str(tmp_path / "runs")})
+    adapter = build_adapter(spec)
+    assert isinstance(adapter, MapdlAdapter)
+    assert adapter.coordinates == {"tip": (12, "uz")} and adapter.n_modes == 4
