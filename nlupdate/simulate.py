@@ -29,6 +29,7 @@ from nlupdate.measurements import frf_table
 from nlupdate.noise import add_table_noise
 from nlupdate.stepped_sine import stepped_sine
 from nlupdate.system import NonlinearSystem
+from nlupdate.time_integration import time_sweep
 
 METHODS = ("continuation", "fixed-point", "time")
 
@@ -53,10 +54,8 @@ def _responses_fixed_point(system, forcing, omega, sweep):
 
 
 def _responses_time(system, forcing, omega, sweep):
-    from nlupdate.time_integration import time_sweep
-
     result = time_sweep(system, forcing, omega, sweep)
-    return result.amplitudes, result.converged, ()
+    return result.x, result.converged, result.jumps_hz
 
 
 _SOLVERS: dict[str, Callable] = {

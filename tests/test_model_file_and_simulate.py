@@ -123,3 +123,18 @@ def test_simulate_errors_are_one_clear_line(model_file, tmp_path, args, message)
 
 def test_missing_model_file(tmp_path):
     assert main(["simulate", str(tmp_path / "nope.toml"), "--input-dof", "0", "--freqs", "1:2:3", "--forces", "1", "--out", str(tmp_path / "o.csv")]) == 2
+
+
+def test_simulate_by_time_integration_agrees_with_continuation(tmp_path):
+    """A well-damped Duffing oscillator: few periods to steady state, so this stays quick."""
+    path = tmp_path / "duffing.toml"
+    path.write_text(
+        '[model]\nkind = "lumped"\nmass = [[1.0]]\nstiffness = [[1e4]]\ndamping = [[40.0]]\n'
+        '[[nonlinear]]\ntype = "cubic"\ndofs = [0]\nk3 = 1e8\n'
+    )
+    common = ["simulate", str(path), "--input-dof", "0", "--freqs", "12,16,20", "--forces", "50"]
+    assert main(common + ["--method", "time", "--out", str(tmp_path / "t.csv")]) == 0
+    assert main(common + ["--out", str(tmp_path / "c.csv")]) == 0
+    t, c = pd.read_csv(tmp_path / "t.csv"), pd.read_csv(tmp_path / "c.csv")
+    ratio = np.hypot(t.h_real, t.h_imag) / np.hypot(c.h_real, c.h_imag)
+    assert np.all(np.abs(ratio - 1) < 0.02)
