@@ -1,0 +1,35 @@
+"""Identification of local nonlinearities and extraction of linear FRFs (METHODS §4–§5, §7).
+
+Modules
+-------
+* :mod:`~nlupdate.identification.data` — measured curves per force level (:class:`FRFLevels`),
+  noise-level estimate and smoothing of ``1/H``.
+* :mod:`~nlupdate.identification.dfmodels` — describing-function models: the source's PRD
+  polynomial and named physical elements (cubic, Jenkins, Coulomb, quadratic damping, gap).
+* :mod:`~nlupdate.identification.prd` — PRD at one coordinate: the source's naive least
+  squares and the improved joint output-error estimator; linear-FRF extraction.
+* :mod:`~nlupdate.identification.prd_matrix` — PRD with the ``aa`` partition (several
+  nonlinear coordinates).
+* :mod:`~nlupdate.identification.ddf` — DDF method for comparison.
+* :mod:`~nlupdate.identification.frequency` — choice of the excitation frequency.
+* :mod:`~nlupdate.identification.uncertainty` — Monte-Carlo statistics over the noise model.
+* :mod:`~nlupdate.identification.amplitude` — scalar harmonic balance (amplitude roots).
+* :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
+* :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.
+* :mod:`~nlupdate.identification.correlation` — FRAC, MAC, natural-frequency and peak errors.
+* :mod:`~nlupdate.identification.report` — JSON, plots and the atomic output folder of
+  ``nlupdate identify``.
+"""
+from nlupdate.identification.correlation import frac, mac_matrix, natural_frequencies, natural_frequency_error, peak_errors
+from nlupdate.identification.data import FRFLevels, estimate_noise_fraction
+from nlupdate.identification.ddf import identify_ddf
+from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
+from nlupdate.identification.frequency import recommend_frequency
+from nlupdate.identification.prd import IdentificationError, identify_prd
+from nlupdate.identification.regenerate import regenerate_frf
+
+__all__ = [
+    "FRFLevels", "IdentificationError", "PhysicalModel", "PolynomialModel", "estimate_noise_fraction", "frac",
+    "identify_ddf", "identify_prd", "mac_matrix", "natural_frequencies", "natural_frequency_error", "peak_errors",
+    "recommend_frequency", "regenerate_frf",
+]

@@ -1,0 +1,184 @@
+"""Identification outputs: JSON summary, linear-FRF table, PNG plots, atomic output folder.
+
+``identification.json`` keys (SI units, polynomial coefficients highest order first):
+
+* ``method`` ("prd"/"ddf"), ``estimator``, ``model``, ``response_dof``, ``input_dof``;
+* ``excitation_frequency_hz`` (PRD; null for DDF), ``low_force_n`` and ``high_forces_n``
+  (PRD) or ``force_pair_n`` and ``band_hz`` (DDF);
+* ``describing_function``: ``{"real", "imag", "definition", "amplitude_range_m"}`` — the DF
+  ν(A) (N/m) that, added to the extracted linear dynamic stiffness, reproduces the
+  high-force data (PRD: ``y + Δ_f1``; DDF: ``Δ``);
+* ``prd_fit`` (PRD): the fitted PRD curve ``y(A) = 1/H_i − 1/H_1`` (the source's
+  "identified DF", constant term ``−Δ_f1``) and ``delta_f1`` (real, imag);
+* ``elements`` (physical models): type, dofs and parameters, ready for
+  :data:`nlupdate.elements.ELEMENT_TYPES`;
+* ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
+  (how the statistics were made);
+* ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
+* ``defaults_used``: every option that was not given and the value chosen.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from numpy.typing import ArrayLike  # noqa: E402
+
+from nlupdate.identification.dfmodels import PhysicalModel  # noqa: E402
+
+JSON_NAME = "identification.json"
+
+
+def _clean(value: Any) -> Any:
+    """JSON-safe copy: numpy scalars to Python, NaN/inf to None, tuples to lists."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_clean(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return float(value) if math.isfinite(float(value)) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def write_json(data: dict, path: Path) -> Path:
+    path.write_text(json.dumps(_clean(data), indent=2, allow_nan=False) + "\n")
+    return path
+
+
+def linear_frf_table(frequency_hz: ArrayLike, h: ArrayLike, response_dof: str, input_dof: str) -> pd.DataFrame:
+    """Tidy table of the extracted linear FRF; ``force_level_n = 0`` means "linear"."""
+    f = np.asarray(frequency_hz, dtype=float)
+    hh = np.asarray(h, dtype=complex)
+    return pd.DataFrame({
+        "frequency_hz": f, "force_level_n": np.zeros(f.size), "response_dof": str(response_dof),
+        "input_dof": str(input_dof), "h_real": hh.real, "h_imag": hh.imag,
+    })
+
+
+def elements_summary(result: Any, dof_name: str) -> list[dict] | None:
+    """Physical elements as ``{"type", "dofs", <parameters>}`` dictionaries, else None."""
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if not isinstance(model, PhysicalModel):
+        return None
+    p = result.p
+    out = []
+    for name, element in zip(model.element_names, model.elements(p)):
+        entry = {"type": name, "dofs": [dof_name]}
+        entry.update({k: float(v) for k, v in vars(element).items() if k != "dofs"})
+        out.append(entry)
+    return out
+
+
+def plot_fit(result: Any, path: Path, title: str) -> Path:
+    """PRD/DDF points and the fitted curve: real and imaginary parts against amplitude."""
+    amplitude = np.asarray(result.amplitude)
+    y = np.asarray(result.y)
+    low, high = result.amplitude_range
+    grid = np.linspace(0.0 if result.method == "prd" else 0.5 * low, 1.1 * high, 300)
+    curve = result.fitted_y(grid)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, part, label in ((axes[0], np.real, "Re"), (axes[1], np.imag, "Im")):
+        ax.plot(amplitude * 1e3, part(y), ".", ms=4, alpha=0.6, label="data")
+        ax.plot(grid * 1e3, part(curve), "-", lw=1.5, label="fit")
+        ax.set_xlabel("response amplitude |X| (mm)")
+        ax.set_ylabel(f"{label} y (N/m)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
+    fig.suptitle(f"{title}: {what}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _phase(h: np.ndarray) -> np.ndarray:
+    """Phase in degrees in [−270, 90): a receptance with positive damping lies in [−180, 0]."""
+    return (np.degrees(np.angle(h)) + 270.0) % 360.0 - 270.0
+
+
+def plot_linear_frf(
+    frequency_hz: ArrayLike,
+    h_linear: ArrayLike,
+    measured: list[tuple[str, ArrayLike, ArrayLike]],
+    path: Path,
+    title: str,
+    h_model: ArrayLike | None = None,
+) -> Path:
+    """|H| (log) and phase of the extracted linear FRF with measured curves for comparison
+    (and a fitted modal model of it, if given)."""
+    f = np.asarray(frequency_hz)
+    h = np.asarray(h_linear)
+    fig, (ax_mag, ax_phase) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    colours = plt.cm.viridis(np.linspace(0.1, 0.9, max(len(measured), 1)))
+    for (label, fm, hm), colour in zip(measured, colours):
+        hm = np.asarray(hm)
+        ax_mag.semilogy(fm, np.abs(hm), ".", ms=2, color=colour, label=label)
+        ax_phase.plot(fm, _phase(hm), ".", ms=2, color=colour)
+    ax_mag.semilogy(f, np.abs(h), "-", color="crimson", lw=1.5, label="extracted linear")
+    ax_phase.plot(f, _phase(h), "-", color="crimson", lw=1.5)
+    if h_model is not None:
+        ax_mag.semilogy(f, np.abs(h_model), "--", color="black", lw=1.2, label="modal fit of the linear FRF")
+        ax_phase.plot(f, _phase(np.asarray(h_model)), "--", color="black", lw=1.2)
+    ax_mag.set_ylabel("|H| (m/N)")
+    ax_phase.set_ylabel("phase (deg)")
+    ax_phase.set_xlabel("frequency (Hz)")
+    for ax in (ax_mag, ax_phase):
+        ax.grid(True, which="both", alpha=0.3)
+    ax_mag.legend(fontsize=7, ncol=2)
+    ax_mag.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write_directory_atomically(final: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Call ``write(tmp)`` on a temporary folder beside ``final`` and rename it to ``final``.
+
+    An existing ``final`` is replaced only if it is empty or holds an earlier
+    ``identification.json`` (never an unrelated folder); a failure removes the temporary
+    folder and leaves ``final`` untouched.
+    """
+    final = Path(final)
+    if final.exists():
+        if not final.is_dir():
+            raise ValueError(f"--out {final}: exists and is not a directory")
+        if any(final.iterdir()) and not (final / JSON_NAME).is_file():
+            raise ValueError(
+                f"--out {final}: directory exists and is not an identification output (no {JSON_NAME}); "
+                f"choose a new or empty directory"
+            )
+    final.parent.mkdir(parents=True, exist_ok=True)
+    temporary = Path(tempfile.mkdtemp(prefix=f".tmp-{final.name}-", dir=final.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o777 & ~umask)  # mkdtemp makes 0700; give the usual permissions
+    try:
+        write(temporary)
+        if final.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".old-{final.name}-", dir=final.parent))
+            os.replace(final, old / final.name)
+            os.replace(temporary, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(temporary, final)
+    except BaseException:
+        shutil.rmtree(temporary, ignore_errors=True)
+        raise
+    return final

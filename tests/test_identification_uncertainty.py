@@ -1,0 +1,73 @@
+"""Noise-level estimate and Monte-Carlo uncertainty against known noise statistics."""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from nlupdate.elements import CubicStiffness, JenkinsFriction
+from nlupdate.fixed_point import fixed_point_response
+from nlupdate.identification.data import FRFLevels, estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.identification.dfmodels import PolynomialModel
+from nlupdate.identification.prd import identify_prd
+from nlupdate.identification.uncertainty import monte_carlo
+from nlupdate.linear import LumpedModel
+from nlupdate.noise import add_frf_noise
+from nlupdate.system import NonlinearSystem
+
+F = np.arange(600.0, 900.0, 1.0)
+H = 1.0 / (2.3e6 - 0.1 * (2 * np.pi * F) ** 2 + 0.01j * 2e6)
+
+
+def test_noise_fraction_estimate():
+    assert estimate_noise_fraction(F, H) < 1e-9
+    estimates = [estimate_noise_fraction(F, add_frf_noise(H, 0.05, seed)) for seed in range(10)]
+    assert np.mean(estimates) == pytest.approx(0.05, rel=0.1)
+
+
+def test_smoothing_keeps_a_smooth_dynamic_stiffness_and_reduces_noise():
+    assert np.allclose(smooth_inverse_receptance(F, H, 9), 1.0 / H, rtol=1e-9)
+    noisy = add_frf_noise(H, 0.05, 1)
+    raw = np.abs(1.0 / noisy - 1.0 / H) / np.abs(1.0 / H)
+    smoothed = np.abs(smooth_inverse_receptance(F, noisy, 15) - 1.0 / H) / np.abs(1.0 / H)
+    assert np.sqrt(np.mean(smoothed**2)) < 0.5 * np.sqrt(np.mean(raw**2))
+
+
+def _real_part(data: FRFLevels):
+    class Point:
+        def parameters(self):
+            return {"re": float(data.receptances[0][100].real)}
+    return Point()
+
+
+def test_monte_carlo_reproduces_known_spread():
+    """Re H of one point has std fraction·|H|/√2 under the METHODS §8 noise model."""
+    data = FRFLevels("0", "0", np.array([1.0]), (F,), (H,))
+    stats = monte_carlo(_real_part, data, {"re": float(H[100].real)}, 0.05, n_samples=400, seed=3)
+    expected = 0.05 * abs(H[100]) / np.sqrt(2)
+    assert stats.parameters["re"].std == pytest.approx(expected, rel=0.1)
+    low, high = stats.parameters["re"].ci95
+    assert high - low == pytest.approx(2 * 1.96 * expected, rel=0.15)
+    assert stats.n_failed == 0
+
+
+def _prd(data, model):
+    return identify_prd(data, 710.0, model, estimator="naive")
+
+
+def test_monte_carlo_spread_from_one_data_set_matches_spread_over_seeds():
+    """The MC std computed from ONE noisy data set estimates the estimator's true spread
+    (from many independent noise draws around the noise-free data) within 30 %."""
+    system = NonlinearSystem(LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01),
+                             (CubicStiffness((0,), 1e10), JenkinsFriction((0,), 3e5, 1.0)))
+    levels = (0.01,) + tuple(np.arange(100.0, 401.0, 30.0))
+    h = tuple(fixed_point_response(system, {0: f}, [2 * np.pi * 710.0]).response([0])[:, 0] / f for f in levels)
+    clean = FRFLevels("0", "0", np.array(levels), tuple(np.array([710.0]) for _ in levels), h)
+    model = PolynomialModel((2, 0), (1, 0))
+    estimate = functools.partial(_prd, model=model)
+    rng = np.random.default_rng(11)
+    over_seeds = np.array([estimate(clean.with_noise(0.05, rng)).parameters()["kf"] for _ in range(300)])
+    noisy = clean.with_noise(0.05, rng)
+    stats = monte_carlo(estimate, noisy, estimate(noisy).parameters(), 0.05, n_samples=300, seed=5)
+    assert stats.parameters["kf"].std == pytest.approx(over_seeds.std(), rel=0.3)
