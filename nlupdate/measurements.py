@@ -7,7 +7,7 @@ A measured-FRF table is a long ("tidy") :class:`pandas.DataFrame` with one row p
 column          type   meaning
 ==============  =====  ==============================================================
 frequency_hz    float  excitation frequency, Hz (≥ 0)
-force_level_n   float  amplitude of the harmonic force, N (> 0)
+force_level_n   float  amplitude of the harmonic force, N (≥ 0; 0 marks a linear FRF)
 response_dof    str    name of the response coordinate ("0", "1", ... or "tip:uz")
 input_dof       str    name of the forced coordinate
 h_real, h_imag  float  receptance H = X/F, m/N, with x(t) = Re(X e^{iωt}) (METHODS §1)
@@ -143,7 +143,7 @@ def validate_frf_table(
         clean[column] = values
     for column, condition, expected in (
         ("frequency_hz", clean["frequency_hz"] < 0, "a frequency ≥ 0 Hz"),
-        ("force_level_n", clean["force_level_n"] <= 0, "a force amplitude > 0 N"),
+        ("force_level_n", clean["force_level_n"] < 0, "a force amplitude ≥ 0 N (0 = linear FRF)"),
     ):
         bad = np.flatnonzero(condition.to_numpy())
         if bad.size:

@@ -149,3 +149,13 @@ def test_refuses_to_replace_an_unrelated_folder(friction_file, tmp_path, capsys)
     code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--out", out, "--samples", 5)
     assert code == 2 and "not an identification output" in stderr
     assert (out / "notes.txt").read_text() == "keep me"
+
+
+def test_extracted_linear_frf_reads_back_through_the_project_reader(friction_file, tmp_path, capsys):
+    """force_level_n = 0 marks the linear FRF; read_frf_table must accept what identify wrote."""
+    from nlupdate.measurements import read_frf_table
+
+    code, _, stderr = run(capsys, "--measured", friction_file, "--out", tmp_path / "id", "--samples", 2)
+    assert code == 0, stderr
+    table = read_frf_table(tmp_path / "id" / "linear_frf.parquet")
+    assert set(table["force_level_n"]) == {0.0} and len(table) > 10

@@ -204,8 +204,7 @@ def with_row(index: int, row: str) -> str:
         (3, "730,1,0,0,abc,-2e-6", "h_real", "'abc'"),
         (0, "inf,1,0,0,1e-6,-2e-6", "frequency_hz", "not a finite number"),
         (2, "-720,1,0,0,1e-6,-2e-6", "frequency_hz", "≥ 0 Hz"),
-        (1, "710,0,0,0,1e-6,-2e-6", "force_level_n", "> 0 N"),
-        (3, "730,-2,0,0,1e-6,-2e-6", "force_level_n", "> 0 N"),
+        (3, "730,-2,0,0,1e-6,-2e-6", "force_level_n", "≥ 0 N"),
         (2, "720,1,,0,1e-6,-2e-6", "response_dof", "empty"),
     ],
 )

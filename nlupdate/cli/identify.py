@@ -26,7 +26,7 @@ from nlupdate.identification.report import (
     JSON_NAME, elements_summary, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
 )
 from nlupdate.identification.uncertainty import monte_carlo
-from nlupdate.measurements import read_frf_table
+from nlupdate.measurements import read_frf_table, write_frf_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -163,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
 
     def write(folder: Path) -> None:
         write_json(summary, folder / JSON_NAME)
-        linear_frf_table(f_linear, h_linear, response_dof, input_dof).to_parquet(folder / "linear_frf.parquet", index=False)
+        write_frf_table(linear_frf_table(f_linear, h_linear, response_dof, input_dof), folder / "linear_frf.parquet")
         plot_fit(result, folder / "fit.png", title)
         plot_linear_frf(f_linear, h_linear, measured_curves, folder / "linear_frf.png", title,
                         None if modal is None else modal.receptance(f_linear))
