@@ -49,12 +49,14 @@ from nlupdate.updating import EigensensitivityOptions, UpdatingTargets, inverse_
 
 TRUE_E_PA = 195e9
 INITIAL_E_PA = 210e9
+E_LOWER_PA, E_UPPER_PA = 120e9, 260e9  # updating bounds
 LOSS_FACTOR = 0.02
 TRUE_ELEMENTS = (CubicStiffness((0,), 3e9), JenkinsFriction((0,), kf=3e4, slip_force=0.5))
 FORCES_N = (0.01,) + tuple(float(f) for f in range(10, 51, 5))
 BAND_HZ = (30.0, 110.0, 801)
 TIP = "tip:uz"
 N_MODES = 8  # modes in the tip receptance (global and local)
+PRD_HALF_WINDOW = 0.05  # improved PRD estimator pools ±5 % around the excitation frequency
 
 
 def tbeam_tip_model(e_pa: float, loss_factor: float) -> "ModalModel":  # noqa: F821
@@ -111,11 +113,11 @@ def run_demo(results_root: Path = Path("results"), seed: int = 1, say: Callable[
         say("[2/4] PRD identification (cubic + Jenkins) with Monte-Carlo uncertainty")
         data = FRFLevels.from_table(table, TIP, TIP)
         model = parse_elements("cubic,jenkins")
-        choice = recommend_frequency(data, model)
-        result = identify_prd(data, choice.frequency_hz, model)
+        choice = recommend_frequency(data, model, half_window=PRD_HALF_WINDOW)
+        result = identify_prd(data, choice.frequency_hz, model, half_window=PRD_HALF_WINDOW)
         f_low, h_low = data.curve(min(FORCES_N))
         noise = estimate_noise_fraction(f_low, h_low)
-        estimate = functools.partial(identify_prd, frequency_hz=choice.frequency_hz, model=model)
+        estimate = functools.partial(identify_prd, frequency_hz=choice.frequency_hz, model=model, half_window=PRD_HALF_WINDOW)
         uncertainty = monte_carlo(estimate, data, result.parameters(), noise, n_samples=40, seed=seed)
         h_linear = result.extract_linear_frf(f_low, h_low)
         fit = fit_modal_model(f_low, h_linear, n_modes=1, inverse_noise=np.abs(1.0 / h_low))
@@ -141,9 +143,18 @@ def run_demo(results_root: Path = Path("results"), seed: int = 1, say: Callable[
 
         say("[3/4] updating E: extracted linear FRF vs low-force resonance")
         adapter = SurrogateAdapter("tbeam", coordinates=[TIP], n_modes=1, global_modes_only=True)
-        parameter = Parameter("E", "Pa", INITIAL_E_PA, 120e9, 260e9)
+        parameter = Parameter("E", "Pa", INITIAL_E_PA, E_LOWER_PA, E_UPPER_PA)
         options = EigensensitivityOptions(formula="central2")
         updated = inverse_eigensensitivity(adapter, [parameter], UpdatingTargets([fit.natural_frequencies_hz[0]]), options)
+        # the extracted frequency inherits the kf uncertainty (1/H^L = 1/H_1 − Δ_f1): propagate
+        # ±1 std of kf through the extraction; E scales with f² for this structure
+        kf_std = uncertainty.parameters["kf"].std
+        shifted = [
+            fit_modal_model(f_low, 1.0 / (1.0 / h_low - result.delta_f1 - sign * kf_std), n_modes=1,
+                            inverse_noise=np.abs(1.0 / h_low)).natural_frequencies_hz[0]
+            for sign in (-1.0, 1.0)
+        ]
+        e_std = updated.parameters["E"] * abs(shifted[1] ** 2 - shifted[0] ** 2) / (2 * fit.natural_frequencies_hz[0] ** 2)
         low_force_peak = float(fit_modal_model(f_low, h_low, n_modes=1).natural_frequencies_hz[0])
         naive = inverse_eigensensitivity(adapter, [parameter], UpdatingTargets([low_force_peak]), options)
         updated.history.to_parquet(out / "updating_history.parquet")
@@ -151,6 +162,7 @@ def run_demo(results_root: Path = Path("results"), seed: int = 1, say: Callable[
             "target_from_extracted_linear_frf_hz": float(fit.natural_frequencies_hz[0]),
             "E_updated_pa": updated.parameters["E"],
             "E_error_percent": 100 * (updated.parameters["E"] / TRUE_E_PA - 1),
+            "E_std_from_kf_pa": e_std,
             "iterations": updated.iterations,
             "evaluations": dict(updated.counts),
             "target_from_low_force_resonance_hz": low_force_peak,
@@ -179,8 +191,9 @@ def run_demo(results_root: Path = Path("results"), seed: int = 1, say: Callable[
     say(
         "identified: "
         + ", ".join(f"{n} = {s['value']:.4g} ± {s['std']:.2g} (true {s['true']:.4g})" for n, s in ident.items() if s["true"])
-        + f"\nupdated E = {upd['E_updated_pa'] / 1e9:.1f} GPa (true {TRUE_E_PA / 1e9:.0f}, start {INITIAL_E_PA / 1e9:.0f}); "
+        + f"\nupdated E = {upd['E_updated_pa'] / 1e9:.1f} ± {upd['E_std_from_kf_pa'] / 1e9:.1f} GPa (± from kf; true {TRUE_E_PA / 1e9:.0f}, start {INITIAL_E_PA / 1e9:.0f}); "
         f"from the low-force resonance it would be {upd['E_from_low_force_resonance_pa'] / 1e9:.1f} GPa"
+        + (" (stopped at the upper bound)" if upd["E_from_low_force_resonance_pa"] >= 0.999 * E_UPPER_PA else "")
         + f"\nlinear FRF (modal fit of the extracted FRF) vs truth: FRAC {summary['identification']['linear_frf_frac_vs_truth']['modal_fit_of_extracted']:.3f}"
         + f"\nprediction FRAC per level: min {min(scores.values()):.3f}, mean {np.mean(list(scores.values())):.3f}"
     )

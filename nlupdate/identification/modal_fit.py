@@ -99,11 +99,16 @@ def fit_modal_model(
         return np.concatenate([r.real, r.imag])
 
     # a few starts around the peak estimates: a noisy peak can sit beside the resonance
-    solution = min(
-        (scipy.optimize.least_squares(objective, x0 + np.concatenate([np.full(n, df), np.full(n, de)]), method="lm")
-         for df in (0.0, -0.005, 0.005) for de in (0.0, np.log(2.0))),
-        key=lambda candidate: candidate.cost,
-    )
+    # natural frequencies stay in the measured band, loss factors in [1e-5, 1]
+    lower = np.concatenate([np.full(n, np.log(omega.min())), np.full(n, np.log(1e-5))])
+    upper = np.concatenate([np.full(n, np.log(omega.max())), np.zeros(n)])
+    starts = (np.clip(x0 + np.concatenate([np.full(n, df), np.full(n, de)]), lower + 1e-9, upper - 1e-9)
+              for df in (0.0, -0.005, 0.005) for de in (0.0, np.log(2.0)))
+    with np.errstate(all="ignore"):
+        solution = min(
+            (scipy.optimize.least_squares(objective, start, bounds=(lower, upper), method="trf") for start in starts),
+            key=lambda candidate: candidate.cost,
+        )
     if noise is not None:  # refine the modal constants with the inverse-domain residual too
         def full(z):
             wr, eta = np.exp(z[:n]), np.exp(z[n : 2 * n])
@@ -114,10 +119,19 @@ def fit_modal_model(
         _, c0 = solve_linear(solution.x)
         z0 = np.concatenate([solution.x, np.column_stack([c0.real, c0.imag]).ravel()])
         scale = np.maximum(np.abs(z0), 1e-12 * np.max(np.abs(z0[2 * n :])))
-        refined = scipy.optimize.least_squares(lambda q: full(q * scale), z0 / scale, method="lm")
+        with np.errstate(all="ignore"):
+            refined = scipy.optimize.least_squares(lambda q: full(q * scale), z0 / scale, method="lm")
         z = refined.x * scale
+        start_fun = full(z0)
+        # keep the refinement only if it stayed finite, improved the fit and kept the
+        # natural frequencies in the measured band (a noisy sweep can make it run away)
+        in_band = np.all((np.exp(z[:n]) >= omega.min()) & (np.exp(z[:n]) <= omega.max()))
+        if not (np.all(np.isfinite(refined.fun)) and in_band and refined.cost <= 0.5 * np.sum(start_fun**2)):
+            z, refined_fun = z0, start_fun
+        else:
+            refined_fun = refined.fun
         solution_x, coefficients = z[: 2 * n], z[2 * n :: 2] + 1j * z[2 * n + 1 :: 2]
-        fun = refined.fun
+        fun = refined_fun
     else:
         solution_x, fun = solution.x, solution.fun
         _, coefficients = solve_linear(solution_x)
