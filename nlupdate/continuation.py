@@ -200,7 +200,7 @@ def trace_frequency_response(
         dets.append(np.linalg.det(jac))
         turning.append(False)
         z, t = z_new, t_new
-        ds = min(ds * 1.6, max_step) if iteration <= 2 else ds * 0.6 if iteration >= 5 else ds
+        ds = min(ds * 1.6, max_step) if iteration <= 3 else ds * 0.6 if iteration >= 6 else ds
         if z[size] >= 1.0 or z[size] <= 0.0:
             break
 
