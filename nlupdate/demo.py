@@ -41,6 +41,7 @@ from nlupdate.identification.modal_fit import fit_modal_model  # noqa: E402
 from nlupdate.identification.prd import identify_prd  # noqa: E402
 from nlupdate.identification.report import plot_fit, plot_linear_frf  # noqa: E402
 from nlupdate.identification.uncertainty import monte_carlo  # noqa: E402
+from nlupdate.linear import ModalModel  # noqa: E402
 from nlupdate.measurements import select_frf, write_frf_table  # noqa: E402
 from nlupdate.plots import plot_frf_levels  # noqa: E402
 from nlupdate.simulate import simulate_frf_table  # noqa: E402
@@ -59,7 +60,7 @@ N_MODES = 8  # modes in the tip receptance (global and local)
 PRD_HALF_WINDOW = 0.05  # improved PRD estimator pools ±5 % around the excitation frequency
 
 
-def tbeam_tip_model(e_pa: float, loss_factor: float) -> "ModalModel":  # noqa: F821
+def tbeam_tip_model(e_pa: float, loss_factor: float) -> ModalModel:
     """Modal model of the T-beam surrogate at the tip of beam 1 (transverse)."""
     adapter = SurrogateAdapter("tbeam", coordinates=[TIP], n_modes=N_MODES)
     return adapter.evaluate({"E": e_pa}).to_modal_model(loss_factors=loss_factor)
@@ -99,7 +100,7 @@ def run_demo(results_root: Path = Path("results"), seed: int = 1, say: Callable[
             "true_elements": [repr(e) for e in TRUE_ELEMENTS],
         }
     }
-    with atomic_directory(results_root / run_name("demo")) as archive:
+    with atomic_directory(results_root / run_name("demo"), keep_failed=True) as archive:
         out = archive.path
 
         say(f"[1/4] simulated test: {len(FORCES_N)} force levels × {frequency_hz.size} frequencies, 5 % noise")

@@ -30,7 +30,7 @@ def test_demo_recovers_the_hidden_structure_and_predicts_every_level(tmp_path):
 
 def test_failed_run_leaves_no_archive_under_its_final_name(tmp_path):
     with pytest.raises(RuntimeError):
-        with atomic_directory(tmp_path / "run") as archive:
+        with atomic_directory(tmp_path / "run", keep_failed=True) as archive:
             (archive.path / "half.txt").write_text("partial")
             raise RuntimeError("solver died")
     assert not (tmp_path / "run").exists()
@@ -41,3 +41,15 @@ def test_failed_run_leaves_no_archive_under_its_final_name(tmp_path):
     with atomic_directory(tmp_path / "run") as second:
         pass
     assert first.final == tmp_path / "run" and second.final == tmp_path / "run-1"
+
+
+def test_existing_output_is_replaced_only_when_asked(tmp_path):
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "old.txt").write_text("old")
+    with pytest.raises(FileExistsError):
+        with atomic_directory(tmp_path / "out", on_exists="error"):
+            pass
+    with atomic_directory(tmp_path / "out", on_exists="replace") as archive:
+        (archive.path / "new.txt").write_text("new")
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ["new.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -22,8 +22,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -35,6 +33,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from numpy.typing import ArrayLike  # noqa: E402
 
+from nlupdate.archive import atomic_directory  # noqa: E402
 from nlupdate.identification.dfmodels import PhysicalModel  # noqa: E402
 
 JSON_NAME = "identification.json"
@@ -152,33 +151,14 @@ def write_directory_atomically(final: str | os.PathLike, write: Callable[[Path],
     """Call ``write(tmp)`` on a temporary folder beside ``final`` and rename it to ``final``.
 
     An existing ``final`` is replaced only if it is empty or holds an earlier
-    ``identification.json`` (never an unrelated folder); a failure removes the temporary
-    folder and leaves ``final`` untouched.
+    ``identification.json`` (never an unrelated folder); a failure leaves it untouched.
     """
     final = Path(final)
-    if final.exists():
-        if not final.is_dir():
-            raise ValueError(f"--out {final}: exists and is not a directory")
-        if any(final.iterdir()) and not (final / JSON_NAME).is_file():
-            raise ValueError(
-                f"--out {final}: directory exists and is not an identification output (no {JSON_NAME}); "
-                f"choose a new or empty directory"
-            )
-    final.parent.mkdir(parents=True, exist_ok=True)
-    temporary = Path(tempfile.mkdtemp(prefix=f".tmp-{final.name}-", dir=final.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o777 & ~umask)  # mkdtemp makes 0700; give the usual permissions
-    try:
-        write(temporary)
-        if final.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".old-{final.name}-", dir=final.parent))
-            os.replace(final, old / final.name)
-            os.replace(temporary, final)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(temporary, final)
-    except BaseException:
-        shutil.rmtree(temporary, ignore_errors=True)
-        raise
+    if final.is_dir() and any(final.iterdir()) and not (final / JSON_NAME).is_file():
+        raise ValueError(
+            f"--out {final}: directory exists and is not an identification output (no {JSON_NAME}); "
+            f"choose a new or empty directory"
+        )
+    with atomic_directory(final, on_exists="replace") as archive:
+        write(archive.path)
     return final

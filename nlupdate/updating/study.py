@@ -57,8 +57,6 @@ import dataclasses
 import json
 import math
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -67,6 +65,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.adapters.base import Parameter
+from nlupdate.archive import atomic_directory
 from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec
 from nlupdate.updating.candidates import (
     EXECUTORS,
@@ -571,9 +570,8 @@ def run_study(study: Study, out_dir: str | os.PathLike, overwrite: bool = False)
     user_weights = study.comparison["user_weights"]
     ranking = rank_candidates(comparison, user_weights if user_weights is not None else list(targets.weights))
 
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.tmp-"))
-    try:
+    with atomic_directory(out_dir, on_exists="replace") as archive:
+        work = archive.path
         history.to_parquet(work / "history.parquet", index=False)
         candidates.to_parquet(work / "candidates.parquet", index=False)
         comparison.to_parquet(work / "comparison.parquet", index=False)
@@ -592,21 +590,7 @@ def run_study(study: Study, out_dir: str | os.PathLike, overwrite: bool = False)
                                                study.comparison["damping_ratios"], study.comparison["loss_factors"])
             plot_frf_comparison(frequency, h, curves, work / "frf_comparison.png",
                                 title=f"{study.name}: H({t['response_dof']}, {t['input_dof']})")
-        _replace_directory(work, out_dir)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
     return StudyOutcome(out_dir, targets, results, history, candidates, comparison, ranking)
-
-
-def _replace_directory(new: Path, target: Path) -> None:
-    if target.exists():
-        old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
-        os.replace(target, old / target.name)
-        os.replace(new, target)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(new, target)
 
 
 def _json_default(value: object) -> object:
