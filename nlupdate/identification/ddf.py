@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.dfmodels import PhysicalModel, polynomial_approximation
+from nlupdate.identification.dfmodels import PhysicalModel, polynomial_approximation, with_clipped_damping
 from nlupdate.identification.prd import IdentificationError, fit_y_points
 
 DDF_ESTIMATORS = ("naive", "weighted")
@@ -111,13 +111,7 @@ class DDFResult:
         (see :meth:`nlupdate.identification.prd.PRDResult.df_for_force`)."""
         if self.physical is not None:
             return self.nu_high
-        low, high = self.amplitude_range
-
-        def nu(amplitude: ArrayLike, omega: ArrayLike | None = None) -> NDArray[np.complex128]:
-            a = np.asarray(amplitude, dtype=float)
-            return self.nu_high(a, omega).real + 1j * self.nu_high(np.clip(a, low, high), omega).imag
-
-        return nu
+        return with_clipped_damping(self.nu_high, *self.amplitude_range)
 
     @property
     def amplitude_range(self) -> tuple[float, float]:

@@ -325,3 +325,17 @@ def parse_elements(text: str | Sequence[str] | None) -> PhysicalModel | None:
         return None
     names = [n.strip() for n in (text.split(",") if isinstance(text, str) else text) if n and n.strip()]
     return PhysicalModel(tuple(names)) if names else None
+
+
+def with_clipped_damping(nu: Callable, low: float, high: float) -> Callable:
+    """A DF whose real part (stiffness) is extrapolated but whose imaginary part (damping)
+    is held at its values at the ends of the fitted amplitude range [low, high] (m).
+
+    Friction damping behaves like 4Fs/(πA), which a fitted polynomial extrapolates wildly.
+    """
+
+    def clipped(amplitude: ArrayLike, omega: ArrayLike | None = None) -> NDArray[np.complex128]:
+        a = np.asarray(amplitude, dtype=float)
+        return nu(a, omega).real + 1j * nu(np.clip(a, low, high), omega).imag
+
+    return clipped

@@ -58,7 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.amplitude import nearest_amplitude
 from nlupdate.identification.data import FRFLevels, smooth_inverse_receptance
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, polynomial_approximation
+from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, polynomial_approximation, with_clipped_damping
 
 Model = PolynomialModel | PhysicalModel
 ESTIMATORS = ("improved", "naive")
@@ -159,13 +159,7 @@ class PRDResult:
             return self.nu_low
         if isinstance(self.model, PhysicalModel):
             return self.nu_high
-        low, high = self.amplitude_range
-
-        def nu(amplitude: ArrayLike, omega: ArrayLike | None = None) -> NDArray[np.complex128]:
-            a = np.asarray(amplitude, dtype=float)
-            return self.nu_high(a, omega).real + 1j * self.nu_high(np.clip(a, low, high), omega).imag
-
-        return nu
+        return with_clipped_damping(self.nu_high, *self.amplitude_range)
 
     @property
     def delta_f1(self) -> complex:
