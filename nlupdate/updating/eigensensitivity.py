@@ -38,41 +38,31 @@ import pandas as pd
 import scipy.optimize
 
 from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
-from nlupdate.updating.pairing import PAIRING_METHODS, ModePairing
-from nlupdate.updating.residuals import ModalResponse
-from nlupdate.updating.sensitivity import jacobian, stencil
+from nlupdate.updating.pairing import ModePairing
+from nlupdate.updating.residuals import ModalResponse, ResponseOptions
+from nlupdate.updating.sensitivity import jacobian
 from nlupdate.updating.targets import UpdatingTargets
 
 
 @dataclass(frozen=True)
-class EigensensitivityOptions:
-    """Settings of :func:`inverse_eigensensitivity` (see the module docstring).
+class EigensensitivityOptions(ResponseOptions):
+    """Settings of :func:`inverse_eigensensitivity` (see the module docstring), in addition
+    to the shared :class:`~nlupdate.updating.residuals.ResponseOptions`.
 
     frequency_tolerance: relative (0.0001 = 0.01 %) on the largest paired frequency error.
     parameter_tolerance: on the largest normalised parameter change of a step.
     regularisation: Tikhonov weight λ on the normalised step (0 = none).
     max_step: largest normalised change of any parameter per iteration.
-    pairing, min_mac: see :mod:`nlupdate.updating.pairing`.
-    use_mode_shapes, mode_shape_weight: see :mod:`nlupdate.updating.residuals`.
-    max_workers: threads for the stencil evaluations (None = sequential).
     """
 
-    formula: str = "forward"
     max_iterations: int = 20
     frequency_tolerance: float = 1e-4
     parameter_tolerance: float = 1e-6
     regularisation: float = 0.0
     max_step: float = 0.5
-    pairing: str = "order"
-    min_mac: float = 0.0
-    use_mode_shapes: bool = False
-    mode_shape_weight: float = 1.0
-    max_workers: int | None = None
 
     def __post_init__(self) -> None:
-        stencil(self.formula)
-        if self.pairing not in PAIRING_METHODS:
-            raise ValueError(f"pairing must be one of {list(PAIRING_METHODS)}, got {self.pairing!r}")
+        super().__post_init__()
         if self.max_iterations < 1:
             raise ValueError(f"max_iterations must be ≥ 1, got {self.max_iterations}")
         for name in ("frequency_tolerance", "parameter_tolerance", "max_step"):

@@ -25,43 +25,34 @@ import scipy.optimize
 
 from nlupdate.adapters.base import FEAdapter, Parameter
 from nlupdate.updating.eigensensitivity import UpdatingResult, history_columns, history_row, normalisation
-from nlupdate.updating.pairing import PAIRING_METHODS
-from nlupdate.updating.residuals import ModalResponse
-from nlupdate.updating.sensitivity import jacobian, stencil
+from nlupdate.updating.residuals import ModalResponse, ResponseOptions
+from nlupdate.updating.sensitivity import jacobian
 from nlupdate.updating.targets import UpdatingTargets
 
 OPTIMISATION_METHODS = ("trf", "dogbox")
 
 
 @dataclass(frozen=True)
-class OptimisationOptions:
-    """Settings of :func:`optimise_frequencies`.
+class OptimisationOptions(ResponseOptions):
+    """Settings of :func:`optimise_frequencies`, in addition to the shared
+    :class:`~nlupdate.updating.residuals.ResponseOptions`.
 
     method: ``least_squares`` method, ``dogbox`` (default: handles parameters that end
         on a bound in fewer evaluations) or ``trf``.
-    formula: finite-difference formula of the Jacobian.
     max_evaluations: limit on objective calls (``max_nfev``).
     ftol, xtol, gtol: ``least_squares`` tolerances (x in normalised parameters).
     """
 
     method: str = "dogbox"
-    formula: str = "forward"
     max_evaluations: int = 100
     ftol: float = 1e-10
     xtol: float = 1e-10
     gtol: float = 1e-10
-    pairing: str = "order"
-    min_mac: float = 0.0
-    use_mode_shapes: bool = False
-    mode_shape_weight: float = 1.0
-    max_workers: int | None = None
 
     def __post_init__(self) -> None:
-        stencil(self.formula)
+        super().__post_init__()
         if self.method not in OPTIMISATION_METHODS:
             raise ValueError(f"optimisation method must be one of {list(OPTIMISATION_METHODS)}, got {self.method!r}")
-        if self.pairing not in PAIRING_METHODS:
-            raise ValueError(f"pairing must be one of {list(PAIRING_METHODS)}, got {self.pairing!r}")
         if self.max_evaluations < 1:
             raise ValueError(f"max_evaluations must be ≥ 1, got {self.max_evaluations}")
 

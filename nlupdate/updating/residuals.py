@@ -16,6 +16,7 @@ call), so repeated points come from its cache.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -23,8 +24,32 @@ from numpy.typing import NDArray
 
 from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
 from nlupdate.identification.correlation import mac_matrix
-from nlupdate.updating.pairing import ModePairing, model_shapes_at, pair_modes
+from nlupdate.updating.pairing import PAIRING_METHODS, ModePairing, model_shapes_at, pair_modes
+from nlupdate.updating.sensitivity import stencil
 from nlupdate.updating.targets import UpdatingTargets
+
+
+@dataclass(frozen=True)
+class ResponseOptions:
+    """Settings shared by every updating method: how the response and its Jacobian are formed.
+
+    formula: finite-difference formula of the sensitivities (see
+    :mod:`nlupdate.updating.sensitivity`); pairing, min_mac: see
+    :mod:`nlupdate.updating.pairing`; use_mode_shapes, mode_shape_weight: see this module;
+    max_workers: threads for the stencil evaluations (None = sequential).
+    """
+
+    formula: str = "forward"
+    pairing: str = "order"
+    min_mac: float = 0.0
+    use_mode_shapes: bool = False
+    mode_shape_weight: float = 1.0
+    max_workers: int | None = None
+
+    def __post_init__(self) -> None:
+        stencil(self.formula)
+        if self.pairing not in PAIRING_METHODS:
+            raise ValueError(f"pairing must be one of {list(PAIRING_METHODS)}, got {self.pairing!r}")
 
 
 class ModalResponse:
