@@ -6,7 +6,7 @@
 * :mod:`~nlupdate.updating.eigensensitivity` — inverse eigensensitivity iteration
 * :mod:`~nlupdate.updating.optimisation` — bounded weighted least-squares fit
 * :mod:`~nlupdate.updating.candidates` — parallel sweeps, candidate comparison, ranking
-* :mod:`~nlupdate.updating.study` — TOML study files (``nlupdate update``)
+* :mod:`~nlupdate.updating.study_file` — TOML study files; :mod:`~nlupdate.updating.study` — running them (``nlupdate update``)
 * :mod:`~nlupdate.updating.plots` — PNG plots
 """
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
