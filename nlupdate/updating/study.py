@@ -132,8 +132,10 @@ def run_study(study: Study, out_dir: str | os.PathLike, overwrite: bool = False)
     history = history[["run"] + [c for c in history.columns if c != "run"]]
     candidates = candidate_table(results)
     t = study.targets
+    model_response = t.get("model_response_dof", t.get("response_dof"))
+    model_input = t.get("model_input_dof", t.get("input_dof"))
     comparison = compare_candidates(
-        results, reference, t.get("response_dof"), t.get("input_dof"),
+        results, reference, model_response, model_input,
         study.comparison["damping_ratios"], study.comparison["loss_factors"], study.comparison["band_fraction"],
     )
     user_weights = study.comparison["user_weights"]
@@ -152,10 +154,10 @@ def run_study(study: Study, out_dir: str | os.PathLike, overwrite: bool = False)
         plot_frequency_errors(comparison, work / "frequency_errors.png")
         if reference is not None:
             frequency, h = reference
-            curves = {"initial": candidate_frf(results[0], frequency, t["response_dof"], t["input_dof"],
+            curves = {"initial": candidate_frf(results[0], frequency, model_response, model_input,
                                                study.comparison["damping_ratios"], study.comparison["loss_factors"], "initial")}
             for r in results:
-                curves[r.name] = candidate_frf(r, frequency, t["response_dof"], t["input_dof"],
+                curves[r.name] = candidate_frf(r, frequency, model_response, model_input,
                                                study.comparison["damping_ratios"], study.comparison["loss_factors"])
             plot_frf_comparison(frequency, h, curves, work / "frf_comparison.png",
                                 title=f"{study.name}: H({t['response_dof']}, {t['input_dof']})")

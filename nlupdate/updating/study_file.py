@@ -14,6 +14,8 @@ File format (relative paths are relative to the study file; see ``examples/``)::
                              band_hz = [lo, hi], force_level_n, frf_method = "peak" |
                              "line_fit" (optional; nlupdate.updating.targets);
                              response_dof, input_dof (FRF curve; also used for FRAC),
+                             model_response_dof, model_input_dof (the model coordinates
+                             of that curve when named differently; default the same),
                              weights, labels, model_modes, coordinates + mode_shapes
                              (one list per target mode)                (optional)
     [updating]               pairing = "order" | "nearest" | "mac", min_mac,
@@ -65,7 +67,7 @@ _ALLOWED = {
     "parameters": {"name", "unit", "start", "lower", "upper", "relative_step"},
     "targets": {
         "frequencies_hz", "identification", "n_modes", "band_hz", "force_level_n", "frf_method", "response_dof", "input_dof",
-        "weights", "labels", "model_modes", "coordinates", "mode_shapes",
+        "model_response_dof", "model_input_dof", "weights", "labels", "model_modes", "coordinates", "mode_shapes",
     },
     "updating": {"pairing", "min_mac", "use_mode_shapes", "mode_shape_weight", "max_workers", "executor"},
     "eigensensitivity": {
@@ -414,8 +416,9 @@ def _check_targets(read: _Reader, targets: Mapping[str, Any]) -> int:
             raise read.fail(where, "n_modes", "the number of peaks to pick from the identified FRF (integer ≥ 1)")
         for key in ("response_dof", "input_dof"):
             read.string(targets, where, key, required=True)
-    for key in ("response_dof", "input_dof"):
+    for key in ("response_dof", "input_dof", "model_response_dof", "model_input_dof"):
         read.string(targets, where, key)
+    if not has_list:
         if "band_hz" in targets:
             low, high = read.numbers(targets, where, "band_hz", length=2)
             if not 0 <= low < high:
