@@ -162,9 +162,7 @@ def inverse_eigensensitivity(
     parameters = tuple(parameters)
     if not parameters:
         raise ValueError("inverse eigensensitivity needs at least one updating parameter")
-    response = ModalResponse(
-        adapter, parameters, targets, fixed, options.pairing, options.min_mac, options.use_mode_shapes, options.mode_shape_weight
-    )
+    response = ModalResponse(adapter, parameters, targets, fixed, options)
     names = [p.name for p in parameters]
     scale = normalisation(parameters)
     lower = np.array([p.lower for p in parameters]) / scale

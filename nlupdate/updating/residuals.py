@@ -61,10 +61,7 @@ class ModalResponse:
         parameters: Sequence[Parameter],
         targets: UpdatingTargets,
         fixed: Mapping[str, float] | None = None,
-        pairing: str = "order",
-        min_mac: float = 0.0,
-        use_mode_shapes: bool = False,
-        mode_shape_weight: float = 1.0,
+        options: ResponseOptions = ResponseOptions(),
     ) -> None:
         self.adapter = adapter
         self.parameters = tuple(parameters)
@@ -73,13 +70,13 @@ class ModalResponse:
         overlap = set(self.fixed) & {p.name for p in self.parameters}
         if overlap:
             raise ValueError(f"parameter(s) {sorted(overlap)} are both updated and fixed")
-        self.pairing_method = pairing
-        self.min_mac = min_mac
-        if use_mode_shapes and targets.mode_shapes is None:
+        self.pairing_method = options.pairing
+        self.min_mac = options.min_mac
+        if options.use_mode_shapes and targets.mode_shapes is None:
             raise ValueError("use_mode_shapes needs measured mode shapes in the targets")
-        self.use_mode_shapes = use_mode_shapes
-        self.mode_shape_weight = float(mode_shape_weight)
-        if use_mode_shapes:
+        self.use_mode_shapes = options.use_mode_shapes
+        self.mode_shape_weight = float(options.mode_shape_weight)
+        if self.use_mode_shapes:
             norms = np.linalg.norm(targets.mode_shapes, axis=0)
             if np.any(norms == 0):
                 raise ValueError("targets: a measured mode shape is all zeros")
