@@ -24,7 +24,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nlupdate.linear import ModalModel
+from nlupdate.model.linear import ModalModel
 
 
 @dataclass(frozen=True)

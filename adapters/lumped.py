@@ -8,7 +8,7 @@ Coordinates are named ``x1 … xn`` (displacement of mass i along the chain).
 
 It exists so the updating machinery can be tested against an exact, instant model:
 natural frequencies and mass-normalised mode shapes come from the dense generalised
-eigenproblem ``K φ = ω² M φ`` (:meth:`nlupdate.linear.LumpedModel.modes`).
+eigenproblem ``K φ = ω² M φ`` (:meth:`nlupdate.model.linear.LumpedModel.modes`).
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from nlupdate.adapters.base import FEAdapter, ModalResult
-from nlupdate.linear import LumpedModel
+from nlupdate.model.linear import LumpedModel
 
 
 class LumpedAdapter(FEAdapter):

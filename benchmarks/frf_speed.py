@@ -49,13 +49,13 @@ import numpy as np
 import scipy.sparse
 from scipy.integrate import solve_ivp
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.elements import CubicStiffness, JenkinsFriction
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.linear import LumpedModel
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import NonlinearSystem
-from nlupdate.time_integration import steady_state_response, time_sweep
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.model.linear import LumpedModel
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.time_integration import steady_state_response, time_sweep
 
 MASS, DAMPING, STIFFNESS, K3, FORCE = 1.0, 0.05, 1.0, 1.0, 0.5
 BAND = (0.5, 3.5)

@@ -36,7 +36,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from source_cases import case_data  # noqa: E402
 
-from nlupdate.identification.correlation import frac, peak_errors  # noqa: E402
+from nlupdate.correlation.metrics import frac, peak_errors  # noqa: E402
 from nlupdate.identification.ddf import identify_ddf  # noqa: E402
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel  # noqa: E402
 from nlupdate.identification.modal_fit import fit_modal_model  # noqa: E402

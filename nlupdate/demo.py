@@ -31,21 +31,22 @@ import numpy as np  # noqa: E402
 
 from nlupdate.adapters.base import Parameter  # noqa: E402
 from nlupdate.adapters.surrogate import SurrogateAdapter  # noqa: E402
-from nlupdate.archive import atomic_directory, run_name  # noqa: E402
-from nlupdate.elements import CubicStiffness, JenkinsFriction  # noqa: E402
-from nlupdate.identification.correlation import frac  # noqa: E402
-from nlupdate.identification.data import FRFLevels, estimate_noise_fraction  # noqa: E402
+from nlupdate.reporting.atomic import atomic_directory, run_name  # noqa: E402
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction  # noqa: E402
+from nlupdate.correlation.metrics import frac  # noqa: E402
+from nlupdate.identification.data import FRFLevels  # noqa: E402
+from nlupdate.measurement.noise import estimate_noise_fraction  # noqa: E402
 from nlupdate.identification.dfmodels import parse_elements  # noqa: E402
 from nlupdate.identification.frequency import recommend_frequency  # noqa: E402
 from nlupdate.identification.modal_fit import fit_modal_model  # noqa: E402
 from nlupdate.identification.prd import identify_prd  # noqa: E402
 from nlupdate.identification.report import plot_fit, plot_linear_frf  # noqa: E402
 from nlupdate.identification.uncertainty import monte_carlo  # noqa: E402
-from nlupdate.linear import ModalModel  # noqa: E402
-from nlupdate.measurements import select_frf, write_frf_table  # noqa: E402
-from nlupdate.plots import plot_frf_levels  # noqa: E402
-from nlupdate.simulate import simulate_frf_table  # noqa: E402
-from nlupdate.system import NonlinearSystem  # noqa: E402
+from nlupdate.model.linear import ModalModel  # noqa: E402
+from nlupdate.measurement.frf_table import select_frf, write_frf_table  # noqa: E402
+from nlupdate.reporting.plots import plot_frf_levels  # noqa: E402
+from nlupdate.response.simulate import simulate_frf_table  # noqa: E402
+from nlupdate.model.system import NonlinearSystem  # noqa: E402
 from nlupdate.updating import EigensensitivityOptions, UpdatingTargets, inverse_eigensensitivity  # noqa: E402
 
 TRUE_E_PA = 195e9

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap, assemble_delta
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.linear import LumpedModel
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import CondensedProblem, NonlinearSystem
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap, assemble_delta
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.model.linear import LumpedModel
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import CondensedProblem, NonlinearSystem
 
 M, C, K, K3, F = 1.0, 0.05, 1.0, 1.0, 0.5
 DUFFING = NonlinearSystem(LumpedModel([[M]], [[K]], [[C]]), (CubicStiffness((0,), K3),))

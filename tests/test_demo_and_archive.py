@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from nlupdate.archive import atomic_directory
+from nlupdate.reporting.atomic import atomic_directory
 from nlupdate.demo import INITIAL_E_PA, TRUE_E_PA, TRUE_ELEMENTS, run_demo
 
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from nlupdate.elements import (
+from nlupdate.model.elements import (
     CoulombFriction,
     CubicStiffness,
     JenkinsFriction,

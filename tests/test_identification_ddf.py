@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.elements import CubicStiffness
-from nlupdate.identification.correlation import frac
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.model.elements import CubicStiffness
+from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import identify_ddf
 from nlupdate.identification.dfmodels import PhysicalModel
 from nlupdate.identification.prd import IdentificationError
-from nlupdate.linear import LumpedModel
-from nlupdate.measurements import frf_table
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import NonlinearSystem
+from nlupdate.model.linear import LumpedModel
+from nlupdate.measurement.frf_table import frf_table
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import NonlinearSystem
 
 MODEL = LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01)
 

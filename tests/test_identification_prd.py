@@ -1,6 +1,6 @@
 """PRD identification against independent references.
 
-* Data from TIME INTEGRATION (nlupdate.time_integration, the elements' time-domain force
+* Data from TIME INTEGRATION (nlupdate.response.time_integration, the elements' time-domain force
   laws, no describing function): parameters of cubic + Jenkins within 3 % of the values
   the data were made with, and the extracted linear FRF against the analytical linear
   receptance (FRAC > 0.999) — SDOF (thesis §3.1) and 2-DOF (§3.2).
@@ -16,19 +16,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.elements import CubicStiffness, JenkinsFriction, assemble_delta
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.identification.correlation import frac
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction, assemble_delta
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
 from nlupdate.identification.prd import IdentificationError, identify_prd
 from nlupdate.identification.prd_matrix import frf_matrices, identify_prd_matrix
-from nlupdate.linear import LumpedModel
-from nlupdate.measurements import frf_table
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import NonlinearSystem
-from nlupdate.time_integration import steady_state_response
+from nlupdate.model.linear import LumpedModel
+from nlupdate.measurement.frf_table import frf_table
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.time_integration import steady_state_response
 
 HIGH = tuple(float(f) for f in np.arange(100.0, 401.0, 30.0))
 LEVELS = (0.01,) + HIGH

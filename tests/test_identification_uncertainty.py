@@ -6,15 +6,16 @@ import functools
 import numpy as np
 import pytest
 
-from nlupdate.elements import CubicStiffness, JenkinsFriction
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.identification.data import FRFLevels, estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.identification.data import FRFLevels
+from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
 from nlupdate.identification.dfmodels import PolynomialModel
 from nlupdate.identification.prd import identify_prd
 from nlupdate.identification.uncertainty import monte_carlo
-from nlupdate.linear import LumpedModel
-from nlupdate.noise import add_frf_noise
-from nlupdate.system import NonlinearSystem
+from nlupdate.model.linear import LumpedModel
+from nlupdate.measurement.noise import add_frf_noise
+from nlupdate.model.system import NonlinearSystem
 
 F = np.arange(600.0, 900.0, 1.0)
 H = 1.0 / (2.3e6 - 0.1 * (2 * np.pi * F) ** 2 + 0.01j * 2e6)

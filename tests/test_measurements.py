@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 import pyuff
 
-from nlupdate.measurements import (
+from nlupdate.measurement.frf_table import (
     FRF_COLUMNS,
     MeasurementTableError,
     force_levels,

@@ -7,8 +7,8 @@ import pandas as pd
 import pytest
 
 from nlupdate.cli import main
-from nlupdate.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model_file import ModelFileError, load_system
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.model.model_file import ModelFileError, load_system
 
 ISSUE_EXAMPLE = """
 [model]

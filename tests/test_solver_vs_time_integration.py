@@ -18,13 +18,13 @@
 import numpy as np
 import pytest
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.elements import CubicStiffness, JenkinsFriction, SymmetricGap
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.linear import LumpedModel
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import NonlinearSystem
-from nlupdate.time_integration import steady_state_response, time_sweep
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.model.linear import LumpedModel
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.time_integration import steady_state_response, time_sweep
 
 TWO_PI = 2 * np.pi
 

@@ -10,8 +10,8 @@ import scipy.optimize
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.linear import LumpedModel, ModalModel
-from nlupdate.measurements import frf_table, write_frf_table
+from nlupdate.model.linear import LumpedModel, ModalModel
+from nlupdate.measurement.frf_table import frf_table, write_frf_table
 from nlupdate.updating.adapter_factory import AdapterSpec
 from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions

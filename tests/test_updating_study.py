@@ -12,8 +12,8 @@ import pytest
 
 from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.cli import main
-from nlupdate.linear import LumpedModel
-from nlupdate.measurements import frf_table, write_frf_table
+from nlupdate.model.linear import LumpedModel
+from nlupdate.measurement.frf_table import frf_table, write_frf_table
 from nlupdate.updating.study import StudyError, load_study
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from nlupdate.cli import CliError
-from nlupdate.identification.correlation import frac, natural_frequencies
-from nlupdate.identification.data import FRFLevels, estimate_noise_fraction
+from nlupdate.correlation.metrics import frac, natural_frequencies
+from nlupdate.identification.data import FRFLevels
+from nlupdate.measurement.noise import estimate_noise_fraction
 from nlupdate.identification.ddf import DDF_ESTIMATORS, identify_ddf
 from nlupdate.identification.dfmodels import PolynomialModel, parse_elements
 from nlupdate.identification.frequency import recommend_frequency
@@ -26,7 +27,7 @@ from nlupdate.identification.report import (
     JSON_NAME, elements_summary, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
 )
 from nlupdate.identification.uncertainty import monte_carlo
-from nlupdate.measurements import read_frf_table, write_frf_table
+from nlupdate.measurement.frf_table import read_frf_table, write_frf_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

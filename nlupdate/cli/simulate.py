@@ -5,9 +5,9 @@ import argparse
 import sys
 import time
 
-from nlupdate.measurements import write_frf_table
-from nlupdate.model_file import load_system
-from nlupdate.simulate import METHODS, parse_force_levels, parse_frequency_grid, simulate_frf_table
+from nlupdate.measurement.frf_table import write_frf_table
+from nlupdate.model.model_file import load_system
+from nlupdate.response.simulate import METHODS, parse_force_levels, parse_frequency_grid, simulate_frf_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -51,7 +51,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.linear import LumpedModel
+from nlupdate.model.linear import LumpedModel
 
 DOF_NAMES: tuple[str, ...] = ("ux", "uy", "uz", "rx", "ry", "rz")
 THEORIES = ("euler", "timoshenko")
@@ -707,7 +707,7 @@ class FrameModel:
         return np.einsum("ir,ir->r", shapes[selected], weighted[selected])
 
     def to_lumped(self, loss_factor: float = 0.0) -> LumpedModel:
-        """The constrained system as a :class:`~nlupdate.linear.LumpedModel`.
+        """The constrained system as a :class:`~nlupdate.model.linear.LumpedModel`.
 
         Coordinates are the independent free dofs (names ``"<label>:<dof>"``; rigid-link
         slaves are not among them). ``loss_factor`` γ gives structural damping D = γK_r.

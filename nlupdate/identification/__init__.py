@@ -2,8 +2,7 @@
 
 Modules
 -------
-* :mod:`~nlupdate.identification.data` — measured curves per force level (:class:`FRFLevels`),
-  noise-level estimate and smoothing of ``1/H``.
+* :mod:`~nlupdate.identification.data` — measured curves per force level (:class:`FRFLevels`).
 * :mod:`~nlupdate.identification.dfmodels` — describing-function models: the source's PRD
   polynomial and named physical elements (cubic, Jenkins, Coulomb, quadratic damping, gap).
 * :mod:`~nlupdate.identification.prd` — PRD at one coordinate: the source's naive least
@@ -16,12 +15,10 @@ Modules
 * :mod:`~nlupdate.identification.amplitude` — scalar harmonic balance (amplitude roots).
 * :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
 * :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.
-* :mod:`~nlupdate.identification.correlation` — FRAC, MAC, natural-frequency and peak errors.
 * :mod:`~nlupdate.identification.report` — JSON, plots and the atomic output folder of
   ``nlupdate identify``.
 """
-from nlupdate.identification.correlation import frac, mac_matrix, natural_frequencies, natural_frequency_error, peak_errors
-from nlupdate.identification.data import FRFLevels, estimate_noise_fraction
+from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import identify_ddf
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
 from nlupdate.identification.frequency import recommend_frequency
@@ -29,7 +26,6 @@ from nlupdate.identification.prd import IdentificationError, identify_prd
 from nlupdate.identification.regenerate import regenerate_frf
 
 __all__ = [
-    "FRFLevels", "IdentificationError", "PhysicalModel", "PolynomialModel", "estimate_noise_fraction", "frac",
-    "identify_ddf", "identify_prd", "mac_matrix", "natural_frequencies", "natural_frequency_error", "peak_errors",
-    "recommend_frequency", "regenerate_frf",
+    "FRFLevels", "IdentificationError", "PhysicalModel", "PolynomialModel",
+    "identify_ddf", "identify_prd", "recommend_frequency", "regenerate_frf",
 ]

@@ -2,7 +2,7 @@
 
 :class:`FRFLevels` is the input of the PRD and DDF methods: one receptance curve
 (frequencies in Hz ascending, complex H in m/N) per force amplitude (N), taken from a
-measured-FRF table (:mod:`nlupdate.measurements`). Frequencies are matched exactly
+measured-FRF table (:mod:`nlupdate.measurement.frf_table`). Frequencies are matched exactly
 (relative 1e-9), as a stepped-sine test repeats the same frequencies at every level.
 """
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.measurements import force_levels, select_frf
-from nlupdate.noise import add_frf_noise
+from nlupdate.measurement.frf_table import force_levels, select_frf
+from nlupdate.measurement.noise import add_frf_noise
 
 _RTOL = 1e-9
 
@@ -107,58 +107,3 @@ class FRFLevels:
             self.response_dof, self.input_dof, self.levels, self.frequencies,
             tuple(add_frf_noise(h, fraction, rng) for h in self.receptances),
         )
-
-
-def estimate_noise_fraction(frequency_hz: ArrayLike, h: ArrayLike, window: int = 9) -> float:
-    """Relative noise level of a measured FRF (std of the noise / |H|), model-free.
-
-    Measurement noise ``H(1 + ε)`` gives ``1/H̃ ≈ (1/H)(1 − ε)``, and ``1/H`` (dynamic
-    stiffness) is smooth in ω even at a resonance. So a quadratic in ω is fitted to
-    ``1/H̃`` over sliding windows of ``window`` points, and the relative residuals
-    ``(1/H̃ − fit)/|fit|`` estimate ε. Returns ``sqrt(E|ε|²)`` from the median of the
-    per-window mean squares (robust to windows spoilt by a sharp feature), corrected
-    for the fitted degrees of freedom. Needs at least ``window`` points.
-    """
-    f = np.asarray(frequency_hz, dtype=float)
-    z = 1.0 / np.asarray(h, dtype=complex)
-    if f.size < window:
-        raise ValueError(f"noise estimate needs at least {window} frequencies, got {f.size}")
-    mean_squares = []
-    for start in range(0, f.size - window + 1, max(window // 2, 1)):
-        x = f[start : start + window]
-        x = (x - x.mean()) / max(np.ptp(x), 1e-300)
-        v = np.vander(x, 3)
-        target = z[start : start + window]
-        coefficients = np.linalg.lstsq(v, target, rcond=None)[0]
-        fit = v @ coefficients
-        relative = (target - fit) / np.abs(fit)
-        mean_squares.append(np.sum(np.abs(relative) ** 2) / (window - 3))
-    # the median of a scaled chi-square with 2(window−3) degrees of freedom sits below its mean
-    dof = 2 * (window - 3)
-    median_to_mean = (1 - 2 / (9 * dof)) ** 3
-    return float(np.sqrt(np.median(mean_squares) / median_to_mean))
-
-
-def smooth_inverse_receptance(frequency_hz: ArrayLike, h: ArrayLike, window: int) -> NDArray[np.complex128]:
-    """Noise-reduced ``1/H``: a weighted least-squares quadratic in ω over ``window``
-    neighbouring points (odd, ≥ 5) evaluated at each frequency (a Savitzky–Golay filter
-    on the dynamic stiffness, which is smooth even at resonances). Weights ``|H̃|``
-    match the relative noise of METHODS §8. Windows are shifted inwards at the ends."""
-    f = np.asarray(frequency_hz, dtype=float)
-    z = 1.0 / np.asarray(h, dtype=complex)
-    window = int(window)
-    if window < 5 or window % 2 == 0:
-        raise ValueError(f"smoothing window must be an odd number of points ≥ 5, got {window}")
-    if f.size < window:
-        raise ValueError(f"smoothing window of {window} points is longer than the sweep ({f.size} points)")
-    half = window // 2
-    out = np.empty(f.size, dtype=complex)
-    weights = 1.0 / np.abs(z)
-    for k in range(f.size):
-        start = min(max(k - half, 0), f.size - window)
-        span = slice(start, start + window)
-        x = (f[span] - f[k]) / max(np.ptp(f[span]), 1e-300)
-        design = np.vander(x, 3) * weights[span, None]
-        coefficients = np.linalg.lstsq(design, z[span] * weights[span], rcond=None)[0]
-        out[k] = coefficients[-1]
-    return out

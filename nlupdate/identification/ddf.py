@@ -138,7 +138,7 @@ class DDFResult:
         return [float(v) for v in c.real], [float(v) for v in c.imag]
 
     def elements(self, dofs: tuple[int, ...] = (0,)) -> list:
-        from nlupdate.elements import PolynomialDF
+        from nlupdate.model.elements import PolynomialDF
 
         if self.physical is not None:
             return self.physical.elements(self.p, dofs)

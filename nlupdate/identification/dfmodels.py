@@ -32,7 +32,7 @@ friction, the source's assumption in its case studies) and the imaginary constan
 ``y`` stays in the high-force DF; ``complex_delta_f1=True`` uses the full ``−y(0)``.
 ``delta_f1_imag`` reports the imaginary part used.
 
-:class:`PhysicalModel` — named elements of :data:`nlupdate.elements.ELEMENT_TYPES`
+:class:`PhysicalModel` — named elements of :data:`nlupdate.model.elements.ELEMENT_TYPES`
 (``cubic``, ``jenkins``, ``coulomb``, ``quadratic_damping``, ``gap``) acting at all force
 levels: ``nu_high = nu_low = Σ ν_e(A; θ)``. Positive parameters are fitted as
 logarithms; ``k3`` (which may be negative: softening) linearly. This model is exact for
@@ -46,7 +46,7 @@ from typing import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.elements import ELEMENT_TYPES, PolynomialDF
+from nlupdate.model.elements import ELEMENT_TYPES, PolynomialDF
 
 # parameter names of each physical element (constructor keyword order) and whether they
 # are positive (fitted as log) or signed
@@ -182,7 +182,7 @@ class PolynomialModel:
         return real, imag
 
     def elements(self, p: ArrayLike, dofs: tuple[int, ...] = (0,)) -> list:
-        """The high-force DF as a :class:`~nlupdate.elements.PolynomialDF` element."""
+        """The high-force DF as a :class:`~nlupdate.model.elements.PolynomialDF` element."""
         real, imag = self.describing_function(p)
         return [PolynomialDF(tuple(dofs), real=tuple(real), imag=tuple(imag))]
 

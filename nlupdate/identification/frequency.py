@@ -26,7 +26,7 @@ the choice wanders more (2-DOF: 729–746 Hz).
 The linear natural frequency is unknown before the identification, so
 :func:`recommend_frequency` iterates: identify at a start frequency (the low-force
 resonance), extract the linear FRF, locate its natural frequency (line-fit method,
-:func:`nlupdate.identification.correlation.natural_frequencies`) and move to the measured
+:func:`nlupdate.correlation.metrics.natural_frequencies`) and move to the measured
 frequency nearest to it; stop when the frequency no longer changes.
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from nlupdate.identification.correlation import natural_frequencies, peak
+from nlupdate.correlation.metrics import natural_frequencies, peak
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.prd import IdentificationError, Model, identify_prd, prd_setup
 

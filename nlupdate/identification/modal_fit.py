@@ -11,7 +11,7 @@ with complex modal constants A_r (m/N·rad²/s², complex to absorb non-proporti
 damping and measurement phase), natural frequencies ω_r, loss factors η_r and a complex
 residual R for the modes outside the band. ω_r and η_r are found by nonlinear least
 squares (variable projection: A_r and R by linear least squares inside), starting from
-:func:`nlupdate.identification.correlation.natural_frequencies` and a loss factor from
+:func:`nlupdate.correlation.metrics.natural_frequencies` and a loss factor from
 the peak height; residuals are relative, ``(H_model − H)/|H|`` (METHODS §8 noise).
 """
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.identification.correlation import natural_frequencies
+from nlupdate.correlation.metrics import natural_frequencies
 
 
 @dataclass(frozen=True)

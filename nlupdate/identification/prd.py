@@ -57,7 +57,8 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.amplitude import nearest_amplitude
-from nlupdate.identification.data import FRFLevels, smooth_inverse_receptance
+from nlupdate.identification.data import FRFLevels
+from nlupdate.measurement.noise import smooth_inverse_receptance
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, polynomial_approximation, with_clipped_damping
 
 Model = PolynomialModel | PhysicalModel

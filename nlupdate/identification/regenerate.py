@@ -9,7 +9,7 @@ its branch ends at a fold. This works directly on noisy samples (no interpolatio
 
 Several nonlinear coordinates: :class:`SampledReceptance` turns a sampled receptance
 matrix (e.g. an extracted ``H^L_aa``) into a linear model for the project's solvers
-(:mod:`nlupdate.fixed_point`, :mod:`nlupdate.continuation`), by cubic-spline
+(:mod:`nlupdate.response.fixed_point`, :mod:`nlupdate.response.continuation`), by cubic-spline
 interpolation in ω of every entry.
 """
 from __future__ import annotations
@@ -75,7 +75,7 @@ def regenerate_frf(
 class SampledReceptance:
     """A linear model given by receptance samples ``h[k, i, j]`` at ``frequency_hz[k]``.
 
-    Implements the :class:`nlupdate.linear.LinearModel` protocol by cubic-spline
+    Implements the :class:`nlupdate.model.linear.LinearModel` protocol by cubic-spline
     interpolation in ω (rad/s) of each entry (real and imaginary parts); asking outside
     the sampled band raises ValueError.
     """

@@ -11,7 +11,7 @@
 * ``prd_fit`` (PRD): the fitted PRD curve ``y(A) = 1/H_i − 1/H_1`` (the source's
   "identified DF", constant term ``−Δ_f1``) and ``delta_f1`` (real, imag);
 * ``elements`` (physical models): type, dofs and parameters, ready for
-  :data:`nlupdate.elements.ELEMENT_TYPES`;
+  :data:`nlupdate.model.elements.ELEMENT_TYPES`;
 * ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
   (how the statistics were made);
 * ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from numpy.typing import ArrayLike  # noqa: E402
 
-from nlupdate.archive import atomic_directory  # noqa: E402
+from nlupdate.reporting.atomic import atomic_directory  # noqa: E402
 from nlupdate.identification.dfmodels import PhysicalModel  # noqa: E402
 
 JSON_NAME = "identification.json"

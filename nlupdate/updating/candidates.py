@@ -26,7 +26,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.adapters.base import Parameter
-from nlupdate.identification.correlation import frac
+from nlupdate.correlation.metrics import frac
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies

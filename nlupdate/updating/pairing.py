@@ -25,7 +25,7 @@ import scipy.optimize
 from numpy.typing import NDArray
 
 from nlupdate.adapters.base import ModalResult
-from nlupdate.identification.correlation import mac_matrix
+from nlupdate.correlation.metrics import mac_matrix
 from nlupdate.updating.targets import UpdatingTargets
 
 PAIRING_METHODS = ("order", "nearest", "mac")

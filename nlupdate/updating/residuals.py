@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
-from nlupdate.identification.correlation import mac_matrix
+from nlupdate.correlation.metrics import mac_matrix
 from nlupdate.updating.pairing import PAIRING_METHODS, ModePairing, model_shapes_at, pair_modes
 from nlupdate.updating.sensitivity import stencil
 from nlupdate.updating.targets import UpdatingTargets

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nlupdate.archive import atomic_directory
+from nlupdate.reporting.atomic import atomic_directory
 from nlupdate.updating.candidates import (
     UpdatingTask,
     candidate_frf,

@@ -2,7 +2,7 @@
 
 Targets come either as a list of frequencies or from the linear FRF extracted by the
 identification (PRD/DDF) step. That FRF is a measured-FRF table
-(:mod:`nlupdate.measurements`: columns frequency_hz, force_level_n, response_dof,
+(:mod:`nlupdate.measurement.frf_table`: columns frequency_hz, force_level_n, response_dof,
 input_dof, h_real, h_imag); its natural frequencies are read from one response/input
 curve by :func:`frf_natural_frequencies`:
 
@@ -14,7 +14,7 @@ curve by :func:`frf_natural_frequencies`:
     for η = 0.2 % in the tests' 3-dof chain).
 ``line_fit``
     the line-fit (Dobson) estimate of
-    :func:`nlupdate.identification.correlation.natural_frequencies` (zero of Re(1/H)
+    :func:`nlupdate.correlation.metrics.natural_frequencies` (zero of Re(1/H)
     fitted in ω² over ±1 % around each peak), less biased for moderately damped modes,
     more for very lightly damped ones whose peak is much narrower than the fit band.
 """
@@ -31,8 +31,8 @@ import pandas as pd
 import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.identification.correlation import natural_frequencies
-from nlupdate.measurements import read_frf_table
+from nlupdate.correlation.metrics import natural_frequencies
+from nlupdate.measurement.frf_table import read_frf_table
 
 #: File name of the extracted linear FRF inside an identification result directory.
 LINEAR_FRF_FILE = "linear_frf.parquet"

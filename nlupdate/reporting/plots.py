@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from nlupdate.continuation import FrequencyResponse  # noqa: E402
+from nlupdate.response.continuation import FrequencyResponse  # noqa: E402
 
 
 def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path: Path, title: str = "") -> Path:

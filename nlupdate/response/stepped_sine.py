@@ -3,7 +3,7 @@
 A stepped-sine test dwells at each frequency of a grid, in increasing ("up") or
 decreasing ("down") order, and the structure stays on the branch it is on until that
 branch ends in a fold; then it jumps to another stable solution. On the continuation
-curve (:class:`~nlupdate.continuation.FrequencyResponse`) this is: walk along the curve
+curve (:class:`~nlupdate.response.continuation.FrequencyResponse`) this is: walk along the curve
 in the sweep direction and, for each grid frequency, take the first *stable* curve
 segment at or after the current position that contains the frequency. Passing a turning
 point on the way is a jump. The picked point is polished by Newton at the exact grid
@@ -20,8 +20,8 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.continuation import FrequencyResponse
-from nlupdate.system import CondensedProblem, newton_fixed_frequency
+from nlupdate.response.continuation import FrequencyResponse
+from nlupdate.model.system import CondensedProblem, newton_fixed_frequency
 
 
 @dataclass(frozen=True, eq=False)

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.identification.data import smooth_inverse_receptance
+from nlupdate.measurement.noise import smooth_inverse_receptance
 
 
 def frac(h_measured: ArrayLike, h_model: ArrayLike) -> float:

@@ -36,9 +36,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from nlupdate.elements import ELEMENT_TYPES
-from nlupdate.linear import LumpedModel, ModalModel, dof_index
-from nlupdate.system import NonlinearSystem
+from nlupdate.model.elements import ELEMENT_TYPES
+from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
+from nlupdate.model.system import NonlinearSystem
 
 ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
     "cubic": ("k3",),

@@ -1,6 +1,6 @@
 """Newton + pseudo-arclength continuation of nonlinear frequency responses.
 
-The condensed single-harmonic balance ``R(y, ω) = 0`` (see :mod:`nlupdate.system`) is
+The condensed single-harmonic balance ``R(y, ω) = 0`` (see :mod:`nlupdate.model.system`) is
 traced as a curve in (y, ω̃) with ω̃ = (ω − ω_start)/(ω_end − ω_start), so both the
 scaled amplitudes and the scaled frequency are O(1). Each step predicts along the unit
 tangent and corrects with Newton on the pseudo-arclength system (Keller)::
@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
+from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
 
 
 class ContinuationError(RuntimeError):

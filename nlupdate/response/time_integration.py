@@ -1,6 +1,6 @@
 """Steady-state first harmonic by direct time integration — the independent reference.
 
-The describing-function solvers (:mod:`nlupdate.continuation`, :mod:`nlupdate.fixed_point`)
+The describing-function solvers (:mod:`nlupdate.response.continuation`, :mod:`nlupdate.response.fixed_point`)
 balance the first harmonic only. This module integrates the *same* system in time, with
 the elements' time-domain force laws ``element.force(x, v, state, ω)``, until the motion
 is periodic, and returns the first harmonic of the last period (METHODS §3, "reference a
@@ -17,8 +17,8 @@ harmonic this is exact (``iω(D/ω) = iD``); higher harmonics see ``D/(hω)·hω
 the only difference from a frequency-domain ``iD`` is in transients (modes below ω are
 damped less, modes above more). ``g`` are the local element forces.
 
-Models: a :class:`~nlupdate.linear.LumpedModel` (dense, or sparse with a diagonal mass
-matrix) is integrated in physical coordinates; a :class:`~nlupdate.linear.ModalModel` in
+Models: a :class:`~nlupdate.model.linear.LumpedModel` (dense, or sparse with a diagonal mass
+matrix) is integrated in physical coordinates; a :class:`~nlupdate.model.linear.ModalModel` in
 modal coordinates ``q`` with ``x = Φ q``:
 ``q̈ + (2ζ_r ω_r + η_r ω_r²/ω) q̇ + ω_r² q = Φᵀ f``.
 
@@ -47,7 +47,7 @@ cubic spring's amplitude growing by ×4 within one period), and at least
 ``steps_per_period`` steps (default 64: RK4 phase error of a free oscillation at ω about
 ``(2π)⁵/(120 N⁴)`` ≈ 5e-6 rad per period; near a resonance of quality factor Q the forced
 amplitude error is about Q times that relative error).
-The velocity terms of a :class:`~nlupdate.elements.PolynomialDF` are not in the bound (raise
+The velocity terms of a :class:`~nlupdate.model.elements.PolynomialDF` are not in the bound (raise
 ``steps_per_period`` if they dominate the damping). Velocity-discontinuous laws (Coulomb
 friction ``Fs·sign(ẋ)``) are integrated as given; use a Jenkins element with a stiff ``kf``
 for sticking contacts.
@@ -88,9 +88,9 @@ import scipy.sparse
 import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.elements import NonlinearElement, QuadraticDamping
-from nlupdate.linear import LumpedModel, ModalModel, dof_index
-from nlupdate.system import NonlinearSystem
+from nlupdate.model.elements import NonlinearElement, QuadraticDamping
+from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
+from nlupdate.model.system import NonlinearSystem
 
 _DENSE_LIMIT = 2000
 _MAX_STEPS_PER_PERIOD = 200_000
@@ -738,7 +738,7 @@ def time_sweep(
     from the one recorded at ω_{k−1} by more than ``jump_threshold``, two stable responses
     coexist at ω_{k−1} and the branch followed so far ended between ω_{k−1} and ω_k: a jump
     is recorded at ω_k (Hz, in sweep order) — the grid point at which
-    :func:`nlupdate.stepped_sine.stepped_sine` reports a jump over a fold. A steep but
+    :func:`nlupdate.response.stepped_sine.stepped_sine` reports a jump over a fold. A steep but
     single-valued stretch (a linear resonance on a coarse grid) returns to the same state
     and is not a jump.
     ``forcing`` values may be scalars or one per grid frequency (increasing order).

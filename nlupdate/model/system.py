@@ -22,8 +22,8 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.elements import NonlinearElement, nonlinear_dofs
-from nlupdate.linear import LinearModel, dof_index
+from nlupdate.model.elements import NonlinearElement, nonlinear_dofs
+from nlupdate.model.linear import LinearModel, dof_index
 
 
 @dataclass(frozen=True, eq=False)

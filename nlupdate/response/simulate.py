@@ -4,14 +4,14 @@ A harmonic force of amplitude F (N) acts at one input coordinate; for each level
 receptance ``H = X/F`` (m/N) is computed at every coordinate of the model on a
 frequency grid (Hz) with one of three methods:
 
-* ``continuation`` — trace the curve (:mod:`nlupdate.continuation`) and read it like a
-  stepped-sine test sweeping ``up`` or ``down`` (:mod:`nlupdate.stepped_sine`);
+* ``continuation`` — trace the curve (:mod:`nlupdate.response.continuation`) and read it like a
+  stepped-sine test sweeping ``up`` or ``down`` (:mod:`nlupdate.response.stepped_sine`);
 * ``fixed-point`` — the source's relaxed iteration from the linear response; points
   that do not converge are dropped and counted in the returned report;
 * ``time`` — steady-state first harmonic from direct time integration (no
   describing-function assumption), sweeping like a test.
 
-Optional measurement noise follows METHODS §8 (:func:`nlupdate.noise.add_frf_noise`).
+Optional measurement noise follows METHODS §8 (:func:`nlupdate.measurement.noise.add_frf_noise`).
 """
 from __future__ import annotations
 
@@ -22,14 +22,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from nlupdate.continuation import trace_frequency_response
-from nlupdate.fixed_point import fixed_point_response
-from nlupdate.linear import dof_index
-from nlupdate.measurements import frf_table
-from nlupdate.noise import add_table_noise
-from nlupdate.stepped_sine import stepped_sine
-from nlupdate.system import NonlinearSystem
-from nlupdate.time_integration import time_sweep
+from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.model.linear import dof_index
+from nlupdate.measurement.frf_table import frf_table
+from nlupdate.measurement.noise import add_table_noise
+from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.time_integration import time_sweep
 
 METHODS = ("continuation", "fixed-point", "time")
 

@@ -18,7 +18,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.system import CondensedProblem, NonlinearSystem
+from nlupdate.model.system import CondensedProblem, NonlinearSystem
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,0 +1,4 @@
+"""How well a model matches measurements (METHODS §7).
+
+* :mod:`~nlupdate.correlation.metrics` — FRAC, MAC, natural-frequency and peak errors.
+"""
