@@ -25,16 +25,14 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from numpy.typing import ArrayLike  # noqa: E402
-
-from nlupdate.reporting.atomic import atomic_directory  # noqa: E402
-from nlupdate.identification.dfmodels import PhysicalModel  # noqa: E402
+from nlupdate.identification.dfmodels import PhysicalModel
+from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.reporting.figures import level_colours, phase_deg, save_figure
 
 JSON_NAME = "identification.json"
 
@@ -90,7 +88,8 @@ def plot_fit(result: Any, path: Path, title: str) -> Path:
     low, high = result.amplitude_range
     grid = np.linspace(0.0 if result.method == "prd" else 0.5 * low, 1.1 * high, 300)
     curve = result.fitted_y(grid)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    fig = Figure(figsize=(10, 4))
+    axes = fig.subplots(1, 2)
     for ax, part, label in ((axes[0], np.real, "Re"), (axes[1], np.imag, "Im")):
         ax.plot(amplitude * 1e3, part(y), ".", ms=4, alpha=0.6, label="data")
         ax.plot(grid * 1e3, part(curve), "-", lw=1.5, label="fit")
@@ -101,14 +100,7 @@ def plot_fit(result: Any, path: Path, title: str) -> Path:
     what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
     fig.suptitle(f"{title}: {what}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def _phase(h: np.ndarray) -> np.ndarray:
-    """Phase in degrees in [−270, 90): a receptance with positive damping lies in [−180, 0]."""
-    return (np.degrees(np.angle(h)) + 270.0) % 360.0 - 270.0
+    return save_figure(fig, path)
 
 
 def plot_linear_frf(
@@ -123,17 +115,18 @@ def plot_linear_frf(
     (and a fitted modal model of it, if given)."""
     f = np.asarray(frequency_hz)
     h = np.asarray(h_linear)
-    fig, (ax_mag, ax_phase) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    colours = plt.cm.viridis(np.linspace(0.1, 0.9, max(len(measured), 1)))
+    fig = Figure(figsize=(8, 6))
+    ax_mag, ax_phase = fig.subplots(2, 1, sharex=True)
+    colours = level_colours(len(measured), 0.1, 0.9)
     for (label, fm, hm), colour in zip(measured, colours):
         hm = np.asarray(hm)
         ax_mag.semilogy(fm, np.abs(hm), ".", ms=2, color=colour, label=label)
-        ax_phase.plot(fm, _phase(hm), ".", ms=2, color=colour)
+        ax_phase.plot(fm, phase_deg(hm), ".", ms=2, color=colour)
     ax_mag.semilogy(f, np.abs(h), "-", color="crimson", lw=1.5, label="extracted linear")
-    ax_phase.plot(f, _phase(h), "-", color="crimson", lw=1.5)
+    ax_phase.plot(f, phase_deg(h), "-", color="crimson", lw=1.5)
     if h_model is not None:
         ax_mag.semilogy(f, np.abs(h_model), "--", color="black", lw=1.2, label="modal fit of the linear FRF")
-        ax_phase.plot(f, _phase(np.asarray(h_model)), "--", color="black", lw=1.2)
+        ax_phase.plot(f, phase_deg(np.asarray(h_model)), "--", color="black", lw=1.2)
     ax_mag.set_ylabel("|H| (m/N)")
     ax_phase.set_ylabel("phase (deg)")
     ax_phase.set_xlabel("frequency (Hz)")
@@ -142,9 +135,7 @@ def plot_linear_frf(
     ax_mag.legend(fontsize=7, ncol=2)
     ax_mag.set_title(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def write_directory_atomically(final: str | os.PathLike, write: Callable[[Path], None]) -> Path:

@@ -1,25 +1,24 @@
-"""Plots people look at instead of reading tables (matplotlib, Agg backend, PNG)."""
+"""FRF plots people look at instead of reading tables (PNG, see :mod:`nlupdate.reporting.figures`)."""
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Sequence
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from nlupdate.response.continuation import FrequencyResponse  # noqa: E402
+from nlupdate.reporting.figures import level_colours, save_figure
+from nlupdate.response.continuation import FrequencyResponse
 
 
 def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path: Path, title: str = "") -> Path:
     """|H| (m/N, log scale) against frequency for every force level of a measured-FRF table."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.subplots()
     subset = table[(table["response_dof"] == response_dof) & (table["input_dof"] == input_dof)]
     levels = np.sort(subset["force_level_n"].unique())
-    colours = plt.cm.viridis(np.linspace(0, 0.9, levels.size))
+    colours = level_colours(levels.size)
     for level, colour in zip(levels, colours):
         curve = subset[subset["force_level_n"] == level].sort_values("frequency_hz")
         magnitude = np.hypot(curve["h_real"], curve["h_imag"])
@@ -30,14 +29,13 @@ def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_continuation(curves: Sequence[tuple[str, FrequencyResponse]], dof_position: int, path: Path) -> Path:
     """Traced amplitude curves: stable solid, unstable dashed, folds marked."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.subplots()
     for label, curve in curves:
         amplitude = np.abs(curve.x_nonlinear[:, dof_position])
         frequency = curve.frequency_hz
@@ -51,6 +49,4 @@ def plot_continuation(curves: Sequence[tuple[str, FrequencyResponse]], dof_posit
     ax.legend(fontsize=7)
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

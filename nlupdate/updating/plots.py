@@ -6,7 +6,6 @@ canvas, without pyplot, so importing this module never changes the global backen
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 from typing import Mapping
 
@@ -16,18 +15,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike
 
-
-def _save(figure: Figure, path: str | os.PathLike) -> Path:
-    path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(descriptor)
-    try:
-        figure.savefig(temporary, dpi=120, format="png")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
+from nlupdate.reporting.figures import save_figure
 
 
 def plot_convergence(history: pd.DataFrame, path: str | os.PathLike, run_column: str = "run") -> Path:
@@ -56,7 +44,7 @@ def plot_convergence(history: pd.DataFrame, path: str | os.PathLike, run_column:
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=7)
     figure.tight_layout()
-    return _save(figure, path)
+    return save_figure(figure, path)
 
 
 def plot_frequency_errors(comparison: pd.DataFrame, path: str | os.PathLike) -> Path:
@@ -75,7 +63,7 @@ def plot_frequency_errors(comparison: pd.DataFrame, path: str | os.PathLike) -> 
     axis.grid(True, axis="y", alpha=0.3)
     axis.legend(fontsize=7)
     figure.tight_layout()
-    return _save(figure, path)
+    return save_figure(figure, path)
 
 
 def plot_frf_comparison(
@@ -96,4 +84,4 @@ def plot_frf_comparison(
     axis.grid(True, which="both", alpha=0.3)
     axis.legend(fontsize=7)
     figure.tight_layout()
-    return _save(figure, path)
+    return save_figure(figure, path)

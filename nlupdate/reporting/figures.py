@@ -1,0 +1,40 @@
+"""Figures without pyplot: built on :class:`matplotlib.figure.Figure`, saved atomically.
+
+Importing this module (or any plotting module of the project) never selects a backend
+or touches pyplot's global state, so the numerics stay importable anywhere (servers,
+Dask workers, notebooks with their own backend). A PNG is written to a temporary file
+beside its target and renamed, so a reader never sees half a picture.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
+
+
+def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
+    """Write ``figure`` as PNG to ``path`` (atomically) and return the path."""
+    path = Path(path)
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(descriptor)
+    try:
+        figure.savefig(temporary, dpi=dpi, format="png")
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def level_colours(count: int, low: float = 0.0, high: float = 0.9) -> np.ndarray:
+    """``count`` colours from viridis, dark for the lowest force level (RGBA rows)."""
+    return colormaps["viridis"](np.linspace(low, high, max(int(count), 1)))
+
+
+def phase_deg(h: np.ndarray) -> np.ndarray:
+    """Phase in degrees in [−270, 90): a receptance with positive damping lies in [−180, 0]."""
+    return (np.degrees(np.angle(h)) + 270.0) % 360.0 - 270.0
