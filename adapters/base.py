@@ -5,21 +5,20 @@ frequencies (Hz), mass-normalised mode shapes at named measurement coordinates, 
 metadata (solver, mesh size, wall time, log path). Linear receptances at those
 coordinates follow by modal superposition (:meth:`ModalResult.to_modal_model`).
 
-Every evaluation is keyed by a hash of (adapter name, model fingerprint, parameter
-values), so a point that was already computed is never computed again — neither in
-this process (memory cache) nor, when ``cache_dir`` is set, in a later one (disk cache).
-Subclasses implement only :meth:`FEAdapter.model_fingerprint` and :meth:`FEAdapter._solve`.
+An adapter only solves: it holds no cache and no worker pool, so one instance can be
+used from several threads or shipped to a worker process. :meth:`FEAdapter.key` names a
+point by a hash of (adapter name, model fingerprint, parameter values); whoever runs
+the evaluations uses that key to compute each point once — the in-run memo of
+:class:`nlupdate.updating.evaluation.MemoisedEvaluator`, or the persistent task cache of
+the Prefect flows (:mod:`nlupdate.tasks`). Subclasses implement only
+:meth:`FEAdapter.model_fingerprint` and :meth:`FEAdapter._solve`.
 """
 from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
-import threading
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -111,17 +110,12 @@ def parameter_key(adapter_name: str, model_fingerprint: str, parameters: Mapping
 
 
 class FEAdapter(ABC):
-    """Base class: caching, bookkeeping and input checks around ``_solve``."""
+    """Base class: parameter checks and point keys around ``_solve``."""
 
     name: str = "adapter"
 
-    def __init__(self, parameter_names: Sequence[str], cache_dir: str | os.PathLike | None = None) -> None:
+    def __init__(self, parameter_names: Sequence[str]) -> None:
         self.parameter_names = tuple(parameter_names)
-        self.cache_dir = Path(cache_dir) if cache_dir is not None else None
-        self._memory: dict[str, ModalResult] = {}
-        self._lock = threading.Lock()
-        self.new_evaluations = 0
-        self.cached_evaluations = 0
 
     @abstractmethod
     def model_fingerprint(self) -> str:
@@ -129,10 +123,11 @@ class FEAdapter(ABC):
 
     @abstractmethod
     def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
-        """Run the FE code for one parameter set (no caching here)."""
+        """Run the FE code for one parameter set."""
 
     def key(self, parameters: Mapping[str, float]) -> str:
-        return parameter_key(self.name, self.model_fingerprint(), parameters)
+        """Identity of the point ``parameters`` of this model (checked values)."""
+        return parameter_key(self.name, self.model_fingerprint(), self._check(parameters))
 
     def _check(self, parameters: Mapping[str, float]) -> dict[str, float]:
         unknown = set(parameters) - set(self.parameter_names)
@@ -149,30 +144,5 @@ class FEAdapter(ABC):
         return checked
 
     def evaluate(self, parameters: Mapping[str, float]) -> ModalResult:
-        """Modal result at ``parameters``, from cache when this point was seen before."""
-        parameters = self._check(parameters)
-        key = self.key(parameters)
-        with self._lock:
-            if key in self._memory:
-                self.cached_evaluations += 1
-                return self._memory[key]
-        disk_file = self.cache_dir / f"{key}.json" if self.cache_dir is not None else None
-        if disk_file is not None and disk_file.exists():
-            result = ModalResult.from_json(json.loads(disk_file.read_text()))
-            with self._lock:
-                self._memory[key] = result
-                self.cached_evaluations += 1
-            return result
-        result = self._solve(parameters)
-        with self._lock:
-            self._memory[key] = result
-            self.new_evaluations += 1
-        if disk_file is not None:
-            disk_file.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile("w", dir=disk_file.parent, suffix=".tmp", delete=False) as handle:
-                json.dump(result.to_json(), handle, default=str)
-            os.replace(handle.name, disk_file)
-        return result
-
-    def counts(self) -> dict[str, int]:
-        return {"new": self.new_evaluations, "cached": self.cached_evaluations}
+        """Solve the model at ``parameters`` (every call runs the FE code)."""
+        return self._solve(self._check(parameters))

@@ -258,7 +258,6 @@ class CalculixAdapter(FEAdapter):
     timeout_s: wall-clock limit per run (s).
     threads: OMP_NUM_THREADS / CCX_NPROC_EQUATION_SOLVER given to ccx.
     model_id: model fingerprint when the generator has no ``fingerprint()``.
-    cache_dir: disk cache of results (see :class:`FEAdapter`).
     negative_eigenvalue_tolerance: eigenvalues below ``-tol·max|λ|`` are errors.
     """
 
@@ -275,10 +274,9 @@ class CalculixAdapter(FEAdapter):
         timeout_s: float | None = 3600.0,
         threads: int = 1,
         model_id: str | None = None,
-        cache_dir: str | Path | None = None,
         negative_eigenvalue_tolerance: float = 1e-8,
     ) -> None:
-        super().__init__(parameter_names, cache_dir=cache_dir)
+        super().__init__(parameter_names)
         if not (isinstance(n_modes, int) and n_modes >= 1):
             raise ValueError(f"n_modes must be a positive integer, got {n_modes!r}")
         if not (isinstance(threads, int) and threads >= 1):

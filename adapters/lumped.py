@@ -32,7 +32,6 @@ class LumpedAdapter(FEAdapter):
         self,
         masses: Sequence[float],
         stiffnesses: Sequence[float],
-        cache_dir: str | None = None,
     ) -> None:
         masses = [float(m) for m in masses]
         stiffnesses = [float(k) for k in stiffnesses]
@@ -50,7 +49,7 @@ class LumpedAdapter(FEAdapter):
         self.defaults.update({f"k{i + 1}": k for i, k in enumerate(stiffnesses)})
         self.n_masses = n
         self.n_springs = len(stiffnesses)
-        super().__init__(tuple(self.defaults), cache_dir=cache_dir)
+        super().__init__(tuple(self.defaults))
 
     @property
     def coordinates(self) -> tuple[str, ...]:

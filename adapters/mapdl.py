@@ -264,9 +264,8 @@ class MapdlAdapter(FEAdapter):
         work_root: str | Path | None = None,
         timeout_s: float | None = 3600.0,
         apdl_names: Mapping[str, str] | None = None,
-        cache_dir: str | Path | None = None,
     ) -> None:
-        super().__init__(parameter_names, cache_dir=cache_dir)
+        super().__init__(parameter_names)
         if not (isinstance(n_modes, int) and n_modes >= 1):
             raise ValueError(f"n_modes must be a positive integer, got {n_modes!r}")
         if not (isinstance(n_processors, int) and n_processors >= 1):

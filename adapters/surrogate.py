@@ -86,8 +86,6 @@ class SurrogateAdapter(FEAdapter):
     parameter_names:
         Updating parameters accepted by :meth:`evaluate` (default: every field of the
         parameter dataclass).
-    cache_dir:
-        Optional disk cache directory (see :class:`FEAdapter`).
     """
 
     name = "surrogate"
@@ -101,7 +99,6 @@ class SurrogateAdapter(FEAdapter):
         mesh_options: Mapping[str, Any] | None = None,
         global_modes_only: bool = False,
         parameter_names: Sequence[str] | None = None,
-        cache_dir: str | None = None,
     ) -> None:
         if model not in MODELS:
             raise ValueError(f"SurrogateAdapter: model must be one of {sorted(MODELS)}, got {model!r}")
@@ -123,7 +120,7 @@ class SurrogateAdapter(FEAdapter):
             raise ValueError(f"SurrogateAdapter: n_modes must be a positive integer, got {n_modes!r}")
         if global_modes_only and not spec.has_local_modes:
             raise ValueError(f"SurrogateAdapter: global_modes_only applies to the T-beam only, not to {model!r}")
-        super().__init__(names, cache_dir)
+        super().__init__(names)
         self.model_name = model
         self.spec = spec
         self.base_parameters = base

@@ -10,7 +10,7 @@
    fits (examples/tbeam_three_modes.toml), compared mode by mode and ranked for
    several user weightings.
 
-Usage: python benchmarks/tbeam_updating.py [--max-workers N]
+Usage: python benchmarks/tbeam_updating.py   (sequential; `nlupdate run` runs sweeps in parallel)
 """
 from __future__ import annotations
 
@@ -90,7 +90,7 @@ def print_single_mode() -> None:
     print(f"E updated: surrogate {result.parameters['E'] / 1e9:.2f} GPa, source {s['E_GPa']} GPa")
 
 
-def print_three_modes(max_workers: int | None) -> None:
+def print_three_modes() -> None:
     print("\n" + "=" * 100)
     print("2. Three-mode study with candidates (sensor masses 30.2 g + 4.8 g; bounds of thesis Table 4.16)")
     print("=" * 100)
@@ -98,13 +98,12 @@ def print_three_modes(max_workers: int | None) -> None:
     targets, _ = resolve_targets(study)
     tasks = study_tasks(study, targets)
     started = time.perf_counter()
-    results = run_tasks(tasks, max_workers if max_workers is not None else study.max_workers, study.executor)
+    results = run_tasks(tasks)
     elapsed = time.perf_counter() - started
     comparison = compare_candidates(results)
 
     initial = comparison[comparison["candidate"] == "initial"]["f_hz"].to_numpy()
-    print(f"study {THREE_MODE_STUDY.relative_to(ROOT)}: {len(tasks)} candidates in {elapsed:.1f} s "
-          f"({study.executor} pool, {max_workers or study.max_workers} workers)")
+    print(f"study {THREE_MODE_STUDY.relative_to(ROOT)}: {len(tasks)} candidates in {elapsed:.1f} s (sequential)")
     print(f"initial FE: surrogate {', '.join(f'{f:.2f}' for f in initial)} Hz; source (Table 4.15) "
           f"{', '.join(f'{f:.1f}' for f, _ in SOURCE_THREE_INITIAL)} Hz; targets (PRD) "
           f"{', '.join(f'{f:g}' for f in targets.frequencies_hz)} Hz")
@@ -143,12 +142,10 @@ def print_three_modes(max_workers: int | None) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--max-workers", type=int, default=None, help="workers for the candidate sweep (default: the study's)")
-    args = parser.parse_args()
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     started = time.perf_counter()
     print_single_mode()
-    print_three_modes(args.max_workers)
+    print_three_modes()
     print(f"\ntotal wall time {time.perf_counter() - started:.1f} s")
 
 

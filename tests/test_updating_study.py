@@ -97,7 +97,7 @@ def study_file(tmp_path):
 
 def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(["update", str(study_file), "--out", str(out), "--max-workers", "2"]) == 0
+    assert main(["update", str(study_file), "--out", str(out)]) == 0
     assert "converged (frequency)" in capsys.readouterr().out
 
     expected = {"history.parquet", "candidates.parquet", "comparison.parquet", "ranking.parquet", "summary.json",

@@ -64,7 +64,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="noise std / |H| for the uncertainty (default: estimated from the lowest-force sweep)")
     parser.add_argument("--samples", type=int, default=200, help="Monte-Carlo samples for the uncertainty (default 200)")
     parser.add_argument("--seed", type=int, default=0, help="Monte-Carlo seed (default 0)")
-    parser.add_argument("--workers", type=int, default=1, help="processes for the Monte Carlo (default 1)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory")
     parser.set_defaults(run=run)
 
@@ -79,7 +78,6 @@ def _floats(text: str, option: str, count: int | None = None) -> list[float]:
     return values
 
 
-# module-level estimators so that the Monte Carlo can run them in worker processes
 def _prd_estimate(data: FRFLevels, frequency, model, low, highs, estimator, half_window):
     return identify_prd(data, frequency, model, low_force=low, high_forces=highs, estimator=estimator,
                         half_window=half_window)
@@ -128,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError(f"cannot estimate the noise level ({error}); give --noise-fraction") from None
             noise, noise_source = float(result.noise_fraction), "estimated from the residuals of the fit"
         defaults["noise_fraction"] = f"{noise:.4g} ({noise_source})"
-    uncertainty = monte_carlo(estimate, data, result.parameters(), noise, args.samples, args.seed, args.workers)
+    uncertainty = monte_carlo(estimate, data, result.parameters(), noise, args.samples, args.seed)
 
     natural = natural_frequencies(f_linear, h_linear)
     f_ref, h_ref = data.curve(summary["linear_from_level_n"])

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 from nlupdate.cli import CliError
@@ -21,7 +20,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.updating.study)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (created atomically)")
     parser.add_argument("--overwrite", action="store_true", help="replace DIR if it exists")
-    parser.add_argument("--max-workers", type=int, default=None, help="run the study's tasks in this many workers")
     parser.set_defaults(run=run)
 
 
@@ -29,11 +27,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not args.overwrite:
         raise CliError(f"output directory {out} exists; pass --overwrite to replace it")
-    if args.max_workers is not None and args.max_workers < 1:
-        raise CliError(f"--max-workers must be ≥ 1, got {args.max_workers}")
     study = load_study(args.study)
-    if args.max_workers is not None:
-        study = dataclasses.replace(study, max_workers=args.max_workers)
     outcome = run_study(study, out, overwrite=args.overwrite)
     targets = outcome.targets
     print(f"study {study.name!r}: targets " + ", ".join(

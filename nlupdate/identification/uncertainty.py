@@ -13,7 +13,6 @@ that interval over independent noise seeds).
 """
 from __future__ import annotations
 
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -56,8 +55,7 @@ class Uncertainty:
         }
 
 
-def _one_sample(args: tuple[Callable, FRFLevels, float, int]) -> dict[str, float] | None:
-    estimate, data, fraction, seed = args
+def _one_sample(estimate: Callable, data: FRFLevels, fraction: float, seed: int) -> dict[str, float] | None:
     try:
         return estimate(data.with_noise(fraction, np.random.default_rng(seed))).parameters()
     except (ValueError, np.linalg.LinAlgError, FloatingPointError):
@@ -71,25 +69,18 @@ def monte_carlo(
     noise_fraction: float,
     n_samples: int = 100,
     seed: int = 0,
-    workers: int = 1,
 ) -> Uncertainty:
     """Statistics of ``estimate(perturbed data).parameters()`` over ``n_samples`` noise draws.
 
-    ``estimate`` must be picklable when ``workers > 1`` (a module-level function or a
-    :func:`functools.partial` of one). Samples whose identification fails are counted in
-    ``n_failed``; a parameter with fewer than 2 successful samples gets NaN statistics.
+    Samples are drawn from ``seed`` and identified in order. Samples whose identification
+    fails are counted in ``n_failed``; a parameter with fewer than 2 successful samples gets NaN statistics.
     """
     if n_samples < 2:
         raise ValueError(f"n_samples must be at least 2, got {n_samples}")
     if not np.isfinite(noise_fraction) or noise_fraction < 0:
         raise ValueError(f"noise_fraction must be a finite number ≥ 0, got {noise_fraction}")
     seeds = np.random.SeedSequence(seed).generate_state(n_samples)
-    jobs = [(estimate, data, float(noise_fraction), int(s)) for s in seeds]
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            samples = list(pool.map(_one_sample, jobs, chunksize=max(1, n_samples // (4 * workers))))
-    else:
-        samples = [_one_sample(job) for job in jobs]
+    samples = [_one_sample(estimate, data, float(noise_fraction), int(s)) for s in seeds]
     good = [s for s in samples if s is not None]
     stats = {}
     for name, value in point.items():

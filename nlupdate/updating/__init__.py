@@ -5,21 +5,23 @@
   :mod:`~nlupdate.updating.residuals` — targets, mode pairing, response vector
 * :mod:`~nlupdate.updating.eigensensitivity` — inverse eigensensitivity iteration
 * :mod:`~nlupdate.updating.optimisation` — bounded weighted least-squares fit
-* :mod:`~nlupdate.updating.candidates` — parallel sweeps, candidate comparison, ranking
+* :mod:`~nlupdate.updating.evaluation` — point evaluators: who runs the FE evaluations
+* :mod:`~nlupdate.updating.candidates` — one run (:func:`update`), sweeps, candidate comparison, ranking
 * :mod:`~nlupdate.updating.study_file` — TOML study files; :mod:`~nlupdate.updating.study` — running them (``nlupdate update``)
 * :mod:`~nlupdate.updating.plots` — PNG plots
 """
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
-from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_task, run_tasks
+from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks, update
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
 from nlupdate.updating.pairing import ModePairing, pair_modes
-from nlupdate.updating.sensitivity import FORMULAS, jacobian
+from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
+from nlupdate.updating.sensitivity import FORMULAS, assemble_jacobian, jacobian, stencil_points
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies
 
 __all__ = [
-    "AdapterSpec", "build_adapter", "UpdatingTask", "compare_candidates", "rank_candidates", "run_task", "run_tasks",
+    "AdapterSpec", "build_adapter", "UpdatingTask", "compare_candidates", "rank_candidates", "run_tasks", "update",
     "EigensensitivityOptions", "UpdatingResult", "inverse_eigensensitivity", "OptimisationOptions",
-    "optimise_frequencies", "ModePairing", "pair_modes", "FORMULAS", "jacobian", "UpdatingTargets", "peak_frequencies",
+    "optimise_frequencies", "ModePairing", "pair_modes", "FORMULAS", "assemble_jacobian", "jacobian", "stencil_points", "MemoisedEvaluator", "PointEvaluator", "UpdatingTargets", "peak_frequencies",
     "frf_natural_frequencies",
 ]

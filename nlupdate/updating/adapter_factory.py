@@ -28,6 +28,7 @@ inside whichever process runs the task. Kinds:
 from __future__ import annotations
 
 import importlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -40,16 +41,22 @@ ADAPTER_KINDS = ("lumped", "surrogate", "calculix", "mapdl")
 @dataclass(frozen=True)
 class AdapterSpec:
     """kind: one of :data:`ADAPTER_KINDS`; model: model name where the kind needs one;
-    options: constructor options; cache_dir: disk cache shared by all tasks (optional)."""
+    options: constructor options."""
 
     kind: str
     model: str | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
-    cache_dir: str | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in ADAPTER_KINDS:
             raise ValueError(f"unknown adapter kind {self.kind!r}; expected one of {list(ADAPTER_KINDS)}")
+
+    def identity(self) -> str:
+        """Canonical JSON text of the spec: equal specs give equal text (dict order ignored).
+
+        It names the *description*; the model itself (a deck file's content, a mesh) is
+        fingerprinted by the built adapter's ``model_fingerprint()``."""
+        return json.dumps({"kind": self.kind, "model": self.model, "options": self.options}, sort_keys=True, default=repr)
 
 
 def _module(name: str, kind: str):
@@ -60,13 +67,13 @@ def _module(name: str, kind: str):
 
 
 def build_adapter(spec: AdapterSpec) -> FEAdapter:
-    """A new adapter (empty memory cache) for ``spec``."""
+    """A new adapter for ``spec`` (built in whichever process calls this)."""
     options = dict(spec.options)
     if spec.kind == "lumped":
         from nlupdate.adapters.lumped import LumpedAdapter
 
         try:
-            return LumpedAdapter(options.pop("masses"), options.pop("stiffnesses"), cache_dir=spec.cache_dir, **options)
+            return LumpedAdapter(options.pop("masses"), options.pop("stiffnesses"), **options)
         except KeyError as error:
             raise ValueError(f"lumped adapter: missing option {error.args[0]!r} (list of masses in kg / stiffnesses in N/m)") from None
         except TypeError as error:
@@ -79,7 +86,7 @@ def build_adapter(spec: AdapterSpec) -> FEAdapter:
         try:
             if base is not None:
                 base = module.MODELS[spec.model].parameter_class(**base)
-            return module.SurrogateAdapter(spec.model, base, cache_dir=spec.cache_dir, **options)
+            return module.SurrogateAdapter(spec.model, base, **options)
         except TypeError as error:
             raise ValueError(f"surrogate adapter: {error}") from None
     if spec.kind == "mapdl":
@@ -91,7 +98,7 @@ def build_adapter(spec: AdapterSpec) -> FEAdapter:
         except KeyError as error:
             raise ValueError(f"mapdl adapter: missing option {error.args[0]!r} (deck, parameter_names, coordinates)") from None
         try:
-            return module.MapdlAdapter(deck, names, coordinates, cache_dir=spec.cache_dir, **options)
+            return module.MapdlAdapter(deck, names, coordinates, **options)
         except TypeError as error:
             raise ValueError(f"mapdl adapter: {error}") from None
     if spec.model != "tbeam":
@@ -102,6 +109,6 @@ def build_adapter(spec: AdapterSpec) -> FEAdapter:
     deck_options = {k: options.pop(k) for k in ("element_type", "stations") if k in options}
     deck = tbeam.TBeamDeck(mesh, **deck_options)
     try:
-        return calculix.CalculixAdapter(deck, tbeam.TBEAM_PARAMETER_NAMES, cache_dir=spec.cache_dir, **options)
+        return calculix.CalculixAdapter(deck, tbeam.TBEAM_PARAMETER_NAMES, **options)
     except TypeError as error:
         raise ValueError(f"calculix adapter: {error}") from None

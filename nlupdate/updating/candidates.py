@@ -1,11 +1,13 @@
 """Candidate models: sweeps of updating runs, their comparison and ranking.
 
 A sweep is a list of :class:`UpdatingTask` — one per finite-difference formula, per
-parameter set, per weighting… — run by :func:`run_tasks` sequentially or in a thread or
-process pool. :func:`run_task` is a pure function of its (picklable) task: it builds its
-own adapter from the task's :class:`~nlupdate.updating.adapter_factory.AdapterSpec`, so
-tasks share nothing but an optional disk cache, and it can be wrapped as an
-orchestration task unchanged.
+parameter set, per weighting… :func:`update` runs one task: a pure function of its
+(picklable) task and of the point evaluator it is given (by default it builds its own
+adapter from the task's :class:`~nlupdate.updating.adapter_factory.AdapterSpec` and
+evaluates in order). :func:`run_tasks` runs a sweep in order, sharing one memoised
+evaluator per model so that a point two runs need (every run's start point, for one) is
+solved once. Running the tasks concurrently, and where the FE runs go, is the flow
+layer's business (:mod:`nlupdate.flows`).
 
 Each result is a candidate model. :func:`compare_candidates` tabulates them mode by mode
 against the targets (frequency error in %) and, when the extracted linear FRF of the
@@ -17,7 +19,6 @@ scores them for the modes a user weights.
 from __future__ import annotations
 
 import dataclasses
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -29,12 +30,12 @@ from nlupdate.adapters.base import Parameter
 from nlupdate.correlation.metrics import frac
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
+from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
 from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.updating.targets import UpdatingTargets
 
 METHODS = ("eigensensitivity", "optimisation")
-EXECUTORS = ("thread", "process")
 
 
 @dataclass(frozen=True)
@@ -61,33 +62,34 @@ class UpdatingTask:
             raise ValueError(f"task {self.name!r}: method {self.method!r} needs {expected.__name__}")
 
 
-def run_task(task: UpdatingTask) -> UpdatingResult:
-    """Run one task on a fresh adapter; the result carries the task's name."""
-    adapter = build_adapter(task.adapter)
+def update(task: UpdatingTask, evaluate_points: PointEvaluator | None = None) -> UpdatingResult:
+    """Run one updating task; the result carries the task's name.
+
+    ``evaluate_points`` runs the FE evaluations (default: a memoised evaluator over a new
+    adapter built from ``task.adapter``, in order).
+    """
+    evaluator = evaluate_points if evaluate_points is not None else MemoisedEvaluator(build_adapter(task.adapter))
     if task.method == "eigensensitivity":
-        result = inverse_eigensensitivity(adapter, task.parameters, task.targets, task.options, task.fixed)
+        result = inverse_eigensensitivity(evaluator, task.parameters, task.targets, task.options, task.fixed)
     else:
-        result = optimise_frequencies(adapter, task.parameters, task.targets, task.options, task.fixed)
+        result = optimise_frequencies(evaluator, task.parameters, task.targets, task.options, task.fixed)
     return dataclasses.replace(result, name=task.name)
 
 
-def run_tasks(tasks: Sequence[UpdatingTask], max_workers: int | None = None, executor: str = "thread") -> list[UpdatingResult]:
-    """Run ``tasks`` (in order when ``max_workers`` is None or 1, else in a pool).
-
-    ``executor``: ``thread`` (shares the interpreter; fine when the FE work happens in an
-    external solver or releases the GIL) or ``process`` (true parallelism for in-process
-    Python models). Results are returned in task order.
-    """
-    if executor not in EXECUTORS:
-        raise ValueError(f"executor must be one of {list(EXECUTORS)}, got {executor!r}")
+def run_tasks(tasks: Sequence[UpdatingTask]) -> list[UpdatingResult]:
+    """Run ``tasks`` in order, one shared memoised evaluator per adapter spec; results in
+    task order. Task names must be unique."""
     names = [task.name for task in tasks]
     if len(set(names)) != len(names):
         raise ValueError(f"task names must be unique, got {names}")
-    if max_workers is None or max_workers <= 1:
-        return [run_task(task) for task in tasks]
-    pool_class = ThreadPoolExecutor if executor == "thread" else ProcessPoolExecutor
-    with pool_class(max_workers=max_workers) as pool:
-        return list(pool.map(run_task, tasks))
+    evaluators: dict[str, MemoisedEvaluator] = {}
+    results = []
+    for task in tasks:
+        identity = task.adapter.identity()
+        if identity not in evaluators:
+            evaluators[identity] = MemoisedEvaluator(build_adapter(task.adapter))
+        results.append(update(task, evaluators[identity]))
+    return results
 
 
 def candidate_table(results: Sequence[UpdatingResult]) -> pd.DataFrame:

@@ -24,8 +24,10 @@ or after ``max_iterations`` steps (not converged).
 Evaluation counts: the initial point costs one new evaluation; each iteration costs
 ``n_parameters × new_points(formula)`` new evaluations for the stencil (forward and
 backward 1, central O(h²) 2, central O(h⁴) 4 per parameter) plus one for the new point.
-The one-sided formulas also request the base point once per parameter; it comes from
-the adapter cache (counted as cached), never recomputed.
+The one-sided formulas also request the base point once per parameter; the point
+evaluator (:mod:`nlupdate.updating.evaluation`) returns it from memory (counted as
+cached), never recomputed. All stencil points of an iteration go to the evaluator in one
+request, so it may run them concurrently.
 """
 from __future__ import annotations
 
@@ -40,7 +42,7 @@ import scipy.optimize
 from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
 from nlupdate.updating.pairing import ModePairing
 from nlupdate.updating.residuals import ModalResponse, ResponseOptions
-from nlupdate.updating.sensitivity import jacobian
+from nlupdate.updating.evaluation import PointEvaluator, as_evaluator
 from nlupdate.updating.targets import UpdatingTargets
 
 
@@ -77,8 +79,11 @@ class UpdatingResult:
     """Outcome of one updating run.
 
     name: label of the run (task or candidate name); parameters: updated values (parameter units); history: one row per iteration
-    (see :func:`history_columns`); initial/final: adapter results at the start and the
-    updated point; counts: adapter evaluations (``new``, ``cached``) of the run.
+    (see :func:`history_columns`); initial/final: model results at the start and the
+    updated point; counts: point evaluations (``new``, ``cached``) of the run;
+    sensitivity: the last Jacobian of the response vector (paired ``f/f_target``, then
+    mode-shape terms) per parameter unit, at ``sensitivity_point`` (None if no iteration
+    was needed).
     """
 
     method: str
@@ -95,6 +100,8 @@ class UpdatingResult:
     wall_time_s: float
     targets: UpdatingTargets = field(repr=False)
     name: str = ""
+    sensitivity: np.ndarray | None = field(default=None, repr=False)
+    sensitivity_point: dict[str, float] | None = None
 
     def frequencies_hz(self, which: str = "final") -> np.ndarray:
         """Paired model frequencies (Hz) of the ``initial`` or ``final`` model."""
@@ -147,7 +154,7 @@ def history_columns(parameter_names: Sequence[str], labels: Sequence[str]) -> li
 
 
 def inverse_eigensensitivity(
-    adapter: FEAdapter,
+    model: FEAdapter | PointEvaluator,
     parameters: Sequence[Parameter],
     targets: UpdatingTargets,
     options: EigensensitivityOptions = EigensensitivityOptions(),
@@ -155,14 +162,17 @@ def inverse_eigensensitivity(
 ) -> UpdatingResult:
     """Update ``parameters`` (starting from their ``start``) so the model meets ``targets``.
 
-    ``fixed`` holds values of other adapter parameters used in every evaluation.
+    ``model`` is an adapter (evaluated in order, each point once) or a point evaluator
+    (:mod:`nlupdate.updating.evaluation`) that decides where the FE runs happen.
+    ``fixed`` holds values of other model parameters used in every evaluation.
     Returns an :class:`UpdatingResult`; see the module docstring for the algorithm,
     stopping rules and evaluation counts.
     """
     parameters = tuple(parameters)
     if not parameters:
         raise ValueError("inverse eigensensitivity needs at least one updating parameter")
-    response = ModalResponse(adapter, parameters, targets, fixed, options)
+    evaluate_points = as_evaluator(model)
+    response = ModalResponse(evaluate_points, parameters, targets, fixed, options)
     names = [p.name for p in parameters]
     scale = normalisation(parameters)
     lower = np.array([p.lower for p in parameters]) / scale
@@ -171,7 +181,7 @@ def inverse_eigensensitivity(
     target = response.target_vector()
 
     start_time = time.perf_counter()
-    counts_before = adapter.counts()
+    counts_before = evaluate_points.counts()
     last_counts = dict(counts_before)
     x = np.array([p.start for p in parameters]) / scale
 
@@ -180,7 +190,7 @@ def inverse_eigensensitivity(
         return dict(zip(names, (float(v) for v in p)))
 
     def counts_since() -> tuple[int, int]:
-        now = adapter.counts()
+        now = evaluate_points.counts()
         delta = (now["new"] - last_counts["new"], now["cached"] - last_counts["cached"])
         last_counts.update(now)
         return delta
@@ -190,6 +200,7 @@ def inverse_eigensensitivity(
     pairing = response.pair(result)
     initial, initial_pairing = result, pairing
     rows = []
+    sensitivity, sensitivity_point = None, None
     step_norm = float("nan")
     converged, reason, iteration = False, "maximum iterations reached", 0
     while True:
@@ -210,7 +221,8 @@ def inverse_eigensensitivity(
         if iteration == options.max_iterations:
             break
         iteration += 1
-        s_p = jacobian(response.tracked_response(result, pairing), values, parameters, options.formula, options.max_workers)
+        s_p = response.jacobian(values, result, pairing, options.formula)
+        sensitivity, sensitivity_point = s_p, dict(values)
         s_x = s_p * scale[None, :]
         residual = target - response.vector(result, pairing)
         step = _bounded_step(s_x, residual, weights, options.regularisation,
@@ -221,7 +233,7 @@ def inverse_eigensensitivity(
         result = response.evaluate(values)
         pairing = response.pair(result)
 
-    counts_after = adapter.counts()
+    counts_after = evaluate_points.counts()
     history = pd.DataFrame(rows, columns=history_columns(names, targets.labels))
     return UpdatingResult(
         method="eigensensitivity",
@@ -237,6 +249,8 @@ def inverse_eigensensitivity(
         counts={k: counts_after[k] - counts_before[k] for k in ("new", "cached")},
         wall_time_s=time.perf_counter() - start_time,
         targets=targets,
+        sensitivity=sensitivity,
+        sensitivity_point=sensitivity_point,
     )
 
 

@@ -5,8 +5,8 @@ Minimises ``½ Σ_i w_i (f_i(p)/f_i^target − 1)²`` (plus weighted mode-shape 
 within their bounds, with ``scipy.optimize.least_squares`` (``dogbox`` or the
 trust-region reflective ``trf``) in normalised parameters ``x = p / s`` (as in
 :mod:`nlupdate.updating.eigensensitivity`). The Jacobian comes from the same
-finite-difference formulas as the eigensensitivity method, evaluated through the adapter
-so no point is computed twice. Each call of the objective is one history row
+finite-difference formulas as the eigensensitivity method; each Jacobian's stencil goes
+to the point evaluator in one request, and no point is computed twice. Each call of the objective is one history row
 (``iteration`` = call number).
 
 Unlike the eigensensitivity iteration this does not stop when a frequency error is
@@ -26,7 +26,7 @@ import scipy.optimize
 from nlupdate.adapters.base import FEAdapter, Parameter
 from nlupdate.updating.eigensensitivity import UpdatingResult, history_columns, history_row, normalisation
 from nlupdate.updating.residuals import ModalResponse, ResponseOptions
-from nlupdate.updating.sensitivity import jacobian
+from nlupdate.updating.evaluation import PointEvaluator, as_evaluator
 from nlupdate.updating.targets import UpdatingTargets
 
 OPTIMISATION_METHODS = ("trf", "dogbox")
@@ -58,7 +58,7 @@ class OptimisationOptions(ResponseOptions):
 
 
 def optimise_frequencies(
-    adapter: FEAdapter,
+    model: FEAdapter | PointEvaluator,
     parameters: Sequence[Parameter],
     targets: UpdatingTargets,
     options: OptimisationOptions = OptimisationOptions(),
@@ -68,12 +68,14 @@ def optimise_frequencies(
 
     Returns an :class:`~nlupdate.updating.eigensensitivity.UpdatingResult` with
     ``method="optimisation"``; ``iterations`` is the number of objective calls and
-    ``reason`` the optimiser's message.
+    ``reason`` the optimiser's message. ``model``: an adapter or a point evaluator, as
+    for :func:`~nlupdate.updating.eigensensitivity.inverse_eigensensitivity`.
     """
     parameters = tuple(parameters)
     if not parameters:
         raise ValueError("optimisation needs at least one updating parameter")
-    response = ModalResponse(adapter, parameters, targets, fixed, options)
+    evaluate_points = as_evaluator(model)
+    response = ModalResponse(evaluate_points, parameters, targets, fixed, options)
     names = [p.name for p in parameters]
     scale = normalisation(parameters)
     lower_p = np.array([p.lower for p in parameters])
@@ -81,10 +83,11 @@ def optimise_frequencies(
     weights = response.weights()
     target = response.target_vector()
     start_time = time.perf_counter()
-    counts_before = adapter.counts()
+    counts_before = evaluate_points.counts()
     last_counts = dict(counts_before)
     rows: list[dict[str, object]] = []
     previous_x: list[np.ndarray] = []
+    last_jacobian: dict[str, object] = {"sensitivity": None, "point": None}
 
     def values_of(x: np.ndarray) -> dict[str, float]:
         return dict(zip(names, (float(v) for v in np.clip(x * scale, lower_p, upper_p))))
@@ -93,7 +96,7 @@ def optimise_frequencies(
         values = values_of(x)
         result = response.evaluate(values)
         pairing = response.pair(result)
-        now = adapter.counts()
+        now = evaluate_points.counts()
         step = float(np.max(np.abs(x - previous_x[-1]))) if previous_x else float("nan")
         previous_x.append(np.array(x))
         rows.append(history_row(
@@ -109,7 +112,8 @@ def optimise_frequencies(
         values = values_of(x)
         result = response.evaluate(values)
         pairing = response.pair(result)
-        s_p = jacobian(response.tracked_response(result, pairing), values, parameters, options.formula, options.max_workers)
+        s_p = response.jacobian(values, result, pairing, options.formula)
+        last_jacobian.update(sensitivity=s_p, point=dict(values))
         return weights[:, None] * s_p * scale[None, :]
 
     x0 = np.array([p.start for p in parameters]) / scale
@@ -122,7 +126,7 @@ def optimise_frequencies(
     )
     values = values_of(solution.x)
     final = response.evaluate(values)
-    counts_after = adapter.counts()
+    counts_after = evaluate_points.counts()
     return UpdatingResult(
         method="optimisation",
         parameters=values,
@@ -137,4 +141,6 @@ def optimise_frequencies(
         counts={k: counts_after[k] - counts_before[k] for k in ("new", "cached")},
         wall_time_s=time.perf_counter() - start_time,
         targets=targets,
+        sensitivity=last_jacobian["sensitivity"],
+        sensitivity_point=last_jacobian["point"],
     )

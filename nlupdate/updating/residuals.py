@@ -11,8 +11,9 @@ Residual components are weighted by ``√w_i`` (target mode weights), mode-shape
 components additionally by ``mode_shape_weight``. Frequencies are dimensionless
 (relative), so modes of different frequency weigh alike.
 
-Every model evaluation goes through the adapter (``fixed`` values are merged into every
-call), so repeated points come from its cache.
+Every model evaluation goes through a point evaluator
+(:mod:`nlupdate.updating.evaluation`; ``fixed`` values are merged into every point), which
+computes each distinct point once and decides where the FE runs happen.
 """
 from __future__ import annotations
 
@@ -22,10 +23,11 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
+from nlupdate.adapters.base import ModalResult, Parameter
 from nlupdate.correlation.metrics import mac_matrix
 from nlupdate.updating.pairing import PAIRING_METHODS, ModePairing, model_shapes_at, pair_modes
-from nlupdate.updating.sensitivity import stencil
+from nlupdate.updating.evaluation import PointEvaluator
+from nlupdate.updating.sensitivity import assemble_jacobian, stencil, stencil_points
 from nlupdate.updating.targets import UpdatingTargets
 
 
@@ -35,8 +37,7 @@ class ResponseOptions:
 
     formula: finite-difference formula of the sensitivities (see
     :mod:`nlupdate.updating.sensitivity`); pairing, min_mac: see
-    :mod:`nlupdate.updating.pairing`; use_mode_shapes, mode_shape_weight: see this module;
-    max_workers: threads for the stencil evaluations (None = sequential).
+    :mod:`nlupdate.updating.pairing`; use_mode_shapes, mode_shape_weight: see this module.
     """
 
     formula: str = "forward"
@@ -44,7 +45,6 @@ class ResponseOptions:
     min_mac: float = 0.0
     use_mode_shapes: bool = False
     mode_shape_weight: float = 1.0
-    max_workers: int | None = None
 
     def __post_init__(self) -> None:
         stencil(self.formula)
@@ -53,17 +53,18 @@ class ResponseOptions:
 
 
 class ModalResponse:
-    """Parameter values → paired modal response, for one adapter and target set."""
+    """Parameter values → paired modal response, for one model (behind a point
+    evaluator) and one target set."""
 
     def __init__(
         self,
-        adapter: FEAdapter,
+        evaluate_points: PointEvaluator,
         parameters: Sequence[Parameter],
         targets: UpdatingTargets,
         fixed: Mapping[str, float] | None = None,
         options: ResponseOptions = ResponseOptions(),
     ) -> None:
-        self.adapter = adapter
+        self.evaluate_points = evaluate_points
         self.parameters = tuple(parameters)
         self.targets = targets
         self.fixed = {k: float(v) for k, v in (fixed or {}).items()}
@@ -83,9 +84,13 @@ class ModalResponse:
             self._shape_norms = norms
 
     # ----------------------------------------------------------------- evaluation
+    def full_point(self, values: Mapping[str, float]) -> dict[str, float]:
+        """The model point for updating-parameter ``values``: fixed values merged in."""
+        return {**self.fixed, **{k: float(v) for k, v in values.items()}}
+
     def evaluate(self, values: Mapping[str, float]) -> ModalResult:
-        """Adapter result at the updating-parameter ``values`` (fixed values merged in)."""
-        return self.adapter.evaluate({**self.fixed, **{k: float(v) for k, v in values.items()}})
+        """Model result at the updating-parameter ``values``."""
+        return self.evaluate_points([self.full_point(values)])[0]
 
     def pair(self, result: ModalResult) -> ModePairing:
         return pair_modes(result, self.targets, self.pairing_method, self.min_mac)
@@ -124,21 +129,22 @@ class ModalResponse:
             parts.append(np.repeat(root * self.mode_shape_weight, n_coords))
         return np.concatenate(parts)
 
-    def tracked_response(self, base: ModalResult, pairing: ModePairing):
-        """Response function for stencil points near ``base``.
+    def jacobian(self, values: Mapping[str, float], base: ModalResult, pairing: ModePairing, formula: str) -> NDArray[np.float64]:
+        """``∂(response vector)/∂p`` at ``values`` (whose result is ``base``, paired by
+        ``pairing``): every stencil point is handed to the evaluator in one request.
 
         The base pairing is kept; with ``mac`` pairing each paired base mode is followed
         to the perturbed mode of highest MAC (over all model coordinates), so a mode
         swap inside the stencil cannot corrupt the derivative.
         """
+        points = stencil_points(values, self.parameters, formula)
+        results = self.evaluate_points([self.full_point(point) for point in points])
         base_shapes = base.mode_shapes[:, list(pairing.model_indices)]
-
-        def response(values: Mapping[str, float]) -> NDArray[np.float64]:
-            result = self.evaluate(values)
-            if self.pairing_method != "mac":
-                return self.vector(result, pairing)
-            mac = mac_matrix(base_shapes, result.mode_shapes)
-            followed = ModePairing(tuple(int(k) for k in mac.argmax(axis=1)), pairing.mac, pairing.method)
-            return self.vector(result, followed)
-
-        return response
+        responses = []
+        for result in results:
+            followed = pairing
+            if self.pairing_method == "mac":
+                mac = mac_matrix(base_shapes, result.mode_shapes)
+                followed = ModePairing(tuple(int(k) for k in mac.argmax(axis=1)), pairing.mac, pairing.method)
+            responses.append(self.vector(result, followed))
+        return assemble_jacobian(responses, values, self.parameters, formula)

@@ -16,14 +16,14 @@ The step is relative to the current parameter value: ``h = relative_step·|p|``
 :class:`~nlupdate.adapters.base.Parameter`. Stencil points may lie outside the
 parameter bounds by up to 2h; the bounds constrain the updated values, not the probes.
 
-The response function is evaluated at every stencil point including the base point
-``p`` (offset 0) of the one-sided formulas; the caller routes it through an
-:class:`~nlupdate.adapters.base.FEAdapter`, whose cache returns the base point without
-recomputing it.
+The Jacobian is formed in two steps so that whoever runs the model decides where:
+:func:`stencil_points` lists every point the formula needs (the base point ``p`` itself,
+offset 0, for the one-sided formulas; a point evaluator returns it from memory), the
+caller evaluates them — in order, or all at once — and :func:`assemble_jacobian` combines
+the responses. :func:`jacobian` does both in order for a plain response function.
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
@@ -81,37 +81,48 @@ def step_size(value: float, parameter: Parameter) -> float:
     return parameter.relative_step * scale
 
 
-def jacobian(
-    response: Response,
+def stencil_points(
+    values: Mapping[str, float], parameters: Sequence[Parameter], formula: str
+) -> list[dict[str, float]]:
+    """Every point of the finite-difference stencil at ``values``, parameter by parameter
+    in the order of the formula's offsets (all other values as in ``values``)."""
+    rule = stencil(formula)
+    base = {name: float(value) for name, value in values.items()}
+    points = []
+    for parameter in parameters:
+        h = step_size(base[parameter.name], parameter)
+        for offset in rule.offsets:
+            points.append({**base, parameter.name: base[parameter.name] + offset * h})
+    return points
+
+
+def assemble_jacobian(
+    responses: Sequence[NDArray[np.float64]],
     values: Mapping[str, float],
     parameters: Sequence[Parameter],
     formula: str,
-    max_workers: int | None = None,
 ) -> NDArray[np.float64]:
-    """Sensitivity matrix ``∂r/∂p`` (response units per parameter unit), shape (n_r, n_p).
-
-    ``response`` maps a dict of parameter values (all of ``parameters``) to a 1-D array.
-    ``max_workers`` > 1 evaluates the stencil points in a thread pool (the adapters are
-    thread-safe); None or 1 evaluates them in order.
-    """
+    """Sensitivity matrix ``∂r/∂p`` (response units per parameter unit), shape (n_r, n_p),
+    from the responses at the :func:`stencil_points` of the same arguments (same order)."""
     rule = stencil(formula)
-    base = {name: float(value) for name, value in values.items()}
-    points: list[tuple[int, float, dict[str, float]]] = []
-    steps = []
+    n_offsets = len(rule.offsets)
+    if len(responses) != n_offsets * len(parameters):
+        raise ValueError(
+            f"{formula} Jacobian of {len(parameters)} parameter(s) needs {n_offsets * len(parameters)} stencil "
+            f"responses, got {len(responses)}"
+        )
+    columns = []
     for j, parameter in enumerate(parameters):
-        h = step_size(base[parameter.name], parameter)
-        steps.append(h)
-        for offset, weight in zip(rule.offsets, rule.weights):
-            point = dict(base)
-            point[parameter.name] = base[parameter.name] + offset * h
-            points.append((j, weight, point))
-    if max_workers is not None and max_workers > 1:
-        with ThreadPoolExecutor(max_workers=max_workers) as pool:
-            responses = list(pool.map(lambda item: response(item[2]), points))
-    else:
-        responses = [response(point) for _, _, point in points]
-    first = np.asarray(responses[0], dtype=float)
-    matrix = np.zeros((first.size, len(parameters)))
-    for (j, weight, _), r in zip(points, responses):
-        matrix[:, j] += weight * np.asarray(r, dtype=float)
-    return matrix / np.asarray(steps)[None, :]
+        block = responses[j * n_offsets : (j + 1) * n_offsets]
+        derivative = sum(weight * np.asarray(r, dtype=float) for weight, r in zip(rule.weights, block))
+        columns.append(derivative / step_size(float(values[parameter.name]), parameter))
+    return np.column_stack(columns)
+
+
+def jacobian(
+    response: Response, values: Mapping[str, float], parameters: Sequence[Parameter], formula: str
+) -> NDArray[np.float64]:
+    """``∂r/∂p`` of a response function (dict of all parameter values → 1-D array),
+    evaluating the stencil points in order."""
+    points = stencil_points(values, parameters, formula)
+    return assemble_jacobian([response(point) for point in points], values, parameters, formula)

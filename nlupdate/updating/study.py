@@ -126,7 +126,7 @@ def run_study(study: Study, out_dir: str | os.PathLike, overwrite: bool = False)
         raise FileExistsError(f"output directory {out_dir} exists; choose another or allow overwriting")
     targets, reference = resolve_targets(study)
     tasks = study_tasks(study, targets)
-    results = run_tasks(tasks, study.max_workers, study.executor)
+    results = run_tasks(tasks)
 
     history = pd.concat([r.history.assign(run=r.name) for r in results], ignore_index=True)
     history = history[["run"] + [c for c in history.columns if c != "run"]]

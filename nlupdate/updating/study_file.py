@@ -5,7 +5,6 @@ File format (relative paths are relative to the study file; see ``examples/``)::
     [study]                  name = "…", description = "…"            (optional)
     [adapter]                kind = "lumped" | "surrogate" | "calculix" | "mapdl"
                              model = "tbeam" | "gunbarrel"  (surrogate, calculix)
-                             cache_dir = "…"                          (optional)
     [adapter.options]        constructor options of the adapter       (optional)
     [adapter.fixed]          values of adapter parameters that are not updated (optional)
     [[parameters]]           name, unit, start, lower, upper, relative_step (optional)
@@ -19,8 +18,7 @@ File format (relative paths are relative to the study file; see ``examples/``)::
                              weights, labels, model_modes, coordinates + mode_shapes
                              (one list per target mode)                (optional)
     [updating]               pairing = "order" | "nearest" | "mac", min_mac,
-                             use_mode_shapes, mode_shape_weight, max_workers,
-                             executor = "thread" | "process"          (optional)
+                             use_mode_shapes, mode_shape_weight       (optional)
     [eigensensitivity]       formulas = ["forward", "backward", "central2", "central4"],
                              parameters = [names] (default all), max_iterations,
                              frequency_tolerance, parameter_tolerance, regularisation,
@@ -48,7 +46,6 @@ import tomllib
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec
-from nlupdate.updating.candidates import EXECUTORS
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS
 from nlupdate.updating.pairing import PAIRING_METHODS
 from nlupdate.updating.sensitivity import FORMULA_LABELS, FORMULAS
@@ -63,13 +60,13 @@ _NUMBER = "a number"
 _ALLOWED = {
     "": {"study", "adapter", "parameters", "targets", "updating", "eigensensitivity", "optimisation", "comparison"},
     "study": {"name", "description"},
-    "adapter": {"kind", "model", "cache_dir", "options", "fixed"},
+    "adapter": {"kind", "model", "options", "fixed"},
     "parameters": {"name", "unit", "start", "lower", "upper", "relative_step"},
     "targets": {
         "frequencies_hz", "identification", "n_modes", "band_hz", "force_level_n", "frf_method", "response_dof", "input_dof",
         "model_response_dof", "model_input_dof", "weights", "labels", "model_modes", "coordinates", "mode_shapes",
     },
-    "updating": {"pairing", "min_mac", "use_mode_shapes", "mode_shape_weight", "max_workers", "executor"},
+    "updating": {"pairing", "min_mac", "use_mode_shapes", "mode_shape_weight"},
     "eigensensitivity": {
         "formulas", "parameters", "max_iterations", "frequency_tolerance", "parameter_tolerance", "regularisation", "max_step",
     },
@@ -103,8 +100,6 @@ class Study:
     optimisation: Mapping[str, Any] | None
     candidates: tuple[CandidateEntry, ...]
     comparison: Mapping[str, Any]
-    max_workers: int | None = None
-    executor: str = "thread"
     text: str = field(default="", repr=False)
 
     def resolve(self, relative: str) -> Path:
@@ -252,11 +247,10 @@ def load_study(path: str | os.PathLike) -> Study:
     options = adapter_table.get("options", {})
     if not isinstance(options, dict):
         raise read.fail("adapter", "options", "a table of constructor options", options)
-    cache_dir = read.string(adapter_table, "adapter", "cache_dir")
     if kind == "mapdl":
         deck = read.string(options, "adapter.options", "deck", required=True)
         options = {**options, "deck": str(_resolve(path, deck))}
-    adapter = AdapterSpec(kind, model, options, str(_resolve(path, cache_dir)) if cache_dir else None)
+    adapter = AdapterSpec(kind, model, options)
     fixed = read.number_table(adapter_table, "adapter", "fixed")
 
     parameters = _read_parameters(read, data)
@@ -276,8 +270,6 @@ def load_study(path: str | os.PathLike) -> Study:
         "use_mode_shapes": read.boolean(updating, "updating", "use_mode_shapes", False),
         "mode_shape_weight": read.number(updating, "updating", "mode_shape_weight", 1.0, nonnegative=True),
     }
-    max_workers = read.integer(updating, "updating", "max_workers")
-    executor = read.string(updating, "updating", "executor", "thread", choices=EXECUTORS)
 
     eigen_table = read.table(data, "eigensensitivity")
     eigensensitivity = None
@@ -341,7 +333,7 @@ def load_study(path: str | os.PathLike) -> Study:
     return Study(
         path=path, name=name, description=description, adapter=adapter, fixed=fixed, parameters=parameters,
         targets=targets, updating=updating_options, eigensensitivity=eigensensitivity, optimisation=optimisation,
-        candidates=candidates, comparison=comparison_options, max_workers=max_workers, executor=executor, text=text,
+        candidates=candidates, comparison=comparison_options, text=text,
     )
 
 
