@@ -5,14 +5,25 @@ linear resonance where ``|1/H^L|`` is small. Regenerating a hardening response o
 samples is fragile: the upper branch ends wherever one noisy sample lets it. A modal
 model fitted to the whole band averages that noise out:
 
-    H(ω) = Σ_r A_r / (ω_r² − ω² + i η_r ω_r²) + R,
+    H(ω) = Σ_r A_r / (ω_r² − ω² + i η_r ω_r²) + R − R_m/ω²,
 
 with complex modal constants A_r (m/N·rad²/s², complex to absorb non-proportional
-damping and measurement phase), natural frequencies ω_r, loss factors η_r and a complex
-residual R for the modes outside the band. ω_r and η_r are found by nonlinear least
-squares (variable projection: A_r and R by linear least squares inside), starting from
-:func:`nlupdate.correlation.metrics.natural_frequencies` and a loss factor from
-the peak height; residuals are relative, ``(H_model − H)/|H|`` (METHODS §8 noise).
+damping and measurement phase), natural frequencies ω_r, loss factors η_r, a complex
+residual R for the modes above the band and, optionally (``lower_residual``), a residual
+mass term R_m/ω² for the modes below it. ω_r and η_r are found by nonlinear least
+squares (variable projection: A_r and the residuals by linear least squares inside),
+starting from :func:`nlupdate.correlation.metrics.natural_frequencies` (or given
+frequencies) and a loss factor from the peak height; residuals are relative,
+``(H_model − H)/|H|`` (METHODS §8 noise).
+
+A PRD-extracted linear FRF ``1/H^L = 1/H̃_1 − Δ_f1`` is noisiest exactly at its own
+resonance, where ``|1/H^L|`` is small while the noise of ``1/H̃_1`` is not: with friction
+stuck at low force (Δ_f1 = kf, often several times the structure's own stiffness there)
+the peak can be buried in noise. Away from the peak, ``Re(1/H^L) ≈ k_r(1 − ω²/ω_r²)`` is
+still well determined, and that is what locates the mode: :func:`resonance_crossings`
+finds where a moving average of ``Re(1/H)`` falls through zero, and :func:`fit_mode_near`
+fits one mode with both residual terms over a band around the crossing, weighting each point
+by the noise of ``1/H`` (``inverse_noise``).
 """
 from __future__ import annotations
 
@@ -27,26 +38,32 @@ from nlupdate.correlation.metrics import natural_frequencies
 
 @dataclass(frozen=True)
 class ModalFit:
-    """Fitted modal parameters: natural frequencies (Hz), loss factors, modal constants and
-    residual; :meth:`receptance` evaluates the model (m/N)."""
+    """Fitted modal parameters: natural frequencies (Hz), loss factors, modal constants,
+    upper residual R (m/N) and residual mass term R_m (m/N·rad²/s²);
+    :meth:`receptance` evaluates the model (m/N)."""
 
     natural_frequencies_hz: NDArray[np.float64]
     loss_factors: NDArray[np.float64]
     modal_constants: NDArray[np.complex128]
     residual: complex
     relative_rms_error: float
+    lower_residual: complex = 0j
 
     def receptance(self, frequency_hz: ArrayLike) -> NDArray[np.complex128]:
         w = 2 * np.pi * np.asarray(frequency_hz, dtype=float)[:, None]
         wr = 2 * np.pi * self.natural_frequencies_hz[None, :]
-        return (self.modal_constants / (wr**2 - w**2 + 1j * self.loss_factors * wr**2)).sum(axis=1) + self.residual
+        modes = (self.modal_constants / (wr**2 - w**2 + 1j * self.loss_factors * wr**2)).sum(axis=1)
+        return modes + self.residual - self.lower_residual / w[:, 0] ** 2
 
 
-def _basis(omega: NDArray, wr: NDArray, eta: NDArray, residual: bool) -> NDArray:
-    columns = 1.0 / (wr[None, :] ** 2 - omega[:, None] ** 2 + 1j * eta[None, :] * wr[None, :] ** 2)
+def _basis(omega: NDArray, wr: NDArray, eta: NDArray, residual: bool, lower_residual: bool = False) -> NDArray:
+    """Columns: one per mode, then R and R_m as requested."""
+    columns = [1.0 / (wr[None, :] ** 2 - omega[:, None] ** 2 + 1j * eta[None, :] * wr[None, :] ** 2)]
     if residual:
-        columns = np.concatenate([columns, np.ones((omega.size, 1))], axis=1)
-    return columns
+        columns.append(np.ones((omega.size, 1)))
+    if lower_residual:
+        columns.append(-1.0 / omega[:, None] ** 2)
+    return np.concatenate(columns, axis=1)
 
 
 def fit_modal_model(
@@ -55,8 +72,14 @@ def fit_modal_model(
     n_modes: int | None = None,
     residual: bool = True,
     inverse_noise: ArrayLike | None = None,
+    initial_hz: ArrayLike | None = None,
+    lower_residual: bool = False,
 ) -> ModalFit:
     """Fit ``n_modes`` modes (default: the peaks found in the band) and a residual.
+
+    ``initial_hz``: start values of the natural frequencies (Hz) instead of the peaks of
+    |H| (which a noisy FRF may put beside the resonance). ``lower_residual`` adds the
+    residual-mass term of the module docstring.
 
     ``inverse_noise``: standard deviation (any common scale) of the noise of ``1/H`` at
     each point, when known. For a PRD-extracted FRF ``1/H^L = 1/H̃_1 − Δ_f1`` the noise of
@@ -70,7 +93,7 @@ def fit_modal_model(
     keep = np.isfinite(hh)
     noise = None if inverse_noise is None else np.broadcast_to(np.asarray(inverse_noise, dtype=float), hh.shape)[keep]
     f, hh = f[keep], hh[keep]
-    peaks = natural_frequencies(f, hh, n_modes=n_modes)
+    peaks = natural_frequencies(f, hh, n_modes=n_modes) if initial_hz is None else np.atleast_1d(np.asarray(initial_hz, float))
     if peaks.size == 0:
         raise ValueError("modal fit: no resonance peak in the band")
     omega = 2 * np.pi * f
@@ -85,7 +108,7 @@ def fit_modal_model(
 
     def solve_linear(x):
         wr, eta = np.exp(x[:n]), np.exp(x[n:])
-        basis = _basis(omega, wr, eta, residual)
+        basis = _basis(omega, wr, eta, residual, lower_residual)
         coefficients = np.linalg.lstsq(basis * weights[:, None], hh * weights, rcond=None)[0]
         return basis, coefficients
 
@@ -102,8 +125,10 @@ def fit_modal_model(
     # natural frequencies stay in the measured band, loss factors in [1e-5, 1]
     lower = np.concatenate([np.full(n, np.log(omega.min())), np.full(n, np.log(1e-5))])
     upper = np.concatenate([np.full(n, np.log(omega.max())), np.zeros(n)])
+    # (given start frequencies are trusted: only the loss factor start varies)
+    shifts = (0.0,) if initial_hz is not None else (0.0, -0.005, 0.005)
     starts = (np.clip(x0 + np.concatenate([np.full(n, df), np.full(n, de)]), lower + 1e-9, upper - 1e-9)
-              for df in (0.0, -0.005, 0.005) for de in (0.0, np.log(2.0)))
+              for df in shifts for de in (0.0, np.log(2.0)))
     with np.errstate(all="ignore"):
         solution = min(
             (scipy.optimize.least_squares(objective, start, bounds=(lower, upper), method="trf") for start in starts),
@@ -113,7 +138,7 @@ def fit_modal_model(
         def full(z):
             wr, eta = np.exp(z[:n]), np.exp(z[n : 2 * n])
             c = z[2 * n :: 2] + 1j * z[2 * n + 1 :: 2]
-            r = (1.0 / (_basis(omega, wr, eta, residual) @ c) - 1.0 / hh) / noise
+            r = (1.0 / (_basis(omega, wr, eta, residual, lower_residual) @ c) - 1.0 / hh) / noise
             return np.concatenate([r.real, r.imag])
 
         _, c0 = solve_linear(solution.x)
@@ -143,4 +168,76 @@ def fit_modal_model(
         modal_constants=coefficients[:n][order],
         residual=complex(coefficients[n]) if residual else 0j,
         relative_rms_error=rms,
+        lower_residual=complex(coefficients[n + int(residual)]) if lower_residual else 0j,
     )
+
+
+def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | None = None) -> NDArray[np.float64]:
+    """Frequencies (Hz, ascending) where ``Re(1/H)``, averaged over ``window`` neighbouring
+    points, falls through zero with increasing frequency: the resonances of a receptance
+    (``Re(1/H) ≈ k_r(1 − ω²/ω_r²)`` is positive below ω_r and negative above).
+
+    ``window`` (odd; default about 1 % of the points, at least 5) averages out the noise
+    of an extracted FRF; crossings closer than 3 % of their frequency are merged (noise
+    makes one resonance cross several times). Each crossing is interpolated linearly.
+    """
+    f = np.asarray(frequency_hz, dtype=float)
+    z = (1.0 / np.asarray(h, dtype=complex)).real
+    if window is None:
+        window = max(5, (f.size // 100) | 1)
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"resonance_crossings: window must be an odd number of points, got {window}")
+    if f.size < window + 2:
+        raise ValueError(f"resonance_crossings: need more than {window + 1} frequencies, got {f.size}")
+    smooth = np.convolve(z, np.ones(window) / window, mode="valid")
+    centres = f[window // 2 : f.size - window // 2]
+    falling = np.flatnonzero((smooth[:-1] > 0) & (smooth[1:] <= 0))
+    crossings = centres[falling] + (centres[falling + 1] - centres[falling]) * smooth[falling] / (
+        smooth[falling] - smooth[falling + 1])
+    merged: list[list[float]] = []
+    for value in crossings:
+        if merged and value - merged[-1][-1] <= 0.03 * value:
+            merged[-1].append(float(value))
+        else:
+            merged.append([float(value)])
+    return np.array([np.mean(group) for group in merged])
+
+
+def fit_mode_near(
+    frequency_hz: ArrayLike,
+    h: ArrayLike,
+    near_hz: float,
+    inverse_noise: ArrayLike | None = None,
+    band_fraction: float = 0.2,
+) -> ModalFit:
+    """One mode (with R and R_m/ω² residuals) fitted over ``near_hz·(1 ± band_fraction)``.
+
+    The mode is started at the resonance crossing (:func:`resonance_crossings`) nearest
+    to ``near_hz``, or at ``near_hz`` if the band has none. ``inverse_noise`` as for
+    :func:`fit_modal_model` (the noise of ``1/H`` at each point; for an extracted FRF,
+    ``|1/H̃_1|``). Raises ValueError when the band holds fewer than 8 points or the
+    fitted natural frequency runs into the outer quarter of the band (no clear resonance:
+    a noise-dominated fit).
+    """
+    if not 0 < band_fraction < 1:
+        raise ValueError(f"band_fraction must be in (0, 1), got {band_fraction}")
+    f = np.asarray(frequency_hz, dtype=float)
+    hh = np.asarray(h, dtype=complex)
+    band = np.abs(f - near_hz) <= band_fraction * near_hz
+    if band.sum() < 8:
+        raise ValueError(
+            f"modal fit near {near_hz:.4g} Hz: only {int(band.sum())} measured point(s) within ±{100 * band_fraction:g} %; "
+            f"need at least 8"
+        )
+    try:
+        crossings = resonance_crossings(f[band], hh[band])
+    except ValueError:
+        crossings = np.array([])
+    start = float(crossings[np.argmin(np.abs(crossings - near_hz))]) if crossings.size else float(near_hz)
+    noise = None if inverse_noise is None else np.broadcast_to(np.asarray(inverse_noise, dtype=float), hh.shape)[band]
+    fit = fit_modal_model(f[band], hh[band], n_modes=1, inverse_noise=noise, initial_hz=[start], lower_residual=True)
+    natural = float(fit.natural_frequencies_hz[0])
+    if abs(natural - near_hz) > 0.75 * band_fraction * near_hz:
+        raise ValueError(f"modal fit near {near_hz:.4g} Hz ran to the edge of its band ({natural:.4g} Hz): no clear "
+                         f"resonance there")
+    return fit

@@ -14,7 +14,7 @@ that interval over independent noise seeds).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -55,11 +55,12 @@ class Uncertainty:
         }
 
 
-def _one_sample(estimate: Callable, data: FRFLevels, fraction: float, seed: int) -> dict[str, float] | None:
+def _one_sample(estimate: Callable, data: FRFLevels, fraction: float, seed: int) -> Mapping[str, float] | None:
     try:
-        return estimate(data.with_noise(fraction, np.random.default_rng(seed))).parameters()
+        value = estimate(data.with_noise(fraction, np.random.default_rng(seed)))
     except (ValueError, np.linalg.LinAlgError, FloatingPointError):
         return None
+    return value if isinstance(value, Mapping) else value.parameters()
 
 
 def monte_carlo(
@@ -70,7 +71,10 @@ def monte_carlo(
     n_samples: int = 100,
     seed: int = 0,
 ) -> Uncertainty:
-    """Statistics of ``estimate(perturbed data).parameters()`` over ``n_samples`` noise draws.
+    """Statistics of ``estimate(perturbed data)`` over ``n_samples`` noise draws.
+
+    ``estimate`` returns a mapping of named values, or an object whose ``parameters()``
+    does (an identification result); ``point`` names the values to report.
 
     Samples are drawn from ``seed`` and identified in order. Samples whose identification
     fails are counted in ``n_failed``; a parameter with fewer than 2 successful samples gets NaN statistics.

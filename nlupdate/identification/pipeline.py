@@ -1,0 +1,391 @@
+"""The identification step of the chain as one call: :func:`identify`.
+
+From the measured curves of one (response, input) pair at several force levels
+(:class:`~nlupdate.identification.data.FRFLevels`) it
+
+1. chooses the PRD excitation frequency (given, or :func:`recommend_frequency`);
+2. fits the nonlinearity (PRD or DDF; physical elements or a polynomial DF);
+3. extracts the linear FRF from the low-force sweep (PRD) or the lower DDF level;
+4. locates the linear modes of the extracted FRF (one-mode fits around each resonance,
+   :func:`~nlupdate.identification.modal_fit.fit_mode_near`): their natural frequencies
+   are the updating targets, their loss factors the linear damping;
+5. estimates the uncertainty of everything above by Monte Carlo over the noise model
+   (:mod:`nlupdate.identification.uncertainty`): each sample re-identifies at the chosen
+   frequency, re-extracts the linear FRF from its own perturbed low-force sweep and
+   re-fits the modes, so the natural frequencies carry the uncertainty of Δ_f1 (kf)
+   *and* of the low-force noise, ready to be propagated into updated parameters.
+
+Every option left out is filled by a default, listed in ``defaults_used``. The result,
+:class:`Identification`, is plain data (picklable) and :meth:`Identification.summary`
+is the content of ``identification.json``. Conventions: SI units, Hz at interfaces.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
+from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, parse_elements
+from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
+from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
+from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
+from nlupdate.identification.report import elements_summary
+from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
+from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
+
+METHODS = ("prd", "ddf")
+
+
+@dataclass(frozen=True)
+class IdentificationSettings:
+    """What to identify and how. ``None`` means "choose a default" (see ``defaults_used``).
+
+    response_dof, input_dof: the measured curve (the nonlinearity acts at the response
+        coordinate, to ground). method: ``prd`` or ``ddf``.
+    elements: physical elements to fit (``cubic``, ``jenkins``, ``coulomb``,
+        ``quadratic_damping``, ``gap``); empty: a polynomial DF of ``order``
+        (``imag_order``; ``complex_delta_f1``: PRD's Δ_f1 = −y(0) complex).
+    estimator: PRD ``improved``/``naive`` (default improved), DDF ``naive``/``weighted``
+        (default naive). half_window: improved PRD, relative half-width of its window
+        (default 0.01).
+    frequency_hz: PRD excitation frequency (default: recommended). low_force_n,
+        high_forces_n: PRD levels (default: lowest; all others).
+    force_pair_n, band_hz: DDF levels and band (default: lowest and highest; common band).
+    smoothing_window, amplitude_dependent_delta: PRD linear-FRF extraction options.
+    noise_fraction: noise std / |H| (default: estimated from the lowest-force sweep).
+    samples, seed: Monte-Carlo samples and seed.
+    linear_modes_hz: approximate natural frequencies (Hz) of the linear modes to fit in
+        the extracted FRF (default: every resonance of it); modal_band_fraction: half-width
+        of each one-mode fit, relative.
+    """
+
+    response_dof: str
+    input_dof: str
+    method: str = "prd"
+    elements: tuple[str, ...] = ()
+    order: int | None = None
+    imag_order: int | None = None
+    complex_delta_f1: bool = False
+    estimator: str | None = None
+    half_window: float | None = None
+    frequency_hz: float | None = None
+    low_force_n: float | None = None
+    high_forces_n: tuple[float, ...] | None = None
+    force_pair_n: tuple[float, float] | None = None
+    band_hz: tuple[float, float] | None = None
+    smoothing_window: int = 0
+    amplitude_dependent_delta: bool = False
+    noise_fraction: float | None = None
+    samples: int = 200
+    seed: int = 0
+    linear_modes_hz: tuple[float, ...] | None = None
+    modal_band_fraction: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"identification method must be one of {list(METHODS)}, got {self.method!r}")
+        if self.samples < 2:
+            raise ValueError(f"Monte-Carlo samples must be at least 2, got {self.samples}")
+        if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
+            raise ValueError(f"noise_fraction must be a number ≥ 0 (std / |H|), got {self.noise_fraction}")
+        if self.method == "prd":
+            if self.force_pair_n is not None or self.band_hz is not None:
+                raise ValueError("force_pair_n and band_hz apply to the DDF method")
+            if self.estimator is not None and self.estimator not in ESTIMATORS:
+                raise ValueError(f"estimator {self.estimator!r}: PRD estimators are {', '.join(ESTIMATORS)}")
+        else:
+            prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
+                        "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
+                        "amplitude_dependent_delta": self.amplitude_dependent_delta or None,
+                        "half_window": self.half_window}
+            given = [name for name, value in prd_only.items() if value is not None]
+            if given:
+                raise ValueError(f"{', '.join(given)} apply to the PRD method")
+            if self.estimator is not None and self.estimator not in DDF_ESTIMATORS:
+                raise ValueError(f"estimator {self.estimator!r}: DDF estimators are {', '.join(DDF_ESTIMATORS)}")
+        parse_elements(self.elements)  # unknown element names fail here
+        if not 0 < self.modal_band_fraction < 0.5:
+            raise ValueError(f"modal_band_fraction must be in (0, 0.5), got {self.modal_band_fraction}")
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """Outcome of :func:`identify` (SI units, Hz).
+
+    settings: as given; defaults_used: every default chosen, with its value.
+    result: the PRD/DDF fit (:class:`~nlupdate.identification.prd.PRDResult` or
+    :class:`~nlupdate.identification.ddf.DDFResult`). frequency_choice: how the PRD
+    frequency was chosen (None when given, and for DDF). linear_frequency_hz,
+    linear_frf: the extracted linear receptance (m/N) on the grid of the level it came
+    from (``linear_from_level_n``). modes: one-mode fits of the extracted FRF, ascending.
+    uncertainty: Monte-Carlo statistics of the parameters and of ``linear_f<i>_hz``
+    (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
+    noise_fraction, noise_source: the noise level used and where it came from.
+    """
+
+    settings: IdentificationSettings
+    defaults_used: dict[str, Any]
+    result: PRDResult | DDFResult
+    frequency_choice: FrequencyChoice | None
+    linear_from_level_n: float
+    linear_frequency_hz: NDArray[np.float64]
+    linear_frf: NDArray[np.complex128]
+    modes: tuple[ModalFit, ...]
+    uncertainty: Uncertainty
+    noise_fraction: float
+    noise_source: str
+    model_description: str = field(default="")
+
+    @property
+    def natural_frequencies_hz(self) -> NDArray[np.float64]:
+        """Natural frequencies (Hz) of the linear modes of the extracted FRF."""
+        return np.array([float(m.natural_frequencies_hz[0]) for m in self.modes])
+
+    @property
+    def natural_frequency_std_hz(self) -> NDArray[np.float64]:
+        """Monte-Carlo standard deviation (Hz) of each natural frequency."""
+        return np.array([self.uncertainty.parameters[f"linear_f{i + 1}_hz"].std for i in range(len(self.modes))])
+
+    @property
+    def loss_factors(self) -> NDArray[np.float64]:
+        """Loss factors of the linear modes of the extracted FRF."""
+        return np.array([float(m.loss_factors[0]) for m in self.modes])
+
+    def modal_receptance(self, frequency_hz: NDArray) -> NDArray[np.complex128]:
+        """The fitted modes' receptance (m/N) over their fit bands, NaN elsewhere."""
+        f = np.asarray(frequency_hz, dtype=float)
+        out = np.full(f.shape, np.nan + 0j)
+        fraction = self.settings.modal_band_fraction
+        for mode in self.modes:
+            natural = float(mode.natural_frequencies_hz[0])
+            band = np.abs(f - natural) <= fraction * natural
+            out[band] = mode.receptance(f[band])
+        return out
+
+    def parameters(self) -> dict[str, float]:
+        """Identified nonlinearity parameters (SI) by name."""
+        return self.result.parameters()
+
+    def elements(self, dofs: tuple[int, ...]) -> list:
+        """Forward-model elements at model coordinate(s) ``dofs``."""
+        return self.result.elements(dofs)
+
+    def summary(self) -> dict[str, Any]:
+        """The ``identification.json`` content (see :mod:`nlupdate.identification.report`)."""
+        s, r = self.settings, self.result
+        out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": self.model_description,
+                               "response_dof": s.response_dof, "input_dof": s.input_dof}
+        order = max(self.defaults_used.get("order", s.order) or 2, 1)
+        real, imag = r.describing_function(order)
+        if s.method == "prd":
+            prd_real, prd_imag = r.prd_polynomial(order)
+            delta = r.delta_f1
+            out.update({
+                "excitation_frequency_hz": r.setup.frequency_hz,
+                "low_force_n": r.setup.low_force,
+                "high_forces_n": list(r.setup.high_forces),
+                "describing_function": {
+                    "real": real, "imag": imag, "amplitude_range_m": list(r.amplitude_range),
+                    "definition": "high-force DF nu(|X|) in N/m, first-harmonic force = nu*X at the response dof; "
+                                  "1/H = 1/H_linear + nu; coefficients highest order first (m -> N/m)",
+                },
+                "prd_fit": {"real": prd_real, "imag": prd_imag,
+                            "definition": "y(|X|) = 1/H_i - 1/H_1 fitted against |X_i| = |H_i| F_i; y(0) = -delta_f1"},
+                "delta_f1": {"real": delta.real, "imag": delta.imag,
+                             "definition": "DF at the low-force amplitude (stuck friction: kf); "
+                                           "1/H_linear = 1/H_1 - delta_f1"},
+                "linear_extraction": {"delta_f1": "amplitude dependent" if s.amplitude_dependent_delta else "constant",
+                                      "smoothing_window_points": s.smoothing_window},
+            })
+            if self.frequency_choice is not None:
+                out["frequency_choice"] = {"visited_hz": list(self.frequency_choice.visited_hz),
+                                           "linear_natural_frequency_hz": self.frequency_choice.linear_natural_frequency_hz,
+                                           "reason": self.frequency_choice.reason}
+            if r.extras:
+                out["estimator_details"] = dict(r.extras, noise_fraction_from_fit=r.noise_fraction)
+        else:
+            out.update({
+                "excitation_frequency_hz": None,
+                "force_pair_n": list(r.setup.force_pair),
+                "band_hz": list(r.setup.band_hz),
+                "describing_function": {
+                    "real": real, "imag": imag, "amplitude_range_m": list(r.amplitude_range),
+                    "definition": "DF Delta(|X|) in N/m (no constant term), first-harmonic force = Delta*X; "
+                                  "coefficients highest order first (m -> N/m)",
+                },
+            })
+        stats = self.uncertainty.parameters
+        out.update({
+            "linear_from_level_n": self.linear_from_level_n,
+            "parameters": {name: stats[name].as_dict() for name in r.parameters()},
+            "uncertainty": dict(self.uncertainty.as_dict(),
+                                held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
+            "noise_fraction": {"value": self.noise_fraction, "source": self.noise_source},
+            "elements": elements_summary(r, s.response_dof),
+            "linear_frf": {
+                "file": "linear_frf.parquet",
+                "from_force_level_n": self.linear_from_level_n,
+                "modes": [
+                    {"natural_frequency_hz": stats[f"linear_f{i + 1}_hz"].as_dict(),
+                     "loss_factor": stats[f"linear_eta{i + 1}"].as_dict(),
+                     "relative_rms_error": m.relative_rms_error}
+                    for i, m in enumerate(self.modes)
+                ],
+                "definition": "one mode + residuals H = A/(w_r^2 - w^2 + i eta w_r^2) + R - R_m/w^2 fitted over "
+                              f"±{100 * s.modal_band_fraction:g} % around each resonance of the extracted linear FRF, "
+                              "weighted by the noise of 1/H of the level it came from",
+            },
+            "defaults_used": self.defaults_used,
+        })
+        return out
+
+
+# ------------------------------------------------------------------------------------ steps
+def _resolved(settings: IdentificationSettings, data: FRFLevels) -> tuple[IdentificationSettings, dict[str, Any]]:
+    """Settings with every default filled in, and the defaults that were used."""
+    defaults: dict[str, Any] = {}
+    changes: dict[str, Any] = {}
+    if settings.order is None:
+        changes["order"] = defaults["order"] = 2
+    if settings.estimator is None:
+        changes["estimator"] = defaults["estimator"] = "improved" if settings.method == "prd" else "naive"
+    if settings.method == "prd":
+        if settings.half_window is None:
+            changes["half_window"] = 0.01
+            if changes.get("estimator", settings.estimator) == "improved":
+                defaults["half_window"] = 0.01
+        if settings.low_force_n is None and data.levels.size:
+            changes["low_force_n"] = defaults["low_force_n"] = float(data.levels[0])
+        if settings.high_forces_n is None:
+            defaults["high_forces_n"] = "all levels above the low force"
+    return dataclasses.replace(settings, **changes), defaults
+
+
+def _model(settings: IdentificationSettings) -> PhysicalModel | PolynomialModel:
+    physical = parse_elements(settings.elements)
+    return physical or PolynomialModel.of_order(settings.order, settings.imag_order, settings.complex_delta_f1)
+
+
+def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None) -> PRDResult | DDFResult:
+    """The nonlinearity fit alone (also each Monte-Carlo sample's)."""
+    if settings.method == "prd":
+        return identify_prd(data, frequency_hz, _model(settings), low_force=settings.low_force_n,
+                            high_forces=settings.high_forces_n, estimator=settings.estimator,
+                            half_window=settings.half_window)
+    return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
+                        physical=parse_elements(settings.elements), estimator=settings.estimator)
+
+
+def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult):
+    """(level, frequencies, extracted linear receptance, the level's measured receptance)."""
+    if settings.method == "prd":
+        level = result.setup.low_force
+        f, h = data.curve(level)
+        return level, f, result.extract_linear_frf(f, h, amplitude_dependent=settings.amplitude_dependent_delta,
+                                                    smoothing_window=settings.smoothing_window), h
+    level = result.setup.linear_level
+    f, h = data.curve(level)
+    return level, f, result.extract_linear_frf(f, h), h
+
+
+def locate_linear_modes(
+    frequency_hz: NDArray, h_linear: NDArray, h_measured: NDArray, near_hz: tuple[float, ...] | None,
+    band_fraction: float,
+) -> tuple[ModalFit, ...]:
+    """One-mode fits of an extracted linear FRF near ``near_hz`` (default: at each of its
+    resonance crossings; none when it has no resonance in the band), weighted by the
+    noise of the measured ``1/H`` it came from; fits that land on an already found mode
+    (within 1 %) are dropped. Ascending."""
+    starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
+    # the noise scale of 1/H̃ from a smoothed copy: weights taken from the noisy values
+    # themselves would favour the points whose noise happens to shrink |1/H̃| (a bias)
+    noise_scale = np.abs(smooth_inverse_receptance(frequency_hz, h_measured, 9)) if frequency_hz.size >= 9 else \
+        np.abs(1.0 / h_measured)
+    modes: list[ModalFit] = []
+    for start in starts:
+        try:
+            fit = fit_mode_near(frequency_hz, h_linear, float(start), inverse_noise=noise_scale,
+                                band_fraction=band_fraction)
+        except (ValueError, np.linalg.LinAlgError):
+            if near_hz is not None:
+                raise
+            continue
+        found = float(fit.natural_frequencies_hz[0])
+        if all(abs(found / float(m.natural_frequencies_hz[0]) - 1) > 0.01 for m in modes):
+            modes.append(fit)
+    return tuple(sorted(modes, key=lambda m: float(m.natural_frequencies_hz[0])))
+
+
+def _sample_values(
+    data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None, modes_hz: tuple[float, ...]
+) -> dict[str, float]:
+    """One Monte-Carlo sample: the parameters and the linear modes of perturbed data."""
+    result = _fit(data, settings, frequency_hz)
+    values = dict(result.parameters())
+    _, f, h_linear, h_measured = _linear_frf(data, settings, result)
+    for i, fit in enumerate(locate_linear_modes(f, h_linear, h_measured, modes_hz, settings.modal_band_fraction)):
+        values[f"linear_f{i + 1}_hz"] = float(fit.natural_frequencies_hz[0])
+        values[f"linear_eta{i + 1}"] = float(fit.loss_factors[0])
+    return values
+
+
+def identify(data: FRFLevels, settings: IdentificationSettings) -> Identification:
+    """Run the identification step (module docstring) on measured curves ``data``."""
+    if (data.response_dof, data.input_dof) != (str(settings.response_dof), str(settings.input_dof)):
+        raise ValueError(
+            f"the data are response {data.response_dof!r} / input {data.input_dof!r}, the settings ask for "
+            f"{settings.response_dof!r} / {settings.input_dof!r}"
+        )
+    settings, defaults = _resolved(settings, data)
+    choice = None
+    frequency = settings.frequency_hz
+    if settings.method == "prd" and frequency is None:
+        choice = recommend_frequency(data, _model(settings), low_force=settings.low_force_n,
+                                     high_forces=settings.high_forces_n, estimator=settings.estimator,
+                                     half_window=settings.half_window)
+        frequency = choice.frequency_hz
+        defaults["frequency_hz"] = f"{frequency:g} ({choice.reason}; visited {list(choice.visited_hz)} Hz)"
+    result = _fit(data, settings, frequency)
+    if settings.method == "ddf":
+        if settings.force_pair_n is None:
+            defaults["force_pair_n"] = list(result.setup.force_pair)
+        if settings.band_hz is None:
+            defaults["band_hz"] = list(result.setup.band_hz)
+    level, f_linear, h_linear, h_measured = _linear_frf(data, settings, result)
+    modes = locate_linear_modes(f_linear, h_linear, h_measured, settings.linear_modes_hz, settings.modal_band_fraction)
+
+    if settings.noise_fraction is not None:
+        noise, source = float(settings.noise_fraction), "given"
+    else:
+        f_low, h_low = data.curve(data.levels[0])
+        try:
+            noise = estimate_noise_fraction(f_low, h_low)
+            source = f"estimated from the {data.levels[0]:g} N sweep (local quadratic fits of 1/H)"
+        except ValueError as error:
+            if getattr(result, "noise_fraction", None) is None:
+                raise IdentificationError(f"cannot estimate the noise level ({error}); give noise_fraction") from None
+            noise, source = float(result.noise_fraction), "estimated from the residuals of the fit"
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
+
+    modes_hz = tuple(float(m.natural_frequencies_hz[0]) for m in modes)
+    point = dict(result.parameters())
+    for i, m in enumerate(modes):
+        point[f"linear_f{i + 1}_hz"] = float(m.natural_frequencies_hz[0])
+        point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
+    estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz)
+    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed)
+    physical = parse_elements(settings.elements)
+    model = physical or getattr(result, "model", None)
+    description = model.description() if model is not None else (
+        f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")
+    return Identification(
+        settings=settings, defaults_used=defaults, result=result, frequency_choice=choice, linear_from_level_n=level,
+        linear_frequency_hz=f_linear, linear_frf=h_linear, modes=modes, uncertainty=uncertainty,
+        noise_fraction=noise, noise_source=source, model_description=description,
+    )
