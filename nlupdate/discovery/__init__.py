@@ -1,0 +1,23 @@
+"""Discovery: which effect a model is missing, where, with which parameters — and the proof.
+
+Given a model and measurements at several force levels (stepped-sine FRFs or a modal
+table), :func:`discover` measures the gap, localises it, fits every effect of an open
+library there, picks one by an information criterion (or answers ``none``), adds it and
+shows the gap shrink, and repeats. See :mod:`nlupdate.discovery.workflow`.
+
+Modules: ``effects`` (the library), ``workflow`` (the loop), ``gap``, ``localisation``,
+``frf_data`` / ``frf_evidence`` / ``frf_fit`` (stepped-sine FRFs), ``modal_data`` /
+``modal_evidence`` / ``modal_fit`` (modal tables), ``candidates`` (criterion and
+significance), ``fitting``, ``linear_edits``, ``simulation``, ``report`` and ``plots``
+(output folder), ``errors``.
+"""
+from nlupdate.discovery.candidates import CandidateFit, FoundEffect
+from nlupdate.discovery.effects import EFFECT_NAMES, LIBRARY, DFSamples, Effect, ElementEffect, LinearEffect, Parameter
+from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError
+from nlupdate.discovery.workflow import DiscoveryOptions, DiscoveryResult, discover, fit_candidate
+
+__all__ = [
+    "CandidateFit", "DFSamples", "DiscoveryError", "DiscoveryOptions", "DiscoveryResult", "EFFECT_NAMES", "Effect",
+    "ElementEffect", "FoundEffect", "LIBRARY", "LinearEffect", "MeasuredDataError", "ModelSolveError", "Parameter",
+    "discover", "fit_candidate",
+]

@@ -1,0 +1,136 @@
+"""Least-squares fit of the parameters of several effects from several starts.
+
+Parameters are fitted through unknowns with the sign built in: ``log v`` for a positive
+parameter, ``log(−v)`` for a negative one and ``v/s`` for a parameter of either sign (s =
+the magnitude of its start). The residual function maps the effects' SI values to the
+residual vector whose sum of squares is χ² (see :mod:`nlupdate.discovery.candidates`).
+:func:`fit_at_place` fits one candidate at a place together with the effects found there
+before (the "companions").
+"""
+from __future__ import annotations
+
+from typing import Callable, Protocol, Sequence
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import NDArray
+
+from nlupdate.discovery.candidates import CandidateFit, FoundEffect
+from nlupdate.discovery.effects import NEGATIVE, POSITIVE, DFSamples, Effect
+from nlupdate.discovery.starts import joint_starts
+
+Residual = Callable[[list[NDArray[np.float64]]], NDArray[np.float64]]
+_LOG_LIMIT = 60.0  # unknowns of log-parameters stay within e^±60 of their start
+
+
+class _Unknowns:
+    """Map between the effects' SI values and the fitted unknown vector."""
+
+    def __init__(self, effects: Sequence[Effect], start: Sequence[NDArray]) -> None:
+        self.signs = [p.sign for effect in effects for p in effect.parameters]
+        self.sizes = [len(effect.parameters) for effect in effects]
+        flat = np.concatenate([np.atleast_1d(np.asarray(v, dtype=float)) for v in start])
+        self.scales = np.where(np.abs(flat) > 0, np.abs(flat), 1.0)
+
+    def encode(self, values: Sequence[NDArray]) -> NDArray[np.float64]:
+        flat = np.concatenate([np.atleast_1d(np.asarray(v, dtype=float)) for v in values])
+        out = np.empty_like(flat)
+        for i, (sign, value) in enumerate(zip(self.signs, flat)):
+            if sign in (POSITIVE, NEGATIVE):
+                out[i] = np.log(max(sign * value, 1e-300))
+            else:
+                out[i] = value / self.scales[i]
+        return out
+
+    def decode(self, unknowns: NDArray) -> list[NDArray[np.float64]]:
+        flat = np.array([
+            sign * np.exp(u) if sign in (POSITIVE, NEGATIVE) else u * scale
+            for sign, u, scale in zip(self.signs, unknowns, self.scales)
+        ])
+        return list(np.split(flat, np.cumsum(self.sizes)[:-1]))
+
+    def bounds(self, x0: NDArray) -> tuple[NDArray, NDArray]:
+        is_log = np.array([sign in (POSITIVE, NEGATIVE) for sign in self.signs])
+        low = np.where(is_log, x0 - _LOG_LIMIT, -np.inf)
+        high = np.where(is_log, x0 + _LOG_LIMIT, np.inf)
+        return low, high
+
+
+def fit_effects(
+    residual: Residual, effects: Sequence[Effect], starts: Sequence[Sequence[NDArray]], max_nfev: int = 40, refine: int = 2
+) -> tuple[list[NDArray[np.float64]], float, bool]:
+    """Best SI values (one array per effect), χ² and success.
+
+    Each start set holds one value array per effect; the ``refine`` starts of smallest χ²
+    are refined by trust-region least squares. Non-finite residuals count as a large misfit
+    so the search backs off from them.
+    """
+
+    def guarded(values: Sequence[NDArray]) -> NDArray[np.float64]:
+        with np.errstate(all="ignore"):
+            r = residual(list(values))
+        return np.where(np.isfinite(r), r, 1e6)
+
+    ranked = sorted(starts, key=lambda start: float(np.sum(guarded(start) ** 2)))
+    best: tuple[float, list[NDArray], bool] | None = None
+    for start in ranked[:refine]:
+        unknowns = _Unknowns(effects, start)
+        x0 = unknowns.encode(start)
+        low, high = unknowns.bounds(x0)
+        result = scipy.optimize.least_squares(
+            lambda u: guarded(unknowns.decode(u)), x0, bounds=(low, high), method="trf",
+            max_nfev=max_nfev * (len(x0) + 1), diff_step=1e-7,
+        )
+        values = unknowns.decode(result.x)
+        chi2 = float(np.sum(guarded(values) ** 2))
+        ok = bool(np.all(np.isfinite(result.x))) and result.status >= 0
+        if best is None or chi2 < best[0]:
+            best = (chi2, values, ok)
+    assert best is not None, "fit_effects needs at least one start"
+    return best[1], best[0], best[2]
+
+
+class Place(Protocol):
+    """What :func:`fit_at_place` needs from a fitting context (FRF or modal)."""
+
+    dofs: tuple[int, ...]
+    companions: tuple[FoundEffect, ...]
+    samples: DFSamples
+    penalty: float
+
+    @property
+    def n_data(self) -> int: ...
+
+    def residual(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> NDArray[np.float64]: ...
+
+
+def _without(samples: DFSamples, effects: Sequence[Effect], values: Sequence[NDArray]) -> DFSamples:
+    """Samples minus the DFs of effects at given values."""
+    taken = sum((e.nu(v, samples.amplitude, samples.omega) for e, v in zip(effects, values)), np.zeros_like(samples.nu))
+    return DFSamples(samples.amplitude, samples.omega, samples.nu - taken, samples.std)
+
+
+def fit_at_place(place: Place, effect: Effect) -> CandidateFit:
+    """Fit ``effect`` at the place together with the companions (effects found there earlier)
+    and score it against the current model (companions at their values, no candidate).
+
+    Starts: the joint variable-projection starts of candidate and companions on the place's
+    apparent DF (:func:`nlupdate.discovery.starts.joint_starts`), and the candidate's own
+    starts on what the companions at their current values leave unexplained.
+    """
+    companions = [c.effect for c in place.companions]
+    current = [np.array(c.values) for c in place.companions]
+    effects = [effect] + companions
+    baseline = float(np.sum(place.residual(companions, current) ** 2))
+    starts = joint_starts(effects, place.samples)
+    if companions:
+        starts += [own + current for own in joint_starts([effect], _without(place.samples, companions, current))]
+    values, chi2, success = fit_effects(lambda v: place.residual(effects, v), effects, starts)
+    refitted = tuple(
+        FoundEffect(c.effect, c.dofs, tuple(float(x) for x in v)) for c, v in zip(place.companions, values[1:])
+    )
+    return CandidateFit(
+        effect=effect, dofs=place.dofs, values=tuple(float(x) for x in values[0]), chi2=chi2, baseline_chi2=baseline,
+        n_data=place.n_data, score=chi2 - baseline + len(effect.parameters) * place.penalty, success=success,
+        companions=refitted,
+    )
