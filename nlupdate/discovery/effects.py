@@ -34,6 +34,7 @@ from typing import ClassVar, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlupdate.discovery.errors import DiscoveryError
 from nlupdate.discovery.linear_edits import add_linear_correction
 from nlupdate.model.elements import CoulombFriction, CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
 from nlupdate.model.system import NonlinearSystem
@@ -306,8 +307,8 @@ def library(selection: Sequence[str | Effect] | None = None) -> tuple[Effect, ..
             continue
         matches = [effect for effect in LIBRARY if effect.name == str(item).strip()]
         if not matches:
-            raise ValueError(f"unknown effect {item!r}; the library has {', '.join(EFFECT_NAMES)}")
+            raise DiscoveryError(f"options.effects: unknown effect {item!r}; the library has {', '.join(EFFECT_NAMES)}")
         chosen.extend(matches)
     if not chosen:
-        raise ValueError(f"no effects selected; the library has {', '.join(EFFECT_NAMES)}")
+        raise DiscoveryError(f"options.effects: no effects selected; the library has {', '.join(EFFECT_NAMES)}")
     return tuple(dict.fromkeys(chosen))

@@ -47,8 +47,8 @@ def simulate_points(
                     )
                     x = stepped_sine(curve, w, sweep).response(dofs)
         except (ContinuationError, np.linalg.LinAlgError, ValueError) as error:
-            raise ModelSolveError(f"model: cannot be solved at {level:g} N, {band} ({error})") from None
+            raise ModelSolveError(f"the model cannot be solved at {level:g} N, {band} ({error})") from None
         if not np.any(np.isfinite(x)):
-            raise ModelSolveError(f"model: no finite response at {level:g} N, {band} (singular or unstable model)")
+            raise ModelSolveError(f"the model has no finite response at {level:g} N, {band} (singular or unstable)")
         out[points] = x
     return out

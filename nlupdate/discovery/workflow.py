@@ -82,6 +82,7 @@ class DiscoveryOptions:
                 raise DiscoveryError(f"options.{name}: expected a positive fraction, got {getattr(self, name)!r}")
         if self.noise_fraction is not None and not self.noise_fraction > 0:
             raise DiscoveryError(f"options.noise_fraction: expected a positive fraction (e.g. 0.01), got {self.noise_fraction!r}")
+        library(self.effects)
 
 
 @dataclass(frozen=True, eq=False)

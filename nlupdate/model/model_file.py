@@ -27,14 +27,22 @@ Elements (``dofs`` = one dof to ground or two dofs, by index or name)::
     dofs = [0]
     kf = 8e4
     slip_force = 1.0
+
+:func:`system_to_toml` / :func:`write_system` write a system in this form (dense matrices,
+``structural_damping`` as a matrix, floats in shortest round-trip form) so that
+:func:`load_system` reads back the same model.
 """
 from __future__ import annotations
 
+import json
+import os
+import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
+import scipy.sparse
 
 from nlupdate.model.elements import ELEMENT_TYPES
 from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
@@ -161,3 +169,68 @@ def load_system(path: str | Path) -> NonlinearSystem:
     except tomllib.TOMLDecodeError as error:
         raise ModelFileError(f"{path}: not valid TOML ({error})") from None
     return system_from_dict(data, str(path))
+
+
+def _number(value: float) -> str:
+    """A float as TOML (shortest round-trip repr; ``inf``/``nan`` are TOML too)."""
+    return repr(float(value))
+
+
+def _row(values) -> str:
+    return "[" + ", ".join(_number(v) for v in np.ravel(values)) + "]"
+
+
+def _matrix_text(matrix) -> str:
+    dense = matrix.toarray() if scipy.sparse.issparse(matrix) else np.asarray(matrix, dtype=float)
+    return "[" + ", ".join(_row(row) for row in dense) + "]"
+
+
+def _names(names) -> str:
+    return "[" + ", ".join(json.dumps(str(name)) for name in names) + "]"
+
+
+def system_to_toml(system: NonlinearSystem) -> str:
+    """TOML text of ``system`` that :func:`load_system` reads back to the same model."""
+    model = system.model
+    lines = ["[model]"]
+    if isinstance(model, LumpedModel):
+        lines += ['kind = "lumped"', f"mass = {_matrix_text(model.mass)}", f"stiffness = {_matrix_text(model.stiffness)}"]
+        if model.damping is not None:
+            lines.append(f"damping = {_matrix_text(model.damping)}")
+        if model.structural_damping is not None:
+            lines.append(f"structural_damping = {_matrix_text(model.structural_damping)}")
+    elif isinstance(model, ModalModel):
+        lines += [
+            'kind = "modal"',
+            f"natural_frequencies_hz = {_row(model.natural_frequencies_hz)}",
+            f"mode_shapes = {_matrix_text(model.mode_shapes)}",
+            f"damping_ratios = {_row(model.damping_ratios)}",
+            f"loss_factors = {_row(model.loss_factors)}",
+        ]
+    else:
+        raise ModelFileError(f"cannot write a {type(model).__name__} as a model file (lumped or modal only)")
+    lines.append(f"dof_names = {_names(model.dof_names)}")
+    kinds = {cls: name for name, cls in ELEMENT_TYPES.items()}
+    for element in system.elements:
+        kind = kinds.get(type(element))
+        if kind is None:
+            raise ModelFileError(f"cannot write a {type(element).__name__} element: no model-file type")
+        lines += ["", "[[nonlinear]]", f'type = "{kind}"', f"dofs = {list(element.dofs)}"]
+        for key in ELEMENT_KEYS[kind]:
+            value = getattr(element, key)
+            lines.append(f"{key} = {_row(value) if kind == 'polynomial' else _number(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def write_system(system: NonlinearSystem, path: str | os.PathLike) -> Path:
+    """Write ``system`` as a TOML model file (atomically) and return the path."""
+    path = Path(path)
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".toml")
+    os.close(descriptor)
+    try:
+        Path(temporary).write_text(system_to_toml(system))
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return path

@@ -1,0 +1,141 @@
+"""Figures of a discovery (PNG), built on :class:`matplotlib.figure.Figure` without pyplot.
+
+* :func:`plot_frfs` — measured vs model before vs model after, per force level (FRF data:
+  |H| of every measured coordinate; modal data: natural frequency and damping vs force);
+* :func:`plot_describing_function` — the apparent describing function at the place of the
+  first effect against the best candidates' DFs there;
+* :func:`plot_gap` — the gap (1 − FRAC) per force level before and after.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from nlupdate.discovery.workflow import DiscoveryResult
+
+_MAX_COLUMNS = 3
+_CANDIDATES_SHOWN = 3
+_GAP_FLOOR = 1e-6  # gaps below are drawn at this height (log axis)
+
+
+def _save(figure: Figure, path: str | os.PathLike) -> Path:
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    return Path(path)
+
+
+def _broken(frequency: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Insert NaN between separate bands so a line does not bridge them."""
+    spacing = np.diff(frequency)
+    cut = np.flatnonzero(spacing > 3 * np.median(spacing)) + 1
+    return np.insert(frequency, cut, np.nan), np.insert(values.astype(float), cut, np.nan)
+
+
+def _plot_frf_levels(result: DiscoveryResult, figure: Figure) -> None:
+    data = result.data
+    columns = min(len(data.response_dofs), _MAX_COLUMNS)
+    axes = np.atleast_2d(figure.subplots(data.levels.size, columns, squeeze=False))
+    before = np.column_stack([result.prediction_before.at(d) for d in data.response_dofs]) / data.force[:, None]
+    after = np.column_stack([result.prediction_after.at(d) for d in data.response_dofs]) / data.force[:, None]
+    for row, level in enumerate(data.levels):
+        mask = data.force == level
+        f = data.frequency_hz[mask]
+        for column in range(columns):
+            axis = axes[row, column]
+            axis.semilogy(f, np.abs(data.h[mask, column]), "k.", ms=3, label="measured")
+            axis.semilogy(*_broken(f, np.abs(before[mask, column])), "C3--", lw=1, label="model before")
+            axis.semilogy(*_broken(f, np.abs(after[mask, column])), "C0-", lw=1, label="model after")
+            axis.set_title(f"{level:g} N, response {data.response_names[column]}", fontsize=8)
+            axis.tick_params(labelsize=7)
+            if row == data.levels.size - 1:
+                axis.set_xlabel("frequency (Hz)", fontsize=8)
+            if column == 0:
+                axis.set_ylabel("|H| (m/N)", fontsize=8)
+    axes[0, 0].legend(fontsize=7)
+
+
+def _plot_modal_levels(result: DiscoveryResult, figure: Figure) -> None:
+    data = result.data
+    left, right = figure.subplots(1, 2)
+    for mode in np.unique(data.mode):
+        mask = data.mode == mode
+        force = data.force[mask]
+        for axis, measured, before, after, scale in (
+            (left, data.frequency_hz, result.prediction_before.frequency_hz, result.prediction_after.frequency_hz, 1.0),
+            (right, data.damping_ratio, result.prediction_before.damping_ratio, result.prediction_after.damping_ratio, 100.0),
+        ):
+            axis.semilogx(force, scale * measured[mask], "ko", ms=4, label=f"measured, mode {mode + 1}")
+            axis.semilogx(force, scale * before[mask], "C3s--", ms=3, lw=1, label="model before")
+            axis.semilogx(force, scale * after[mask], "C0^-", ms=3, lw=1, label="model after")
+    left.set(xlabel="force level (N)", ylabel="natural frequency (Hz)")
+    right.set(xlabel="force level (N)", ylabel="damping ratio (%)")
+    for axis in (left, right):
+        axis.grid(True, alpha=0.3)
+        axis.legend(fontsize=7)
+
+
+def plot_frfs(result: DiscoveryResult, path: str | os.PathLike) -> Path:
+    """Measured vs model before vs model after at every force level."""
+    if result.kind == "modal":
+        figure = Figure(figsize=(10, 4))
+        _plot_modal_levels(result, figure)
+    else:
+        rows = result.data.levels.size
+        figure = Figure(figsize=(4 * min(len(result.data.response_dofs), _MAX_COLUMNS), 2.3 * rows + 0.6))
+        _plot_frf_levels(result, figure)
+    return _save(figure, path)
+
+
+def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -> Path:
+    """Apparent DF samples (real and imaginary part vs amplitude) at the place of the first
+    iteration's best candidate, and the DFs of the best candidates fitted there (with the
+    effects found earlier at that place)."""
+    figure = Figure(figsize=(10, 4))
+    left, right = figure.subplots(1, 2)
+    step = next((s for s in result.steps if s.samples is not None), None)
+    if step is None:
+        left.text(0.5, 0.5, "no candidate was fitted:\nthe model is at the noise level", ha="center", va="center")
+        right.set_axis_off()
+        return _save(figure, path)
+    samples = step.samples
+    place = step.candidates[0].dofs
+    order = np.argsort(samples.amplitude)
+    for axis, part in ((left, np.real), (right, np.imag)):
+        axis.semilogx(samples.amplitude, part(samples.nu), ".", color="0.5", ms=3, label="apparent DF (measured)")
+    shown = [c for c in step.candidates if c.dofs == place][:_CANDIDATES_SHOWN]
+    for k, candidate in enumerate(shown):
+        nu = candidate.effect.nu(np.array(candidate.values), samples.amplitude, samples.omega)
+        for companion in candidate.companions:
+            nu = nu + companion.effect.nu(np.array(companion.values), samples.amplitude, samples.omega)
+        label = f"{candidate.name}{' (' + candidate.effect.variant + ')' if candidate.effect.variant else ''}, score {candidate.score:.3g}"
+        for axis, part in ((left, np.real), (right, np.imag)):
+            axis.semilogx(samples.amplitude[order], part(nu)[order], "-", color=f"C{k}", lw=1.2, label=label)
+    left.set(xlabel="amplitude at the place (m)", ylabel="Re ν (N/m)", title=f"dofs {list(place)}: stiffness")
+    right.set(xlabel="amplitude at the place (m)", ylabel="Im ν (N/m)", title="damping (Im ν > 0 dissipates)")
+    for axis in (left, right):
+        axis.grid(True, alpha=0.3)
+        axis.legend(fontsize=7)
+    return _save(figure, path)
+
+
+def plot_gap(result: DiscoveryResult, path: str | os.PathLike) -> Path:
+    """Gap (1 − FRAC) per force level before and after, with the noise level σ² (FRF data)."""
+    figure = Figure(figsize=(6.5, 4))
+    axis = figure.subplots()
+    levels = [level.force_n for level in result.gap_before.levels]
+    x = np.arange(len(levels))
+    before = [max(level.gap, _GAP_FLOOR) for level in result.gap_before.levels]
+    after = [max(level.gap, _GAP_FLOOR) for level in result.gap_after.levels]
+    axis.bar(x - 0.2, before, 0.4, color="C3", label=f"before (mean {result.gap_before.gap:.3g})")
+    axis.bar(x + 0.2, after, 0.4, color="C0", label=f"after (mean {result.gap_after.gap:.3g})")
+    if result.kind == "frf":
+        axis.axhline(result.noise_fraction**2, color="k", ls=":", label=f"noise level σ² = {result.noise_fraction**2:.2g}")
+    axis.set_yscale("log")
+    axis.set_xticks(x, [f"{level:g}" for level in levels])
+    axis.set(xlabel="force level (N)", ylabel="gap = 1 − FRAC")
+    axis.legend(fontsize=8)
+    axis.grid(True, axis="y", alpha=0.3)
+    return _save(figure, path)
