@@ -63,8 +63,11 @@ class DFSamples:
     std: NDArray[np.float64]
 
 
-def _shape(amplitude: ArrayLike, omega: ArrayLike) -> tuple[int, ...]:
-    return np.broadcast_shapes(np.shape(amplitude), np.shape(omega))
+def _broadcast(value: ArrayLike, amplitude: ArrayLike, omega: ArrayLike) -> NDArray[np.complex128]:
+    """``value`` as a complex array of the broadcast shape of A and ω."""
+    value = np.asarray(value, dtype=complex)
+    shape = np.broadcast_shapes(np.shape(amplitude), np.shape(omega))
+    return value if value.shape == shape else np.broadcast_to(value, shape)
 
 
 @dataclass(frozen=True)
@@ -111,8 +114,7 @@ class ElementEffect(Effect):
         raise NotImplementedError
 
     def nu(self, values, amplitude, omega):
-        value = self.element((0,), values).describing_function(amplitude, omega)
-        return np.broadcast_to(value, _shape(amplitude, omega)).astype(complex)
+        return _broadcast(self.element((0,), values).describing_function(amplitude, omega), amplitude, omega)
 
     def basis(self, shape, amplitude, omega):
         return self.nu(self.values(1.0, shape), amplitude, omega)
@@ -130,9 +132,6 @@ class CubicHardening(ElementEffect):
 
     def element(self, dofs, values):
         return CubicStiffness(tuple(dofs), float(values[0]))
-
-    def values(self, scale, shape):
-        return np.array([self.scale_sign * abs(scale)])
 
 
 @dataclass(frozen=True)
@@ -234,7 +233,7 @@ class LinearEffect(Effect):
         raise NotImplementedError
 
     def basis(self, shape, amplitude, omega):
-        return np.broadcast_to(self.omega_shape(omega), _shape(amplitude, omega)).astype(complex)
+        return _broadcast(self.omega_shape(omega), amplitude, omega)
 
     def nu(self, values, amplitude, omega):
         return float(np.atleast_1d(values)[0]) * self.basis(None, amplitude, omega)

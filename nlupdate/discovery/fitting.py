@@ -79,7 +79,7 @@ def fit_effects(
         low, high = unknowns.bounds(x0)
         result = scipy.optimize.least_squares(
             lambda u: guarded(unknowns.decode(u)), x0, bounds=(low, high), method="trf",
-            max_nfev=max_nfev * (len(x0) + 1), diff_step=1e-7,
+            max_nfev=max_nfev * (len(x0) + 1), diff_step=1e-7, ftol=1e-6, xtol=1e-7,
         )
         values = unknowns.decode(result.x)
         chi2 = float(np.sum(guarded(values) ** 2))

@@ -66,7 +66,7 @@ def phase_resonance(
             w = np.sqrt(np.maximum(w2, floor))
             nu = sum(psi[:, None] ** 2 * df(np.abs(psi[:, None]) * q, w) for psi, df in terms)
             new = wr**2 + np.real(nu)
-            settled = np.allclose(new, w2, rtol=1e-13, atol=0.0)
+            settled = np.max(np.abs(new - w2)) <= 1e-13 * np.max(wr**2)
             w2 = new
             if settled:
                 break
