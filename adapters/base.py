@@ -125,6 +125,10 @@ class FEAdapter(ABC):
     def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
         """Run the FE code for one parameter set."""
 
+    def solver_version(self) -> str:
+        """Name and version of the FE code, for run manifests (subclasses say more)."""
+        return self.name
+
     def key(self, parameters: Mapping[str, float]) -> str:
         """Identity of the point ``parameters`` of this model (checked values)."""
         return parameter_key(self.name, self.model_fingerprint(), self._check(parameters))

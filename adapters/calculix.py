@@ -301,6 +301,9 @@ class CalculixAdapter(FEAdapter):
             log_name="ccx.log",
         )
 
+    def solver_version(self) -> str:
+        return f"CalculiX {self.runner.version()}"
+
     def model_fingerprint(self) -> str:
         fingerprint = getattr(self.deck_generator, "fingerprint", None)
         model = fingerprint() if callable(fingerprint) else self.model_id

@@ -59,6 +59,9 @@ class LumpedAdapter(FEAdapter):
         payload = json.dumps({"defaults": {k: repr(v) for k, v in self.defaults.items()}}, sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
+    def solver_version(self) -> str:
+        return "nlupdate lumped chain (scipy.linalg.eigh)"
+
     def matrices(self, parameters: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """Mass (kg) and stiffness (N/m) matrices for ``parameters`` over the defaults."""
         values = {**self.defaults, **{k: float(v) for k, v in parameters.items()}}

@@ -310,6 +310,10 @@ class MapdlAdapter(FEAdapter):
         """Adapter for the APDL deck stored in ``deck_path``."""
         return cls(Path(deck_path).read_text(), parameter_names, coordinates, **options)  # type: ignore[arg-type]
 
+    def solver_version(self) -> str:
+        executable = self.runner.executable or "(no executable configured)"
+        return f"ANSYS MAPDL batch: {executable}"
+
     def model_fingerprint(self) -> str:
         payload = repr((_BLOCK_VERSION, self.deck_text, self.n_modes, list(self.coordinates.items()), sorted(self.apdl_names.items())))
         return hashlib.sha256(payload.encode()).hexdigest()[:16]

@@ -137,6 +137,19 @@ class ProcessRunner:
         """Absolute path of the executable, or :class:`ExecutableNotFoundError`."""
         return resolve_executable(self.executable, self.install_hint)
 
+    def version(self, arguments: Sequence[str] = ("-v",), timeout_s: float = 10.0) -> str:
+        """``<path>: <first non-empty line the program prints for arguments>``, or why not."""
+        try:
+            executable = self.resolve()
+        except ExecutableNotFoundError as error:
+            return f"not available ({error})"
+        try:
+            done = subprocess.run([executable, *arguments], capture_output=True, text=True, timeout=timeout_s)
+        except (OSError, subprocess.TimeoutExpired) as error:
+            return f"{executable}: version unknown ({error})"
+        lines = [line.strip() for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+        return f"{executable}: {lines[0] if lines else 'version unknown'}"
+
     def new_run_dir(self, name: str) -> Path:
         """Create and return a directory ``work_root/name`` that no other run uses."""
         if not name or "/" in name or name in {".", ".."}:

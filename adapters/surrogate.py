@@ -158,6 +158,9 @@ class SurrogateAdapter(FEAdapter):
         )
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
+    def solver_version(self) -> str:
+        return f"nlupdate frame surrogate {SURROGATE_VERSION}"
+
     def parameters_for(self, parameters: Mapping[str, float]) -> Any:
         """The base parameter dataclass with the named fields replaced."""
         return replace(self.base_parameters, **{k: float(v) for k, v in parameters.items()})

@@ -23,7 +23,8 @@ from nlupdate.adapters.surrogate import SurrogateAdapter
 from nlupdate.updating.candidates import compare_candidates, rank_candidates, run_tasks
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
 from nlupdate.updating.sensitivity import FORMULA_LABELS
-from nlupdate.updating.study import load_study, resolve_targets, study_tasks
+from nlupdate.study import load_study
+from nlupdate.study.steps import study_targets, updating_tasks
 from nlupdate.updating.targets import UpdatingTargets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,8 +96,9 @@ def print_three_modes() -> None:
     print("2. Three-mode study with candidates (sensor masses 30.2 g + 4.8 g; bounds of thesis Table 4.16)")
     print("=" * 100)
     study = load_study(THREE_MODE_STUDY)
-    targets, _ = resolve_targets(study)
-    tasks = study_tasks(study, targets)
+    target_set = study_targets(study, None)
+    targets = target_set.targets
+    tasks = updating_tasks(study, target_set)
     started = time.perf_counter()
     results = run_tasks(tasks)
     elapsed = time.perf_counter() - started

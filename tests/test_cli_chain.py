@@ -55,9 +55,9 @@ def test_simulate_identify_update(tmp_path, capsys):
     (tmp_path / "study.toml").write_text(STUDY)
     assert main(["update", str(tmp_path / "study.toml"), "--out", str(tmp_path / "updated")]) == 0
     capsys.readouterr()
-    summary = json.loads((tmp_path / "updated" / "summary.json").read_text())
-    run = next(r for r in summary["runs"] if r["name"].startswith("eigensensitivity"))
-    assert run["parameters"]["k1"] == pytest.approx(1e6, rel=0.01)
-    comparison = pd.read_parquet(tmp_path / "updated" / "comparison.parquet")
+    runs = pd.read_parquet(tmp_path / "updated" / "tables" / "runs.parquet")
+    run = runs[runs["method"] == "eigensensitivity"].iloc[0]
+    assert run["p:k1"] == pytest.approx(1e6, rel=0.01)
+    comparison = pd.read_parquet(tmp_path / "updated" / "tables" / "comparison.parquet")
     frac = comparison.set_index("candidate")["frac"]
-    assert frac["initial"] < 0.5 < 0.99 < frac[run["name"]]  # vs the extracted linear FRF
+    assert frac["initial"] < 0.5 < 0.99 < frac[run["candidate"]]  # vs the extracted linear FRF

@@ -11,7 +11,7 @@ import importlib
 import sys
 from typing import Sequence
 
-COMMAND_MODULES = ("simulate", "demo", "update", "identify", "discover")
+COMMAND_MODULES = ("run", "demo", "simulate", "identify", "update", "discover")
 
 
 class CliError(Exception):

@@ -1,25 +1,30 @@
-"""``nlupdate update``: run a linear model-updating study (TOML) and write its results."""
+"""``nlupdate update``: run a study in this process, in order, without Prefect.
+
+The same steps as ``nlupdate run`` (:mod:`nlupdate.study.steps`), one after another, no
+server, no cache; the archive (tables, plots, report, manifest) goes to ``--out``.
+"""
 from __future__ import annotations
 
 import argparse
+import datetime as dt
+import time
 from pathlib import Path
 
 from nlupdate.cli import CliError
-from nlupdate.updating.study import load_study, run_study
+from nlupdate.reporting.archive import write_archive
+from nlupdate.study import load_study, run_study
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "update",
-        help="update a linear FE model against natural frequencies (study file)",
-        description=(
-            "Run the inverse-eigensensitivity formulas and optimisation candidates of STUDY and write "
-            "history/candidate/comparison tables (parquet), summary.json and plots (PNG) to DIR."
-        ),
+        help="run a study (identification, updating, prediction) in this process, without Prefect",
+        description=__doc__.splitlines()[0],
     )
-    parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.updating.study)")
+    parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (created atomically)")
     parser.add_argument("--overwrite", action="store_true", help="replace DIR if it exists")
+    parser.add_argument("--quiet", action="store_true", help="print only the results, not each step")
     parser.set_defaults(run=run)
 
 
@@ -28,19 +33,26 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not args.overwrite:
         raise CliError(f"output directory {out} exists; pass --overwrite to replace it")
     study = load_study(args.study)
-    outcome = run_study(study, out, overwrite=args.overwrite)
-    targets = outcome.targets
-    print(f"study {study.name!r}: targets " + ", ".join(
-        f"{label} {f:.4g} Hz" for label, f in zip(targets.labels, targets.frequencies_hz)))
-    for result in outcome.results:
-        values = ", ".join(f"{k} = {v:.6g}" for k, v in result.parameters.items())
-        frequencies = ", ".join(f"{f:.4g}" for f in result.frequencies_hz())
-        state = "converged" if result.converged else "NOT converged"
-        steps = "iterations" if result.method == "eigensensitivity" else "objective calls"
-        print(f"  {result.name}: {state} ({result.reason}) after {result.iterations} {steps}, "
-              f"{result.counts['new']} new / {result.counts['cached']} cached evaluations, {result.wall_time_s:.2f} s; "
-              f"{values}; f = {frequencies} Hz")
-    best = outcome.ranking.iloc[0]
-    print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %)")
-    print(f"wrote {outcome.out_dir}")
+    started = dt.datetime.now(dt.timezone.utc)
+    clock = time.perf_counter()
+    result = run_study(study, (lambda message: None) if args.quiet else (lambda message: print(f"  {message}")))
+    run_info = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
+                "wall_time_s": time.perf_counter() - clock, "orchestration": "sequential, in one process (nlupdate update)"}
+    folder = write_archive(result, out, run_info, on_exists="replace" if args.overwrite else "error")
+    if result.targets is not None:
+        targets = result.targets.targets
+        print(f"study {study.name!r}: targets " + ", ".join(
+            f"{label} {f:.4g} Hz" for label, f in zip(targets.labels, targets.frequencies_hz)))
+    for r in result.runs:
+        values = ", ".join(f"{k} = {v:.6g}" for k, v in r.parameters.items())
+        state = "converged" if r.converged else "NOT converged"
+        steps = "iterations" if r.method == "eigensensitivity" else "objective calls"
+        print(f"  {r.name}: {state} ({r.reason}) after {r.iterations} {steps}, {r.counts['new']} new / "
+              f"{r.counts['cached']} cached FE runs; {values}")
+    for failure in result.failures:
+        print(f"  {failure.name}: FAILED: {failure.error}")
+    if result.ranking is not None:
+        best = result.ranking.iloc[0]
+        print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %)")
+    print(f"wrote {folder} (report.md)")
     return 0

@@ -19,8 +19,6 @@
 """
 from __future__ import annotations
 
-import json
-import math
 import os
 from pathlib import Path
 from typing import Any, Callable
@@ -32,29 +30,10 @@ from numpy.typing import ArrayLike
 
 from nlupdate.identification.dfmodels import PhysicalModel
 from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.figures import level_colours, phase_deg, save_figure
 
 JSON_NAME = "identification.json"
-
-
-def _clean(value: Any) -> Any:
-    """JSON-safe copy: numpy scalars to Python, NaN/inf to None, tuples to lists."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_clean(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        return float(value) if math.isfinite(float(value)) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.bool_):
-        return bool(value)
-    return value
-
-
-def write_json(data: dict, path: Path) -> Path:
-    path.write_text(json.dumps(_clean(data), indent=2, allow_nan=False) + "\n")
-    return path
 
 
 def linear_frf_table(frequency_hz: ArrayLike, h: ArrayLike, response_dof: str, input_dof: str) -> pd.DataFrame:

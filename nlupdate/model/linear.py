@@ -220,8 +220,9 @@ class LumpedModel:
         """
         if self.is_sparse:
             count = n_modes or min(self.n_dof - 1, 20)
-            values, vectors = scipy.sparse.linalg.eigsh(
-                self.stiffness.tocsc(), k=count, M=self.mass.tocsc(), sigma=0.0, which="LM"
+            values, vectors = scipy.sparse.linalg.eigsh(  # fixed start vector: reproducible modes
+                self.stiffness.tocsc(), k=count, M=self.mass.tocsc(), sigma=0.0, which="LM",
+                v0=np.random.default_rng(0).standard_normal(self.n_dof),
             )
         else:
             values, vectors = scipy.linalg.eigh(self._dense(self.stiffness), self._dense(self.mass))

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from nlupdate.measurement.frf_table import select_frf
 from nlupdate.reporting.figures import level_colours, save_figure
 from nlupdate.response.continuation import FrequencyResponse
 
@@ -48,5 +49,55 @@ def plot_continuation(curves: Sequence[tuple[str, FrequencyResponse]], dof_posit
     ax.set_title("continuation: stable (solid), unstable (dashed), folds (dots)")
     ax.legend(fontsize=7)
     ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_predictions(
+    measured: pd.DataFrame, predictions: Sequence, response_dof: str, input_dof: str, path: Path, title: str = ""
+) -> Path:
+    """|H| per force level: measured points and each predicted model (the first, usually
+    ``initial``, dashed grey); panel titles give each model's FRAC at that level."""
+    levels = sorted({float(level) for p in predictions for level in p.table["force_level_n"]})
+    columns = min(5, len(levels))
+    rows = -(-len(levels) // columns)
+    fig = Figure(figsize=(3.2 * columns, 2.7 * rows + 0.6))
+    axes = np.atleast_1d(fig.subplots(rows, columns, sharex=True, squeeze=False)).ravel()
+    styles = [dict(color="0.45", ls="--", lw=1.0)] + [dict(color=f"C{k + 3}", lw=1.3) for k in range(len(predictions))]
+    for ax, level in zip(axes, levels):
+        f_m, h_m = select_frf(measured, response_dof, input_dof, level)
+        ax.semilogy(f_m, np.abs(h_m), ".", ms=1.5, color="k", label="measured")
+        fracs = []
+        for prediction, style in zip(predictions, styles):
+            f_p, h_p = select_frf(prediction.table, response_dof, input_dof, level)
+            ax.semilogy(f_p, np.abs(h_p), label=prediction.name, **style)
+            row = prediction.correlation[np.isclose(prediction.correlation["force_level_n"], level)]
+            fracs.append(f"{row['frac'].iloc[0]:.2f}" if len(row) else "–")
+        ax.set_title(f"{level:g} N   FRAC " + " / ".join(fracs), fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.tick_params(labelsize=7)
+    for ax in axes[len(levels):]:
+        ax.axis("off")
+    axes[0].legend(fontsize=6)
+    fig.supxlabel("frequency (Hz)", fontsize=9)
+    fig.supylabel(f"|H| {response_dof}/{input_dof} (m/N)", fontsize=9)
+    fig.suptitle(title or "predicted vs measured at every force level", fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, path, dpi=110)
+
+
+def plot_correlation_levels(correlation: pd.DataFrame, path: Path) -> Path:
+    """FRAC and the normalised FRF error against force level, one line per model."""
+    fig = Figure(figsize=(10, 3.8))
+    left, right = fig.subplots(1, 2)
+    for model, group in correlation.groupby("model", sort=False):
+        group = group.sort_values("force_level_n")
+        left.semilogx(group["force_level_n"], group["frac"], "o-", ms=3, label=model)
+        right.loglog(group["force_level_n"], group["normalised_error"], "o-", ms=3, label=model)
+    left.set(xlabel="force level (N)", ylabel="FRAC", ylim=(0, 1.02), title="FRAC per force level")
+    right.set(xlabel="force level (N)", ylabel="‖H_model − H_measured‖ / ‖H_measured‖", title="normalised FRF error")
+    for ax in (left, right):
+        ax.grid(True, which="both", alpha=0.3)
+    left.legend(fontsize=7)
     fig.tight_layout()
     return save_figure(fig, path)

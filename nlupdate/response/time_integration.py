@@ -252,7 +252,8 @@ class _Operators:
             return 0.0
         if matrix.shape[0] < 3:
             return float(max(scipy.linalg.eigh(matrix.toarray(), mass.toarray(), eigvals_only=True)[-1], 0.0))
-        value = scipy.sparse.linalg.eigsh(matrix, k=1, M=mass, which="LA", return_eigenvectors=False)
+        value = scipy.sparse.linalg.eigsh(matrix, k=1, M=mass, which="LA", return_eigenvectors=False,
+                                          v0=np.random.default_rng(0).standard_normal(matrix.shape[0]))
         return float(max(value[0], 0.0)) * (1 + 1e-6)  # Lanczos tolerance margin
 
     def _modal(self, model: ModalModel):

@@ -7,7 +7,7 @@
 * :mod:`~nlupdate.updating.optimisation` — bounded weighted least-squares fit
 * :mod:`~nlupdate.updating.evaluation` — point evaluators: who runs the FE evaluations
 * :mod:`~nlupdate.updating.candidates` — one run (:func:`update`), sweeps, candidate comparison, ranking
-* :mod:`~nlupdate.updating.study_file` — TOML study files; :mod:`~nlupdate.updating.study` — running them (``nlupdate update``)
+* :mod:`~nlupdate.updating.uncertainty` — parameter uncertainty from target uncertainty
 * :mod:`~nlupdate.updating.plots` — PNG plots
 """
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter

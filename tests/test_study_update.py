@@ -1,4 +1,4 @@
-"""Study files and the ``nlupdate update`` command."""
+"""Study files (updating part) and ``nlupdate update``: the sequential, Prefect-free run."""
 from __future__ import annotations
 
 import dataclasses
@@ -14,7 +14,7 @@ from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.cli import main
 from nlupdate.model.linear import LumpedModel
 from nlupdate.measurement.frf_table import frf_table, write_frf_table
-from nlupdate.updating.study import StudyError, load_study
+from nlupdate.study import StudyError, load_study
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 MASSES = [0.1, 0.3, 0.2]
@@ -100,35 +100,39 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
     assert main(["update", str(study_file), "--out", str(out)]) == 0
     assert "converged (frequency)" in capsys.readouterr().out
 
-    expected = {"history.parquet", "candidates.parquet", "comparison.parquet", "ranking.parquet", "summary.json",
-                "study.toml", "convergence.png", "frequency_errors.png", "frf_comparison.png"}
-    assert {p.name for p in out.iterdir()} == expected
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]  # temporary directory renamed
-    for png in out.glob("*.png"):
+    assert {p.name for p in out.iterdir()} == {"manifest.json", "report.md", "study.toml", "tables", "plots"}
+    assert {p.name for p in (out / "tables").iterdir()} == {
+        "targets.parquet", "runs.parquet", "histories.parquet", "comparison.parquet", "ranking.parquet"}
+    assert {p.name for p in (out / "plots").iterdir()} == {"convergence.png", "frequency_errors.png", "candidate_frfs.png"}
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".tmp")]  # temporary directory renamed
+    for png in (out / "plots").glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    report = (out / "report.md").read_text()
+    assert "## Updating" in report and all(f"]({name})" in report for name in ("plots/convergence.png",))
 
     truth_frequencies = LumpedAdapter(MASSES, NOMINAL_K).evaluate(TRUTH).natural_frequencies_hz
-    summary = json.loads((out / "summary.json").read_text())
-    np.testing.assert_allclose(summary["targets"]["frequencies_hz"], truth_frequencies, rtol=1e-4)  # peaks of the FRF
+    targets = pd.read_parquet(out / "tables" / "targets.parquet")
+    np.testing.assert_allclose(targets["frequency_hz"], truth_frequencies, rtol=1e-4)  # peaks of the FRF
+    assert json.loads((out / "manifest.json").read_text())["study"]["name"] == "lumped truth"
 
-    candidates = pd.read_parquet(out / "candidates.parquet").set_index("candidate")
+    candidates = pd.read_parquet(out / "tables" / "runs.parquet").set_index("candidate")
     formulas = ["forward O(h)", "backward O(h)", "central O(h²)", "central O(h⁴)"]
     for formula in formulas:
-        row = candidates.loc[f"eigensensitivity {formula}"]
+        row = candidates.loc[f"eigensensitivity {formula} {{k1, k2}}"]
         assert row["converged"]
         assert row["p:k1"] == pytest.approx(TRUTH["k1"], rel=5e-3)
         assert row["p:k2"] == pytest.approx(TRUTH["k2"], rel=5e-3)
     assert np.isnan(candidates.loc["k1 only", "p:k2"])
 
-    comparison = pd.read_parquet(out / "comparison.parquet")
-    updated = comparison[comparison["candidate"] == "eigensensitivity central O(h⁴)"]
+    comparison = pd.read_parquet(out / "tables" / "comparison.parquet")
+    updated = comparison[comparison["candidate"] == "eigensensitivity central O(h⁴) {k1, k2}"]
     assert updated["frac"].min() > 0.999
     initial = comparison[comparison["candidate"] == "initial"]
     assert (initial["frac"].to_numpy() < updated["frac"].to_numpy()).all()
 
-    ranking = pd.read_parquet(out / "ranking.parquet")
+    ranking = pd.read_parquet(out / "tables" / "ranking.parquet")
     assert ranking["candidate"].iloc[-1] == "initial"  # user weights: mode 1 only
-    history = pd.read_parquet(out / "history.parquet")
+    history = pd.read_parquet(out / "tables" / "histories.parquet")
     assert set(history["run"]) == set(candidates.index)
 
     assert main(["update", str(study_file), "--out", str(out)]) == 2
@@ -145,6 +149,12 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
         (lambda s: s.replace("start = 0.7e6", 'start = "0.7e6"'), "[parameters #1] key 'start': expected a finite number"),
         (lambda s: s.replace("start = 0.7e6", "start = 3e6"), "[parameters #1]: parameter 'k1': start"),
         (lambda s: s.replace("n_modes = 3", 'frequencies_hz = [1.0]\nn_modes = 3'), "[targets]: expected exactly one of"),
+        (lambda s: s.replace("[comparison]", "[updating]\nmax_workers = 2\n[comparison]"),
+         "[updating] key 'max_workers': expected nothing: this key was removed (parallel runs are chosen when running"),
+        (lambda s: s.replace('identification = "ident"', "from_identification = true"),
+         "[targets] key 'from_identification': expected an [identification] table"),
+        (lambda s: s.replace("formulas =", 'parameter_sets = [["k1"], ["k9"]]\nformulas ='),
+         "[eigensensitivity] key 'parameter_sets': expected distinct names of [[parameters]]"),
         (lambda s: s.replace("n_modes = 3", 'n_modes = 3\nfrf_method = "circle"'), "[targets] key 'frf_method': expected one of"),
         (lambda s: s.replace('parameters = ["k1"]', 'parameters = ["k9"]'), "[optimisation.candidates #1] key 'parameters'"),
         (lambda s: s.replace("k3 = 1.1e6", "k1 = 1.1e6"), "[adapter.fixed] key 'k1'"),
@@ -183,7 +193,7 @@ def test_example_studies_are_valid(name):
 def test_single_mode_example_reaches_the_target(tmp_path):
     out = tmp_path / "single"
     assert main(["update", str(EXAMPLES / "tbeam_single_mode.toml"), "--out", str(out)]) == 0
-    comparison = pd.read_parquet(out / "comparison.parquet")
+    comparison = pd.read_parquet(out / "tables" / "comparison.parquet")
     updated = comparison[comparison["candidate"] != "initial"]
     assert len(updated) == 4 and updated["error_pct"].abs().max() <= 0.01
 
@@ -227,7 +237,7 @@ def test_calculix_study_follows_the_square_root_law(tmp_path):
     path.write_text(CALCULIX_STUDY.replace('"ccx_runs"', repr(str(tmp_path / "runs")).replace("'", '"')))
     out = tmp_path / "out"
     assert main(["update", str(path), "--out", str(out)]) == 0
-    history = pd.read_parquet(out / "history.parquet")
+    history = pd.read_parquet(out / "tables" / "histories.parquet")
     f_initial = history["f_hz:mode1"].iloc[0]
     expected = 210e9 * (40.75 / f_initial) ** 2
     assert history["p:E"].iloc[-1] == pytest.approx(expected, rel=1e-5)

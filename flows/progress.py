@@ -1,0 +1,84 @@
+"""What the person running a study sees: which step, i/N in sweeps, computed or cached.
+
+:class:`Progress` prints one line per finished step (``rich``, which comes with Prefect)
+and keeps the tally of task states per step — computed (``Completed``), ``Cached``,
+``Failed`` — for the run's manifest. Flows reach it through :func:`current_progress`
+(a context variable, so the coordinator threads of a sweep see it too).
+"""
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import threading
+import time
+from collections import Counter, defaultdict
+from typing import Iterator
+
+from rich.console import Console
+
+STATE_WORDS = {"Completed": "computed", "Cached": "cached", "Failed": "FAILED", "Crashed": "CRASHED"}
+
+
+class Progress:
+    """Printer and tally of one run (thread-safe)."""
+
+    def __init__(self, console: Console | None = None, quiet: bool = False) -> None:
+        self.console = console or Console(highlight=False)
+        self.quiet = quiet
+        self.tally: dict[str, Counter] = defaultdict(Counter)
+        self._lock = threading.Lock()
+        self._started = time.perf_counter()
+
+    def say(self, message: str) -> None:
+        if not self.quiet:
+            with self._lock:
+                self.console.print(message)
+
+    def record(self, step: str, state: str, count: int = 1) -> None:
+        """Count ``count`` task runs of ``step`` that ended in ``state``."""
+        with self._lock:
+            self.tally[step][state] += count
+
+    def finished(self, step: str, state: str, detail: str = "", seconds: float | None = None) -> None:
+        """Record one task run of ``step`` and print it."""
+        self.record(step, state)
+        word = STATE_WORDS.get(state, state)
+        style = {"computed": "green", "cached": "cyan"}.get(word, "bold red")
+        timing = f" in {seconds:.1f} s" if seconds is not None else ""
+        self.say(f"[bold]{step}[/bold]{': ' + detail if detail else ''} — [{style}]{word}[/{style}]{timing}")
+
+    def summary(self) -> dict[str, dict[str, int]]:
+        """``{step: {"computed": n, "cached": n, "failed": n}}`` for the manifest."""
+        with self._lock:
+            return {
+                step: {"computed": counts.get("Completed", 0), "cached": counts.get("Cached", 0),
+                       "failed": sum(v for k, v in counts.items() if k not in ("Completed", "Cached"))}
+                for step, counts in self.tally.items()
+            }
+
+    @property
+    def elapsed_s(self) -> float:
+        return time.perf_counter() - self._started
+
+
+_CURRENT: contextvars.ContextVar[Progress] = contextvars.ContextVar("nlupdate_progress")
+
+
+def current_progress() -> Progress:
+    """The progress of the run in this context (a silent one when none was set)."""
+    try:
+        return _CURRENT.get()
+    except LookupError:
+        progress = Progress(quiet=True)
+        _CURRENT.set(progress)
+        return progress
+
+
+@contextlib.contextmanager
+def using(progress: Progress) -> Iterator[None]:
+    """Context manager: make ``progress`` current."""
+    token = _CURRENT.set(progress)
+    try:
+        yield
+    finally:
+        _CURRENT.reset(token)

@@ -1,0 +1,50 @@
+"""Running a study under Prefect from Python or the CLI: :func:`run_study_flow`.
+
+It sets up everything a run needs and nothing the user must start by hand: at most one
+Prefect server for the run (or the user's, via ``PREFECT_API_URL``), the task runner
+(threads, a local Dask cluster, or an existing one), the cache store, and the progress
+printer; then it runs :func:`~nlupdate.flows.study.study_flow` and returns the archive.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from nlupdate.flows.environment import prepare_environment
+from nlupdate.flows.progress import Progress, using
+from nlupdate.flows.runners import Execution, task_runner
+from nlupdate.flows.server import prefect_api
+from nlupdate.study.spec import Study
+
+CACHE_ENV = "NLUPDATE_CACHE_DIR"
+DEFAULT_CACHE = ".nlupdate-cache"
+
+
+def cache_directory(given: str | os.PathLike | None = None) -> Path:
+    """The result store: ``given``, else ``$NLUPDATE_CACHE_DIR``, else ``./.nlupdate-cache``."""
+    return Path(given or os.environ.get(CACHE_ENV) or DEFAULT_CACHE).resolve()
+
+
+def run_study_flow(
+    study: Study,
+    results_root: str | os.PathLike = "results",
+    execution: Execution = Execution(),
+    cache_dir: str | os.PathLike | None = None,
+    refresh: bool = False,
+    progress: Progress | None = None,
+) -> Path:
+    """Run ``study`` as Prefect flows and write its archive under ``results_root``."""
+    prepare_environment()
+    progress = progress or Progress()
+    store = cache_directory(cache_dir)
+    store.mkdir(parents=True, exist_ok=True)
+    from nlupdate.flows.study import Cache, study_flow, study_handle
+
+    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description):
+        progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
+                     + (" (refreshing)" if refresh else ""))
+        orchestration = f"Prefect flow `study` on {description}, API {url}"
+        with using(progress):
+            archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
+                study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration)
+    return Path(archive)

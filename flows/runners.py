@@ -1,0 +1,56 @@
+"""Where tasks run: a thread pool (default) or Dask — a local cluster started for the
+run, or an existing cluster at a scheduler address (prefect-dask)."""
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from typing import Iterator
+
+
+class ExecutionError(RuntimeError):
+    """The requested execution cannot be set up; the message says why."""
+
+
+@dataclass(frozen=True)
+class Execution:
+    """workers: threads, or local Dask worker processes; dask: start a local cluster;
+    dask_address: ``tcp://HOST:PORT`` of an existing scheduler (``workers`` ignored)."""
+
+    workers: int = 2
+    dask: bool = False
+    dask_address: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.workers < 1:
+            raise ExecutionError(f"workers must be at least 1, got {self.workers}")
+        if self.dask and self.dask_address:
+            raise ExecutionError("choose a local Dask cluster (--dask) or an existing one (--dask-address), not both")
+
+
+@contextlib.contextmanager
+def task_runner(execution: Execution, connect_timeout_s: float = 10.0) -> Iterator[tuple[object, str]]:
+    """Yield (a Prefect task runner, a description of it) for ``execution``; a local Dask
+    cluster lives as long as the context."""
+    if execution.dask_address is None and not execution.dask:
+        from prefect.task_runners import ThreadPoolTaskRunner
+
+        yield ThreadPoolTaskRunner(max_workers=execution.workers), f"{execution.workers} threads"
+        return
+    from distributed import Client, LocalCluster
+    from prefect_dask import DaskTaskRunner
+
+    if execution.dask_address is not None:
+        try:
+            with Client(execution.dask_address, timeout=connect_timeout_s) as client:
+                n_workers = len(client.scheduler_info()["workers"])
+        except (OSError, TimeoutError) as error:
+            raise ExecutionError(f"no Dask scheduler answers at {execution.dask_address} within {connect_timeout_s:g} s "
+                                 f"({error}); start one with `dask scheduler` and `dask worker ADDRESS`") from None
+        if n_workers == 0:
+            raise ExecutionError(f"the Dask scheduler at {execution.dask_address} has no workers; start some with "
+                                 f"`dask worker {execution.dask_address}`")
+        yield DaskTaskRunner(address=execution.dask_address), f"Dask at {execution.dask_address} ({n_workers} workers)"
+        return
+    with LocalCluster(n_workers=execution.workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        yield DaskTaskRunner(address=cluster.scheduler_address), \
+            f"local Dask cluster, {execution.workers} worker processes ({cluster.scheduler_address})"

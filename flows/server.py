@@ -1,0 +1,73 @@
+"""The Prefect API a run reports to: the user's (``PREFECT_API_URL``) or one started for it.
+
+Without ``PREFECT_API_URL`` every process — and every Dask worker — would start its own
+temporary server (13–26 s each here). :func:`prefect_api` starts exactly one for the run,
+in a subprocess, points this process and every worker started afterwards at it (through
+the environment), and stops it at the end, after Prefect's background writers have sent
+the run's history (otherwise most of it is lost). Runs are kept in Prefect's database
+(``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start`` shows them later.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+from typing import Callable, Iterator
+
+import httpx
+
+
+class ServerError(RuntimeError):
+    """The Prefect API cannot be reached or started; the message says what to do."""
+
+
+HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200) and set "
+        "PREFECT_API_URL=http://127.0.0.1:4200/api, or unset PREFECT_API_URL to let nlupdate start its own")
+
+
+def _check(url: str, timeout_s: float = 10.0) -> None:
+    try:
+        response = httpx.get(f"{url.rstrip('/')}/health", timeout=timeout_s)
+        response.raise_for_status()
+    except httpx.HTTPError as error:
+        raise ServerError(f"the Prefect API at PREFECT_API_URL={url} does not answer ({error}); {HELP}") from None
+
+
+def flush_run_history(timeout_s: float = 30.0) -> None:
+    """Wait until Prefect's background writers (events, logs) have sent what they hold."""
+    from prefect.events.worker import EventsWorker
+    from prefect.logging.handlers import APILogWorker
+
+    for worker in (APILogWorker, EventsWorker):
+        worker.drain_all(timeout=timeout_s)
+
+
+@contextlib.contextmanager
+def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Iterator[str]:
+    """Yield the API URL the run uses (see the module docstring)."""
+    url = os.environ.get("PREFECT_API_URL")
+    if url:
+        _check(url)
+        say(f"Prefect API: {url} (PREFECT_API_URL)")
+        try:
+            yield url
+        finally:
+            flush_run_history()
+        return
+    from prefect.server.api.server import SubprocessASGIServer
+
+    server = SubprocessASGIServer()
+    say("starting a Prefect server for this run …")
+    try:
+        server.start(timeout=startup_timeout_s)
+    except Exception as error:  # whatever uvicorn or the database raised
+        raise ServerError(f"could not start a Prefect server ({type(error).__name__}: {error}); {HELP}") from None
+    os.environ["PREFECT_API_URL"] = server.api_url
+    say(f"Prefect server: {server.api_url} (stops with the run)")
+    try:
+        yield server.api_url
+    finally:
+        try:
+            flush_run_history()
+        finally:
+            os.environ.pop("PREFECT_API_URL", None)
+            server.stop()

@@ -1,0 +1,75 @@
+"""``nlupdate run``: run a study as Prefect flows — cached tasks, parallel sweeps, one archive.
+
+Starts what the run needs (a Prefect server unless ``PREFECT_API_URL`` is set, threads or
+a Dask cluster), prints each step as it finishes (computed or cached), and writes the
+archive ``<out>/<study>/<UTC time>-<hash>/``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from nlupdate.cli import CliError
+
+
+def add_execution_options(parser: argparse.ArgumentParser) -> None:
+    """Options shared by ``run`` and ``demo``: where results go and where tasks run."""
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
+                        help="threads (or local Dask worker processes with --dask) for the tasks (default: CPU count)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--dask", action="store_true", help="run the tasks on a local Dask cluster started for the run")
+    where.add_argument("--dask-address", metavar="ADDR", help="run the tasks on an existing Dask scheduler, tcp://HOST:PORT")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="recompute every task even when the cache has its result (and refresh the cache)")
+    parser.add_argument("--cache-dir", metavar="DIR",
+                        help="task result store (default $NLUPDATE_CACHE_DIR or ./.nlupdate-cache)")
+    parser.add_argument("--quiet", action="store_true", help="print only where the archive is")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("run", help="run a study as Prefect flows (cached, parallel) and archive it",
+                                   description=__doc__.splitlines()[0])
+    parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
+    parser.add_argument("--out", default="results", metavar="DIR", help="archive root (default ./results)")
+    add_execution_options(parser)
+    parser.set_defaults(run=run)
+
+
+def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
+    """Run ``study`` under Prefect with the execution options of ``args``; one-line errors."""
+    if args.workers < 1:
+        raise CliError(f"--workers must be at least 1, got {args.workers}")
+    from nlupdate.flows.environment import prepare_environment
+
+    prepare_environment()  # before Prefect is imported
+    from nlupdate.flows.progress import Progress
+    from nlupdate.flows.run import run_study_flow
+    from nlupdate.flows.runners import Execution, ExecutionError
+    from nlupdate.flows.server import ServerError
+
+    try:
+        return run_study_flow(study, results_root, Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
+                              args.no_cache, Progress(quiet=args.quiet))
+    except (ExecutionError, ServerError) as error:
+        raise CliError(str(error)) from None
+
+
+def print_summary(archive: Path) -> None:
+    """The report's summary and where the archive is."""
+    from nlupdate.reporting.report import summary_section
+
+    print(summary_section((archive / "report.md").read_text()))
+    print(f"archive: {archive}\nreport:  {archive / 'report.md'}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from nlupdate.study import load_study
+
+    study = load_study(args.study)
+    archive = run_with_prefect(study, args.out, args)
+    if not args.quiet:
+        print_summary(archive)
+    else:
+        print(archive)
+    return 0

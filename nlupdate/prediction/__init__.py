@@ -1,0 +1,5 @@
+"""The updated nonlinear model and what it predicts at every force level (METHODS §6).
+
+* :mod:`~nlupdate.prediction.predict` — updated linear model + identified elements,
+  its damping from the low-force test, and the predicted FRFs.
+"""

@@ -1,0 +1,177 @@
+"""Run archives: one self-describing folder per run.
+
+``<root>/<study>/<UTC time>-<short hash of the inputs>/`` holds::
+
+    manifest.json     study file and its hash, input data hashes, package versions, git
+                      commit, seeds, adapter and solver versions, start/end, how the run was
+                      orchestrated (flow-run id, tasks computed vs cached) and failures
+    study.toml        the study file as run
+    report.md         the report (:mod:`nlupdate.reporting.report`), plots linked
+    identification.json   the identification summary (when the study identifies)
+    tables/*.parquet  :func:`nlupdate.reporting.tables.study_tables`
+    plots/*.png       measured FRFs, DF fit, extracted linear FRF, convergence, candidate
+                      errors and FRFs, predictions per level, correlation per level
+
+The folder is written in a temporary sibling and renamed when complete
+(:func:`nlupdate.reporting.atomic.atomic_directory`), so a folder under its final name is
+always a complete archive.
+"""
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+from pathlib import Path
+from typing import Any, Mapping
+
+from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.report import plot_fit, plot_linear_frf
+from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.reporting.jsonfile import write_json
+from nlupdate.reporting.manifest import environment, file_hash, table_hash
+from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
+from nlupdate.reporting.report import report_markdown
+from nlupdate.reporting.tables import study_tables
+from nlupdate.study.steps import comparison_damping, model_pair, prediction_adapter
+from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.updating.candidates import candidate_frf
+from nlupdate.updating.plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
+
+MANIFEST = "manifest.json"
+
+
+def measured_fingerprint(result) -> dict[str, str] | None:
+    """Where the measured data came from and the SHA-256 of their content (and file)."""
+    if result.measured is None:
+        return None
+    spec = result.study.measured
+    out = {"source": spec.file if spec.file is not None else "simulated ([measured.simulate])",
+           "sha256": table_hash(result.measured)}
+    if spec.file is not None:
+        out["file_sha256"] = file_hash(spec.file)
+    return out
+
+
+def inputs_hash(result) -> str:
+    """Hash of what determines the run's results: the study text and the measured data."""
+    digest = hashlib.sha256(result.study.text.encode())
+    measured = measured_fingerprint(result)
+    if measured is not None:
+        digest.update(measured["sha256"].encode())
+    return digest.hexdigest()
+
+
+def run_folder(root: str | Path, study_name: str, started: dt.datetime, digest: str) -> Path:
+    """``<root>/<study>/<UTC time>-<8 hex digits of the inputs hash>``."""
+    return Path(root) / study_name / f"{started.astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}-{digest[:8]}"
+
+
+def _solver(spec: AdapterSpec | None) -> dict[str, Any] | None:
+    if spec is None:
+        return None
+    try:
+        version = build_adapter(spec).solver_version()
+    except (ValueError, RuntimeError) as error:
+        version = f"unknown ({error})"
+    return {"kind": spec.kind, "model": spec.model, "options": dict(spec.options), "solver": version}
+
+
+def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str], plots: Mapping[str, str]) -> dict:
+    """The manifest of a run (see the module docstring); ``run`` describes how it ran."""
+    study = result.study
+    seeds = {}
+    if study.measured is not None and study.measured.simulate is not None:
+        seeds["simulated_noise"] = study.measured.simulate.seed
+    if study.identification is not None:
+        seeds["monte_carlo"] = study.identification.seed
+    adapters = {"updating": _solver(study.adapter)}
+    if study.measured is not None and study.measured.simulate is not None and study.measured.simulate.adapter is not None:
+        adapters["simulated_truth"] = _solver(study.measured.simulate.adapter)
+    if study.prediction is not None:
+        adapters["prediction"] = _solver(prediction_adapter(study))
+    return {
+        "run_id": run_id,
+        "study": {"name": study.name, "file": str(study.path), "sha256": study.sha256, "description": study.description},
+        "inputs": {"measured": measured_fingerprint(result), "inputs_sha256": inputs_hash(result)},
+        "seeds": seeds,
+        "adapters": adapters,
+        "environment": environment(),
+        "run": dict(run),
+        "failures": [{"run": f.name, "error": f.error} for f in result.failures],
+        "tables": tables,
+        "plots": dict(plots),
+    }
+
+
+def _plots(result, folder: Path) -> dict[str, str]:
+    """Write every plot the result supports into ``folder``; returns key → file name."""
+    study = result.study
+    written: dict[str, str] = {}
+
+    def add(key: str, name: str, draw) -> None:
+        draw(folder / name)
+        written[key] = f"plots/{name}"
+
+    ident = result.identification
+    pair = None
+    if ident is not None:
+        pair = (ident.settings.response_dof, ident.settings.input_dof)
+    elif result.measured is not None:
+        first = result.measured.iloc[0]
+        pair = (str(first["response_dof"]), str(first["input_dof"]))
+    if result.measured is not None:
+        add("measured", "measured_frfs.png",
+            lambda path: plot_frf_levels(result.measured, *pair, path, f"measured receptance {pair[0]}/{pair[1]}"))
+    if ident is not None:
+        title = f"{ident.settings.method.upper()} ({ident.result.estimator}), {pair[0]}/{pair[1]}"
+        add("fit", "identification_fit.png", lambda path: plot_fit(ident.result, path, title))
+        measured_curves = []
+        if result.measured is not None:
+            data = FRFLevels.from_table(result.measured, *pair)
+            measured_curves = [(f"{level:g} N", *data.curve(level)) for level in data.levels]
+        add("linear_frf", "linear_frf.png",
+            lambda path: plot_linear_frf(ident.linear_frequency_hz, ident.linear_frf, measured_curves, path,
+                                         f"extracted linear FRF ({title})", ident.modal_receptance(ident.linear_frequency_hz)))
+    if result.runs:
+        tables = study_tables(result)
+        add("convergence", "convergence.png", lambda path: plot_convergence(tables["histories"], path))
+        add("frequency_errors", "frequency_errors.png", lambda path: plot_frequency_errors(result.comparison, path))
+        if result.targets is not None and result.targets.reference is not None:
+            frequency, h = result.targets.reference
+            response, inp = model_pair(study)
+            damping = comparison_damping(study, result.targets)
+            curves = {"initial": candidate_frf(result.runs[0], frequency, response, inp, *damping, "initial")}
+            curves.update({r.name: candidate_frf(r, frequency, response, inp, *damping) for r in result.runs})
+            add("frf_comparison", "candidate_frfs.png",
+                lambda path: plot_frf_comparison(frequency, h, curves, path, f"{study.name}: linear FRF {response}/{inp}"))
+    if result.predictions:
+        add("predictions", "prediction_vs_measurement.png",
+            lambda path: plot_predictions(result.measured, result.predictions, *pair, path,
+                                          f"{study.name}: updated nonlinear model vs measurement"))
+        correlation = study_tables(result)["correlation"]
+        add("correlation", "correlation_per_level.png", lambda path: plot_correlation_levels(correlation, path))
+    return written
+
+
+def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: str = "suffix") -> Path:
+    """Write the archive of ``result`` to ``final`` (atomically); returns the folder.
+
+    ``run``: how the run went (``started_utc``, ``finished_utc``, ``wall_time_s``,
+    ``orchestration``, flow-run id, tasks computed vs cached, …) for the manifest.
+    ``on_exists`` as for :func:`~nlupdate.reporting.atomic.atomic_directory`.
+    """
+    final = Path(final)
+    with atomic_directory(final, on_exists=on_exists) as archive:
+        folder = archive.path
+        (folder / "tables").mkdir()
+        (folder / "plots").mkdir()
+        tables = study_tables(result)
+        for name, table in tables.items():
+            table.to_parquet(folder / "tables" / f"{name}.parquet", index=False)
+        plots = _plots(result, folder / "plots")
+        (folder / "study.toml").write_text(result.study.text)
+        if result.identification is not None:
+            write_json(result.identification.summary(), folder / "identification.json")
+        manifest = build_manifest(result, final.name, run, sorted(tables), plots)
+        write_json(manifest, folder / MANIFEST)
+        (folder / "report.md").write_text(report_markdown(result, manifest, plots))
+    return archive.final

@@ -1,0 +1,235 @@
+"""``report.md``: a run archive's report, written to be read top to bottom.
+
+It opens with the answer (identified nonlinearity, updated parameters with their
+uncertainty, how well the updated nonlinear model predicts every force level), then
+shows how each step got there, with the plots linked beside the numbers. For a
+simulated study the hidden truth is printed beside every estimate.
+"""
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
+                    "propagated through the updating sensitivities for updated parameters); the interval given as "
+                    "'3σ' has coverage ≈ 99.7 % for a normal spread")
+
+
+def _number(value: float, digits: int = 4) -> str:
+    if value is None or not np.isfinite(value):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def _table(frame: pd.DataFrame, digits: int = 4) -> str:
+    """A markdown table of ``frame`` (numbers to ``digits`` significant digits)."""
+    def cell(value: Any) -> str:
+        if isinstance(value, (float, np.floating)):
+            return _number(float(value), digits)
+        return str(value).replace("|", "/")
+    header = "| " + " | ".join(map(str, frame.columns)) + " |"
+    rule = "|" + "---|" * len(frame.columns)
+    rows = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
+    return "\n".join([header, rule, *rows])
+
+
+def hidden_truth(study) -> dict[str, float]:
+    """Truth values of a simulated study (adapter parameters and element parameters), by name."""
+    sim = study.measured.simulate if study.measured is not None else None
+    if sim is None or sim.model_file is not None:
+        return {}
+    truth = dict(sim.parameters)
+    for element in sim.elements:
+        for key, value in element.items():
+            if key not in ("type", "dofs") and isinstance(value, (int, float)):
+                truth[key] = float(value)
+    return truth
+
+
+def _with_truth(value: float, std: float, truth: float | None, scale: float = 1.0, unit: str = "") -> str:
+    text = f"{_number(value / scale)} ± {_number(std / scale, 2)} {unit}".rstrip()
+    if truth is not None:
+        sigmas = abs(value - truth) / std if std and np.isfinite(std) and std > 0 else float("nan")
+        text += f" (truth {_number(truth / scale)}{' ' + unit if unit else ''}; {_number(sigmas, 2)}σ off)"
+    return text
+
+
+def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str]) -> str:
+    """The report of a :class:`~nlupdate.study.run.StudyResult` with its manifest; ``plots``
+    maps plot keys to their paths relative to the archive."""
+    study = result.study
+    truth = hidden_truth(study)
+    run = manifest.get("run", {})
+    lines = [f"# Study `{study.name}`", ""]
+    if study.description:
+        lines += [study.description, ""]
+    lines += [f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
+              f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
+
+    lines += ["## Summary", ""]
+    summary = _summary_lines(result, truth)
+    lines += summary or ["(nothing was computed)"]
+    lines += ["", f"_{UNCERTAINTY_NOTE}._", ""]
+    if result.failures:
+        lines += ["**Failed updating runs** (the others finished):", ""]
+        lines += [f"* `{f.name}`: {f.error}" for f in result.failures] + [""]
+
+    if result.measured is not None:
+        lines += ["## Measured data", ""]
+        sim = study.measured.simulate
+        if sim is not None:
+            lines += [f"Simulated stepped-sine test (sweep {sim.sweep}) of the hidden truth at "
+                      f"{', '.join(f'{f:g}' for f in sim.forces_n)} N, {len(sim.frequencies_hz)} frequencies "
+                      f"{min(sim.frequencies_hz):g}–{max(sim.frequencies_hz):g} Hz, noise {100 * sim.noise:g} % "
+                      f"(METHODS §8), seed {sim.seed}.", ""]
+        else:
+            lines += [f"Read from `{study.measured.file}` (SHA-256 `{manifest['inputs']['measured']['sha256'][:16]}…`).", ""]
+        if "measured" in plots:
+            lines += [f"![measured FRFs]({plots['measured']})", ""]
+
+    if result.identification is not None:
+        lines += _identification_section(result.identification, truth, plots)
+    if result.targets is not None:
+        lines += _targets_section(result)
+    if result.runs:
+        lines += _updating_section(result, truth, plots)
+    if result.predictions:
+        lines += _prediction_section(result, plots)
+
+    lines += ["## Files", "",
+              "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
+              "* `study.toml` — the study file as run",
+              "* `tables/*.parquet` — " + ", ".join(f"`{name}`" for name in manifest.get("tables", [])),
+              "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())), ""]
+    return "\n".join(lines)
+
+
+def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
+    out = []
+    ident = result.identification
+    if ident is not None:
+        stats = ident.uncertainty.parameters
+        parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name))}" for name, s in stats.items()
+                 if name in ident.parameters()]
+        out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts))
+    if result.runs and result.ranking is not None:
+        best = result.ranking[result.ranking["candidate"] != "initial"].iloc[0]["candidate"]
+        run = next(r for r in result.runs if r.name == best)
+        u = result.uncertainties.get(best)
+        values = "; ".join(
+            f"{name} = {_with_truth(value, u.std[name] if u else float('nan'), truth.get(name))}"
+            for name, value in run.parameters.items())
+        out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
+        if u is not None and u.note:
+            out.append(f"  ({u.note})")
+    for prediction in result.predictions:
+        c = prediction.correlation
+        out.append(f"* **Prediction** `{prediction.name}` (loss factor {_number(prediction.loss_factor, 3)}, "
+                   f"{prediction.loss_factor_source}): FRAC per level min {_number(c['frac'].min(), 3)}, "
+                   f"mean {_number(c['frac'].mean(), 3)} over {len(c)} levels")
+    return out
+
+
+def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
+    s = ident.settings
+    r = ident.result
+    lines = ["## Identification", ""]
+    if s.method == "prd":
+        lines += [f"PRD at **{r.setup.frequency_hz:g} Hz** from the {r.setup.low_force:g} N (low) and "
+                  f"{len(r.setup.high_forces)} high levels ({min(r.setup.high_forces):g}–{max(r.setup.high_forces):g} N), "
+                  f"{r.estimator} estimator."]
+        if ident.frequency_choice is not None:
+            lines += [f"Why this frequency: {ident.frequency_choice.reason} (visited "
+                      f"{', '.join(f'{f:g}' for f in ident.frequency_choice.visited_hz)} Hz). The identification is "
+                      f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
+                      f"because the stuck friction stiffens it."]
+    else:
+        lines += [f"DDF between {r.setup.force_pair[0]:g} and {r.setup.force_pair[1]:g} N over "
+                  f"{r.setup.band_hz[0]:g}–{r.setup.band_hz[1]:g} Hz, {r.estimator} estimator."]
+    lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}); "
+                  f"{ident.uncertainty.n_samples} Monte-Carlo samples, {ident.uncertainty.n_failed} failed.", ""]
+    stats = ident.uncertainty.parameters
+    rows = [{"parameter": name, "value": st.value, "std": st.std, "3σ interval": f"[{_number(st.value - 3 * st.std)}, "
+             f"{_number(st.value + 3 * st.std)}]", **({"truth": truth.get(name, float("nan"))} if truth else {})}
+            for name, st in stats.items() if name in ident.parameters()]
+    lines += [_table(pd.DataFrame(rows)), ""]
+    if "fit" in plots:
+        lines += [f"![PRD fit]({plots['fit']})", ""]
+    if ident.modes:
+        rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
+                 "std (Hz)": stats[f"linear_f{i + 1}_hz"].std, "loss factor": stats[f"linear_eta{i + 1}"].value,
+                 "std": stats[f"linear_eta{i + 1}"].std} for i in range(len(ident.modes))]
+        lines += [f"The extracted linear FRF (from the {ident.linear_from_level_n:g} N sweep) has these modes "
+                  f"(one-mode fits over ±{100 * s.modal_band_fraction:g} % around each resonance):", "",
+                  _table(pd.DataFrame(rows)), ""]
+    if "linear_frf" in plots:
+        lines += [f"![extracted linear FRF]({plots['linear_frf']})", ""]
+    return lines
+
+
+def _targets_section(result) -> list[str]:
+    t = result.targets.targets
+    std = result.targets.std_hz
+    frame = pd.DataFrame({"mode": list(t.labels), "target (Hz)": t.frequencies_hz,
+                          "std (Hz)": std if std is not None else float("nan"), "weight": t.weights})
+    return ["## Updating targets", "", _table(frame, 6), ""]
+
+
+def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
+    lines = ["## Updating", ""]
+    rows = []
+    for run in result.runs:
+        u = result.uncertainties.get(run.name)
+        rows.append({
+            "run": run.name, "converged": "yes" if run.converged else f"no ({run.reason})", "iterations": run.iterations,
+            "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
+            **{name: f"{_number(v)} ± {_number(u.std[name], 2) if u else '–'}" for name, v in run.parameters.items()},
+        })
+    frame = pd.DataFrame(rows).fillna("–")
+    lines += [_table(frame), ""]
+    if truth:
+        known = {k: v for k, v in truth.items() if any(k in r.parameters for r in result.runs)}
+        if known:
+            lines += ["Hidden truth: " + ", ".join(f"{k} = {_number(v)}" for k, v in known.items()), ""]
+    notes = {u.note for u in result.uncertainties.values() if u.note}
+    lines += [f"* {note}" for note in sorted(notes)] + ([""] if notes else [])
+    if "convergence" in plots:
+        lines += [f"![convergence]({plots['convergence']})", ""]
+    lines += ["Comparison with the targets, mode by mode (FRAC: against the extracted linear FRF in a band around "
+              "each target):", ""]
+    pivot = result.comparison.pivot_table(index="candidate", columns="mode", values="error_pct", sort=False)
+    pivot.columns = [f"error {c} (%)" for c in pivot.columns]
+    lines += [_table(pivot.reset_index()), ""]
+    if "frequency_errors" in plots:
+        lines += [f"![frequency errors]({plots['frequency_errors']})", ""]
+    if "frf_comparison" in plots:
+        lines += [f"![candidate FRFs]({plots['frf_comparison']})", ""]
+    ranking = result.ranking[["rank", "candidate", "weighted_abs_error_pct", "weighted_frac"]]
+    lines += ["Ranking for the user weights (weighted mean |frequency error|, lower is better):", "",
+              _table(ranking), ""]
+    return lines
+
+
+def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
+    lines = ["## Prediction at every force level", "",
+             "The updated linear FE model (its modes at the measured coordinates) plus the identified elements, "
+             "simulated at every measured force level and frequency, against the measurements; `initial` is the "
+             "model before updating with the same elements.", ""]
+    if "predictions" in plots:
+        lines += [f"![predictions]({plots['predictions']})", ""]
+    table = pd.concat([p.correlation.assign(model=p.name) for p in result.predictions], ignore_index=True)
+    table = table[["model", "force_level_n", "frac", "normalised_error", "peak_frequency_error_pct",
+                   "peak_amplitude_ratio"]]
+    lines += [_table(table, 3), ""]
+    if "correlation" in plots:
+        lines += [f"![correlation per level]({plots['correlation']})", ""]
+    return lines
+
+
+def summary_section(markdown: str) -> str:
+    """The ``## Summary`` section of a report as plain text (for a terminal)."""
+    text = markdown.split("## Summary", 1)[-1].split("\n## ", 1)[0]
+    lines = [line for line in text.splitlines() if not (line.startswith("_") and line.endswith("_"))]
+    return "\n".join(lines).replace("**", "").replace("`", "").strip()

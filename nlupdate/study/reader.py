@@ -1,0 +1,134 @@
+"""Typed, checked reading of TOML study files: every mistake is one line naming the file,
+the table, the key, the expected form and what was found."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+
+class StudyError(ValueError):
+    """A study file is malformed; the message names the file, table, key and expected form."""
+
+
+class Reader:
+    """Typed access to a parsed TOML document; every failure names the file, the table,
+    the key and the expected form. ``allowed`` maps table names (dotted) to their keys."""
+
+    def __init__(self, path: Path, allowed: Mapping[str, set[str]]) -> None:
+        self.path = path
+        self.allowed = allowed
+
+    def fail(self, where: str, key: str | None, expected: str, got: object = None) -> StudyError:
+        place = f"[{where}]" if where else "top level"
+        what = f"{place} key '{key}'" if key else place
+        suffix = f", got {got!r}" if got is not None else ""
+        return StudyError(f"{self.path}: {what}: expected {expected}{suffix}")
+
+    def table(self, data: Mapping[str, Any], where: str, required: bool = False) -> dict[str, Any] | None:
+        parent, _, key = where.rpartition(".")
+        value = data.get(key)
+        if value is None:
+            if required:
+                raise StudyError(f"{self.path}: missing table [{where}]")
+            return None
+        if not isinstance(value, dict):
+            raise self.fail(parent, key, "a table", value)
+        self.check_keys(value, where)
+        return value
+
+    def check_keys(self, table: Mapping[str, Any], where: str, allowed_key: str | None = None) -> None:
+        allowed = self.allowed[allowed_key if allowed_key is not None else where]
+        unknown = sorted(set(table) - allowed)
+        if unknown:
+            place = f"[{where}]" if where else "the top level"
+            raise StudyError(f"{self.path}: unknown key(s) {unknown} in {place}; allowed: {sorted(allowed)}")
+
+    def number(self, table: Mapping[str, Any], where: str, key: str, default: float | None = None,
+               required: bool = False, positive: bool = False, nonnegative: bool = False) -> float | None:
+        if key not in table:
+            if required:
+                raise self.fail(where, key, "a number (required)")
+            return default
+        value = table[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(where, key, "a finite number", value)
+        if positive and not value > 0:
+            raise self.fail(where, key, "a number > 0", value)
+        if nonnegative and value < 0:
+            raise self.fail(where, key, "a number ≥ 0", value)
+        return float(value)
+
+    def integer(self, table: Mapping[str, Any], where: str, key: str, default: int | None = None, minimum: int = 1) -> int | None:
+        if key not in table:
+            return default
+        value = table[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.fail(where, key, f"an integer ≥ {minimum}", value)
+        return value
+
+    def string(self, table: Mapping[str, Any], where: str, key: str, default: str | None = None,
+               required: bool = False, choices: tuple[str, ...] | None = None) -> str | None:
+        if key not in table:
+            if required:
+                expected = f"one of {list(choices)}" if choices else "a string"
+                raise self.fail(where, key, f"{expected} (required)")
+            return default
+        value = table[key]
+        if not isinstance(value, str) or (choices is not None and value not in choices):
+            raise self.fail(where, key, f"one of {list(choices)}" if choices else "a string", value)
+        return value
+
+    def boolean(self, table: Mapping[str, Any], where: str, key: str, default: bool) -> bool:
+        value = table.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(where, key, "true or false", value)
+        return value
+
+    def numbers(self, table: Mapping[str, Any], where: str, key: str, length: int | None = None,
+                required: bool = False) -> list[float] | None:
+        if key not in table:
+            if required:
+                raise self.fail(where, key, "a list of numbers (required)")
+            return None
+        value = table[key]
+        expected = f"a list of {length} numbers" if length is not None else "a non-empty list of numbers"
+        if (not isinstance(value, list) or not value or (length is not None and len(value) != length)
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value)):
+            raise self.fail(where, key, expected, value)
+        return [float(v) for v in value]
+
+    def strings(self, table: Mapping[str, Any], where: str, key: str, required: bool = False) -> list[str] | None:
+        if key not in table:
+            if required:
+                raise self.fail(where, key, "a list of strings (required)")
+            return None
+        value = table[key]
+        if not isinstance(value, list) or not value or any(not isinstance(v, str) for v in value):
+            raise self.fail(where, key, "a non-empty list of strings", value)
+        return list(value)
+
+    def scalar_or_numbers(self, table: Mapping[str, Any], where: str, key: str, default: float, length: int) -> float | list[float]:
+        if key not in table:
+            return default
+        value = table[key]
+        if isinstance(value, list):
+            values = self.numbers(table, where, key, length=length)
+            if min(values) < 0:
+                raise self.fail(where, key, f"a number ≥ 0 or a list of {length} numbers ≥ 0", value)
+            return values
+        return self.number(table, where, key, nonnegative=True)
+
+    def number_table(self, table: Mapping[str, Any], where: str, key: str) -> dict[str, float]:
+        value = table.get(key, {})
+        if not isinstance(value, dict):
+            raise self.fail(where, key, "a table of name = number", value)
+        for name, v in value.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise self.fail(f"{where}.{key}" if where else key, name, "a finite number", v)
+        return {name: float(v) for name, v in value.items()}
+
+    def path_of(self, relative: str) -> Path:
+        """A path given in the file, relative to the file's directory."""
+        path = Path(relative)
+        return path if path.is_absolute() else self.path.parent / path

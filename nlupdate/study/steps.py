@@ -1,0 +1,304 @@
+"""The steps of a study, each a function of plain inputs (a :class:`~nlupdate.study.spec.Study`
+and what earlier steps returned).
+
+:func:`nlupdate.study.run.run_study` calls them in order in one process; the Prefect
+flows (:mod:`nlupdate.flows`) call the very same functions inside cached tasks and decide
+where the FE evaluations run. Nothing here knows which of the two is calling.
+
+measured data → identification → targets → updating runs (one per formula × parameter
+set and per optimisation candidate) → comparison and ranking → parameter uncertainty →
+predictions of the updated nonlinear model at every force level → correlation.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from nlupdate.adapters.base import ModalResult
+from nlupdate.correlation.levels import correlate_levels
+from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.pipeline import Identification, identify
+from nlupdate.measurement.frf_table import force_levels, read_frf_table, select_frf
+from nlupdate.model.model_file import element_from_table, load_system
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
+from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.study.spec import SimulationSpec, Study, StudyError
+from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates
+from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult
+from nlupdate.updating.optimisation import OptimisationOptions
+from nlupdate.updating.sensitivity import FORMULA_LABELS
+from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
+from nlupdate.updating.uncertainty import ParameterUncertainty, propagate_target_uncertainty
+
+
+@dataclass(frozen=True, eq=False)
+class TargetSet:
+    """Updating targets, their standard deviations (Hz; None when unknown), the reference
+    linear FRF (frequencies Hz, receptance m/N) when there is one, and the loss factors of
+    the target modes when the identification measured them."""
+
+    targets: UpdatingTargets
+    std_hz: NDArray[np.float64] | None
+    reference: tuple[NDArray[np.float64], NDArray[np.complex128]] | None
+    loss_factors: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class RunFailure:
+    """An updating run (sweep branch) that failed: its name and the error."""
+
+    name: str
+    error: str
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """The updated nonlinear model of one run (or ``initial``) at every force level.
+
+    parameters: the model point (fixed values included); loss_factor: modal η used and
+    its source; table: predicted FRFs of the measured curve (measured coordinate names);
+    correlation: per-level metrics (:func:`nlupdate.correlation.levels.correlate_levels`).
+    """
+
+    name: str
+    parameters: Mapping[str, float]
+    loss_factor: float
+    loss_factor_source: str
+    table: pd.DataFrame
+    correlation: pd.DataFrame
+
+
+# --------------------------------------------------------------------------- measured data
+def truth_system(study: Study, simulation: SimulationSpec) -> NonlinearSystem:
+    """The hidden truth of a simulated test: a model file, or an FE model (adapter at the
+    truth parameters, modal loss factor) with the listed elements."""
+    if simulation.model_file is not None:
+        return load_system(simulation.model_file)
+    modes = build_adapter(simulation.adapter).evaluate(simulation.parameters)
+    model = modes.to_modal_model(loss_factors=simulation.loss_factor)
+    elements = tuple(
+        element_from_table(table, model, f"{study.path} [[measured.simulate.nonlinear]] #{i + 1}")
+        for i, table in enumerate(simulation.elements)
+    )
+    return NonlinearSystem(model, elements)
+
+
+def measured_table(study: Study) -> pd.DataFrame:
+    """The study's measured-FRF table: read from its file, or simulated (stepped sine read
+    off the continuation, METHODS §8 noise)."""
+    if study.measured is None:
+        raise StudyError(f"{study.path}: the study has no [measured] data")
+    if study.measured.file is not None:
+        return read_frf_table(study.measured.file)
+    sim = study.measured.simulate
+    table, _ = simulate_frf_table(truth_system(study, sim), sim.input_dof, np.asarray(sim.frequencies_hz), sim.forces_n,
+                                  sweep=sim.sweep, noise=sim.noise, seed=sim.seed)
+    return table
+
+
+# --------------------------------------------------------------------------- identification
+def identification_step(study: Study, table: pd.DataFrame) -> Identification:
+    """:func:`nlupdate.identification.pipeline.identify` on the study's measured curve."""
+    settings = study.identification
+    data = FRFLevels.from_table(table, settings.response_dof, settings.input_dof)
+    return identify(data, settings)
+
+
+# --------------------------------------------------------------------------- targets and runs
+def study_targets(study: Study, identification: Identification | None) -> TargetSet:
+    """Targets from the study: a list, the modes of this study's extracted linear FRF, or
+    the linear FRF of an earlier ``nlupdate identify`` output."""
+    t = study.targets
+    reference, std, loss_factors = None, None, None
+    if "from_identification" in t:
+        modes = t.get("modes") or list(range(1, len(identification.modes) + 1))
+        if not identification.modes:
+            raise StudyError(f"{study.path}: [targets] from_identification: the extracted linear FRF has no resonance "
+                             f"in the measured band")
+        if max(modes) > len(identification.modes):
+            found = ", ".join(f"{f:.2f}" for f in identification.natural_frequencies_hz)
+            raise StudyError(f"{study.path}: [targets] modes {modes}: the extracted linear FRF has "
+                             f"{len(identification.modes)} mode(s) ({found} Hz)")
+        index = [m - 1 for m in modes]
+        frequencies = identification.natural_frequencies_hz[index]
+        std = identification.natural_frequency_std_hz[index]
+        loss_factors = identification.loss_factors[index]
+        reference = (identification.linear_frequency_hz, identification.linear_frf)
+    elif "identification" in t:
+        frequency, h = read_linear_frf(study.resolve(t["identification"]), t["response_dof"], t["input_dof"],
+                                       t.get("force_level_n"))
+        reference = (frequency, h)
+        try:
+            frequencies = frf_natural_frequencies(frequency, h, t["n_modes"], t.get("band_hz"), t.get("frf_method", "peak"))
+        except ValueError as error:
+            raise StudyError(f"{study.path}: [targets] identification {t['identification']!r}: {error}") from None
+    else:
+        frequencies = np.asarray(t["frequencies_hz"], dtype=float)
+        std = np.asarray(t["std_hz"], dtype=float) if "std_hz" in t else None
+    if study.comparison["frf"] is not None:
+        response, inp = _measured_pair(study)
+        reference = read_linear_frf(study.comparison["frf"], response, inp, t.get("force_level_n"))
+    shapes = np.asarray(t["mode_shapes"], dtype=float).T if "mode_shapes" in t else None
+    try:
+        targets = UpdatingTargets(frequencies, t.get("weights"), shapes, tuple(t.get("coordinates", ())),
+                                  tuple(t.get("labels", ())), tuple(t.get("model_modes", ())))
+    except ValueError as error:
+        raise StudyError(f"{study.path}: [targets]: {error}") from None
+    return TargetSet(targets, std, reference, loss_factors)
+
+
+def _measured_pair(study: Study) -> tuple[str, str]:
+    """(response, input) names of the measured curve the study compares with."""
+    t = study.targets or {}
+    if "response_dof" in t and "input_dof" in t:
+        return t["response_dof"], t["input_dof"]
+    if study.identification is not None:
+        return study.identification.response_dof, study.identification.input_dof
+    raise StudyError(f"{study.path}: comparing with an FRF needs [targets] response_dof and input_dof")
+
+
+def model_pair(study: Study) -> tuple[str, str]:
+    """(response, input) names of the measured curve's coordinates in the FE model."""
+    response, inp = _measured_pair(study)
+    t = study.targets or {}
+    return t.get("model_response_dof", response), t.get("model_input_dof", inp)
+
+
+def run_name(method: str, formula: str, parameter_set: Sequence[str]) -> str:
+    """Name of an eigensensitivity run: method, formula and parameter set."""
+    return f"{method} {FORMULA_LABELS[formula]} {{{', '.join(parameter_set)}}}"
+
+
+def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
+    """One task per eigensensitivity formula × parameter set and per optimisation candidate."""
+    by_name = {p.name: p for p in study.parameters}
+    tasks = []
+    if study.eigensensitivity is not None:
+        for parameter_set in study.eigensensitivity["parameter_sets"]:
+            for formula in study.eigensensitivity["formulas"]:
+                options = EigensensitivityOptions(formula=formula, **study.eigensensitivity["options"], **study.updating)
+                tasks.append(UpdatingTask(run_name("eigensensitivity", formula, parameter_set), study.adapter,
+                                          tuple(by_name[n] for n in parameter_set), targets.targets, "eigensensitivity",
+                                          options, dict(study.fixed)))
+    if study.optimisation is not None:
+        options = OptimisationOptions(**study.optimisation, **study.updating)
+        for entry in study.candidates:
+            parameters = tuple(
+                dataclasses.replace(by_name[n], start=entry.start[n]) if n in entry.start else by_name[n]
+                for n in entry.parameters
+            )
+            try:
+                weighted = targets.targets.with_weights(entry.weights)
+            except ValueError as error:
+                raise StudyError(f"{study.path}: [[optimisation.candidates]] {entry.name!r}: {error}") from None
+            tasks.append(UpdatingTask(entry.name, study.adapter, parameters, weighted, "optimisation", options,
+                                      dict(study.fixed)))
+    return tasks
+
+
+def comparison_damping(study: Study, targets: TargetSet) -> tuple[float | list[float], float | list[float]]:
+    """(damping ratios, loss factors) of the candidates' modal FRFs: the study's, else the
+    loss factors the identification measured for the target modes, else none."""
+    ratios = study.comparison["damping_ratios"]
+    losses = study.comparison["loss_factors"]
+    if losses is None:
+        losses = list(targets.loss_factors) if targets.loss_factors is not None and ratios is None else 0.0
+    return (0.0 if ratios is None else ratios), losses
+
+
+def compare_runs(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Mode-by-mode comparison (with FRAC against the reference FRF when there is one) and
+    the ranking for the study's user weights (default: the target weights)."""
+    response, inp = model_pair(study) if targets.reference is not None else (None, None)
+    comparison = compare_candidates(runs, targets.reference, response, inp, *comparison_damping(study, targets),
+                                    study.comparison["band_fraction"])
+    weights = study.comparison["user_weights"]
+    return comparison, rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights))
+
+
+def parameter_uncertainties(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> dict[str, ParameterUncertainty]:
+    """Each run's parameter standard deviations from the target uncertainty (none when
+    the targets carry none)."""
+    if targets.std_hz is None:
+        return {}
+    lower = {p.name: p.lower for p in study.parameters}
+    upper = {p.name: p.upper for p in study.parameters}
+    return {run.name: propagate_target_uncertainty(run, targets.std_hz, lower, upper) for run in runs}
+
+
+# --------------------------------------------------------------------------- prediction
+def prediction_adapter(study: Study) -> AdapterSpec:
+    """The FE model used for predictions: the study's adapter with the prediction's option
+    overrides (typically more modes, local ones included)."""
+    options = {**study.adapter.options, **study.prediction.adapter_options}
+    return AdapterSpec(study.adapter.kind, study.adapter.model, options)
+
+
+def prediction_points(study: Study, runs: Sequence[UpdatingResult], ranking: pd.DataFrame) -> list[tuple[str, dict[str, float]]]:
+    """(name, model point) of every model to predict with: ``initial`` and the runs the
+    ``[prediction] candidates`` choice names (default: the best-ranked run)."""
+    start = {**study.fixed, **{p.name: p.start for p in study.parameters}}
+    by_name = {run.name: run for run in runs}
+    choice = study.prediction.candidates
+    if choice == "best":
+        names = [name for name in ranking["candidate"] if name in by_name][:1]
+    elif choice == "all":
+        names = list(by_name)
+    else:
+        unknown = [name for name in choice if name not in by_name]
+        if unknown:
+            raise StudyError(f"{study.path}: [prediction] candidates {unknown} are not runs of this study; runs: "
+                             f"{list(by_name)}")
+        names = list(choice)
+    return [("initial", start)] + [(name, {**start, **by_name[name].parameters}) for name in names]
+
+
+def prediction_levels(study: Study, table: pd.DataFrame) -> tuple[float, ...]:
+    """Force levels (N) to predict: the study's list, or every level of the measured curve."""
+    if study.prediction.force_levels_n is not None:
+        return study.prediction.force_levels_n
+    response, inp = _measured_pair(study)
+    curve = table[(table["response_dof"].astype(str) == response) & (table["input_dof"].astype(str) == inp)]
+    return tuple(float(level) for level in force_levels(curve))
+
+
+def predict_model(
+    study: Study, name: str, point: Mapping[str, float], modes: ModalResult, identification: Identification,
+    table: pd.DataFrame,
+) -> Prediction:
+    """Predict the measured curve at every prediction level with the FE ``modes`` (at
+    ``point``) and the identified elements, and correlate it with the measurement."""
+    response, inp = _measured_pair(study)
+    model_response, model_input = model_pair(study)
+    coordinates = list(modes.coordinates)
+    for what, dof in (("response", model_response), ("input", model_input)):
+        if dof not in coordinates:
+            raise StudyError(f"{study.path}: [prediction]: the {what} coordinate {dof!r} is not a coordinate of the "
+                             f"prediction model {coordinates}; set [adapter.options] or [prediction.adapter_options] "
+                             f"coordinates")
+    elements = identification.elements((coordinates.index(model_response),))
+    setting = study.prediction.loss_factor
+    if setting == "low_force_fit":
+        level = float(min(prediction_levels(study, table)))
+        f_low, h_low = select_frf(table, response, inp, level)
+        loss_factor = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level,
+                                      study.prediction.sweep)
+        source = f"fitted to the {level:g} N measurement"
+    elif setting == "identified":
+        loss_factor = float(np.mean(identification.loss_factors))
+        source = "the extracted linear FRF's modes (identification)"
+    else:
+        loss_factor, source = float(setting), "given"
+    frequency = np.unique(table["frequency_hz"].to_numpy(dtype=float))
+    predicted = predict(updated_model(modes, elements, loss_factor), model_input, frequency,
+                        prediction_levels(study, table), study.prediction.sweep)
+    predicted = predicted[(predicted["response_dof"] == model_response) & (predicted["input_dof"] == model_input)]
+    predicted = predicted.assign(response_dof=response, input_dof=inp).reset_index(drop=True)
+    return Prediction(name, dict(point), loss_factor, source, predicted, correlate_levels(table, predicted, response, inp))

@@ -1,0 +1,69 @@
+"""A point evaluator (:class:`nlupdate.updating.evaluation.PointEvaluator`) that runs each
+FE evaluation as a task on the flow's task runner — threads, or Dask workers.
+
+All updating runs of a sweep share one :class:`PointRegistry`: a point any run has
+already requested in this flow run is not submitted again, its future is shared, so the
+base point that four difference formulas need is evaluated once even when they ask for
+it at the same moment. Across runs the FE-point task's persistent cache serves it.
+Each evaluator counts, for its own updating run, the points it had computed (``new``) and
+those it got from the registry or the cache (``cached``).
+"""
+from __future__ import annotations
+
+import threading
+from typing import Mapping, Sequence
+
+from prefect import Task
+from prefect.futures import PrefectFuture
+
+from nlupdate.adapters.base import ModalResult
+from nlupdate.tasks.keys import point_key
+from nlupdate.updating.adapter_factory import AdapterSpec
+
+
+class PointRegistry:
+    """The FE-point futures of one flow run, by point key (thread-safe)."""
+
+    def __init__(self, evaluate_point: Task) -> None:
+        self.evaluate_point = evaluate_point
+        self._futures: dict[str, PrefectFuture] = {}
+        self._lock = threading.Lock()
+
+    def future(self, spec: AdapterSpec, point: Mapping[str, float]) -> tuple[PrefectFuture, bool]:
+        """The future of ``point`` of model ``spec``, and whether this call submitted it."""
+        key = point_key(spec, point)
+        with self._lock:
+            if key in self._futures:
+                return self._futures[key], False
+            future = self.evaluate_point.submit(key, spec, dict(point))
+            self._futures[key] = future
+            return future, True
+
+    def states(self) -> list[str]:
+        """State names (``Completed`` = computed, ``Cached``, ``Failed`` …) of the points so far."""
+        with self._lock:
+            futures = list(self._futures.values())
+        return [future.state.name for future in futures]
+
+
+class TaskPointEvaluator:
+    """Evaluates points of one model through a :class:`PointRegistry`; see the module docstring."""
+
+    def __init__(self, spec: AdapterSpec, registry: PointRegistry) -> None:
+        self.spec = spec
+        self.registry = registry
+        self._new = 0
+        self._cached = 0
+
+    def __call__(self, points: Sequence[Mapping[str, float]]) -> list[ModalResult]:
+        requests = [self.registry.future(self.spec, point) for point in points]
+        results = [future.result() for future, _ in requests]
+        for future, submitted in requests:
+            if submitted and future.state.name != "Cached":
+                self._new += 1
+            else:
+                self._cached += 1
+        return results
+
+    def counts(self) -> dict[str, int]:
+        return {"new": self._new, "cached": self._cached}

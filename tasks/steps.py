@@ -1,0 +1,91 @@
+"""One thin Prefect task per step of a study (:mod:`nlupdate.study.steps`), and one for a
+single FE evaluation.
+
+Each task's first argument is its cache ``key`` (:mod:`nlupdate.tasks.keys`); the cache
+policy is the task's inputs *without* the heavy or live arguments (studies, tables,
+models, evaluators) plus the task's source, so a key names a result across runs and
+processes. Results persist in the store the flow configures (:func:`configured`).
+Newton steps and continuation points are not tasks: a task is a step a person would name.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import pandas as pd
+from prefect import Task, task
+from prefect.cache_policies import INPUTS, TASK_SOURCE
+
+from nlupdate.adapters.base import ModalResult
+from nlupdate.identification.pipeline import Identification
+from nlupdate.study import steps
+from nlupdate.study.spec import Study
+from nlupdate.study.steps import Prediction, TargetSet
+from nlupdate.tasks.keys import adapter_for
+from nlupdate.updating.adapter_factory import AdapterSpec
+from nlupdate.updating.candidates import UpdatingTask, update
+from nlupdate.updating.eigensensitivity import UpdatingResult
+from nlupdate.updating.evaluation import PointEvaluator
+
+
+def _keyed(*live: str):
+    """Cache policy: the task's inputs except the ``live`` arguments, plus its source."""
+    policy = INPUTS
+    for name in live:
+        policy = policy - name
+    return policy + TASK_SOURCE
+
+
+@task(name="measured data", cache_policy=_keyed("study"), persist_result=True)
+def measured_data(key: str, study: Study) -> pd.DataFrame:
+    """The study's measured-FRF table (read or simulated)."""
+    return steps.measured_table(study)
+
+
+@task(name="identification", cache_policy=_keyed("study", "table"), persist_result=True)
+def identification(key: str, study: Study, table: pd.DataFrame) -> Identification:
+    """PRD/DDF identification, linear-FRF extraction, modes and Monte Carlo."""
+    return steps.identification_step(study, table)
+
+
+@task(name="targets", cache_policy=_keyed("study", "identified"), persist_result=True)
+def targets(key: str, study: Study, identified: Identification | None) -> TargetSet:
+    """The updating targets (and their uncertainty) of the study."""
+    return steps.study_targets(study, identified)
+
+
+@task(name="FE point", cache_policy=_keyed("spec", "point"), persist_result=True)
+def evaluate_point(key: str, spec: AdapterSpec, point: Mapping[str, float]) -> ModalResult:
+    """One FE evaluation: modes of the model ``spec`` at parameter values ``point``."""
+    return adapter_for(spec).evaluate(point)
+
+
+@task(name="updating run", cache_policy=_keyed("updating_task", "evaluate_points"), persist_result=True)
+def updating_run(key: str, updating_task: UpdatingTask, evaluate_points: PointEvaluator) -> UpdatingResult:
+    """One updating run (formula × parameter set, or optimisation candidate); its FE
+    evaluations go to ``evaluate_points`` (FE-point tasks on the flow's task runner)."""
+    return update(updating_task, evaluate_points)
+
+
+@task(name="comparison", cache_policy=_keyed("study", "target_set", "runs"), persist_result=True)
+def comparison(key: str, study: Study, target_set: TargetSet, runs: Sequence[UpdatingResult]):
+    """Mode-by-mode comparison, ranking and parameter uncertainty of the runs."""
+    compared, ranking = steps.compare_runs(study, target_set, runs)
+    return compared, ranking, steps.parameter_uncertainties(study, target_set, runs)
+
+
+@task(name="prediction", cache_policy=_keyed("study", "point", "modes", "identified", "table"), persist_result=True)
+def prediction(key: str, study: Study, name: str, point: Mapping[str, float], modes: ModalResult,
+               identified: Identification, table: pd.DataFrame) -> Prediction:
+    """The updated nonlinear model of one run at every force level, and its correlation."""
+    return steps.predict_model(study, name, point, modes, identified, table)
+
+
+STEP_TASKS: tuple[Task, ...] = (measured_data, identification, targets, evaluate_point, updating_run, comparison,
+                                prediction)
+
+
+def configured(step: Task, store: Path, refresh: bool = False) -> Task:
+    """``step`` persisting its results in ``store`` (``refresh``: compute even when the
+    store has the result, and overwrite it)."""
+    return step.with_options(result_storage=Path(store), refresh_cache=refresh)
