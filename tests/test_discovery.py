@@ -6,7 +6,8 @@ Each case must name the hidden effect(s) at the right coordinate(s) and shrink t
 itself plus noise) must answer ``none`` and leave the model unchanged. Truth parameters are
 drawn per seed relative to the structure (:mod:`nlupdate.discovery.hidden_cases`), places
 and seeds vary. The default run covers a representative subset (≈ 12 s); ``-m slow`` runs
-every case of ``benchmarks/discovery.py`` and more negative-control seeds.
+every case of ``benchmarks/discovery.py``, the same set with other seeds (so other truth
+parameters, noise and places) and more negative-control seeds.
 """
 import pickle
 from concurrent.futures import ThreadPoolExecutor
@@ -17,7 +18,7 @@ import pytest
 from nlupdate.discovery import DiscoveryOptions, discover, fit_candidate
 from nlupdate.discovery.effects import library
 from nlupdate.discovery.hidden_cases import benchmark_cases, hidden_case, sdof, two_dof
-from nlupdate.discovery.workflow import _evidence
+from nlupdate.discovery.workflow import measurement_evidence
 from nlupdate.model.elements import CubicStiffness, JenkinsFriction
 
 SDOF, TWO_DOF = sdof(), two_dof()
@@ -135,15 +136,16 @@ def test_candidate_fits_run_through_an_injected_map_with_the_same_result(measure
 def test_candidate_jobs_survive_pickling(measured):
     """A flow may ship jobs to other processes."""
     case = FAST_CASES["cubic_a"]
-    evidence = _evidence(case.model, measured["cubic_a"], DiscoveryOptions(), "measured")
+    evidence = measurement_evidence(case.model, measured["cubic_a"], DiscoveryOptions(), "measured")
     context = evidence.contexts(case.model, [], evidence.predict(case.model))[0]
     job = (context, library(["cubic_stiffness"])[0])
     assert fit_candidate(pickle.loads(pickle.dumps(job))).to_dict() == fit_candidate(job).to_dict()
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", benchmark_cases(), ids=lambda case: case.name)
+@pytest.mark.parametrize("case", benchmark_cases(0) + benchmark_cases(1000), ids=lambda case: case.name)
 def test_every_benchmark_case(case):
+    """The benchmark's 22 cases and 22 more with other seeds, parameters and places."""
     result = discover(case.model, case.measure())
     if case.expected:
         assert_found(case, result)

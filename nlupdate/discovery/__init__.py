@@ -8,8 +8,9 @@ shows the gap shrink, and repeats. See :mod:`nlupdate.discovery.workflow`.
 Modules: ``effects`` (the library), ``workflow`` (the loop), ``gap``, ``localisation``,
 ``frf_data`` / ``frf_evidence`` / ``frf_fit`` (stepped-sine FRFs), ``modal_data`` /
 ``modal_evidence`` / ``modal_fit`` (modal tables), ``candidates`` (criterion and
-significance), ``fitting``, ``linear_edits``, ``simulation``, ``report`` and ``plots``
-(output folder), ``errors``.
+significance), ``fitting`` and ``starts`` (least squares from variable-projection starts),
+``linear_edits``, ``simulation``, ``report`` and ``plots`` (output folder), ``errors``, and
+``hidden_cases`` (time-integration test cases with hidden effects, for tests and benchmarks).
 """
 from nlupdate.discovery.candidates import CandidateFit, FoundEffect
 from nlupdate.discovery.effects import EFFECT_NAMES, LIBRARY, DFSamples, Effect, ElementEffect, LinearEffect, Parameter

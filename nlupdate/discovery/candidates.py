@@ -22,10 +22,12 @@ and the workflow stops before that when the model's misfit is already at the noi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
 from nlupdate.discovery.effects import Effect
+from nlupdate.model.system import NonlinearSystem
 
 CRITERIA = ("bic", "aic")
 
@@ -65,6 +67,13 @@ class FoundEffect:
         if self.effect.variant:
             out["variant"] = self.effect.variant
         return out
+
+
+def augment(system: NonlinearSystem, effects: Sequence[FoundEffect]) -> NonlinearSystem:
+    """The system with the effects added in order."""
+    for found in effects:
+        system = found.effect.apply(system, found.dofs, found.values)
+    return system
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,7 +13,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.discovery.candidates import FoundEffect
+from nlupdate.discovery.candidates import FoundEffect, augment
 from nlupdate.discovery.frf_data import FRFData
 from nlupdate.discovery.frf_fit import FRFContext, frf_context
 from nlupdate.discovery.gap import GapReport, level_gap
@@ -32,13 +32,6 @@ class Prediction:
 
     def at(self, dof: int) -> NDArray[np.complex128]:
         return self.x[:, self.dofs.index(dof)]
-
-
-def augment(system: NonlinearSystem, effects: Sequence[FoundEffect]) -> NonlinearSystem:
-    """The system with the effects added in order."""
-    for found in effects:
-        system = found.effect.apply(system, found.dofs, found.values)
-    return system
 
 
 def natural_omega(system: NonlinearSystem) -> NDArray[np.float64]:

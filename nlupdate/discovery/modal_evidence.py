@@ -15,8 +15,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.discovery.candidates import FoundEffect
-from nlupdate.discovery.frf_evidence import augment
+from nlupdate.discovery.candidates import FoundEffect, augment
 from nlupdate.discovery.gap import GapReport, level_gap
 from nlupdate.discovery.modal_data import ModalData, as_modal
 from nlupdate.discovery.modal_fit import ModalContext, element_terms, modal_context, phase_resonance

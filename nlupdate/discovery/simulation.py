@@ -46,7 +46,7 @@ def simulate_points(
                         system, {input_dof: level}, w.min() * (1 - _BAND_MARGIN), w.max() * (1 + _BAND_MARGIN)
                     )
                     x = stepped_sine(curve, w, sweep).response(dofs)
-        except (ContinuationError, np.linalg.LinAlgError, ValueError) as error:
+        except (ContinuationError, np.linalg.LinAlgError, ValueError, ArithmeticError) as error:
             raise ModelSolveError(f"the model cannot be solved at {level:g} N, {band} ({error})") from None
         if not np.any(np.isfinite(x)):
             raise ModelSolveError(f"the model has no finite response at {level:g} N, {band} (singular or unstable)")

@@ -10,9 +10,10 @@
    (:mod:`nlupdate.discovery.frf_fit`, :mod:`nlupdate.discovery.modal_fit`) and rank them by
    an information criterion; stop with ``none`` when the best is not significant against
    the measurement noise (:mod:`nlupdate.discovery.candidates`);
-4. **add and look again** — add the effect, re-simulate; accept it only if the simulated
-   gap shrinks; repeat until the misfit is at the noise level, nothing more is
-   significant, or ``max_effects`` are found.
+4. **add and look again** — add the effect, re-simulate; accept it only if the model can
+   be simulated and the simulated gap shrinks (else try the next significant candidate, up
+   to three); repeat until the misfit is at the noise level, nothing more is significant,
+   or ``max_effects`` are found.
 
 Candidate fits are independent jobs run through ``map_candidates(fit_candidate, jobs)``
 (default: the built-in, sequential ``map``), so an orchestrator can run them in parallel;
@@ -26,12 +27,12 @@ from typing import Any, Callable, Sequence
 import pandas as pd
 
 from nlupdate.discovery.candidates import (
-    CRITERIA, CandidateFit, FoundEffect, at_noise_level, is_significant, penalty,
+    CRITERIA, CandidateFit, FoundEffect, at_noise_level, augment, is_significant, penalty,
 )
 from nlupdate.discovery.effects import DFSamples, Effect, library
-from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError
+from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError
 from nlupdate.discovery.frf_data import FRFData
-from nlupdate.discovery.frf_evidence import FRFEvidence, augment
+from nlupdate.discovery.frf_evidence import FRFEvidence
 from nlupdate.discovery.gap import GapReport
 from nlupdate.discovery.localisation import Localisation
 from nlupdate.discovery.modal_evidence import ModalEvidence
@@ -40,6 +41,7 @@ from nlupdate.measurement.modal_table import MODAL_COLUMNS
 from nlupdate.model.system import NonlinearSystem
 
 MapCandidates = Callable[[Callable[[Any], CandidateFit], Sequence[Any]], Any]
+_TRIALS = 3  # significant candidates tried in turn when the best cannot be simulated or does not help
 
 
 @dataclass(frozen=True)
@@ -176,7 +178,9 @@ def fit_candidate(job: tuple[Any, Effect]) -> CandidateFit:
     return context.fit(effect)
 
 
-def _evidence(system: NonlinearSystem, measured: pd.DataFrame, options: DiscoveryOptions, source: str):
+def measurement_evidence(system: NonlinearSystem, measured: pd.DataFrame, options: DiscoveryOptions, source: str):
+    """The measured table as evidence against ``system`` (FRF or modal, by its columns),
+    with the noise level and criterion of ``options``."""
     if not isinstance(measured, pd.DataFrame):
         raise MeasuredDataError(f"{source}: expected a measured-FRF or modal table (pandas DataFrame), got {type(measured).__name__}")
     if set(MODAL_COLUMNS) <= set(measured.columns):
@@ -206,7 +210,7 @@ def discover(
     Raises :class:`~nlupdate.discovery.errors.MeasuredDataError` for unusable data and
     :class:`~nlupdate.discovery.errors.ModelSolveError` when the model cannot be solved.
     """
-    evidence = _evidence(system, measured, options, source)
+    evidence = measurement_evidence(system, measured, options, source)
     effects = library(options.effects)
     before = evidence.predict(system)
     found: list[FoundEffect] = []
@@ -233,24 +237,34 @@ def discover(
             bands=tuple(evidence.bands(current, prediction)), candidates=tuple(candidates), samples=place.samples,
             gap_before=gap_now,
         )
-        significant, why = is_significant(best, options.min_evidence, options.min_explained) if best else (False, "no candidates")
-        if not significant:
+        accepted, why = None, "no candidates"
+        for candidate in candidates[:_TRIALS]:
+            significant, reason = is_significant(candidate, options.min_evidence, options.min_explained)
+            if not significant:
+                why = reason if candidate is best else why  # later ones: keep why the earlier failed
+                break
+            refitted = iter(candidate.companions)  # the effects found earlier at this place, in order
+            trial = [next(refitted) if set(f.dofs) == set(candidate.dofs) else f for f in found] + [candidate.found()]
+            trial_system = augment(system, trial)
+            try:
+                trial_prediction = evidence.predict(trial_system)
+            except ModelSolveError as error:
+                why = f"the model with {candidate.name} on dofs {list(candidate.dofs)} cannot be simulated ({error})"
+                continue
+            gap_trial = evidence.gap(trial_prediction).gap
+            if gap_trial >= gap_now:
+                why = (f"adding {candidate.name} on dofs {list(candidate.dofs)} did not shrink the simulated gap "
+                       f"({gap_now:.3g} → {gap_trial:.3g})")
+                continue
+            accepted = candidate
+            break
+        if accepted is None:
             stop = why
             steps.append(DiscoveryStep(**common, accepted=None, gap_after=None, note=why))
             break
-        refitted = iter(best.companions)  # the effects found earlier at this place, in order
-        trial = [next(refitted) if set(f.dofs) == set(best.dofs) else f for f in found] + [best.found()]
-        trial_system = augment(system, trial)
-        trial_prediction = evidence.predict(trial_system)
-        gap_trial = evidence.gap(trial_prediction).gap
-        if gap_trial >= gap_now:
-            stop = (f"adding {best.name} on dofs {list(best.dofs)} did not shrink the simulated gap "
-                    f"({gap_now:.3g} → {gap_trial:.3g})")
-            steps.append(DiscoveryStep(**common, accepted=None, gap_after=gap_trial, note=stop))
-            break
         found = trial
         current, prediction = trial_system, trial_prediction
-        steps.append(DiscoveryStep(**common, accepted=best.found(), gap_after=gap_trial))
+        steps.append(DiscoveryStep(**common, accepted=accepted.found(), gap_after=gap_trial))
     return DiscoveryResult(
         kind=evidence.kind, data=evidence.data, system=system, augmented=augment(system, found), effects=tuple(found),
         steps=tuple(steps), gap_before=evidence.gap(before), gap_after=evidence.gap(prediction),
