@@ -13,12 +13,15 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
+from nlupdate.discovery.effects import DFSamples
 from nlupdate.discovery.workflow import DiscoveryResult
 
 _MAX_COLUMNS = 3
 _CANDIDATES_SHOWN = 3
 _GAP_FLOOR = 1e-6  # gaps below are drawn at this height (log axis)
+_SAME_FREQUENCY = 0.35  # relative spread of ω below which DFs are drawn on a dense amplitude grid
 
 
 def _save(figure: Figure, path: str | os.PathLike) -> Path:
@@ -77,6 +80,16 @@ def _plot_modal_levels(result: DiscoveryResult, figure: Figure) -> None:
         axis.legend(fontsize=7)
 
 
+def _curve_points(samples: DFSamples) -> tuple[np.ndarray, np.ndarray]:
+    """Where to draw candidate DFs: a dense amplitude grid at the median ω when the samples
+    share about one frequency, else the samples themselves (sorted by amplitude)."""
+    if np.ptp(samples.omega) < _SAME_FREQUENCY * np.median(samples.omega):
+        amplitude = np.geomspace(samples.amplitude.min(), samples.amplitude.max(), 200)
+        return amplitude, np.full(amplitude.size, np.median(samples.omega))
+    order = np.argsort(samples.amplitude)
+    return samples.amplitude[order], samples.omega[order]
+
+
 def plot_frfs(result: DiscoveryResult, path: str | os.PathLike) -> Path:
     """Measured vs model before vs model after at every force level."""
     if result.kind == "modal":
@@ -102,22 +115,24 @@ def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -
         return _save(figure, path)
     samples = step.samples
     place = step.candidates[0].dofs
-    order = np.argsort(samples.amplitude)
     for axis, part in ((left, np.real), (right, np.imag)):
         axis.semilogx(samples.amplitude, part(samples.nu), ".", color="0.5", ms=3, label="apparent DF (measured)")
+    amplitude, omega = _curve_points(samples)
     shown = [c for c in step.candidates if c.dofs == place][:_CANDIDATES_SHOWN]
     for k, candidate in enumerate(shown):
-        nu = candidate.effect.nu(np.array(candidate.values), samples.amplitude, samples.omega)
+        nu = candidate.effect.nu(np.array(candidate.values), amplitude, omega)
         for companion in candidate.companions:
-            nu = nu + companion.effect.nu(np.array(companion.values), samples.amplitude, samples.omega)
+            nu = nu + companion.effect.nu(np.array(companion.values), amplitude, omega)
         label = f"{candidate.name}{' (' + candidate.effect.variant + ')' if candidate.effect.variant else ''}, score {candidate.score:.3g}"
         for axis, part in ((left, np.real), (right, np.imag)):
-            axis.semilogx(samples.amplitude[order], part(nu)[order], "-", color=f"C{k}", lw=1.2, label=label)
+            axis.semilogx(amplitude, part(nu), "-", color=f"C{k}", lw=1.2, label=label)
     left.set(xlabel="amplitude at the place (m)", ylabel="Re ν (N/m)", title=f"dofs {list(place)}: stiffness")
     right.set(xlabel="amplitude at the place (m)", ylabel="Im ν (N/m)", title="damping (Im ν > 0 dissipates)")
     for axis in (left, right):
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=7)
+        axis.tick_params(labelsize=7)
+        axis.xaxis.set_minor_formatter(NullFormatter())
     return _save(figure, path)
 
 
