@@ -40,7 +40,11 @@ def run_study_flow(
     store.mkdir(parents=True, exist_ok=True)
     from nlupdate.flows.study import Cache, study_flow, study_handle
 
-    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description):
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
+
+    # no flow-run heartbeats: each costs a second at the end of every (sub)flow run
+    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
+            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, API {url}"

@@ -22,7 +22,7 @@ from typing import Any
 import pandas as pd
 from prefect import flow
 from prefect.context import FlowRunContext
-from pydantic import BaseModel, ConfigDict, model_serializer
+from pydantic import BaseModel, ConfigDict, PrivateAttr, model_serializer
 
 from nlupdate.flows.progress import current_progress
 from nlupdate.identification.pipeline import Identification
@@ -34,7 +34,7 @@ from nlupdate.study.spec import Study
 from nlupdate.study.steps import Prediction, RunFailure, TargetSet
 from nlupdate.tasks import keys
 from nlupdate.tasks import steps as tasks
-from nlupdate.tasks.evaluation import PointRegistry, TaskPointEvaluator
+from nlupdate.tasks.evaluation import PointRegistry, TaskPointEvaluator, evaluating_with
 from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.uncertainty import ParameterUncertainty
 
@@ -42,11 +42,17 @@ from nlupdate.updating.uncertainty import ParameterUncertainty
 class Handle(BaseModel):
     """A value handed to a flow by reference. The API stores a flow run's parameters as
     JSON (at most 512 KB); a handle's JSON is its one-line ``description``, which is what
-    the run's page shows, while the flow gets ``value`` itself."""
+    the run's page shows, while the flow gets :attr:`value` itself. The value is a private
+    attribute, so Prefect does not walk through it looking for futures (seconds for a
+    sweep's results)."""
 
-    model_config = ConfigDict(arbitrary_types_allowed=True, frozen=True)
+    model_config = ConfigDict(frozen=True)
     description: str
-    value: Any
+    _value: Any = PrivateAttr()
+
+    @property
+    def value(self) -> Any:
+        return self._value
 
     @model_serializer
     def _as_description(self) -> str:
@@ -54,7 +60,9 @@ class Handle(BaseModel):
 
 
 def handle(value: Any, description: str) -> Handle:
-    return Handle(description=description, value=value)
+    wrapped = Handle(description=description)
+    wrapped._value = value
+    return wrapped
 
 
 @dataclass(frozen=True)
@@ -130,8 +138,8 @@ def updating_sweep_flow(study_handle: Handle, targets_handle: Handle, cache: Cac
 
     def one_run(updating_task):
         started = time.perf_counter()
-        state = run_task(keys.run_key(updating_task), updating_task,
-                         TaskPointEvaluator(updating_task.adapter, registry), return_state=True)
+        with evaluating_with(TaskPointEvaluator(updating_task.adapter, registry)):
+            state = run_task(keys.run_key(updating_task), updating_task, return_state=True)
         i = next(done)
         if state.is_completed():
             result = state.result()
@@ -214,9 +222,11 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
             handle(identified, f"identification ({identified.model_description})"), _measured_handle(measured), cache)
     result = StudyResult(study, measured, identified, target_set, sweep.runs, sweep.failures, sweep.comparison,
                          sweep.ranking, sweep.uncertainties, predictions)
+    steps_s = time.perf_counter() - clock
+    progress.say(f"steps done in {steps_s:.1f} s; writing the archive …")
     run = {
         "started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
-        "wall_time_s": time.perf_counter() - clock, "orchestration": orchestration,
+        "wall_time_s": steps_s, "orchestration": orchestration,
         "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store, "cache_refreshed": cache.refresh,
         "tasks": progress.summary(),
     }

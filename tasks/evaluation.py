@@ -7,11 +7,17 @@ base point that four difference formulas need is evaluated once even when they a
 it at the same moment. Across runs the FE-point task's persistent cache serves it.
 Each evaluator counts, for its own updating run, the points it had computed (``new``) and
 those it got from the registry or the cache (``cached``).
+
+The updating-run task finds its evaluator in the context (:func:`evaluating_with`), not
+among its arguments: a task's arguments travel with every task it submits (to Dask
+workers too), and an evaluator holds a lock and live futures that cannot.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import threading
-from typing import Mapping, Sequence
+from typing import Iterator, Mapping, Sequence
 
 from prefect import Task
 from prefect.futures import PrefectFuture
@@ -67,3 +73,21 @@ class TaskPointEvaluator:
 
     def counts(self) -> dict[str, int]:
         return {"new": self._new, "cached": self._cached}
+
+
+_EVALUATOR: contextvars.ContextVar[TaskPointEvaluator] = contextvars.ContextVar("nlupdate_point_evaluator")
+
+
+@contextlib.contextmanager
+def evaluating_with(evaluator: TaskPointEvaluator) -> Iterator[None]:
+    """Make ``evaluator`` the one :func:`current_evaluator` returns in this context."""
+    token = _EVALUATOR.set(evaluator)
+    try:
+        yield
+    finally:
+        _EVALUATOR.reset(token)
+
+
+def current_evaluator() -> TaskPointEvaluator:
+    """The evaluator set by :func:`evaluating_with` (LookupError outside one)."""
+    return _EVALUATOR.get()

@@ -5,8 +5,8 @@ key (and the task's source), never the heavy or live arguments beside it (tables
 evaluators), which Prefect could not hash reliably. A key is the SHA-256 of a canonical
 description of everything the result depends on:
 
-* the code that computes it — :data:`NUMERICS_CODE` (every numerics module) for the
-  study steps, :data:`FE_CODE` (adapters and the built-in FE) for FE points, so editing a
+* the code that computes it — :data:`NUMERICS_CODE` (the numerics the study steps run)
+  for the study steps, :data:`FE_CODE` (adapters and the built-in FE) for FE points, so editing a
   report template does not throw away hours of FE runs;
 * the inputs: study sections as parsed, content hashes of input files and tables,
   an adapter's model fingerprint (deck, mesh) and the parameter values.
@@ -33,12 +33,14 @@ from nlupdate.study.spec import Study
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import UpdatingTask
 
-_NOT_NUMERICS = {"cli", "flows", "tasks", "__pycache__"}
+#: The subpackages a study step runs (not the CLI, flows, tasks, reports or discovery).
+STUDY_PACKAGES = ("model", "response", "measurement", "identification", "updating", "prediction", "correlation",
+                  "study", "fe")
 
 
 def _source_hash(roots: Iterable[Path], skip: set[str]) -> str:
     digest = hashlib.sha256()
-    for root in roots:
+    for root in sorted(roots):
         for path in sorted(root.rglob("*.py")):
             if skip & set(path.relative_to(root).parts):
                 continue
@@ -49,8 +51,8 @@ def _source_hash(roots: Iterable[Path], skip: set[str]) -> str:
 
 _PACKAGE = Path(nlupdate.__file__).parent
 _ADAPTERS = Path(nlupdate.adapters.__file__).parent
-#: Hash of the numerics' source (nlupdate without its CLI, flows and tasks; adapters).
-NUMERICS_CODE = _source_hash({_PACKAGE, _ADAPTERS}, _NOT_NUMERICS)
+#: Hash of the source of the study steps (:data:`STUDY_PACKAGES`) and the adapters.
+NUMERICS_CODE = _source_hash([_PACKAGE / name for name in STUDY_PACKAGES] + [_ADAPTERS], {"__pycache__"})
 #: Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models).
 FE_CODE = _source_hash({_ADAPTERS, _PACKAGE / "fe", _PACKAGE / "model"}, {"__pycache__"})
 

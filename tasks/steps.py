@@ -21,11 +21,11 @@ from nlupdate.identification.pipeline import Identification
 from nlupdate.study import steps
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import Prediction, TargetSet
+from nlupdate.tasks.evaluation import current_evaluator
 from nlupdate.tasks.keys import adapter_for
 from nlupdate.updating.adapter_factory import AdapterSpec
 from nlupdate.updating.candidates import UpdatingTask, update
 from nlupdate.updating.eigensensitivity import UpdatingResult
-from nlupdate.updating.evaluation import PointEvaluator
 
 
 def _keyed(*live: str):
@@ -60,11 +60,12 @@ def evaluate_point(key: str, spec: AdapterSpec, point: Mapping[str, float]) -> M
     return adapter_for(spec).evaluate(point)
 
 
-@task(name="updating run", cache_policy=_keyed("updating_task", "evaluate_points"), persist_result=True)
-def updating_run(key: str, updating_task: UpdatingTask, evaluate_points: PointEvaluator) -> UpdatingResult:
+@task(name="updating run", cache_policy=_keyed("updating_task"), persist_result=True)
+def updating_run(key: str, updating_task: UpdatingTask) -> UpdatingResult:
     """One updating run (formula × parameter set, or optimisation candidate); its FE
-    evaluations go to ``evaluate_points`` (FE-point tasks on the flow's task runner)."""
-    return update(updating_task, evaluate_points)
+    evaluations go to the evaluator of the context (FE-point tasks on the flow's task
+    runner, :func:`nlupdate.tasks.evaluation.evaluating_with`)."""
+    return update(updating_task, current_evaluator())
 
 
 @task(name="comparison", cache_policy=_keyed("study", "target_set", "runs"), persist_result=True)

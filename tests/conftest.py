@@ -1,0 +1,39 @@
+"""Test-session set-up.
+
+* Prefect keeps its database and settings in a temporary ``PREFECT_HOME`` for the
+  session (set before anything imports Prefect), and :func:`prefect_server` starts one
+  server for all the tests that need it (each start costs 13–26 s here).
+* Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
+  when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
+  the skip into a failure so CI always runs them.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+
+import pytest
+
+os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="nlupdate-test-prefect-")
+os.environ.pop("PREFECT_API_URL", None)
+
+from nlupdate.flows.environment import prepare_environment  # noqa: E402
+
+prepare_environment()
+
+
+def pytest_runtest_setup(item):
+    if "calculix" in item.keywords and not shutil.which("ccx"):
+        if os.environ.get("NLUPDATE_REQUIRE_CCX") == "1":
+            pytest.fail("ccx is required here (NLUPDATE_REQUIRE_CCX=1) but not on PATH: apt-get install -y calculix-ccx")
+        pytest.skip("needs CalculiX (ccx): apt-get install -y calculix-ccx")
+
+
+@pytest.fixture(scope="session")
+def prefect_server():
+    """One Prefect server for the session; yields its API URL (also in PREFECT_API_URL)."""
+    from nlupdate.flows.server import prefect_api
+
+    with prefect_api(lambda message: None) as url:
+        yield url

@@ -1,0 +1,183 @@
+"""Studies as Prefect flows, against the plain sequential run of the same steps.
+
+One Prefect server serves the whole module (session fixture). The study is the small
+2-DOF chain of ``tests/data/studies/two_dof.toml`` (simulated test, PRD, four formulas
+on two parameter sets, an optimisation candidate, prediction).
+"""
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nlupdate.flows.progress import Progress
+from nlupdate.flows.run import run_study_flow
+from nlupdate.flows.runners import Execution, ExecutionError, task_runner
+from nlupdate.study import load_study, run_study, study_from_text
+from nlupdate.study.steps import study_targets, updating_tasks
+from nlupdate.updating.candidates import run_tasks
+
+STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
+
+
+def flow_run(study, tmp_path: Path, cache: str = "cache", **options) -> tuple[Path, dict]:
+    archive = run_study_flow(study, tmp_path / "results", cache_dir=tmp_path / cache, progress=Progress(quiet=True),
+                             **options)
+    return archive, json.loads((archive / "manifest.json").read_text())
+
+
+def tally(manifest: dict, step: str) -> dict:
+    """Computed / cached / failed task runs of one step (steps with i/N summed)."""
+    total = {"computed": 0, "cached": 0, "failed": 0}
+    for name, counts in manifest["run"]["tasks"].items():
+        if name == step or name.startswith(step + " "):
+            for key in total:
+                total[key] += counts[key]
+    return total
+
+
+@pytest.fixture(scope="module")
+def first_run(prefect_server, tmp_path_factory):
+    """The study run once under Prefect (threads), on a fresh cache."""
+    tmp_path = tmp_path_factory.mktemp("flows")
+    archive, manifest = flow_run(load_study(STUDY), tmp_path)
+    return tmp_path, archive, manifest
+
+
+def test_flow_and_sequential_run_give_the_same_numbers(first_run):
+    _, archive, manifest = first_run
+    sequential = run_study(load_study(STUDY))
+    identification = pd.read_parquet(archive / "tables" / "identification.parquet").set_index("parameter")
+    for name, value in sequential.identification.parameters().items():
+        assert identification.loc[name, "value"] == pytest.approx(value, rel=1e-10)
+    runs = pd.read_parquet(archive / "tables" / "runs.parquet").set_index("candidate")
+    assert set(runs.index) == {r.name for r in sequential.runs}
+    for result in sequential.runs:
+        for name, value in result.parameters.items():
+            assert runs.loc[result.name, f"p:{name}"] == pytest.approx(value, rel=1e-10)
+            assert runs.loc[result.name, f"std:{name}"] == pytest.approx(sequential.uncertainties[result.name].std[name],
+                                                                         rel=1e-6)
+    correlation = pd.read_parquet(archive / "tables" / "correlation.parquet")
+    for prediction in sequential.predictions:
+        flow_frac = correlation[correlation["model"] == prediction.name]["frac"].to_numpy()
+        np.testing.assert_allclose(flow_frac, prediction.correlation["frac"].to_numpy(), rtol=1e-8)
+    assert manifest["failures"] == [] and manifest["study"]["name"] == "two-dof"
+
+
+def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
+    """Flow runs are read back from the API: the study flow and its three subflows, completed."""
+    from prefect.client.orchestration import get_client
+
+    _, _, manifest = first_run
+
+    async def flow_runs():
+        async with get_client() as client:
+            parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
+            children = []
+            for run in await client.read_flow_runs():
+                if run.parent_task_run_id is not None:
+                    if (await client.read_task_run(run.parent_task_run_id)).flow_run_id == parent.id:
+                        children.append(run)
+            return parent, children
+
+    parent, children = asyncio.run(flow_runs())
+    assert parent.state_name == "Completed" and parent.name == "two-dof"
+    assert sorted(run.state_name for run in children) == ["Completed"] * 3
+
+
+def test_an_unchanged_rerun_is_all_cached(first_run):
+    """Every task comes from the cache (the time ratio is measured on the demo, whose
+    computing outweighs Prefect's per-flow overhead: tests/test_demo.py)."""
+    tmp_path, _, first = first_run
+    _, again = flow_run(load_study(STUDY), tmp_path)
+    assert again["run"]["wall_time_s"] < first["run"]["wall_time_s"]
+    for step, counts in again["run"]["tasks"].items():
+        assert counts["computed"] == 0 and counts["failed"] == 0, (step, counts)
+    assert tally(again, "updating")["cached"] == 9 and tally(again, "identification")["cached"] == 1
+
+
+def test_changing_one_bound_reruns_only_the_runs_that_depend_on_it(first_run):
+    tmp_path, _, _ = first_run
+    text = STUDY.read_text().replace("start = 1.2e6\nlower = 0.5e6\nupper = 1.5e6", "start = 1.2e6\nlower = 0.5e6\nupper = 1.6e6")
+    assert text != STUDY.read_text()
+    _, changed = flow_run(study_from_text(text, STUDY), tmp_path)
+    assert tally(changed, "measured data") == {"computed": 0, "cached": 1, "failed": 0}
+    assert tally(changed, "identification") == {"computed": 0, "cached": 1, "failed": 0}
+    assert tally(changed, "updating") == {"computed": 4, "cached": 5, "failed": 0}  # the four {k2} runs
+    assert tally(changed, "FE point")["computed"] == 0  # the bound is not active: the same points
+
+
+def test_each_base_point_is_evaluated_once_in_a_four_formula_sweep(prefect_server, tmp_path):
+    """On a cold cache the flow computes exactly the distinct points a sequential sweep with
+    one shared memo computes; the start point of each parameter set once."""
+    study = load_study(STUDY)
+    study = dataclasses.replace(study, prediction=None, identification=None, measured=None,
+                                targets={"frequencies_hz": [740.0], "model_modes": [2]})
+    _, manifest = flow_run(study, tmp_path, cache="cold")
+    sequential = run_tasks(updating_tasks(study, study_targets(study, None)))
+    distinct_points = sum(result.counts["new"] for result in sequential)
+    assert tally(manifest, "FE point") == {"computed": distinct_points, "cached": 0, "failed": 0}
+    histories = pd.read_parquet(sorted((tmp_path / "results").rglob("histories.parquet"))[0])
+    start = histories[histories["iteration"] == 0]
+    for parameter_set in ("{k1}", "{k2}"):
+        rows = start[start["run"].str.endswith(parameter_set) | (start["run"] == f"optimisation {parameter_set}")]
+        assert rows["new_evaluations"].sum() == 1, rows[["run", "new_evaluations", "cached_evaluations"]]
+
+
+def test_a_dask_cluster_gives_the_same_candidates_as_threads(first_run, tmp_path):
+    _, threads, _ = first_run
+    dask, manifest = flow_run(load_study(STUDY), tmp_path, cache="dask", execution=Execution(workers=2, dask=True))
+    assert "local Dask cluster, 2 worker processes" in manifest["run"]["orchestration"]
+    assert tally(manifest, "FE point")["computed"] > 0  # nothing came from the threads run's cache
+    a = pd.read_parquet(threads / "tables" / "runs.parquet").set_index("candidate").sort_index()
+    b = pd.read_parquet(dask / "tables" / "runs.parquet").set_index("candidate").sort_index()
+    pd.testing.assert_frame_equal(a.filter(like="p:"), b.filter(like="p:"), rtol=1e-10)
+
+
+def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_path):
+    """A candidate whose start is a negative mass fails in the lumped adapter; the rest of
+    the sweep, the comparison and the prediction go on."""
+    text = STUDY.read_text() + (
+        '\n[[parameters]]\nname = "m1"\nunit = "kg"\nstart = 0.1\nlower = -0.2\nupper = 0.3\n'
+        '\n[[optimisation.candidates]]\nname = "negative mass"\nparameters = ["m1"]\nstart = { m1 = -0.1 }\n')
+    archive, manifest = flow_run(study_from_text(text, STUDY), tmp_path)
+    assert [f["run"] for f in manifest["failures"]] == ["negative mass"]
+    assert "must be positive" in manifest["failures"][0]["error"]
+    runs = pd.read_parquet(archive / "tables" / "runs.parquet")
+    assert len(runs) == 9 and "negative mass" not in set(runs["candidate"])
+    report = (archive / "report.md").read_text()
+    assert "Failed updating runs" in report and "negative mass" in report
+    assert (archive / "tables" / "correlation.parquet").exists()
+
+
+def test_an_unreachable_dask_address_fails_clearly_within_ten_seconds():
+    started = time.perf_counter()
+    with pytest.raises(ExecutionError, match="no Dask scheduler answers at tcp://127.0.0.1:9"):
+        with task_runner(Execution(dask_address="tcp://127.0.0.1:9"), connect_timeout_s=5):
+            pass
+    assert time.perf_counter() - started < 10
+
+
+def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch):
+    from prefect.server.api import server
+
+    from nlupdate.flows.server import ServerError, prefect_api
+
+    def broken(self, timeout=None):
+        raise RuntimeError("Timed out while attempting to connect to ephemeral Prefect API server")
+
+    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    monkeypatch.setattr(server.SubprocessASGIServer, "start", broken)
+    with pytest.raises(ServerError, match="could not start a Prefect server .*prefect server start"):
+        with prefect_api(lambda message: None):
+            pass
+    monkeypatch.setenv("PREFECT_API_URL", "http://127.0.0.1:9/api")
+    with pytest.raises(ServerError, match="PREFECT_API_URL=http://127.0.0.1:9/api does not answer"):
+        with prefect_api(lambda message: None):
+            pass
