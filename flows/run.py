@@ -52,3 +52,41 @@ def run_study_flow(
             archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
                 study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration)
     return Path(archive)
+
+
+def run_discovery_flow(
+    model_file: str | os.PathLike,
+    measured_file: str | os.PathLike,
+    options,
+    results_root: str | os.PathLike = "results",
+    execution: Execution = Execution(),
+    cache_dir: str | os.PathLike | None = None,
+    refresh: bool = False,
+    progress: Progress | None = None,
+) -> Path:
+    """Run :func:`~nlupdate.flows.discovery.discovery_flow` on a model file and measured
+    data (FRF or modal table); returns the archive."""
+    prepare_environment()
+    progress = progress or Progress()
+    store = cache_directory(cache_dir)
+    store.mkdir(parents=True, exist_ok=True)
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
+
+    from nlupdate.flows.discovery import discovery_flow
+    from nlupdate.flows.study import Cache, handle
+    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
+    from nlupdate.model.model_file import load_system
+
+    system = load_system(model_file)
+    table = read_modal_table(measured_file) if is_modal_table_file(measured_file) else read_frf_table(measured_file)
+    inputs = handle((Path(model_file).resolve(), system, Path(measured_file).resolve(), table, options),
+                    f"model {model_file}, measured {measured_file}")
+    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
+            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
+        progress.say(f"discovery: tasks on {description}; cache {store}")
+        with using(progress):
+            archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
+                inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
+                f"Prefect flow `discovery` on {description}, API {url}")
+    return Path(archive)

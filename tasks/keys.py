@@ -53,6 +53,9 @@ _PACKAGE = Path(nlupdate.__file__).parent
 _ADAPTERS = Path(nlupdate.adapters.__file__).parent
 #: Hash of the source of the study steps (:data:`STUDY_PACKAGES`) and the adapters.
 NUMERICS_CODE = _source_hash([_PACKAGE / name for name in STUDY_PACKAGES] + [_ADAPTERS], {"__pycache__"})
+#: Hash of the code a discovery candidate fit depends on.
+DISCOVERY_CODE = _source_hash([_PACKAGE / name for name in ("discovery", "model", "response", "identification",
+                                                             "measurement", "correlation")], {"__pycache__"})
 #: Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models).
 FE_CODE = _source_hash({_ADAPTERS, _PACKAGE / "fe", _PACKAGE / "model"}, {"__pycache__"})
 
@@ -147,3 +150,9 @@ def run_key(task: UpdatingTask) -> str:
 def step_key(name: str, *parts: Any) -> str:
     """Any other step: a name and the keys or values it depends on."""
     return digest(name, NUMERICS_CODE, *parts)
+
+
+def candidate_key(job: Any) -> str:
+    """One discovery candidate fit: the job's content (data, model, place and effect) and
+    the discovery code."""
+    return digest("candidate", DISCOVERY_CODE, job)

@@ -17,6 +17,8 @@ from prefect import Task, task
 from prefect.cache_policies import INPUTS, TASK_SOURCE
 
 from nlupdate.adapters.base import ModalResult
+from nlupdate.discovery.candidates import CandidateFit
+from nlupdate.discovery.workflow import fit_candidate
 from nlupdate.identification.pipeline import Identification
 from nlupdate.study import steps
 from nlupdate.study.spec import Study
@@ -82,8 +84,10 @@ def prediction(key: str, study: Study, name: str, point: Mapping[str, float], mo
     return steps.predict_model(study, name, point, modes, identified, table)
 
 
-STEP_TASKS: tuple[Task, ...] = (measured_data, identification, targets, evaluate_point, updating_run, comparison,
-                                prediction)
+@task(name="candidate fit", cache_policy=_keyed("job"), persist_result=True)
+def candidate_fit(key: str, job: tuple) -> CandidateFit:
+    """One discovery candidate (an effect at a place) fitted to the measurements."""
+    return fit_candidate(job)
 
 
 def configured(step: Task, store: Path, refresh: bool = False) -> Task:

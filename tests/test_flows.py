@@ -181,3 +181,33 @@ def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch):
     with pytest.raises(ServerError, match="PREFECT_API_URL=http://127.0.0.1:9/api does not answer"):
         with prefect_api(lambda message: None):
             pass
+
+
+def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_server, tmp_path):
+    """The SDOF example (time-integration data, friction + cubic hidden): the flow's
+    candidate fits are tasks; effects and parameters equal the plain call's; a rerun
+    takes every fit from the cache."""
+    from nlupdate.discovery import DiscoveryOptions, discover
+    from nlupdate.flows.run import run_discovery_flow
+    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.model.model_file import load_system
+
+    examples = Path(__file__).resolve().parents[1] / "examples" / "discovery"
+    model, measured = examples / "sdof_linear.toml", examples / "sdof_friction_cubic.csv"
+    plain = discover(load_system(model), read_frf_table(measured), DiscoveryOptions())
+    progress = Progress(quiet=True)
+    archive = run_discovery_flow(model, measured, DiscoveryOptions(), tmp_path / "results", cache_dir=tmp_path / "cache",
+                                 progress=progress)
+    found = json.loads((archive / "discovery.json").read_text())
+    assert [e["effect"] for e in found["effects"]] == [e.name for e in plain.effects] == ["dry_friction", "cubic_stiffness"]
+    for flow_effect, plain_effect in zip(found["effects"], plain.effects):
+        for name, value in plain_effect.parameters.items():
+            assert flow_effect["parameters"][name] == pytest.approx(value, rel=1e-10)
+    assert found["gap_after"] <= 0.3 * found["gap_before"]
+    assert {"report.md", "manifest.json", "augmented_model.toml", "model.toml", "measured.parquet"} <= {
+        p.name for p in archive.iterdir()}
+    assert progress.summary()["candidate fit"]["computed"] > 0
+    again = Progress(quiet=True)
+    run_discovery_flow(model, measured, DiscoveryOptions(), tmp_path / "results", cache_dir=tmp_path / "cache",
+                       progress=again)
+    assert again.summary()["candidate fit"]["computed"] == 0 and again.summary()["candidate fit"]["cached"] > 0

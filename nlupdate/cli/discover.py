@@ -12,6 +12,7 @@ import argparse
 import time
 
 from nlupdate.cli import CliError
+from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
 from nlupdate.discovery.report import write_discovery
@@ -30,7 +31,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--model", required=True, metavar="MODEL.toml", help="model file ([model] + [[nonlinear]])")
     parser.add_argument("--measured", required=True, metavar="FILE",
                         help="measured FRFs at several force levels (.parquet/.csv/.uff) or a modal table (.csv)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (replaced when complete)")
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--out", metavar="DIR", help="output directory, in this process (replaced when complete)")
+    where.add_argument("--archive", metavar="ROOT",
+                       help="run as a Prefect flow (candidate fits as cached parallel tasks) and archive the run under "
+                            "ROOT/discovery-<model>/<UTC time>-<hash>/")
     parser.add_argument("--effects", help=f"comma-separated subset of the library (default all: {','.join(EFFECT_NAMES)})")
     parser.add_argument("--criterion", choices=("bic", "aic"), default="bic", help="information criterion (default bic)")
     parser.add_argument("--max-effects", type=int, default=3, help="most effects to add (default 3)")
@@ -41,6 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="modal table: relative std of the natural frequencies (default 0.002)")
     parser.add_argument("--damping-uncertainty", type=float, default=0.05,
                         help="modal table: relative std of the damping ratios (default 0.05)")
+    add_execution_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -55,6 +61,16 @@ def run(args: argparse.Namespace) -> int:
             sweep=args.sweep, frequency_uncertainty=args.frequency_uncertainty,
             damping_uncertainty=args.damping_uncertainty,
         )
+        if args.archive is not None:
+            from nlupdate.flows.run import run_discovery_flow
+            from nlupdate.flows.runners import Execution
+
+            with prefect_errors(args):
+                folder = run_discovery_flow(args.model, args.measured, options, args.archive,
+                                            Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
+                                            args.no_cache)
+            print(f"archive: {folder}\nreport:  {folder / 'report.md'}")
+            return 0
         result = discover(system, table, options, source=str(args.measured))
     except ModelSolveError as error:
         raise CliError(f"{args.model}: {error}") from None

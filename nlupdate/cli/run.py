@@ -7,8 +7,10 @@ archive ``<out>/<study>/<UTC time>-<hash>/``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 from pathlib import Path
+from typing import Iterator
 
 from nlupdate.cli import CliError
 
@@ -36,23 +38,33 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
-def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
-    """Run ``study`` under Prefect with the execution options of ``args``; one-line errors."""
+@contextlib.contextmanager
+def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
+    """Check the execution options, prepare the environment before Prefect is imported,
+    and turn set-up failures (server, Dask) into one-line errors."""
     if args.workers < 1:
         raise CliError(f"--workers must be at least 1, got {args.workers}")
     from nlupdate.flows.environment import prepare_environment
 
-    prepare_environment()  # before Prefect is imported
-    from nlupdate.flows.progress import Progress
-    from nlupdate.flows.run import run_study_flow
-    from nlupdate.flows.runners import Execution, ExecutionError
+    prepare_environment()
+    from nlupdate.flows.runners import ExecutionError
     from nlupdate.flows.server import ServerError
 
     try:
-        return run_study_flow(study, results_root, Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
-                              args.no_cache, Progress(quiet=args.quiet))
+        yield
     except (ExecutionError, ServerError) as error:
         raise CliError(str(error)) from None
+
+
+def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
+    """Run ``study`` under Prefect with the execution options of ``args``; one-line errors."""
+    with prefect_errors(args):
+        from nlupdate.flows.progress import Progress
+        from nlupdate.flows.run import run_study_flow
+        from nlupdate.flows.runners import Execution
+
+        return run_study_flow(study, results_root, Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
+                              args.no_cache, Progress(quiet=args.quiet))
 
 
 def print_summary(archive: Path) -> None:

@@ -141,8 +141,16 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
                   f"{len(r.setup.high_forces)} high levels ({min(r.setup.high_forces):g}–{max(r.setup.high_forces):g} N), "
                   f"{r.estimator} estimator."]
         if ident.frequency_choice is not None:
-            lines += [f"Why this frequency: {ident.frequency_choice.reason} (visited "
-                      f"{', '.join(f'{f:g}' for f in ident.frequency_choice.visited_hz)} Hz). The identification is "
+            choice = ident.frequency_choice
+            final = ""
+            if ident.modes and choice.linear_natural_frequency_hz is not None:
+                nearest = min(range(len(ident.modes)), key=lambda i: abs(
+                    ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
+                final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
+                         f"{_number(ident.natural_frequencies_hz[nearest])} ± "
+                         f"{_number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")
+            lines += [f"Why this frequency: {choice.reason} (visited "
+                      f"{', '.join(f'{f:g}' for f in choice.visited_hz)} Hz{final}). The identification is "
                       f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
                       f"because the stuck friction stiffens it."]
     else:
