@@ -78,23 +78,6 @@ class ModalResult:
             dof_names=self.coordinates,
         )
 
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "natural_frequencies_hz": self.natural_frequencies_hz.tolist(),
-            "mode_shapes": self.mode_shapes.tolist(),
-            "coordinates": list(self.coordinates),
-            "metadata": dict(self.metadata),
-        }
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> "ModalResult":
-        return cls(
-            natural_frequencies_hz=np.asarray(data["natural_frequencies_hz"], dtype=float),
-            mode_shapes=np.asarray(data["mode_shapes"], dtype=float).reshape(len(data["coordinates"]), -1),
-            coordinates=tuple(data["coordinates"]),
-            metadata=data.get("metadata", {}),
-        )
-
 
 class AdapterError(RuntimeError):
     """An FE run failed; the message names the run directory and log."""

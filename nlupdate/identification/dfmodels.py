@@ -104,10 +104,6 @@ class PolynomialModel:
         return cls(tuple(range(int(order), -1, -1)), tuple(range(int(imag), -1, -1)), complex_delta_f1)
 
     @property
-    def is_linear(self) -> bool:
-        return True
-
-    @property
     def names(self) -> tuple[str, ...]:
         return tuple(f"re_c{p}" for p in self.real_powers) + tuple(f"im_c{p}" for p in self.imag_powers)
 
@@ -204,10 +200,6 @@ class PhysicalModel:
                 f"unknown element(s) {unknown}; identifiable elements: {', '.join(ELEMENT_PARAMETERS)}"
             )
         object.__setattr__(self, "element_names", names)
-
-    @property
-    def is_linear(self) -> bool:
-        return False
 
     @property
     def _slots(self) -> list[tuple[str, str, bool]]:

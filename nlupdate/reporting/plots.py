@@ -10,7 +10,6 @@ from matplotlib.figure import Figure
 
 from nlupdate.measurement.frf_table import select_frf
 from nlupdate.reporting.figures import level_colours, save_figure
-from nlupdate.response.continuation import FrequencyResponse
 
 
 def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path: Path, title: str = "") -> Path:
@@ -29,26 +28,6 @@ def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path
     ax.set_title(title or "measured receptance at each force level")
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def plot_continuation(curves: Sequence[tuple[str, FrequencyResponse]], dof_position: int, path: Path) -> Path:
-    """Traced amplitude curves: stable solid, unstable dashed, folds marked."""
-    fig = Figure(figsize=(7, 4.5))
-    ax = fig.subplots()
-    for label, curve in curves:
-        amplitude = np.abs(curve.x_nonlinear[:, dof_position])
-        frequency = curve.frequency_hz
-        stable = curve.stable.copy()
-        (line,) = ax.semilogy(frequency, np.where(stable, amplitude, np.nan), "-", lw=1.2, label=label)
-        ax.plot(frequency, np.where(~stable | curve.turning_point, amplitude, np.nan), "--", lw=1.0, color=line.get_color())
-        ax.plot(frequency[curve.turning_point], amplitude[curve.turning_point], "o", ms=4, color=line.get_color())
-    ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("amplitude (m)")
-    ax.set_title("continuation: stable (solid), unstable (dashed), folds (dots)")
-    ax.legend(fontsize=7)
-    ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return save_figure(fig, path)
 

@@ -57,10 +57,6 @@ class FrequencyResponse:
     def nonlinear_dofs(self) -> tuple[int, ...]:
         return self.problem.a
 
-    @property
-    def fold_frequencies_hz(self) -> NDArray[np.float64]:
-        return self.frequency_hz[self.turning_point]
-
     def response(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
         """Complex amplitudes (m) at any coordinates for every curve point."""
         return self.problem.response_at(self.omega, self.x_nonlinear, dofs)
