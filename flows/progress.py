@@ -2,19 +2,23 @@
 
 :class:`Progress` prints one line per finished step (``rich``, which comes with Prefect)
 and keeps the tally of task states per step — computed (``Completed``), ``Cached``,
-``Failed`` — for the run's manifest. Flows reach it through :func:`current_progress`
+``Failed`` — for the run's manifest. Inside a flow run the same lines go to the run's
+log in the Prefect UI (through Prefect's API log handler on a logger of our own, so
+Prefect's console logging stays quiet). Flows reach it through :func:`current_progress`
 (a context variable, so the coordinator threads of a sweep see it too).
 """
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import logging
 import threading
 import time
 from collections import Counter, defaultdict
 from typing import Iterator
 
 from rich.console import Console
+from rich.text import Text
 
 STATE_WORDS = {"Completed": "computed", "Cached": "cached", "Failed": "FAILED", "Crashed": "CRASHED"}
 
@@ -33,6 +37,7 @@ class Progress:
         if not self.quiet:
             with self._lock:
                 self.console.print(message)
+        _log_to_flow_run(Text.from_markup(message).plain)
 
     def record(self, step: str, state: str, count: int = 1) -> None:
         """Count ``count`` task runs of ``step`` that ended in ``state``."""
@@ -82,3 +87,29 @@ def using(progress: Progress) -> Iterator[None]:
         yield
     finally:
         _CURRENT.reset(token)
+
+
+def _run_log() -> logging.Logger:
+    """``nlupdate.run``: INFO and above to the Prefect API only (not the console)."""
+    logger = logging.getLogger("nlupdate.run")
+    if not logger.handlers:
+        from prefect.logging.handlers import APILogHandler
+
+        logger.addHandler(APILogHandler())
+        logger.setLevel(logging.INFO)
+        logger.propagate = False
+    return logger
+
+
+def _log_to_flow_run(message: str) -> None:
+    """Send ``message`` to the current flow run's log, if there is one."""
+    from prefect.context import FlowRunContext
+
+    context = FlowRunContext.get()
+    if context is None or context.flow_run is None:
+        return
+    from prefect.logging.loggers import PrefectLogAdapter
+
+    extra = {"flow_run_id": str(context.flow_run.id), "flow_run_name": context.flow_run.name,
+             "flow_name": context.flow.name}
+    PrefectLogAdapter(_run_log(), extra=extra).info(message)
