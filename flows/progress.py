@@ -27,7 +27,7 @@ class Progress:
     """Printer and tally of one run (thread-safe)."""
 
     def __init__(self, console: Console | None = None, quiet: bool = False) -> None:
-        self.console = console or Console(highlight=False)
+        self.console = console or Console(highlight=False, soft_wrap=True)
         self.quiet = quiet
         self.tally: dict[str, Counter] = defaultdict(Counter)
         self._lock = threading.Lock()
