@@ -21,7 +21,7 @@ from nlupdate.discovery.report import write_discovery
 from nlupdate.flows.progress import current_progress
 from nlupdate.flows.study import Cache, Handle
 from nlupdate.reporting.archive import run_folder
-from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.files import atomic_directory
 from nlupdate.reporting.discovery_report import discovery_markdown
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment, file_hash, table_hash

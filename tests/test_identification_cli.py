@@ -84,9 +84,12 @@ def test_prd_with_elements_and_frequency(friction_file, tmp_path, capsys):
     assert "frequency_hz" not in summary["defaults_used"]
     assert summary["parameters"]["slip_force"]["value"] == pytest.approx(1.0, rel=1e-4)
     assert [e["type"] for e in summary["elements"]] == ["cubic", "jenkins"]
-    # rerunning into the same folder replaces it
+    # rerunning into the same folder is refused, and replaces it with --overwrite
     code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--elements", "cubic,jenkins",
                           "--out", out, "--samples", 5)
+    assert code == 2 and "--overwrite" in stderr
+    code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--elements", "cubic,jenkins",
+                          "--out", out, "--samples", 5, "--overwrite")
     assert code == 0, stderr
     assert json.loads((out / "identification.json").read_text())["excitation_frequency_hz"] == 712.0
 
@@ -109,7 +112,7 @@ def test_ddf_end_to_end(tmp_path, capsys):
     "extra, message",
     [
         (["--frequency", "711.5"], "is not in the data"),
-        (["--response-dof", "7"], "unknown response_dof '7'"),
+        (["--response-dof", "7"], "--response-dof 7: "),
         (["--order", "3", "--estimator", "naive", "--high-forces", "100,160", "--frequency", "710"],
          "high-force point(s) but the polynomial has 4"),
         (["--method", "ddf", "--frequency", "710"], "apply to --method prd"),
@@ -147,6 +150,9 @@ def test_refuses_to_replace_an_unrelated_folder(friction_file, tmp_path, capsys)
     out.mkdir()
     (out / "notes.txt").write_text("keep me")
     code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--out", out, "--samples", 5)
+    assert code == 2 and "--overwrite" in stderr
+    code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--out", out, "--samples", 5,
+                          "--overwrite")
     assert code == 2 and "not an identification output" in stderr
     assert (out / "notes.txt").read_text() == "keep me"
 

@@ -11,7 +11,7 @@ import pytest
 
 import nlupdate.reporting.archive as archive_module
 from nlupdate.reporting.archive import run_folder, write_archive
-from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.files import atomic_directory
 from nlupdate.reporting.manifest import table_hash
 from nlupdate.study import load_study, run_study
 
@@ -62,14 +62,12 @@ def test_a_failure_while_writing_leaves_no_archive(result, tmp_path, monkeypatch
 
 
 
-def test_failed_run_leaves_no_archive_under_its_final_name(tmp_path):
+def test_failed_run_leaves_nothing_and_names_are_not_reused(tmp_path):
     with pytest.raises(RuntimeError):
-        with atomic_directory(tmp_path / "run", keep_failed=True) as archive:
+        with atomic_directory(tmp_path / "run") as archive:
             (archive.path / "half.txt").write_text("partial")
             raise RuntimeError("solver died")
-    assert not (tmp_path / "run").exists()
-    failed = tmp_path / ".failed-run"
-    assert "solver died" in (failed / "error.txt").read_text()
+    assert list(tmp_path.iterdir()) == []
     with atomic_directory(tmp_path / "run") as first:
         pass
     with atomic_directory(tmp_path / "run") as second:

@@ -1,40 +1,132 @@
 """Command-line interface: ``nlupdate <command> …``.
 
-Each command lives in its own module exposing ``register(subparsers)``; errors a user
-can fix are raised as :class:`CliError` (or ValueError/FileNotFoundError) and printed
-as one line with a non-zero exit code.
+Each command lives in its own module exposing ``register(subparsers)``. Every failure a
+user can meet ends as one line on stderr, ``nlupdate <command>: error: …``, and an exit
+code: 2 for a mistake in the input (options, study, model or data files), 1 when the work
+itself failed (an FE solver, the Prefect server, a Dask cluster, the file system), 130
+when interrupted with Ctrl-C. ``--debug`` shows the traceback instead.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
+import warnings
 from typing import Sequence
 
 COMMAND_MODULES = ("run", "demo", "simulate", "identify", "update", "discover")
 
+EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
+
 
 class CliError(Exception):
-    """A user-facing error: printed as one line, exit code 2."""
+    """A mistake in the command line or its input files: one line, exit code 2."""
+
+
+class CliRuntimeError(Exception):
+    """The work failed for a reason outside the input (solver, server, disk): exit code 1."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with errors as two lines: what is wrong, and where help is (not the whole usage)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n(see '{self.prog} --help')\n")
+
+
+def plain(docstring: str) -> str:
+    """A module docstring as terminal text: reStructuredText roles and literals removed."""
+    text = re.sub(r":(?:func|class|mod|meth|attr):`~?([^`]+)`", lambda m: m.group(1).split(".")[-1], docstring)
+    return text.replace("``", "").strip()
+
+
+def add_command(subparsers: argparse._SubParsersAction, name: str, docstring: str, help: str) -> argparse.ArgumentParser:
+    """A sub-command whose ``--help`` shows ``docstring`` as plain text (first line = summary)."""
+    return subparsers.add_parser(name, help=help, description=plain(docstring),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def _checked(kind: type, minimum: float, name: str):
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {name}, got {text!r}") from None
+        if not value >= minimum:
+            raise argparse.ArgumentTypeError(f"expected {name}, got {text!r}")
+        return value
+    parse.__name__ = name
+    return parse
+
+
+positive_int = _checked(int, 1, "an integer ≥ 1")
+non_negative_int = _checked(int, 0, "an integer ≥ 0")
+non_negative_float = _checked(float, 0.0, "a number ≥ 0")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="nlupdate", description=__doc__.splitlines()[0])
-    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    from nlupdate import __version__
+
+    parser = Parser(
+        prog="nlupdate", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Model updating of nonlinear structures from vibration tests at several force levels.",
+        epilog="Start with 'nlupdate demo'. Study and model file formats: docs/study-files.md, docs/model-files.md.",
+    )
+    parser.add_argument("--version", action="version", version=f"nlupdate {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the full traceback of an error")
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     for name in COMMAND_MODULES:
         importlib.import_module(f"nlupdate.cli.{name}").register(subparsers)
     return parser
 
 
+def _input_errors() -> tuple[type[BaseException], ...]:
+    return CliError, ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError, KeyError
+
+
+def _runtime_errors() -> tuple[type[BaseException], ...]:
+    from nlupdate.adapters.base import AdapterError
+
+    return CliRuntimeError, AdapterError, OSError, RuntimeError
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"nlupdate: warning: {message}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from nlupdate.notices import NlupdateWarning
+
+    warnings.showwarning = _show_warning
+    warnings.simplefilter("always", NlupdateWarning)
     try:
         return int(args.run(args) or 0)
-    except (CliError, ValueError, FileNotFoundError, KeyError) as error:
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        print(f"nlupdate {args.command}: interrupted; {getattr(args, 'interrupt_note', 'nothing was written')}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except _input_errors() as error:
+        if args.debug:
+            raise
         message = error.args[0] if isinstance(error, KeyError) and error.args else error
         print(f"nlupdate {args.command}: error: {message}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
+    except _runtime_errors() as error:
+        if args.debug:
+            raise
+        print(f"nlupdate {args.command}: error: {error}", file=sys.stderr)
+        return EXIT_RUNTIME
+    except Exception as error:  # a bug: say so in one line; --debug shows where
+        if args.debug:
+            raise
+        print(f"nlupdate {args.command}: internal error: {type(error).__name__}: {error} "
+              f"(rerun with --debug for the traceback)", file=sys.stderr)
+        return EXIT_RUNTIME
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ import re
 from importlib import resources
 from pathlib import Path
 
-from nlupdate.cli import CliError
+from nlupdate.cli import add_command, non_negative_int
 from nlupdate.cli.run import add_execution_options, print_summary, run_with_prefect
 
 DEMO_STUDY = "data/demo.toml"
@@ -26,10 +26,10 @@ def demo_study_text(seed: int = 1) -> str:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("demo", help="run the whole chain on the embedded T-beam study; archive in results/",
-                                   description=__doc__.splitlines()[0])
+    parser = add_command(subparsers, "demo", __doc__,
+                         help="run the whole chain on the embedded T-beam study; archive in results/")
     parser.add_argument("--results", default="results", metavar="DIR", help="archive root (default ./results)")
-    parser.add_argument("--seed", type=int, default=1, help="noise and Monte-Carlo seed, ≥ 0 (default 1)")
+    parser.add_argument("--seed", type=non_negative_int, default=1, help="noise and Monte-Carlo seed, ≥ 0 (default 1)")
     add_execution_options(parser)
     parser.set_defaults(run=run)
 
@@ -37,8 +37,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from nlupdate.study import study_from_text
 
-    if args.seed < 0:
-        raise CliError(f"--seed must be ≥ 0, got {args.seed}")
     study = study_from_text(demo_study_text(args.seed), Path("demo.toml"))
     archive = run_with_prefect(study, args.results, args)
     if not args.quiet:

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
-from nlupdate.cli import CliError
+from nlupdate.cli import CliError, add_command, non_negative_float, positive_int
+from nlupdate.cli.output import add_overwrite_option, checked_output, writable_folder
 from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
@@ -19,39 +21,42 @@ from nlupdate.discovery.report import write_discovery
 from nlupdate.measurement.frf_table import read_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
 from nlupdate.model.model_file import load_system
-from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.files import atomic_directory
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "discover",
-        help="find the effect a model is missing (where, which, parameters), add it and show the gap shrink",
-        description=__doc__.splitlines()[0],
-    )
+    parser = add_command(subparsers, "discover", __doc__,
+                         help="find the effect a model is missing (where, which, parameters), add it and show the gap shrink")
     parser.add_argument("--model", required=True, metavar="MODEL.toml", help="model file ([model] + [[nonlinear]])")
     parser.add_argument("--measured", required=True, metavar="FILE",
                         help="measured FRFs at several force levels (.parquet/.csv/.uff) or a modal table (.csv)")
     where = parser.add_mutually_exclusive_group(required=True)
-    where.add_argument("--out", metavar="DIR", help="output directory, in this process (replaced when complete)")
+    where.add_argument("--out", metavar="DIR", help="output directory, in this process (appears when complete)")
     where.add_argument("--archive", metavar="ROOT",
                        help="run as a Prefect flow (candidate fits as cached parallel tasks) and archive the run under "
                             "ROOT/discovery-<model>/<UTC time>-<hash>/")
     parser.add_argument("--effects", help=f"comma-separated subset of the library (default all: {','.join(EFFECT_NAMES)})")
     parser.add_argument("--criterion", choices=("bic", "aic"), default="bic", help="information criterion (default bic)")
-    parser.add_argument("--max-effects", type=int, default=3, help="most effects to add (default 3)")
-    parser.add_argument("--noise-fraction", type=float,
+    parser.add_argument("--max-effects", type=positive_int, default=3, help="most effects to add (default 3)")
+    parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="FRF noise std / |H| (default: estimated from the measured FRFs)")
     parser.add_argument("--sweep", choices=("up", "down"), default="up", help="stepped-sine direction of the test")
-    parser.add_argument("--frequency-uncertainty", type=float, default=0.002,
+    parser.add_argument("--frequency-uncertainty", type=non_negative_float, default=0.002,
                         help="modal table: relative std of the natural frequencies (default 0.002)")
-    parser.add_argument("--damping-uncertainty", type=float, default=0.05,
+    parser.add_argument("--damping-uncertainty", type=non_negative_float, default=0.05,
                         help="modal table: relative std of the damping ratios (default 0.05)")
+    add_overwrite_option(parser)
     add_execution_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
+    if args.out is not None:
+        out = checked_output(args.out, args.overwrite, folder=True)
+        args.interrupt_note = f"nothing was written to {out}"
+    else:
+        writable_folder(Path(args.archive), "--archive")
     system = load_system(args.model)
     table = read_modal_table(args.measured) if is_modal_table_file(args.measured) else read_frf_table(args.measured)
     try:

@@ -13,7 +13,8 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from nlupdate.cli import CliError
+from nlupdate.cli import CliError, add_command, non_negative_float, non_negative_int, positive_int
+from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS
@@ -26,11 +27,8 @@ from nlupdate.measurement.frf_table import read_frf_table, write_frf_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "identify",
-        help="identify the nonlinearity and the linear FRF (PRD or DDF method)",
-        description=__doc__.splitlines()[0],
-    )
+    parser = add_command(subparsers, "identify", __doc__,
+                         help="identify the nonlinearity and the linear FRF (PRD or DDF method)")
     parser.add_argument("--measured", required=True, metavar="FILE", help="measured-FRF table (.parquet, .csv, .uff)")
     parser.add_argument("--method", choices=("prd", "ddf"), default="prd", help="identification method (default prd)")
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
@@ -39,15 +37,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--low-force", type=float, help="PRD low force level in N (default: lowest level)")
     parser.add_argument("--high-forces", help="PRD high levels in N, comma-separated (default: all above the low level)")
     parser.add_argument("--elements", help="physical elements to fit, e.g. cubic,jenkins (default: polynomial)")
-    parser.add_argument("--order", type=int, help="polynomial order (default 2)")
-    parser.add_argument("--imag-order", type=int, help="PRD order of the imaginary part (default: --order)")
+    parser.add_argument("--order", type=positive_int, help="polynomial order (default 2)")
+    parser.add_argument("--imag-order", type=positive_int, help="PRD order of the imaginary part (default: --order)")
     parser.add_argument("--complex-delta-f1", action="store_true",
                         help="PRD polynomial: use the complex −y(0) as Δ_f1 (default: its real part, stuck friction)")
     parser.add_argument("--estimator", help=f"PRD: {'|'.join(ESTIMATORS)} (default improved); DDF: "
                                             f"{'|'.join(DDF_ESTIMATORS)} (default naive)")
-    parser.add_argument("--half-window", type=float, default=None,
+    parser.add_argument("--half-window", type=non_negative_float, default=None,
                         help="PRD improved estimator: relative half-width of the frequency window (default 0.01)")
-    parser.add_argument("--smooth-linear", type=int, default=0, metavar="N",
+    parser.add_argument("--smooth-linear", type=non_negative_int, default=0, metavar="N",
                         help="PRD: smooth 1/H of the low-force sweep over N points (odd ≥ 5) before extracting the "
                              "linear FRF (default 0: no smoothing, as the source)")
     parser.add_argument("--amplitude-dependent-delta", action="store_true",
@@ -55,12 +53,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "identified at the excitation frequency, the source's eq. 2.55)")
     parser.add_argument("--force-pair", help="DDF levels F1,F2 in N (default: lowest and highest)")
     parser.add_argument("--band", help="DDF band LOW,HIGH in Hz (default: all common frequencies)")
-    parser.add_argument("--noise-fraction", type=float,
+    parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="noise std / |H| for the uncertainty (default: estimated from the lowest-force sweep)")
-    parser.add_argument("--samples", type=int, default=200,
+    parser.add_argument("--samples", type=positive_int, default=200,
                         help="Monte-Carlo samples for the uncertainty of the parameters and of the linear modes (default 200)")
-    parser.add_argument("--seed", type=int, default=0, help="Monte-Carlo seed (default 0)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="Monte-Carlo seed ≥ 0 (default 0)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
+    add_overwrite_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -90,14 +89,22 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
     if args.samples < 2:
         raise CliError(f"--samples must be at least 2, got {args.samples}")
     inputs = sorted(set(table["input_dof"].astype(str)))
+    responses = sorted(set(table["response_dof"].astype(str)))
     input_dof = args.input_dof
     if input_dof is None:
         if len(inputs) != 1:
-            raise CliError(f"the table has several input dofs {inputs}; choose one with --input-dof")
+            raise CliError(f"{args.measured}: the table has several input dofs {inputs}; choose one with --input-dof")
         input_dof = defaults["input_dof"] = inputs[0]
+    elif input_dof not in inputs:
+        raise CliError(f"--input-dof {input_dof}: {args.measured} has input_dof {', '.join(inputs)}")
     response_dof = args.response_dof
     if response_dof is None:
         response_dof = defaults["response_dof"] = str(input_dof)
+        if response_dof not in responses:
+            raise CliError(f"{args.measured} has no driving-point FRF at {response_dof}; choose one of response_dof "
+                           f"{', '.join(responses)} with --response-dof")
+    elif response_dof not in responses:
+        raise CliError(f"--response-dof {response_dof}: {args.measured} has response_dof {', '.join(responses)}")
     settings = IdentificationSettings(
         response_dof=str(response_dof), input_dof=str(input_dof), method=args.method,
         elements=tuple(e.strip() for e in args.elements.split(",") if e.strip()) if args.elements else (),
@@ -132,13 +139,15 @@ def write_identification(identification: Identification, data: FRFLevels, folder
 
 
 def run(args: argparse.Namespace) -> int:
+    out = checked_output(args.out, args.overwrite, folder=True)
+    args.interrupt_note = f"nothing was written to {out}"
     table = read_frf_table(args.measured)
     settings, cli_defaults = settings_from_args(args, table)
     data = FRFLevels.from_table(table, settings.response_dof, settings.input_dof)
     identification = identify(data, settings)
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
-    out = write_directory_atomically(args.out, lambda folder: write_identification(identification, data, folder))
+    out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder))
     for key, value in defaults.items():
         print(f"default {key}: {value}")
     for name, stats in identification.uncertainty.parameters.items():

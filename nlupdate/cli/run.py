@@ -12,12 +12,13 @@ import os
 from pathlib import Path
 from typing import Iterator
 
-from nlupdate.cli import CliError
+from nlupdate.cli import CliRuntimeError, add_command, positive_int
+from nlupdate.cli.output import writable_folder
 
 
 def add_execution_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by ``run`` and ``demo``: where results go and where tasks run."""
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
+    parser.add_argument("--workers", type=positive_int, default=os.cpu_count() or 2,
                         help="threads (or local Dask worker processes with --dask) for the tasks (default: CPU count)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--dask", action="store_true", help="run the tasks on a local Dask cluster started for the run")
@@ -30,8 +31,7 @@ def add_execution_options(parser: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("run", help="run a study as Prefect flows (cached, parallel) and archive it",
-                                   description=__doc__.splitlines()[0])
+    parser = add_command(subparsers, "run", __doc__, help="run a study as Prefect flows (cached, parallel) and archive it")
     parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
     parser.add_argument("--out", default="results", metavar="DIR", help="archive root (default ./results)")
     add_execution_options(parser)
@@ -42,8 +42,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
     """Check the execution options, prepare the environment before Prefect is imported,
     and turn set-up failures (server, Dask) into one-line errors."""
-    if args.workers < 1:
-        raise CliError(f"--workers must be at least 1, got {args.workers}")
     from nlupdate.flows.environment import prepare_environment
 
     prepare_environment()
@@ -53,11 +51,13 @@ def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
     try:
         yield
     except (ExecutionError, ServerError) as error:
-        raise CliError(str(error)) from None
+        raise CliRuntimeError(str(error)) from None
 
 
 def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
     """Run ``study`` under Prefect with the execution options of ``args``; one-line errors."""
+    writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
+    args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
     with prefect_errors(args):
         from nlupdate.flows.progress import Progress
         from nlupdate.flows.run import run_study_flow

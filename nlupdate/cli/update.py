@@ -8,31 +8,27 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import time
-from pathlib import Path
 
-from nlupdate.cli import CliError
+from nlupdate.cli import add_command
+from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.reporting.archive import write_archive
 from nlupdate.study import load_study, run_study
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "update",
-        help="run a study (identification, updating, prediction) in this process, without Prefect",
-        description=__doc__.splitlines()[0],
-    )
+    parser = add_command(subparsers, "update", __doc__,
+                         help="run a study (identification, updating, prediction) in this process, without Prefect")
     parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (created atomically)")
-    parser.add_argument("--overwrite", action="store_true", help="replace DIR if it exists")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
+    add_overwrite_option(parser)
     parser.add_argument("--quiet", action="store_true", help="print only the results, not each step")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        raise CliError(f"output directory {out} exists; pass --overwrite to replace it")
+    out = checked_output(args.out, args.overwrite, folder=True)
     study = load_study(args.study)
+    args.interrupt_note = f"nothing was written to {out}"
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()
     result = run_study(study, (lambda message: None) if args.quiet else (lambda message: print(f"  {message}")))

@@ -29,7 +29,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
 from nlupdate.identification.dfmodels import PhysicalModel
-from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.files import atomic_directory
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.figures import level_colours, phase_deg, save_figure
 

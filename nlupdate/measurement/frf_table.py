@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
 from pathlib import Path
 from typing import Iterable
 
@@ -65,6 +64,8 @@ import numpy as np
 import pandas as pd
 import pyuff
 from numpy.typing import ArrayLike, NDArray
+
+from nlupdate.files import atomic_file
 
 FRF_COLUMNS: tuple[str, ...] = (
     "frequency_hz", "force_level_n", "response_dof", "input_dof", "h_real", "h_imag",
@@ -461,20 +462,14 @@ def write_frf_table(table: pd.DataFrame, path: str | os.PathLike) -> Path:
     suffix = _suffix(path)
     clean = _canonical(validate_frf_table(table, source=f"table to write to {path}"))
     datasets = _uff_datasets(clean, str(path)) if suffix in (".uff", ".unv") else None
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
-    os.close(descriptor)
-    try:
+    with atomic_file(path) as temporary:
         if suffix == ".parquet":
             clean.to_parquet(temporary, index=False)
         elif suffix == ".csv":
             clean.to_csv(temporary, index=False)
         else:
-            # 'add' to the fresh empty file: pyuff's 'overwrite' truncates the file when it
-            # switches to binary mode, erasing the first dataset's header
-            pyuff.UFF(temporary).write_sets(datasets, mode="add")
-            _fix_binary_byte_counts(Path(temporary), datasets)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+            # 'add' to a fresh file: pyuff's 'overwrite' truncates the file when it switches
+            # to binary mode, erasing the first dataset's header
+            pyuff.UFF(str(temporary)).write_sets(datasets, mode="add")
+            _fix_binary_byte_counts(temporary, datasets)
     return path

@@ -19,12 +19,13 @@ naming the source, the 0-based row (and the CSV line), the column and the value.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
+
+from nlupdate.files import atomic_file
 
 MODAL_COLUMNS: tuple[str, ...] = ("force_level_n", "mode", "natural_frequency_hz", "damping_ratio")
 OPTIONAL_COLUMNS: tuple[str, ...] = ("input_dof",)
@@ -123,12 +124,6 @@ def write_modal_table(table: pd.DataFrame, path: str | os.PathLike) -> Path:
     """Validate and write a modal table as CSV (atomically); returns the path."""
     path = Path(path)
     clean = validate_modal_table(table, f"table to write to {path}")
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".csv")
-    os.close(descriptor)
-    try:
+    with atomic_file(path) as temporary:
         clean.to_csv(temporary, index=False)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
     return path

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any, Mapping
@@ -47,6 +46,7 @@ import scipy.sparse
 from nlupdate.model.elements import ELEMENT_TYPES
 from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.files import atomic_file
 
 ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
     "cubic": ("k3",),
@@ -225,12 +225,6 @@ def system_to_toml(system: NonlinearSystem) -> str:
 def write_system(system: NonlinearSystem, path: str | os.PathLike) -> Path:
     """Write ``system`` as a TOML model file (atomically) and return the path."""
     path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".toml")
-    os.close(descriptor)
-    try:
+    with atomic_file(path) as temporary:
         Path(temporary).write_text(system_to_toml(system))
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
     return path

@@ -1,5 +1,8 @@
-"""What a person reads: atomic output folders, plots, run archives and reports.
+"""What a person reads: run archives, reports, tables and plots.
 
-* :mod:`~nlupdate.reporting.atomic` — output folders built in a temporary sibling and renamed;
-* :mod:`~nlupdate.reporting.plots` — FRF plots.
+* :mod:`~nlupdate.reporting.archive` — one folder per run (manifest, tables, plots, report);
+* :mod:`~nlupdate.reporting.report` — ``report.md``, read top to bottom;
+* :mod:`~nlupdate.reporting.plots` — FRF, prediction and correlation plots.
+
+Folders and files are written atomically by :mod:`nlupdate.files`.
 """

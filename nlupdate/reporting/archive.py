@@ -13,7 +13,7 @@
                       errors and FRFs, predictions per level, correlation per level
 
 The folder is written in a temporary sibling and renamed when complete
-(:func:`nlupdate.reporting.atomic.atomic_directory`), so a folder under its final name is
+(:func:`nlupdate.files.atomic_directory`), so a folder under its final name is
 always a complete archive.
 """
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Any, Mapping
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.report import plot_fit, plot_linear_frf
-from nlupdate.reporting.atomic import atomic_directory
+from nlupdate.files import atomic_directory
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment, file_hash, table_hash
 from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
@@ -157,7 +157,7 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
 
     ``run``: how the run went (``started_utc``, ``finished_utc``, ``wall_time_s``,
     ``orchestration``, flow-run id, tasks computed vs cached, …) for the manifest.
-    ``on_exists`` as for :func:`~nlupdate.reporting.atomic.atomic_directory`.
+    ``on_exists`` as for :func:`~nlupdate.files.atomic_directory`.
     """
     final = Path(final)
     with atomic_directory(final, on_exists=on_exists) as archive:

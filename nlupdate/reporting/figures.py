@@ -8,25 +8,20 @@ beside its target and renamed, so a reader never sees half a picture.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from matplotlib import colormaps
 from matplotlib.figure import Figure
 
+from nlupdate.files import atomic_file
+
 
 def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     """Write ``figure`` as PNG to ``path`` (atomically) and return the path."""
     path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(descriptor)
-    try:
+    with atomic_file(path) as temporary:
         figure.savefig(temporary, dpi=dpi, format="png")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
     return path
 
 

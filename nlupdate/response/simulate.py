@@ -30,6 +30,7 @@ from nlupdate.measurement.noise import add_table_noise
 from nlupdate.response.stepped_sine import stepped_sine
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.time_integration import time_sweep
+from nlupdate.progress import ProgressCallback, no_progress
 
 METHODS = ("continuation", "fixed-point", "time")
 
@@ -42,19 +43,19 @@ class SimulationReport:
     jumps_hz: dict[float, tuple[float, ...]] = field(default_factory=dict)
 
 
-def _responses_continuation(system, forcing, omega, sweep):
+def _responses_continuation(system, forcing, omega, sweep, progress):
     curve = trace_frequency_response(system, forcing, float(omega.min()), float(omega.max()))
     result = stepped_sine(curve, omega, sweep)
     return result.response(range(system.model.n_dof)), np.isfinite(result.x_nonlinear).all(axis=1), result.jumps_hz
 
 
-def _responses_fixed_point(system, forcing, omega, sweep):
+def _responses_fixed_point(system, forcing, omega, sweep, progress):
     result = fixed_point_response(system, forcing, omega)
     return result.response(range(system.model.n_dof)), result.converged, ()
 
 
-def _responses_time(system, forcing, omega, sweep):
-    result = time_sweep(system, forcing, omega, sweep)
+def _responses_time(system, forcing, omega, sweep, progress):
+    result = time_sweep(system, forcing, omega, sweep, progress=progress)
     return result.x, result.converged, result.jumps_hz
 
 
@@ -75,12 +76,14 @@ def simulate_frf_table(
     sweep: str = "up",
     noise: float = 0.0,
     seed: int | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: ProgressCallback = no_progress,
 ) -> tuple[pd.DataFrame, SimulationReport]:
     """Measured-FRF table (all response coordinates) for each force level.
 
     ``frequency_hz`` is the test grid (Hz, > 0), ``force_levels_n`` the force amplitudes
-    (N, > 0). Returns the table and a :class:`SimulationReport`.
+    (N, > 0). Returns the table and a :class:`SimulationReport`. ``progress`` hears
+    ``("force levels (<method>)", done, total)`` and, for the time-domain method, each
+    frequency of each level.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -99,10 +102,10 @@ def simulate_frf_table(
     omega = 2 * np.pi * frequency_hz
     report = SimulationReport()
     tables = []
-    for level in levels:
-        if progress:
-            progress(f"force {level:g} N: {method}")
-        x, valid, jumps = _SOLVERS[method](system, {input_index: level}, omega, sweep)
+    progress(f"force levels ({method})", 0, len(levels))
+    for done, level in enumerate(levels, start=1):
+        level_progress = lambda task, i, n, level=level: progress(f"{level:g} N: {task}", i, n)  # noqa: E731
+        x, valid, jumps = _SOLVERS[method](system, {input_index: level}, omega, sweep, level_progress)
         report.dropped_points[level] = int((~valid).sum())
         report.jumps_hz[level] = tuple(jumps)
         h = x[valid] / level
@@ -115,6 +118,7 @@ def simulate_frf_table(
                 h,
             )
         )
+        progress(f"force levels ({method})", done, len(levels))
     table = pd.concat(tables, ignore_index=True)
     if noise:
         table = add_table_noise(table, noise, seed)

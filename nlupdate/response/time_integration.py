@@ -91,6 +91,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlupdate.model.elements import NonlinearElement, QuadraticDamping
 from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.progress import ProgressCallback, no_progress
 
 _DENSE_LIMIT = 2000
 _MAX_STEPS_PER_PERIOD = 200_000
@@ -722,6 +723,7 @@ def time_sweep(
     steps_per_period: int = 64,
     settle_periods: int = 3,
     courant: float = 1.0,
+    progress: ProgressCallback = no_progress,
 ) -> TimeSweepResult:
     """Stepped-sine test in the time domain: one frequency after the other, state carried over.
 
@@ -743,7 +745,8 @@ def time_sweep(
     single-valued stretch (a linear resonance on a coarse grid) returns to the same state
     and is not a jump.
     ``forcing`` values may be scalars or one per grid frequency (increasing order).
-    Cost: one case at a time, so about the cost of a whole vectorised batch per frequency.
+    Cost: one case at a time, so about the cost of a whole vectorised batch per frequency;
+    ``progress("time-domain stepped sine", done, total)`` is called after each frequency.
     """
     if direction not in ("up", "down"):
         raise TimeIntegrationError(f"direction: expected 'up' or 'down', got {direction!r}")
@@ -798,6 +801,7 @@ def time_sweep(
         out, final = dwell(index, final)
         x[index], converged[index] = out["x"][0], out["converged"][0]
         periods[index], ratio[index] = out["periods"][0], out["harmonic_ratio"][0]
+        progress("time-domain stepped sine", step + 1, grid.size)
         if not np.all(np.isfinite(final["y"])):
             break
         if step > 0:

@@ -1,0 +1,158 @@
+"""Files and folders written atomically, with the user's permissions, and what killed runs leave.
+
+Everything nlupdate writes is built under a temporary name beside its final one and
+renamed when complete, so nothing half-written ever stands under the final name. The
+temporary name carries the host and process id of its writer
+(``.tmp-<name>-<host>-<pid>-<random>`` for folders, ``.<name>.tmp-<host>-<pid>-<random><suffix>``
+for files): the next write into the same folder removes what a process that no longer
+runs on this host left behind (a run killed with SIGKILL cannot clean up after itself)
+and reports it as an :class:`~nlupdate.notices.NlupdateWarning`; a leftover from another
+host is reported, not touched. Files and folders get the permissions the user's umask
+gives (``mkstemp``/``mkdtemp`` alone would make them private).
+"""
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import os
+import re
+import secrets
+import shutil
+import socket
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+from nlupdate.notices import NlupdateWarning
+
+ON_EXISTS = ("suffix", "replace", "error")
+
+_HOST = re.sub(r"[^A-Za-z0-9_.]", "_", socket.gethostname()) or "host"
+_LEFTOVER = re.compile(r"^\.(?:tmp-.+|.+\.tmp)-(?P<host>[A-Za-z0-9_.]+)-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$")
+
+
+def run_name(prefix: str) -> str:
+    """``<prefix>-YYYYmmdd-HHMMSS`` in UTC."""
+    return f"{prefix}-{dt.datetime.now(dt.timezone.utc).strftime('%Y%m%d-%H%M%S')}"
+
+
+def _tag() -> str:
+    return f"{_HOST}-{os.getpid()}-{secrets.token_hex(4)}"
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def clean_leftovers(folder: str | os.PathLike) -> list[Path]:
+    """Remove the temporary outputs of dead writers on this host in ``folder``; returns them.
+
+    Each removal, and each leftover of another host, is reported as a warning.
+    """
+    folder = Path(folder)
+    removed: list[Path] = []
+    if not folder.is_dir():
+        return removed
+    for entry in folder.iterdir():
+        match = _LEFTOVER.match(entry.name)
+        if match is None:
+            continue
+        host, pid = match["host"], int(match["pid"])
+        if host != _HOST:
+            warnings.warn(f"{entry} is the unfinished output of a run on host {host!r} (process {pid}); "
+                          f"remove it once that run is over", NlupdateWarning, stacklevel=2)
+            continue
+        if _process_alive(pid):
+            continue  # a run in progress
+        if entry.is_dir():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
+        removed.append(entry)
+        warnings.warn(f"removed {entry}, the unfinished output of an interrupted run (process {pid})",
+                      NlupdateWarning, stacklevel=2)
+    return removed
+
+
+@contextlib.contextmanager
+def atomic_file(final: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``final`` (same suffix); rename it to ``final`` on success.
+
+    An existing ``final`` is replaced. On failure (or Ctrl-C) the temporary file is removed.
+    """
+    final = Path(final)
+    clean_leftovers(final.parent)
+    temporary = final.parent / f".{final.name}.tmp-{_tag()}{final.suffix}"
+    try:
+        yield temporary
+        if temporary.exists():
+            os.chmod(temporary, 0o666 & ~_umask())
+        os.replace(temporary, final)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+@dataclass
+class ArchiveDirectory:
+    """``path``: where to write now (temporary); ``final``: set once renamed."""
+
+    path: Path
+    final: Path | None = None
+
+
+def _free_name(final: Path) -> Path:
+    target, counter = final, 1
+    while target.exists():
+        target = final.parent / f"{final.name}-{counter}"
+        counter += 1
+    return target
+
+
+@contextlib.contextmanager
+def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix") -> Iterator[ArchiveDirectory]:
+    """Write into a temporary directory beside ``final``; rename it to ``final`` on success.
+
+    ``on_exists`` says what happens when ``final`` exists: ``"suffix"`` writes
+    ``final-1``, ``final-2``, … instead; ``"replace"`` swaps the new folder in (the old one
+    is removed only after the new one is in place); ``"error"`` refuses before any work.
+    On failure (or Ctrl-C) the temporary folder is removed.
+    """
+    if on_exists not in ON_EXISTS:
+        raise ValueError(f"on_exists must be one of {ON_EXISTS}, got {on_exists!r}")
+    final = Path(final)
+    if final.exists() and on_exists == "error":
+        raise FileExistsError(f"{final} exists: choose another output folder or allow replacing it")
+    if final.exists() and not final.is_dir():
+        raise ValueError(f"{final} exists and is not a directory")
+    final.parent.mkdir(parents=True, exist_ok=True)
+    clean_leftovers(final.parent)
+    archive = ArchiveDirectory(final.parent / f".tmp-{final.name}-{_tag()}")
+    archive.path.mkdir(mode=0o777)  # the umask applies, as for any folder the user makes
+    try:
+        yield archive
+        if final.exists() and on_exists == "replace":
+            old = final.parent / f".tmp-{final.name}.old-{_tag()}"
+            os.replace(final, old)
+            os.replace(archive.path, final)
+            shutil.rmtree(old, ignore_errors=True)
+            archive.final = final
+        else:
+            archive.final = _free_name(final)
+            os.replace(archive.path, archive.final)
+    except BaseException:
+        shutil.rmtree(archive.path, ignore_errors=True)
+        raise
