@@ -7,11 +7,20 @@ creates ``work_root/<name>`` atomically (``<name>-2``, ``<name>-3``, … when th
 is taken, e.g. by an earlier failed run of the same evaluation key or by a concurrent
 run of the same point), hence runs in different threads or processes never collide.
 
-:meth:`ProcessRunner.run` starts the command in that directory, in a new process
-group, with stdout and stderr both written to one log file; on timeout the whole
-process group is killed (SIGTERM, then SIGKILL after a grace period). Every failure
-raises :class:`~nlupdate.adapters.base.AdapterError` whose message names the run
-directory, the log file and the last lines of the log.
+:meth:`ProcessRunner.run` starts the command in that directory with stdout and stderr
+both written to one log file. On timeout (or when the caller is interrupted) the
+program and everything it started are killed:
+
+* POSIX: the program leads a new session (``start_new_session``), so its process group
+  holds its children too; the group gets SIGTERM, then SIGKILL after
+  :data:`KILL_GRACE_S` seconds.
+* Windows (no ``os.killpg``/SIGKILL): the program starts in a new process group
+  (``CREATE_NEW_PROCESS_GROUP``) and ``taskkill /F /T /PID <pid>`` kills its process
+  tree; when ``taskkill`` is unavailable or fails, ``Popen.kill()`` kills the program
+  itself (children it started may then survive).
+
+Every failure raises :class:`~nlupdate.adapters.base.AdapterError` whose message names
+the run directory, the log file and the last lines of the log.
 """
 from __future__ import annotations
 
@@ -89,8 +98,22 @@ def _failure_message(reason: str, run_dir: Path, log_path: Path) -> str:
     return f"{reason}\n  run directory: {run_dir}\n  log: {log_path}\n  last lines of the log:\n{indented}"
 
 
+#: True where processes can be killed by process group (POSIX); False on Windows.
+PROCESS_GROUPS = hasattr(os, "killpg") and hasattr(signal, "SIGKILL")
+#: Seconds to wait for ``taskkill`` on Windows.
+TASKKILL_TIMEOUT_S = 30.0
+
+
+def _spawn_options() -> dict[str, object]:
+    """Keyword arguments of ``Popen`` that put the program in a group of its own."""
+    if PROCESS_GROUPS:
+        return {"start_new_session": True}
+    # 0x200 is CREATE_NEW_PROCESS_GROUP; POSIX Pythons lack the name and only accept 0.
+    return {"creationflags": getattr(subprocess, "CREATE_NEW_PROCESS_GROUP", 0)}
+
+
 def _kill_group(process: subprocess.Popen[bytes]) -> None:
-    """Terminate the process group of ``process`` (it leads its own session)."""
+    """POSIX: terminate the process group of ``process`` (it leads its own session)."""
     for sig, wait_s in ((signal.SIGTERM, KILL_GRACE_S), (signal.SIGKILL, None)):
         try:
             os.killpg(process.pid, sig)
@@ -106,6 +129,35 @@ def _kill_group(process: subprocess.Popen[bytes]) -> None:
         except ProcessLookupError:
             break
     process.wait()
+
+
+def _kill_tree_windows(process: subprocess.Popen[bytes]) -> None:
+    """Windows: ``taskkill /F /T /PID <pid>`` (the whole tree), else ``Popen.kill()``."""
+    if process.poll() is None:
+        try:
+            subprocess.run(
+                ["taskkill", "/F", "/T", "/PID", str(process.pid)],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                timeout=TASKKILL_TIMEOUT_S,
+                check=False,
+            )
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        try:
+            process.wait(timeout=KILL_GRACE_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+    process.wait()
+
+
+def kill_process_tree(process: subprocess.Popen[bytes]) -> None:
+    """Kill ``process`` and what it started, and reap it (see the module docstring)."""
+    if PROCESS_GROUPS:
+        _kill_group(process)
+    else:
+        _kill_tree_windows(process)
 
 
 @dataclass
@@ -168,7 +220,7 @@ class ProcessRunner:
         """Run ``executable arguments…`` with ``run_dir`` as working directory.
 
         Raises :class:`ExecutableNotFoundError` (before starting), :class:`RunTimeoutError`
-        (process group killed) or :class:`AdapterError` (non-zero exit or signal).
+        (program and its children killed) or :class:`AdapterError` (non-zero exit or signal).
         """
         executable = self.resolve()
         run_dir = Path(run_dir)
@@ -184,21 +236,21 @@ class ProcessRunner:
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
                 env=environment,
-                start_new_session=True,
+                **_spawn_options(),  # type: ignore[arg-type]
             )
             try:
                 returncode = process.wait(timeout=self.timeout_s)
             except subprocess.TimeoutExpired:
-                _kill_group(process)
+                kill_process_tree(process)
                 raise RunTimeoutError(
                     _failure_message(
-                        f"{Path(executable).name} timed out after {self.timeout_s} s; its process group was killed",
+                        f"{Path(executable).name} timed out after {self.timeout_s} s; it was killed with the processes it started",
                         run_dir,
                         log_path,
                     )
                 ) from None
             except BaseException:
-                _kill_group(process)
+                kill_process_tree(process)
                 raise
         wall_time = time.perf_counter() - start
         if returncode != 0:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from nlupdate.adapters import runner as runner_module
 from nlupdate.adapters.base import AdapterError
 from nlupdate.adapters.runner import (
     ExecutableNotFoundError,
@@ -141,6 +142,95 @@ def test_timeout_kills_the_whole_process_group(tmp_path: Path) -> None:
     while _alive(child) and time.time() < deadline:
         time.sleep(0.05)
     assert not _alive(child), "the solver's child process survived the timeout"
+
+
+FAKE_TASKKILL = """
+import os, signal, sys
+args = sys.argv[1:]
+with open(LOG, "a") as log:
+    log.write(" ".join(args) + "\\n")
+root = int(args[args.index("/PID") + 1])
+
+def children(pid):
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as handle:
+                    parent = int(handle.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            if parent == pid:
+                found.append(int(entry))
+    return found
+
+tree, todo = [], [root]
+while todo:  # /T: the process and every descendant
+    pid = todo.pop()
+    tree.append(pid)
+    if "/T" in args:
+        todo += children(pid)
+for pid in tree:
+    try:
+        os.kill(pid, signal.SIGKILL)  # /F
+    except ProcessLookupError:
+        pass
+"""
+
+
+def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Windows has no os.killpg: the runner calls taskkill /F /T /PID (a stand-in on PATH here,
+    killing the tree through /proc like taskkill does through the Windows process list)."""
+    monkeypatch.setattr(runner_module, "PROCESS_GROUPS", False)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    log = tmp_path / "taskkill.log"
+    make_script(bin_dir / "taskkill", f"LOG = {str(log)!r}\n" + FAKE_TASKKILL)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}")
+    exe = make_script(
+        tmp_path / "hanging",
+        f"""
+        import os, subprocess, time
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
+        open("pids.txt", "w").write(f"{{os.getpid()}} {{child.pid}}")
+        print("started child", flush=True)
+        time.sleep(60)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
+    run_dir = runner.new_run_dir("slow")
+    start = time.perf_counter()
+    with pytest.raises(RunTimeoutError, match="timed out after 1.0 s; it was killed with the processes it started"):
+        runner.run([], run_dir)
+    assert time.perf_counter() - start < 10
+    program, child = (int(v) for v in (run_dir / "pids.txt").read_text().split())
+    assert log.read_text().splitlines() == [f"/F /T /PID {program}"]
+    assert not _alive(program)
+    deadline = time.time() + 5
+    while _alive(child) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not _alive(child), "the program's child survived taskkill /T"
+
+
+def test_timeout_on_windows_without_taskkill_kills_the_program(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """No taskkill on PATH (or it fails): Popen.kill() still ends the program itself."""
+    monkeypatch.setattr(runner_module, "PROCESS_GROUPS", False)
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    exe = make_script(
+        tmp_path / "sleeper",
+        """
+        import os, time
+        open("pid.txt", "w").write(str(os.getpid()))
+        time.sleep(30)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
+    run_dir = runner.new_run_dir("slow")
+    start = time.perf_counter()
+    with pytest.raises(RunTimeoutError, match="timed out after 1.0 s"):
+        runner.run([], run_dir)
+    assert time.perf_counter() - start < 10
+    assert not _alive(int((run_dir / "pid.txt").read_text()))
 
 
 def test_parallel_runs_use_separate_directories(tmp_path: Path) -> None:
