@@ -22,8 +22,11 @@ inside whichever process runs the task. Kinds:
 ``mapdl``
     :class:`nlupdate.adapters.mapdl.MapdlAdapter`; options ``deck`` (path of the
     parametric APDL deck), ``parameter_names`` (list), ``coordinates``
-    (``{name = [node, "ux"|"uy"|"uz"]}``) and the adapter's keyword arguments
-    (``n_modes``, ``executable``, ``n_processors``, ``timeout_s``, ``apdl_names``, …).
+    (``{name = [node, "ux"|"uy"|"uz"]}``; node: a node number, an APDL expression in
+    the deck's units, or ``[x, y, z]`` in metres) and the adapter's keyword arguments
+    (``n_modes``, ``executable``, ``n_processors``, ``timeout_s``, ``apdl_names``,
+    ``units`` = ``"SI"`` | ``"mm-t-s"`` | ``"mm-kg-s"`` (the deck's units; results come
+    back in SI), ``location_tolerance_m``, ``min_frequency_hz``, ``keep_files``, …).
 """
 from __future__ import annotations
 
