@@ -1,9 +1,11 @@
 """PRD identification against independent references.
 
 * Data from TIME INTEGRATION (nlupdate.response.time_integration, the elements' time-domain force
-  laws, no describing function): parameters of cubic + Jenkins within 3 % of the values
-  the data were made with, and the extracted linear FRF against the analytical linear
-  receptance (FRAC > 0.999) — SDOF (thesis §3.1) and 2-DOF (§3.2).
+  laws, no describing function): parameters of cubic + Jenkins close to the values the
+  data were made with — polynomial DF k3 within 1.5 %, kf within 1 %; physical elements
+  k3 within 0.6 %, kf within 0.2 % — and the extracted linear FRF against the analytical
+  linear receptance over ±30 Hz (1 − FRAC below 1e-3, physical elements 5e-5), where the
+  low-force FRF itself has FRAC < 0.2 — SDOF (thesis §3.1) and 2-DOF (§3.2).
 * Describing-function data (continuation): the physical-element fit recovers the
   parameters to round-off, the polynomial fit to the source's accuracy.
 * Under 5 % noise the improved estimator's spread over seeds is smaller than the
@@ -71,6 +73,19 @@ def linear_frf(system: NonlinearSystem, frequency_hz: np.ndarray) -> np.ndarray:
     return system.model.receptance(2 * np.pi * frequency_hz, [0], [0])[:, 0, 0]
 
 
+#: Relative errors allowed on time-integration data, and the largest 1 − FRAC of the
+#: extracted linear FRF. Measured (SDOF 712 Hz / 2-DOF 730 Hz; naive, improved):
+#: polynomial k3 +0.90 +0.89 / +0.87 +0.82 %, kf −0.12 −0.12 / −0.51 −0.47 %,
+#: 1 − FRAC 7.4e-5 7.4e-5 / 3.2e-4 2.7e-4; physical k3 +0.31 +0.28 / +0.25 +0.23 %,
+#: kf +0.035 +0.027 / +0.087 +0.073 %, 1 − FRAC 7.2e-6 4.5e-6 / 1.0e-5 7.4e-6.
+#: The DF is single-harmonic; the time-domain data are not, which leaves these biases.
+#: For scale: Δ_f1 off by 1 % gives 1 − FRAC = 5e-3 (SDOF) and 1.1e-3 (2-DOF).
+TIME_DATA_TOLERANCE = {
+    "polynomial": {"k3": 0.015, "kf": 0.01, "one_minus_frac": 1e-3},
+    "physical": {"k3": 0.006, "kf": 0.002, "one_minus_frac": 5e-5},
+}
+
+
 @pytest.mark.parametrize(
     "system_factory, excitation_hz, kf",
     [(sdof_system, 712.0, 3e5), (two_dof_system, 730.0, 8e4)],
@@ -83,6 +98,8 @@ def test_prd_on_time_integration_data(system_factory, excitation_hz, kf):
     data = time_integration_data(system, high_hz, low_hz)
     true_linear = linear_frf(system, low_hz)
     f_low, h_low = data.curve(0.01)
+    # stuck friction stiffens the low-force FRF: without the PRD correction it is far off
+    assert frac(true_linear, h_low) < 0.2
     cases = [
         (PolynomialModel.of_order(2), "naive"),
         (PolynomialModel.of_order(2), "improved"),
@@ -93,10 +110,11 @@ def test_prd_on_time_integration_data(system_factory, excitation_hz, kf):
         result = identify_prd(data, excitation_hz, model, estimator=estimator, half_window=0.003)
         parameters = result.parameters()
         label = f"{model.kind}/{estimator}"
-        assert parameters["k3"] == pytest.approx(1e10, rel=0.03), label
-        assert parameters["kf"] == pytest.approx(kf, rel=0.03), label
+        tolerance = TIME_DATA_TOLERANCE[model.kind]
+        assert parameters["k3"] == pytest.approx(1e10, rel=tolerance["k3"]), label
+        assert parameters["kf"] == pytest.approx(kf, rel=tolerance["kf"]), label
         extracted = result.extract_linear_frf(f_low, h_low)
-        assert frac(true_linear, extracted) > 0.999, label
+        assert 1 - frac(true_linear, extracted) < tolerance["one_minus_frac"], label
 
 
 @pytest.fixture(scope="module")
