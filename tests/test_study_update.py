@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.linalg
 
 from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.cli import main
@@ -78,6 +79,12 @@ user_weights = {mode1 = 1.0}
 """
 
 
+def chain_frequencies(k1, k2, k3=TRUTH["k3"], k4=TRUTH["k4"]):
+    """Natural frequencies (Hz) of the chain, solved here (not by the adapter)."""
+    stiffness = np.array([[k1 + k2, -k2, 0.0], [-k2, k2 + k3, -k3], [0.0, -k3, k3 + k4]])
+    return np.sqrt(scipy.linalg.eigh(stiffness, np.diag(MASSES), eigvals_only=True)) / (2 * np.pi)
+
+
 def write_identification(directory: Path) -> None:
     """Linear FRF of the truth model (direct solve, D = γK) as an identification result."""
     mass, stiffness = LumpedAdapter(MASSES, NOMINAL_K).matrices(TRUTH)
@@ -119,21 +126,49 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
     formulas = ["forward O(h)", "backward O(h)", "central O(h²)", "central O(h⁴)"]
     for formula in formulas:
         row = candidates.loc[f"eigensensitivity {formula} {{k1, k2}}"]
-        assert row["converged"]
+        assert row["converged"] and row["reason"] == "frequency"
+        assert row["iterations"] <= 5  # Gauss–Newton from (0.7, 1.4) MN/m; with the Jacobian ×2: 12
         assert row["p:k1"] == pytest.approx(TRUTH["k1"], rel=5e-3)
         assert row["p:k2"] == pytest.approx(TRUTH["k2"], rel=5e-3)
+    # the weighted optimisation meets every target too: the truth is the optimum of any weighting
+    assert candidates.loc["k1 and k2, mode 3 first", "p:k1"] == pytest.approx(TRUTH["k1"], rel=5e-3)
+    assert candidates.loc["k1 and k2, mode 3 first", "p:k2"] == pytest.approx(TRUTH["k2"], rel=5e-3)
     assert np.isnan(candidates.loc["k1 only", "p:k2"])
 
+    # what the tables report of each {k1, k2} model is that model, solved here
+    target_hz = targets["frequency_hz"].to_numpy()
     comparison = pd.read_parquet(out / "tables" / "comparison.parquet")
+    history = pd.read_parquet(out / "tables" / "histories.parquet")
+    assert set(history["run"]) == set(candidates.index)
+    labels = ["mode1", "mode2", "mode3"]
+    points = {"initial": (0.7e6, 1.4e6)}  # every {k1, k2} run starts there (the study's starts)
+    points.update({name: (row["p:k1"], row["p:k2"]) for name, row in candidates.iterrows() if name != "k1 only"})
+    for name, (k1, k2) in points.items():
+        rows = comparison[comparison["candidate"] == name].set_index("mode").loc[labels]
+        expected = chain_frequencies(k1, k2)
+        np.testing.assert_allclose(rows["f_hz"], expected, rtol=1e-10, err_msg=name)
+        np.testing.assert_allclose(rows["error_pct"], 100 * (expected / target_hz - 1), rtol=1e-8, atol=1e-10, err_msg=name)
+    for name in points.keys() - {"initial"}:
+        run = history[history["run"] == name]
+        assert run[["p:k1", "p:k2"]].iloc[-1].tolist() == pytest.approx(list(points[name]), rel=1e-12)
+        for _, step in run.iterrows():  # every iterate of the history
+            np.testing.assert_allclose(step[[f"f_hz:{m}" for m in labels]].to_numpy(float),
+                                       chain_frequencies(step["p:k1"], step["p:k2"]), rtol=1e-10)
+
+    # FRAC against the truth's FRF: the updated models ≈ 1, the initial one far from it
     updated = comparison[comparison["candidate"] == "eigensensitivity central O(h⁴) {k1, k2}"]
     assert updated["frac"].min() > 0.999
     initial = comparison[comparison["candidate"] == "initial"]
+    assert initial["frac"].max() < 0.1
     assert (initial["frac"].to_numpy() < updated["frac"].to_numpy()).all()
 
-    ranking = pd.read_parquet(out / "tables" / "ranking.parquet")
-    assert ranking["candidate"].iloc[-1] == "initial"  # user weights: mode 1 only
-    history = pd.read_parquet(out / "tables" / "histories.parquet")
-    assert set(history["run"]) == set(candidates.index)
+    # user weights {mode1 = 1}: ranked by |f1 error|, which for the {k1, k2} models is known here
+    ranking = pd.read_parquet(out / "tables" / "ranking.parquet").set_index("candidate")
+    assert ranking["weighted_abs_error_pct"].is_monotonic_increasing and ranking["rank"].tolist() == list(range(1, 8))
+    for name, (k1, k2) in points.items():
+        expected_error = abs(100 * (chain_frequencies(k1, k2)[0] / target_hz[0] - 1))
+        assert ranking.loc[name, "weighted_abs_error_pct"] == pytest.approx(expected_error, rel=1e-8)
+    assert ranking.index[-1] == "initial"
 
     assert main(["update", str(study_file), "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
@@ -184,18 +219,74 @@ def test_cli_reports_study_errors_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("name", ["tbeam_single_mode.toml", "tbeam_three_modes.toml", "gunbarrel_motor_stiffness.toml"])
+#: the case data of METHODS §8 each example study must carry: targets (Hz), fixed values,
+#: (start, lower, upper) per parameter, eigensensitivity formulas, candidate parameter
+#: sets, and the initial f1 (Hz) its header states for the surrogate
+EXAMPLE_CASES = {
+    "tbeam_single_mode.toml": dict(
+        targets=[40.75], fixed={}, parameters={"E": (210e9, 100e9, 300e9)},
+        formulas=["central4", "central2", "backward", "forward"], sets=[], f1=46.42),
+    "tbeam_three_modes.toml": dict(
+        targets=[40.75, 178.0, 260.5], fixed={"transducer_mass": 0.0302, "accelerometer_mass": 0.0048},
+        parameters={"E": (210e9, 185e9, 210e9), "h1": (8e-3, 7.7e-3, 8.3e-3), "h2": (1.5e-3, 1.35e-3, 1.65e-3),
+                    "w1": (12e-3, 11.7e-3, 12.3e-3)},
+        formulas=None, sets=[("E", "h1", "h2")] * 2 + [("E", "h2", "w1")] * 3, f1=None),
+    "gunbarrel_motor_stiffness.toml": dict(
+        targets=[7.46875], fixed={}, parameters={"motor_stiffness": (140e6, 10e6, 5e9)},
+        formulas=["forward"], sets=[], f1=6.34),
+}
+
+
+@pytest.mark.parametrize("name", list(EXAMPLE_CASES))
 def test_example_studies_are_valid(name):
+    """Each example encodes the source's case (METHODS §8), not just a loadable file."""
+    case = EXAMPLE_CASES[name]
     study = load_study(EXAMPLES / name)
     assert study.adapter.kind == "surrogate"
+    assert study.targets["frequencies_hz"] == case["targets"]
+    assert dict(study.fixed) == case["fixed"]
+    assert {p.name: (p.start, p.lower, p.upper) for p in study.parameters} == case["parameters"]
+    if case["formulas"] is None:
+        assert study.eigensensitivity is None
+    else:
+        assert list(study.eigensensitivity["formulas"]) == case["formulas"]
+    assert [tuple(c.parameters) for c in study.candidates] == case["sets"]
+    if case["f1"] is not None:
+        from nlupdate.updating.adapter_factory import build_adapter
+
+        start = {**study.fixed, **{p.name: p.start for p in study.parameters}}
+        assert build_adapter(study.adapter).evaluate(start).natural_frequencies_hz[0] == pytest.approx(case["f1"], abs=0.005)
 
 
 def test_single_mode_example_reaches_the_target(tmp_path):
+    """Every surrogate frequency scales with √E, so the updated E is known,
+    E* = 210 GPa·(40.75/f1(210 GPa))², and so is the path of an exact-Jacobian update:
+    Newton's map e → 2√(1+e) − 2 − e of e = E/E* − 1. From f1 = 46.42 Hz it meets the
+    0.01 % tolerance (|√(1+e) − 1| ≤ 1e-4) after 2 iterations, with every formula."""
     out = tmp_path / "single"
     assert main(["update", str(EXAMPLES / "tbeam_single_mode.toml"), "--out", str(out)]) == 0
     comparison = pd.read_parquet(out / "tables" / "comparison.parquet")
+    f_initial = comparison.loc[comparison["candidate"] == "initial", "f_hz"].item()
+    assert f_initial == pytest.approx(46.42, abs=0.005)  # as the example's header says
+    e_star = 210e9 * (40.75 / f_initial) ** 2
+    newton = [210e9 / e_star - 1]
+    while abs(np.sqrt(1 + newton[-1]) - 1) > 1e-4:
+        newton.append(2 * np.sqrt(1 + newton[-1]) - 2 - newton[-1])
+    assert len(newton) - 1 == 2
+
+    runs = pd.read_parquet(out / "tables" / "runs.parquet").set_index("candidate")
+    history = pd.read_parquet(out / "tables" / "histories.parquet")
+    assert sorted(runs["formula"]) == sorted(["central O(h⁴)", "central O(h²)", "backward O(h)", "forward O(h)"])
+    for name, run in runs.iterrows():
+        assert run["converged"] and run["iterations"] == len(newton) - 1, name
+        errors = history.loc[history["run"] == name, "p:E"].to_numpy() / e_star - 1
+        # one-sided formulas: the Jacobian is off by h/4 = 2.5e-4, each step by that fraction
+        allowed = 1e-3 * np.abs(np.r_[0.0, newton[:-1]]) + 1e-9
+        assert np.all(np.abs(errors - newton) <= allowed), (name, errors, newton)
+        assert run["p:E"] == pytest.approx(e_star, rel=3e-4)
     updated = comparison[comparison["candidate"] != "initial"]
-    assert len(updated) == 4 and updated["error_pct"].abs().max() <= 0.01
+    np.testing.assert_allclose(updated["f_hz"], f_initial * np.sqrt(runs.loc[updated["candidate"], "p:E"] / 210e9), rtol=1e-9)
+    assert updated["error_pct"].abs().max() <= 0.01
 
 
 CALCULIX_STUDY = """
