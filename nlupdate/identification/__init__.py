@@ -12,6 +12,8 @@ Modules
 * :mod:`~nlupdate.identification.ddf` — DDF method for comparison.
 * :mod:`~nlupdate.identification.frequency` — choice of the excitation frequency.
 * :mod:`~nlupdate.identification.uncertainty` — Monte-Carlo statistics over the noise model.
+* :mod:`~nlupdate.identification.trust` — warnings about results not to be trusted
+  (parameters on a bound or not determined by the data, a residual far above the noise).
 * :mod:`~nlupdate.identification.amplitude` — scalar harmonic balance (amplitude roots).
 * :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
 * :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.

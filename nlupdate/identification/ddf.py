@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import PhysicalModel, polynomial_approximation, with_clipped_damping
-from nlupdate.identification.prd import IdentificationError, fit_y_points
+from nlupdate.identification.prd import IdentificationError, fit_y_points_bounded, residual_noise_fraction
 
 DDF_ESTIMATORS = ("naive", "weighted")
 
@@ -79,7 +79,10 @@ class DDFResult:
 
     amplitude / y: the DF values implied by the data at the higher level,
     ``y_n = 1/H_2 − 1/H_1 + Δ_fit(x_1)`` at amplitude ``x_2`` (for plots), and
-    point_frequency_hz their frequencies.
+    point_frequency_hz their frequencies. residual_noise_fraction: the relative noise
+    level implied by the fit's residuals (each row normalised by its METHODS §8 noise
+    scale ``sqrt(|1/H_1|² + |1/H_2|²)``; None without spare degrees of freedom).
+    at_bound: parameters of a physical fit that ended on its bounds.
     """
 
     method: str
@@ -92,6 +95,8 @@ class DDFResult:
     y: NDArray[np.complex128]
     point_frequency_hz: NDArray[np.float64]
     extras: dict = field(default_factory=dict)
+    residual_noise_fraction: float | None = None
+    at_bound: tuple[str, ...] = ()
 
     def nu_high(self, amplitude: ArrayLike, omega: ArrayLike | None = None) -> NDArray[np.complex128]:
         """Identified DF Δ (N/m) at amplitudes A (m); ω (rad/s) defaults to the band centre."""
@@ -183,10 +188,13 @@ def identify_ddf(
     if estimator == "weighted":
         weights = 1.0 / np.sqrt(np.abs(1.0 / h1) ** 2 + np.abs(1.0 / h2) ** 2)
     omega = 2 * np.pi * band
+    noise_scale = np.sqrt(np.abs(1.0 / h1) ** 2 + np.abs(1.0 / h2) ** 2)
     if physical is not None:
-        p = fit_y_points(physical, x2, rhs, x1, omega, weights=weights)
+        p, at_bound = fit_y_points_bounded(physical, x2, rhs, x1, omega, weights=weights)
         implied = rhs + physical.nu(p, x1, omega)
-        return DDFResult("ddf", estimator, setup, None, physical, p, x2, implied, band)
+        residual = residual_noise_fraction(implied - physical.nu(p, x2, omega), noise_scale, physical.n_params)
+        return DDFResult("ddf", estimator, setup, None, physical, p, x2, implied, band,
+                         residual_noise_fraction=residual, at_bound=at_bound)
     powers = np.arange(1, setup.order + 1)
     design = (x2[:, None] ** powers - x1[:, None] ** powers) * weights[:, None]
     scale = np.max(np.abs(design), axis=0)
@@ -200,4 +208,6 @@ def identify_ddf(
     solution = np.linalg.lstsq(design / scale, np.stack([rhs.real, rhs.imag], axis=1) * weights[:, None], rcond=None)[0]
     coefficients = (solution[:, 0] + 1j * solution[:, 1]) / scale
     implied = rhs + sum(c * x1 ** (k + 1) for k, c in enumerate(coefficients))
-    return DDFResult("ddf", estimator, setup, coefficients, None, None, x2, implied, band)
+    misfit = implied - sum(c * x2 ** (k + 1) for k, c in enumerate(coefficients))
+    return DDFResult("ddf", estimator, setup, coefficients, None, None, x2, implied, band,
+                     residual_noise_fraction=residual_noise_fraction(misfit, noise_scale, 2 * coefficients.size))

@@ -36,6 +36,7 @@ from nlupdate.identification.frequency import FrequencyChoice, recommend_frequen
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
 from nlupdate.identification.report import elements_summary
+from nlupdate.identification.trust import RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, identification_warnings
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
 
@@ -127,6 +128,7 @@ class Identification:
     uncertainty: Monte-Carlo statistics of the parameters and of ``linear_f<i>_hz``
     (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
     noise_fraction, noise_source: the noise level used and where it came from.
+    warnings: reasons not to trust parts of the result (:mod:`nlupdate.identification.trust`).
     """
 
     settings: IdentificationSettings
@@ -168,6 +170,20 @@ class Identification:
             out[band] = mode.receptance(f[band])
         return out
 
+    @property
+    def residual_noise_fraction(self) -> float | None:
+        """The noise level (std / |H|) implied by the fit's residuals; about
+        ``noise_fraction`` when the model fits (None when the fit has no spare degrees of
+        freedom)."""
+        return getattr(self.result, "residual_noise_fraction", None)
+
+    @property
+    def warnings(self) -> tuple[TrustWarning, ...]:
+        """Parameters on a bound or not determined by the data, a residual far above the
+        noise (:func:`nlupdate.identification.trust.identification_warnings`); empty when
+        nothing is suspicious."""
+        return identification_warnings(self)
+
     def parameters(self) -> dict[str, float]:
         """Identified nonlinearity parameters (SI) by name."""
         return self.result.parameters()
@@ -180,7 +196,8 @@ class Identification:
         """The ``identification.json`` content (see :mod:`nlupdate.identification.report`)."""
         s, r = self.settings, self.result
         out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": self.model_description,
-                               "response_dof": s.response_dof, "input_dof": s.input_dof}
+                               "response_dof": s.response_dof, "input_dof": s.input_dof,
+                               "warnings": [w.as_dict() for w in self.warnings]}
         order = max(self.defaults_used.get("order", s.order) or 2, 1)
         real, imag = r.describing_function(order)
         if s.method == "prd":
@@ -227,6 +244,14 @@ class Identification:
             "uncertainty": dict(self.uncertainty.as_dict(),
                                 held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
             "noise_fraction": {"value": self.noise_fraction, "source": self.noise_source},
+            "fit_residual": {
+                "noise_fraction": self.residual_noise_fraction,
+                "ratio_to_noise": (self.residual_noise_fraction / self.noise_fraction
+                                   if self.residual_noise_fraction is not None and self.noise_fraction > 0 else None),
+                "definition": "RMS of the fit's residuals normalised like the noise (std / |H|), corrected for the "
+                              "fitted degrees of freedom; about noise_fraction when the model fits; warned above "
+                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g})",
+            },
             "elements": elements_summary(r, s.response_dof),
             "linear_frf": {
                 "file": "linear_frf.parquet",

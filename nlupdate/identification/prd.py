@@ -116,6 +116,13 @@ class PRDResult:
     low-force dynamic stiffness for the improved estimator). amplitude_low: |X_1| at
     the excitation frequency. covariance: linearised covariance of p (improved only).
     noise_fraction: relative noise level implied by the fit residuals (improved only).
+    residual_noise_fraction: the same for every estimator — the RMS of the fit's
+    residuals normalised like the METHODS §8 noise (std / |H|) and corrected for the
+    fitted degrees of freedom; it matches the noise fraction when the model fits (None
+    when there are no spare degrees of freedom). amplitude_low_max: the largest
+    low-force amplitude the fit used (m; a Jenkins slider slipping there would show).
+    at_bound: parameters that ended on the bounds of a bounded fit (naive physical fits
+    keep log-parameters within a factor 1e6 of their start).
     """
 
     method: str
@@ -131,6 +138,9 @@ class PRDResult:
     noise_fraction: float | None = None
     z_coefficients: NDArray[np.complex128] | None = None
     extras: dict = field(default_factory=dict)
+    residual_noise_fraction: float | None = None
+    amplitude_low_max: float | None = None
+    at_bound: tuple[str, ...] = ()
 
     @property
     def omega(self) -> float:
@@ -265,6 +275,19 @@ def fit_y_points(
     weights: NDArray | None = None,
 ) -> NDArray[np.float64]:
     """Equation-error fit of ``y = ν_high(A) − ν_low(A_1)`` (weights multiply residuals)."""
+    return fit_y_points_bounded(model, amplitude, y, amplitude_low, omega, weights)[0]
+
+
+def fit_y_points_bounded(
+    model: Model,
+    amplitude: NDArray,
+    y: NDArray,
+    amplitude_low: NDArray | float,
+    omega: NDArray | float,
+    weights: NDArray | None = None,
+) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    """:func:`fit_y_points` and the names of the parameters that ended on the bounds of
+    the fit (physical models only: log-parameters stay within a factor 1e6 of their start)."""
     amplitude = np.asarray(amplitude, dtype=float)
     y = np.asarray(y, dtype=complex)
     weights = np.ones(amplitude.size) if weights is None else np.asarray(weights, dtype=float)
@@ -274,7 +297,7 @@ def fit_y_points(
         return np.concatenate([
             _linear_fit(vr, y.real, weights, "real part"),
             _linear_fit(vi, y.imag, weights, "imaginary part"),
-        ])
+        ]), ()
     a_low = np.broadcast_to(np.asarray(amplitude_low, dtype=float), amplitude.shape)
     om = np.broadcast_to(np.asarray(omega, dtype=float), amplitude.shape)
 
@@ -297,8 +320,18 @@ def fit_y_points(
         except ValueError as error:
             raise IdentificationError(f"PRD fit of {model.description()} failed: {error}") from error
         if best is None or solution.cost < best[0]:
-            best = (solution.cost, solution.x * scale)
-    return best[1]
+            best = (solution.cost, solution.x * scale, np.asarray(solution.active_mask) != 0)
+    return best[1], tuple(name for name, on_bound in zip(model.names, best[2]) if on_bound)
+
+
+def residual_noise_fraction(residual: NDArray, noise_scale: NDArray, n_parameters: int) -> float | None:
+    """Relative noise level implied by complex equation residuals whose noise std is
+    ``fraction·noise_scale``: ``sqrt(2 Σ|r/s|² / (2n − n_parameters))`` (None without
+    spare degrees of freedom)."""
+    dof = 2 * np.size(residual) - int(n_parameters)
+    if dof <= 0:
+        return None
+    return float(np.sqrt(2 * np.sum(np.abs(np.asarray(residual) / np.asarray(noise_scale)) ** 2) / dof))
 
 
 def _window_design(x: NDArray, degree: int) -> NDArray:
@@ -316,8 +349,12 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
     y = 1.0 / h_high - 1.0 / h_low
     a_low = abs(h_low) * setup.low_force
     omega = 2 * np.pi * f
-    p = fit_y_points(model, amplitude, y, a_low, omega)
-    return PRDResult("prd", "naive", model, p, setup, amplitude, y, np.full(amplitude.size, f), a_low)
+    p, at_bound = fit_y_points_bounded(model, amplitude, y, a_low, omega)
+    # noise of y_i = 1/H_i − 1/H_1: fraction·|1/H| on each term (METHODS §8)
+    misfit = y - model.nu_high(p, amplitude, omega) + model.nu_low(p, np.array([a_low]), omega)
+    residual = residual_noise_fraction(misfit, np.sqrt(np.abs(1 / h_high) ** 2 + abs(1 / h_low) ** 2), model.n_params)
+    return PRDResult("prd", "naive", model, p, setup, amplitude, y, np.full(amplitude.size, f), a_low,
+                     residual_noise_fraction=residual, amplitude_low_max=a_low, at_bound=at_bound)
 
 
 def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: float = 0.01) -> PRDResult:
@@ -425,6 +462,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         covariance = sigma2 * np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
         covariance = None
+    low_response, _ = model_response(theta)  # the fitted low-force amplitudes over the window
     z = theta[:n_z] + 1j * theta[n_z : 2 * n_z]
     p = theta[2 * n_z :]
     # PRD points relative to the fitted low-force dynamic stiffness, for plots and reports
@@ -437,6 +475,8 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         "prd", "improved", model, p, setup, am_h, y_points, np.repeat(f_h, forces.size), a_low_fit,
         covariance=None if covariance is None else covariance[2 * n_z :, 2 * n_z :],
         noise_fraction=float(np.sqrt(2 * sigma2)), z_coefficients=z,
+        residual_noise_fraction=float(np.sqrt(2 * sigma2)) if n_res > n_par else None,
+        amplitude_low_max=float(np.max(np.abs(low_response))),
         extras={"half_window": half_window, "window_hz": (float(fe * (1 - half_window)), float(fe * (1 + half_window))),
                 "n_low_points": int(f_l.size), "n_high_points": int(am_h.size), "z_degree": degree},
     )

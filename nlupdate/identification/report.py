@@ -3,6 +3,8 @@
 ``identification.json`` keys (SI units, polynomial coefficients highest order first):
 
 * ``method`` ("prd"/"ddf"), ``estimator``, ``model``, ``response_dof``, ``input_dof``;
+* ``warnings``: results not to be trusted as they stand, each ``{"subject", "kind",
+  "message", "source"}`` (:mod:`nlupdate.identification.trust`; empty when none);
 * ``excitation_frequency_hz`` (PRD; null for DDF), ``low_force_n`` and ``high_forces_n``
   (PRD) or ``force_pair_n`` and ``band_hz`` (DDF);
 * ``describing_function``: ``{"real", "imag", "definition", "amplitude_range_m"}`` — the DF
@@ -13,7 +15,8 @@
 * ``elements`` (physical models): type, dofs and parameters, ready for
   :data:`nlupdate.model.elements.ELEMENT_TYPES`;
 * ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
-  (how the statistics were made);
+  (how the statistics were made); ``noise_fraction`` (the noise level used) and
+  ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
 * ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
 * ``defaults_used``: every option that was not given and the value chosen.
 """

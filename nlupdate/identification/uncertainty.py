@@ -91,8 +91,9 @@ def monte_carlo(
         values = np.array([s[name] for s in good if name in s and np.isfinite(s[name])])
         if values.size >= 2:
             low, high = np.percentile(values, [2.5, 97.5])
-            stats[name] = ParameterStatistics(float(value), float(values.mean()), float(values.std(ddof=1)),
-                                              (float(low), float(high)))
+            with np.errstate(over="ignore", invalid="ignore"):
+                mean, std = float(values.mean()), float(values.std(ddof=1))
+            stats[name] = ParameterStatistics(float(value), mean, std, (float(low), float(high)))
         else:
             stats[name] = ParameterStatistics(float(value), float("nan"), float("nan"), (float("nan"), float("nan")))
     return Uncertainty(stats, float(noise_fraction), n_samples, n_samples - len(good), seed)

@@ -1,0 +1,192 @@
+"""Warnings about identified values that should not be trusted as they stand.
+
+A fit always returns numbers; these checks say when the numbers are not measurements.
+:func:`identification_warnings` looks at an
+:class:`~nlupdate.identification.pipeline.Identification` and returns one
+:class:`TrustWarning` per finding (none for a well-identified result):
+
+* ``uncertainty_exceeds_value`` — the Monte-Carlo standard deviation of a parameter (or
+  of a linear mode's natural frequency or loss factor) is larger than its magnitude: the
+  data do not distinguish it from zero. Raw coefficients of a polynomial DF
+  (``re_c<k>``, ``im_c<k>``) are not checked: a polynomial term consistent with zero is
+  the normal case, not a failure. ``uncertainty_unknown``: the Monte Carlo gave fewer
+  than two values for it.
+* ``at_bound`` — the value sits where the fit or the data put a limit, not where the
+  data put the parameter:
+
+  - a naive PRD/DDF fit of physical elements keeps every log-parameter within a factor
+    1e6 of its start; a parameter that ends on that box (``at_bound`` of the fit);
+  - a log-parameter at the end of the number range (e^±699 and beyond: it ran off);
+  - a Jenkins slip force at the edges of what the data can show. The PRD relies on the
+    low force leaving the slider stuck, so the data say ``slip_force > kf·A₁`` (A₁: the
+    largest low-force amplitude the fit used), and the fit's start is clipped to at
+    least ``2·kf·A₁`` (:meth:`~nlupdate.identification.dfmodels.PhysicalModel.initial_guesses`).
+    A slip force the data do not otherwise determine ends in between: at the limit (on
+    the §3.1 SDOF at 5 % noise half of the seeds end at 0.97–1.0 × kf·A₁, truth
+    100 × kf·A₁) or where it started (the review's 0.0199 N = 1.9 × kf·A₁ on the
+    demo's T-beam, truth 0.5 N = 48 × kf·A₁). Warned: ``kf·A₁/1.1 ≤ slip_force ≤
+    2.2·kf·A₁`` (``SLIP_TOLERANCE`` = 10 % beyond both). Far below kf·A₁ the model has
+    the low level slipping, which the data can show. At the other end, a slip force at
+    or above ``kf·A_max/1.1`` (A_max: the largest high-force amplitude) means no
+    measured level slips (or barely): the data bound it from below only.
+
+* ``residual_above_noise`` — the fit's residual, as a relative noise level
+  (:attr:`~nlupdate.identification.pipeline.Identification.residual_noise_fraction`),
+  is more than ``RESIDUAL_FACTOR`` (3) times the noise level the identification used
+  (given, or estimated from the low-force sweep; at least ``RESIDUAL_FLOOR``, 0.1 %).
+  For a model that fits, the ratio is 1 within a few per cent (hundreds of residuals;
+  the noise estimate itself is good to ~10 %), and the naive estimators sit below 1;
+  a ratio above 3 means the misfit has about ten times the variance of the noise: the
+  model misses part of the behaviour (e.g. a polynomial DF across a friction transition
+  gives 9–15×), or the noise level is understated — and the Monte-Carlo uncertainties,
+  drawn at that noise level, are then too small. 3 is also the factor the improved PRD
+  estimator uses to detect a poor start. The floor keeps noise-free simulated data from
+  warning about round-off.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
+
+RESIDUAL_FACTOR = 3.0
+RESIDUAL_FLOOR = 1e-3
+SLIP_TOLERANCE = 0.1
+LOG_LIMIT = 699.0  # PhysicalModel.values clips log-parameters at ±700
+_RAW_COEFFICIENT = re.compile(r"^(re|im)_c\d+$")
+
+
+@dataclass(frozen=True)
+class TrustWarning:
+    """One reason not to trust a result as it stands.
+
+    subject: what it is about (a parameter name, or ``fit``); kind: ``at_bound``,
+    ``uncertainty_exceeds_value``, ``uncertainty_unknown`` or ``residual_above_noise``;
+    message: one plain sentence with the numbers; source: where the result came from
+    (``identification``, or an updating run's name).
+    """
+
+    subject: str
+    kind: str
+    message: str
+    source: str = ""
+
+    def as_dict(self) -> dict[str, str]:
+        return asdict(self)
+
+    def __str__(self) -> str:
+        return f"{self.source}: {self.message}" if self.source else self.message
+
+
+def uncertainty_warnings(values: dict[str, float], std: dict[str, float], what: str, source: str = "") -> list[TrustWarning]:
+    """``uncertainty_exceeds_value`` for every value whose std exceeds its magnitude."""
+    out = []
+    for name, value in values.items():
+        s = std.get(name)
+        if s is None or not np.isfinite(value):
+            continue
+        if np.isnan(s):
+            out.append(TrustWarning(name, "uncertainty_unknown", f"{name} = {value:.4g}: no {what} uncertainty could "
+                                                                  f"be computed for it", source))
+        elif s > abs(value):
+            out.append(TrustWarning(name, "uncertainty_exceeds_value",
+                                    f"{name} = {value:.4g} ± {s:.3g}: the {what} uncertainty exceeds the value, so the "
+                                    f"data do not determine it", source))
+    return out
+
+
+def _jenkins_slots(model: PhysicalModel) -> list[tuple[str, str]]:
+    """(kf name, slip force name) of every Jenkins element of a physical model."""
+    names = iter(model.names)
+    out = []
+    for element in model.element_names:
+        slot = [next(names) for _ in ELEMENT_PARAMETERS[element]]
+        if element == "jenkins":
+            out.append((slot[0], slot[1]))
+    return out
+
+
+def _slip_force_warnings(result: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if not isinstance(model, PhysicalModel):
+        return []
+    out = []
+    a_low = getattr(result, "amplitude_low_max", None) if result.method == "prd" else None
+    a_high = float(np.max(result.amplitude)) if np.size(result.amplitude) else None
+    for kf_name, slip_name in _jenkins_slots(model):
+        kf, slip = values[kf_name], values[slip_name]
+        if a_low is not None and a_low > 0:
+            lower = kf * a_low
+            if lower / (1 + SLIP_TOLERANCE) <= slip <= 2 * lower * (1 + SLIP_TOLERANCE):
+                out.append(TrustWarning(
+                    slip_name, "at_bound",
+                    f"{slip_name} = {slip:.4g} N sits at the lower limit of what the data can show ({slip / lower:.2g} × "
+                    f"kf·A₁ = {lower:.4g} N, the slip force at which the {result.setup.low_force:g} N level would start "
+                    f"to slip; the fit starts at 2 × kf·A₁ or above): the data show only that the low level is stuck, "
+                    f"not the slip force", source))
+                continue
+        if a_high is not None and a_high > 0:
+            upper = kf * a_high
+            if slip >= upper / (1 + SLIP_TOLERANCE):
+                out.append(TrustWarning(
+                    slip_name, "at_bound",
+                    f"{slip_name} = {slip:.4g} N is at or above kf·A_max = {upper:.4g} N (the largest measured "
+                    f"amplitude): no measured level slips, so the data bound the slip force from below only", source))
+    return out
+
+
+def _bound_warnings(result: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+    out = []
+    flagged = set()
+    for name in getattr(result, "at_bound", ()):
+        flagged.add(name)
+        out.append(TrustWarning(name, "at_bound",
+                                f"{name} = {values.get(name, float('nan')):.4g} ended on a bound of the fit (log-parameters "
+                                f"are kept within a factor 1e6 of their start): the data do not determine it", source))
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if isinstance(model, PhysicalModel):
+        positive = {name: pos for (_, name, pos) in model._slots}
+        for name, value in values.items():
+            if name in flagged or not positive.get(name) or not value > 0:
+                continue
+            if abs(np.log(value)) >= LOG_LIMIT:
+                flagged.add(name)
+                out.append(TrustWarning(name, "at_bound",
+                                        f"{name} = {value:.4g} ran off to the end of the number range: the data do not "
+                                        f"determine it", source))
+    return out + [w for w in _slip_force_warnings(result, values, source) if w.subject not in flagged]
+
+
+def residual_warnings(residual: float | None, noise: float, noise_source: str, source: str = "") -> list[TrustWarning]:
+    """``residual_above_noise`` when the fit's residual noise level exceeds
+    ``RESIDUAL_FACTOR`` × max(noise, ``RESIDUAL_FLOOR``)."""
+    if residual is None or not np.isfinite(residual):
+        return []
+    reference = max(float(noise), RESIDUAL_FLOOR)
+    if residual <= RESIDUAL_FACTOR * reference:
+        return []
+    return [TrustWarning(
+        "fit", "residual_above_noise",
+        f"the fit's residual ({100 * residual:.3g} % of |H|) is {residual / reference:.1f}× the noise level used "
+        f"({100 * noise:.3g} %, {noise_source}): the model misses part of the behaviour or the noise level is "
+        f"understated, and the Monte-Carlo uncertainties, drawn at that noise level, are then too small", source)]
+
+
+def identification_warnings(identification: Any, source: str = "identification") -> tuple[TrustWarning, ...]:
+    """Every warning about an :class:`~nlupdate.identification.pipeline.Identification`
+    (module docstring); empty when nothing is suspicious."""
+    result = identification.result
+    values = dict(result.parameters())
+    stats = identification.uncertainty.parameters
+    checked = {name: stats[name].value for name in stats if not _RAW_COEFFICIENT.match(name)}
+    out = _bound_warnings(result, values, source)
+    flagged = {w.subject for w in out}
+    out += [w for w in uncertainty_warnings(checked, {n: stats[n].std for n in checked}, "Monte-Carlo", source)
+            if w.subject not in flagged]
+    out += residual_warnings(identification.residual_noise_fraction, identification.noise_fraction,
+                             identification.noise_source, source)
+    return tuple(out)
