@@ -4,7 +4,9 @@
 
     manifest.json     study file and its hash, input data hashes, package versions, git
                       commit, seeds, adapter and solver versions, start/end, how the run was
-                      orchestrated (flow-run id, tasks computed vs cached) and failures
+                      orchestrated (flow-run id, tasks computed vs cached), failures and
+                      warnings (results not to be trusted as they stand, each
+                      {"subject", "kind", "message", "source"}: nlupdate.study.run.study_warnings)
     study.toml        the study file as run
     report.md         the report (:mod:`nlupdate.reporting.report`), plots linked
     identification.json   the identification summary (when the study identifies)
@@ -31,6 +33,7 @@ from nlupdate.reporting.manifest import environment, file_hash, table_hash
 from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
 from nlupdate.reporting.report import report_markdown
 from nlupdate.reporting.tables import study_tables
+from nlupdate.study.run import study_warnings
 from nlupdate.study.steps import comparison_damping, model_pair, prediction_adapter
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import candidate_frf
@@ -97,6 +100,7 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
         "environment": environment(),
         "run": dict(run),
         "failures": [{"run": f.name, "error": f.error} for f in result.failures],
+        "warnings": [w.as_dict() for w in study_warnings(result)],
         "tables": tables,
         "plots": dict(plots),
     }

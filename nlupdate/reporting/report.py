@@ -1,6 +1,8 @@
 """``report.md``: a run archive's report, written to be read top to bottom.
 
-It opens with the answer (identified nonlinearity, updated parameters with their
+It opens with the warnings about results that should not be trusted as they stand
+(:func:`nlupdate.study.run.study_warnings`; the CLI prints the summary, so they reach
+the terminal too) and the answer (identified nonlinearity, updated parameters with their
 uncertainty, how well the updated nonlinear model predicts every force level), then
 shows how each step got there, with the plots linked beside the numbers. For a
 simulated study the hidden truth is printed beside every estimate.
@@ -11,6 +13,9 @@ from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
+
+from nlupdate.study.run import study_warnings
+from nlupdate.updating.trust import updating_warnings
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
                     "propagated through the updating sensitivities for updated parameters); the interval given as "
@@ -69,6 +74,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
               f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
 
     lines += ["## Summary", ""]
+    lines += _warning_lines(result)
     summary = _summary_lines(result, truth)
     lines += summary or ["(nothing was computed)"]
     lines += ["", f"_{UNCERTAINTY_NOTE}._", ""]
@@ -104,6 +110,16 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
               "* `tables/*.parquet` — " + ", ".join(f"`{name}`" for name in manifest.get("tables", [])),
               "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())), ""]
     return "\n".join(lines)
+
+
+def _warning_lines(result) -> list[str]:
+    """The **Warnings** block that opens the summary (nothing when there are none)."""
+    warnings = study_warnings(result)
+    if not warnings:
+        return []
+    lines = [f"**Warnings** ({len(warnings)}: results not to be trusted as they stand):", ""]
+    lines += [f"* {w.source}: {w.message}" if w.source else f"* {w.message}" for w in warnings]
+    return lines + [""]
 
 
 def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
@@ -188,10 +204,15 @@ def _targets_section(result) -> list[str]:
 def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     lines = ["## Updating", ""]
     rows = []
+    bounds = {p.name: (p.lower, p.upper) for p in result.study.parameters}
     for run in result.runs:
         u = result.uncertainties.get(run.name)
+        on_bound = [w.subject for w in updating_warnings(run, {**(run.bounds or {}), **bounds}) if w.kind == "at_bound"]
+        converged = "yes" if run.converged else f"no ({run.reason})"
+        if on_bound:
+            converged += f", on the bound of {', '.join(on_bound)}"
         rows.append({
-            "run": run.name, "converged": "yes" if run.converged else f"no ({run.reason})", "iterations": run.iterations,
+            "run": run.name, "converged": converged, "iterations": run.iterations,
             "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
             **{name: f"{_number(v)} ± {_number(u.std[name], 2) if u else '–'}" for name, v in run.parameters.items()},
         })

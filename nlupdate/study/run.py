@@ -14,6 +14,7 @@ from typing import Callable
 import pandas as pd
 
 from nlupdate.identification.pipeline import Identification
+from nlupdate.identification.trust import TrustWarning
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import (
     Prediction, RunFailure, TargetSet, compare_runs, identification_step, measured_table, parameter_uncertainties,
@@ -23,6 +24,7 @@ from nlupdate.updating.adapter_factory import build_adapter
 from nlupdate.updating.candidates import update
 from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.evaluation import MemoisedEvaluator
+from nlupdate.updating.trust import updating_warnings
 from nlupdate.updating.uncertainty import ParameterUncertainty
 
 
@@ -40,6 +42,24 @@ class StudyResult:
     ranking: pd.DataFrame | None = None
     uncertainties: dict[str, ParameterUncertainty] = field(default_factory=dict)
     predictions: tuple[Prediction, ...] = ()
+
+    @property
+    def warnings(self) -> tuple[TrustWarning, ...]:
+        """Results that should not be trusted as they stand (:func:`study_warnings`)."""
+        return study_warnings(self)
+
+
+def study_warnings(result: StudyResult) -> tuple[TrustWarning, ...]:
+    """The identification's warnings (:mod:`nlupdate.identification.trust`), then each
+    updating run's (:mod:`nlupdate.updating.trust`: parameters that ended on a bound of
+    the study, propagated uncertainty above the value), in run order."""
+    out: list[TrustWarning] = []
+    if result.identification is not None:
+        out += result.identification.warnings
+    bounds = {p.name: (p.lower, p.upper) for p in result.study.parameters}
+    for run in result.runs:
+        out += updating_warnings(run, {**(run.bounds or {}), **bounds}, result.uncertainties.get(run.name))
+    return tuple(out)
 
 
 def run_study(study: Study, say: Callable[[str], None] = lambda message: None) -> StudyResult:

@@ -8,6 +8,7 @@
 * :mod:`~nlupdate.updating.evaluation` — point evaluators: who runs the FE evaluations
 * :mod:`~nlupdate.updating.candidates` — one run (:func:`update`), sweeps, candidate comparison, ranking
 * :mod:`~nlupdate.updating.uncertainty` — parameter uncertainty from target uncertainty
+* :mod:`~nlupdate.updating.trust` — warnings: runs that ended on a bound, spread above the value
 * :mod:`~nlupdate.updating.plots` — PNG plots
 """
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter

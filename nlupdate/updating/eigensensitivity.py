@@ -83,7 +83,8 @@ class UpdatingResult:
     updated point; counts: point evaluations (``new``, ``cached``) of the run;
     sensitivity: the last Jacobian of the response vector (paired ``f/f_target``, then
     mode-shape terms) per parameter unit, at ``sensitivity_point`` (None if no iteration
-    was needed).
+    was needed); bounds: (lower, upper) of each updated parameter, to tell a result that
+    ended on a bound (:func:`nlupdate.updating.trust.updating_warnings`).
     """
 
     method: str
@@ -102,6 +103,7 @@ class UpdatingResult:
     name: str = ""
     sensitivity: np.ndarray | None = field(default=None, repr=False)
     sensitivity_point: dict[str, float] | None = None
+    bounds: dict[str, tuple[float, float]] | None = None
 
     def frequencies_hz(self, which: str = "final") -> np.ndarray:
         """Paired model frequencies (Hz) of the ``initial`` or ``final`` model."""
@@ -251,6 +253,7 @@ def inverse_eigensensitivity(
         targets=targets,
         sensitivity=sensitivity,
         sensitivity_point=sensitivity_point,
+        bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
     )
 
 

@@ -143,4 +143,5 @@ def optimise_frequencies(
         targets=targets,
         sensitivity=last_jacobian["sensitivity"],
         sensitivity_point=last_jacobian["point"],
+        bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
     )
