@@ -112,6 +112,13 @@ class FEAdapter(ABC):
         """Name and version of the FE code, for run manifests (subclasses say more)."""
         return self.name
 
+    def check_available(self) -> None:
+        """Raise :class:`AdapterError` if the FE code cannot run here (its program is missing).
+
+        Called before a study starts, so a missing solver is one error up front rather than
+        a failure in every updating run. In-process adapters are always available.
+        """
+
     def key(self, parameters: Mapping[str, float]) -> str:
         """Identity of the point ``parameters`` of this model (checked values)."""
         return parameter_key(self.name, self.model_fingerprint(), self._check(parameters))

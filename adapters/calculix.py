@@ -301,6 +301,9 @@ class CalculixAdapter(FEAdapter):
             log_name="ccx.log",
         )
 
+    def check_available(self) -> None:
+        self.runner.resolve()
+
     def solver_version(self) -> str:
         return f"CalculiX {self.runner.version()}"
 

@@ -735,6 +735,9 @@ class MapdlAdapter(FEAdapter):
         """Adapter for the APDL deck stored in ``deck_path``."""
         return cls(Path(deck_path).read_text(), parameter_names, coordinates, **options)  # type: ignore[arg-type]
 
+    def check_available(self) -> None:
+        self.runner.resolve()
+
     def solver_version(self) -> str:
         executable = self.runner.executable or "(no executable configured)"
         return f"ANSYS MAPDL batch: {executable}"

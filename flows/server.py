@@ -20,6 +20,15 @@ class ServerError(RuntimeError):
     """The Prefect API cannot be reached or started; the message says what to do."""
 
 
+_STARTED: list = []  # servers prefect_api started and has not stopped yet
+
+
+def stop_started_servers() -> None:
+    """Stop the servers :func:`prefect_api` started (for an exit that cannot unwind)."""
+    while _STARTED:
+        _STARTED.pop().stop()
+
+
 HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200) and set "
         "PREFECT_API_URL=http://127.0.0.1:4200/api, or unset PREFECT_API_URL to let nlupdate start its own")
 
@@ -62,6 +71,7 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
     except Exception as error:  # whatever uvicorn or the database raised
         raise ServerError(f"could not start a Prefect server ({type(error).__name__}: {error}); {HELP}") from None
     os.environ["PREFECT_API_URL"] = server.api_url
+    _STARTED.append(server)
     say(f"Prefect server: {server.api_url} (stops with the run)")
     try:
         yield server.api_url
@@ -70,4 +80,6 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
             flush_run_history()
         finally:
             os.environ.pop("PREFECT_API_URL", None)
-            server.stop()
+            if server in _STARTED:
+                _STARTED.remove(server)
+                server.stop()

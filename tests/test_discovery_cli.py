@@ -79,11 +79,22 @@ def test_coordinates_the_model_lacks(tmp_path, capsys):
     assert "column 'response_dof' names coordinate 'tip', which the model lacks" in error and str(other) in error
 
 
-def test_model_that_fails_to_solve(tmp_path, capsys):
+def test_model_without_mass_is_refused_before_work(tmp_path, capsys):
     broken = tmp_path / "broken.toml"
     broken.write_text('[model]\nkind = "lumped"\nmass = [[0.0]]\nstiffness = [[0.0]]\n')
     error = _bad_run(tmp_path, capsys, model=broken)
-    assert f"{broken}: the model cannot be solved at 2 N" in error
+    assert f"{broken} [model]: 'mass' has 0 on the diagonal at dof 0" in error
+
+
+def test_model_that_fails_to_solve(tmp_path, capsys, monkeypatch):
+    from nlupdate.discovery import ModelSolveError
+
+    def unsolvable(*args, **kwargs):
+        raise ModelSolveError("the model cannot be solved at 2 N (singular dynamic stiffness)")
+
+    monkeypatch.setattr("nlupdate.cli.discover.discover", unsolvable)
+    error = _bad_run(tmp_path, capsys)
+    assert f"{MODEL}: the model cannot be solved at 2 N" in error
 
 
 def test_unknown_effect(tmp_path, capsys):

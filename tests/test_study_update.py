@@ -143,6 +143,8 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
     labels = ["mode1", "mode2", "mode3"]
     points = {"initial": (0.7e6, 1.4e6)}  # every {k1, k2} run starts there (the study's starts)
     points.update({name: (row["p:k1"], row["p:k2"]) for name, row in candidates.iterrows() if name != "k1 only"})
+    # a run that does not update k2 holds it at its [[parameters]] start, as its prediction does
+    points["k1 only"] = (candidates.loc["k1 only", "p:k1"], 1.4e6)
     for name, (k1, k2) in points.items():
         rows = comparison[comparison["candidate"] == name].set_index("mode").loc[labels]
         expected = chain_frequencies(k1, k2)
@@ -150,10 +152,11 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
         np.testing.assert_allclose(rows["error_pct"], 100 * (expected / target_hz - 1), rtol=1e-8, atol=1e-10, err_msg=name)
     for name in points.keys() - {"initial"}:
         run = history[history["run"] == name]
-        assert run[["p:k1", "p:k2"]].iloc[-1].tolist() == pytest.approx(list(points[name]), rel=1e-12)
-        for _, step in run.iterrows():  # every iterate of the history
+        k2 = run["p:k2"] if name != "k1 only" else pd.Series(1.4e6, index=run.index)
+        assert [run["p:k1"].iloc[-1], k2.iloc[-1]] == pytest.approx(list(points[name]), rel=1e-12)
+        for index, step in run.iterrows():  # every iterate of the history
             np.testing.assert_allclose(step[[f"f_hz:{m}" for m in labels]].to_numpy(float),
-                                       chain_frequencies(step["p:k1"], step["p:k2"]), rtol=1e-10)
+                                       chain_frequencies(step["p:k1"], k2[index]), rtol=1e-10)
 
     # FRAC against the truth's FRF: the updated models ≈ 1, the initial one far from it
     updated = comparison[comparison["candidate"] == "eigensensitivity central O(h⁴) {k1, k2}"]

@@ -91,6 +91,15 @@ def _runtime_errors() -> tuple[type[BaseException], ...]:
     return CliRuntimeError, AdapterError, OSError, RuntimeError
 
 
+def one_line(message: object) -> str:
+    """A possibly multi-line error as one line: its first line and the log it points to."""
+    lines = [line.strip() for line in str(message).splitlines() if line.strip()]
+    if not lines:
+        return ""
+    log = next((line for line in lines[1:] if line.startswith("log:")), None)
+    return f"{lines[0]} ({log})" if log and log not in lines[0] else lines[0]
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     print(f"nlupdate: warning: {message}", file=sys.stderr)
 
@@ -119,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _runtime_errors() as error:
         if args.debug:
             raise
-        print(f"nlupdate {args.command}: error: {error}", file=sys.stderr)
+        print(f"nlupdate {args.command}: error: {one_line(error)}", file=sys.stderr)
         return EXIT_RUNTIME
     except Exception as error:  # a bug: say so in one line; --debug shows where
         if args.debug:

@@ -9,12 +9,13 @@ prediction at every force level. ``--seed`` changes the noise (and Monte-Carlo) 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 from importlib import resources
 from pathlib import Path
 
 from nlupdate.cli import add_command, non_negative_int
-from nlupdate.cli.run import add_execution_options, print_summary, run_with_prefect
+from nlupdate.cli.run import add_execution_options, exit_code_for_failures, print_summary, run_with_prefect
 
 DEMO_STUDY = "data/demo.toml"
 
@@ -43,4 +44,4 @@ def run(args: argparse.Namespace) -> int:
         print_summary(archive)
     else:
         print(archive)
-    return 0
+    return exit_code_for_failures(json.loads((archive / "manifest.json").read_text())["failures"])

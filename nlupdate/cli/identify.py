@@ -153,5 +153,7 @@ def run(args: argparse.Namespace) -> int:
     for name, stats in identification.uncertainty.parameters.items():
         print(f"{name} = {stats.value:.6g} (MC mean {stats.mean:.6g} ± {stats.std:.3g}, 95 % "
               f"[{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}])")
+    for warning in identification.warnings:
+        print(f"warning: {warning}")
     print(f"wrote {out / JSON_NAME} and the linear FRF, fit and FRF plots")
     return 0

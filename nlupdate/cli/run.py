@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
+import sys
 from pathlib import Path
 from typing import Iterator
 
-from nlupdate.cli import CliRuntimeError, add_command, positive_int
+from nlupdate.cli import CliRuntimeError, add_command, one_line, positive_int
 from nlupdate.cli.output import writable_folder
 
 
@@ -40,18 +42,43 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 @contextlib.contextmanager
 def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
-    """Check the execution options, prepare the environment before Prefect is imported,
-    and turn set-up failures (server, Dask) into one-line errors."""
+    """Prepare the environment before Prefect is imported, turn set-up failures (server,
+    Dask) into one-line errors, and make Ctrl-C end the run within seconds."""
     from nlupdate.flows.environment import prepare_environment
 
     prepare_environment()
+    from nlupdate.flows.interrupt import prompt_interrupt
     from nlupdate.flows.runners import ExecutionError
-    from nlupdate.flows.server import ServerError
+    from nlupdate.flows.server import ServerError, stop_started_servers
+
+    def give_up_waiting() -> None:
+        note = getattr(args, "interrupt_note", "nothing was written")
+        print(f"nlupdate {args.command}: interrupted; {note}", file=sys.stderr, flush=True)
+        stop_started_servers()
 
     try:
-        yield
+        with prompt_interrupt(give_up_waiting):
+            yield
     except (ExecutionError, ServerError) as error:
         raise CliRuntimeError(str(error)) from None
+
+
+def check_solver(study) -> None:
+    """A study whose FE program is missing fails here, in one line, before any work."""
+    from nlupdate.updating.adapter_factory import build_adapter
+
+    if study.adapter is not None:
+        build_adapter(study.adapter).check_available()
+
+
+def exit_code_for_failures(failures: list[dict]) -> int:
+    """1 with one line on stderr when updating runs failed (the archive names every one), else 0."""
+    if not failures:
+        return 0
+    first = failures[0]
+    print(f"nlupdate: error: {len(failures)} updating run(s) failed, first {first['run']!r}: {one_line(first['error'])}",
+          file=sys.stderr)
+    return 1
 
 
 def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
@@ -79,9 +106,10 @@ def run(args: argparse.Namespace) -> int:
     from nlupdate.study import load_study
 
     study = load_study(args.study)
+    check_solver(study)
     archive = run_with_prefect(study, args.out, args)
     if not args.quiet:
         print_summary(archive)
     else:
         print(archive)
-    return 0
+    return exit_code_for_failures(json.loads((archive / "manifest.json").read_text())["failures"])

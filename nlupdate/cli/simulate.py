@@ -13,7 +13,7 @@ import time
 from nlupdate.cli import add_command, non_negative_float, non_negative_int
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress import terminal_progress
-from nlupdate.measurement.frf_table import write_frf_table
+from nlupdate.measurement.frf_table import table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.simulate import METHODS, parse_force_levels, parse_frequency_grid, simulate_frf_table
 
@@ -37,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=False)
+    table_suffix(out)
     system = load_system(args.model)
     input_dof = int(args.input_dof) if args.input_dof.isdigit() else args.input_dof
     frequencies, forces = parse_frequency_grid(args.freqs), parse_force_levels(args.forces)

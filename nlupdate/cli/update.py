@@ -11,6 +11,7 @@ import time
 
 from nlupdate.cli import add_command
 from nlupdate.cli.output import add_overwrite_option, checked_output
+from nlupdate.cli.run import check_solver, exit_code_for_failures
 from nlupdate.reporting.archive import write_archive
 from nlupdate.study import load_study, run_study
 
@@ -28,6 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     study = load_study(args.study)
+    check_solver(study)
     args.interrupt_note = f"nothing was written to {out}"
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()
@@ -50,5 +52,7 @@ def run(args: argparse.Namespace) -> int:
     if result.ranking is not None:
         best = result.ranking.iloc[0]
         print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %)")
+    for warning in result.warnings:
+        print(f"warning: {warning}")
     print(f"wrote {folder} (report.md)")
-    return 0
+    return exit_code_for_failures([{"run": f.name, "error": f.error} for f in result.failures])

@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from pathlib import Path
 from typing import Iterable
 
@@ -66,6 +67,7 @@ import pyuff
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.files import atomic_file
+from nlupdate.notices import NlupdateWarning
 
 FRF_COLUMNS: tuple[str, ...] = (
     "frequency_hz", "force_level_n", "response_dof", "input_dof", "h_real", "h_imag",
@@ -79,6 +81,8 @@ SUPPORTED_SUFFIXES: tuple[str, ...] = (".parquet", ".csv", ".uff", ".unv")
 # UFF58 codes (see module docstring)
 _FRF_FUNCTION = 4
 _FREQUENCY, _DISPLACEMENT, _FORCE = 18, 8, 13
+# ordinate specific data type → power of iω that turns it into receptance (0: unknown, read as receptance)
+_RECEPTANCE_POWER = {0: 0, _DISPLACEMENT: 0, 11: 1, 12: 2}
 _DIRECTIONS = {"ux": 1, "uy": 2, "uz": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIRECTION_NAMES = {code: name for name, code in _DIRECTIONS.items()}
 _ID_LINE_WIDTH = 80
@@ -366,11 +370,15 @@ def _curve_from_uff(dataset: dict, where: str) -> pd.DataFrame:
             f"needs complex data (5 or 6)"
         )
     ordinate = dataset.get("ordinate_spec_data_type", 0)
-    if ordinate in (11, 12):
-        kind = {11: "velocity (mobility)", 12: "acceleration (accelerance)"}[ordinate]
+    if ordinate not in _RECEPTANCE_POWER:
         raise MeasurementTableError(
-            f"{where}: ordinate specific data type {ordinate} = {kind}; nlupdate reads receptance "
-            f"(displacement/force, m/N) — convert the FRF before import"
+            f"{where}: ordinate specific data type {ordinate}; expected 8 (displacement, receptance), 11 (velocity, "
+            f"mobility) or 12 (acceleration, accelerance)"
+        )
+    if len(dataset["data"]) != int(dataset.get("num_pts", len(dataset["data"]))):
+        raise MeasurementTableError(
+            f"{where}: incomplete record: {len(dataset['data'])} of the {dataset['num_pts']} values its header "
+            f"announces (is the file truncated?)"
         )
     keys = _id_keys(dataset)
     if "force_level_n" in keys:
@@ -391,10 +399,34 @@ def _curve_from_uff(dataset: dict, where: str) -> pd.DataFrame:
     if "abscissa_hz" in keys and dataset.get("abscissa_spacing") == 1:
         first, increment = _id_floats(keys, "abscissa_hz", 2, where)
         frequency = first + increment * np.arange(len(h))
+    power = _RECEPTANCE_POWER[ordinate]
+    if power:
+        h = h / (1j * 2 * np.pi * frequency) ** power
+        name = {1: "mobility (velocity/force)", 2: "accelerance (acceleration/force)"}[power]
+        warnings.warn(f"{where}: converted {name} to receptance: H = {'A' if power == 2 else 'V'}/(iω)"
+                      f"{'²' if power == 2 else ''}", NlupdateWarning, stacklevel=4)
     return pd.DataFrame({
         "frequency_hz": frequency, "force_level_n": level, "response_dof": response,
         "input_dof": inp, "h_real": h.real, "h_imag": h.imag,
     })
+
+
+def _check_complete(path: Path, uff: pyuff.UFF) -> None:
+    """Refuse a file whose last dataset has no end delimiter (a truncated file).
+
+    pyuff indexes only complete datasets (between ``-1`` delimiter lines) and would
+    silently drop a cut-off last one.
+    """
+    content = path.read_bytes()
+    blocks = getattr(uff, "_block_ind", None)
+    end = int(blocks[-1][1]) + 1 if blocks is not None and len(blocks) else 0  # [first, last] byte
+    rest = content[end:].replace(b"-1", b"", 1).strip() if end else content.strip()
+    if end and rest or not end and content.strip():
+        count = len(blocks) if blocks is not None else 0
+        raise MeasurementTableError(
+            f"{path}: incomplete record: dataset {count} (from byte {end}) has no end delimiter '-1'; the file "
+            f"is truncated or not a complete UFF file ({len(content)} bytes)"
+        )
 
 
 def _read_uff(path: Path) -> pd.DataFrame:
@@ -404,6 +436,7 @@ def _read_uff(path: Path) -> pd.DataFrame:
         datasets = [uff.read_sets(i) for i in indices]
     except Exception as error:  # pyuff raises bare Exception on malformed files
         raise MeasurementTableError(f"{path}: not a readable UFF file ({error})") from error
+    _check_complete(path, uff)
     if not datasets:
         raise MeasurementTableError(f"{path}: no dataset 58 (function at nodal DOF) found")
     curves, seen = [], {}
@@ -422,7 +455,8 @@ def _read_uff(path: Path) -> pd.DataFrame:
 
 
 # --------------------------------------------------------------------------- files
-def _suffix(path: Path) -> str:
+def table_suffix(path: Path) -> str:
+    """The format suffix of a measured-FRF file (.parquet, .csv, .uff, .unv), or an error naming the file."""
     suffix = path.suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES:
         raise MeasurementTableError(
@@ -434,7 +468,7 @@ def _suffix(path: Path) -> str:
 def read_frf_table(path: str | os.PathLike, known_dofs: Iterable[str] | None = None) -> pd.DataFrame:
     """Read and validate a measured-FRF table (.parquet, .csv, .uff/.unv); canonical order."""
     path = Path(path)
-    suffix = _suffix(path)
+    suffix = table_suffix(path)
     if not path.is_file():
         raise FileNotFoundError(f"measured-FRF file not found: {path}")
     if suffix == ".parquet":
@@ -459,7 +493,7 @@ def write_frf_table(table: pd.DataFrame, path: str | os.PathLike) -> Path:
     rows are written in canonical order. CSV floats use the shortest round-trip repr.
     """
     path = Path(path)
-    suffix = _suffix(path)
+    suffix = table_suffix(path)
     clean = _canonical(validate_frf_table(table, source=f"table to write to {path}"))
     datasets = _uff_datasets(clean, str(path)) if suffix in (".uff", ".unv") else None
     with atomic_file(path) as temporary:

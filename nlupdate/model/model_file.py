@@ -71,15 +71,54 @@ def _require(table: Mapping[str, Any], key: str, where: str) -> Any:
     return table[key]
 
 
-def _matrix(table: Mapping[str, Any], key: str, where: str) -> np.ndarray:
-    value = _require(table, key, where)
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _numbers(value: Any, key: str, where: str, form: str) -> np.ndarray:
+    """``value`` as floats if it holds only TOML numbers (a string such as "1e10" is refused)."""
+    def check(item: Any) -> None:
+        if isinstance(item, list):
+            for entry in item:
+                check(entry)
+        elif not _is_number(item):
+            raise ModelFileError(f"{where}: '{key}' must be {form}; found {item!r} ({type(item).__name__}) — write "
+                                 f"numbers without quotes, e.g. 1e10")
+    check(value)
     try:
-        matrix = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelFileError(f"{where}: '{key}' must be a square matrix of numbers (list of rows)") from None
+        return np.array(value, dtype=float)
+    except ValueError:
+        raise ModelFileError(f"{where}: '{key}' must be {form}") from None
+
+
+def _matrix(table: Mapping[str, Any], key: str, where: str) -> np.ndarray:
+    matrix = _numbers(_require(table, key, where), key, where, "a square matrix of numbers (list of rows)")
     if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1]:
         raise ModelFileError(f"{where}: '{key}' must be a square matrix (list of equal-length rows), got shape {matrix.shape}")
     return matrix
+
+
+def _check_definite(matrix: np.ndarray, key: str, where: str, positive: bool, meaning: str) -> None:
+    """Symmetric and positive (semi-)definite, else one error naming the key and the fault."""
+    scale = float(np.max(np.abs(matrix))) if matrix.size else 0.0
+    if not np.allclose(matrix, matrix.T, rtol=1e-10, atol=1e-12 * scale):
+        raise ModelFileError(f"{where}: '{key}' must be symmetric")
+    if positive:
+        diagonal = np.diag(matrix)
+        if np.any(diagonal <= 0):
+            i = int(np.argmax(diagonal <= 0))
+            raise ModelFileError(f"{where}: '{key}' has {diagonal[i]:g} on the diagonal at dof {i}; {meaning}")
+    lowest = float(np.linalg.eigvalsh(matrix).min()) if matrix.size else 0.0
+    if lowest <= 0 if positive else lowest < -1e-9 * scale:
+        kind = "positive definite" if positive else "positive semi-definite"
+        raise ModelFileError(f"{where}: '{key}' must be {kind} ({meaning}); its lowest eigenvalue is {lowest:.4g}")
+
+
+def _non_negative(table: Mapping[str, Any], key: str, where: str, default: float = 0.0) -> np.ndarray:
+    values = _numbers(table.get(key, default), key, where, "a number ≥ 0 or a list of them")
+    if np.any(~np.isfinite(values)) or np.any(values < 0):
+        raise ModelFileError(f"{where}: '{key}' must be ≥ 0 (a negative value would feed energy in), got {table[key]!r}")
+    return values
 
 
 def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel | ModalModel:
@@ -93,10 +132,17 @@ def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel
         stiffness = _matrix(table, "stiffness", where)
         damping = _matrix(table, "damping", where) if "damping" in table else None
         structural = _matrix(table, "structural_damping", where) if "structural_damping" in table else None
+        _check_definite(mass, "mass", where, True, "every mass must be positive (kg)")
+        _check_definite(stiffness, "stiffness", where, False, "a negative eigenvalue is an unstable structure")
+        for key, matrix in (("damping", damping), ("structural_damping", structural)):
+            if matrix is not None:
+                _check_definite(matrix, key, where, False, "negative damping would feed energy in")
         if "loss_factor" in table:
             if structural is not None:
                 raise ModelFileError(f"{where}: give either 'loss_factor' or 'structural_damping', not both")
-            structural = float(table["loss_factor"]) * stiffness
+            if not _is_number(table["loss_factor"]):
+                raise ModelFileError(f"{where}: 'loss_factor' must be a number ≥ 0, got {table['loss_factor']!r}")
+            structural = float(_non_negative(table, "loss_factor", where)) * stiffness
         try:
             return LumpedModel(mass, stiffness, damping, structural, tuple(str(n) for n in table.get("dof_names", ())))
         except ValueError as error:
@@ -106,11 +152,13 @@ def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel
         if unknown:
             raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)}; a modal model accepts {sorted(MODAL_KEYS)}")
         try:
+            _require(table, "natural_frequencies_hz", where)
             return ModalModel(
-                natural_frequencies_hz=np.array(_require(table, "natural_frequencies_hz", where), dtype=float),
-                mode_shapes=np.array(_require(table, "mode_shapes", where), dtype=float),
-                damping_ratios=np.array(table.get("damping_ratios", 0.0), dtype=float),
-                loss_factors=np.array(table.get("loss_factors", 0.0), dtype=float),
+                natural_frequencies_hz=_non_negative(table, "natural_frequencies_hz", where),
+                mode_shapes=_numbers(_require(table, "mode_shapes", where), "mode_shapes", where,
+                                     "a matrix of numbers (one row per dof, one column per mode)"),
+                damping_ratios=_non_negative(table, "damping_ratios", where),
+                loss_factors=_non_negative(table, "loss_factors", where),
                 dof_names=tuple(str(n) for n in table.get("dof_names", ())),
             )
         except ValueError as error:
@@ -137,7 +185,13 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
     values = {}
     for key in ELEMENT_KEYS[kind]:
         if key in table:
-            values[key] = tuple(table[key]) if kind == "polynomial" else table[key]
+            if kind == "polynomial":
+                values[key] = tuple(_numbers(table[key], key, where, "a list of numbers (highest order first)"))
+            elif not _is_number(table[key]):
+                raise ModelFileError(f"{where}: '{key}' must be a number (SI units), got {table[key]!r} "
+                                     f"({type(table[key]).__name__}) — write numbers without quotes, e.g. 1e10")
+            else:
+                values[key] = table[key]
         elif key not in OPTIONAL_ELEMENT_KEYS.get(kind, ()):
             raise ModelFileError(f"{where}: missing key '{key}' for a {kind} element")
     try:

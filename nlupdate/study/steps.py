@@ -176,6 +176,12 @@ def run_name(method: str, formula: str, parameter_set: Sequence[str]) -> str:
     return f"{method} {FORMULA_LABELS[formula]} {{{', '.join(parameter_set)}}}"
 
 
+def held_at_start(study: Study, updated: Sequence[str]) -> dict[str, float]:
+    """The model values a run does not update: ``[adapter]`` fixed values and every other
+    ``[[parameters]]`` entry at its start — the same model the prediction of that run uses."""
+    return {**study.fixed, **{p.name: p.start for p in study.parameters if p.name not in updated}}
+
+
 def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
     """One task per eigensensitivity formula × parameter set and per optimisation candidate."""
     by_name = {p.name: p for p in study.parameters}
@@ -186,7 +192,7 @@ def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
                 options = EigensensitivityOptions(formula=formula, **study.eigensensitivity["options"], **study.updating)
                 tasks.append(UpdatingTask(run_name("eigensensitivity", formula, parameter_set), study.adapter,
                                           tuple(by_name[n] for n in parameter_set), targets.targets, "eigensensitivity",
-                                          options, dict(study.fixed)))
+                                          options, held_at_start(study, parameter_set)))
     if study.optimisation is not None:
         options = OptimisationOptions(**study.optimisation, **study.updating)
         for entry in study.candidates:
@@ -199,7 +205,7 @@ def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
             except ValueError as error:
                 raise StudyError(f"{study.path}: [[optimisation.candidates]] {entry.name!r}: {error}") from None
             tasks.append(UpdatingTask(entry.name, study.adapter, parameters, weighted, "optimisation", options,
-                                      dict(study.fixed)))
+                                      held_at_start(study, entry.parameters)))
     return tasks
 
 
@@ -244,7 +250,7 @@ def prediction_adapter(study: Study) -> AdapterSpec:
 def prediction_points(study: Study, runs: Sequence[UpdatingResult], ranking: pd.DataFrame) -> list[tuple[str, dict[str, float]]]:
     """(name, model point) of every model to predict with: ``initial`` and the runs the
     ``[prediction] candidates`` choice names (default: the best-ranked run)."""
-    start = {**study.fixed, **{p.name: p.start for p in study.parameters}}
+    start = held_at_start(study, ())
     by_name = {run.name: run for run in runs}
     choice = study.prediction.candidates
     if choice == "best":

@@ -1,0 +1,345 @@
+"""Every mistake a user can make ends as one clear line, the right exit code and nothing half-written.
+
+Each case runs the real ``nlupdate`` command in a subprocess (what a user sees: stderr,
+exit code) and checks: exit code 2 for a mistake in the input, 1 for a failure of the
+work; one or two lines on stderr naming the file, field or option; no traceback; and
+nothing left in the output location.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TWO_DOF = ROOT / "examples" / "two_dof.toml"
+STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
+SIMULATE = ["--input-dof", "0", "--freqs", "650:800:16", "--forces", "0.01,100"]
+
+
+def nlupdate(*args: object, cwd: Path | None = None, env: dict | None = None, timeout: float = 120):
+    return subprocess.run([sys.executable, "-m", "nlupdate", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env=env, timeout=timeout)
+
+
+def assert_one_clear_line(result, code: int, *fragments: str) -> str:
+    stderr = result.stderr.strip()
+    lines = stderr.splitlines()
+    assert result.returncode == code, (result.returncode, stderr)
+    assert "Traceback" not in stderr, stderr
+    assert 1 <= len(lines) <= 2, stderr
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, stderr)
+    return lines[0]
+
+
+def assert_nothing_written(folder: Path, *keep: str) -> None:
+    left = sorted(p.name for p in folder.iterdir() if p.name not in keep)
+    assert left == [], left
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory) -> Path:
+    """A small measured-FRF table of the METHODS 2-DOF case (0.01 and 100 N)."""
+    folder = tmp_path_factory.mktemp("measured")
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--noise", "0.01", "--seed", "1", "--out", folder / "frf.parquet")
+    assert result.returncode == 0, result.stderr
+    return folder / "frf.parquet"
+
+
+def model_variant(tmp_path: Path, old: str, new: str) -> Path:
+    text = TWO_DOF.read_text()
+    assert old in text
+    path = tmp_path / "model.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+# ------------------------------------------------------------------ model files
+@pytest.mark.parametrize("old, new, fragments", [
+    ("mass = [[0.1, 0.0]", "mass = [[0.0, 0.0]", ("model.toml [model]", "'mass' has 0 on the diagonal at dof 0")),
+    ("mass = [[0.1, 0.0]", "mass = [[-0.1, 0.0]", ("'mass' has -0.1 on the diagonal",)),
+    ("stiffness = [[2e6, -1e6], [-1e6, 2e6]]", "stiffness = [[1e6, -2e6], [-2e6, 1e6]]",
+     ("'stiffness' must be positive semi-definite", "lowest eigenvalue is -1e+06")),
+    ("stiffness = [[2e6, -1e6], [-1e6, 2e6]]", "stiffness = [[2e6, -1e6], [-0.5e6, 2e6]]", ("'stiffness' must be symmetric",)),
+    ("loss_factor = 0.005", "loss_factor = -0.005", ("'loss_factor' must be ≥ 0",)),
+    ("k3 = 1e10", 'k3 = "1e10"', ("[[nonlinear]] #1", "'k3' must be a number", "'1e10' (str)")),
+    ("mass = [[0.1, 0.0]", 'mass = [["0.1", 0.0]', ("'mass' must be a square matrix of numbers", "'0.1' (str)")),
+    ("kind = \"lumped\"", "kind = \"lumped\"\nmystery = 3", ("unknown key(s) ['mystery']",)),
+    ("[[nonlinear]]", "[[nonlinear]\n", ("model.toml: not valid TOML",)),
+])
+def test_model_file_mistakes(tmp_path, old, new, fragments):
+    model = model_variant(tmp_path, old, new)
+    out = tmp_path / "out"
+    out.mkdir()
+    result = nlupdate("simulate", model, *SIMULATE, "--out", out / "frf.parquet")
+    assert_one_clear_line(result, 2, "nlupdate simulate: error:", *fragments)
+    assert_nothing_written(out)
+
+
+def test_modal_model_with_negative_damping(tmp_path):
+    model = tmp_path / "modal.toml"
+    model.write_text('[model]\nkind = "modal"\nnatural_frequencies_hz = [10.0]\nmode_shapes = [[1.0]]\n'
+                     'damping_ratios = [-0.01]\n')
+    result = nlupdate("simulate", model, "--input-dof", "0", "--freqs", "5:15:5", "--forces", "1",
+                      "--out", tmp_path / "x.csv")
+    assert_one_clear_line(result, 2, "modal.toml [model]", "'damping_ratios' must be ≥ 0")
+
+
+# ------------------------------------------------------------------ simulate options and outputs
+@pytest.mark.parametrize("extra, fragments", [
+    (["--seed", "-5"], ("argument --seed: expected an integer ≥ 0, got '-5'",)),
+    (["--noise", "-1"], ("argument --noise: expected a number ≥ 0",)),
+    (["--noise", "five"], ("argument --noise: expected a number ≥ 0, got 'five'",)),
+    (["--input-dof", "7"], ("unknown dof 7",)),
+    (["--freqs", "650-800"], ("START:STOP:COUNT",)),
+    (["--forces", "1,-2"], ("force levels must be positive",)),
+])
+def test_simulate_option_mistakes(tmp_path, extra, fragments):
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, *extra, "--out", tmp_path / "frf.parquet")
+    assert_one_clear_line(result, 2, *fragments)
+    assert_nothing_written(tmp_path)
+
+
+def test_unsupported_output_format_is_refused_before_the_work(tmp_path):
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", tmp_path / "frf.xlsx")
+    assert_one_clear_line(result, 2, "frf.xlsx: unsupported file type '.xlsx'", ".parquet")
+    assert_nothing_written(tmp_path)
+
+
+def test_existing_output_is_kept_without_overwrite(tmp_path):
+    out = tmp_path / "frf.csv"
+    out.write_text("precious")
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out)
+    assert_one_clear_line(result, 2, f"--out {out} exists; pass --overwrite to replace it")
+    assert out.read_text() == "precious"
+    assert nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out, "--overwrite").returncode == 0
+    assert len(pd.read_csv(out)) == 2 * 2 * 16
+
+
+def test_output_folder_that_cannot_be_made(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", blocker / "sub" / "frf.parquet")
+    assert_one_clear_line(result, 2, f"--out {blocker / 'sub'}: cannot write there")
+
+
+def test_written_files_follow_the_umask(tmp_path):
+    result = subprocess.run(f"umask 022 && {sys.executable} -m nlupdate simulate {TWO_DOF} {' '.join(SIMULATE)} "
+                            f"--out {tmp_path / 'frf.parquet'}", shell=True, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "frf.parquet").stat().st_mode & 0o777 == 0o644
+
+
+def test_missing_model_file(tmp_path):
+    result = nlupdate("simulate", tmp_path / "nope.toml", *SIMULATE, "--out", tmp_path / "x.csv")
+    assert_one_clear_line(result, 2, f"model file {tmp_path / 'nope.toml'} does not exist")
+
+
+# ------------------------------------------------------------------ identify
+def test_identify_input_dof_out_of_range_names_the_option(measured, tmp_path):
+    result = nlupdate("identify", "--measured", measured, "--input-dof", "7", "--out", tmp_path / "id")
+    assert_one_clear_line(result, 2, "--input-dof 7:", "has input_dof 0")
+    assert_nothing_written(tmp_path)
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (["--seed", "-5"], "argument --seed: expected an integer ≥ 0"),
+    (["--samples", "0"], "argument --samples: expected an integer ≥ 1"),
+    (["--method", "magic"], "argument --method: invalid choice: 'magic'"),
+    (["--band", "1,2"], "--force-pair and --band apply to --method ddf"),
+])
+def test_identify_option_mistakes_fail_before_the_work(measured, tmp_path, extra, fragment):
+    result = nlupdate("identify", "--measured", measured, *extra, "--out", tmp_path / "id", timeout=20)
+    assert_one_clear_line(result, 2, fragment)
+    assert_nothing_written(tmp_path)
+
+
+def test_identify_refuses_to_replace_its_output_without_overwrite(measured, tmp_path):
+    (tmp_path / "id").mkdir()
+    result = nlupdate("identify", "--measured", measured, "--out", tmp_path / "id")
+    assert_one_clear_line(result, 2, "exists; pass --overwrite")
+
+
+def test_truncated_uff_names_the_incomplete_record(measured, tmp_path):
+    uff = tmp_path / "frf.uff"
+    assert nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", uff).returncode == 0
+    content = uff.read_bytes()
+    (tmp_path / "cut.uff").write_bytes(content[: len(content) - 100])
+    result = nlupdate("identify", "--measured", tmp_path / "cut.uff", "--out", tmp_path / "id")
+    assert_one_clear_line(result, 2, "cut.uff: incomplete record: dataset 3", "truncated")
+    assert not (tmp_path / "id").exists()
+
+
+def test_measured_table_missing_a_column(measured, tmp_path):
+    table = pd.read_parquet(measured).drop(columns="h_imag")
+    table.to_csv(tmp_path / "frf.csv", index=False)
+    result = nlupdate("identify", "--measured", tmp_path / "frf.csv", "--out", tmp_path / "id")
+    assert_one_clear_line(result, 2, "frf.csv", "h_imag")
+
+
+def test_missing_measured_file(tmp_path):
+    result = nlupdate("identify", "--measured", tmp_path / "none.parquet", "--out", tmp_path / "id")
+    assert_one_clear_line(result, 2, "none.parquet")
+
+
+# ------------------------------------------------------------------ UFF mobility / accelerance
+@pytest.mark.parametrize("ordinate, power", [(11, 1), (12, 2)])
+def test_uff_mobility_and_accelerance_are_converted_to_receptance(tmp_path, ordinate, power):
+    """An ASCII UFF 58 written by pyuff as another tool would: A = (iω)^p H, read back as H."""
+    import pyuff
+
+    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.notices import NlupdateWarning
+
+    f = np.linspace(10.0, 20.0, 11)
+    h = 1.0 / (1e4 - (2 * np.pi * f) ** 2 + 50j)  # receptance of a unit mass on 1e4 N/m, m/N
+    data = (1j * 2 * np.pi * f) ** power * h
+    dataset = pyuff.prepare_58(
+        binary=0, func_type=4, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3, data=data, x=f,
+        id1="measured", id2="force_level_n=2.5", abscissa_spacing=1, abscissa_spec_data_type=18,
+        ordinate_spec_data_type=ordinate, orddenom_spec_data_type=13,
+    )
+    path = tmp_path / "mobility.uff"
+    pyuff.UFF(str(path)).write_sets([dataset], mode="add")
+    with pytest.warns(NlupdateWarning, match="converted .* to receptance"):
+        table = read_frf_table(path)
+    back = table["h_real"].to_numpy() + 1j * table["h_imag"].to_numpy()
+    np.testing.assert_allclose(back, h, rtol=1e-5)  # ASCII UFF keeps about 6 significant digits of f
+
+
+# ------------------------------------------------------------------ study files: update and run
+def study_variant(tmp_path: Path, old: str, new: str) -> Path:
+    text = STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
+    assert old in text
+    path = tmp_path / "study.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+@pytest.mark.parametrize("command", ["update", "run"])
+@pytest.mark.parametrize("old, new, fragments", [
+    ('formulas = ["forward", "backward", "central2", "central4"]', 'formulas = ["sideways"]',
+     ("study.toml", "[eigensensitivity] key 'formulas'", "sideways")),
+    ("upper = 1.5e6\n\n[[parameters]]", 'upper = "big"\n\n[[parameters]]', ("study.toml", "upper")),
+    ("noise = 0.01", "noise = -0.01", ("study.toml", "noise")),
+])
+def test_study_file_mistakes(tmp_path, command, old, new, fragments):
+    study = study_variant(tmp_path, old, new)
+    out = ["--out", tmp_path / "out"]
+    result = nlupdate(command, study, *out, timeout=60)
+    assert_one_clear_line(result, 2, f"nlupdate {command}: error:", *fragments)
+    assert not (tmp_path / "out").exists()
+
+
+def test_update_refuses_an_existing_output(tmp_path):
+    (tmp_path / "out").mkdir()
+    result = nlupdate("update", study_variant(tmp_path, "noise = 0.01", "noise = 0.01"), "--out", tmp_path / "out")
+    assert_one_clear_line(result, 2, "exists; pass --overwrite")
+
+
+def test_missing_study_file(tmp_path):
+    result = nlupdate("run", tmp_path / "nope.toml")
+    assert_one_clear_line(result, 2, "nope.toml")
+
+
+@pytest.mark.parametrize("command, extra, fragment", [
+    ("run", [STUDY, "--workers", "0"], "argument --workers: expected an integer ≥ 1, got '0'"),
+    ("demo", ["--workers", "-2"], "argument --workers: expected an integer ≥ 1"),
+    ("demo", ["--seed", "-1"], "argument --seed: expected an integer ≥ 0"),
+    ("demo", ["--dask", "--dask-address", "tcp://x:1"], "not allowed with argument"),
+    ("discover", ["--model", TWO_DOF, "--measured", "x.csv", "--out", "d", "--max-effects", "0"],
+     "argument --max-effects: expected an integer ≥ 1"),
+])
+def test_execution_option_mistakes(tmp_path, command, extra, fragment):
+    result = nlupdate(command, *extra, cwd=tmp_path, timeout=20)
+    assert_one_clear_line(result, 2, fragment)
+    assert_nothing_written(tmp_path)
+
+
+def test_demo_results_folder_that_cannot_be_written(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = nlupdate("demo", "--results", blocker / "results", cwd=tmp_path, timeout=30)
+    assert_one_clear_line(result, 2, f"--results {blocker / 'results'}: cannot write there")
+
+
+# ------------------------------------------------------------------ failures of the work
+CALCULIX_STUDY = """
+[adapter]
+kind = "calculix"
+model = "tbeam"
+[adapter.options]
+n_modes = 2
+[adapter.options.mesh]
+n_l1 = 4
+n_l2 = 2
+n_h1 = 1
+n_w1 = 1
+n_w2 = 1
+
+[[parameters]]
+name = "E"
+unit = "Pa"
+start = 210e9
+lower = 100e9
+upper = 300e9
+
+[targets]
+frequencies_hz = [40.75]
+model_modes = [1]
+
+[eigensensitivity]
+formulas = ["forward"]
+"""
+
+
+def test_missing_ccx_is_one_line_saying_how_to_install_it(tmp_path):
+    study = tmp_path / "ccx.toml"
+    study.write_text(CALCULIX_STUDY)
+    env = {**os.environ, "PATH": str(Path(sys.executable).parent)}  # python, but no ccx
+    result = nlupdate("update", study, "--out", tmp_path / "out", env=env)
+    assert_one_clear_line(result, 1, "ccx", "apt-get install")
+    assert not (tmp_path / "out").exists()
+
+
+def test_failing_solver_fails_the_command_naming_the_run_folder_and_log(tmp_path):
+    study = tmp_path / "ccx.toml"
+    study.write_text(CALCULIX_STUDY.replace("n_modes = 2", f'n_modes = 2\nexecutable = "/bin/false"\nwork_root = "{tmp_path / "runs"}"'))
+    result = nlupdate("update", study, "--out", tmp_path / "out")
+    line = assert_one_clear_line(result, 1, "1 updating run(s) failed", "eigensensitivity forward")
+    assert f"log: {tmp_path / 'runs'}" in line and line.endswith("ccx.log)")
+    assert "false exited with code 1" in (tmp_path / "out" / "report.md").read_text()  # the archive names it
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    model = model_variant(tmp_path, "loss_factor = 0.005", "loss_factor = -0.005")
+    result = nlupdate("--debug", "simulate", model, *SIMULATE, "--out", tmp_path / "x.csv")
+    assert result.returncode != 0 and "Traceback" in result.stderr and "ModelFileError" in result.stderr
+
+
+def test_an_unexpected_error_is_one_line_pointing_to_debug(tmp_path, monkeypatch, capsys):
+    from nlupdate.cli import main
+
+    def broken(*args, **kwargs):
+        raise TypeError("unsupported operand")
+
+    monkeypatch.setattr("nlupdate.cli.simulate.simulate_frf_table", broken)
+    code = main(["simulate", str(TWO_DOF), *SIMULATE, "--out", str(tmp_path / "x.csv")])
+    stderr = capsys.readouterr().err.strip()
+    assert code == 1 and stderr.count("\n") == 0
+    assert "internal error: TypeError: unsupported operand (rerun with --debug" in stderr
+
+
+def test_version_and_help_are_plain_text():
+    version = nlupdate("--version")
+    assert version.returncode == 0 and version.stdout.startswith("nlupdate ")
+    for command in ("demo", "run", "simulate", "identify", "update", "discover"):
+        page = nlupdate(command, "--help").stdout
+        assert "``" not in page and ":func:" not in page and ":mod:" not in page, command
+        assert len(page.split("\n\n")[1]) > 40, command  # a description, not only the usage

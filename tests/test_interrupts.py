@@ -1,0 +1,140 @@
+"""Ctrl-C and SIGKILL: a run stops promptly with one line, and nothing half-written survives.
+
+Every case runs the real command in a subprocess and sends it the signal a user (or the
+system) would: SIGINT as Ctrl-C does, SIGKILL as an out-of-memory killer or ``kill -9``.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TWO_DOF = ROOT / "examples" / "two_dof.toml"
+STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
+
+
+def start(*args: object, cwd: Path, env: dict | None = None) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "nlupdate", *map(str, args)], cwd=cwd, env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+
+def wait_for_line(process: subprocess.Popen, fragment: str, timeout_s: float) -> list[str]:
+    """Read stdout until a line holds ``fragment``; returns the lines read."""
+    lines, deadline = [], time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        line = process.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        if fragment in line:
+            return lines
+    raise AssertionError(f"no line with {fragment!r} within {timeout_s} s: {lines}")
+
+
+def interrupt(process: subprocess.Popen) -> tuple[int, str, float]:
+    """Send SIGINT; return (exit code, stderr, seconds until the process ended)."""
+    process.send_signal(signal.SIGINT)
+    sent = time.monotonic()
+    _, stderr = process.communicate(timeout=60)
+    return process.returncode, stderr, time.monotonic() - sent
+
+
+def test_ctrl_c_during_a_time_domain_simulation(tmp_path):
+    process = start("simulate", TWO_DOF, "--input-dof", "0", "--freqs", "600:850:400", "--forces", "0.01,100,200",
+                    "--method", "time", "--out", tmp_path / "out" / "frf.parquet", cwd=tmp_path)
+    time.sleep(4)  # imports done, integrating
+    assert process.poll() is None, process.communicate()
+    code, stderr, seconds = interrupt(process)
+    assert code == 130 and seconds < 5, (code, seconds, stderr)
+    assert stderr.strip().splitlines() == [f"nlupdate simulate: interrupted; nothing was written to "
+                                           f"{tmp_path / 'out' / 'frf.parquet'}"]
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_ctrl_c_during_a_prefect_run_stops_within_seconds(tmp_path, prefect_server):
+    """Tasks still running in threads do not hold the process: it ends within the grace time."""
+    env = {**os.environ, "PREFECT_API_URL": prefect_server}
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
+                     .replace("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 2001]"))
+    process = start("run", study, "--workers", "2", "--out", tmp_path / "results", cwd=tmp_path, env=env)
+    wait_for_line(process, "tasks on 2 threads", timeout_s=60)
+    time.sleep(1)
+    code, stderr, seconds = interrupt(process)
+    assert code == 130 and seconds < 6, (code, seconds, stderr)
+    assert stderr.strip().splitlines() == [f"nlupdate run: interrupted; no archive was written to "
+                                           f"{tmp_path / 'results'}; finished tasks stay in the cache"]
+    left = list((tmp_path / "results").rglob("*"))
+    assert all(p.is_dir() for p in left), left  # at most the empty study folder
+
+
+KILLED_WRITER = textwrap.dedent("""
+    import sys, time
+    from nlupdate.files import atomic_directory, atomic_file
+    with atomic_file(sys.argv[1] + "/frf.parquet") as path:
+        path.write_text("half")
+        with atomic_directory(sys.argv[1] + "/ident") as folder:
+            (folder.path / "identification.json").write_text("{")
+            print("writing", flush=True)
+            time.sleep(60)
+""")
+
+
+def test_leftovers_of_a_killed_run_are_removed_and_reported_by_the_next(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    writer = subprocess.Popen([sys.executable, "-c", KILLED_WRITER, str(out)], stdout=subprocess.PIPE, text=True)
+    assert writer.stdout.readline().strip() == "writing"
+    writer.send_signal(signal.SIGKILL)
+    writer.wait(timeout=10)
+    leftovers = sorted(p.name for p in out.iterdir())
+    assert len(leftovers) == 2 and all(name.startswith(".") and f"-{writer.pid}-" in name for name in leftovers)
+
+    result = subprocess.run([sys.executable, "-m", "nlupdate", "simulate", str(TWO_DOF), "--input-dof", "0",
+                             "--freqs", "650:800:6", "--forces", "1", "--out", str(out / "new.csv")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    reported = [line for line in result.stderr.splitlines() if "unfinished output of an interrupted run" in line]
+    assert len(reported) == 2 and all(f"(process {writer.pid})" in line for line in reported), result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["new.csv"]
+
+
+def test_output_of_a_run_still_in_progress_is_left_alone(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    writer = subprocess.Popen([sys.executable, "-c", KILLED_WRITER, str(out)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert writer.stdout.readline().strip() == "writing"
+        result = subprocess.run([sys.executable, "-m", "nlupdate", "simulate", str(TWO_DOF), "--input-dof", "0",
+                                 "--freqs", "650:800:6", "--forces", "1", "--out", str(out / "new.csv")],
+                                capture_output=True, text=True, timeout=120)
+        assert result.returncode == 0 and "warning" not in result.stderr, result.stderr
+        assert len([p for p in out.iterdir() if p.name.startswith(".")]) == 2
+    finally:
+        writer.kill()
+        writer.wait()
+
+
+@pytest.mark.parametrize("require, outcome", [("", "skipped"), ("1", "error")])
+def test_calculix_tests_skip_without_ccx_unless_ci_requires_them(tmp_path, require, outcome):
+    """The README's test command passes on a machine without ccx; under .ci/run it cannot."""
+    python_only = tmp_path / "bin"
+    python_only.mkdir()
+    (python_only / "python").symlink_to(sys.executable)
+    env = {**os.environ, "PATH": str(python_only), "NLUPDATE_REQUIRE_CCX": require}
+    result = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", "-rs",
+                             str(ROOT / "tests" / "test_calculix.py"), "-k", "test_single_c3d20_element_matches_quadratic_rod", "--no-header"],
+                            capture_output=True, text=True, env=env, cwd=ROOT, timeout=300)
+    summary = result.stdout.strip().splitlines()[-1]
+    assert outcome in summary and ("passed" not in summary), result.stdout[-2000:]
+    if outcome == "skipped":
+        assert result.returncode == 0 and "needs CalculiX (ccx): apt-get install -y calculix-ccx" in result.stdout
+    else:
+        assert result.returncode != 0 and "NLUPDATE_REQUIRE_CCX=1" in result.stdout
