@@ -146,9 +146,11 @@ def test_foreign_uff_without_force_level_is_explained(tmp_path):
     assert "force_level_n=" in message and "z-axis" in message and "13" in message
 
 
-def test_foreign_uff_accelerance_is_rejected(tmp_path):
-    path = foreign_uff(tmp_path / "acc.uff", ordinate_spec_data_type=12)
-    with pytest.raises(MeasurementTableError, match=r"acc\.uff, dataset 0: .*acceleration"):
+def test_foreign_uff_of_an_unknown_quantity_is_rejected(tmp_path):
+    """Pressure (15) per force is no receptance; mobility and accelerance are converted
+    (tests/test_bad_input.py)."""
+    path = foreign_uff(tmp_path / "p.uff", ordinate_spec_data_type=15)
+    with pytest.raises(MeasurementTableError, match=r"p\.uff, dataset 0: ordinate specific data type 15; expected 8"):
         read_frf_table(path)
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from nlupdate.cli import CliError, add_command, non_negative_float, non_negative_int, positive_int
 from nlupdate.cli.output import add_overwrite_option, checked_output
+from nlupdate.cli.progress import terminal_progress
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS
@@ -144,7 +145,8 @@ def run(args: argparse.Namespace) -> int:
     table = read_frf_table(args.measured)
     settings, cli_defaults = settings_from_args(args, table)
     data = FRFLevels.from_table(table, settings.response_dof, settings.input_dof)
-    identification = identify(data, settings)
+    with terminal_progress() as progress:
+        identification = identify(data, settings, progress)
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
     out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder))

@@ -39,6 +39,7 @@ from nlupdate.identification.report import elements_summary
 from nlupdate.identification.trust import RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, identification_warnings
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.progress import ProgressCallback, no_progress
 
 METHODS = ("prd", "ddf")
 
@@ -360,8 +361,9 @@ def _sample_values(
     return values
 
 
-def identify(data: FRFLevels, settings: IdentificationSettings) -> Identification:
-    """Run the identification step (module docstring) on measured curves ``data``."""
+def identify(data: FRFLevels, settings: IdentificationSettings, progress: ProgressCallback = no_progress) -> Identification:
+    """Run the identification step (module docstring) on measured curves ``data``;
+    ``progress`` hears the Monte-Carlo samples as they finish."""
     if (data.response_dof, data.input_dof) != (str(settings.response_dof), str(settings.input_dof)):
         raise ValueError(
             f"the data are response {data.response_dof!r} / input {data.input_dof!r}, the settings ask for "
@@ -404,7 +406,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings) -> Identificatio
         point[f"linear_f{i + 1}_hz"] = float(m.natural_frequencies_hz[0])
         point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
     estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz)
-    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed)
+    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress)
     physical = parse_elements(settings.elements)
     model = physical or getattr(result, "model", None)
     description = model.description() if model is not None else (

@@ -19,6 +19,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from nlupdate.identification.data import FRFLevels
+from nlupdate.progress import ProgressCallback, no_progress
 
 
 @dataclass(frozen=True)
@@ -70,13 +71,15 @@ def monte_carlo(
     noise_fraction: float,
     n_samples: int = 100,
     seed: int = 0,
+    progress: ProgressCallback = no_progress,
 ) -> Uncertainty:
     """Statistics of ``estimate(perturbed data)`` over ``n_samples`` noise draws.
 
     ``estimate`` returns a mapping of named values, or an object whose ``parameters()``
     does (an identification result); ``point`` names the values to report.
 
-    Samples are drawn from ``seed`` and identified in order. Samples whose identification
+    Samples are drawn from ``seed`` and identified in order (``progress("Monte-Carlo
+    samples", done, n_samples)`` after each). Samples whose identification
     fails are counted in ``n_failed``; a parameter with fewer than 2 successful samples gets NaN statistics.
     """
     if n_samples < 2:
@@ -84,7 +87,10 @@ def monte_carlo(
     if not np.isfinite(noise_fraction) or noise_fraction < 0:
         raise ValueError(f"noise_fraction must be a finite number ≥ 0, got {noise_fraction}")
     seeds = np.random.SeedSequence(seed).generate_state(n_samples)
-    samples = [_one_sample(estimate, data, float(noise_fraction), int(s)) for s in seeds]
+    samples = []
+    for done, sample_seed in enumerate(seeds, start=1):
+        samples.append(_one_sample(estimate, data, float(noise_fraction), int(sample_seed)))
+        progress("Monte-Carlo samples", done, n_samples)
     good = [s for s in samples if s is not None]
     stats = {}
     for name, value in point.items():
