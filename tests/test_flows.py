@@ -92,11 +92,11 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
 
 
 def test_an_unchanged_rerun_is_all_cached(first_run):
-    """Every task comes from the cache (the time ratio is measured on the demo, whose
-    computing outweighs Prefect's per-flow overhead: tests/test_demo.py)."""
-    tmp_path, _, first = first_run
+    """Every task comes from the cache. (The time ratio is measured on the demo, whose
+    computing outweighs Prefect's per-flow overhead, in tests/test_demo.py; this study is
+    too small for a wall-time comparison on a shared machine.)"""
+    tmp_path, _, _ = first_run
     _, again = flow_run(load_study(STUDY), tmp_path)
-    assert again["run"]["wall_time_s"] < first["run"]["wall_time_s"]
     for step, counts in again["run"]["tasks"].items():
         assert counts["computed"] == 0 and counts["failed"] == 0, (step, counts)
     assert tally(again, "updating")["cached"] == 9 and tally(again, "identification")["cached"] == 1
