@@ -7,8 +7,10 @@ printer; then it runs :func:`~nlupdate.flows.study.study_flow` and returns the a
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
+from typing import Iterator
 
 from nlupdate.flows.environment import prepare_environment
 from nlupdate.flows.progress import Progress, using
@@ -25,6 +27,21 @@ def cache_directory(given: str | os.PathLike | None = None) -> Path:
     return Path(given or os.environ.get(CACHE_ENV) or DEFAULT_CACHE).resolve()
 
 
+@contextlib.contextmanager
+def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterator[tuple[str, object, str, Path]]:
+    """What every run needs around its flow: the environment, the result store, one
+    Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
+    end of every (sub)flow run). Yields (API URL, task runner, its description, store)."""
+    prepare_environment()
+    store = cache_directory(cache_dir)
+    store.mkdir(parents=True, exist_ok=True)
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
+
+    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
+            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}), using(progress):
+        yield url, runner, description, store
+
+
 def run_study_flow(
     study: Study,
     results_root: str | os.PathLike = "results",
@@ -34,23 +51,15 @@ def run_study_flow(
     progress: Progress | None = None,
 ) -> Path:
     """Run ``study`` as Prefect flows and write its archive under ``results_root``."""
-    prepare_environment()
-    progress = progress or Progress()
-    store = cache_directory(cache_dir)
-    store.mkdir(parents=True, exist_ok=True)
     from nlupdate.flows.study import Cache, study_flow, study_handle
 
-    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
-
-    # no flow-run heartbeats: each costs a second at the end of every (sub)flow run
-    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
-            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
+    progress = progress or Progress()
+    with _flow_session(execution, cache_dir, progress) as (url, runner, description, store):
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, API {url}"
-        with using(progress):
-            archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
-                study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration)
+        archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
+            study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration)
     return Path(archive)
 
 
@@ -66,12 +75,6 @@ def run_discovery_flow(
 ) -> Path:
     """Run :func:`~nlupdate.flows.discovery.discovery_flow` on a model file and measured
     data (FRF or modal table); returns the archive."""
-    prepare_environment()
-    progress = progress or Progress()
-    store = cache_directory(cache_dir)
-    store.mkdir(parents=True, exist_ok=True)
-    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
-
     from nlupdate.flows.discovery import discovery_flow
     from nlupdate.flows.study import Cache, handle
     from nlupdate.measurement.frf_table import read_frf_table
@@ -82,11 +85,10 @@ def run_discovery_flow(
     table = read_modal_table(measured_file) if is_modal_table_file(measured_file) else read_frf_table(measured_file)
     inputs = handle((Path(model_file).resolve(), system, Path(measured_file).resolve(), table, options),
                     f"model {model_file}, measured {measured_file}")
-    with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
-            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
+    progress = progress or Progress()
+    with _flow_session(execution, cache_dir, progress) as (url, runner, description, store):
         progress.say(f"discovery: tasks on {description}; cache {store}")
-        with using(progress):
-            archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
-                inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
-                f"Prefect flow `discovery` on {description}, API {url}")
+        archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
+            inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
+            f"Prefect flow `discovery` on {description}, API {url}")
     return Path(archive)

@@ -270,38 +270,12 @@ def test_demo_results_folder_that_cannot_be_written(tmp_path):
 
 
 # ------------------------------------------------------------------ failures of the work
-CALCULIX_STUDY = """
-[adapter]
-kind = "calculix"
-model = "tbeam"
-[adapter.options]
-n_modes = 2
-[adapter.options.mesh]
-n_l1 = 4
-n_l2 = 2
-n_h1 = 1
-n_w1 = 1
-n_w2 = 1
-
-[[parameters]]
-name = "E"
-unit = "Pa"
-start = 210e9
-lower = 100e9
-upper = 300e9
-
-[targets]
-frequencies_hz = [40.75]
-model_modes = [1]
-
-[eigensensitivity]
-formulas = ["forward"]
-"""
+CALCULIX_STUDY = (ROOT / "tests" / "data" / "studies" / "calculix_tbeam_E.toml").read_text()
 
 
 def test_missing_ccx_is_one_line_saying_how_to_install_it(tmp_path):
     study = tmp_path / "ccx.toml"
-    study.write_text(CALCULIX_STUDY)
+    study.write_text(CALCULIX_STUDY.replace('work_root = "ccx_runs"', f'work_root = "{tmp_path / "runs"}"'))
     env = {**os.environ, "PATH": str(Path(sys.executable).parent)}  # python, but no ccx
     result = nlupdate("update", study, "--out", tmp_path / "out", env=env)
     assert_one_clear_line(result, 1, "ccx", "apt-get install")
@@ -310,7 +284,7 @@ def test_missing_ccx_is_one_line_saying_how_to_install_it(tmp_path):
 
 def test_failing_solver_fails_the_command_naming_the_run_folder_and_log(tmp_path):
     study = tmp_path / "ccx.toml"
-    study.write_text(CALCULIX_STUDY.replace("n_modes = 2", f'n_modes = 2\nexecutable = "/bin/false"\nwork_root = "{tmp_path / "runs"}"'))
+    study.write_text(CALCULIX_STUDY.replace('work_root = "ccx_runs"', f'executable = "/bin/false"\nwork_root = "{tmp_path / "runs"}"'))
     result = nlupdate("update", study, "--out", tmp_path / "out")
     line = assert_one_clear_line(result, 1, "1 updating run(s) failed", "eigensensitivity forward")
     assert f"log: {tmp_path / 'runs'}" in line and line.endswith("ccx.log)")

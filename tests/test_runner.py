@@ -178,6 +178,18 @@ for pid in tree:
 """
 
 
+def time_out(exe: Path, tmp_path: Path, message: str = "timed out after 1.0 s") -> Path:
+    """Run ``exe`` with a 1 s timeout; check it times out within 10 s saying ``message``;
+    return its run folder."""
+    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
+    run_dir = runner.new_run_dir("slow")
+    start = time.perf_counter()
+    with pytest.raises(RunTimeoutError, match=message):
+        runner.run([], run_dir)
+    assert time.perf_counter() - start < 10
+    return run_dir
+
+
 def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Windows has no os.killpg: the runner calls taskkill /F /T /PID (a stand-in on PATH here,
     killing the tree through /proc like taskkill does through the Windows process list)."""
@@ -197,12 +209,7 @@ def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path,
         time.sleep(60)
         """,
     )
-    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
-    run_dir = runner.new_run_dir("slow")
-    start = time.perf_counter()
-    with pytest.raises(RunTimeoutError, match="timed out after 1.0 s; it was killed with the processes it started"):
-        runner.run([], run_dir)
-    assert time.perf_counter() - start < 10
+    run_dir = time_out(exe, tmp_path, "timed out after 1.0 s; it was killed with the processes it started")
     program, child = (int(v) for v in (run_dir / "pids.txt").read_text().split())
     assert log.read_text().splitlines() == [f"/F /T /PID {program}"]
     assert not _alive(program)
@@ -224,12 +231,7 @@ def test_timeout_on_windows_without_taskkill_kills_the_program(tmp_path: Path, m
         time.sleep(30)
         """,
     )
-    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
-    run_dir = runner.new_run_dir("slow")
-    start = time.perf_counter()
-    with pytest.raises(RunTimeoutError, match="timed out after 1.0 s"):
-        runner.run([], run_dir)
-    assert time.perf_counter() - start < 10
+    run_dir = time_out(exe, tmp_path)
     assert not _alive(int((run_dir / "pid.txt").read_text()))
 
 

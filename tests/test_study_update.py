@@ -292,35 +292,7 @@ def test_single_mode_example_reaches_the_target(tmp_path):
     assert updated["error_pct"].abs().max() <= 0.01
 
 
-CALCULIX_STUDY = """
-[adapter]
-kind = "calculix"
-model = "tbeam"
-[adapter.options]
-n_modes = 4
-work_root = "ccx_runs"
-[adapter.options.mesh]
-n_l1 = 12
-n_l2 = 6
-n_h1 = 1
-n_w1 = 1
-n_w2 = 1
-
-[[parameters]]
-name = "E"
-unit = "Pa"
-start = 210e9
-lower = 100e9
-upper = 300e9
-
-[targets]
-frequencies_hz = [40.75]
-model_modes = [1]
-
-[eigensensitivity]
-formulas = ["forward"]
-frequency_tolerance = 1e-6
-"""
+CALCULIX_STUDY = (Path(__file__).parent / "data" / "studies" / "calculix_tbeam_E.toml").read_text()
 
 
 @pytest.mark.calculix

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import PhysicalModel, polynomial_approximation, with_clipped_damping
-from nlupdate.identification.prd import IdentificationError, fit_y_points_bounded, residual_noise_fraction
+from nlupdate.identification.prd import IdentificationError, fit_y_points, residual_noise_fraction
 
 DDF_ESTIMATORS = ("naive", "weighted")
 
@@ -190,7 +190,7 @@ def identify_ddf(
     omega = 2 * np.pi * band
     noise_scale = np.sqrt(np.abs(1.0 / h1) ** 2 + np.abs(1.0 / h2) ** 2)
     if physical is not None:
-        p, at_bound = fit_y_points_bounded(physical, x2, rhs, x1, omega, weights=weights)
+        p, at_bound = fit_y_points(physical, x2, rhs, x1, omega, weights=weights)
         implied = rhs + physical.nu(p, x1, omega)
         residual = residual_noise_fraction(implied - physical.nu(p, x2, omega), noise_scale, physical.n_params)
         return DDFResult("ddf", estimator, setup, None, physical, p, x2, implied, band,

@@ -273,21 +273,11 @@ def fit_y_points(
     amplitude_low: NDArray | float,
     omega: NDArray | float,
     weights: NDArray | None = None,
-) -> NDArray[np.float64]:
-    """Equation-error fit of ``y = ν_high(A) − ν_low(A_1)`` (weights multiply residuals)."""
-    return fit_y_points_bounded(model, amplitude, y, amplitude_low, omega, weights)[0]
-
-
-def fit_y_points_bounded(
-    model: Model,
-    amplitude: NDArray,
-    y: NDArray,
-    amplitude_low: NDArray | float,
-    omega: NDArray | float,
-    weights: NDArray | None = None,
 ) -> tuple[NDArray[np.float64], tuple[str, ...]]:
-    """:func:`fit_y_points` and the names of the parameters that ended on the bounds of
-    the fit (physical models only: log-parameters stay within a factor 1e6 of their start)."""
+    """Equation-error fit of ``y = ν_high(A) − ν_low(A_1)`` (weights multiply residuals).
+
+    Returns the parameters and the names of those that ended on the bounds of the fit
+    (physical models only: log-parameters stay within a factor 1e6 of their start)."""
     amplitude = np.asarray(amplitude, dtype=float)
     y = np.asarray(y, dtype=complex)
     weights = np.ones(amplitude.size) if weights is None else np.asarray(weights, dtype=float)
@@ -349,7 +339,7 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
     y = 1.0 / h_high - 1.0 / h_low
     a_low = abs(h_low) * setup.low_force
     omega = 2 * np.pi * f
-    p, at_bound = fit_y_points_bounded(model, amplitude, y, a_low, omega)
+    p, at_bound = fit_y_points(model, amplitude, y, a_low, omega)
     # noise of y_i = 1/H_i − 1/H_1: fraction·|1/H| on each term (METHODS §8)
     misfit = y - model.nu_high(p, amplitude, omega) + model.nu_low(p, np.array([a_low]), omega)
     residual = residual_noise_fraction(misfit, np.sqrt(np.abs(1 / h_high) ** 2 + abs(1 / h_low) ** 2), model.n_params)
@@ -391,7 +381,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     w_smooth_h = _window_design(x_h, degree) @ w_coefficients
     y_pool = 1.0 / (xm_h / force_h) - w_smooth_h
     a_low_h = np.abs(1.0 / w_smooth_h) * setup.low_force
-    p0 = fit_y_points(model, am_h, y_pool, a_low_h, omega_h, weights=np.abs(xm_h / force_h))
+    p0, _ = fit_y_points(model, am_h, y_pool, a_low_h, omega_h, weights=np.abs(xm_h / force_h))
     a_low_e = float(abs(1.0 / w_coefficients[0]) * setup.low_force)
     z0 = w_coefficients.copy()
     z0[0] -= complex(model.nu_low(p0, np.array([a_low_e]), 2 * np.pi * fe)[0])

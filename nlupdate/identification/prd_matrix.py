@@ -141,7 +141,7 @@ def identify_prd_matrix(
                 amplitude.append(abs(x[r] - x[j]))
         a_low = abs(x_low[r]) if j is None else abs(x_low[r] - x_low[j])
         amplitude, y = np.array(amplitude), np.array(y)
-        p = fit_y_points(model, amplitude, y, a_low, omega)
+        p, _ = fit_y_points(model, amplitude, y, a_low, omega)
         results.append(PRDResult("prd-aa", "naive", model, p, setup, amplitude, y,
                                  np.full(amplitude.size, float(frequency_hz)), a_low))
     return MatrixPRDResult(dofs, drive, connections, tuple(results))
