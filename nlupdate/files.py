@@ -28,7 +28,8 @@ from nlupdate.notices import NlupdateWarning
 
 ON_EXISTS = ("suffix", "replace", "error")
 
-_HOST = re.sub(r"[^A-Za-z0-9_.]", "_", socket.gethostname()) or "host"
+#: This host's name as it appears in temporary names.
+HOST = re.sub(r"[^A-Za-z0-9_.]", "_", socket.gethostname()) or "host"
 _LEFTOVER = re.compile(r"^\.(?:tmp-.+|.+\.tmp)-(?P<host>[A-Za-z0-9_.]+)-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$")
 
 
@@ -38,7 +39,7 @@ def run_name(prefix: str) -> str:
 
 
 def _tag() -> str:
-    return f"{_HOST}-{os.getpid()}-{secrets.token_hex(4)}"
+    return f"{HOST}-{os.getpid()}-{secrets.token_hex(4)}"
 
 
 def _umask() -> int:
@@ -47,7 +48,15 @@ def _umask() -> int:
     return mask
 
 
-def _process_alive(pid: int) -> bool:
+def temporary_writer(name: str) -> tuple[str, int] | None:
+    """(host, pid) of the writer of a temporary file or folder named ``name``, or None
+    when ``name`` is not a temporary name of this module."""
+    match = _LEFTOVER.match(name)
+    return None if match is None else (match["host"], int(match["pid"]))
+
+
+def writer_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this host."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -67,15 +76,15 @@ def clean_leftovers(folder: str | os.PathLike) -> list[Path]:
     if not folder.is_dir():
         return removed
     for entry in folder.iterdir():
-        match = _LEFTOVER.match(entry.name)
-        if match is None:
+        writer = temporary_writer(entry.name)
+        if writer is None:
             continue
-        host, pid = match["host"], int(match["pid"])
-        if host != _HOST:
+        host, pid = writer
+        if host != HOST:
             warnings.warn(f"{entry} is the unfinished output of a run on host {host!r} (process {pid}); "
                           f"remove it once that run is over", NlupdateWarning, stacklevel=2)
             continue
-        if _process_alive(pid):
+        if writer_alive(pid):
             continue  # a run in progress
         if entry.is_dir():
             shutil.rmtree(entry, ignore_errors=True)
