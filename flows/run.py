@@ -49,8 +49,10 @@ def run_study_flow(
     cache_dir: str | os.PathLike | None = None,
     refresh: bool = False,
     progress: Progress | None = None,
+    annotations: dict[str, str] | None = None,
 ) -> Path:
-    """Run ``study`` as Prefect flows and write its archive under ``results_root``."""
+    """Run ``study`` as Prefect flows and write its archive under ``results_root``
+    (``annotations``: extra entries of the manifest's ``run`` record)."""
     from nlupdate.flows.study import Cache, study_flow, study_handle
 
     progress = progress or Progress()
@@ -59,7 +61,7 @@ def run_study_flow(
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, API {url}"
         archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
-            study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration)
+            study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration, annotations)
     return Path(archive)
 
 

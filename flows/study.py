@@ -195,8 +195,10 @@ def prediction_flow(study_handle: Handle, sweep_handle: Handle, identification_h
 
 
 @flow(name="study")
-def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestration: str) -> str:
-    """The whole study, then its archive under ``results_root``; returns the archive path."""
+def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestration: str,
+               annotations: dict[str, str] | None = None) -> str:
+    """The whole study, then its archive under ``results_root``; returns the archive path.
+    ``annotations`` go into the manifest's ``run`` record (e.g. ``rerun_of``)."""
     study = study_handle.value
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()
@@ -228,7 +230,7 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
         "started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
         "wall_time_s": steps_s, "orchestration": orchestration,
         "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store, "cache_refreshed": cache.refresh,
-        "tasks": progress.summary(),
+        "tasks": progress.summary(), **(annotations or {}),
     }
     folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run)
     return str(folder)

@@ -81,8 +81,9 @@ def exit_code_for_failures(failures: list[dict]) -> int:
     return 1
 
 
-def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path:
-    """Run ``study`` under Prefect with the execution options of ``args``; one-line errors."""
+def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotations: dict[str, str] | None = None) -> Path:
+    """Run ``study`` under Prefect with the execution options of ``args``; one-line errors.
+    ``annotations`` go into the manifest's ``run`` record."""
     writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
     with prefect_errors(args):
@@ -91,7 +92,7 @@ def run_with_prefect(study, results_root: str, args: argparse.Namespace) -> Path
         from nlupdate.flows.runners import Execution
 
         return run_study_flow(study, results_root, Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
-                              args.no_cache, Progress(quiet=args.quiet))
+                              args.no_cache, Progress(quiet=args.quiet), annotations)
 
 
 def print_summary(archive: Path) -> None:

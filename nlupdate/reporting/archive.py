@@ -8,6 +8,11 @@
                       warnings (results not to be trusted as they stand, each
                       {"subject", "kind", "message", "source"}: nlupdate.study.run.study_warnings)
     study.toml        the study file as run
+    inputs/           a copy of every file the study reads (measured data, model files,
+                      decks, identification outputs) as ``inputs/<sha256[:12]>/<name>``,
+                      listed in the manifest (``inputs.files``: path as written in the
+                      study, original path, archived path, SHA-256), so the run can be
+                      repeated from the archive alone (:mod:`nlupdate.reporting.catalogue`)
     report.md         the report (:mod:`nlupdate.reporting.report`), plots linked
     identification.json   the identification summary (when the study identifies)
     tables/*.parquet  :func:`nlupdate.reporting.tables.study_tables`
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
+import shutil
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -29,7 +35,7 @@ from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.report import plot_fit, plot_linear_frf
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.reporting.manifest import environment, file_hash, table_hash
+from nlupdate.reporting.manifest import environment, file_hash, table_hash, tree_hash
 from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
 from nlupdate.reporting.report import report_markdown
 from nlupdate.reporting.tables import study_tables
@@ -63,6 +69,26 @@ def inputs_hash(result) -> str:
     return digest.hexdigest()
 
 
+def archive_inputs(study, folder: Path) -> list[dict[str, str]]:
+    """Copy every file (or folder) ``study`` reads into ``folder/inputs``; returns their
+    manifest entries (see the module docstring)."""
+    entries = []
+    for written, source in sorted(study.input_files.items()):
+        source = Path(source)
+        digest = tree_hash(source) if source.is_dir() else file_hash(source)
+        archived = Path("inputs") / digest[:12] / source.name
+        target = folder / archived
+        if not target.exists():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if source.is_dir():
+                shutil.copytree(source, target)
+            else:
+                shutil.copyfile(source, target)
+        entries.append({"as_written": written, "source": str(source.resolve()), "archived": archived.as_posix(),
+                        "sha256": digest})
+    return entries
+
+
 def run_folder(root: str | Path, study_name: str, started: dt.datetime, digest: str) -> Path:
     """``<root>/<study>/<UTC time>-<8 hex digits of the inputs hash>``."""
     return Path(root) / study_name / f"{started.astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}-{digest[:8]}"
@@ -78,8 +104,10 @@ def _solver(spec: AdapterSpec | None) -> dict[str, Any] | None:
     return {"kind": spec.kind, "model": spec.model, "options": dict(spec.options), "solver": version}
 
 
-def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str], plots: Mapping[str, str]) -> dict:
-    """The manifest of a run (see the module docstring); ``run`` describes how it ran."""
+def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str], plots: Mapping[str, str],
+                   inputs: list[dict[str, str]]) -> dict:
+    """The manifest of a run (see the module docstring); ``run`` describes how it ran,
+    ``inputs`` the archived input files (:func:`archive_inputs`)."""
     study = result.study
     seeds = {}
     if study.measured is not None and study.measured.simulate is not None:
@@ -93,8 +121,10 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
         adapters["prediction"] = _solver(prediction_adapter(study))
     return {
         "run_id": run_id,
-        "study": {"name": study.name, "file": str(study.path), "sha256": study.sha256, "description": study.description},
-        "inputs": {"measured": measured_fingerprint(result), "inputs_sha256": inputs_hash(result)},
+        "status": "failed" if result.failures else "complete",
+        "study": {"name": study.name, "file": str(Path(study.path).resolve()), "sha256": study.sha256,
+                  "description": study.description},
+        "inputs": {"measured": measured_fingerprint(result), "inputs_sha256": inputs_hash(result), "files": inputs},
         "seeds": seeds,
         "adapters": adapters,
         "environment": environment(),
@@ -173,9 +203,10 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
             table.to_parquet(folder / "tables" / f"{name}.parquet", index=False)
         plots = _plots(result, folder / "plots")
         (folder / "study.toml").write_text(result.study.text)
+        inputs = archive_inputs(result.study, folder)
         if result.identification is not None:
             write_json(result.identification.summary(), folder / "identification.json")
-        manifest = build_manifest(result, final.name, run, sorted(tables), plots)
+        manifest = build_manifest(result, final.name, run, sorted(tables), plots, inputs)
         write_json(manifest, folder / MANIFEST)
         (folder / "report.md").write_text(report_markdown(result, manifest, plots))
     return archive.final

@@ -61,3 +61,13 @@ def file_hash(path: str | Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def tree_hash(folder: str | Path) -> str:
+    """SHA-256 over a folder's files: their relative paths and contents, in sorted order."""
+    digest = hashlib.sha256()
+    root = Path(folder)
+    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(file_hash(path).encode())
+    return digest.hexdigest()

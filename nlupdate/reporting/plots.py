@@ -33,19 +33,25 @@ def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path
 
 
 def plot_predictions(
-    measured: pd.DataFrame, predictions: Sequence, response_dof: str, input_dof: str, path: Path, title: str = ""
+    measured: pd.DataFrame, predictions: Sequence, response_dof: str, input_dof: str, path: Path, title: str = "",
+    styles: Sequence[dict] | None = None, other_measured: tuple[str, pd.DataFrame] | None = None,
 ) -> Path:
-    """|H| per force level: measured points and each predicted model (the first, usually
-    ``initial``, dashed grey); panel titles give each model's FRAC at that level."""
+    """|H| per force level: measured points and each predicted model (by default the first,
+    usually ``initial``, dashed grey); panel titles give each model's FRAC at that level.
+    ``other_measured``: (label, table) of a second measurement drawn in grey."""
     levels = sorted({float(level) for p in predictions for level in p.table["force_level_n"]})
     columns = min(5, len(levels))
     rows = -(-len(levels) // columns)
     fig = Figure(figsize=(3.2 * columns, 2.7 * rows + 0.6))
     axes = np.atleast_1d(fig.subplots(rows, columns, sharex=True, squeeze=False)).ravel()
-    styles = [dict(color="0.45", ls="--", lw=1.0)] + [dict(color=f"C{k + 3}", lw=1.3) for k in range(len(predictions))]
+    if styles is None:
+        styles = [dict(color="0.45", ls="--", lw=1.0)] + [dict(color=f"C{k + 3}", lw=1.3) for k in range(len(predictions))]
     for ax, level in zip(axes, levels):
         f_m, h_m = select_frf(measured, response_dof, input_dof, level)
         ax.semilogy(f_m, np.abs(h_m), ".", ms=1.5, color="k", label="measured")
+        if other_measured is not None:
+            f_o, h_o = select_frf(other_measured[1], response_dof, input_dof, level)
+            ax.semilogy(f_o, np.abs(h_o), "x", ms=2, color="0.6", label=other_measured[0])
         fracs = []
         for prediction, style in zip(predictions, styles):
             f_p, h_p = select_frf(prediction.table, response_dof, input_dof, level)

@@ -13,11 +13,17 @@ class StudyError(ValueError):
 
 class Reader:
     """Typed access to a parsed TOML document; every failure names the file, the table,
-    the key and the expected form. ``allowed`` maps table names (dotted) to their keys."""
+    the key and the expected form. ``allowed`` maps table names (dotted) to their keys.
 
-    def __init__(self, path: Path, allowed: Mapping[str, set[str]]) -> None:
+    ``redirect`` maps paths as written in the file to the files to read instead (a rerun
+    reads the copies kept in its archive); :attr:`files` records every path the file
+    names, as written → the path read."""
+
+    def __init__(self, path: Path, allowed: Mapping[str, set[str]], redirect: Mapping[str, Path] | None = None) -> None:
         self.path = path
         self.allowed = allowed
+        self.redirect = dict(redirect or {})
+        self.files: dict[str, Path] = {}
 
     def fail(self, where: str, key: str | None, expected: str, got: object = None) -> StudyError:
         place = f"[{where}]" if where else "top level"
@@ -128,7 +134,12 @@ class Reader:
                 raise self.fail(f"{where}.{key}" if where else key, name, "a finite number", v)
         return {name: float(v) for name, v in value.items()}
 
-    def path_of(self, relative: str) -> Path:
-        """A path given in the file, relative to the file's directory."""
-        path = Path(relative)
-        return path if path.is_absolute() else self.path.parent / path
+    def path_of(self, written: str) -> Path:
+        """A path given in the file (relative to the file's directory), or its redirect."""
+        if written in self.redirect:
+            path = Path(self.redirect[written])
+        else:
+            path = Path(written)
+            path = path if path.is_absolute() else self.path.parent / path
+        self.files[written] = path
+        return path

@@ -171,7 +171,8 @@ class PredictionSpec:
 
 @dataclass(frozen=True, eq=False)
 class Study:
-    """A parsed and checked study file. ``sha256`` is the hash of its text."""
+    """A parsed and checked study file. ``sha256`` is the hash of its text; ``input_files``
+    maps every path the study names (as written) to the file read for it."""
 
     path: Path
     name: str
@@ -189,14 +190,17 @@ class Study:
     candidates: tuple[CandidateEntry, ...]
     comparison: Mapping[str, Any]
     prediction: PredictionSpec | None
+    input_files: Mapping[str, Path] = field(default_factory=dict)
 
     @property
     def sha256(self) -> str:
         return hashlib.sha256(self.text.encode()).hexdigest()
 
-    def resolve(self, relative: str) -> Path:
-        """A path of the study file, relative to the file's directory."""
-        path = Path(relative)
+    def resolve(self, written: str) -> Path:
+        """The file read for a path as written in the study (see :attr:`input_files`)."""
+        if written in self.input_files:
+            return self.input_files[written]
+        path = Path(written)
         return path if path.is_absolute() else self.path.parent / path
 
     def parameter(self, name: str) -> Parameter:
@@ -212,14 +216,17 @@ def load_study(path: str | os.PathLike) -> Study:
     return study_from_text(path.read_text(), path)
 
 
-def study_from_text(text: str, path: str | os.PathLike) -> Study:
-    """Parse and check study ``text``; ``path`` names it in errors and anchors relative paths."""
+def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, Path] | None = None) -> Study:
+    """Parse and check study ``text``; ``path`` names it in errors and anchors relative paths.
+
+    ``redirect``: files to read instead of those the study names (path as written → path),
+    e.g. the copies kept in a run archive."""
     path = Path(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise StudyError(f"{path}: not valid TOML ({error})") from error
-    read = Reader(path, _ALLOWED)
+    read = Reader(path, _ALLOWED, redirect)
     for (table, key), hint in _MOVED.items():
         if isinstance(data.get(table), dict) and key in data[table]:
             raise read.fail(table, key, f"nothing: this key was removed ({hint})", data[table][key])
@@ -271,7 +278,7 @@ def study_from_text(text: str, path: str | os.PathLike) -> Study:
         path=path, name=name, description=description, text=text, measured=measured, identification=identification,
         adapter=adapter, fixed=fixed, parameters=parameters, targets=targets, updating=updating_options,
         eigensensitivity=eigensensitivity, optimisation=optimisation, candidates=candidates, comparison=comparison,
-        prediction=prediction,
+        prediction=prediction, input_files=dict(read.files),
     )
 
 
@@ -447,7 +454,7 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
             raise read.fail(where, "modes", "a list of mode numbers ≥ 1 (of the extracted linear FRF, ascending)", modes)
         n = len(modes) if modes is not None else -1
     else:
-        read.string(targets, where, "identification", required=True)
+        read.path_of(read.string(targets, where, "identification", required=True))
         n = read.integer(targets, where, "n_modes")
         if n is None:
             raise read.fail(where, "n_modes", "the number of peaks to pick from the identified FRF (integer ≥ 1)")

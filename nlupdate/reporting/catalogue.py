@@ -1,0 +1,183 @@
+"""The run archives under a results root: find them, name one, read its key results, and
+load the study it ran from the archive alone.
+
+A run is ``<root>/<study>/<run id>/`` (:mod:`nlupdate.reporting.archive`). Its status:
+
+* ``complete``   the archive is whole and no updating run failed;
+* ``failed``     the archive is whole but some updating runs failed (named in it);
+* ``incomplete`` a temporary folder a run left when it was killed while writing (its
+  writer no longer runs, or runs on another host; the next run removes it);
+* ``writing``    a temporary folder whose writer still runs on this host.
+
+Only a folder under its final name holds a manifest that :func:`find_runs` reads as
+whole: archives are written in a temporary sibling and renamed when complete.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from nlupdate.files import HOST, temporary_writer, writer_alive
+from nlupdate.reporting.archive import MANIFEST
+from nlupdate.reporting.manifest import file_hash, tree_hash
+
+STATUSES = ("complete", "failed", "incomplete", "writing")
+
+
+class ArchiveError(ValueError):
+    """A run archive cannot be found or read; the message says which and why."""
+
+
+@dataclass(frozen=True)
+class ArchivedRun:
+    """One run folder (``run_id`` is its folder name) and what its manifest says."""
+
+    folder: Path
+    study: str
+    run_id: str
+    status: str
+    manifest: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def started(self) -> str:
+        return self.manifest.get("run", {}).get("started_utc", "")
+
+    def table(self, name: str) -> pd.DataFrame | None:
+        """``tables/<name>.parquet`` of the archive, or None when the run has none."""
+        path = self.folder / "tables" / f"{name}.parquet"
+        return pd.read_parquet(path) if path.is_file() else None
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    path = Path(folder) / MANIFEST
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ArchiveError(f"{folder} is not a run archive (no {MANIFEST})") from None
+    except (OSError, json.JSONDecodeError) as error:
+        raise ArchiveError(f"{path}: cannot read the manifest ({error})") from None
+
+
+def _temporary_status(folder: Path) -> str:
+    writer = temporary_writer(folder.name)
+    if writer is None:
+        return "incomplete"
+    host, pid = writer
+    return "writing" if host == HOST and writer_alive(pid) else "incomplete"
+
+
+def open_run(folder: str | os.PathLike) -> ArchivedRun:
+    """The run archive in ``folder`` (a whole one: it has a manifest)."""
+    folder = Path(folder)
+    manifest = read_manifest(folder)
+    status = manifest.get("status") or ("failed" if manifest.get("failures") else "complete")
+    study = manifest.get("study", {}).get("name") or folder.parent.name
+    return ArchivedRun(folder, study, folder.name, status, manifest)
+
+
+def find_runs(root: str | os.PathLike = "results", study: str | None = None) -> list[ArchivedRun]:
+    """Every run under ``root`` (optionally of one study), oldest first; temporary folders
+    of killed or running writers are listed as ``incomplete`` / ``writing``."""
+    root = Path(root)
+    if not root.is_dir():
+        raise ArchiveError(f"no results folder {root}")
+    runs = []
+    for study_folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        for folder in sorted(p for p in study_folder.iterdir() if p.is_dir()):
+            if folder.name.startswith(".tmp-"):
+                runs.append(ArchivedRun(folder, study_folder.name, folder.name, _temporary_status(folder)))
+            elif (folder / MANIFEST).is_file():
+                try:
+                    runs.append(open_run(folder))
+                except ArchiveError:
+                    runs.append(ArchivedRun(folder, study_folder.name, folder.name, "incomplete"))
+    if study is not None:
+        runs = [r for r in runs if r.study == study or r.folder.parent.name == study]
+    return sorted(runs, key=lambda r: (r.started or r.run_id.lstrip(".tmp-"), r.run_id))
+
+
+def resolve_run(spec: str, root: str | os.PathLike = "results") -> ArchivedRun:
+    """A run named by its folder or by an unambiguous prefix of its id under ``root``."""
+    path = Path(spec)
+    if path.is_dir():
+        return open_run(path)
+    matches = [r for r in find_runs(root) if r.run_id.startswith(spec) and r.status not in ("incomplete", "writing")]
+    if not matches:
+        raise ArchiveError(f"no run folder {spec!r} and no run id under {root} starts with {spec!r} "
+                           f"(see `nlupdate archive list --root {root}`)")
+    if len(matches) > 1:
+        names = ", ".join(f"{r.study}/{r.run_id}" for r in matches[:6])
+        raise ArchiveError(f"{spec!r} names {len(matches)} runs under {root} ({names}{', …' if len(matches) > 6 else ''}); "
+                           f"give more of the id")
+    return matches[0]
+
+
+def best_candidate(run: ArchivedRun) -> str | None:
+    """The updating run ranked first (None when the study did not update)."""
+    ranking = run.table("ranking")
+    if ranking is None or ranking.empty:
+        return None
+    return str(ranking.sort_values("rank")["candidate"].iloc[0])
+
+
+def key_results(run: ArchivedRun) -> dict[str, Any]:
+    """Identified parameters, the best candidate and its updated parameters (value, std),
+    and the lowest FRAC of the best prediction over the force levels."""
+    out: dict[str, Any] = {"identified": {}, "best": best_candidate(run), "updated": {}, "min_frac": None}
+    identified = run.table("identification")
+    if identified is not None:
+        out["identified"] = {row.parameter: [float(row.value), float(row.std)] for row in identified.itertuples()}
+    runs = run.table("runs")
+    if runs is not None and out["best"] is not None:
+        row = runs[runs["candidate"] == out["best"]]
+        if len(row):
+            row = row.iloc[0]
+            for column in runs.columns:
+                if column.startswith("p:") and pd.notna(row[column]):
+                    name = column[2:]
+                    std = row.get(f"std:{name}")
+                    out["updated"][name] = [float(row[column]), None if std is None or pd.isna(std) else float(std)]
+    correlation = run.table("correlation")
+    if correlation is not None:
+        updated = correlation[correlation["model"] != "initial"]
+        if len(updated):
+            out["min_frac"] = float(updated["frac"].min())
+    return out
+
+
+def archived_inputs(run: ArchivedRun) -> tuple[dict[str, Path], list[str]]:
+    """(path as written in the study → its copy in the archive, notes about copies that
+    changed since the run). A copy whose content no longer matches its recorded hash is
+    still used; the note says so, so a rerun can explain a difference."""
+    redirect, notes = {}, []
+    for entry in run.manifest.get("inputs", {}).get("files", []):
+        copy = run.folder / entry["archived"]
+        if not copy.exists():
+            raise ArchiveError(f"{run.folder}: the archived input {entry['archived']} ({entry['as_written']!r} in the study) "
+                               f"is missing")
+        digest = tree_hash(copy) if copy.is_dir() else file_hash(copy)
+        if digest != entry["sha256"]:
+            notes.append(f"input {entry['as_written']!r} ({entry['archived']}) was edited after the run: sha256 "
+                         f"{entry['sha256'][:12]} → {digest[:12]}")
+        redirect[entry["as_written"]] = copy
+    return redirect, notes
+
+
+def archived_study(run: ArchivedRun):
+    """The study of ``run`` as it ran, reading the input copies kept in the archive; and
+    the notes of :func:`archived_inputs`."""
+    from dataclasses import replace
+
+    from nlupdate.study import study_from_text
+
+    text_path = run.folder / "study.toml"
+    if not text_path.is_file():
+        raise ArchiveError(f"{run.folder}: no study.toml: this archive cannot be rerun")
+    redirect, notes = archived_inputs(run)
+    study = study_from_text(text_path.read_text(), text_path, redirect)
+    return replace(study, name=run.manifest.get("study", {}).get("name", study.name)), notes
