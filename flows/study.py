@@ -26,7 +26,7 @@ from pydantic import BaseModel, ConfigDict, PrivateAttr, model_serializer
 
 from nlupdate.flows.progress import current_progress
 from nlupdate.identification.pipeline import Identification
-from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive
+from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
 from nlupdate.reporting.manifest import table_hash
 from nlupdate.study import steps
 from nlupdate.study.run import StudyResult
@@ -194,15 +194,9 @@ def prediction_flow(study_handle: Handle, sweep_handle: Handle, identification_h
                  for i, (name, started, future) in enumerate(futures, start=1))
 
 
-@flow(name="study")
-def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestration: str,
-               annotations: dict[str, str] | None = None) -> str:
-    """The whole study, then its archive under ``results_root``; returns the archive path.
-    ``annotations`` go into the manifest's ``run`` record (e.g. ``rerun_of``)."""
+def _study_steps(study_handle: Handle, cache: Cache) -> StudyResult:
+    """Every step the study asks for, as cached tasks and subflows."""
     study = study_handle.value
-    started = dt.datetime.now(dt.timezone.utc)
-    clock = time.perf_counter()
-    progress = current_progress()
     measured = identified = target_set = None
     sweep = SweepOutcome((), (), None, None, {})
     predictions: tuple[Prediction, ...] = ()
@@ -222,15 +216,37 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
         predictions = _subflow(prediction_flow)(
             study_handle, handle(sweep, f"{len(sweep.runs)} updating runs, best: {sweep.ranking['candidate'].iloc[0]}"),
             handle(identified, f"identification ({identified.model_description})"), _measured_handle(measured), cache)
-    result = StudyResult(study, measured, identified, target_set, sweep.runs, sweep.failures, sweep.comparison,
-                         sweep.ranking, sweep.uncertainties, predictions)
-    steps_s = time.perf_counter() - clock
-    progress.say(f"steps done in {steps_s:.1f} s; writing the archive …")
-    run = {
-        "started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
-        "wall_time_s": steps_s, "orchestration": orchestration,
-        "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store, "cache_refreshed": cache.refresh,
-        "tasks": progress.summary(), **(annotations or {}),
-    }
-    folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run)
+    return StudyResult(study, measured, identified, target_set, sweep.runs, sweep.failures, sweep.comparison,
+                       sweep.ranking, sweep.uncertainties, predictions)
+
+
+@flow(name="study")
+def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestration: str,
+               annotations: dict[str, str] | None = None) -> str:
+    """The whole study, then its archive under ``results_root``; returns the archive path.
+    ``annotations`` go into the manifest's ``run`` record (e.g. ``rerun_of``). A study
+    that fails with an error still leaves an archive (status ``failed``: the error, the
+    study and its inputs), then the error is raised."""
+    study = study_handle.value
+    started = dt.datetime.now(dt.timezone.utc)
+    clock = time.perf_counter()
+    progress = current_progress()
+
+    def run_record() -> dict:
+        return {
+            "started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
+            "wall_time_s": time.perf_counter() - clock, "orchestration": orchestration,
+            "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store,
+            "cache_refreshed": cache.refresh, "tasks": progress.summary(), **(annotations or {}),
+        }
+
+    try:
+        result = _study_steps(study_handle, cache)
+    except Exception as error:
+        folder = write_failed_archive(study, run_folder(results_root, study.name, started, study.sha256), run_record(),
+                                      f"{type(error).__name__}: {error}")
+        progress.say(f"[bold red]the study failed[/bold red]: {type(error).__name__}: {error}; archive {folder}")
+        raise
+    progress.say(f"steps done in {time.perf_counter() - clock:.1f} s; writing the archive …")
+    folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run_record())
     return str(folder)

@@ -55,13 +55,24 @@ def runs(prefect_server, tmp_path_factory):
     measured_table(load_study(SIMULATED)).to_parquet(folder / "data" / "measured.parquet", index=False)
     (folder / "a.toml").write_text(study_text(1))
     (folder / "b.toml").write_text(study_text(2))
+    (folder / "c.toml").write_text(study_text(1).replace('candidates = "best"', 'candidates = ["no such run"]'))
     results = folder / "results"
     archives = {}
-    for name in ("a", "b"):
+    for name, code in (("a", 0), ("b", 0), ("c", 2)):
         assert main(["run", str(folder / f"{name}.toml"), "--out", str(results), "--cache-dir", str(folder / "cache"),
-                     "--quiet", "--workers", "2"]) == 0
+                     "--quiet", "--workers", "2"]) == code
         archives[name] = max((results / "two-dof").iterdir(), key=lambda p: p.stat().st_mtime)
     return folder, results, archives
+
+
+def test_a_study_that_fails_leaves_a_failed_archive(runs, capsys):
+    _, results, archives = runs
+    manifest = json.loads((archives["c"] / "manifest.json").read_text())
+    assert manifest["status"] == "failed" and "'no such run'" in manifest["error"]
+    assert (archives["c"] / "study.toml").is_file() and (archives["c"] / "report.md").is_file()
+    code, out, _ = run_cli(capsys, "archive", "list", "--root", results)
+    line = next(line for line in out.splitlines() if archives["c"].name in line)
+    assert " failed " in line and "[prediction] candidates ['no such run']" in line
 
 
 def test_archive_holds_a_copy_of_every_input_file(runs):
@@ -86,6 +97,7 @@ def test_list_shows_every_run_with_status_and_key_results(runs, capsys):
         assert code == 0
         entries = {e["run_id"]: e for e in json.loads(out)}
         assert entries[dead.name]["status"] == "incomplete" and entries[live.name]["status"] == "writing"
+        assert entries[archives["c"].name]["status"] == "failed"
         for name in ("a", "b"):
             entry = entries[archives[name].name]
             assert entry["status"] == "complete" and entry["study"] == "two-dof"

@@ -85,6 +85,8 @@ def _list_entry(run) -> dict:
     if run.manifest:
         entry.update(key_results(run))
         entry["rerun_of"] = run.manifest.get("run", {}).get("rerun_of")
+        entry["error"] = run.manifest.get("error")
+        entry["failed_runs"] = [failure["run"] for failure in run.manifest.get("failures", [])]
     return entry
 
 
@@ -98,6 +100,10 @@ def _list_line(entry: dict) -> str:
         parts.append(f"best {entry['best']!r}: {updated}")
     if entry.get("min_frac") is not None:
         parts.append(f"min FRAC {entry['min_frac']:.3f}")
+    if entry.get("error"):
+        parts.append(f"error: {entry['error'] if len(entry['error']) <= 160 else entry['error'][:159] + '…'}")
+    if entry.get("failed_runs"):
+        parts.append(f"{len(entry['failed_runs'])} updating run(s) failed")
     if entry.get("rerun_of"):
         parts.append(f"(rerun of {entry['rerun_of']})")
     return "  ".join(parts).rstrip()

@@ -210,3 +210,25 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
         write_json(manifest, folder / MANIFEST)
         (folder / "report.md").write_text(report_markdown(result, manifest, plots))
     return archive.final
+
+
+def write_failed_archive(study, final: str | Path, run: Mapping[str, Any], error: str) -> Path:
+    """The archive of a study that failed with ``error`` before it had results: the
+    manifest (status ``failed``, the error, versions), the study file, its inputs and a
+    short report. Written atomically like :func:`write_archive`; returns the folder."""
+    final = Path(final)
+    with atomic_directory(final) as archive:
+        folder = archive.path
+        (folder / "study.toml").write_text(study.text)
+        inputs = archive_inputs(study, folder)
+        manifest = {
+            "run_id": final.name, "status": "failed", "error": error,
+            "study": {"name": study.name, "file": str(Path(study.path).resolve()), "sha256": study.sha256,
+                      "description": study.description},
+            "inputs": {"files": inputs}, "environment": environment(), "run": dict(run), "failures": [], "warnings": [],
+        }
+        write_json(manifest, folder / MANIFEST)
+        (folder / "report.md").write_text(f"# {study.name}: failed\n\n## Summary\n\n**The study failed**: {error}\n\n"
+                                          f"Nothing after the failing step was computed; steps finished before it "
+                                          f"stay in the task cache ({run.get('cache_store')}).\n")
+    return archive.final
