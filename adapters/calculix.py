@@ -40,9 +40,13 @@ CalculiX normalises eigenvectors to unit modal mass (UᵀMU = 1, it logs
 Euler–Bernoulli cantilever, whose mass-normalised tip value is 2/√(ρAL)).
 
 Failure detection: ccx often exits with code 0 after an error, so besides the exit
-code the log is scanned for ``*ERROR``, and the ``.dat`` must exist and hold the
-eigenvalue block and one displacement table per requested set and mode. A clearly
-negative eigenvalue (a mechanism, hourglassing or missing supports) is also an error.
+code (a crash, e.g. a segmentation fault, is a non-zero code or a signal) and the time
+limit the log is scanned for ``*ERROR``, and the ``.dat`` must exist and hold the
+eigenvalue block with exactly the requested number of modes, finite eigenvalues, finite
+non-negative frequencies in ascending order (within :data:`FREQUENCY_ORDER_RTOL`, ccx
+prints 7 digits) and one finite displacement table per requested set and mode. A
+clearly negative eigenvalue (a mechanism, hourglassing or missing supports) is also an
+error. Every such failure names the run directory and the log (and quotes its end).
 """
 from __future__ import annotations
 
@@ -86,7 +90,11 @@ _NODES_PER_ELEMENT = {
 }
 _NOT_MESH = {"MASS", "SPRING1", "SPRING2", "SPRINGA", "DASHPOTA"}
 
-_FLOAT = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd]?[-+]\d+)?"
+# a Fortran real, or the NaN/Infinity a broken solve prints (read, then refused by the checks)
+_FLOAT = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd]?[-+]\d+)?|[-+]?(?i:nan|inf(?:inity)?))"
+#: Relative slack of the "ascending frequencies" check (ccx prints 7 significant digits,
+#: so two equal roots may be printed in either order).
+FREQUENCY_ORDER_RTOL = 1e-6
 _EIGEN_HEADER = re.compile(r"E I G E N V A L U E\s+O U T P U T")
 _EIGEN_ROW = re.compile(rf"^\s*(\d+)\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s*$")
 _MODE_HEADER = re.compile(r"E I G E N V A L U E\s+N U M B E R\s+(\d+)")
@@ -173,6 +181,27 @@ def parse_dat(text: str, source: str = "job.dat") -> DatContents:
         elif line.strip():
             current = None
     return DatContents(np.asarray(eigenvalues), np.asarray(frequencies), displacements)
+
+
+def check_modes(eigenvalues: np.ndarray, frequencies_hz: np.ndarray, n_modes: int) -> None:
+    """ValueError unless there are exactly ``n_modes`` modes, finite eigenvalues and finite,
+    non-negative, ascending frequencies (within :data:`FREQUENCY_ORDER_RTOL`)."""
+    eigenvalues = np.asarray(eigenvalues, dtype=float)
+    frequencies = np.asarray(frequencies_hz, dtype=float)
+    if frequencies.size != n_modes or eigenvalues.size != n_modes:
+        raise ValueError(f"{frequencies.size} of the {n_modes} requested modes in the output")
+    bad = [i + 1 for i in range(n_modes) if not (np.isfinite(eigenvalues[i]) and np.isfinite(frequencies[i]))]
+    if bad:
+        raise ValueError(f"mode(s) {bad} are not finite numbers: eigenvalues {eigenvalues.tolist()} (rad/s)², "
+                         f"frequencies {frequencies.tolist()} Hz")
+    bad = [i + 1 for i in range(n_modes) if frequencies[i] < 0]
+    if bad:
+        raise ValueError(f"negative frequencies for mode(s) {bad}: {frequencies.tolist()} Hz")
+    slack = FREQUENCY_ORDER_RTOL * float(np.max(frequencies, initial=0.0))
+    descending = [i + 1 for i in range(1, n_modes) if frequencies[i] < frequencies[i - 1] - slack]
+    if descending:
+        raise ValueError(f"frequencies are not ascending (mode(s) {descending} below the previous one): "
+                         f"{frequencies.tolist()} Hz")
 
 
 def frequency_step(n_modes: int, node_sets: Sequence[str]) -> str:
@@ -350,6 +379,10 @@ class CalculixAdapter(FEAdapter):
         except ValueError as error:
             raise run_failure(f"could not read the ccx results: {error}", run.run_dir, run.log_path) from error
         eigenvalues = contents.eigenvalues
+        try:
+            check_modes(eigenvalues, contents.frequencies_hz, self.n_modes)
+        except ValueError as error:
+            raise run_failure(f"ccx returned unusable modes in {dat_path.name}: {error}", run.run_dir, run.log_path) from None
         scale = float(np.max(np.abs(eigenvalues)))
         negative = np.flatnonzero(eigenvalues < -self.negative_eigenvalue_tolerance * scale)
         if negative.size:
@@ -371,6 +404,11 @@ class CalculixAdapter(FEAdapter):
                         run.log_path,
                     )
                 shapes[row, mode - 1] = float(np.mean([values[DIRECTIONS[direction]] for values in table.values()]))
+        if not np.all(np.isfinite(shapes)):
+            rows, modes = np.nonzero(~np.isfinite(shapes))
+            bad = sorted({(list(coordinates)[r], int(m) + 1) for r, m in zip(rows, modes)})
+            raise run_failure(f"ccx returned displacements that are not finite numbers in {dat_path.name} "
+                              f"(coordinate, mode): {bad}", run.run_dir, run.log_path)
         metadata = {
             "solver": "calculix",
             "mesh_size": count_elements(deck),

@@ -308,7 +308,7 @@ def test_negative_eigenvalue_is_a_mechanism_error(tmp_path: Path) -> None:
 
 def test_missing_displacement_table_is_an_error(tmp_path: Path) -> None:
     # ccx only warns (exit 0) when a *NODE PRINT set is missing: the table check catches it.
-    exe = fake_ccx(tmp_path, FAKE_DAT_NEGATIVE.replace("-0.1414106E+08   0.0000000E+00   0.0000000E+00   0.3760460E+04", "0.1414106E+08   0.3760460E+04   0.5984912E+03   0.0000000E+00").replace("set TIP", "set OTHER"))
+    exe = fake_ccx(tmp_path, FAKE_DAT_NEGATIVE.replace("-0.1414106E+08   0.0000000E+00   0.0000000E+00   0.3760460E+04", "0.1314106E+08   0.3625060E+04   0.5769462E+03   0.0000000E+00").replace("set TIP", "set OTHER"))
     adapter = CalculixAdapter(BlockDeck((1, 1, 1), 1.0, 1.0, 1.0), ["E"], n_modes=2, executable=str(exe), work_root=tmp_path / "runs")
     with pytest.raises(AdapterError, match="no displacement table for node set TIP in mode 1"):
         adapter.evaluate({})
@@ -328,6 +328,86 @@ def test_ccx_timeout_is_an_adapter_error(tmp_path: Path) -> None:
     with pytest.raises(RunTimeoutError, match="timed out after 0.5 s") as info:
         adapter.evaluate({})
     assert "pretending to factorise" in str(info.value) and str(tmp_path / "runs") in str(info.value)
+
+
+# A well-formed two-mode output (mode 1 of FAKE_DAT_NEGATIVE made positive and below mode 2),
+# and what a broken ccx run leaves instead: each must fail the run naming its folder and log.
+GOOD_MODE_1 = "0.1314106E+08   0.3625060E+04   0.5769462E+03   0.0000000E+00"
+FAKE_DAT_GOOD = FAKE_DAT_NEGATIVE.replace("-0.1414106E+08   0.0000000E+00   0.0000000E+00   0.3760460E+04", GOOD_MODE_1)
+MODE_2 = "0.1370838E+08   0.3702482E+04   0.5892684E+03   0.0000000E+00"
+GARBAGE_OUTPUTS = {
+    "NaN frequency": (FAKE_DAT_GOOD.replace(MODE_2, "NaN   NaN   NaN   0.0000000E+00"), 2, r"mode\(s\) \[2\] are not finite"),
+    "infinite eigenvalue": (FAKE_DAT_GOOD.replace(MODE_2, "Infinity   Infinity   Infinity   0.0000000E+00"), 2,
+                            r"mode\(s\) \[2\] are not finite"),
+    "fewer modes than asked": (FAKE_DAT_GOOD, 3, r"2 of the 3 requested modes"),
+    "descending frequencies": (FAKE_DAT_GOOD.replace(GOOD_MODE_1, "0.1414106E+08   0.3760460E+04   0.5984912E+03   0.0000000E+00"), 2,
+                               r"not ascending \(mode\(s\) \[2\] below the previous one\)"),
+    "negative frequency": (FAKE_DAT_GOOD.replace(GOOD_MODE_1, "0.1314106E+08   0.3625060E+04  -0.5769462E+03   0.0000000E+00"), 2,
+                           r"negative frequencies for mode\(s\) \[1\]"),
+    "NaN displacement": (FAKE_DAT_GOOD.replace("5.763234E-03  2.421300E+03 -2.421285E+03", "5.763234E-03  NaN -2.421285E+03"), 2,
+                         r"displacements that are not finite numbers .*\('tip:uy', 2\)"),
+    "text that is not a .dat": ("Segmentation fault (core dumped)\n\x00\x00garbage\n", 2,
+                                r"could not read the ccx results: .*no 'E I G E N V A L U E   O U T P U T' block"),
+    "empty .dat": ("", 2, r"could not read the ccx results"),
+}
+
+
+def assert_names_run_and_log(message: str, runs: Path) -> None:
+    run_dir = next(runs.iterdir())
+    assert f"run directory: {run_dir}" in message and f"log: {run_dir / 'ccx.log'}" in message, message
+    assert "last lines of the log:" in message, message
+
+
+@pytest.mark.parametrize("case", sorted(GARBAGE_OUTPUTS))
+def test_garbage_output_fails_the_run_naming_its_folder_and_log(tmp_path: Path, case: str) -> None:
+    dat, n_modes, expected = GARBAGE_OUTPUTS[case]
+    exe = fake_ccx(tmp_path, dat)
+    adapter = CalculixAdapter(BlockDeck((1, 1, 1), 1.0, 1.0, 1.0), ["E"], n_modes=n_modes, executable=str(exe),
+                              work_root=tmp_path / "runs")
+    with pytest.raises(AdapterError, match=expected) as info:
+        adapter.evaluate({})
+    assert_names_run_and_log(str(info.value), tmp_path / "runs")
+    assert "fake ccx" in str(info.value)  # the log's last lines are quoted
+
+
+def test_the_well_formed_fake_output_passes_the_checks(tmp_path: Path) -> None:
+    """The garbage cases above differ from this output only in what they break."""
+    exe = fake_ccx(tmp_path, FAKE_DAT_GOOD)
+    adapter = CalculixAdapter(BlockDeck((1, 1, 1), 1.0, 1.0, 1.0), ["E"], n_modes=2, executable=str(exe), work_root=tmp_path / "runs")
+    result = adapter.evaluate({})
+    np.testing.assert_allclose(result.natural_frequencies_hz, [576.9462, 589.2684])
+    assert result.mode_shapes.shape == (3, 2) and np.all(np.isfinite(result.mode_shapes))
+
+
+def fake_ccx_program(tmp_path: Path, body: str) -> Path:
+    script = tmp_path / "fake_ccx"
+    script.write_text(f"#!{sys.executable}\n" + textwrap.dedent(body))
+    script.chmod(script.stat().st_mode | stat.S_IXUSR)
+    return script
+
+
+@pytest.mark.parametrize("body, expected", [
+    ("import os, signal\nprint('factorising', flush=True)\nos.kill(os.getpid(), signal.SIGSEGV)\n", r"ccx was killed by signal 11"),
+    ("print('factorising', flush=True)\nraise SystemExit(3)\n", r"ccx exited with code 3"),
+    ("print('factorising: done')\n", r"ccx finished but wrote no job.dat"),
+], ids=["segfault", "non-zero exit", "no .dat"])
+def test_a_crashing_ccx_fails_the_run_naming_its_folder_and_log(tmp_path: Path, body: str, expected: str) -> None:
+    exe = fake_ccx_program(tmp_path, body)
+    exe = exe.rename(tmp_path / "ccx")  # the message names the program
+    adapter = CalculixAdapter(BlockDeck((1, 1, 1), 1.0, 1.0, 1.0), ["E"], n_modes=2, executable=str(exe), work_root=tmp_path / "runs")
+    with pytest.raises(AdapterError, match=expected) as info:
+        adapter.evaluate({})
+    assert_names_run_and_log(str(info.value), tmp_path / "runs")
+    assert "factorising" in str(info.value)
+
+
+def test_a_hanging_ccx_is_killed_at_its_timeout_naming_its_folder_and_log(tmp_path: Path) -> None:
+    exe = fake_ccx_program(tmp_path, "import time\nprint('factorising', flush=True)\ntime.sleep(60)\n")
+    adapter = CalculixAdapter(BlockDeck((1, 1, 1), 1.0, 1.0, 1.0), ["E"], n_modes=2, executable=str(exe), timeout_s=0.5,
+                              work_root=tmp_path / "runs")
+    with pytest.raises(RunTimeoutError, match="timed out after 0.5 s") as info:
+        adapter.evaluate({})
+    assert_names_run_and_log(str(info.value), tmp_path / "runs")
 
 
 # --------------------------------------------------------------------------- solid T-beam

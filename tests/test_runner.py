@@ -87,6 +87,27 @@ def test_nonzero_exit_names_directory_log_and_last_lines(tmp_path: Path) -> None
     assert "progress line 10\n" not in message  # only the tail of the log is quoted
 
 
+def test_a_crash_by_signal_names_the_signal_directory_and_log(tmp_path: Path) -> None:
+    """A solver that dies of a segmentation fault (or is killed) has no exit code: the
+    signal is named, with the run directory and the end of its log."""
+    exe = make_script(
+        tmp_path / "crashing",
+        """
+        import os, signal
+        print("assembling the stiffness matrix", flush=True)
+        os.kill(os.getpid(), signal.SIGSEGV)
+        """,
+    )
+    runner = ProcessRunner(str(exe), tmp_path / "runs")
+    run_dir = runner.new_run_dir("k1")
+    with pytest.raises(AdapterError) as info:
+        runner.run([], run_dir)
+    message = str(info.value)
+    assert "crashing was killed by signal 11" in message
+    assert f"run directory: {run_dir}" in message and f"log: {run_dir / 'run.log'}" in message
+    assert "assembling the stiffness matrix" in message
+
+
 def test_missing_executable_explains_how_to_install(tmp_path: Path) -> None:
     hint = "Install it with `apt-get install something`."
     with pytest.raises(ExecutableNotFoundError, match="was not found on PATH.*apt-get install something"):
