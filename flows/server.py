@@ -6,6 +6,10 @@ in a subprocess, points this process and every worker started afterwards at it (
 the environment), and stops it at the end, after Prefect's background writers have sent
 the run's history (otherwise most of it is lost). Runs are kept in Prefect's database
 (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start`` shows them later.
+
+Once the API answers, flow runs that killed processes of this host left "Running" are
+marked Crashed (:func:`nlupdate.flows.liveness.mark_dead_runs_crashed`); when that is not
+possible the run says so in one line and goes on.
 """
 from __future__ import annotations
 
@@ -41,6 +45,20 @@ def _check(url: str, timeout_s: float = 10.0) -> None:
         raise ServerError(f"the Prefect API at PREFECT_API_URL={url} does not answer ({error}); {HELP}") from None
 
 
+def _crash_dead_runs(url: str, say: Callable[[str], None]) -> None:
+    """Mark the runs of killed processes crashed on the API at ``url``; never fails the run."""
+    try:
+        from prefect.settings import PREFECT_API_URL, temporary_settings
+
+        from nlupdate.flows.liveness import mark_dead_runs_crashed
+
+        # Prefect's settings were read when it was imported: name the API explicitly
+        with temporary_settings(updates={PREFECT_API_URL: url}):
+            mark_dead_runs_crashed(say)
+    except Exception as error:  # the API may be older, read-only, or busy: not worth failing a run
+        say(f"note: could not check for runs left running by killed processes ({type(error).__name__}: {error})")
+
+
 def flush_run_history(timeout_s: float = 30.0) -> None:
     """Wait until Prefect's background writers (events, logs) have sent what they hold."""
     from prefect.events.worker import EventsWorker
@@ -57,6 +75,7 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
     if url:
         _check(url)
         say(f"Prefect API: {url} (PREFECT_API_URL)")
+        _crash_dead_runs(url, say)
         try:
             yield url
         finally:
@@ -74,6 +93,7 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
     _STARTED.append(server)
     say(f"Prefect server: {server.api_url} (stops with the run)")
     try:
+        _crash_dead_runs(server.api_url, say)
         yield server.api_url
     finally:
         try:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import errno
 import os
 import re
 import secrets
@@ -115,6 +116,29 @@ def atomic_file(final: str | os.PathLike) -> Iterator[Path]:
         raise
 
 
+def write_bytes_atomic(final: str | os.PathLike, content: bytes) -> Path:
+    """Write ``content`` to ``final`` through a temporary file beside it and one rename.
+
+    A reader sees the old file or the new one, never a part of either; two writers at
+    once leave one of the two contents whole; a writer killed mid-write leaves only its
+    temporary file (``.<name>.tmp-<host>-<pid>-<random><suffix>``, which
+    :func:`clean_leftovers` removes later), never a truncated ``final``. Unlike
+    :func:`atomic_file` it does not scan the folder for leftovers (it is meant for
+    many small writes, e.g. a result cache). Returns ``final``.
+    """
+    final = Path(final)
+    temporary = final.parent / f".{final.name}.tmp-{_tag()}{final.suffix}"
+    try:
+        with open(temporary, "xb") as stream:
+            stream.write(content)
+        os.chmod(temporary, 0o666 & ~_umask())
+        os.replace(temporary, final)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return final
+
+
 @dataclass
 class ArchiveDirectory:
     """``path``: where to write now (temporary); ``final``: set once renamed."""
@@ -129,6 +153,31 @@ def _free_name(final: Path) -> Path:
         target = final.parent / f"{final.name}-{counter}"
         counter += 1
     return target
+
+
+#: errno of a rename whose target appeared meanwhile (Linux: ENOTEMPTY; other systems: EEXIST).
+_TAKEN = {errno.EEXIST, errno.ENOTEMPTY}
+_RENAME_ATTEMPTS = 1000
+
+
+def _rename_to_free_name(folder: Path, final: Path) -> Path:
+    """Rename ``folder`` to ``final`` or the first free ``final-N``; returns the name it got.
+
+    Another process may take the free name between the check and the rename (two runs of
+    one study finishing in the same second): the rename then fails (a directory is never
+    renamed onto a non-empty one) and the next free name is tried. A complete archive is
+    never empty, so no one's archive can be replaced.
+    """
+    for _ in range(_RENAME_ATTEMPTS):
+        target = _free_name(final)
+        try:
+            os.rename(folder, target)
+        except OSError as error:
+            if error.errno in _TAKEN or isinstance(error, FileExistsError):
+                continue
+            raise
+        return target
+    raise FileExistsError(f"could not find a free name for {final} after {_RENAME_ATTEMPTS} attempts")
 
 
 @contextlib.contextmanager
@@ -160,8 +209,7 @@ def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix") -> Ite
             shutil.rmtree(old, ignore_errors=True)
             archive.final = final
         else:
-            archive.final = _free_name(final)
-            os.replace(archive.path, archive.final)
+            archive.final = _rename_to_free_name(archive.path, final)
     except BaseException:
         shutil.rmtree(archive.path, ignore_errors=True)
         raise

@@ -2,15 +2,23 @@
 
 One rule for every command: an existing ``--out`` is replaced only with ``--overwrite``
 (and then only once the new output is complete); a folder that cannot be created or
-written is one error naming the option and the folder.
+written is one error naming the option and the folder, and so is a folder whose disk has
+less than :data:`MIN_FREE_MB` megabytes free (``NLUPDATE_MIN_FREE_MB`` changes the limit;
+0 turns the check off), so a full disk stops a command before its work, not when it writes.
 """
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 import tempfile
 from pathlib import Path
 
-from nlupdate.cli import CliError
+from nlupdate.cli import CliError, CliRuntimeError
+
+#: Free space (MB) a folder's disk must have before a command writes there.
+MIN_FREE_MB = 100.0
+MIN_FREE_ENV = "NLUPDATE_MIN_FREE_MB"
 
 
 def add_overwrite_option(parser: argparse.ArgumentParser) -> None:
@@ -18,14 +26,44 @@ def add_overwrite_option(parser: argparse.ArgumentParser) -> None:
                         help="replace --out if it exists (the old output is removed only when the new one is complete)")
 
 
+def min_free_mb() -> float:
+    """The free space a written folder needs: ``$NLUPDATE_MIN_FREE_MB``, else :data:`MIN_FREE_MB`."""
+    text = os.environ.get(MIN_FREE_ENV, "").strip()
+    if not text:
+        return MIN_FREE_MB
+    try:
+        value = float(text)
+    except ValueError:
+        raise CliError(f"{MIN_FREE_ENV}={text!r}: expected a number of megabytes (0 turns the check off)") from None
+    if not value >= 0:
+        raise CliError(f"{MIN_FREE_ENV}={text!r}: expected a number of megabytes ≥ 0")
+    return value
+
+
+def enough_space(folder: Path, option: str) -> None:
+    """Refuse (one line, exit code 1) when ``folder``'s disk has less than :func:`min_free_mb` free."""
+    needed = min_free_mb()
+    if needed <= 0:
+        return
+    try:
+        free = shutil.disk_usage(folder).free / 1e6
+    except OSError:
+        return  # cannot be checked here (the write check reports an unusable folder)
+    if free < needed:
+        raise CliRuntimeError(f"{option} {folder}: only {free:.0f} MB free on its disk, {needed:.0f} MB needed; "
+                              f"free some space or choose another folder ({MIN_FREE_ENV} sets the limit)")
+
+
 def writable_folder(folder: Path, option: str) -> None:
-    """Create ``folder`` if needed and make sure a file can be written in it."""
+    """Create ``folder`` if needed, make sure a file can be written in it and that its disk
+    has room (:func:`enough_space`)."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as error:
         raise CliError(f"{option} {folder}: cannot write there ({error.strerror or error})") from None
+    enough_space(folder, option)
 
 
 def checked_output(path: str | Path, overwrite: bool, *, folder: bool, option: str = "--out") -> Path:
