@@ -18,6 +18,7 @@ from prefect.context import FlowRunContext
 
 from nlupdate.discovery import discover
 from nlupdate.discovery.report import write_discovery
+from nlupdate.flows.liveness import claim_flow_run
 from nlupdate.flows.progress import current_progress
 from nlupdate.flows.study import Cache, Handle
 from nlupdate.reporting.archive import run_folder
@@ -34,6 +35,7 @@ def discovery_flow(inputs: Handle, cache: Cache, results_root: str, orchestratio
     """Discover what the model lacks against the measurements; returns the archive path.
 
     ``inputs.value`` is ``(model_file, system, measured_file, table, options)``."""
+    claim_flow_run()
     model_file, system, measured_file, table, options = inputs.value
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()

@@ -24,6 +24,7 @@ from prefect import flow
 from prefect.context import FlowRunContext
 from pydantic import BaseModel, ConfigDict, PrivateAttr, model_serializer
 
+from nlupdate.flows.liveness import claim_flow_run
 from nlupdate.flows.progress import current_progress
 from nlupdate.identification.pipeline import Identification
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
@@ -117,6 +118,7 @@ def _subflow(sub):
 @flow(name="identification")
 def identification_flow(study_handle: Handle, measured_handle: Handle, cache: Cache) -> Identification:
     """Identify the nonlinearity and extract the linear FRF of the measured curve."""
+    claim_flow_run()
     study, measured = study_handle.value, measured_handle.value
     key = keys.identification_key(study, table_hash(measured))
     started = time.perf_counter()
@@ -128,6 +130,7 @@ def identification_flow(study_handle: Handle, measured_handle: Handle, cache: Ca
 @flow(name="updating sweep")
 def updating_sweep_flow(study_handle: Handle, targets_handle: Handle, cache: Cache) -> SweepOutcome:
     """Every updating run of the study, submitted together; comparison and ranking."""
+    claim_flow_run()
     study, target_set = study_handle.value, targets_handle.value
     progress = current_progress()
     updating_tasks = steps.updating_tasks(study, target_set)
@@ -175,6 +178,7 @@ def updating_sweep_flow(study_handle: Handle, targets_handle: Handle, cache: Cac
 def prediction_flow(study_handle: Handle, sweep_handle: Handle, identification_handle: Handle, measured_handle: Handle,
                     cache: Cache) -> tuple[Prediction, ...]:
     """The updated nonlinear models (and the initial one) at every force level."""
+    claim_flow_run()
     study, sweep = study_handle.value, sweep_handle.value
     identified, measured = identification_handle.value, measured_handle.value
     spec = steps.prediction_adapter(study)
@@ -227,6 +231,7 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
     ``annotations`` go into the manifest's ``run`` record (e.g. ``rerun_of``). A study
     that fails with an error still leaves an archive (status ``failed``: the error, the
     study and its inputs), then the error is raised."""
+    claim_flow_run()
     study = study_handle.value
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()

@@ -84,7 +84,10 @@ def exit_code_for_failures(failures: list[dict]) -> int:
 def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotations: dict[str, str] | None = None) -> Path:
     """Run ``study`` under Prefect with the execution options of ``args``; one-line errors.
     ``annotations`` go into the manifest's ``run`` record."""
+    from nlupdate.flows.run import cache_directory
+
     writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
+    writable_folder(cache_directory(args.cache_dir), "--cache-dir")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
     with prefect_errors(args):
         from nlupdate.flows.progress import Progress

@@ -51,7 +51,7 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
                                           "std_hz": std if std is not None else float("nan"), "weight": t.weights})
     if result.runs:
         runs = candidate_table(result.runs)
-        for name in {n for r in result.runs for n in r.parameters}:
+        for name in sorted({n for r in result.runs for n in r.parameters}):
             runs[f"std:{name}"] = [
                 result.uncertainties[r.name].std.get(name, float("nan")) if r.name in result.uncertainties else float("nan")
                 for r in result.runs
