@@ -1,0 +1,259 @@
+"""Scheduled studies: ``nlupdate schedule`` registers, lists and deletes Prefect deployments,
+``nlupdate serve`` runs them, each run writing its own complete archive.
+
+* Mistakes in the command line or the study are one line and exit code 2, before any
+  server is asked (in this process, through :func:`nlupdate.cli.main`).
+* A cron schedule is registered on the session's Prefect server and read back from the
+  API as the server stores it; ``list`` shows it, ``delete`` removes it.
+* A real ``prefect server start`` (its scheduler creates the runs) with a 5-second
+  interval and ``nlupdate serve``: at least two scheduled runs complete, each with its own
+  archive (manifest.json, report.md); SIGINT stops serve at once with exit code 130.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+from nlupdate.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+TWO_DOF = ROOT / "examples" / "two_dof.toml"
+STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
+FLOW = "scheduled study"
+
+
+def nlupdate(*args: object, cwd: Path, env: dict, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "nlupdate", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env=env, timeout=timeout)
+
+
+def api_env(url: str, **extra: str) -> dict:
+    return {**os.environ, "PREFECT_API_URL": url, **extra}
+
+
+@pytest.fixture
+def study(tmp_path) -> Path:
+    """The two-dof study with its model path made absolute, so it runs from anywhere."""
+    copy = tmp_path / "study.toml"
+    text = STUDY.read_text()
+    assert 'model = "../../../examples/two_dof.toml"' in text
+    copy.write_text(text.replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"'))
+    return copy
+
+
+def one_line_error(capsys, code: int, expected: int, *fragments: str) -> str:
+    stderr = capsys.readouterr().err.strip()
+    assert code == expected, (code, stderr)
+    assert "Traceback" not in stderr and 1 <= len(stderr.splitlines()) <= 2, stderr
+    for fragment in fragments:
+        assert fragment in stderr.splitlines()[0], (fragment, stderr)
+    return stderr
+
+
+# ------------------------------------------------------------------ mistakes, before any server
+@pytest.mark.parametrize("args, fragments", [
+    (["--cron", "0 2 * *"], ("--cron '0 2 * *': Invalid cron string", "five fields")),
+    (["--cron", "61 * * * *"], ("--cron '61 * * * *': Invalid cron string",)),
+    (["--cron", "0 2 * * *", "--interval", "5"], ("exactly one of --cron EXPR and --interval SECONDS, not both",)),
+    ([], ("exactly one of --cron EXPR and --interval SECONDS",)),
+    (["--cron", "0 2 * * *", "--timezone", "Mars/Base"], ("--timezone 'Mars/Base': Invalid timezone",)),
+    (["--interval", "5", "--timezone", "UTC"], ("--timezone goes with --cron only",)),
+    (["--interval", "5", "--name", "a/b"], ("--name 'a/b': a schedule name must not",)),
+    (["--interval", "5", "--limit", "2"], ("--limit goes with --serve only",)),
+])
+def test_bad_schedules_are_one_line_before_registering(tmp_path, study, capsys, args, fragments):
+    code = main(["schedule", str(study), *args, "--out", str(tmp_path / "results")])
+    one_line_error(capsys, code, 2, *fragments)
+    assert not (tmp_path / "results").exists()
+
+
+def test_a_missing_or_broken_study_is_one_line(tmp_path, study, capsys):
+    code = main(["schedule", str(tmp_path / "missing.toml"), "--cron", "0 2 * * *"])
+    one_line_error(capsys, code, 2, f"study file not found: {tmp_path / 'missing.toml'}")
+    broken = tmp_path / "broken.toml"
+    broken.write_text(study.read_text().replace("samples = 8", "samples = -8"))
+    code = main(["schedule", str(broken), "--interval", "60"])
+    one_line_error(capsys, code, 2, "broken.toml", "[identification]", "samples")
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["--interval", "0"], ("argument --interval: expected an integer ≥ 1, got '0'",)),
+    (["--interval", "1.5"], ("argument --interval: expected an integer ≥ 1",)),
+])
+def test_interval_below_one_second_is_refused(study, capsys, args, fragments):
+    with pytest.raises(SystemExit) as stop:
+        main(["schedule", str(study), *args])
+    one_line_error(capsys, stop.value.code, 2, *fragments)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["list", "--cron", "0 2 * * *"], "schedule list takes --json only, not --cron"),
+    (["delete"], "schedule delete needs the NAME of a scheduled study"),
+    (["delete", "x", "--out", "r"], "schedule delete takes a NAME only, not --out"),
+])
+def test_list_and_delete_take_their_own_arguments(capsys, args, fragment):
+    one_line_error(capsys, main(["schedule", *args]), 2, fragment)
+
+
+def test_a_server_that_does_not_answer_is_one_line_saying_what_to_start(tmp_path):
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        dead = f"http://127.0.0.1:{s.getsockname()[1]}/api"
+    result = nlupdate("schedule", "list", cwd=tmp_path, env=api_env(dead), timeout=60)
+    assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert f"the Prefect API at PREFECT_API_URL={dead} does not answer" in result.stderr
+    assert "`prefect server start`" in result.stderr and "PREFECT_API_URL=http://127.0.0.1:4200/api" in result.stderr
+
+
+# ------------------------------------------------------------------ a cron schedule on the API
+def read_deployment(url: str, name: str) -> httpx.Response:
+    return httpx.get(f"{url}/deployments/name/{FLOW}/{name}", timeout=30)
+
+
+def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect_server):
+    env = api_env(prefect_server)
+    registered = nlupdate("schedule", study, "--cron", "0 2 * * *", "--workers", "1", "--out", "results",
+                          "--cache-dir", "cache", cwd=tmp_path, env=env)
+    assert registered.returncode == 0, registered.stderr
+    assert registered.stdout.startswith("registered scheduled study 'two-dof': cron \"0 2 * * *\" (UTC)"), registered.stdout
+
+    deployment = read_deployment(prefect_server, "two-dof")
+    assert deployment.status_code == 200, deployment.text
+    deployment = deployment.json()
+    assert [s["schedule"]["cron"] for s in deployment["schedules"]] == ["0 2 * * *"]
+    assert all(s["active"] for s in deployment["schedules"]) and not deployment["paused"]
+    assert deployment["parameters"] == {"study_file": str(study.resolve()), "results_root": str(tmp_path / "results"),
+                                        "workers": 1, "cache_dir": str(tmp_path / "cache")}
+    assert deployment["entrypoint"] == "nlupdate.flows.schedule.scheduled_study"
+
+    again = nlupdate("schedule", study, "--interval", "60", cwd=tmp_path, env=env)
+    assert again.returncode == 2 and "a scheduled study named 'two-dof' exists" in again.stderr, again.stderr
+    assert "--replace" in again.stderr
+
+    listed = nlupdate("schedule", "list", cwd=tmp_path, env=env)
+    assert listed.returncode == 0, listed.stderr
+    line = next(line for line in listed.stdout.splitlines() if line.startswith("two-dof:"))
+    assert line.startswith('two-dof: cron "0 2 * * *" (UTC); next run ') and f"study {study.resolve()} → " in line
+    as_json = json.loads(nlupdate("schedule", "list", "--json", cwd=tmp_path, env=env).stdout)
+    entry = next(e for e in as_json if e["name"] == "two-dof")
+    assert entry["schedule"] == 'cron "0 2 * * *" (UTC)' and entry["results_root"] == str(tmp_path / "results")
+
+    deleted = nlupdate("schedule", "delete", "two-dof", cwd=tmp_path, env=env)
+    assert deleted.returncode == 0 and "deleted scheduled study 'two-dof'" in deleted.stdout, deleted.stderr
+    assert read_deployment(prefect_server, "two-dof").status_code == 404
+    unknown = nlupdate("schedule", "delete", "two-dof", cwd=tmp_path, env=env)
+    assert unknown.returncode == 2 and len(unknown.stderr.strip().splitlines()) == 1, unknown.stderr
+    assert "no scheduled study named 'two-dof'" in unknown.stderr
+
+
+# ------------------------------------------------------------------ a real server: runs fire, serve runs them
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stop_group(process: subprocess.Popen, sig: int = signal.SIGTERM, timeout_s: float = 10) -> None:
+    """Stop ``process`` and everything it started (its own process group)."""
+    if process.poll() is None:
+        try:
+            os.killpg(process.pid, sig)
+            process.wait(timeout=timeout_s)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            pass
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    process.wait(timeout=timeout_s)
+
+
+@pytest.fixture
+def real_server(tmp_path):
+    """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free port."""
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
+    env.update(PREFECT_HOME=str(tmp_path / "server-home"), PREFECT_SERVER_ANALYTICS_ENABLED="false",
+               PREFECT_UI_ENABLED="false")
+    with open(tmp_path / "server.log", "w") as log:
+        server = subprocess.Popen([sys.executable, "-m", "prefect", "server", "start", "--host", "127.0.0.1",
+                                   "--port", str(port)], env=env, stdout=log, stderr=subprocess.STDOUT,
+                                  start_new_session=True)
+    url = f"http://127.0.0.1:{port}/api"
+    try:
+        deadline = time.monotonic() + 90
+        while True:
+            assert server.poll() is None, (tmp_path / "server.log").read_text()
+            try:
+                if httpx.get(f"{url}/health", timeout=5).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            assert time.monotonic() < deadline, (tmp_path / "server.log").read_text()
+            time.sleep(0.5)
+        yield url
+    finally:
+        stop_group(server)
+
+
+def completed_runs(url: str) -> list[dict]:
+    body = {"flows": {"name": {"any_": [FLOW]}}, "flow_runs": {"state": {"type": {"any_": ["COMPLETED"]}}}}
+    return httpx.post(f"{url}/flow_runs/filter", json=body, timeout=30).json()
+
+
+def complete_archives(root: Path) -> list[Path]:
+    return sorted(p.parent for p in root.glob("two-dof/*/manifest.json") if (p.parent / "report.md").is_file())
+
+
+def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path, study, real_server):
+    started = time.monotonic()
+    results = tmp_path / "results"
+    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="2")
+    registered = nlupdate("schedule", study, "--interval", "5", "--workers", "2", "--out", results,
+                          "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
+    assert registered.returncode == 0, registered.stderr
+
+    serve = subprocess.Popen([sys.executable, "-m", "nlupdate", "serve"], cwd=tmp_path, env=env, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 100
+        while len(completed_runs(real_server)) < 2 or len(complete_archives(results)) < 2:
+            assert serve.poll() is None, serve.communicate()
+            assert time.monotonic() < deadline, (completed_runs(real_server), complete_archives(results))
+            time.sleep(1)
+        serve.send_signal(signal.SIGINT)
+        interrupted = time.monotonic()
+        stdout, stderr = serve.communicate(timeout=30)
+        stopped_s = time.monotonic() - interrupted
+    finally:
+        stop_group(serve)
+
+    assert serve.returncode == 130 and stopped_s < 6, (serve.returncode, stopped_s, stderr)
+    assert stderr.strip().splitlines()[-1] == ("nlupdate serve: interrupted; stopped serving; the schedules stay "
+                                               "registered (nlupdate schedule list); a run in progress, if any, was stopped")
+    assert "Traceback" not in stderr, stderr
+    lines = stdout.splitlines()
+    assert "serving 1 scheduled study: two-dof (every 5 s); Ctrl-C stops" in lines[0], stdout
+    finished = [line for line in lines if " finished in " in line]
+    assert len(finished) >= 2 and all(line.split("UTC  ")[1].startswith("two-dof: run '") for line in finished), stdout
+
+    archives = complete_archives(results)
+    assert len(archives) >= 2 and len(set(archives)) == len(archives)
+    for archive in archives[:2]:
+        manifest = json.loads((archive / "manifest.json").read_text())
+        assert manifest["run"]["scheduled"].startswith(f"deployment 'two-dof' of flow '{FLOW}', flow run ")
+        assert f"archive {archive}" in stdout
+    # serving changed nothing that was registered, and Ctrl-C left the schedule active
+    deployment = read_deployment(real_server, "two-dof").json()
+    assert not deployment["paused"] and all(s["active"] for s in deployment["schedules"])
+    assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [5.0]
+    print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
