@@ -313,7 +313,7 @@ def test_an_unexpected_error_is_one_line_pointing_to_debug(tmp_path, monkeypatch
 def test_version_and_help_are_plain_text():
     version = nlupdate("--version")
     assert version.returncode == 0 and version.stdout.startswith("nlupdate ")
-    for command in ("demo", "run", "simulate", "identify", "update", "discover"):
+    for command in ("demo", "run", "simulate", "identify", "update", "discover", "archive", "schedule", "serve"):
         page = nlupdate(command, "--help").stdout
         assert "``" not in page and ":func:" not in page and ":mod:" not in page, command
         assert len(page.split("\n\n")[1]) > 40, command  # a description, not only the usage
