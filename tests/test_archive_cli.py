@@ -116,6 +116,8 @@ def test_list_shows_every_run_with_status_and_key_results(runs, capsys):
         assert "incomplete" in next(line for line in lines if dead.name in line)
         code, out, _ = run_cli(capsys, "archive", "list", "--root", results, "--study", "no-such-study")
         assert code == 0 and out.startswith("no runs under")
+        code, _, err = run_cli(capsys, "archive", "list", "--root", results / "nowhere")
+        assert code == 2 and err.strip() == f"nlupdate archive: error: no results folder {results / 'nowhere'}"
     finally:
         dead.rmdir(), live.rmdir()
 

@@ -66,7 +66,8 @@ class Run:
             self._queue.put(line.rstrip("\n"))
         self._queue.put(None)
 
-    def wait_for(self, pattern: str, timeout_s: float) -> None:
+    def wait_for(self, pattern: str, timeout_s: float, count: int = 1) -> None:
+        """Read lines until ``count`` of them match ``pattern``."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             try:
@@ -76,7 +77,7 @@ class Run:
             if line is None:
                 break
             self.lines.append(line)
-            if re.search(pattern, line):
+            if sum(bool(re.search(pattern, seen)) for seen in self.lines) >= count:
                 return
         raise AssertionError(f"no line matching {pattern!r} within {timeout_s} s: {self.lines}")
 
@@ -156,7 +157,8 @@ def flow_runs_of(pid: int, url: str) -> list:
 def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tmp_path, prefect_server):
     study, results, cache = study_file(tmp_path), tmp_path / "results", tmp_path / "cache"
     killed = Run(study, results, cache, prefect_server, tmp_path)
-    killed.wait_for(r"^updating 2/\d+: .* — computed", timeout_s=90)
+    # two updating runs finished (their i/N is the order they finished, not of their lines)
+    killed.wait_for(r"^updating \d+/\d+: .* — computed", timeout_s=90, count=2)
     killed.kill()
     finished_before = {step for step, state in outcomes(killed.lines).items() if state == "computed"}
     assert {"measured data", "identification", "targets"} <= finished_before and len(finished_before) >= 5, killed.lines
