@@ -156,8 +156,10 @@ def test_compare_names_exactly_what_differs(runs, capsys, tmp_path):
     assert ("identified", "k3") in changed_results
     assert all(section in ("identified", "linear modes", "updated") for section, _ in changed_results)
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    code, out, _ = run_cli(capsys, "archive", "compare", archives["a"], archives["b"], "--plot", plot)
+    code, out, _ = run_cli(capsys, "archive", "compare", archives["a"].name, archives["b"].name, "--root", results)
     assert "inputs: 2 of" in out and "identification.seed" in out and "monte_carlo" in out
+    default_plot = results / "comparisons" / f"{archives['a'].name}-vs-{archives['b'].name}.png"
+    assert f"plot: {default_plot}" in out and default_plot.is_file()
 
 
 def test_rerun_from_the_archive_alone_reproduces_the_run(runs, capsys):

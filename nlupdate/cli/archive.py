@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compare.add_argument("--all", action="store_true", help="also list the fields that are the same")
     compare.add_argument("--json", action="store_true", help="print every field as JSON")
     compare.add_argument("--plot", metavar="FILE.png",
-                         help="where to draw both runs' predictions (default ./compare-<A>-vs-<B>.png)")
+                         help="where to draw both runs' predictions (default <root>/comparisons/<A>-vs-<B>.png)")
     compare.set_defaults(run=compare_two)
 
     rerun = commands.add_parser("rerun", help="run an archived study again from its archive and check the results")
@@ -167,7 +167,8 @@ def compare_two(args: argparse.Namespace) -> int:
     a, b = _resolve(args.run_a, args.root), _resolve(args.run_b, args.root)
     rtol = DEFAULT_RTOL if args.rtol is None else args.rtol
     inputs, results = compare_inputs(a, b), compare_results(a, b, rtol)
-    plot = Path(args.plot or f"compare-{a.run_id}-vs-{b.run_id}.png")
+    plot = Path(args.plot or Path(args.root) / "comparisons" / f"{a.run_id}-vs-{b.run_id}.png")
+    plot.parent.mkdir(parents=True, exist_ok=True)
     drawn = plot_comparison(a, b, plot)
     if args.json:
         from nlupdate.reporting.jsonfile import json_safe
@@ -218,6 +219,8 @@ def rerun_one(args: argparse.Namespace) -> int:
 
         print(json.dumps(json_safe(verdict), indent=2))
     else:
+        if not args.quiet:
+            print()
         _print_verdict(verdict, original, rerun, differing_inputs, differing_results)
     return 0 if verdict["reproduced"] else 1
 
@@ -236,7 +239,7 @@ def _save_verdict(verdict: dict, folder: Path) -> None:
 def _print_verdict(verdict: dict, original, rerun, differing_inputs, differing_results) -> None:
     from nlupdate.reporting.compare import change_table
 
-    print(f"\nrerun of {original.study}/{original.run_id} → {rerun.folder}")
+    print(f"rerun of {original.study}/{original.run_id} → {rerun.folder}")
     for note in verdict["notes"]:
         print(f"note: {note}")
     if differing_inputs:

@@ -89,6 +89,14 @@ def archive_inputs(study, folder: Path) -> list[dict[str, str]]:
     return entries
 
 
+def study_record(study) -> dict[str, str]:
+    """Name, file (absolute; or a note when the text did not come from a file, as for the
+    demo's embedded study), SHA-256 of the text and description of ``study``."""
+    path = Path(study.path)
+    file = str(path.resolve()) if path.is_file() else f"{path} (embedded: the text is in study.toml)"
+    return {"name": study.name, "file": file, "sha256": study.sha256, "description": study.description}
+
+
 def run_folder(root: str | Path, study_name: str, started: dt.datetime, digest: str) -> Path:
     """``<root>/<study>/<UTC time>-<8 hex digits of the inputs hash>``."""
     return Path(root) / study_name / f"{started.astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}-{digest[:8]}"
@@ -122,8 +130,7 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
     return {
         "run_id": run_id,
         "status": "failed" if result.failures else "complete",
-        "study": {"name": study.name, "file": str(Path(study.path).resolve()), "sha256": study.sha256,
-                  "description": study.description},
+        "study": study_record(study),
         "inputs": {"measured": measured_fingerprint(result), "inputs_sha256": inputs_hash(result), "files": inputs},
         "seeds": seeds,
         "adapters": adapters,
@@ -223,8 +230,7 @@ def write_failed_archive(study, final: str | Path, run: Mapping[str, Any], error
         inputs = archive_inputs(study, folder)
         manifest = {
             "run_id": final.name, "status": "failed", "error": error,
-            "study": {"name": study.name, "file": str(Path(study.path).resolve()), "sha256": study.sha256,
-                      "description": study.description},
+            "study": study_record(study),
             "inputs": {"files": inputs}, "environment": environment(), "run": dict(run), "failures": [], "warnings": [],
         }
         write_json(manifest, folder / MANIFEST)
