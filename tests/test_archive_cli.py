@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -24,20 +25,14 @@ from nlupdate.study.steps import measured_table
 
 ROOT = Path(__file__).resolve().parents[1]
 SIMULATED = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
-SIMULATE_SECTION = """[measured.simulate]
-model = "../../../examples/two_dof.toml"
-input_dof = "0"
-forces_n = [0.01, 20, 40, 60, 80, 100]
-frequencies_hz = [690.0, 770.0, 161]
-noise = 0.01
-seed = 3
-"""
 
 
 def study_text(monte_carlo_seed: int) -> str:
-    text = SIMULATED.read_text()
-    assert SIMULATE_SECTION in text
-    text = text.replace(SIMULATE_SECTION, '[measured]\nfile = "data/measured.parquet"\n')
+    """The simulated study with its [measured.simulate] table (up to the next blank line)
+    replaced by the data file, and the given Monte-Carlo seed."""
+    text, count = re.subn(r"(?ms)^\[measured\.simulate\]\n.*?\n\n", '[measured]\nfile = "data/measured.parquet"\n\n',
+                          SIMULATED.read_text())
+    assert count == 1
     return text.replace("samples = 8\nseed = 1", f"samples = 8\nseed = {monte_carlo_seed}")
 
 

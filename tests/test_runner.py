@@ -42,6 +42,15 @@ def echo_exe(tmp_path: Path) -> Path:
     )
 
 
+def failure_of(exe: Path, tmp_path: Path) -> tuple[str, Path]:
+    """Run ``exe`` once through a :class:`ProcessRunner`; (its error message, the run directory)."""
+    runner = ProcessRunner(str(exe), tmp_path / "runs")
+    run_dir = runner.new_run_dir("k1")
+    with pytest.raises(AdapterError) as info:
+        runner.run([], run_dir)
+    return str(info.value), run_dir
+
+
 def test_run_writes_log_in_fresh_directory(tmp_path: Path, echo_exe: Path) -> None:
     runner = ProcessRunner(str(echo_exe), tmp_path / "runs", env={"RUNNER_TEST_VAR": "xyz"}, log_name="solver.log")
     run_dir = runner.new_run_dir("abc123")
@@ -76,11 +85,7 @@ def test_nonzero_exit_names_directory_log_and_last_lines(tmp_path: Path) -> None
         sys.exit(3)
         """,
     )
-    runner = ProcessRunner(str(exe), tmp_path / "runs")
-    run_dir = runner.new_run_dir("k1")
-    with pytest.raises(AdapterError) as info:
-        runner.run([], run_dir)
-    message = str(info.value)
+    message, run_dir = failure_of(exe, tmp_path)
     assert "exited with code 3" in message
     assert str(run_dir) in message and str(run_dir / "run.log") in message
     assert "fatal: matrix is singular" in message and "progress line 99" in message
@@ -98,11 +103,7 @@ def test_a_crash_by_signal_names_the_signal_directory_and_log(tmp_path: Path) ->
         os.kill(os.getpid(), signal.SIGSEGV)
         """,
     )
-    runner = ProcessRunner(str(exe), tmp_path / "runs")
-    run_dir = runner.new_run_dir("k1")
-    with pytest.raises(AdapterError) as info:
-        runner.run([], run_dir)
-    message = str(info.value)
+    message, run_dir = failure_of(exe, tmp_path)
     assert "crashing was killed by signal 11" in message
     assert f"run directory: {run_dir}" in message and f"log: {run_dir / 'run.log'}" in message
     assert "assembling the stiffness matrix" in message

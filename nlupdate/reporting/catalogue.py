@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -98,7 +98,7 @@ def find_runs(root: str | os.PathLike = "results", study: str | None = None) -> 
                     runs.append(ArchivedRun(folder, study_folder.name, folder.name, "incomplete"))
     if study is not None:
         runs = [r for r in runs if r.study == study or r.folder.parent.name == study]
-    return sorted(runs, key=lambda r: (r.started or r.run_id.lstrip(".tmp-"), r.run_id))
+    return sorted(runs, key=lambda r: (r.started or r.run_id.removeprefix(".tmp-"), r.run_id))
 
 
 def resolve_run(spec: str, root: str | os.PathLike = "results") -> ArchivedRun:
@@ -171,8 +171,6 @@ def archived_inputs(run: ArchivedRun) -> tuple[dict[str, Path], list[str]]:
 def archived_study(run: ArchivedRun):
     """The study of ``run`` as it ran, reading the input copies kept in the archive; and
     the notes of :func:`archived_inputs`."""
-    from dataclasses import replace
-
     from nlupdate.study import study_from_text
 
     text_path = run.folder / "study.toml"
