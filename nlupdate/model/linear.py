@@ -171,13 +171,31 @@ class LumpedModel:
         With ``derivative=True`` also returns ``dH/dω = −H (dZ/dω) H`` with
         ``dZ/dω = −2ωM + iC``. Shapes ``(n_omega, len(rows), len(cols))``.
         """
+        return self._receptance(omega, rows, cols, derivative, 1.0)
+
+    def harmonic_receptance(
+        self, omega: ArrayLike, harmonic: int, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
+    ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
+        """Receptance at the ``harmonic``-th multiple of the fundamental ω (rad/s).
+
+        ``Z_h = K − (hω)²M + i(hω C + h D)``: the structural damping acts as the viscous
+        damping ``D/ω`` equivalent at the fundamental, the form a time integration can
+        realise (:mod:`nlupdate.response.time_integration`). ``h = 1`` is :meth:`receptance`;
+        ``h = 0`` is the static receptance ``K⁻¹``. The derivative is with respect to the
+        fundamental ω: ``h·dH/dω(hω)``.
+        """
+        h = int(harmonic)
+        result = self._receptance(h * np.atleast_1d(np.asarray(omega, dtype=float)), rows, cols, derivative, float(h))
+        return (result[0], h * result[1]) if derivative else result
+
+    def _receptance(self, omega, rows, cols, derivative: bool, d_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         rows, cols = list(rows), list(cols)
         if self.is_sparse:
-            return self._receptance_sparse(omega, rows, cols, derivative)
+            return self._receptance_sparse(omega, rows, cols, derivative, d_scale)
         m, k, c, d = self._dense_mkcd
         w = omega[:, None, None]
-        z = k[None] - w**2 * m[None] + 1j * (w * c[None] + d[None])
+        z = k[None] - w**2 * m[None] + 1j * (w * c[None] + d_scale * d[None])
         h_full = np.linalg.inv(z)
         h = h_full[:, rows][:, :, cols]
         if not derivative:
@@ -187,7 +205,7 @@ class LumpedModel:
         return h, dh
 
     def _receptance_sparse(
-        self, omega: np.ndarray, rows: list[int], cols: list[int], derivative: bool
+        self, omega: np.ndarray, rows: list[int], cols: list[int], derivative: bool, d_scale: float
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
         n = self.n_dof
         zero = scipy.sparse.csr_matrix((n, n))
@@ -201,7 +219,7 @@ class LumpedModel:
         h = np.empty((omega.size, len(rows), len(cols)), dtype=complex)
         dh = np.empty_like(h)
         for i, w in enumerate(omega):
-            z = (k - w**2 * m + 1j * (w * c + d)).tocsc()
+            z = (k - w**2 * m + 1j * (w * c + d_scale * d)).tocsc()
             lu = scipy.sparse.linalg.splu(z)
             cols_sol = lu.solve(rhs)
             h[i] = cols_sol[rows]
@@ -327,10 +345,22 @@ class ModalModel:
         self, omega: ArrayLike, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
         """Receptance block by modal superposition; see :meth:`LumpedModel.receptance`."""
+        return self._receptance(omega, rows, cols, derivative, 1.0)
+
+    def harmonic_receptance(
+        self, omega: ArrayLike, harmonic: int, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
+    ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
+        """Receptance at the ``harmonic``-th multiple of ω; see :meth:`LumpedModel.harmonic_receptance`
+        (the loss factor acts as ``h·η_r ω_r²`` at harmonic h)."""
+        h = int(harmonic)
+        result = self._receptance(h * np.atleast_1d(np.asarray(omega, dtype=float)), rows, cols, derivative, float(h))
+        return (result[0], h * result[1]) if derivative else result
+
+    def _receptance(self, omega, rows, cols, derivative: bool, eta_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         wr = self.omega_r
         w = omega[:, None]
-        denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + self.loss_factors * wr**2)
+        denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + eta_scale * self.loss_factors * wr**2)
         phi_rows = self.mode_shapes[list(rows)]
         phi_cols = self.mode_shapes[list(cols)]
         h = np.einsum("jr,wr,kr->wjk", phi_rows, 1.0 / denominator, phi_cols)

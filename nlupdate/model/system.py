@@ -137,6 +137,16 @@ class CondensedProblem:
         return g
 
     # -- residual -----------------------------------------------------------------------
+    @property
+    def size(self) -> int:
+        """Number of real unknowns."""
+        return 2 * self.n
+
+    def initial_guesses(self, omega: float) -> tuple[NDArray, NDArray]:
+        """Starting guesses for Newton at ω: the linear response, then zero."""
+        _, x_lin = self.linear_terms(omega, derivative=False)
+        return self.to_real(x_lin), np.zeros(self.size)
+
     def to_complex(self, y: NDArray) -> NDArray[np.complex128]:
         return (y[: self.n] + 1j * y[self.n :]) * self.x_scale
 

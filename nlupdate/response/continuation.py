@@ -33,21 +33,49 @@ class ContinuationError(RuntimeError):
     """The continuation could not start or stalled; the message says where."""
 
 
+@dataclass(frozen=True)
+class Bifurcation:
+    """A loss or gain of stability between two curve points that is not a fold.
+
+    kind: "branch point" (a real multiplier through +1), "period doubling" (through −1) or
+    "Neimark–Sacker" (a complex pair); omega: where (rad/s, interpolated on the growth
+    rate of the critical multiplier); index: the unstable neighbour on the curve;
+    multiplier: its critical Floquet multiplier.
+    """
+
+    kind: str
+    omega: float
+    index: int
+    multiplier: complex
+
+    @property
+    def frequency_hz(self) -> float:
+        return self.omega / (2 * np.pi)
+
+
 @dataclass(frozen=True, eq=False)
 class FrequencyResponse:
     """A traced nonlinear frequency response (one force vector).
 
     omega: angular frequencies (rad/s) of the curve points, in curve order.
-    x_nonlinear: complex amplitudes (m) at the nonlinear coordinates, (n_points, n_a).
-    stable: stability flag of each point (see module docstring).
+    x_nonlinear: the solution at the nonlinear coordinates per point — single harmonic:
+        complex amplitudes (m), (n_points, n_a); harmonic balance: harmonics X₀ … X_H
+        (m), (n_points, H+1, n_a).
+    stable: stability flag of each point (determinant sign, or Floquet multipliers).
     turning_point: True at the refined fold points (dω/ds = 0).
+    floquet_multipliers: (n_points, 2·n_q) when computed by Hill's method, else None.
+    bifurcations: branch points, period doublings and Neimark–Sacker points found.
+    harmonic_share: largest share of the two highest harmonics over the curve (0 for one harmonic).
     """
 
-    problem: CondensedProblem
+    problem: object
     omega: NDArray[np.float64]
     x_nonlinear: NDArray[np.complex128]
     stable: NDArray[np.bool_]
     turning_point: NDArray[np.bool_]
+    floquet_multipliers: NDArray[np.complex128] | None = None
+    bifurcations: tuple[Bifurcation, ...] = ()
+    harmonic_share: float = 0.0
 
     @property
     def frequency_hz(self) -> NDArray[np.float64]:
@@ -58,8 +86,14 @@ class FrequencyResponse:
         return self.problem.a
 
     def response(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
-        """Complex amplitudes (m) at any coordinates for every curve point."""
+        """Complex first-harmonic amplitudes (m) at any coordinates for every curve point."""
         return self.problem.response_at(self.omega, self.x_nonlinear, dofs)
+
+    def harmonics(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
+        """Harmonics X₀ … X_H (m) at any coordinates, (n_points, H+1, len(dofs)); needs harmonic balance."""
+        if not hasattr(self.problem, "harmonics_at"):
+            raise ValueError("a single-harmonic (describing-function) curve has no higher harmonics")
+        return self.problem.harmonics_at(self.omega, self.x_nonlinear, dofs)
 
 
 def default_x_scale(problem: CondensedProblem, omega_start: float, omega_end: float) -> float:
@@ -90,6 +124,48 @@ def trace_frequency_response(
     omega_end: float,
     *,
     x_scale: float | None = None,
+    **options,
+) -> FrequencyResponse:
+    """Trace the single-harmonic frequency response from ``omega_start`` to ``omega_end`` (rad/s).
+
+    ``options`` are those of :func:`trace_curve`. Returns every point of the curve in
+    order, including the branches between folds, with the determinant stability flag.
+    """
+    check_band(omega_start, omega_end)
+    problem = CondensedProblem(system, forcing)
+    if problem.n == 0:
+        grid = np.linspace(omega_start, omega_end, 201)
+        empty = np.zeros((grid.size, 0), dtype=complex)
+        return FrequencyResponse(problem, grid, empty, np.ones(grid.size, bool), np.zeros(grid.size, bool))
+    problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
+    curve = trace_curve(problem, omega_start, omega_end, **options)
+    stable = curve.jacobian_determinant > 0
+    stable[curve.turning_point] = False
+    x = np.array([problem.to_complex(y) for y in curve.y])
+    return FrequencyResponse(problem, curve.omega, x, stable, curve.turning_point)
+
+
+def check_band(omega_start: float, omega_end: float) -> None:
+    if not (np.isfinite(omega_start) and np.isfinite(omega_end) and 0 <= omega_start < omega_end):
+        raise ValueError(f"need 0 ≤ omega_start < omega_end, got {omega_start}, {omega_end} rad/s")
+
+
+@dataclass(frozen=True, eq=False)
+class Curve:
+    """Points of a traced solution curve: ω (rad/s), scaled unknowns y, fold flags and
+    the determinant of ∂R/∂y at each point."""
+
+    omega: NDArray[np.float64]
+    y: NDArray[np.float64]
+    turning_point: NDArray[np.bool_]
+    jacobian_determinant: NDArray[np.float64]
+
+
+def trace_curve(
+    problem,
+    omega_start: float,
+    omega_end: float,
+    *,
     step: float = 0.02,
     max_step: float = 0.05,
     min_step: float = 1e-7,
@@ -98,33 +174,26 @@ def trace_frequency_response(
     max_angle_deg: float = 15.0,
     kink_step: float = 1e-4,
     stagnation_residual: float = 1e-6,
-) -> FrequencyResponse:
-    """Trace the single-harmonic frequency response from ``omega_start`` to ``omega_end`` (rad/s).
+) -> Curve:
+    """Pseudo-arclength continuation of ``problem`` over ``[omega_start, omega_end]`` (rad/s).
 
+    ``problem`` provides ``residual_and_jacobians(y, ω)`` (scaled residual, ∂R/∂y, ∂R/∂ω),
+    ``initial_guesses(ω)`` and ``size`` — :class:`~nlupdate.model.system.CondensedProblem`
+    (one harmonic) and :class:`~nlupdate.response.harmonic_balance.HarmonicBalanceProblem`.
     Step lengths are in the scaled space (frequency band = 1, amplitude scale = 1);
     below ``kink_step`` a turn sharper than ``max_angle_deg`` is accepted as a kink.
     ``tolerance`` is the target scaled residual; a corrector that stagnates below
     ``stagnation_residual`` (noisy receptances) is accepted too.
-    Returns every point of the curve in order, including the branches between folds.
     """
-    if not (np.isfinite(omega_start) and np.isfinite(omega_end) and 0 <= omega_start < omega_end):
-        raise ValueError(f"need 0 ≤ omega_start < omega_end, got {omega_start}, {omega_end} rad/s")
-    problem = CondensedProblem(system, forcing)
-    if problem.n == 0:
-        grid = np.linspace(omega_start, omega_end, 201)
-        empty = np.zeros((grid.size, 0), dtype=complex)
-        return FrequencyResponse(problem, grid, empty, np.ones(grid.size, bool), np.zeros(grid.size, bool))
-    problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
+    check_band(omega_start, omega_end)
     band = omega_end - omega_start
-    size = 2 * problem.n
+    size = problem.size
 
     def evaluate(z: NDArray):
         r, jac, jac_w = problem.residual_and_jacobians(z[:size], omega_start + band * z[size])
         return r, jac, jac_w * band
 
-    # starting point: Newton at omega_start from the linear response, then from zero
-    _, x_lin = problem.linear_terms(omega_start, derivative=False)
-    for guess in (problem.to_real(x_lin), np.zeros(size)):
+    for guess in problem.initial_guesses(omega_start):
         y, converged, _ = newton_fixed_frequency(problem, omega_start, guess, tol=tolerance)
         if converged:
             break
@@ -183,7 +252,7 @@ def trace_frequency_response(
                     f"continuation stalled at {(omega_start + band * z[size]) / (2 * np.pi):.6g} Hz "
                     "(step below minimum); the curve is returned up to there",
                     RuntimeWarning,
-                    stacklevel=2,
+                    stacklevel=3,
                 )
                 break
             continue
@@ -212,11 +281,7 @@ def trace_frequency_response(
             points_arr[-1] = np.append(y_edge, edge)
             dets[-1] = np.linalg.det(evaluate(points_arr[-1])[1])
     omega = omega_start + band * points_arr[:, size]
-    x = (points_arr[:, : problem.n] + 1j * points_arr[:, problem.n : size]) * problem.x_scale
-    stable = np.array(dets) > 0
-    turning_arr = np.array(turning)
-    stable[turning_arr] = False
-    return FrequencyResponse(problem, omega, x, stable, turning_arr)
+    return Curve(omega, points_arr[:, :size], np.array(turning), np.array(dets))
 
 
 def _refine_fold(evaluate, z0, t0, z1, t1, augmented, iterations: int = 12):

@@ -6,6 +6,8 @@ frequency grid (Hz) with one of three methods:
 
 * ``continuation`` — trace the curve (:mod:`nlupdate.response.continuation`) and read it like a
   stepped-sine test sweeping ``up`` or ``down`` (:mod:`nlupdate.response.stepped_sine`);
+* ``hb`` — the same with H harmonics and the constant term, stability by Hill's method
+  (:mod:`nlupdate.response.harmonic_balance`); the table holds the first harmonic;
 * ``fixed-point`` — the source's relaxed iteration from the linear response; points
   that do not converge are dropped and counted in the returned report;
 * ``time`` — steady-state first harmonic from direct time integration (no
@@ -24,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.response.harmonic_balance import HarmonicSettings, trace_harmonic_balance
 from nlupdate.model.linear import dof_index
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.measurement.noise import add_table_noise
@@ -32,7 +35,7 @@ from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.time_integration import time_sweep
 from nlupdate.progress import ProgressCallback, no_progress
 
-METHODS = ("continuation", "fixed-point", "time")
+METHODS = ("continuation", "hb", "fixed-point", "time")
 
 
 @dataclass
@@ -41,26 +44,47 @@ class SimulationReport:
 
     dropped_points: dict[float, int] = field(default_factory=dict)
     jumps_hz: dict[float, tuple[float, ...]] = field(default_factory=dict)
+    harmonics: dict[float, int] = field(default_factory=dict)
+    harmonic_share: dict[float, float] = field(default_factory=dict)
+    bifurcations: dict[float, tuple] = field(default_factory=dict)
 
 
-def _responses_continuation(system, forcing, omega, sweep, progress):
-    curve = trace_frequency_response(system, forcing, float(omega.min()), float(omega.max()))
+def _read_curve(curve, system, omega, sweep):
     result = stepped_sine(curve, omega, sweep)
-    return result.response(range(system.model.n_dof)), np.isfinite(result.x_nonlinear).all(axis=1), result.jumps_hz
+    valid = np.isfinite(result.x_nonlinear.reshape(omega.size, -1)).all(axis=1)
+    return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
 
-def _responses_fixed_point(system, forcing, omega, sweep, progress):
+def _responses_continuation(system, forcing, omega, sweep, progress, settings, report):
+    curve = trace_frequency_response(system, forcing, float(omega.min()), float(omega.max()))
+    return _read_curve(curve, system, omega, sweep)
+
+
+def _responses_hb(system, forcing, omega, sweep, progress, settings, report):
+    curve = trace_harmonic_balance(
+        system, forcing, float(omega.min()), float(omega.max()), harmonics=settings.harmonics,
+        samples=settings.samples, stability=settings.stability, share_limit=settings.share_limit,
+    )
+    level = float(abs(next(iter(forcing.values()))))
+    report.harmonics[level] = curve.problem.harmonics
+    report.harmonic_share[level] = curve.harmonic_share
+    report.bifurcations[level] = tuple((b.kind, b.frequency_hz) for b in curve.bifurcations)
+    return _read_curve(curve, system, omega, sweep)
+
+
+def _responses_fixed_point(system, forcing, omega, sweep, progress, settings, report):
     result = fixed_point_response(system, forcing, omega)
     return result.response(range(system.model.n_dof)), result.converged, ()
 
 
-def _responses_time(system, forcing, omega, sweep, progress):
+def _responses_time(system, forcing, omega, sweep, progress, settings, report):
     result = time_sweep(system, forcing, omega, sweep, progress=progress)
     return result.x, result.converged, result.jumps_hz
 
 
 _SOLVERS: dict[str, Callable] = {
     "continuation": _responses_continuation,
+    "hb": _responses_hb,
     "fixed-point": _responses_fixed_point,
     "time": _responses_time,
 }
@@ -76,6 +100,7 @@ def simulate_frf_table(
     sweep: str = "up",
     noise: float = 0.0,
     seed: int | None = None,
+    harmonic_balance: HarmonicSettings = HarmonicSettings(),
     progress: ProgressCallback = no_progress,
 ) -> tuple[pd.DataFrame, SimulationReport]:
     """Measured-FRF table (all response coordinates) for each force level.
@@ -83,7 +108,9 @@ def simulate_frf_table(
     ``frequency_hz`` is the test grid (Hz, > 0), ``force_levels_n`` the force amplitudes
     (N, > 0). Returns the table and a :class:`SimulationReport`. ``progress`` hears
     ``("force levels (<method>)", done, total)`` and, for the time-domain method, each
-    frequency of each level.
+    frequency of each level. ``harmonic_balance`` sets harmonics, samples per period and
+    stability for ``method="hb"``; the report then says per level the harmonics used, the
+    share of the highest ones and the bifurcations found (kind, Hz).
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -105,7 +132,9 @@ def simulate_frf_table(
     progress(f"force levels ({method})", 0, len(levels))
     for done, level in enumerate(levels, start=1):
         level_progress = lambda task, i, n, level=level: progress(f"{level:g} N: {task}", i, n)  # noqa: E731
-        x, valid, jumps = _SOLVERS[method](system, {input_index: level}, omega, sweep, level_progress)
+        x, valid, jumps = _SOLVERS[method](
+            system, {input_index: level}, omega, sweep, level_progress, harmonic_balance, report
+        )
         report.dropped_points[level] = int((~valid).sum())
         report.jumps_hz[level] = tuple(jumps)
         h = x[valid] / level

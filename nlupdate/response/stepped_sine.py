@@ -9,6 +9,10 @@ segment at or after the current position that contains the frequency. Passing a 
 point on the way is a jump. The picked point is polished by Newton at the exact grid
 frequency.
 
+With Floquet stability (harmonic balance) a branch also ends where it loses stability
+without turning (period doubling, Neimark–Sacker): grid points no stable periodic branch
+covers are NaN, as a test there would not settle on a periodic response.
+
 With more than two coexisting stable solutions the real jump target depends on basins
 of attraction; this emulation lands on the next stable branch along the curve.
 """
@@ -21,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.response.continuation import FrequencyResponse
-from nlupdate.model.system import CondensedProblem, newton_fixed_frequency
+from nlupdate.model.system import newton_fixed_frequency
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,7 +36,7 @@ class SweepResult:
     in sweep order. Points no stable branch covers are NaN.
     """
 
-    problem: CondensedProblem
+    problem: object
     omega: NDArray[np.float64]
     x_nonlinear: NDArray[np.complex128]
     direction: str
@@ -43,7 +47,12 @@ class SweepResult:
         return self.omega / (2 * np.pi)
 
     def response(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
+        """First-harmonic amplitudes (m) at ``dofs``, (n_grid, len(dofs))."""
         return self.problem.response_at(self.omega, self.x_nonlinear, dofs)
+
+    def harmonics(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
+        """Harmonics X₀ … X_H (m) at ``dofs`` of a harmonic-balance sweep, (n_grid, H+1, len(dofs))."""
+        return self.problem.harmonics_at(self.omega, self.x_nonlinear, dofs)
 
 
 def _segment_stable(curve: FrequencyResponse, k: int) -> bool:
@@ -65,7 +74,7 @@ def stepped_sine(
     turning = curve.turning_point[order]
     reordered = FrequencyResponse(problem, w, x, curve.stable[order], turning)
     targets = grid if direction == "up" else grid[::-1]
-    result = np.full((grid.size, problem.n), np.nan + 0j)
+    result = np.full((grid.size,) + x.shape[1:], np.nan + 0j)
     jumps: list[float] = []
     position = 0
     for index, target in enumerate(targets):
@@ -83,7 +92,7 @@ def stepped_sine(
         span = w[found + 1] - w[found]
         weight = 0.0 if span == 0 else (target - w[found]) / span
         guess = x[found] + weight * (x[found + 1] - x[found])
-        if polish and problem.n:
+        if polish and problem.size:
             y, ok, _ = newton_fixed_frequency(problem, target, problem.to_real(guess))
             if ok:
                 guess = problem.to_complex(y)

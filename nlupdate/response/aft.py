@@ -1,0 +1,320 @@
+"""Alternating frequency–time (AFT) evaluation of element forces over one period.
+
+Conventions
+-----------
+A periodic relative motion with H harmonics and a constant term, ``θ = ωt``,
+``u(θ) = U₀ + Σ_{k=1}^{H} Re(U_k e^{ikθ})``, is held as the real coefficient vector
+``c = [U₀, Re U₁, Im U₁, …, Re U_H, Im U_H]`` (length 2H + 1, metres). The element
+force goes back to the same layout, ``G = [G₀, Re G₁, Im G₁, …]`` with ``G₀`` the mean
+force and ``G_k = (1/π)∫₀^{2π} f(θ) e^{−ikθ} dθ`` (N) — for H = 1 and ``U₀ = 0`` this is
+the describing-function convention ``G₁ = ν(|U₁|)·U₁`` of :mod:`nlupdate.model.elements`.
+
+The scheme: N samples per period at ``θ_j = 2πj/N`` by an inverse real FFT of ``c``, the
+time-domain force law at each sample, a real FFT back to ``G``. The Jacobian ``∂G/∂c``
+goes through the same transform: the force tangents in time (``∂f/∂u`` and ``∂f/∂u'``,
+``u' = du/dθ = u̇/ω``) times the synthesis matrices ``E = ∂u(θ_j)/∂c`` and ``E' = ∂u'(θ_j)/∂c``,
+transformed column by column. Two elements need more than a pointwise law:
+
+* Jenkins: the force is the steady-state hysteresis cycle of the return mapping over the
+  period (passes repeated until the cycle closes); in stick
+  ``f(θ) = ±Fs + kf (u(θ) − u(θ_a))`` with θ_a the last slip sample, so
+  ``∂f(θ)/∂c = kf (E(θ) − E(θ_a))``, zero in slip. A cycle whose peak-to-peak motion stays
+  below ``2Fs/kf`` sticks with the slider centred (the limit of the slipping cycle).
+* Coulomb: ``Fs·sign(u̇)`` is piecewise constant, so samples would give a zero Jacobian.
+  Its harmonics are integrated exactly between the zero crossings θ_c of u' (found on
+  the samples, refined by Newton on the trigonometric polynomial) and differentiated
+  through them, ``∂θ_c/∂c = −E'(θ_c)/u''(θ_c)``.
+
+Aliasing: a force law with powers up to p needs ``N > (p + 1)·H`` for exact low harmonics;
+non-smooth laws (gap, Jenkins) converge with N. :func:`aliasing_change` measures it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlupdate.model.elements import (
+    CoulombFriction,
+    CubicStiffness,
+    JenkinsFriction,
+    PolynomialDF,
+    QuadraticDamping,
+    SymmetricGap,
+    _cos_power_mean,
+)
+
+
+class Fourier:
+    """Synthesis and analysis between ``2H + 1`` real coefficients and N time samples."""
+
+    def __init__(self, harmonics: int, samples: int) -> None:
+        harmonics, samples = int(harmonics), int(samples)
+        if harmonics < 1:
+            raise ValueError(f"harmonics: expected an integer ≥ 1, got {harmonics}")
+        if samples <= 2 * harmonics:
+            raise ValueError(
+                f"samples per period: {samples} cannot carry {harmonics} harmonics; need more than "
+                f"2·H = {2 * harmonics} (and ≥ 4·H for cubic laws)"
+            )
+        self.harmonics, self.samples = harmonics, samples
+        self.theta = 2 * np.pi * np.arange(samples) / samples
+        k = np.arange(1, harmonics + 1)
+        kt = np.outer(self.theta, k)
+        self.E = np.empty((samples, 2 * harmonics + 1))
+        self.E[:, 0] = 1.0
+        self.E[:, 1::2], self.E[:, 2::2] = np.cos(kt), -np.sin(kt)
+        self.dE = np.zeros_like(self.E)  # ∂/∂θ
+        self.dE[:, 1::2], self.dE[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
+
+    @property
+    def size(self) -> int:
+        return 2 * self.harmonics + 1
+
+    def to_time(self, c: NDArray) -> NDArray:
+        """Samples (N, …) of the motion with coefficients ``c`` (2H+1, …)."""
+        spectrum = np.zeros((self.samples // 2 + 1,) + c.shape[1:], dtype=complex)
+        spectrum[0] = c[0] * self.samples
+        spectrum[1 : self.harmonics + 1] = (c[1::2] + 1j * c[2::2]) * (self.samples / 2)
+        return np.fft.irfft(spectrum, n=self.samples, axis=0)
+
+    def derivative_to_time(self, c: NDArray) -> NDArray:
+        """Samples of ``du/dθ``."""
+        k = np.arange(1, self.harmonics + 1).reshape((-1,) + (1,) * (c.ndim - 1))
+        d = np.zeros_like(c)
+        d[1::2], d[2::2] = -k * c[2::2], k * c[1::2]  # i·k·U_k
+        return self.to_time(d)
+
+    def to_harmonics(self, f: NDArray) -> NDArray:
+        """Coefficients (2H+1, …) of samples ``f`` (N, …)."""
+        spectrum = np.fft.rfft(f, axis=0)[: self.harmonics + 1] * (2.0 / self.samples)
+        out = np.empty((self.size,) + f.shape[1:])
+        out[0] = spectrum[0].real / 2
+        out[1::2], out[2::2] = spectrum[1:].real, spectrum[1:].imag
+        return out
+
+    def exponential(self, samples: NDArray) -> NDArray:
+        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −2H … 2H."""
+        spectrum = np.fft.fft(samples) / self.samples
+        m = np.arange(-2 * self.harmonics, 2 * self.harmonics + 1)
+        return spectrum[m % self.samples]
+
+
+@dataclass(frozen=True)
+class PeriodForces:
+    """One element over one period: harmonics G (2H+1,) (N), ∂G/∂c (2H+1, 2H+1) (N/m),
+    ∂G/∂ω (2H+1,) (N·s/rad)."""
+
+    g: NDArray
+    dg_dc: NDArray
+    dg_domega: NDArray
+
+
+@dataclass(frozen=True)
+class Tangents:
+    """Fourier coefficients (m = −2H … 2H) of an element's tangent stiffness ∂f/∂u (N/m)
+    and tangent damping ∂f/∂u̇ (N·s/m) along the periodic motion, for Hill's method."""
+
+    stiffness: NDArray[np.complex128]
+    damping: NDArray[np.complex128]
+
+
+# -- pointwise laws: (u, u', ω) → (f, ∂f/∂u, ∂f/∂u', ∂f/∂ω) ----------------------------------
+def _cubic(e: CubicStiffness, u, up, w):
+    return e.k3 * u**3, 3 * e.k3 * u**2, 0.0 * u, 0.0 * u
+
+
+def _gap(e: SymmetricGap, u, up, w):
+    engaged = np.abs(u) > e.gap
+    return np.where(engaged, e.kc * (u - e.gap * np.sign(u)), 0.0), np.where(engaged, e.kc, 0.0), 0.0 * u, 0.0 * u
+
+
+def _quadratic_damping(e: QuadraticDamping, u, up, w):
+    law = up * np.abs(up)
+    return e.cq * w**2 * law, 0.0 * u, 2 * e.cq * w**2 * np.abs(up), 2 * e.cq * w * law
+
+
+def _polynomial_law(coefficients: tuple[float, ...], x: NDArray) -> tuple[NDArray, NDArray]:
+    order = len(coefficients) - 1
+    f, df = np.zeros_like(x), np.zeros_like(x)
+    for index, coefficient in enumerate(coefficients):
+        power = order - index
+        if coefficient != 0.0:
+            gain = coefficient / _cos_power_mean(power)
+            f = f + gain * x * np.abs(x) ** power
+            df = df + gain * (power + 1) * np.abs(x) ** power
+    return f, df
+
+
+def _polynomial(e: PolynomialDF, u, up, w):
+    f_real, k_real = _polynomial_law(e.real, u)
+    f_imag, k_imag = _polynomial_law(e.imag, up)
+    return f_real + f_imag, k_real, k_imag, 0.0 * u
+
+
+_POINTWISE: dict[type, Callable] = {
+    CubicStiffness: _cubic,
+    SymmetricGap: _gap,
+    QuadraticDamping: _quadratic_damping,
+    PolynomialDF: _polynomial,
+}
+
+
+def _pointwise_forces(law, element, c, omega, fourier: Fourier) -> PeriodForces:
+    u, up = fourier.to_time(c), fourier.derivative_to_time(c)
+    f, f_u, f_up, f_w = law(element, u, up, omega)
+    tangent = f_u[:, None] * fourier.E + f_up[:, None] * fourier.dE
+    return PeriodForces(fourier.to_harmonics(f), fourier.to_harmonics(tangent), fourier.to_harmonics(f_w))
+
+
+# -- Jenkins: steady hysteresis cycle ---------------------------------------------------------
+def _jenkins_cycle(element: JenkinsFriction, u: NDArray) -> tuple[NDArray, NDArray]:
+    """Force samples of the steady cycle and, per sample, the index of the last slip sample
+    (−1 while slipping; −2 for a cycle that sticks throughout, centred)."""
+    kf, fs = element.kf, element.slip_force
+    n = u.size
+    if np.ptp(u) <= 2 * fs / kf:
+        return kf * (u - 0.5 * (u.max() + u.min())), np.full(n, -2)
+    start = int(np.argmax(u))
+    values = u.tolist()
+    force, anchor = [0.0] * n, [-1] * n
+    f_prev, u_prev, last = fs, values[start], start
+    for _ in range(4):
+        f_start = f_prev
+        for step in range(1, n + 1):
+            j = (start + step) % n
+            trial = f_prev + kf * (values[j] - u_prev)
+            if trial >= fs or trial <= -fs:
+                f_prev, last, anchor[j] = (fs if trial > 0 else -fs), j, -1
+            else:
+                f_prev, anchor[j] = trial, last
+            force[j], u_prev = f_prev, values[j]
+        if abs(f_prev - f_start) <= 1e-12 * fs:
+            break
+    return np.array(force), np.array(anchor)
+
+
+def _jenkins_forces(element: JenkinsFriction, c, omega, fourier: Fourier) -> PeriodForces:
+    u = fourier.to_time(c)
+    force, anchor = _jenkins_cycle(element, u)
+    if anchor[0] == -2:
+        centre = 0.5 * (fourier.E[np.argmax(u)] + fourier.E[np.argmin(u)])
+        tangent = element.kf * (fourier.E - centre)
+    else:
+        stick = anchor >= 0
+        tangent = np.zeros_like(fourier.E)
+        tangent[stick] = element.kf * (fourier.E[stick] - fourier.E[anchor[stick]])
+    return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
+
+
+def _jenkins_tangents(element: JenkinsFriction, c, omega, fourier: Fourier) -> Tangents:
+    _, anchor = _jenkins_cycle(element, fourier.to_time(c))
+    stiffness = np.where(anchor == -1, 0.0, element.kf)
+    return Tangents(fourier.exponential(stiffness), np.zeros(4 * fourier.harmonics + 1, complex))
+
+
+# -- Coulomb: exact integration between velocity zero crossings -------------------------------
+def _velocity_crossings(c: NDArray, fourier: Fourier) -> tuple[NDArray, NDArray, NDArray]:
+    """Zero crossings θ_c of u' = du/dθ, the sign of u' after each, and u''(θ_c)."""
+    k = np.arange(1, fourier.harmonics + 1)
+
+    def basis(theta):
+        kt = np.outer(theta, k)
+        d1 = np.zeros((theta.size, fourier.size))
+        d2 = np.zeros_like(d1)
+        d1[:, 1::2], d1[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
+        d2[:, 1::2], d2[:, 2::2] = -(k**2) * np.cos(kt), k**2 * np.sin(kt)
+        return d1, d2
+
+    up = fourier.dE @ c
+    scale = np.max(np.abs(up))
+    if scale == 0.0:
+        return np.empty(0), np.empty(0), np.empty(0)
+    nxt = np.roll(up, -1)
+    change = np.flatnonzero((up > 0) != (nxt > 0))
+    if change.size == 0:
+        return np.empty(0), np.empty(0), np.empty(0)
+    h = 2 * np.pi / fourier.samples
+    low = fourier.theta[change]
+    theta = low + h * up[change] / (up[change] - nxt[change])
+    for _ in range(8):  # Newton on the trigonometric polynomial, kept inside its bracket
+        d1, d2 = basis(theta)
+        value, slope = d1 @ c, d2 @ c
+        step = np.where(slope != 0, value / np.where(slope != 0, slope, 1.0), 0.0)
+        theta = np.clip(theta - step, low, low + h)
+        if np.max(np.abs(step)) < 1e-14:
+            break
+    _, d2 = basis(theta)
+    slope = d2 @ c
+    return theta, np.sign(slope), slope
+
+
+def _coulomb_forces(element: CoulombFriction, c, omega, fourier: Fourier) -> PeriodForces:
+    fs = element.slip_force
+    size = fourier.size
+    theta, sign_after, slope = _velocity_crossings(c, fourier)
+    g, dg = np.zeros(size), np.zeros((size, size))
+    if theta.size == 0:
+        return PeriodForces(g, dg, np.zeros(size))
+    order = np.argsort(theta)
+    theta, sign_after, slope = theta[order], sign_after[order], slope[order]
+    jump = 2 * sign_after  # s_after − s_before
+    length = (np.roll(theta, -1) - theta) % (2 * np.pi)
+    g[0] = fs / (2 * np.pi) * np.sum(sign_after * length)
+    k = np.arange(1, fourier.harmonics + 1)
+    phase = np.exp(-1j * np.outer(k, theta))  # (H, n_c)
+    gk = fs / (1j * np.pi * k) * (phase @ jump)
+    g[1::2], g[2::2] = gk.real, gk.imag
+    dg_dtheta = np.zeros((size, theta.size))
+    dg_dtheta[0] = -fs / (2 * np.pi) * jump
+    d = -fs / np.pi * jump * phase
+    dg_dtheta[1::2], dg_dtheta[2::2] = d.real, d.imag
+    kt = np.outer(theta, k)
+    d1 = np.zeros((theta.size, size))
+    d1[:, 1::2], d1[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
+    dtheta_dc = -d1 / slope[:, None]
+    return PeriodForces(g, dg_dtheta @ dtheta_dc, np.zeros(size))
+
+
+def _coulomb_tangents(element: CoulombFriction, c, omega, fourier: Fourier) -> Tangents:
+    """``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``; in θ its coefficients are (1/2π)Σ 2Fs e^{−imθ_c}/|u̇'(θ_c)|."""
+    theta, _, slope = _velocity_crossings(c, fourier)
+    m = np.arange(-2 * fourier.harmonics, 2 * fourier.harmonics + 1)
+    weights = 2 * element.slip_force / (np.abs(slope) * omega) if theta.size else np.empty(0)
+    damping = np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi) if theta.size else np.zeros(m.size, complex)
+    return Tangents(np.zeros(m.size, complex), damping)
+
+
+def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> PeriodForces:
+    """Harmonics of one element's force for relative-motion coefficients ``c`` (m) at ω (rad/s)."""
+    if isinstance(element, JenkinsFriction):
+        return _jenkins_forces(element, c, omega, fourier)
+    if isinstance(element, CoulombFriction):
+        return _coulomb_forces(element, c, omega, fourier)
+    law = _POINTWISE.get(type(element))
+    if law is None:
+        raise TypeError(f"{type(element).__name__}: no time-domain law for harmonic balance")
+    return _pointwise_forces(law, element, c, omega, fourier)
+
+
+def tangents(element, c: NDArray, omega: float, fourier: Fourier) -> Tangents:
+    """Tangent stiffness and damping coefficients of one element along the motion ``c``."""
+    if isinstance(element, JenkinsFriction):
+        return _jenkins_tangents(element, c, omega, fourier)
+    if isinstance(element, CoulombFriction):
+        return _coulomb_tangents(element, c, omega, fourier)
+    law = _POINTWISE[type(element)]
+    u, up = fourier.to_time(c), fourier.derivative_to_time(c)
+    _, f_u, f_up, _ = law(element, u, up, omega)
+    return Tangents(fourier.exponential(f_u), fourier.exponential(f_up / omega))
+
+
+def aliasing_change(element, c: NDArray, omega: float, fourier: Fourier, factor: int = 8) -> float:
+    """Relative change of the element's force harmonics when the samples are ``factor`` × N."""
+    fine = Fourier(fourier.harmonics, fourier.samples * factor)
+    coarse_g = period_forces(element, c, omega, fourier).g
+    fine_g = period_forces(element, c, omega, fine).g
+    scale = np.linalg.norm(fine_g)
+    return float(np.linalg.norm(coarse_g - fine_g) / scale) if scale > 0 else 0.0

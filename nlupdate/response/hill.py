@@ -1,0 +1,149 @@
+"""Floquet multipliers of a harmonic-balance solution by Hill's method.
+
+A perturbation ``δx = e^{λt} Σ_{m=−H}^{H} p_m e^{imωt}`` of the periodic motion obeys the
+linearised equations of motion ``M δẍ + C_eq δẋ + K δx + K_t(t) δx + C_t(t) δẋ = 0`` with
+``C_eq = C + D/ω`` (structural damping as the viscous damping equivalent at the fundamental,
+the convention of :meth:`~nlupdate.model.linear.LumpedModel.harmonic_receptance`) and the
+element tangents ``K_t = ∂f/∂x``, ``C_t = ∂f/∂ẋ`` along the orbit
+(:func:`nlupdate.response.aft.tangents`). Balancing the harmonics −H … H gives the
+quadratic eigenvalue problem ``(L₀ + λL₁ + λ²L₂) p = 0`` with blocks
+
+    L₀[k, j] = δ_kj (K + ikω C_eq − k²ω² M) + K̂_{k−j} + ijω Ĉ_{k−j},
+    L₁[k, j] = δ_kj (C_eq + 2ikω M) + Ĉ_{k−j},        L₂[k, j] = δ_kj M,
+
+where ``K̂_m, Ĉ_m`` are the Fourier coefficients of the tangents. Of its 2·n_q(2H+1)
+eigenvalues, the 2·n_q whose eigenvectors weigh most on the central harmonic (m = 0)
+approximate the Floquet exponents (the others are copies shifted by ``imω``); the
+multipliers are ``μ = e^{λT}``, ``T = 2π/ω``. The orbit is stable when every ``|μ| < 1``.
+A real multiplier leaving through +1 is a turning point (or a branch point where the
+curve does not turn), through −1 a period doubling, a complex pair a Neimark–Sacker
+bifurcation.
+
+Coordinates: a dense :class:`~nlupdate.model.linear.LumpedModel` is used as it is, a
+:class:`~nlupdate.model.linear.ModalModel` in its modal coordinates; a sparse lumped model
+in its lowest ``SPARSE_MODES`` modes (a truncation that affects stability only).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from nlupdate.model.linear import LumpedModel, ModalModel
+from nlupdate.response.aft import Fourier, tangents
+
+SPARSE_MODES = 20
+
+
+@dataclass(frozen=True, eq=False)
+class HillModel:
+    """Linear operators in the Hill coordinates q and the map ``x_a = Φ_a q``."""
+
+    mass: NDArray
+    damping: NDArray
+    structural: NDArray
+    stiffness: NDArray
+    phi_a: NDArray
+
+    @classmethod
+    def of(cls, model, nonlinear_dofs: Sequence[int]) -> "HillModel":
+        a = list(nonlinear_dofs)
+        if isinstance(model, LumpedModel) and model.is_sparse:
+            model = model.to_modal(min(SPARSE_MODES, model.n_dof - 1))
+        if isinstance(model, ModalModel):
+            wr = model.omega_r
+            return cls(
+                np.eye(wr.size),
+                np.diag(2 * model.damping_ratios * wr),
+                np.diag(model.loss_factors * wr**2),
+                np.diag(wr**2),
+                model.mode_shapes[a],
+            )
+        if isinstance(model, LumpedModel):
+            m, k, c, d = model._dense_mkcd
+            return cls(m, c, d, k, np.eye(model.n_dof)[a])
+        raise TypeError(f"Hill's method needs a LumpedModel or ModalModel, got {type(model).__name__}")
+
+
+@dataclass(frozen=True)
+class Floquet:
+    """Floquet exponents λ (1/s) and multipliers μ = e^{λT} of one periodic solution."""
+
+    exponents: NDArray[np.complex128]
+    multipliers: NDArray[np.complex128]
+
+    @property
+    def critical(self) -> complex:
+        """The multiplier of largest modulus."""
+        return complex(self.multipliers[np.argmax(np.abs(self.multipliers))])
+
+
+def floquet(
+    hill: HillModel,
+    element_index: Sequence[tuple],
+    x_coefficients: NDArray,
+    omega: float,
+    fourier: Fourier,
+) -> Floquet:
+    """Floquet exponents of the orbit with coefficients ``x_coefficients`` (2H+1, n_a) (m)
+    at the nonlinear coordinates, fundamental ω (rad/s). ``element_index`` lists
+    ``(element, r, j)`` with positions in the nonlinear coordinates (j = −1: ground)."""
+    harmonics = fourier.harmonics
+    n_a = hill.phi_a.shape[0]
+    n_q = hill.mass.shape[0]
+    n_m = 4 * harmonics + 1
+    k_hat = np.zeros((n_m, n_a, n_a), complex)
+    c_hat = np.zeros((n_m, n_a, n_a), complex)
+    for element, r, j in element_index:
+        u = x_coefficients[:, r] - (x_coefficients[:, j] if j >= 0 else 0.0)
+        t = tangents(element, u, omega, fourier)
+        s = np.zeros(n_a)
+        s[r] = 1.0
+        if j >= 0:
+            s[j] = -1.0
+        outer = np.outer(s, s)
+        k_hat += t.stiffness[:, None, None] * outer
+        c_hat += t.damping[:, None, None] * outer
+    phi = hill.phi_a
+    k_q = np.einsum("ai,mab,bj->mij", phi, k_hat, phi)
+    c_q = np.einsum("ai,mab,bj->mij", phi, c_hat, phi)
+    c_eq = hill.damping + hill.structural / omega
+    size = n_q * (2 * harmonics + 1)
+    l0 = np.zeros((size, size), complex)
+    l1 = np.zeros((size, size), complex)
+    orders = range(-harmonics, harmonics + 1)
+    for row, k in enumerate(orders):
+        rk = slice(row * n_q, (row + 1) * n_q)
+        for col, j in enumerate(orders):
+            cj = slice(col * n_q, (col + 1) * n_q)
+            m = k - j + 2 * harmonics
+            l0[rk, cj] = k_q[m] + 1j * j * omega * c_q[m]
+            l1[rk, cj] = c_q[m]
+        l0[rk, rk] += hill.stiffness + 1j * k * omega * c_eq - (k * omega) ** 2 * hill.mass
+        l1[rk, rk] += c_eq + 2j * k * omega * hill.mass
+    mass_inv = np.linalg.inv(hill.mass)
+    companion = np.zeros((2 * size, 2 * size), complex)
+    companion[:size, size:] = np.eye(size)
+    block_inv = np.kron(np.eye(2 * harmonics + 1), mass_inv)
+    companion[size:, :size] = -block_inv @ l0
+    companion[size:, size:] = -block_inv @ l1
+    values, vectors = scipy.linalg.eig(companion, check_finite=False)
+    centre = slice(harmonics * n_q, (harmonics + 1) * n_q)
+    displacement = vectors[:size]
+    weight = np.linalg.norm(displacement[centre], axis=0) / np.maximum(np.linalg.norm(displacement, axis=0), 1e-300)
+    chosen = np.argsort(-weight, kind="stable")[: 2 * n_q]
+    exponents = values[chosen]
+    return Floquet(exponents, np.exp(exponents * 2 * np.pi / omega))
+
+
+def classify(multiplier: complex, tolerance: float = 0.15) -> str:
+    """Kind of bifurcation a critical multiplier leaving the unit circle signals."""
+    angle = abs(np.angle(multiplier))
+    if angle < tolerance:
+        return "branch point"
+    if angle > np.pi - tolerance:
+        return "period doubling"
+    return "Neimark–Sacker"
