@@ -95,11 +95,12 @@ class Fourier:
         out[1::2], out[2::2] = spectrum[1:].real, spectrum[1:].imag
         return out
 
-    def exponential(self, samples: NDArray) -> NDArray:
-        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −2H … 2H."""
+    def exponential(self, samples: NDArray, orders: int | None = None) -> NDArray:
+        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −orders … orders
+        (default 2H)."""
         spectrum = np.fft.fft(samples) / self.samples
-        m = np.arange(-2 * self.harmonics, 2 * self.harmonics + 1)
-        return spectrum[m % self.samples]
+        orders = 2 * self.harmonics if orders is None else orders
+        return spectrum[np.arange(-orders, orders + 1) % self.samples]
 
 
 @dataclass(frozen=True)
@@ -114,8 +115,8 @@ class PeriodForces:
 
 @dataclass(frozen=True)
 class Tangents:
-    """Fourier coefficients (m = −2H … 2H) of an element's tangent stiffness ∂f/∂u (N/m)
-    and tangent damping ∂f/∂u̇ (N·s/m) along the periodic motion, for Hill's method."""
+    """Fourier coefficients (m = −orders … orders) of an element's tangent stiffness ∂f/∂u
+    (N/m) and tangent damping ∂f/∂u̇ (N·s/m) along the periodic motion, for Hill's method."""
 
     stiffness: NDArray[np.complex128]
     damping: NDArray[np.complex128]
@@ -209,10 +210,10 @@ def _jenkins_forces(element: JenkinsFriction, c, omega, fourier: Fourier) -> Per
     return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
 
 
-def _jenkins_tangents(element: JenkinsFriction, c, omega, fourier: Fourier) -> Tangents:
+def _jenkins_tangents(element: JenkinsFriction, c, omega, fourier: Fourier, orders: int) -> Tangents:
     _, anchor = _jenkins_cycle(element, fourier.to_time(c))
     stiffness = np.where(anchor == -1, 0.0, element.kf)
-    return Tangents(fourier.exponential(stiffness), np.zeros(4 * fourier.harmonics + 1, complex))
+    return Tangents(fourier.exponential(stiffness, orders), np.zeros(2 * orders + 1, complex))
 
 
 # -- Coulomb: exact integration between velocity zero crossings -------------------------------
@@ -278,10 +279,10 @@ def _coulomb_forces(element: CoulombFriction, c, omega, fourier: Fourier) -> Per
     return PeriodForces(g, dg_dtheta @ dtheta_dc, np.zeros(size))
 
 
-def _coulomb_tangents(element: CoulombFriction, c, omega, fourier: Fourier) -> Tangents:
+def _coulomb_tangents(element: CoulombFriction, c, omega, fourier: Fourier, orders: int) -> Tangents:
     """``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``; in θ its coefficients are (1/2π)Σ 2Fs e^{−imθ_c}/|u̇'(θ_c)|."""
     theta, _, slope = _velocity_crossings(c, fourier)
-    m = np.arange(-2 * fourier.harmonics, 2 * fourier.harmonics + 1)
+    m = np.arange(-orders, orders + 1)
     weights = 2 * element.slip_force / (np.abs(slope) * omega) if theta.size else np.empty(0)
     damping = np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi) if theta.size else np.zeros(m.size, complex)
     return Tangents(np.zeros(m.size, complex), damping)
@@ -299,16 +300,18 @@ def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> Period
     return _pointwise_forces(law, element, c, omega, fourier)
 
 
-def tangents(element, c: NDArray, omega: float, fourier: Fourier) -> Tangents:
-    """Tangent stiffness and damping coefficients of one element along the motion ``c``."""
+def tangents(element, c: NDArray, omega: float, fourier: Fourier, orders: int | None = None) -> Tangents:
+    """Tangent stiffness and damping coefficients (m = −orders … orders, default 2H) of one
+    element along the motion ``c``."""
+    orders = 2 * fourier.harmonics if orders is None else orders
     if isinstance(element, JenkinsFriction):
-        return _jenkins_tangents(element, c, omega, fourier)
+        return _jenkins_tangents(element, c, omega, fourier, orders)
     if isinstance(element, CoulombFriction):
-        return _coulomb_tangents(element, c, omega, fourier)
+        return _coulomb_tangents(element, c, omega, fourier, orders)
     law = _POINTWISE[type(element)]
     u, up = fourier.to_time(c), fourier.derivative_to_time(c)
     _, f_u, f_up, _ = law(element, u, up, omega)
-    return Tangents(fourier.exponential(f_u), fourier.exponential(f_up / omega))
+    return Tangents(fourier.exponential(f_u, orders), fourier.exponential(f_up / omega, orders))
 
 
 def aliasing_change(element, c: NDArray, omega: float, fourier: Fourier, factor: int = 8) -> float:

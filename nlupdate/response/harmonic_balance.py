@@ -98,7 +98,10 @@ class HarmonicBalanceProblem:
             for element in system.elements
         ]
         self._cols = list(self.a) + list(self.forced)
-        static = self.model.harmonic_receptance(0.0, 0, self.a, self.a)[0]
+        try:
+            static = self.model.harmonic_receptance(0.0, 0, self.a, self.a)[0]
+        except (np.linalg.LinAlgError, RuntimeError):
+            static = np.full((self.n, self.n), np.nan)
         if not np.all(np.isfinite(static)):
             raise ValueError("the constant term needs a grounded model: the static receptance K⁻¹ is not finite")
         self._static = static.real
@@ -308,7 +311,9 @@ def trace_harmonic_balance(
     ``harmonics``: H ≥ 1, or ``"auto"`` (the first of 3, 5, 7, 9, 11, 15, … up to 31 whose
     highest harmonics carry at most ``share_limit`` of the response); ``samples``: N per
     period (default :func:`default_samples`); ``stability``: Floquet multipliers by Hill's
-    method at every point (otherwise the determinant sign, saddle-node only); ``options``
+    method at every point for H ≥ 2 (otherwise, and always for H = 1 — a single-harmonic
+    orbit is too coarse for Hill's method, whose odd perturbations then stop at their first
+    copy — the determinant sign of the describing-function solver, saddle-node only); ``options``
     those of :func:`~nlupdate.response.continuation.trace_curve`. The returned curve's
     ``x_nonlinear`` holds the states (n_points, H+1, n_a).
     """
@@ -334,7 +339,7 @@ def trace_harmonic_balance(
     problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
     curve = trace_curve(problem, omega_start, omega_end, **options)
     states = np.array([problem.to_complex(y) for y in curve.y])
-    if stability:
+    if stability and problem.harmonics > 1:
         stable, multipliers, bifurcations = _stability(problem, curve.omega, states, curve.turning_point)
     else:
         stable = curve.jacobian_determinant > 0

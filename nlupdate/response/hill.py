@@ -5,15 +5,19 @@ linearised equations of motion ``M δẍ + C_eq δẋ + K δx + K_t(t) δx + C_t
 ``C_eq = C + D/ω`` (structural damping as the viscous damping equivalent at the fundamental,
 the convention of :meth:`~nlupdate.model.linear.LumpedModel.harmonic_receptance`) and the
 element tangents ``K_t = ∂f/∂x``, ``C_t = ∂f/∂ẋ`` along the orbit
-(:func:`nlupdate.response.aft.tangents`). Balancing the harmonics −H … H gives the
+(:func:`nlupdate.response.aft.tangents`). Balancing the harmonics −H … H (the orbit's H: then ``L₀`` is the harmonic-balance
+Jacobian, and a fold of the traced curve is exactly a multiplier +1) gives the
 quadratic eigenvalue problem ``(L₀ + λL₁ + λ²L₂) p = 0`` with blocks
 
     L₀[k, j] = δ_kj (K + ikω C_eq − k²ω² M) + K̂_{k−j} + ijω Ĉ_{k−j},
     L₁[k, j] = δ_kj (C_eq + 2ikω M) + Ĉ_{k−j},        L₂[k, j] = δ_kj M,
 
 where ``K̂_m, Ĉ_m`` are the Fourier coefficients of the tangents. Of its 2·n_q(2H+1)
-eigenvalues, the 2·n_q whose eigenvectors weigh most on the central harmonic (m = 0)
-approximate the Floquet exponents (the others are copies shifted by ``imω``); the
+eigenvalues, the 2·n_q whose eigenvectors are centred on the harmonic index (the mean of
+m weighted by ``‖p_m‖²`` closest to 0) approximate the Floquet exponents; the others are
+copies shifted by ``imω``, centred on m. (Centring, not the weight of m = 0: along an orbit
+of a symmetric system the perturbations split into even and odd families, and an odd one
+has no m = 0 component at all.) The
 multipliers are ``μ = e^{λT}``, ``T = 2π/ω``. The orbit is stable when every ``|μ| < 1``.
 A real multiplier leaving through +1 is a turning point (or a branch point where the
 curve does not turn), through −1 a period doubling, a complex pair a Neimark–Sacker
@@ -131,10 +135,10 @@ def floquet(
     companion[size:, :size] = -block_inv @ l0
     companion[size:, size:] = -block_inv @ l1
     values, vectors = scipy.linalg.eig(companion, check_finite=False)
-    centre = slice(harmonics * n_q, (harmonics + 1) * n_q)
-    displacement = vectors[:size]
-    weight = np.linalg.norm(displacement[centre], axis=0) / np.maximum(np.linalg.norm(displacement, axis=0), 1e-300)
-    chosen = np.argsort(-weight, kind="stable")[: 2 * n_q]
+    power = np.abs(vectors[:size].reshape(2 * harmonics + 1, n_q, -1)) ** 2
+    power = power.sum(axis=1)
+    centroid = np.arange(-harmonics, harmonics + 1) @ power / np.maximum(power.sum(axis=0), 1e-300)
+    chosen = np.argsort(np.abs(centroid), kind="stable")[: 2 * n_q]
     exponents = values[chosen]
     return Floquet(exponents, np.exp(exponents * 2 * np.pi / omega))
 
