@@ -174,7 +174,7 @@ class LumpedModel:
         return self._receptance(omega, rows, cols, derivative, 1.0)
 
     def harmonic_receptance(
-        self, omega: ArrayLike, harmonic: int, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
+        self, omega: ArrayLike, harmonic: ArrayLike, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
         """Receptance at the ``harmonic``-th multiple of the fundamental ω (rad/s).
 
@@ -182,11 +182,10 @@ class LumpedModel:
         damping ``D/ω`` equivalent at the fundamental, the form a time integration can
         realise (:mod:`nlupdate.response.time_integration`). ``h = 1`` is :meth:`receptance`;
         ``h = 0`` is the static receptance ``K⁻¹``. The derivative is with respect to the
-        fundamental ω: ``h·dH/dω(hω)``.
+        fundamental ω: ``h·dH/dω(hω)``. ``omega`` and ``harmonic`` broadcast (several
+        frequencies at one harmonic, or several harmonics of one frequency).
         """
-        h = int(harmonic)
-        result = self._receptance(h * np.atleast_1d(np.asarray(omega, dtype=float)), rows, cols, derivative, float(h))
-        return (result[0], h * result[1]) if derivative else result
+        return _harmonic_receptance(self, omega, harmonic, rows, cols, derivative)
 
     def _receptance(self, omega, rows, cols, derivative: bool, d_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
@@ -195,6 +194,7 @@ class LumpedModel:
             return self._receptance_sparse(omega, rows, cols, derivative, d_scale)
         m, k, c, d = self._dense_mkcd
         w = omega[:, None, None]
+        d_scale = np.broadcast_to(np.asarray(d_scale, dtype=float), omega.shape)[:, None, None]
         z = k[None] - w**2 * m[None] + 1j * (w * c[None] + d_scale * d[None])
         h_full = np.linalg.inv(z)
         h = h_full[:, rows][:, :, cols]
@@ -218,8 +218,9 @@ class LumpedModel:
         rhs_rows[rows, np.arange(len(rows))] = 1.0
         h = np.empty((omega.size, len(rows), len(cols)), dtype=complex)
         dh = np.empty_like(h)
+        d_scale = np.broadcast_to(np.asarray(d_scale, dtype=float), omega.shape)
         for i, w in enumerate(omega):
-            z = (k - w**2 * m + 1j * (w * c + d_scale * d)).tocsc()
+            z = (k - w**2 * m + 1j * (w * c + d_scale[i] * d)).tocsc()
             lu = scipy.sparse.linalg.splu(z)
             cols_sol = lu.solve(rhs)
             h[i] = cols_sol[rows]
@@ -348,18 +349,17 @@ class ModalModel:
         return self._receptance(omega, rows, cols, derivative, 1.0)
 
     def harmonic_receptance(
-        self, omega: ArrayLike, harmonic: int, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
+        self, omega: ArrayLike, harmonic: ArrayLike, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
         """Receptance at the ``harmonic``-th multiple of ω; see :meth:`LumpedModel.harmonic_receptance`
         (the loss factor acts as ``h·η_r ω_r²`` at harmonic h)."""
-        h = int(harmonic)
-        result = self._receptance(h * np.atleast_1d(np.asarray(omega, dtype=float)), rows, cols, derivative, float(h))
-        return (result[0], h * result[1]) if derivative else result
+        return _harmonic_receptance(self, omega, harmonic, rows, cols, derivative)
 
     def _receptance(self, omega, rows, cols, derivative: bool, eta_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         wr = self.omega_r
         w = omega[:, None]
+        eta_scale = np.broadcast_to(np.asarray(eta_scale, dtype=float), omega.shape)[:, None]
         denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + eta_scale * self.loss_factors * wr**2)
         phi_rows = self.mode_shapes[list(rows)]
         phi_cols = self.mode_shapes[list(cols)]
@@ -369,6 +369,13 @@ class ModalModel:
         d_denominator = -2 * w + 2j * self.damping_ratios * wr
         dh = np.einsum("jr,wr,kr->wjk", phi_rows, -d_denominator / denominator**2, phi_cols)
         return h, dh
+
+
+def _harmonic_receptance(model, omega, harmonic, rows, cols, derivative):
+    omega, harmonic = np.broadcast_arrays(np.atleast_1d(np.asarray(omega, dtype=float)), np.atleast_1d(harmonic))
+    harmonic = harmonic.astype(float)
+    result = model._receptance(harmonic * omega, rows, cols, derivative, harmonic)
+    return (result[0], harmonic[:, None, None] * result[1]) if derivative else result
 
 
 def dof_index(model: LinearModel, dof: int | str) -> int:

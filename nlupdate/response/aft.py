@@ -87,6 +87,15 @@ class Fourier:
         d[1::2], d[2::2] = -k * c[2::2], k * c[1::2]  # i·k·U_k
         return self.to_time(d)
 
+    def motion(self, c: NDArray) -> tuple[NDArray, NDArray]:
+        """Samples of ``u`` and ``du/dθ`` for coefficients ``c`` (2H+1,), by one inverse transform."""
+        k = np.arange(1, self.harmonics + 1)
+        both = np.empty((self.size, 2))
+        both[:, 0] = c
+        both[0, 1], both[1::2, 1], both[2::2, 1] = 0.0, -k * c[2::2], k * c[1::2]
+        samples = self.to_time(both)
+        return samples[:, 0], samples[:, 1]
+
     def to_harmonics(self, f: NDArray) -> NDArray:
         """Coefficients (2H+1, …) of samples ``f`` (N, …)."""
         spectrum = np.fft.rfft(f, axis=0)[: self.harmonics + 1] * (2.0 / self.samples)
@@ -164,10 +173,13 @@ _POINTWISE: dict[type, Callable] = {
 
 
 def _pointwise_forces(law, element, c, omega, fourier: Fourier) -> PeriodForces:
-    u, up = fourier.to_time(c), fourier.derivative_to_time(c)
+    u, up = fourier.motion(c)
     f, f_u, f_up, f_w = law(element, u, up, omega)
-    tangent = f_u[:, None] * fourier.E + f_up[:, None] * fourier.dE
-    return PeriodForces(fourier.to_harmonics(f), fourier.to_harmonics(tangent), fourier.to_harmonics(f_w))
+    signals = np.empty((fourier.samples, fourier.size + 2))  # one transform for all columns
+    signals[:, 0], signals[:, 1] = f, f_w
+    signals[:, 2:] = f_u[:, None] * fourier.E + f_up[:, None] * fourier.dE
+    harmonics = fourier.to_harmonics(signals)
+    return PeriodForces(harmonics[:, 0], harmonics[:, 2:], harmonics[:, 1])
 
 
 # -- Jenkins: steady hysteresis cycle ---------------------------------------------------------
@@ -309,7 +321,7 @@ def tangents(element, c: NDArray, omega: float, fourier: Fourier, orders: int | 
     if isinstance(element, CoulombFriction):
         return _coulomb_tangents(element, c, omega, fourier, orders)
     law = _POINTWISE[type(element)]
-    u, up = fourier.to_time(c), fourier.derivative_to_time(c)
+    u, up = fourier.motion(c)
     _, f_u, f_up, _ = law(element, u, up, omega)
     return Tangents(fourier.exponential(f_u, orders), fourier.exponential(f_up / omega, orders))
 

@@ -98,6 +98,7 @@ class HarmonicBalanceProblem:
             for element in system.elements
         ]
         self._cols = list(self.a) + list(self.forced)
+        self._orders = np.arange(1, self.harmonics + 1)
         try:
             static = self.model.harmonic_receptance(0.0, 0, self.a, self.a)[0]
         except (np.linalg.LinAlgError, RuntimeError):
@@ -109,29 +110,34 @@ class HarmonicBalanceProblem:
     # -- linear part -------------------------------------------------------------------
     def _blocks(self, omega: float, derivative: bool):
         """Real block-diagonal receptance (size × size), ``X_lin`` at harmonic 1, and ω-derivatives."""
-        n, size = self.n, self.size
-        big = np.zeros((size, size))
-        big[:n, :n] = self._static
-        dbig = np.zeros((size, size)) if derivative else None
-        x_lin = np.zeros(size)
-        dx_lin = np.zeros(size) if derivative else None
-        for k in range(1, self.harmonics + 1):
-            cols = self._cols if k == 1 else list(self.a)
-            result = self.model.harmonic_receptance(omega, k, self.a, cols, derivative)
-            h, dh = (result[0][0], result[1][0]) if derivative else (result[0], None)
-            re, im = slice((2 * k - 1) * n, 2 * k * n), slice(2 * k * n, (2 * k + 1) * n)
-            for target, block in ((big, h), (dbig, dh)):
-                if block is None:
-                    continue
-                target[re, re], target[re, im] = block[:, :n].real, -block[:, :n].imag
-                target[im, re], target[im, im] = block[:, :n].imag, block[:, :n].real
-            if k == 1:
-                lin = h[:, n:] @ self.force
-                x_lin[re], x_lin[im] = lin.real, lin.imag
-                if derivative:
-                    dlin = dh[:, n:] @ self.force
-                    dx_lin[re], dx_lin[im] = dlin.real, dlin.imag
+        n = self.n
+        result = self.model.harmonic_receptance(omega, self._orders, self.a, self._cols, derivative)
+        h_all, dh_all = result if derivative else (result, None)
+        big = self._real_blocks(h_all[:, :, :n], self._static)
+        dbig = self._real_blocks(dh_all[:, :, :n], 0.0) if derivative else None
+        x_lin = np.zeros(self.size)
+        lin = h_all[0, :, n:] @ self.force
+        x_lin[n : 2 * n], x_lin[2 * n : 3 * n] = lin.real, lin.imag
+        dx_lin = None
+        if derivative:
+            dx_lin = np.zeros(self.size)
+            dlin = dh_all[0, :, n:] @ self.force
+            dx_lin[n : 2 * n], dx_lin[2 * n : 3 * n] = dlin.real, dlin.imag
         return big, x_lin, dbig, dx_lin
+
+    def _real_blocks(self, h: NDArray, static) -> NDArray:
+        """Block-diagonal real form: ``static`` for X₀, ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic."""
+        n, count = self.n, self.harmonics
+        blocks = np.zeros((count, 2 * n, count, 2 * n))
+        index = np.arange(count)
+        blocks[index, :n, index, :n] = h.real
+        blocks[index, :n, index, n:] = -h.imag
+        blocks[index, n:, index, :n] = h.imag
+        blocks[index, n:, index, n:] = h.real
+        big = np.zeros((self.size, self.size))
+        big[:n, :n] = static
+        big[n:, n:] = blocks.reshape(2 * n * count, 2 * n * count)
+        return big
 
     def linear_response(self, omega: ArrayLike, dofs: Sequence[int]) -> NDArray[np.complex128]:
         """First harmonic of the underlying linear system (m) at ``dofs``, (n_omega, len(dofs))."""
