@@ -257,3 +257,13 @@ def test_bad_settings_are_named():
     free = NonlinearSystem(LumpedModel(np.eye(2), [[1.0, -1.0], [-1.0, 1.0]]), (CubicStiffness((0, 1), 1.0),))
     with pytest.raises(ValueError, match="grounded model"):
         trace_harmonic_balance(free, {0: 0.5}, 0.5, 3.5, harmonics=3)
+
+
+def test_stepped_sine_on_the_multi_harmonic_curve_jumps_past_its_own_fold():
+    """Up-sweep past the upper fold: the jump is at the first grid point past the multi-harmonic
+    fold (3.0389 rad/s), one grid step after the single-harmonic one (3.0290)."""
+    grid = np.arange(3.000, 3.0601, 0.005)
+    for curve in (_quiet_trace(DUFFING, {0: 0.5}, 0.5, 3.5, harmonics=7), trace_frequency_response(DUFFING, {0: 0.5}, 0.5, 3.5)):
+        upper_fold = curve.omega[curve.turning_point].max()
+        expected = grid[grid > upper_fold][0] / (2 * np.pi)
+        assert stepped_sine(curve, grid, "up").jumps_hz == pytest.approx((expected,), rel=1e-12)
