@@ -190,8 +190,7 @@ def prediction_flow(study_handle: Handle, sweep_handle: Handle, identification_h
     identification_key = keys.identification_key(study, measured_hash)
     for name, point in points:
         modes = evaluator([point])[0]
-        key = keys.step_key("prediction", keys.point_key(spec, point), identification_key, measured_hash,
-                            study.prediction, study.targets)
+        key = keys.prediction_key(study, spec, point, identification_key, measured_hash)
         futures.append((name, time.perf_counter(),
                         cache.task(tasks.prediction).submit(key, study, name, point, modes, identified, measured)))
     return tuple(_finish(f"prediction {i}/{len(futures)}", future, name, started)

@@ -152,6 +152,16 @@ def step_key(name: str, *parts: Any) -> str:
     return digest(name, NUMERICS_CODE, *parts)
 
 
+def prediction_key(study: Study, spec: AdapterSpec, point: Mapping[str, float], identification_key: str,
+                   measured_hash: str) -> str:
+    """One prediction: the FE point of its model, the identification and the measured
+    table, the ``[prediction]`` settings (levels, loss factor, sweep, response method:
+    describing function or harmonic balance with its harmonics, samples and stability) and
+    the targets (the measured curve)."""
+    return step_key("prediction", point_key(spec, point), identification_key, measured_hash, study.prediction,
+                    study.targets)
+
+
 def candidate_key(job: Any) -> str:
     """One discovery candidate fit: the job's content (data, model, place and effect) and
     the discovery code."""

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 from nlupdate.cli import CliError, add_command, non_negative_float, positive_int
+from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output, writable_folder
 from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
@@ -22,6 +23,7 @@ from nlupdate.measurement.frf_table import read_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
 from nlupdate.model.model_file import load_system
 from nlupdate.files import atomic_directory
+from nlupdate.response_method import RESPONSE_METHODS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,17 +43,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="FRF noise std / |H| (default: estimated from the measured FRFs)")
     parser.add_argument("--sweep", choices=("up", "down"), default="up", help="stepped-sine direction of the test")
+    parser.add_argument("--method", choices=RESPONSE_METHODS, default="continuation",
+                        help="how the model is simulated against measured FRFs (default continuation: describing "
+                             "function; hb: harmonic balance); the candidates' fits are describing-function fits")
     parser.add_argument("--frequency-uncertainty", type=non_negative_float, default=0.002,
                         help="modal table: relative std of the natural frequencies (default 0.002)")
     parser.add_argument("--damping-uncertainty", type=non_negative_float, default=0.05,
                         help="modal table: relative std of the damping ratios (default 0.05)")
     add_overwrite_option(parser)
+    add_harmonic_options(parser)
     add_execution_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
+    settings = harmonic_settings(args)
     if args.out is not None:
         out = checked_output(args.out, args.overwrite, folder=True)
         args.interrupt_note = f"nothing was written to {out}"
@@ -64,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
             effects=None if not args.effects else tuple(n.strip() for n in args.effects.split(",") if n.strip()),
             criterion=args.criterion, max_effects=args.max_effects, noise_fraction=args.noise_fraction,
             sweep=args.sweep, frequency_uncertainty=args.frequency_uncertainty,
-            damping_uncertainty=args.damping_uncertainty,
+            damping_uncertainty=args.damping_uncertainty, harmonic_balance=settings,
         )
         if args.archive is not None:
             from nlupdate.flows.run import run_discovery_flow

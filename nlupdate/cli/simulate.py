@@ -3,19 +3,33 @@
 Writes the measured-FRF table (receptance, m/N; all response coordinates, one forced
 coordinate) of MODEL at each force level, as a stepped-sine test would measure it, with
 optional noise: H + σ(n₁ + i n₂)/√2, σ = NOISE·|H|. The file appears only when complete.
+
+With --method hb (multi-harmonic balance; the table holds the first harmonic) it says per
+force level the harmonics used, the largest share of the highest harmonics in the response,
+the bifurcations found (kind, Hz) and the jumps of the sweep; a truncation or aliasing
+warning names its force level.
 """
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+import warnings
 
 from nlupdate.cli import add_command, non_negative_float, non_negative_int
+from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress import terminal_progress
 from nlupdate.measurement.frf_table import table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
-from nlupdate.response.simulate import METHODS, parse_force_levels, parse_frequency_grid, simulate_frf_table
+from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
+from nlupdate.response.simulate import (
+    METHODS,
+    SimulationReport,
+    parse_force_levels,
+    parse_frequency_grid,
+    simulate_frf_table,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -28,14 +42,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--noise", type=non_negative_float, default=0.0,
                         help="noise std as a fraction of |H| (e.g. 0.05; default 0)")
     parser.add_argument("--seed", type=non_negative_int, default=None, help="noise seed ≥ 0 (reproducible)")
-    parser.add_argument("--method", choices=METHODS, default="continuation", help="solver (default continuation)")
+    parser.add_argument("--method", choices=METHODS, default="continuation",
+                        help="solver (default continuation: describing function; hb: harmonic balance)")
     parser.add_argument("--sweep", choices=("up", "down"), default="up", help="stepped-sine direction (default up)")
     parser.add_argument("--out", required=True, help="output table (.parquet, .csv or .uff)")
     add_overwrite_option(parser)
+    add_harmonic_options(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    settings = harmonic_settings(args)
     out = checked_output(args.out, args.overwrite, folder=False)
     table_suffix(out)
     system = load_system(args.model)
@@ -43,15 +60,67 @@ def run(args: argparse.Namespace) -> int:
     frequencies, forces = parse_frequency_grid(args.freqs), parse_force_levels(args.forces)
     args.interrupt_note = f"nothing was written to {out}"
     started = time.perf_counter()
-    with terminal_progress() as progress:
+    level_starts: dict[int, int] = {}  # force level index → warnings recorded before it started
+    with terminal_progress() as progress, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", HarmonicTruncationWarning)
+
+        def tracking(task: str, done: int, total: int) -> None:
+            if task.startswith("force levels"):
+                level_starts.setdefault(done, len(caught))
+            progress(task, done, total)
+
         table, report = simulate_frf_table(system, input_dof, frequencies, forces, method=args.method,
-                                           sweep=args.sweep, noise=args.noise, seed=args.seed, progress=progress)
+                                           sweep=args.sweep, noise=args.noise, seed=args.seed,
+                                           harmonic_balance=settings or HarmonicSettings(), progress=tracking)
+    _show_warnings(caught, level_starts, [float(f) for f in forces])
     path = write_frf_table(table, out)
     for level, dropped in report.dropped_points.items():
         if dropped:
             print(f"warning: {dropped} points at {level:g} N did not converge and were left out", file=sys.stderr)
-    jumps = {level: j for level, j in report.jumps_hz.items() if j}
-    if jumps:
-        print("jumps (Hz): " + "; ".join(f"{lvl:g} N: {', '.join(f'{f:.2f}' for f in j)}" for lvl, j in jumps.items()))
+    if settings is not None:
+        for line in harmonic_balance_lines(report):
+            print(line)
+    else:
+        jumps = {level: j for level, j in report.jumps_hz.items() if j}
+        if jumps:
+            print("jumps (Hz): " + "; ".join(f"{lvl:g} N: {_hz(j)}" for lvl, j in jumps.items()))
     print(f"wrote {len(table)} rows to {path} in {time.perf_counter() - started:.2f} s")
     return 0
+
+
+def _hz(frequencies) -> str:
+    return ", ".join(f"{f:.2f}" for f in frequencies)
+
+
+def _show_warnings(caught, level_starts: dict[int, int], levels: list[float]) -> None:
+    """Re-issue the recorded warnings, one line each; a harmonic balance warning names the
+    force level it came from (the one whose simulation was running when it was raised)."""
+    for i, warning in enumerate(caught):
+        message = str(warning.message)
+        if issubclass(warning.category, HarmonicTruncationWarning):
+            started = [k for k, first in level_starts.items() if first <= i and k < len(levels)]
+            if started:
+                message = f"{levels[max(started)]:g} N: {message}"
+        warnings.showwarning(message, warning.category, warning.filename, warning.lineno)
+
+
+def harmonic_balance_lines(report: SimulationReport) -> list[str]:
+    """One line per force level: harmonics, share of the highest ones, bifurcations, jumps."""
+    lines = []
+    for level, harmonics in report.harmonics.items():
+        share = report.harmonic_share.get(level, 0.0)
+        highest = ("one harmonic" if harmonics == 1
+                   else f"highest harmonics ≤ {100 * share:.2g} % of the response")
+        found = report.bifurcations.get(level, ())
+        kinds = {}
+        for kind, hz in found:
+            kinds.setdefault(kind, []).append(hz)
+        bifurcations = "; ".join(
+            f"{kind} at {_hz(sorted(hz))} Hz" if len(hz) <= 6
+            else f"{len(hz)} × {kind} between {min(hz):.2f} and {max(hz):.2f} Hz"
+            for kind, hz in kinds.items()
+        ) or "none"
+        jumps = report.jumps_hz.get(level, ())
+        lines.append(f"{level:g} N: H = {harmonics} ({highest}); bifurcations: {bifurcations}; "
+                     f"jumps: {_hz(jumps) + ' Hz' if jumps else 'none'}")
+    return lines

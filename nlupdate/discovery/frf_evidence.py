@@ -21,6 +21,7 @@ from nlupdate.discovery.localisation import band_shares
 from nlupdate.discovery.simulation import simulate_points
 from nlupdate.model.linear import LumpedModel, ModalModel
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.harmonic_balance import HarmonicSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,12 +47,14 @@ def natural_omega(system: NonlinearSystem) -> NDArray[np.float64]:
 
 @dataclass(frozen=True, eq=False)
 class FRFEvidence:
-    """Measured FRFs with the noise level and settings used to judge candidates."""
+    """Measured FRFs with the noise level and settings used to judge candidates;
+    ``harmonic_balance``: how the model is simulated (None: describing function)."""
 
     data: FRFData
     noise_fraction: float
     sweep: str
     penalty: float
+    harmonic_balance: HarmonicSettings | None = None
 
     kind = "frf"
 
@@ -65,7 +68,8 @@ class FRFEvidence:
 
     def predict(self, system: NonlinearSystem) -> Prediction:
         dofs = tuple(dict.fromkeys(self.data.response_dofs + system.nonlinear_dofs))
-        x = simulate_points(system, self.data.input_dof, self.data.force, self.data.omega, dofs, self.sweep)
+        x = simulate_points(system, self.data.input_dof, self.data.force, self.data.omega, dofs, self.sweep,
+                            self.harmonic_balance)
         return Prediction(dofs, x)
 
     def h_model(self, prediction: Prediction) -> NDArray[np.complex128]:

@@ -15,7 +15,9 @@ element to ground, two for an element between coordinates):
   peak ratio and their trends per decade of force;
 * ``steps`` — per iteration: the places with how much of the misfit each explains and the
   apparent DF per level, the share of the misfit per mode, what was added and the gap;
-* ``stop_reason``, ``criterion``, ``noise_fraction``, ``measurement`` ("frf" or "modal").
+* ``stop_reason``, ``criterion``, ``noise_fraction``, ``measurement`` ("frf" or "modal"),
+  ``response_method`` (how the model was simulated against FRFs: "describing-function
+  continuation" or "harmonic balance (H = …, …)"; None for a modal table).
 
 ``augmented_model.toml`` is the user's model with the effects added
 (:func:`nlupdate.model.model_file.write_system`): every command reads it. Plots:

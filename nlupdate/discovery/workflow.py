@@ -39,6 +39,8 @@ from nlupdate.discovery.modal_evidence import ModalEvidence
 from nlupdate.discovery.modal_data import ModalData
 from nlupdate.measurement.modal_table import MODAL_COLUMNS
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.harmonic_balance import HarmonicSettings
+from nlupdate.response_method import HARMONICS_FORM, describe, samples_form, valid_harmonics, valid_samples
 
 MapCandidates = Callable[[Callable[[Any], CandidateFit], Sequence[Any]], Any]
 _TRIALS = 3  # significant candidates tried in turn when the best cannot be simulated or does not help
@@ -56,7 +58,10 @@ class DiscoveryOptions:
     noise_fraction: relative noise std of the FRFs (None: estimated from the data),
     never below min_noise_fraction. sweep: stepped-sine direction of the test.
     frequency_uncertainty, damping_uncertainty: relative std of modal-table frequencies
-    and damping ratios.
+    and damping ratios. harmonic_balance: None to simulate the model by the describing
+    function (default), or the settings of a multi-harmonic balance (measured FRFs only;
+    the candidates' fits stay describing-function fits, the simulated gap and the check of
+    every added effect use the balance).
     """
 
     effects: tuple[str | Effect, ...] | None = None
@@ -70,6 +75,7 @@ class DiscoveryOptions:
     sweep: str = "up"
     frequency_uncertainty: float = 0.002
     damping_uncertainty: float = 0.05
+    harmonic_balance: HarmonicSettings | None = None
 
     def __post_init__(self) -> None:
         if self.criterion not in CRITERIA:
@@ -84,6 +90,16 @@ class DiscoveryOptions:
                 raise DiscoveryError(f"options.{name}: expected a positive fraction, got {getattr(self, name)!r}")
         if self.noise_fraction is not None and not self.noise_fraction > 0:
             raise DiscoveryError(f"options.noise_fraction: expected a positive fraction (e.g. 0.01), got {self.noise_fraction!r}")
+        settings = self.harmonic_balance
+        if settings is not None:
+            if not isinstance(settings, HarmonicSettings):
+                raise DiscoveryError(f"options.harmonic_balance: expected None or HarmonicSettings, got {settings!r}")
+            if not valid_harmonics(settings.harmonics):
+                raise DiscoveryError(f"options.harmonic_balance.harmonics: expected {HARMONICS_FORM}, "
+                                     f"got {settings.harmonics!r}")
+            if not valid_samples(settings.samples, settings.harmonics):
+                raise DiscoveryError(f"options.harmonic_balance.samples: expected {samples_form(settings.harmonics)}, "
+                                     f"got {settings.samples!r}")
         library(self.effects)
 
 
@@ -154,6 +170,7 @@ class DiscoveryResult:
             "noise_fraction": self.noise_fraction if self.kind == "frf" else None,
             "measurement": self.kind,
             "criterion": self.options.criterion,
+            "response_method": describe(self.options.harmonic_balance) if self.kind == "frf" else None,
             "stop_reason": self.stop_reason,
             "levels_before": self.gap_before.to_dict(),
             "levels_after": self.gap_after.to_dict(),
@@ -184,6 +201,9 @@ def measurement_evidence(system: NonlinearSystem, measured: pd.DataFrame, option
     if not isinstance(measured, pd.DataFrame):
         raise MeasuredDataError(f"{source}: expected a measured-FRF or modal table (pandas DataFrame), got {type(measured).__name__}")
     if set(MODAL_COLUMNS) <= set(measured.columns):
+        if options.harmonic_balance is not None:
+            raise DiscoveryError(f"{source}: harmonic balance applies to measured FRFs; a modal table is compared "
+                                 "with the single-mode phase-resonance solution (use the default method)")
         data = ModalData.from_table(measured, system.model, source)
         return ModalEvidence(
             data, options.frequency_uncertainty, options.damping_uncertainty, penalty(options.criterion, 2 * data.n_points)
@@ -191,7 +211,7 @@ def measurement_evidence(system: NonlinearSystem, measured: pd.DataFrame, option
     data = FRFData.from_table(measured, system.model, source)
     noise = options.noise_fraction if options.noise_fraction is not None else data.noise_fraction()
     noise = max(noise, options.min_noise_fraction)
-    return FRFEvidence(data, noise, options.sweep, penalty(options.criterion, 2 * data.h.size))
+    return FRFEvidence(data, noise, options.sweep, penalty(options.criterion, 2 * data.h.size), options.harmonic_balance)
 
 
 def discover(

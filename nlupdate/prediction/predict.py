@@ -14,9 +14,15 @@ resonance, while the extracted linear FRF is noisiest at its own resonance (see
 :mod:`nlupdate.identification.modal_fit`), so the low-force fit is the better-conditioned
 estimate. The fit minimises the relative FRF error ``Σ |H_model − H̃|²/|H̃|²`` over η by a
 bounded scalar search.
+
+Solver. By default every response is the describing-function continuation read as a
+stepped-sine test; with ``harmonic_balance`` (a
+:class:`~nlupdate.response.harmonic_balance.HarmonicSettings`) it is the first harmonic of
+the multi-harmonic balance instead (a model without elements is linear: the continuation).
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import Sequence
 
 import numpy as np
@@ -27,6 +33,7 @@ from numpy.typing import ArrayLike
 from nlupdate.adapters.base import ModalResult
 from nlupdate.measurement.frf_table import select_frf
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response.simulate import simulate_frf_table
 
 LOSS_FACTOR_BOUNDS = (1e-4, 0.2)
@@ -39,11 +46,17 @@ def updated_model(modes: ModalResult, elements: Sequence, loss_factor: float) ->
 
 
 def predict(
-    system: NonlinearSystem, input_dof: str, frequency_hz: ArrayLike, force_levels_n: Sequence[float], sweep: str = "up"
+    system: NonlinearSystem, input_dof: str, frequency_hz: ArrayLike, force_levels_n: Sequence[float], sweep: str = "up",
+    harmonic_balance: HarmonicSettings | None = None,
 ) -> pd.DataFrame:
     """Predicted measured-FRF table (every coordinate of the model) at each force level,
-    read as a stepped-sine test sweeping ``sweep``."""
-    table, _ = simulate_frf_table(system, input_dof, frequency_hz, force_levels_n, sweep=sweep)
+    read as a stepped-sine test sweeping ``sweep``; by harmonic balance with these settings
+    if ``harmonic_balance`` is given (see the module docstring)."""
+    if harmonic_balance is None or not system.elements:
+        table, _ = simulate_frf_table(system, input_dof, frequency_hz, force_levels_n, sweep=sweep)
+    else:
+        table, _ = simulate_frf_table(system, input_dof, frequency_hz, force_levels_n, sweep=sweep, method="hb",
+                                      harmonic_balance=harmonic_balance)
     return table
 
 
@@ -56,15 +69,24 @@ def fit_loss_factor(
     h_measured: ArrayLike,
     force_n: float,
     sweep: str = "up",
+    harmonic_balance: HarmonicSettings | None = None,
 ) -> float:
     """The modal loss factor η (all modes) that best reproduces one measured curve
-    (``frequency_hz`` Hz, ``h_measured`` m/N at ``force_n`` N); see the module docstring."""
+    (``frequency_hz`` Hz, ``h_measured`` m/N at ``force_n`` N) with the solver of
+    ``harmonic_balance`` (None: describing function); see the module docstring.
+
+    The trial models of the search do not warn about harmonic truncation (a fixed number of
+    harmonics is checked with the limit at 1); the prediction at the fitted η does."""
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h_measured, dtype=complex)
+    trials = harmonic_balance
+    if harmonic_balance is not None and harmonic_balance.harmonics != "auto":
+        trials = dataclasses.replace(harmonic_balance, share_limit=float(np.nextafter(1.0, 0.0)))
 
     def misfit(log_eta: float) -> float:
         system = updated_model(modes, elements, float(np.exp(log_eta)))
-        f_model, h_model = select_frf(predict(system, input_dof, f, [force_n], sweep), response_dof, input_dof, force_n)
+        predicted = predict(system, input_dof, f, [force_n], sweep, trials)
+        f_model, h_model = select_frf(predicted, response_dof, input_dof, force_n)
         measured = np.isin(f, f_model)
         if not measured.any():
             return np.inf

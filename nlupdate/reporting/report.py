@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+from nlupdate.response_method import describe
 from nlupdate.study.run import study_warnings
 from nlupdate.updating.trust import updating_warnings
 
@@ -245,7 +246,8 @@ def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
     lines = ["## Prediction at every force level", "",
              "The updated linear FE model (its modes at the measured coordinates) plus the identified elements, "
              "simulated at every measured force level and frequency, against the measurements; `initial` is the "
-             "model before updating with the same elements.", ""]
+             "model before updating with the same elements. Response method ([prediction] `method`): "
+             f"{describe(result.study.prediction.harmonic_balance)}.", ""]
     if "predictions" in plots:
         lines += [f"![predictions]({plots['predictions']})", ""]
     table = pd.concat([p.correlation.assign(model=p.name) for p in result.predictions], ignore_index=True)

@@ -52,7 +52,10 @@ runs as far as the file says. Relative paths are relative to the study file.
                             "best" | "all" | [names] (default "best"), loss_factor =
                             "low_force_fit" | "identified" | a number (default low_force_fit),
                             sweep, [prediction.adapter_options] overrides of [adapter.options]
-                            for the prediction model (e.g. more modes)
+                            for the prediction model (e.g. more modes), method = "continuation"
+                            (describing function, default) | "hb" (harmonic balance) with
+                            harmonics (integer ≥ 1 or "auto", default 3), samples (per period,
+                            > 2·harmonics) and stability (Floquet, default true)
 
 Every table rejects unknown keys, so a misspelt option is an error, not a silent default.
 """
@@ -70,6 +73,8 @@ import numpy as np
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.identification.pipeline import IdentificationSettings
+from nlupdate.response.harmonic_balance import HarmonicSettings
+from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS
@@ -108,7 +113,8 @@ _ALLOWED: dict[str, set[str]] = {
     "optimisation": {"method", "formula", "max_evaluations", "ftol", "xtol", "gtol", "candidates"},
     "optimisation.candidates": {"name", "parameters", "weights", "start"},
     "comparison": {"user_weights", "damping_ratios", "loss_factors", "band_fraction", "frf"},
-    "prediction": {"force_levels_n", "candidates", "loss_factor", "sweep", "adapter_options"},
+    "prediction": {"force_levels_n", "candidates", "loss_factor", "sweep", "adapter_options", "method", "harmonics",
+                   "samples", "stability"},
 }
 _MOVED = {
     ("updating", "max_workers"): "parallel runs are chosen when running: nlupdate run STUDY --workers N",
@@ -160,13 +166,16 @@ class CandidateEntry:
 
 @dataclass(frozen=True)
 class PredictionSpec:
-    """``[prediction]`` (see the module docstring)."""
+    """``[prediction]`` (see the module docstring). ``harmonic_balance``: None for the
+    describing-function continuation (``method = "continuation"``), else the harmonic
+    balance settings of ``method = "hb"``."""
 
     force_levels_n: tuple[float, ...] | None = None
     candidates: str | tuple[str, ...] = "best"
     loss_factor: str | float = "low_force_fit"
     sweep: str = "up"
     adapter_options: Mapping[str, Any] = field(default_factory=dict)
+    harmonic_balance: HarmonicSettings | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -623,4 +632,23 @@ def _read_prediction(read: Reader, data: Mapping[str, Any], identification: Iden
     return PredictionSpec(
         force_levels_n=None if levels is None else tuple(sorted(levels)), candidates=candidates, loss_factor=loss_factor,
         sweep=read.string(table, where, "sweep", "up", choices=("up", "down")), adapter_options=overrides,
+        harmonic_balance=_read_response_method(read, table, where),
     )
+
+
+def _read_response_method(read: Reader, table: Mapping[str, Any], where: str) -> HarmonicSettings | None:
+    """``method`` with, for ``"hb"``, ``harmonics``, ``samples`` and ``stability``: None for the
+    describing-function continuation, else the harmonic balance settings."""
+    method = read.string(table, where, "method", "continuation", choices=RESPONSE_METHODS)
+    if method != "hb":
+        for key in ("harmonics", "samples", "stability"):
+            if key in table:
+                raise read.fail(where, key, 'nothing unless method = "hb" (harmonic balance)', table[key])
+        return None
+    harmonics = table.get("harmonics", HarmonicSettings.harmonics)
+    if not valid_harmonics(harmonics):
+        raise read.fail(where, "harmonics", f"{HARMONICS_FORM} (harmonics of the balance)", harmonics)
+    samples = table.get("samples")
+    if not valid_samples(samples, harmonics):
+        raise read.fail(where, "samples", samples_form(harmonics), samples)
+    return HarmonicSettings(harmonics=harmonics, samples=samples, stability=read.boolean(table, where, "stability", True))

@@ -280,7 +280,8 @@ def predict_model(
     table: pd.DataFrame,
 ) -> Prediction:
     """Predict the measured curve at every prediction level with the FE ``modes`` (at
-    ``point``) and the identified elements, and correlate it with the measurement."""
+    ``point``) and the identified elements, by the response method of ``[prediction]``
+    (describing function or harmonic balance), and correlate it with the measurement."""
     response, inp = _measured_pair(study)
     model_response, model_input = model_pair(study)
     coordinates = list(modes.coordinates)
@@ -295,7 +296,7 @@ def predict_model(
         level = float(min(prediction_levels(study, table)))
         f_low, h_low = select_frf(table, response, inp, level)
         loss_factor = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level,
-                                      study.prediction.sweep)
+                                      study.prediction.sweep, study.prediction.harmonic_balance)
         source = f"fitted to the {level:g} N measurement"
     elif setting == "identified":
         loss_factor = float(np.mean(identification.loss_factors))
@@ -304,7 +305,7 @@ def predict_model(
         loss_factor, source = float(setting), "given"
     frequency = np.unique(table["frequency_hz"].to_numpy(dtype=float))
     predicted = predict(updated_model(modes, elements, loss_factor), model_input, frequency,
-                        prediction_levels(study, table), study.prediction.sweep)
+                        prediction_levels(study, table), study.prediction.sweep, study.prediction.harmonic_balance)
     predicted = predicted[(predicted["response_dof"] == model_response) & (predicted["input_dof"] == model_input)]
     predicted = predicted.assign(response_dof=response, input_dof=inp).reset_index(drop=True)
     return Prediction(name, dict(point), loss_factor, source, predicted, correlate_levels(table, predicted, response, inp))

@@ -1,0 +1,48 @@
+"""The response method a user chooses, checked the same way everywhere it is chosen.
+
+A model's nonlinear response is the describing-function continuation (``"continuation"``,
+the default everywhere) or the multi-harmonic balance (``"hb"``,
+:mod:`nlupdate.response.harmonic_balance`) with its
+:class:`~nlupdate.response.harmonic_balance.HarmonicSettings`. Study files
+(``[prediction]``), :class:`~nlupdate.discovery.DiscoveryOptions` and the ``simulate`` and
+``discover`` commands take the choice; they check it with these rules and word their
+errors with these expected forms.
+"""
+from __future__ import annotations
+
+from nlupdate.response.harmonic_balance import AUTO_HARMONICS, HarmonicSettings
+
+RESPONSE_METHODS = ("continuation", "hb")
+HARMONICS_FORM = 'an integer ≥ 1 or "auto"'
+
+
+def valid_harmonics(value: object) -> bool:
+    """An integer ≥ 1 (not a bool) or ``"auto"``."""
+    return value == "auto" or (isinstance(value, int) and not isinstance(value, bool) and value >= 1)
+
+
+def fewest_samples(harmonics: int | str) -> int:
+    """The fewest samples per period that carry ``harmonics`` harmonics: 2H + 1 (for
+    ``"auto"`` with the most it may try, :data:`~nlupdate.response.harmonic_balance.AUTO_HARMONICS`)."""
+    return 2 * (max(AUTO_HARMONICS) if harmonics == "auto" else int(harmonics)) + 1
+
+
+def valid_samples(value: object, harmonics: int | str) -> bool:
+    """An integer of at least :func:`fewest_samples` (``None``: the default, always valid)."""
+    return value is None or (isinstance(value, int) and not isinstance(value, bool) and value >= fewest_samples(harmonics))
+
+
+def samples_form(harmonics: int | str) -> str:
+    """The expected form of ``samples`` for ``harmonics``, as an error states it."""
+    carried = f'the up to {max(AUTO_HARMONICS)} harmonics of "auto"' if harmonics == "auto" else f"{harmonics} harmonics"
+    fewest = fewest_samples(harmonics)
+    return f"an integer ≥ {fewest} (samples per period; {carried} need more than {fewest - 1})"
+
+
+def describe(settings: HarmonicSettings | None) -> str:
+    """The method in words, e.g. ``harmonic balance (H = 5, 64 samples per period, Floquet stability)``."""
+    if settings is None:
+        return "describing-function continuation"
+    samples = "default samples" if settings.samples is None else f"{settings.samples} samples"
+    stability = "Floquet stability" if settings.stability else "no Floquet stability"
+    return f"harmonic balance (H = {settings.harmonics}, {samples} per period, {stability})"
