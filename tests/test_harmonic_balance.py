@@ -267,3 +267,15 @@ def test_stepped_sine_on_the_multi_harmonic_curve_jumps_past_its_own_fold():
         upper_fold = curve.omega[curve.turning_point].max()
         expected = grid[grid > upper_fold][0] / (2 * np.pi)
         assert stepped_sine(curve, grid, "up").jumps_hz == pytest.approx((expected,), rel=1e-12)
+
+
+def test_hill_with_friction_is_unstable_exactly_between_the_folds():
+    """Jenkins forces depend on the last slip: the Hill matrix must use the balance's own
+    Jacobian, or spurious branch points appear (a local stick/slip tangent gave 16 at 60 N)."""
+    curve = _quiet_trace(TWO_DOF, {0: 60.0}, 2 * np.pi * 600, 2 * np.pi * 900, harmonics=3)
+    folds = np.flatnonzero(curve.turning_point)
+    assert folds.size == 2 and not curve.bifurcations
+    inside = np.zeros(curve.omega.size, bool)
+    inside[folds[0] : folds[1] + 1] = True
+    assert np.array_equal(~curve.stable, inside)
+    assert np.allclose(np.abs(curve.floquet_multipliers[folds]).max(axis=1), 1.0, atol=1e-5)

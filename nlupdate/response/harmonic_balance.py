@@ -241,7 +241,9 @@ def _stability(problem: HarmonicBalanceProblem, omega, states, turning):
     hill = HillModel.of(problem.model, problem.a)
     multipliers, stable = [], []
     for w, state in zip(omega, states):
-        result = floquet(hill, problem.element_index, problem.coefficients(state), w, problem.fourier)
+        coefficients = problem.coefficients(state)
+        _, force_jacobian, _ = problem.forces(coefficients, w, jacobian=True)
+        result = floquet(hill, problem.element_index, coefficients, w, problem.fourier, force_jacobian)
         multipliers.append(result.multipliers)
         stable.append(np.max(np.abs(result.multipliers)) < 1.0 + 1e-7)
     multipliers, stable = np.array(multipliers), np.array(stable)

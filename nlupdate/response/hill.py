@@ -9,7 +9,7 @@ element tangents ``K_t = ∂f/∂x``, ``C_t = ∂f/∂ẋ`` along the orbit
 Jacobian, and a fold of the traced curve is exactly a multiplier +1) gives the
 quadratic eigenvalue problem ``(L₀ + λL₁ + λ²L₂) p = 0`` with blocks
 
-    L₀[k, j] = δ_kj (K + ikω C_eq − k²ω² M) + K̂_{k−j} + ijω Ĉ_{k−j},
+    L₀[k, j] = δ_kj (K + ikω C_eq − k²ω² M) + K̂_{k−j} + ijω Ĉ_{k−j},   (see :func:`floquet`)
     L₁[k, j] = δ_kj (C_eq + 2ikω M) + Ĉ_{k−j},        L₂[k, j] = δ_kj M,
 
 where ``K̂_m, Ĉ_m`` are the Fourier coefficients of the tangents. Of its 2·n_q(2H+1)
@@ -91,28 +91,36 @@ def floquet(
     x_coefficients: NDArray,
     omega: float,
     fourier: Fourier,
+    force_jacobian: NDArray,
 ) -> Floquet:
     """Floquet exponents of the orbit with coefficients ``x_coefficients`` (2H+1, n_a) (m)
     at the nonlinear coordinates, fundamental ω (rad/s). ``element_index`` lists
-    ``(element, r, j)`` with positions in the nonlinear coordinates (j = −1: ground)."""
+    ``(element, r, j)`` with positions in the nonlinear coordinates (j = −1: ground);
+    ``force_jacobian`` is ∂G/∂X of the harmonic balance (coefficient-major, as
+    :meth:`~nlupdate.response.harmonic_balance.HarmonicBalanceProblem.forces` returns it).
+
+    The element part of ``L₀`` is that Jacobian in the exponential basis — for pointwise
+    laws the same as ``K̂_{k−j} + ijωĈ_{k−j}``, and for the Jenkins element (whose force
+    depends on the last slip, not on the instantaneous motion) the only form in which a
+    fold of the curve is a multiplier +1. ``L₁`` takes the tangent damping ``Ĉ``.
+    """
     harmonics = fourier.harmonics
     n_a = hill.phi_a.shape[0]
     n_q = hill.mass.shape[0]
-    n_m = 4 * harmonics + 1
-    k_hat = np.zeros((n_m, n_a, n_a), complex)
-    c_hat = np.zeros((n_m, n_a, n_a), complex)
+    n_h = 2 * harmonics + 1
+    c_hat = np.zeros((4 * harmonics + 1, n_a, n_a), complex)
     for element, r, j in element_index:
         u = x_coefficients[:, r] - (x_coefficients[:, j] if j >= 0 else 0.0)
-        t = tangents(element, u, omega, fourier)
         s = np.zeros(n_a)
         s[r] = 1.0
         if j >= 0:
             s[j] = -1.0
-        outer = np.outer(s, s)
-        k_hat += t.stiffness[:, None, None] * outer
-        c_hat += t.damping[:, None, None] * outer
+        c_hat += tangents(element, u, omega, fourier).damping[:, None, None] * np.outer(s, s)
+    to_exp, from_exp = _exponential_maps(harmonics)
+    jac = np.asarray(force_jacobian).reshape(n_h, n_a, n_h, n_a)
+    k_exp = np.einsum("mc,cadb,dn->manb", to_exp, jac, from_exp)
     phi = hill.phi_a
-    k_q = np.einsum("ai,mab,bj->mij", phi, k_hat, phi)
+    k_q = np.einsum("ai,manb,bj->minj", phi, k_exp, phi)
     c_q = np.einsum("ai,mab,bj->mij", phi, c_hat, phi)
     c_eq = hill.damping + hill.structural / omega
     size = n_q * (2 * harmonics + 1)
@@ -123,9 +131,8 @@ def floquet(
         rk = slice(row * n_q, (row + 1) * n_q)
         for col, j in enumerate(orders):
             cj = slice(col * n_q, (col + 1) * n_q)
-            m = k - j + 2 * harmonics
-            l0[rk, cj] = k_q[m] + 1j * j * omega * c_q[m]
-            l1[rk, cj] = c_q[m]
+            l0[rk, cj] = k_q[row, :, col, :]
+            l1[rk, cj] = c_q[k - j + 2 * harmonics]
         l0[rk, rk] += hill.stiffness + 1j * k * omega * c_eq - (k * omega) ** 2 * hill.mass
         l1[rk, rk] += c_eq + 2j * k * omega * hill.mass
     mass_inv = np.linalg.inv(hill.mass)
@@ -141,6 +148,22 @@ def floquet(
     chosen = np.argsort(np.abs(centroid), kind="stable")[: 2 * n_q]
     exponents = values[chosen]
     return Floquet(exponents, np.exp(exponents * 2 * np.pi / omega))
+
+
+def _exponential_maps(harmonics: int) -> tuple[NDArray, NDArray]:
+    """Maps between real coefficients [U₀, Re U₁, Im U₁, …] and exponential ones p_m,
+    m = −H … H, with ``u = Σ p_m e^{imθ}``: ``p_{±k} = (Re U_k ± i Im U_k)/2``."""
+    size = 2 * harmonics + 1
+    to_exp = np.zeros((size, size), complex)
+    from_exp = np.zeros((size, size), complex)
+    to_exp[harmonics, 0] = from_exp[0, harmonics] = 1.0
+    for k in range(1, harmonics + 1):
+        plus, minus = harmonics + k, harmonics - k
+        to_exp[plus, 2 * k - 1], to_exp[plus, 2 * k] = 0.5, 0.5j
+        to_exp[minus, 2 * k - 1], to_exp[minus, 2 * k] = 0.5, -0.5j
+        from_exp[2 * k - 1, plus], from_exp[2 * k - 1, minus] = 1.0, 1.0
+        from_exp[2 * k, plus], from_exp[2 * k, minus] = -1j, 1j
+    return to_exp, from_exp
 
 
 def classify(multiplier: complex, tolerance: float = 0.15) -> str:
