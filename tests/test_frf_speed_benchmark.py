@@ -3,7 +3,10 @@
 The benchmark compares this project with pyHarm-os on equal point counts; these tests check
 that the configured step controls still give those counts (pyHarm only when installed, as the
 optional ``benchmark`` extra), that the fixed-grid sweeps solve every grid point, and that the
-exact single-harmonic reference agrees with the solver.
+exact single-harmonic reference agrees with the solver. For the multi-harmonic part: the
+constant-step point counts, the harmonic error measures, that the time-integration reference
+starts from the whole harmonic-balance state (not the first harmonic alone), and that pyHarm's
+harmonics are read in the project's convention.
 """
 from __future__ import annotations
 
@@ -75,3 +78,68 @@ def test_pyharm_set_ups_give_equal_point_counts(bench, grids):
         assert result["accepted"] == result["solutions"] == sweep.size
         np.testing.assert_allclose(result["omega"], sweep, atol=1e-12)
         assert bench.exact_accuracy(result["omega"], result["x"])[1] < 1e-8
+
+
+# ---- Part 1c: multi-harmonic balance against pyHarm-os and time integration ----------------
+@pytest.fixture(scope="module")
+def hb_curves(bench):
+    return {h: bench.hb_trace(bench.duffing(), h, stability=False) for h in bench.HB_HARMONICS}
+
+
+def test_hb_constant_step_point_counts(bench, hb_curves):
+    # the step is chosen for 79–81 points at every H, as pyHarm's constant step gives 80–81
+    for h, curve in hb_curves.items():
+        assert 79 <= curve.omega.size <= 81, (h, curve.omega.size)
+        assert curve.x_nonlinear.shape == (curve.omega.size, h + 1, 1)
+
+
+def test_harmonic_errors(bench):
+    reference = np.zeros((2, bench.HB_REFERENCE_HARMONICS + 1), complex)
+    reference[:, 1], reference[:, 3], reference[:, 5] = 2.0, 0.1j, 1e-5
+    exact = reference[:, :6].copy()
+    first, higher, resolved = bench.harmonic_errors(exact, reference)
+    np.testing.assert_allclose([first, higher], 0.0, atol=1e-15)
+    assert resolved.all()
+    perturbed = exact.copy()
+    perturbed[:, 1] *= 1.001
+    perturbed[:, 3] *= 1.02
+    first, higher, _ = bench.harmonic_errors(perturbed, reference)
+    np.testing.assert_allclose(first, 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(higher, 0.02 * 0.1 / np.hypot(0.1, 1e-5), rtol=1e-9)
+    # one harmonic: everything above it is missing (100 %); small higher harmonics are not resolved
+    first, higher, _ = bench.harmonic_errors(exact[:, :2], reference)
+    np.testing.assert_allclose(higher, 1.0)
+    reference[:, 3] = 1e-4
+    assert not bench.harmonic_errors(exact, reference)[2].any()
+
+
+def test_time_reference_starts_from_the_full_state(bench, hb_curves):
+    # Upper-branch points of H = 3 near the fold at 3.039 rad/s: started from the whole
+    # harmonic-balance state the integration stays on the branch (and agrees to the H = 3
+    # truncation error); started from the first harmonic alone it falls to the lower branch.
+    curve = hb_curves[3]
+    upper = curve.stable & (np.abs(curve.x_nonlinear[:, 1, 0]) > 2.5)
+    pick = [int(np.flatnonzero(upper)[np.argmin(np.abs(curve.omega[upper] - w))]) for w in (2.98, 3.02)]
+    omega, states = curve.omega[pick], curve.x_nonlinear[pick, :, 0]
+    reference, converged = bench.time_reference(bench.duffing(), omega, states, quick=True)
+    assert converged.all()
+    first, higher, resolved = bench.harmonic_errors(states, reference)
+    assert first.max() < 1e-3 and resolved.all() and higher.max() < 0.1
+    first_only = np.zeros((omega.size, 2), complex)  # the start steady_state_response takes by default
+    first_only[:, 1] = states[:, 1]
+    fallen, _ = bench.time_reference(bench.duffing(), omega, first_only, quick=True)
+    assert np.all(np.abs(fallen[:, 1]) < 0.1 * np.abs(states[:, 1]))
+
+
+def test_pyharm_multi_harmonic_points(bench, hb_curves):
+    pytest.importorskip("pyHarm")
+    for h in (3, 7):
+        _, result = bench.pyharm_run(bench.pyharm_constant_step(bench.PYHARM_HB_STEP), h, bench.HB_SAMPLES)
+        assert abs(result["accepted"] - 80) <= 1
+        assert result["harmonics"].shape == (result["accepted"], h + 1)
+        np.testing.assert_array_equal(result["x"], result["harmonics"][:, 1])
+        # pyHarm's points solve this project's H-harmonic balance (checks X_k = c_k − i s_k)
+        problem = hb_curves[h].problem
+        for w, state in zip(result["omega"][::8], result["harmonics"][::8]):
+            residual = problem.residual(problem.to_real(state[:, None]), w)
+            assert np.max(np.abs(residual)) * problem.x_scale < 1e-8 * abs(state[1])
