@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -189,48 +190,32 @@ def test_discovery_simulates_by_harmonic_balance_when_told(duffing, time_referen
 
 
 # --------------------------------------------------------------------------- studies
-STUDY = f"""
-[study]
-name = "two-dof-hb"
+SIMULATED = Path(__file__).resolve().parent / "data" / "studies" / "two_dof.toml"
 
-[measured.simulate]
-model = "{EXAMPLES / 'two_dof.toml'}"
-input_dof = "0"
-forces_n = [0.01, 60]
-frequencies_hz = [690.0, 770.0, 41]
-noise = 0.01
-seed = 3
 
-[identification]
-response_dof = "0"
-input_dof = "0"
-elements = ["cubic", "jenkins"]
-samples = 4
-seed = 1
+def small_study() -> str:
+    """The flow tests' 2-DOF study, made small (two force levels, 41 frequencies, 4
+    Monte-Carlo samples, k1 alone, forward differences, no optimisation); it ends in its
+    ``[prediction]`` table, so keys can be appended."""
+    text = SIMULATED.read_text()
+    replacements = [
+        ('"../../../examples/two_dof.toml"', f'"{EXAMPLES / "two_dof.toml"}"'),
+        ("forces_n = [0.01, 20, 40, 60, 80, 100]", "forces_n = [0.01, 60]"),
+        ("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 41]"),
+        ("samples = 8", "samples = 4"),
+        ('formulas = ["forward", "backward", "central2", "central4"]', 'formulas = ["forward"]'),
+    ]
+    for old, new in replacements:
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    for section in (r"\[\[parameters\]\]\nname = \"k2\".*?\n\n", r"parameter_sets = .*?\n", r"\[optimisation\].*?(?=\[prediction\])"):
+        text, count = re.subn(section, "", text, count=1, flags=re.S)
+        assert count == 1, section
+    assert text.endswith('[prediction]\ncandidates = "best"\n')
+    return text
 
-[adapter]
-kind = "lumped"
-options = {{ masses = [0.1, 0.5], stiffnesses = [0.8e6, 1.2e6, 1.0e6] }}
 
-[[parameters]]
-name = "k1"
-unit = "N/m"
-start = 0.8e6
-lower = 0.5e6
-upper = 1.5e6
-
-[targets]
-from_identification = true
-modes = [1]
-model_response_dof = "x1"
-model_input_dof = "x1"
-model_modes = [2]
-
-[eigensensitivity]
-formulas = ["forward"]
-
-[prediction]
-"""
+STUDY = small_study()
 HB = 'method = "hb"\nharmonics = 3\n'
 
 
