@@ -80,13 +80,6 @@ class Fourier:
         spectrum[1 : self.harmonics + 1] = (c[1::2] + 1j * c[2::2]) * (self.samples / 2)
         return np.fft.irfft(spectrum, n=self.samples, axis=0)
 
-    def derivative_to_time(self, c: NDArray) -> NDArray:
-        """Samples of ``du/dθ``."""
-        k = np.arange(1, self.harmonics + 1).reshape((-1,) + (1,) * (c.ndim - 1))
-        d = np.zeros_like(c)
-        d[1::2], d[2::2] = -k * c[2::2], k * c[1::2]  # i·k·U_k
-        return self.to_time(d)
-
     def motion(self, c: NDArray) -> tuple[NDArray, NDArray]:
         """Samples of ``u`` and ``du/dθ`` for coefficients ``c`` (2H+1,), by one inverse transform."""
         k = np.arange(1, self.harmonics + 1)
@@ -104,12 +97,11 @@ class Fourier:
         out[1::2], out[2::2] = spectrum[1:].real, spectrum[1:].imag
         return out
 
-    def exponential(self, samples: NDArray, orders: int | None = None) -> NDArray:
-        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −orders … orders
-        (default 2H)."""
+    def exponential(self, samples: NDArray) -> NDArray:
+        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −2H … 2H."""
         spectrum = np.fft.fft(samples) / self.samples
-        orders = 2 * self.harmonics if orders is None else orders
-        return spectrum[np.arange(-orders, orders + 1) % self.samples]
+        m = np.arange(-2 * self.harmonics, 2 * self.harmonics + 1)
+        return spectrum[m % self.samples]
 
 
 @dataclass(frozen=True)
@@ -120,15 +112,6 @@ class PeriodForces:
     g: NDArray
     dg_dc: NDArray
     dg_domega: NDArray
-
-
-@dataclass(frozen=True)
-class Tangents:
-    """Fourier coefficients (m = −orders … orders) of an element's tangent stiffness ∂f/∂u
-    (N/m) and tangent damping ∂f/∂u̇ (N·s/m) along the periodic motion, for Hill's method."""
-
-    stiffness: NDArray[np.complex128]
-    damping: NDArray[np.complex128]
 
 
 # -- pointwise laws: (u, u', ω) → (f, ∂f/∂u, ∂f/∂u', ∂f/∂ω) ----------------------------------
@@ -222,57 +205,50 @@ def _jenkins_forces(element: JenkinsFriction, c, omega, fourier: Fourier) -> Per
     return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
 
 
-def _jenkins_tangents(element: JenkinsFriction, c, omega, fourier: Fourier, orders: int) -> Tangents:
-    _, anchor = _jenkins_cycle(element, fourier.to_time(c))
-    stiffness = np.where(anchor == -1, 0.0, element.kf)
-    return Tangents(fourier.exponential(stiffness, orders), np.zeros(2 * orders + 1, complex))
-
-
 # -- Coulomb: exact integration between velocity zero crossings -------------------------------
-def _velocity_crossings(c: NDArray, fourier: Fourier) -> tuple[NDArray, NDArray, NDArray]:
-    """Zero crossings θ_c of u' = du/dθ, the sign of u' after each, and u''(θ_c)."""
+def _crossing_basis(theta: NDArray, fourier: Fourier) -> tuple[NDArray, NDArray]:
+    """Rows ``∂u'(θ)/∂c`` and ``∂u''(θ)/∂c`` at the angles θ."""
     k = np.arange(1, fourier.harmonics + 1)
+    kt = np.outer(theta, k)
+    d1 = np.zeros((theta.size, fourier.size))
+    d2 = np.zeros_like(d1)
+    d1[:, 1::2], d1[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
+    d2[:, 1::2], d2[:, 2::2] = -(k**2) * np.cos(kt), k**2 * np.sin(kt)
+    return d1, d2
 
-    def basis(theta):
-        kt = np.outer(theta, k)
-        d1 = np.zeros((theta.size, fourier.size))
-        d2 = np.zeros_like(d1)
-        d1[:, 1::2], d1[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
-        d2[:, 1::2], d2[:, 2::2] = -(k**2) * np.cos(kt), k**2 * np.sin(kt)
-        return d1, d2
 
+def _velocity_crossings(c: NDArray, fourier: Fourier) -> tuple[NDArray, NDArray, NDArray]:
+    """Zero crossings θ_c of u' = du/dθ (sorted), ``∂u'(θ_c)/∂c`` and u''(θ_c)."""
+    none = (np.empty(0), np.empty((0, fourier.size)), np.empty(0))
     up = fourier.dE @ c
-    scale = np.max(np.abs(up))
-    if scale == 0.0:
-        return np.empty(0), np.empty(0), np.empty(0)
+    if np.max(np.abs(up)) == 0.0:
+        return none
     nxt = np.roll(up, -1)
     change = np.flatnonzero((up > 0) != (nxt > 0))
     if change.size == 0:
-        return np.empty(0), np.empty(0), np.empty(0)
+        return none
     h = 2 * np.pi / fourier.samples
     low = fourier.theta[change]
     theta = low + h * up[change] / (up[change] - nxt[change])
     for _ in range(8):  # Newton on the trigonometric polynomial, kept inside its bracket
-        d1, d2 = basis(theta)
+        d1, d2 = _crossing_basis(theta, fourier)
         value, slope = d1 @ c, d2 @ c
         step = np.where(slope != 0, value / np.where(slope != 0, slope, 1.0), 0.0)
         theta = np.clip(theta - step, low, low + h)
         if np.max(np.abs(step)) < 1e-14:
             break
-    _, d2 = basis(theta)
-    slope = d2 @ c
-    return theta, np.sign(slope), slope
+    d1, d2 = _crossing_basis(theta, fourier)
+    return theta, d1, d2 @ c
 
 
 def _coulomb_forces(element: CoulombFriction, c, omega, fourier: Fourier) -> PeriodForces:
     fs = element.slip_force
     size = fourier.size
-    theta, sign_after, slope = _velocity_crossings(c, fourier)
+    theta, d1, slope = _velocity_crossings(c, fourier)
     g, dg = np.zeros(size), np.zeros((size, size))
     if theta.size == 0:
         return PeriodForces(g, dg, np.zeros(size))
-    order = np.argsort(theta)
-    theta, sign_after, slope = theta[order], sign_after[order], slope[order]
+    sign_after = np.sign(slope)
     jump = 2 * sign_after  # s_after − s_before
     length = (np.roll(theta, -1) - theta) % (2 * np.pi)
     g[0] = fs / (2 * np.pi) * np.sum(sign_after * length)
@@ -284,20 +260,8 @@ def _coulomb_forces(element: CoulombFriction, c, omega, fourier: Fourier) -> Per
     dg_dtheta[0] = -fs / (2 * np.pi) * jump
     d = -fs / np.pi * jump * phase
     dg_dtheta[1::2], dg_dtheta[2::2] = d.real, d.imag
-    kt = np.outer(theta, k)
-    d1 = np.zeros((theta.size, size))
-    d1[:, 1::2], d1[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
     dtheta_dc = -d1 / slope[:, None]
     return PeriodForces(g, dg_dtheta @ dtheta_dc, np.zeros(size))
-
-
-def _coulomb_tangents(element: CoulombFriction, c, omega, fourier: Fourier, orders: int) -> Tangents:
-    """``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``; in θ its coefficients are (1/2π)Σ 2Fs e^{−imθ_c}/|u̇'(θ_c)|."""
-    theta, _, slope = _velocity_crossings(c, fourier)
-    m = np.arange(-orders, orders + 1)
-    weights = 2 * element.slip_force / (np.abs(slope) * omega) if theta.size else np.empty(0)
-    damping = np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi) if theta.size else np.zeros(m.size, complex)
-    return Tangents(np.zeros(m.size, complex), damping)
 
 
 def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> PeriodForces:
@@ -312,18 +276,21 @@ def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> Period
     return _pointwise_forces(law, element, c, omega, fourier)
 
 
-def tangents(element, c: NDArray, omega: float, fourier: Fourier, orders: int | None = None) -> Tangents:
-    """Tangent stiffness and damping coefficients (m = −orders … orders, default 2H) of one
-    element along the motion ``c``."""
-    orders = 2 * fourier.harmonics if orders is None else orders
+def damping_coefficients(element, c: NDArray, omega: float, fourier: Fourier) -> NDArray[np.complex128]:
+    """Fourier coefficients (m = −2H … 2H) of an element's tangent damping ``∂f/∂u̇`` (N·s/m)
+    along the motion ``c``, for Hill's method. Coulomb: ``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``, whose
+    coefficients in θ are ``(1/2π) Σ_c 2Fs e^{−imθ_c} / |u̇'(θ_c)|``; Jenkins: none (rate-independent)."""
     if isinstance(element, JenkinsFriction):
-        return _jenkins_tangents(element, c, omega, fourier, orders)
+        return np.zeros(4 * fourier.harmonics + 1, complex)
     if isinstance(element, CoulombFriction):
-        return _coulomb_tangents(element, c, omega, fourier, orders)
+        theta, _, slope = _velocity_crossings(c, fourier)
+        m = np.arange(-2 * fourier.harmonics, 2 * fourier.harmonics + 1)
+        weights = 2 * element.slip_force / (np.abs(slope) * omega)
+        return np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi)
     law = _POINTWISE[type(element)]
     u, up = fourier.motion(c)
-    _, f_u, f_up, _ = law(element, u, up, omega)
-    return Tangents(fourier.exponential(f_u, orders), fourier.exponential(f_up / omega, orders))
+    _, _, f_up, _ = law(element, u, up, omega)
+    return fourier.exponential(f_up / omega)
 
 
 def aliasing_change(element, c: NDArray, omega: float, fourier: Fourier, factor: int = 8) -> float:

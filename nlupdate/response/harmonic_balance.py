@@ -264,7 +264,7 @@ def _stability(problem: HarmonicBalanceProblem, omega, states, turning):
 
 def _check_truncation(problem, curve_states, omega, share_limit: float) -> float:
     shares = harmonic_shares(curve_states)
-    top = shares[:, -2:].max(axis=1) if problem.harmonics > 1 else shares[:, -1] * 0.0
+    top = shares[:, -2:].max(axis=1) if problem.harmonics > 1 else np.zeros(len(omega))
     share = float(top.max()) if top.size else 0.0
     if share > share_limit:
         at = omega[int(np.argmax(top))] / (2 * np.pi)

@@ -5,8 +5,9 @@ linearised equations of motion ``M δẍ + C_eq δẋ + K δx + K_t(t) δx + C_t
 ``C_eq = C + D/ω`` (structural damping as the viscous damping equivalent at the fundamental,
 the convention of :meth:`~nlupdate.model.linear.LumpedModel.harmonic_receptance`) and the
 element tangents ``K_t = ∂f/∂x``, ``C_t = ∂f/∂ẋ`` along the orbit
-(:func:`nlupdate.response.aft.tangents`). Balancing the harmonics −H … H (the orbit's H: then ``L₀`` is the harmonic-balance
-Jacobian, and a fold of the traced curve is exactly a multiplier +1) gives the
+(:func:`nlupdate.response.aft.damping_coefficients` for ``C_t``). Balancing the harmonics
+−H … H (the orbit's H: then ``L₀`` is the harmonic-balance Jacobian, and a fold of the
+traced curve is exactly a multiplier +1) gives the
 quadratic eigenvalue problem ``(L₀ + λL₁ + λ²L₂) p = 0`` with blocks
 
     L₀[k, j] = δ_kj (K + ikω C_eq − k²ω² M) + K̂_{k−j} + ijω Ĉ_{k−j},   (see :func:`floquet`)
@@ -37,7 +38,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.response.aft import Fourier, tangents
+from nlupdate.response.aft import Fourier, damping_coefficients
 
 SPARSE_MODES = 20
 
@@ -115,7 +116,7 @@ def floquet(
         s[r] = 1.0
         if j >= 0:
             s[j] = -1.0
-        c_hat += tangents(element, u, omega, fourier).damping[:, None, None] * np.outer(s, s)
+        c_hat += damping_coefficients(element, u, omega, fourier)[:, None, None] * np.outer(s, s)
     to_exp, from_exp = _exponential_maps(harmonics)
     jac = np.asarray(force_jacobian).reshape(n_h, n_a, n_h, n_a)
     k_exp = np.einsum("mc,cadb,dn->manb", to_exp, jac, from_exp)
