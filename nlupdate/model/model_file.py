@@ -47,6 +47,7 @@ from nlupdate.model.elements import ELEMENT_TYPES
 from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.files import atomic_file
+from nlupdate.input_files import read_input_text
 
 ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
     "cubic": ("k3",),
@@ -216,10 +217,8 @@ def system_from_dict(data: Mapping[str, Any], source: str = "<model>") -> Nonlin
 def load_system(path: str | Path) -> NonlinearSystem:
     """Read a TOML model file (see module docstring)."""
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"model file {path} does not exist")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(read_input_text(path, "model file"))
     except tomllib.TOMLDecodeError as error:
         raise ModelFileError(f"{path}: not valid TOML ({error})") from None
     return system_from_dict(data, str(path))

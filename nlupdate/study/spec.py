@@ -73,6 +73,7 @@ import numpy as np
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.identification.pipeline import IdentificationSettings
+from nlupdate.input_files import read_input_text
 from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
@@ -220,9 +221,7 @@ class Study:
 def load_study(path: str | os.PathLike) -> Study:
     """Read and check a study file; raises :class:`StudyError` or FileNotFoundError."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"study file not found: {path}")
-    return study_from_text(path.read_text(), path)
+    return study_from_text(read_input_text(path, "study file"), path)
 
 
 def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, Path] | None = None) -> Study:

@@ -1,0 +1,127 @@
+"""Reading the files a user names: regular files only, bounded in size, sniffed before parsing.
+
+Every reader of a user's file (study, model, measured data, decks) goes through
+:func:`read_input_bytes` or :func:`read_input_text` first, so that
+
+* only regular files are read: a folder, a device (``/dev/zero``), a FIFO or a socket is
+  refused in one line naming the file (a symbolic link to a regular file is fine);
+* a file larger than the input size limit is refused before it is read: the limit is
+  :data:`DEFAULT_MAX_INPUT_MB` megabytes, ``NLUPDATE_MAX_INPUT_MB`` changes it (``0``
+  lifts it);
+* text is decoded as UTF-8 (a byte-order mark is skipped) and refused when it holds NUL
+  bytes or is not UTF-8, before any parser sees it.
+
+:func:`sniff` names the kind of content from its first bytes (parquet, HDF5/MAT v7.3,
+MAT v5, universal file, text, binary), so readers can say "this is a parquet file, not a
+CSV table" instead of a parser's error.
+"""
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+#: Default largest input file, in megabytes.
+DEFAULT_MAX_INPUT_MB = 512.0
+MAX_INPUT_ENV = "NLUPDATE_MAX_INPUT_MB"
+
+
+class InputFileError(ValueError):
+    """A file the user named cannot be read as asked; the message names the file."""
+
+
+def max_input_bytes() -> int | None:
+    """The input size limit in bytes (``None``: no limit), from ``$NLUPDATE_MAX_INPUT_MB``."""
+    text = os.environ.get(MAX_INPUT_ENV, "").strip()
+    if not text:
+        return int(DEFAULT_MAX_INPUT_MB * 1e6)
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputFileError(f"{MAX_INPUT_ENV}={text!r}: expected a number of megabytes (0 lifts the limit)") from None
+    if not value >= 0:
+        raise InputFileError(f"{MAX_INPUT_ENV}={text!r}: expected a number of megabytes ≥ 0 (0 lifts the limit)")
+    return None if value == 0 else int(value * 1e6)
+
+
+def _kind_of_mode(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISFIFO(mode):
+        return "a pipe (FIFO)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def checked_input(path: str | os.PathLike, what: str = "input file") -> Path:
+    """``path`` after checking it is a regular file within the size limit; else
+    :class:`InputFileError` (``what`` names the file's role in the message)."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: no such file ({what})") from None
+    except OSError as error:
+        raise InputFileError(f"{path}: cannot be read ({what}: {error.strerror or error})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise InputFileError(f"{path}: is {_kind_of_mode(info.st_mode)}; expected a regular file ({what})")
+    limit = max_input_bytes()
+    if limit is not None and info.st_size > limit:
+        raise InputFileError(f"{path}: {info.st_size / 1e6:.0f} MB is more than the input limit of {limit / 1e6:g} MB "
+                             f"({what}); set {MAX_INPUT_ENV} to raise it")
+    return path
+
+
+def read_input_bytes(path: str | os.PathLike, what: str = "input file") -> bytes:
+    """The bytes of a checked input file (:func:`checked_input`); never more than the limit,
+    even when the file grows while it is read."""
+    path = checked_input(path, what)
+    limit = max_input_bytes()
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read() if limit is None else stream.read(limit + 1)
+    except OSError as error:
+        raise InputFileError(f"{path}: cannot be read ({what}: {error.strerror or error})") from None
+    if limit is not None and len(data) > limit:
+        raise InputFileError(f"{path}: grew past the input limit of {limit / 1e6:g} MB while it was read ({what}); "
+                             f"set {MAX_INPUT_ENV} to raise it")
+    return data
+
+
+def sniff(head: bytes) -> str:
+    """The kind of content that starts with ``head``: ``"parquet"``, ``"hdf5"`` (also MAT
+    v7.3), ``"mat5"``, ``"uff"`` (universal file: a ``-1`` delimiter line first),
+    ``"text"`` or ``"binary"``."""
+    if head.startswith(b"PAR1"):
+        return "parquet"
+    if head.startswith(b"\x89HDF\r\n\x1a\n") or head[512:520] == b"\x89HDF\r\n\x1a\n":
+        return "hdf5"
+    if head.startswith(b"MATLAB 5.0"):
+        return "mat5"
+    sample = head[:4096]
+    if b"\x00" in sample:
+        return "binary"
+    first = sample.lstrip(b"\xef\xbb\xbf").lstrip(b"\r\n").split(b"\n", 1)[0].strip()
+    if first == b"-1":
+        return "uff"
+    return "text"
+
+
+def decode_text(data: bytes, path: str | os.PathLike, what: str = "input file") -> str:
+    """``data`` as UTF-8 text (a byte-order mark skipped); :class:`InputFileError` naming
+    ``path`` when it holds NUL bytes or is not UTF-8."""
+    if b"\x00" in data:
+        raise InputFileError(f"{path}: holds binary data (NUL bytes); expected a UTF-8 text file ({what})")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise InputFileError(f"{path}: is not UTF-8 text (byte {error.start}: {data[error.start:error.start + 1]!r}); "
+                             f"expected a UTF-8 text file ({what})") from None
+
+
+def read_input_text(path: str | os.PathLike, what: str = "input file") -> str:
+    """A checked input file (:func:`checked_input`) read as UTF-8 text (:func:`decode_text`)."""
+    return decode_text(read_input_bytes(path, what), path, what)
