@@ -7,38 +7,32 @@ models, evaluators) plus the task's source, so a key names a result across runs 
 processes. Results persist in the store the flow configures (:func:`configured`).
 Newton steps and continuation points are not tasks: a task is a step a person would name.
 
-The store is a local folder written by :class:`AtomicLocalFileSystem`: Prefect's own
-``LocalFileSystem`` rewrites a record in place (truncate, then write), so a second run
-computing the same key at the same moment could make a reader of that record fail
-(Prefect's ``exists`` read it whole, the ``read`` that follows gets a truncated file) and a
-run killed mid-write left a truncated record (Prefect treats it as absent and recomputes).
-Every record is written beside its final name and renamed into place instead, so a record
-is either absent or whole. Prefect's ``SERIALIZABLE`` isolation with its
+The store is a folder of signed records that hold results as data, written atomically
+(:mod:`nlupdate.tasks.store`): a record someone else wrote or edited is named and
+recomputed, never executed or used. Prefect's ``SERIALIZABLE`` isolation with its
 ``FileSystemLockManager`` is not used: its locks never expire when taken through a task's
 transaction, so a run killed while holding one would leave the next run waiting forever;
 two runs computing the same key at once both compute it and write the same result.
 """
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import pandas as pd
 from prefect import Task, task
 from prefect.cache_policies import INPUTS, TASK_SOURCE
-from prefect.filesystems import LocalFileSystem
 
 from nlupdate.adapters.base import ModalResult
 from nlupdate.discovery.candidates import CandidateFit
 from nlupdate.discovery.workflow import fit_candidate
-from nlupdate.files import clean_leftovers, write_bytes_atomic
 from nlupdate.identification.pipeline import Identification
 from nlupdate.study import steps
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import Prediction, TargetSet
 from nlupdate.tasks.evaluation import current_evaluator
 from nlupdate.tasks.keys import adapter_for
+from nlupdate.tasks.store import DataSerializer, record_store
 from nlupdate.updating.adapter_factory import AdapterSpec
 from nlupdate.updating.candidates import UpdatingTask, update
 from nlupdate.updating.eigensensitivity import UpdatingResult
@@ -104,47 +98,14 @@ def candidate_fit(key: str, job: tuple) -> CandidateFit:
     return fit_candidate(job)
 
 
-class AtomicLocalFileSystem(LocalFileSystem):
-    """Prefect's local result storage with every write atomic (see the module docstring).
-
-    The first write into a folder by this process removes (and reports) the temporary
-    files that killed runs on this host left there (:func:`nlupdate.files.clean_leftovers`)."""
-
-    _block_type_name = "nlupdate atomic local file system"
-    _block_type_slug = "nlupdate-atomic-local-file-system"
-
-    def write_path(self, path: str, content: bytes, **_: Any) -> str:  # Prefect passes _sync=True
-        resolved = self._resolve_path(path)
-        resolved.parent.mkdir(exist_ok=True, parents=True)
-        if resolved.exists() and not resolved.is_file():
-            raise ValueError(f"Path {resolved} already exists and is not a file.")
-        _clean_once(resolved.parent)
-        write_bytes_atomic(resolved, content)
-        return str(resolved)
-
-    async def awrite_path(self, path: str, content: bytes) -> str:
-        return self.write_path(path, content)
-
-
-_CLEANED: set[Path] = set()
-_CLEANED_LOCK = threading.Lock()
-
-
-def _clean_once(folder: Path) -> None:
-    with _CLEANED_LOCK:
-        if folder in _CLEANED:
-            return
-        _CLEANED.add(folder)
-    clean_leftovers(folder)
-
-
 def configured(step: Task, store: Path, refresh: bool = False) -> Task:
-    """``step`` persisting its results in ``store`` (``refresh``: compute even when the
-    store has the result, and overwrite it); records are written atomically
-    (:class:`AtomicLocalFileSystem`)."""
-    configured_step = step.with_options(result_storage=Path(store), refresh_cache=refresh)
+    """``step`` persisting its results in the cache folder ``store`` (``refresh``: compute
+    even when the store has the result, and overwrite it) as signed data records
+    (:mod:`nlupdate.tasks.store`)."""
+    configured_step = step.with_options(result_storage=Path(store), refresh_cache=refresh,
+                                        result_serializer=DataSerializer())
     # Task() accepts a block only once saved on the server (for workers elsewhere to load
     # it); a local folder needs no such record — Prefect itself turns the Path into an
     # unsaved LocalFileSystem — so the block replaces the Path after that check.
-    configured_step.result_storage = AtomicLocalFileSystem(basepath=str(Path(store)))
+    configured_step.result_storage = record_store(Path(store))
     return configured_step

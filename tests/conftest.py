@@ -1,7 +1,8 @@
 """Test-session set-up.
 
 * Prefect keeps its database and settings in a temporary ``PREFECT_HOME`` for the
-  session (set before anything imports Prefect), and :func:`prefect_server` starts one
+  session (set before anything imports Prefect), nlupdate its cache secret and schedule
+  registrations in a temporary ``NLUPDATE_CONFIG_DIR``, and :func:`prefect_server` starts one
   server for all the tests that need it (each start costs 13–26 s here).
 * Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
   when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
@@ -16,6 +17,9 @@ import tempfile
 import pytest
 
 os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="nlupdate-test-prefect-")
+# the user's nlupdate folder (cache secret, schedule registrations) of the session, not the tester's
+os.environ["NLUPDATE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="nlupdate-test-config-")
+os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
 
 from nlupdate.flows.environment import prepare_environment  # noqa: E402

@@ -302,8 +302,9 @@ CACHE_WRITER = textwrap.dedent("""
     def step():
         pass
 
-    storage = resolve_result_storage(configured(step, Path(sys.argv[1])).result_storage)
-    store = ResultStore(result_storage=storage, cache_result_in_memory=False)
+    configured_step = configured(step, Path(sys.argv[1]))
+    store = ResultStore(result_storage=resolve_result_storage(configured_step.result_storage),
+                        serializer=configured_step.result_serializer, cache_result_in_memory=False)
     print("writing", flush=True)
     for i in range(10**9):
         store.write(obj=b"x" * (300_000 if i % 2 else 1_000), key="record")
@@ -324,8 +325,9 @@ def test_a_record_rewritten_by_another_run_is_never_read_half_written(tmp_path):
         pass
 
     # the storage the study's tasks write their results with
-    store = ResultStore(result_storage=resolve_result_storage(configured(step, tmp_path).result_storage),
-                        cache_result_in_memory=False)
+    configured_step = configured(step, tmp_path)
+    store = ResultStore(result_storage=resolve_result_storage(configured_step.result_storage),
+                        serializer=configured_step.result_serializer, cache_result_in_memory=False)
     store.write(obj=b"x" * 1_000, key="record")
     writer = subprocess.Popen([sys.executable, "-c", CACHE_WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True)
     try:
@@ -362,7 +364,8 @@ KILLED_CACHE_WRITER = textwrap.dedent("""
         time.sleep(60)
 
     os.replace = killed_before_the_rename
-    store = ResultStore(result_storage=configured(step, Path(sys.argv[1])).result_storage)
+    configured_step = configured(step, Path(sys.argv[1]))
+    store = ResultStore(result_storage=configured_step.result_storage, serializer=configured_step.result_serializer)
     store.write(obj="new", key="record")
 """)
 
@@ -372,25 +375,28 @@ def test_a_writer_killed_mid_write_leaves_the_record_whole_and_its_leftover_is_c
     from prefect.results import ResultStore
 
     import nlupdate.tasks.steps as steps
+    import nlupdate.tasks.store as store
 
     @task
     def step():
         pass
 
-    storage = steps.configured(step, tmp_path).result_storage
-    ResultStore(result_storage=storage).write(obj="old", key="record")
+    configured_step = steps.configured(step, tmp_path)
+    storage, serializer = configured_step.result_storage, configured_step.result_serializer
+    records = tmp_path / store.RECORDS_FOLDER
+    ResultStore(result_storage=storage, serializer=serializer).write(obj="old", key="record")
     writer = subprocess.Popen([sys.executable, "-c", KILLED_CACHE_WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True)
     assert writer.stdout.readline().strip() == "written"
     writer.send_signal(signal.SIGKILL)
     writer.wait(timeout=10)
-    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
+    leftovers = [p.name for p in records.iterdir() if p.name.startswith(".")]
     assert len(leftovers) == 1 and f"-{writer.pid}-" in leftovers[0], leftovers
-    assert ResultStore(result_storage=storage).read("record").result == "old"
+    assert ResultStore(result_storage=storage, serializer=serializer).read("record").result == "old"
 
-    steps._CLEANED.discard(tmp_path.resolve())  # as in the next run's process
+    store._CLEANED.discard(records.resolve())  # as in the next run's process
     with pytest.warns(UserWarning, match=rf"unfinished output of an interrupted run \(process {writer.pid}\)"):
-        ResultStore(result_storage=storage).write(obj="newer", key="other")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["other", "record"]
+        ResultStore(result_storage=storage, serializer=serializer).write(obj="newer", key="other")
+    assert sorted(p.name for p in records.iterdir()) == ["other", "record"]
 
 
 def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server):
@@ -414,9 +420,10 @@ def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server
 
     with api(prefect_server):
         assert run() == ("Completed", 42)
-        record = tmp_path / "fixed-key"
+        record = tmp_path / "records-v1" / "fixed-key"
         record.write_bytes(record.read_bytes()[: record.stat().st_size // 2])
-        assert run() == ("Completed", 42) and calls == [21, 21]
+        with pytest.warns(UserWarning, match=rf"cache record {record}: its signature does not match"):
+            assert run() == ("Completed", 42) and calls == [21, 21]
         assert run() == ("Cached", 42) and calls == [21, 21]
 
 
