@@ -64,7 +64,7 @@ def discovery_flow(inputs: Handle, cache: Cache, results_root: str, orchestratio
     run = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
            "wall_time_s": time.perf_counter() - clock, "orchestration": orchestration,
            "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store, "tasks": progress.summary()}
-    with atomic_directory(folder) as archive:
+    with atomic_directory(folder, kind="discovery archive") as archive:
         write_discovery(result, archive.path)
         shutil.copyfile(model_file, archive.path / "model.toml")
         table.to_parquet(archive.path / "measured.parquet", index=False)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import errno
+import json
 import os
 import re
 import secrets
@@ -180,29 +181,117 @@ def _rename_to_free_name(folder: Path, final: Path) -> Path:
     raise FileExistsError(f"could not find a free name for {final} after {_RENAME_ATTEMPTS} attempts")
 
 
+#: The file that marks a folder as an output nlupdate wrote (and lists what it wrote there).
+OUTPUT_MARKER = ".nlupdate-output.json"
+#: What each kind of output held before folders carried :data:`OUTPUT_MARKER`: its main
+#: file and every entry it could have.
+LEGACY_OUTPUTS = {
+    "archive": ("manifest.json", {"manifest.json", "report.md", "study.toml", "tables", "plots", "inputs",
+                                  "identification.json"}),
+    "identification": ("identification.json", {"identification.json", "linear_frf.parquet", "fit.png",
+                                               "linear_frf.png"}),
+    "discovery": ("discovery.json", {"discovery.json", "augmented_model.toml", "frf_levels.png",
+                                     "describing_function.png", "gap_per_level.png"}),
+}
+
+
+class NotAnOutputError(FileExistsError):
+    """A folder that nlupdate did not write (or that holds files it did not write) would be replaced."""
+
+
+def _entries(folder: Path) -> list[str]:
+    """Every file and folder under ``folder``, as relative POSIX paths (links not followed)."""
+    return sorted(path.relative_to(folder).as_posix() for path in folder.rglob("*"))
+
+
+def _mark_output(folder: Path, kind: str | None) -> None:
+    entries = _entries(folder)
+    marker = {"written_by": "nlupdate", "kind": kind, "entries": entries}
+    (folder / OUTPUT_MARKER).write_text(json.dumps(marker, indent=1) + "\n")
+
+
+def _listing(names: list[str], limit: int = 4) -> str:
+    shown = ", ".join(names[:limit])
+    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
+
+
+def check_replaceable(folder: str | os.PathLike, kind: str | None) -> None:
+    """:class:`NotAnOutputError` unless ``folder`` is empty or an output of ``kind`` that
+    nlupdate wrote and that holds nothing else: its :data:`OUTPUT_MARKER` lists every
+    entry (or, for outputs written before markers, its main file is there and every entry
+    is one such an output has, :data:`LEGACY_OUTPUTS`)."""
+    folder = Path(folder)
+    present = sorted(entry.name for entry in folder.iterdir())
+    if not present:
+        return
+    what = f"an nlupdate {kind} output" if kind else "an nlupdate output"
+    marker_path = folder / OUTPUT_MARKER
+    if marker_path.is_file():
+        try:
+            marker = json.loads(marker_path.read_text())
+            written, marked_kind = set(marker["entries"]), marker.get("kind")
+        except (ValueError, KeyError, TypeError, OSError):
+            raise NotAnOutputError(f"{folder}: its {OUTPUT_MARKER} is damaged; not replaced (remove the folder "
+                                   f"yourself or choose another)") from None
+        if kind is not None and marked_kind != kind:
+            raise NotAnOutputError(f"{folder}: is an nlupdate {marked_kind} output, not {what}; not replaced")
+        foreign = [name for name in _entries(folder) if name not in written and name != OUTPUT_MARKER]
+        if foreign:
+            raise NotAnOutputError(f"{folder}: holds files nlupdate did not write there ({_listing(foreign)}); "
+                                   f"not replaced")
+        return
+    legacy = LEGACY_OUTPUTS.get(kind or "")
+    if legacy is not None and legacy[0] in present:
+        foreign = [name for name in present if name not in legacy[1]]
+        if not foreign:
+            return
+        raise NotAnOutputError(f"{folder}: holds files nlupdate did not write there ({_listing(foreign)}); "
+                               f"not replaced")
+    raise NotAnOutputError(f"{folder}: is not {what} (it holds {_listing(present)}); --overwrite replaces only "
+                           f"a folder nlupdate wrote; choose a new or empty folder")
+
+
 @contextlib.contextmanager
-def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix") -> Iterator[ArchiveDirectory]:
+def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix",
+                     kind: str | None = None) -> Iterator[ArchiveDirectory]:
     """Write into a temporary directory beside ``final``; rename it to ``final`` on success.
 
-    ``on_exists`` says what happens when ``final`` exists: ``"suffix"`` writes
-    ``final-1``, ``final-2``, … instead; ``"replace"`` swaps the new folder in (the old one
-    is removed only after the new one is in place); ``"error"`` refuses before any work.
+    The folder is marked as an nlupdate output of ``kind`` (:data:`OUTPUT_MARKER`, listing
+    what was written). ``on_exists`` says what happens when ``final`` exists:
+
+    * ``"suffix"`` writes ``final-1``, ``final-2``, … instead;
+    * ``"replace"`` swaps the new folder in — only over an empty folder or an output of
+      ``kind`` nlupdate wrote (:func:`check_replaceable`, checked before the work and again
+      at the swap; the old one is removed only after the new one is in place);
+    * ``"error"`` refuses before any work; when another run writes ``final`` meanwhile,
+      this output is kept under ``final-1`` (…) and a warning says so.
+
     On failure (or Ctrl-C) the temporary folder is removed.
     """
     if on_exists not in ON_EXISTS:
         raise ValueError(f"on_exists must be one of {ON_EXISTS}, got {on_exists!r}")
     final = Path(final)
-    if final.exists() and on_exists == "error":
-        raise FileExistsError(f"{final} exists: choose another output folder or allow replacing it")
     if final.exists() and not final.is_dir():
         raise ValueError(f"{final} exists and is not a directory")
+    if final.exists() and on_exists == "error":
+        raise FileExistsError(f"{final} exists: choose another output folder or allow replacing it")
+    if final.exists() and on_exists == "replace":
+        check_replaceable(final, kind)
     final.parent.mkdir(parents=True, exist_ok=True)
     clean_leftovers(final.parent)
     archive = ArchiveDirectory(final.parent / f".tmp-{final.name}-{_tag()}")
     archive.path.mkdir(mode=0o777)  # the umask applies, as for any folder the user makes
     try:
         yield archive
+        _mark_output(archive.path, kind)
         if final.exists() and on_exists == "replace":
+            try:
+                check_replaceable(final, kind)
+            except NotAnOutputError as error:
+                archive.final = _rename_to_free_name(archive.path, final)
+                warnings.warn(f"{error} (it changed while this run was writing); this output is {archive.final}",
+                              NlupdateWarning, stacklevel=3)
+                return
             old = final.parent / f".tmp-{final.name}.old-{_tag()}"
             os.replace(final, old)
             os.replace(archive.path, final)
@@ -210,6 +299,9 @@ def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix") -> Ite
             archive.final = final
         else:
             archive.final = _rename_to_free_name(archive.path, final)
+            if on_exists == "error" and archive.final != final:
+                warnings.warn(f"{final} was written by another run while this one was writing; this output is "
+                              f"{archive.final}", NlupdateWarning, stacklevel=3)
     except BaseException:
         shutil.rmtree(archive.path, ignore_errors=True)
         raise

@@ -118,8 +118,13 @@ def test_existing_output_is_kept_without_overwrite(tmp_path):
     result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out)
     assert_one_clear_line(result, 2, f"--out {out} exists; pass --overwrite to replace it")
     assert out.read_text() == "precious"
-    assert nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out, "--overwrite").returncode == 0
-    assert len(pd.read_csv(out)) == 2 * 2 * 16
+    result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out, "--overwrite")
+    assert_one_clear_line(result, 2, f"--out {out}: is not a file this command writes")  # not a table
+    assert out.read_text() == "precious"
+    out.unlink()
+    assert nlupdate("simulate", TWO_DOF, *SIMULATE, "--out", out).returncode == 0
+    assert nlupdate("simulate", TWO_DOF, *SIMULATE[:-1], "0.01,50", "--out", out, "--overwrite").returncode == 0
+    assert len(pd.read_csv(out)) == 2 * 2 * 16 and set(pd.read_csv(out)["force_level_n"]) == {0.01, 50}
 
 
 def test_output_folder_that_cannot_be_made(tmp_path):
@@ -138,7 +143,7 @@ def test_written_files_follow_the_umask(tmp_path):
 
 def test_missing_model_file(tmp_path):
     result = nlupdate("simulate", tmp_path / "nope.toml", *SIMULATE, "--out", tmp_path / "x.csv")
-    assert_one_clear_line(result, 2, f"model file {tmp_path / 'nope.toml'} does not exist")
+    assert_one_clear_line(result, 2, f"{tmp_path / 'nope.toml'}: no such file (model file)")
 
 
 # ------------------------------------------------------------------ identify

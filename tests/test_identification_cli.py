@@ -153,7 +153,7 @@ def test_refuses_to_replace_an_unrelated_folder(friction_file, tmp_path, capsys)
     assert code == 2 and "--overwrite" in stderr
     code, _, stderr = run(capsys, "--measured", friction_file, "--frequency", 712, "--out", out, "--samples", 5,
                           "--overwrite")
-    assert code == 2 and "not an identification output" in stderr
+    assert code == 2 and "is not an nlupdate identification output (it holds notes.txt)" in stderr
     assert (out / "notes.txt").read_text() == "keep me"
 
 

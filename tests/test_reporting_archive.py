@@ -76,12 +76,12 @@ def test_failed_run_leaves_nothing_and_names_are_not_reused(tmp_path):
 
 
 def test_existing_output_is_replaced_only_when_asked(tmp_path):
-    (tmp_path / "out").mkdir()
-    (tmp_path / "out" / "old.txt").write_text("old")
+    with atomic_directory(tmp_path / "out", kind="archive") as archive:
+        (archive.path / "old.txt").write_text("old")
     with pytest.raises(FileExistsError):
-        with atomic_directory(tmp_path / "out", on_exists="error"):
+        with atomic_directory(tmp_path / "out", on_exists="error", kind="archive"):
             pass
-    with atomic_directory(tmp_path / "out", on_exists="replace") as archive:
+    with atomic_directory(tmp_path / "out", on_exists="replace", kind="archive") as archive:
         (archive.path / "new.txt").write_text("new")
-    assert [p.name for p in (tmp_path / "out").iterdir()] == ["new.txt"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".nlupdate-output.json", "new.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -107,7 +107,8 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
     assert main(["update", str(study_file), "--out", str(out)]) == 0
     assert "converged (frequency)" in capsys.readouterr().out
 
-    assert {p.name for p in out.iterdir()} == {"manifest.json", "report.md", "study.toml", "tables", "plots", "inputs"}
+    assert {p.name for p in out.iterdir()} == {"manifest.json", "report.md", "study.toml", "tables", "plots", "inputs",
+                                            ".nlupdate-output.json"}
     assert {p.name for p in (out / "tables").iterdir()} == {
         "targets.parquet", "runs.parquet", "histories.parquet", "comparison.parquet", "ranking.parquet"}
     assert {p.name for p in (out / "plots").iterdir()} == {"convergence.png", "frequency_errors.png", "candidate_frfs.png"}

@@ -60,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     settings = harmonic_settings(args)
     if args.out is not None:
-        out = checked_output(args.out, args.overwrite, folder=True)
+        out = checked_output(args.out, args.overwrite, folder=True, kind="discovery",
+                             inputs=[args.model, args.measured])
         args.interrupt_note = f"nothing was written to {out}"
     else:
         writable_folder(Path(args.archive), "--archive")
@@ -86,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         result = discover(system, table, options, source=str(args.measured))
     except ModelSolveError as error:
         raise CliError(f"{args.model}: {error}") from None
-    with atomic_directory(args.out, on_exists="replace") as archive:
+    with atomic_directory(args.out, on_exists="replace" if args.overwrite else "error", kind="discovery") as archive:
         write_discovery(result, archive.path)
     found = ", ".join(
         f"{e.name} on dofs {list(e.dofs)} ({', '.join(f'{k} = {v:.4g}' for k, v in e.parameters.items())})"

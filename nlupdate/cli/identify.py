@@ -140,7 +140,7 @@ def write_identification(identification: Identification, data: FRFLevels, folder
 
 
 def run(args: argparse.Namespace) -> int:
-    out = checked_output(args.out, args.overwrite, folder=True)
+    out = checked_output(args.out, args.overwrite, folder=True, kind="identification", inputs=[args.measured])
     args.interrupt_note = f"nothing was written to {out}"
     table = read_frf_table(args.measured)
     settings, cli_defaults = settings_from_args(args, table)
@@ -149,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
         identification = identify(data, settings, progress)
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
-    out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder))
+    out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder),
+                                     replace=args.overwrite)
     for key, value in defaults.items():
         print(f"default {key}: {value}")
     for name, stats in identification.uncertainty.parameters.items():

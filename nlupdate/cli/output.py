@@ -1,7 +1,10 @@
 """Checks on where a command will write, made before any work starts.
 
-One rule for every command: an existing ``--out`` is replaced only with ``--overwrite``
-(and then only once the new output is complete); a folder that cannot be created or
+One rule for every command: an existing ``--out`` is replaced only with ``--overwrite``,
+only when it is an output of that command that nlupdate wrote and that holds nothing else
+(:func:`nlupdate.files.check_replaceable`), and only once the new output is complete; the
+working folder, its parents, the folders of the command's inputs and the results root are
+never an output; a folder that cannot be created or
 written is one error naming the option and the folder, and so is a folder whose disk has
 less than :data:`MIN_FREE_MB` megabytes free (``NLUPDATE_MIN_FREE_MB`` changes the limit;
 0 turns the check off), so a full disk stops a command before its work, not when it writes.
@@ -13,8 +16,10 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Callable, Iterable
 
 from nlupdate.cli import CliError, CliRuntimeError
+from nlupdate.files import NotAnOutputError, check_replaceable
 
 #: Free space (MB) a folder's disk must have before a command writes there.
 MIN_FREE_MB = 100.0
@@ -66,9 +71,46 @@ def writable_folder(folder: Path, option: str) -> None:
     enough_space(folder, option)
 
 
-def checked_output(path: str | Path, overwrite: bool, *, folder: bool, option: str = "--out") -> Path:
-    """``path`` after checking that the command may write it (see the module docstring)."""
+def _protected(inputs: Iterable[str | os.PathLike]) -> dict[Path, str]:
+    """Folders that are never an output, with what they are: the working folder and its
+    parents, the folders holding the command's input files and their parents, the
+    default results root."""
+    protected: dict[Path, str] = {}
+    cwd = Path.cwd().resolve()
+    protected[cwd] = "the working folder"
+    for parent in cwd.parents:
+        protected.setdefault(parent, "a parent of the working folder")
+    for given in inputs:
+        folder = Path(given).resolve().parent
+        protected.setdefault(folder, f"the folder of the input {given}")
+        for parent in folder.parents:
+            protected.setdefault(parent, f"a parent of the input {given}")
+    protected.setdefault(Path("results").resolve(), "the results root")
+    return protected
+
+
+def checked_output(path: str | Path, overwrite: bool, *, folder: bool, kind: str | None = None,
+                   inputs: Iterable[str | os.PathLike] = (), option: str = "--out",
+                   replaceable_file: Callable[[Path], bool] | None = None) -> Path:
+    """``path`` after checking that the command may write it (see the module docstring).
+
+    ``kind``: the kind of output folder (``--overwrite`` replaces only such an output
+    nlupdate wrote, :func:`nlupdate.files.check_replaceable`); ``inputs``: the files the
+    command reads (an output is never one of them, nor a folder holding them);
+    ``replaceable_file``: for a file output, whether an existing file is one the command
+    may replace."""
     path = Path(path)
+    resolved = path.resolve()
+    inputs = list(inputs)
+    if folder:
+        what = _protected(inputs).get(resolved)
+        if what is not None:
+            raise CliError(f"{option} {path}: is {what}; nlupdate never writes its output over it; "
+                           f"choose a new folder")
+    else:
+        same = next((given for given in inputs if Path(given).resolve() == resolved), None)
+        if same is not None:
+            raise CliError(f"{option} {path}: is the input {same}; choose another output file")
     if path.exists():
         if not overwrite:
             raise CliError(f"{option} {path} exists; pass --overwrite to replace it")
@@ -76,5 +118,13 @@ def checked_output(path: str | Path, overwrite: bool, *, folder: bool, option: s
             raise CliError(f"{option} {path} exists and is a file, not a folder")
         if not folder and path.is_dir():
             raise CliError(f"{option} {path} exists and is a folder, not a file")
+        if folder:
+            try:
+                check_replaceable(path, kind)
+            except NotAnOutputError as error:
+                raise CliError(f"{option} {error}") from None
+        elif replaceable_file is not None and not replaceable_file(path):
+            raise CliError(f"{option} {path}: is not a file this command writes; --overwrite replaces only such a "
+                           f"file; choose another output file")
     writable_folder(path.parent if str(path.parent) else Path("."), option)
     return path

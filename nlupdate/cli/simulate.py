@@ -15,12 +15,13 @@ import argparse
 import sys
 import time
 import warnings
+from pathlib import Path
 
 from nlupdate.cli import add_command, non_negative_float, non_negative_int
 from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress import terminal_progress
-from nlupdate.measurement.frf_table import table_suffix, write_frf_table
+from nlupdate.measurement.frf_table import read_frf_table, table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
 from nlupdate.response.simulate import (
@@ -51,9 +52,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+def _is_frf_table(path: Path) -> bool:
+    """Whether ``path`` reads as a measured-FRF table (what this command writes)."""
+    try:
+        read_frf_table(path)
+    except (ValueError, OSError):
+        return False
+    return True
+
+
 def run(args: argparse.Namespace) -> int:
     settings = harmonic_settings(args)
-    out = checked_output(args.out, args.overwrite, folder=False)
+    out = checked_output(args.out, args.overwrite, folder=False, inputs=[args.model], replaceable_file=_is_frf_table)
     table_suffix(out)
     system = load_system(args.model)
     input_dof = int(args.input_dof) if args.input_dof.isdigit() else args.input_dof

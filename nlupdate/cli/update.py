@@ -12,7 +12,7 @@ import time
 from nlupdate.cli import add_command
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.run import check_solver, exit_code_for_failures
-from nlupdate.reporting.archive import write_archive
+from nlupdate.reporting.archive import ARCHIVE_KIND, write_archive
 from nlupdate.study import load_study, run_study
 
 
@@ -27,8 +27,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = checked_output(args.out, args.overwrite, folder=True)
     study = load_study(args.study)
+    out = checked_output(args.out, args.overwrite, folder=True, kind=ARCHIVE_KIND,
+                         inputs=[args.study, *study.input_files.values()])
     check_solver(study)
     args.interrupt_note = f"nothing was written to {out}"
     started = dt.datetime.now(dt.timezone.utc)

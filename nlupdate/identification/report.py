@@ -120,18 +120,14 @@ def plot_linear_frf(
     return save_figure(fig, path)
 
 
-def write_directory_atomically(final: str | os.PathLike, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp)`` on a temporary folder beside ``final`` and rename it to ``final``.
+def write_directory_atomically(final: str | os.PathLike, write: Callable[[Path], None], replace: bool = False) -> Path:
+    """Call ``write(tmp)`` on a temporary folder beside ``final`` and rename it to ``final``;
+    returns the folder written.
 
-    An existing ``final`` is replaced only if it is empty or holds an earlier
-    ``identification.json`` (never an unrelated folder); a failure leaves it untouched.
+    With ``replace``, an existing ``final`` is replaced only if it is empty or an
+    identification output nlupdate wrote (:func:`nlupdate.files.check_replaceable`), and
+    only once the new one is complete; a failure leaves it untouched.
     """
-    final = Path(final)
-    if final.is_dir() and any(final.iterdir()) and not (final / JSON_NAME).is_file():
-        raise ValueError(
-            f"--out {final}: directory exists and is not an identification output (no {JSON_NAME}); "
-            f"choose a new or empty directory"
-        )
-    with atomic_directory(final, on_exists="replace") as archive:
+    with atomic_directory(final, on_exists="replace" if replace else "error", kind="identification") as archive:
         write(archive.path)
-    return final
+    return archive.final

@@ -46,6 +46,8 @@ from nlupdate.updating.candidates import candidate_frf
 from nlupdate.updating.plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
 
 MANIFEST = "manifest.json"
+#: The kind of output folder an archive is (:func:`nlupdate.files.check_replaceable`).
+ARCHIVE_KIND = "archive"
 
 
 def measured_fingerprint(result) -> dict[str, str] | None:
@@ -201,7 +203,7 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
     ``on_exists`` as for :func:`~nlupdate.files.atomic_directory`.
     """
     final = Path(final)
-    with atomic_directory(final, on_exists=on_exists) as archive:
+    with atomic_directory(final, on_exists=on_exists, kind=ARCHIVE_KIND) as archive:
         folder = archive.path
         (folder / "tables").mkdir()
         (folder / "plots").mkdir()
@@ -224,7 +226,7 @@ def write_failed_archive(study, final: str | Path, run: Mapping[str, Any], error
     manifest (status ``failed``, the error, versions), the study file, its inputs and a
     short report. Written atomically like :func:`write_archive`; returns the folder."""
     final = Path(final)
-    with atomic_directory(final) as archive:
+    with atomic_directory(final, kind=ARCHIVE_KIND) as archive:
         folder = archive.path
         (folder / "study.toml").write_text(study.text)
         inputs = archive_inputs(study, folder)
