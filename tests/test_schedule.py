@@ -11,6 +11,7 @@
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -38,6 +39,12 @@ def nlupdate(*args: object, cwd: Path, env: dict, timeout: float = 120) -> subpr
 
 def api_env(url: str, **extra: str) -> dict:
     return {**os.environ, "PREFECT_API_URL": url, **extra}
+
+
+@pytest.fixture(autouse=True)
+def own_registrations(tmp_path, monkeypatch):
+    """Each test its own nlupdate folder: registrations are the user's, not the server's."""
+    monkeypatch.setenv("NLUPDATE_CONFIG_DIR", str(tmp_path / "nlupdate-config"))
 
 
 @pytest.fixture
@@ -78,7 +85,7 @@ def test_bad_schedules_are_one_line_before_registering(tmp_path, study, capsys, 
 
 def test_a_missing_or_broken_study_is_one_line(tmp_path, study, capsys):
     code = main(["schedule", str(tmp_path / "missing.toml"), "--cron", "0 2 * * *"])
-    one_line_error(capsys, code, 2, f"study file not found: {tmp_path / 'missing.toml'}")
+    one_line_error(capsys, code, 2, f"{tmp_path / 'missing.toml'}: no such file (study file)")
     broken = tmp_path / "broken.toml"
     broken.write_text(study.read_text().replace("samples = 8", "samples = -8"))
     code = main(["schedule", str(broken), "--interval", "60"])
@@ -131,8 +138,9 @@ def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect
     deployment = deployment.json()
     assert [s["schedule"]["cron"] for s in deployment["schedules"]] == ["0 2 * * *"]
     assert all(s["active"] for s in deployment["schedules"]) and not deployment["paused"]
-    assert deployment["parameters"] == {"study_file": str(study.resolve()), "results_root": str(tmp_path / "results"),
-                                        "workers": 1, "cache_dir": str(tmp_path / "cache")}
+    # the API says only which registration to run; the rest stays in the user's own folder
+    sha = hashlib.sha256(study.read_text().encode()).hexdigest()
+    assert deployment["parameters"] == {"name": "two-dof", "study_sha256": sha}
     assert deployment["entrypoint"] == "nlupdate.flows.schedule.scheduled_study"
 
     again = nlupdate("schedule", study, "--interval", "60", cwd=tmp_path, env=env)
@@ -142,10 +150,12 @@ def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect
     listed = nlupdate("schedule", "list", cwd=tmp_path, env=env)
     assert listed.returncode == 0, listed.stderr
     line = next(line for line in listed.stdout.splitlines() if line.startswith("two-dof:"))
-    assert line.startswith('two-dof: cron "0 2 * * *" (UTC); next run ') and f"study {study.resolve()} → " in line
+    assert line.startswith('two-dof: cron "0 2 * * *" (UTC); next run ')
+    assert f"study {study.resolve()} (sha256 {sha[:12]}) → " in line
     as_json = json.loads(nlupdate("schedule", "list", "--json", cwd=tmp_path, env=env).stdout)
     entry = next(e for e in as_json if e["name"] == "two-dof")
     assert entry["schedule"] == 'cron "0 2 * * *" (UTC)' and entry["results_root"] == str(tmp_path / "results")
+    assert entry["workers"] == 1 and entry["cache_dir"] == str(tmp_path / "cache") and entry["server_drift"] is None
 
     deleted = nlupdate("schedule", "delete", "two-dof", cwd=tmp_path, env=env)
     assert deleted.returncode == 0 and "deleted scheduled study 'two-dof'" in deleted.stdout, deleted.stderr
@@ -257,3 +267,88 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
     assert not deployment["paused"] and all(s["active"] for s in deployment["schedules"])
     assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [5.0]
     print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
+
+
+def flow_run_state(url: str, run_id: str) -> str:
+    return httpx.get(f"{url}/flow_runs/{run_id}", timeout=30).json()["state"]["type"]
+
+
+def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, study, real_server):
+    """The attacks of the issue: any local process can use the Prefect API. A flow run
+    created with its own study file (a CalculiX study whose "solver" is a script), one
+    naming the registered study with another hash, and a deployment PATCHed to other
+    parameters: nothing runs, each run is failed with one line, `schedule list` reports
+    the change and serve restores the registered deployment."""
+    marker = tmp_path / "the-script-ran"
+    script = tmp_path / "evil-ccx"
+    script.write_text(f"#!/bin/sh\ntouch {marker}\n")
+    script.chmod(0o755)
+    evil = tmp_path / "evil.toml"
+    evil.write_text((ROOT / "tests" / "data" / "studies" / "calculix_tbeam_E.toml").read_text().replace(
+        'work_root = "ccx_runs"', f'work_root = "{tmp_path / "runs"}"\nexecutable = "{script}"'))
+    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="2")
+    registered = nlupdate("schedule", study, "--cron", "0 2 1 1 *", "--out", tmp_path / "results",
+                          "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
+    assert registered.returncode == 0, registered.stderr
+    deployment = read_deployment(real_server, "two-dof").json()
+    sha = deployment["parameters"]["study_sha256"]
+
+    serve = subprocess.Popen([sys.executable, "-m", "nlupdate", "serve"], cwd=tmp_path, env=env, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        first = serve.stdout.readline()  # serving starts after the deployment is applied
+        assert "serving 1 scheduled study" in first, (first, serve.poll())
+        created = []
+        for parameters in ({"study_file": str(evil), "results_root": str(tmp_path / "evil-results"), "workers": 1,
+                            "cache_dir": str(tmp_path / "evil-cache")},
+                           {"name": "two-dof", "study_sha256": "0" * 64},
+                           {"name": "not-registered", "study_sha256": sha}):
+            response = httpx.post(f"{real_server}/deployments/{deployment['id']}/create_flow_run",
+                                  json={"parameters": parameters}, timeout=30)
+            if response.status_code < 300:  # else the API itself refused the parameters
+                created.append(response.json()["id"])
+        patched = httpx.patch(f"{real_server}/deployments/{deployment['id']}",
+                              json={"parameters": {"name": "two-dof", "study_sha256": "f" * 64}}, timeout=30)
+        assert patched.status_code < 300, patched.text
+        assert read_deployment(real_server, "two-dof").json()["parameters"]["study_sha256"] == "f" * 64
+        response = httpx.post(f"{real_server}/deployments/{deployment['id']}/create_flow_run", json={}, timeout=30)
+        assert response.status_code < 300, response.text
+        created.append(response.json()["id"])
+        assert len(created) >= 3
+
+        listed = nlupdate("schedule", "list", cwd=tmp_path, env=api_env(real_server))
+        assert f"study {study.resolve()} (sha256 {sha[:12]})" in listed.stdout
+        assert "warning: the server's deployment was changed: parameters" in listed.stderr, listed.stderr
+
+        deadline = time.monotonic() + 120
+        while any(flow_run_state(real_server, run) not in ("FAILED", "CRASHED", "COMPLETED") for run in created):
+            assert serve.poll() is None, serve.communicate()
+            assert time.monotonic() < deadline, [flow_run_state(real_server, run) for run in created]
+            time.sleep(1)
+        serve.send_signal(signal.SIGINT)
+        stdout, stderr = serve.communicate(timeout=30)
+    finally:
+        stop_group(serve)
+    assert [flow_run_state(real_server, run) for run in created] == ["FAILED"] * len(created), stdout
+    messages = [httpx.get(f"{real_server}/flow_runs/{run}", timeout=30).json()["state"]["message"] for run in created]
+    assert all(" REFUSED: " in message and "nothing was run" in message for message in messages), messages
+    assert not marker.exists() and not (tmp_path / "evil-results").exists() and not (tmp_path / "runs").exists()
+    assert not list((tmp_path / "results").rglob("manifest.json"))  # not even the registered study ran
+    refused = [line for line in stdout.splitlines() if " REFUSED: " in line]
+    assert any("no study named 'not-registered' is registered" in line for line in refused), stdout
+    assert sum("the registered study has" in line for line in refused) == 2, stdout
+    # patched after serve started: a restarted serve finds the change and restores the registration
+    assert read_deployment(real_server, "two-dof").json()["parameters"]["study_sha256"] == "f" * 64
+    restarted = subprocess.Popen([sys.executable, "-m", "nlupdate", "serve"], cwd=tmp_path, env=env, text=True,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while read_deployment(real_server, "two-dof").json()["parameters"]["study_sha256"] != sha:
+            assert restarted.poll() is None, restarted.communicate()
+            assert time.monotonic() < deadline
+            time.sleep(0.5)
+        restarted.send_signal(signal.SIGINT)
+        stdout, _ = restarted.communicate(timeout=30)
+    finally:
+        stop_group(restarted)
+    assert "two-dof: the server's deployment was changed: parameters" in stdout and "restoring" in stdout, stdout

@@ -5,13 +5,16 @@
   nlupdate schedule list [--json]                     the scheduled studies and their next run
   nlupdate schedule delete NAME                       remove one (its future runs go with it)
 
-A schedule is a Prefect deployment of the flow "scheduled study", named after the study
-(``--name`` to choose), holding the study file, the results root and the cache store as
-absolute paths. The study and the schedule are checked before anything is registered.
+A schedule is a registration in the user's own nlupdate folder (the study's text and hash,
+results root, cache store, threads, schedule) and a Prefect deployment of the flow
+"scheduled study" named after the study (``--name`` to choose) that says only which
+registration to run. The study and the schedule are checked before anything is registered.
 Schedules live in a persistent Prefect server: start one with ``prefect server start`` and
 set ``PREFECT_API_URL=http://127.0.0.1:4200/api`` (used without it when it answers there).
-Runs happen only while ``nlupdate serve`` runs (or ``schedule … --serve``); each loads the
-study file as it is then and writes ``<out>/<study>/<UTC time>-<hash>/``.
+Runs happen only while ``nlupdate serve`` runs (or ``schedule … --serve``); each runs the
+study as registered (register it again with --replace after editing it) and writes
+``<out>/<study>/<UTC time>-<hash>/``. Keep the Prefect API on 127.0.0.1: whoever can reach
+it can see the runs (a run can only name a registered study, never a file or program).
 """
 from __future__ import annotations
 
@@ -118,6 +121,7 @@ def _check_name(name: str, option: str) -> str:
 def add_schedule(args: argparse.Namespace) -> int:
     from nlupdate.cli.output import writable_folder
     from nlupdate.cli.run import check_solver
+    from nlupdate.flows import registrations
     from nlupdate.flows.run import cache_directory
     from nlupdate.study import load_study
 
@@ -136,11 +140,14 @@ def add_schedule(args: argparse.Namespace) -> int:
         if name in existing and not args.replace:
             raise CliError(f"a scheduled study named {name!r} exists ({existing[name].schedule}, "
                            f"{existing[name].study_file}); pass --replace to replace it, or --name to choose another name")
-        parameters = schedule.parameters_for(args.target, out, args.workers or os.cpu_count() or 2, args.cache_dir)
-        schedule.register(name, parameters, when)
+        registration = registrations.new_registration(
+            name, args.target, study.text, out, cache_directory(args.cache_dir), args.workers or os.cpu_count() or 2,
+            schedule.when_of(when))
+        schedule.register(registration)
         print(f"{'replaced' if name in existing else 'registered'} scheduled study {name!r}: "
-              f"{schedule.describe_schedule(when)}; study {parameters['study_file']} → {parameters['results_root']} "
-              f"({parameters['workers']} threads, cache {parameters['cache_dir']})")
+              f"{schedule.describe_schedule(when)}; study {registration.study_file} (sha256 "
+              f"{registration.study_sha256[:12]}, kept as registered) → {registration.results_root} "
+              f"({registration.workers} threads, cache {registration.cache_dir})")
         if not args.serve:
             print("its runs start while `nlupdate serve` runs")
             return 0
@@ -159,7 +166,10 @@ def list_schedules(args: argparse.Namespace) -> int:
         print('no scheduled studies; add one with nlupdate schedule STUDY.toml --cron "0 2 * * *" (or --interval SECONDS)')
     for s in listed:
         print(f"{s.name}: {s.schedule}{', paused' if s.paused else ''}; next run "
-              f"{s.next_run_utc + ' UTC' if s.next_run_utc else '—'}; study {s.study_file} → {s.results_root}")
+              f"{s.next_run_utc + ' UTC' if s.next_run_utc else '—'}; study {s.study_file} "
+              f"(sha256 {s.study_sha256[:12]}) → {s.results_root}")
+        if s.server_drift:
+            print(f"  warning: {s.server_drift}; `nlupdate serve` restores the registered one", file=sys.stderr)
     return 0
 
 
