@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 from typing import Callable, Iterator
 
 import httpx
@@ -68,6 +70,29 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
         worker.drain_all(timeout=timeout_s)
 
 
+def _parent_bound_server():
+    """Prefect's temporary server (``SubprocessASGIServer``), its uvicorn process started
+    through :mod:`nlupdate.flows.server_process` so that it ends when this process does,
+    even when this process is killed. The command line is Prefect 3.8's own."""
+    import prefect
+    from prefect.server.api.server import SubprocessASGIServer
+    from prefect.settings import get_current_settings
+
+    class ParentBoundServer(SubprocessASGIServer):
+        _instances: dict = {}
+
+        def _run_uvicorn_command(self) -> subprocess.Popen:
+            return subprocess.Popen(
+                args=[sys.executable, "-m", "nlupdate.flows.server_process", str(os.getpid()),
+                      "--app-dir", str(prefect.__module_path__.parent), "--factory",
+                      "prefect.server.api.server:create_app", "--host", "127.0.0.1", "--port", str(self.port),
+                      "--log-level", "error", "--lifespan", "on"],
+                env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
+                     "PREFECT__SERVER_FINAL": "1", **get_current_settings().to_environment_variables(exclude_unset=True)})
+
+    return ParentBoundServer()
+
+
 @contextlib.contextmanager
 def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Iterator[str]:
     """Yield the API URL the run uses (see the module docstring)."""
@@ -81,9 +106,7 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
         finally:
             flush_run_history()
         return
-    from prefect.server.api.server import SubprocessASGIServer
-
-    server = SubprocessASGIServer()
+    server = _parent_bound_server()
     say("starting a Prefect server for this run …")
     try:
         server.start(timeout=startup_timeout_s)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import textwrap
@@ -73,6 +74,92 @@ def test_ctrl_c_during_a_prefect_run_stops_within_seconds(tmp_path, prefect_serv
                                            f"{tmp_path / 'results'}; finished tasks stay in the cache"]
     left = list((tmp_path / "results").rglob("*"))
     assert all(p.is_dir() for p in left), left  # at most the empty study folder
+
+
+def children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (Linux /proc)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        found += [int(c) for c in (task / "children").read_text().split()]
+    return found
+
+
+def gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return Path(f"/proc/{pid}/stat").read_text().split(") ")[1].startswith("Z")  # a zombie is gone too
+
+
+def listening(port: int) -> bool:
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def started_run(tmp_path: Path) -> tuple[subprocess.Popen, int, int]:
+    """``nlupdate run`` of a long study with its own temporary Prefect server, once its
+    tasks run: (process, server pid, server port)."""
+    env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
+                     .replace("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 2001]"))
+    process = subprocess.Popen([sys.executable, "-m", "nlupdate", "run", str(study), "--out", str(tmp_path / "results")],
+                               cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               start_new_session=True)
+    lines = wait_for_line(process, "Prefect server: http://127.0.0.1:", timeout_s=120)
+    port = int(lines[-1].split("127.0.0.1:")[1].split("/")[0])
+    wait_for_line(process, "tasks on", timeout_s=60)
+    servers = children(process.pid)
+    assert len(servers) == 1 and listening(port), servers
+    return process, servers[0], port
+
+
+def ends_soon(pid: int, port: int, timeout_s: float = 15) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if gone(pid) and not listening(port):
+            return True
+        time.sleep(0.2)
+    return False
+
+
+def test_sigterm_stops_a_run_like_ctrl_c_and_its_server_with_it(tmp_path):
+    process, server, port = started_run(tmp_path)
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 143, (process.returncode, stderr)
+    assert stderr.strip().splitlines() == [f"nlupdate run: interrupted (SIGTERM); no archive was written to "
+                                           f"{tmp_path / 'results'}; finished tasks stay in the cache"]
+    assert ends_soon(server, port), "the temporary Prefect server outlived its run"
+
+
+def test_a_killed_run_leaves_no_server_running(tmp_path):
+    """SIGKILL gives the run no chance to clean up: its server notices its parent is gone."""
+    process, server, port = started_run(tmp_path)
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=30)
+    assert ends_soon(server, port), "the temporary Prefect server outlived its killed run"
+
+
+def test_ctrl_c_stops_a_command_that_inherited_sigint_ignored(tmp_path):
+    """A background job of a non-interactive shell starts with SIGINT ignored; Ctrl-C (or
+    kill -INT) must still stop it."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "nlupdate", "simulate", str(TWO_DOF), "--input-dof", "0", "--freqs", "600:850:400",
+         "--forces", "0.01,100,200", "--method", "time", "--out", str(tmp_path / "frf.parquet")],
+        cwd=tmp_path, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        time.sleep(4)  # imports done, integrating
+        assert process.poll() is None, process.communicate()
+        process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        _, stderr = process.communicate(timeout=20)
+    finally:
+        process.kill()  # an orphan would use a core for minutes
+        process.wait()
+    assert process.returncode == 130 and time.monotonic() - sent < 5, (process.returncode, stderr)
 
 
 KILLED_WRITER = textwrap.dedent("""

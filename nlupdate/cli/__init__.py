@@ -4,20 +4,23 @@ Each command lives in its own module exposing ``register(subparsers)``. Every fa
 user can meet ends as one line on stderr, ``nlupdate <command>: error: …``, and an exit
 code: 2 for a mistake in the input (options, study, model or data files), 1 when the work
 itself failed (an FE solver, the Prefect server, a Dask cluster, the file system), 130
-when interrupted with Ctrl-C. ``--debug`` shows the traceback instead.
+when interrupted with Ctrl-C and 143 with SIGTERM (:mod:`nlupdate.cli.interrupts`).
+``--debug`` shows the traceback instead.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import re
+import signal
 import sys
+import threading
 import warnings
 from typing import Sequence
 
 COMMAND_MODULES = ("run", "demo", "simulate", "identify", "update", "discover", "archive", "schedule", "serve")
 
-EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
+EXIT_RUNTIME, EXIT_INPUT = 1, 2
 
 
 class CliError(Exception):
@@ -104,21 +107,36 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"nlupdate: warning: {message}", file=sys.stderr)
 
 
+def _interrupted_line(args: argparse.Namespace, signum: int) -> str:
+    how = "interrupted" if signum == signal.SIGINT else f"interrupted ({signal.Signals(signum).name})"
+    return f"nlupdate {args.command}: {how}; {getattr(args, 'interrupt_note', 'nothing was written')}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    from nlupdate.cli import interrupts
+
+    interrupts.install()
     parser = build_parser()
     args = parser.parse_args(argv)
     from nlupdate.notices import NlupdateWarning
 
     warnings.showwarning = _show_warning
     warnings.simplefilter("always", NlupdateWarning)
+    said = threading.Lock()
+
+    def say_interrupted(signum: int) -> None:
+        if said.acquire(blocking=False):  # once, whether the process unwinds or the deadline ends it
+            print(_interrupted_line(args, signum), file=sys.stderr, flush=True)
+
+    last_words = interrupts.on_deadline(lambda: say_interrupted(interrupts.signal_received() or signal.SIGINT))
     try:
         return int(args.run(args) or 0)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as error:
         if args.debug:
             raise
-        print(f"nlupdate {args.command}: interrupted; {getattr(args, 'interrupt_note', 'nothing was written')}",
-              file=sys.stderr)
-        return EXIT_INTERRUPTED
+        code = interrupts.exit_code(error)
+        say_interrupted(getattr(error, "signum", signal.SIGINT))
+        return code
     except _input_errors() as error:
         if args.debug:
             raise
@@ -136,6 +154,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"nlupdate {args.command}: internal error: {type(error).__name__}: {error} "
               f"(rerun with --debug for the traceback)", file=sys.stderr)
         return EXIT_RUNTIME
+    finally:
+        interrupts.forget(last_words)
 
 
 if __name__ == "__main__":

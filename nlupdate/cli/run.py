@@ -43,24 +43,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 @contextlib.contextmanager
 def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
     """Prepare the environment before Prefect is imported, turn set-up failures (server,
-    Dask) into one-line errors, and make Ctrl-C end the run within seconds."""
+    Dask) into one-line errors, and stop the Prefect server this run started even when an
+    interrupt must end the process before it has unwound (:mod:`nlupdate.cli.interrupts`)."""
     from nlupdate.flows.environment import prepare_environment
 
     prepare_environment()
-    from nlupdate.flows.interrupt import prompt_interrupt
+    from nlupdate.cli import interrupts
     from nlupdate.flows.runners import ExecutionError
     from nlupdate.flows.server import ServerError, stop_started_servers
 
-    def give_up_waiting() -> None:
-        note = getattr(args, "interrupt_note", "nothing was written")
-        print(f"nlupdate {args.command}: interrupted; {note}", file=sys.stderr, flush=True)
-        stop_started_servers()
-
+    stop = interrupts.on_deadline(stop_started_servers)
     try:
-        with prompt_interrupt(give_up_waiting):
-            yield
+        yield
     except (ExecutionError, ServerError) as error:
         raise CliRuntimeError(str(error)) from None
+    finally:
+        interrupts.forget(stop)
 
 
 def check_solver(study) -> None:

@@ -1,0 +1,95 @@
+"""Ctrl-C (SIGINT) and SIGTERM end any command within seconds, with one line.
+
+:func:`install` makes both signals raise :class:`Interrupted` (a ``KeyboardInterrupt``)
+in the main thread, whatever the process inherited: a command started in the background
+of a non-interactive shell inherits SIGINT *ignored*, and would otherwise never stop on
+Ctrl-C; Python's default for SIGTERM is to die without unwinding, which left temporary
+Prefect servers and half-written folders behind. The command then unwinds as usual (its
+temporary outputs are removed by their own cleanup, a Prefect server it started is
+stopped) and :func:`nlupdate.cli.main` prints one line and exits with 130 (SIGINT) or 143
+(SIGTERM).
+
+Python raises the interrupt only in the main thread; threads still busy (Prefect tasks,
+minutes for a prediction) would keep the interpreter waiting. So the first signal also
+starts a deadline: after ``grace_s`` seconds the callbacks registered with
+:func:`on_deadline` run (say what was kept, stop servers) and the process exits with the
+signal's code. Further signals are ignored while it unwinds; Prefect's "Crash detected"
+console lines are silenced once the user has interrupted.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import threading
+import time
+from typing import Callable
+
+EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+GRACE_S = 3.0
+
+_deadline_callbacks: list[Callable[[], None]] = []
+_received: list[int] = []
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM, raised where Ctrl-C would be; :attr:`exit_code` 130 or 143."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        return EXIT_CODES[self.signum]
+
+
+def signal_received() -> int | None:
+    """The first interrupting signal this process received, if any."""
+    return _received[0] if _received else None
+
+
+def exit_code(error: KeyboardInterrupt) -> int:
+    """The exit code for an interrupt (130 for Ctrl-C, 143 for SIGTERM)."""
+    return error.exit_code if isinstance(error, Interrupted) else EXIT_CODES[signal.SIGINT]
+
+
+def on_deadline(callback: Callable[[], None]) -> Callable[[], None]:
+    """Run ``callback`` if the process must be ended before it has unwound; returns it
+    (for :func:`forget`)."""
+    _deadline_callbacks.append(callback)
+    return callback
+
+
+def forget(callback: Callable[[], None]) -> None:
+    if callback in _deadline_callbacks:
+        _deadline_callbacks.remove(callback)
+
+
+def _deadline(signum: int, grace_s: float) -> None:
+    time.sleep(grace_s)
+    try:
+        for callback in list(_deadline_callbacks):
+            try:
+                callback()
+            except Exception:  # noqa: BLE001 - the process ends anyway
+                pass
+    finally:
+        os._exit(EXIT_CODES[signum])
+
+
+def _interrupted(signum: int, frame) -> None:
+    _received.append(signum)
+    logging.disable(logging.ERROR)  # the user knows; no "Crash detected!" lines
+    for other in EXIT_CODES:
+        signal.signal(other, signal.SIG_IGN)
+    threading.Thread(target=_deadline, args=(signum, GRACE_S), name="nlupdate-interrupt-deadline", daemon=True).start()
+    raise Interrupted(signum)
+
+
+def install() -> None:
+    """Make SIGINT and SIGTERM raise :class:`Interrupted` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in EXIT_CODES:
+        signal.signal(signum, _interrupted)
