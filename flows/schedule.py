@@ -29,6 +29,7 @@ import contextlib
 import datetime as dt
 import json
 import os
+import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -361,11 +362,22 @@ def _registered_only_runner(say: Callable[[str], None]):
     """A Prefect :class:`~prefect.runner.Runner` that fails, before they start, the flow
     runs that :func:`refusal` refuses: it checks each run as the runner proposes to move it
     to Pending (Prefect 3.8's ``StateProposer.propose_pending``, the one place every
-    scheduled run passes before a process is started for it)."""
+    scheduled run passes before a process is started for it). SIGTERM is handled as before
+    the runner started."""
     from prefect.runner import Runner
     from prefect.states import Failed
 
+    before = signal.getsignal(signal.SIGTERM)
+
     class RegisteredOnlyRunner(Runner):
+        def handle_sigterm(self, signum: int = signal.SIGTERM, frame=None) -> None:
+            """SIGTERM as the process handled it before the runner started (the CLI: like
+            Ctrl-C), not Prefect's stop-and-exit-0 (which left its stop coroutine unawaited)."""
+            if callable(before):
+                before(signum, frame)
+            else:
+                super().handle_sigterm()
+
         async def __aenter__(self):
             entered = await super().__aenter__()
             proposer = self._state_proposer

@@ -269,8 +269,18 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
     print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
 
 
+def api_call(method: str, url: str, **kwargs) -> httpx.Response:
+    """One API request, retried while a busy server answers 503 (SQLite locked under load)."""
+    deadline = time.monotonic() + 30
+    while True:
+        response = httpx.request(method, url, timeout=30, **kwargs)
+        if response.status_code != 503 or time.monotonic() > deadline:
+            return response
+        time.sleep(0.5)
+
+
 def flow_run_state(url: str, run_id: str) -> str:
-    return httpx.get(f"{url}/flow_runs/{run_id}", timeout=30).json()["state"]["type"]
+    return api_call("GET", f"{url}/flow_runs/{run_id}").json()["state"]["type"]
 
 
 def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, study, real_server):
@@ -303,15 +313,15 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
                             "cache_dir": str(tmp_path / "evil-cache")},
                            {"name": "two-dof", "study_sha256": "0" * 64},
                            {"name": "not-registered", "study_sha256": sha}):
-            response = httpx.post(f"{real_server}/deployments/{deployment['id']}/create_flow_run",
-                                  json={"parameters": parameters}, timeout=30)
+            response = api_call("POST", f"{real_server}/deployments/{deployment['id']}/create_flow_run",
+                                json={"parameters": parameters})
             if response.status_code < 300:  # else the API itself refused the parameters
                 created.append(response.json()["id"])
-        patched = httpx.patch(f"{real_server}/deployments/{deployment['id']}",
-                              json={"parameters": {"name": "two-dof", "study_sha256": "f" * 64}}, timeout=30)
+        patched = api_call("PATCH", f"{real_server}/deployments/{deployment['id']}",
+                           json={"parameters": {"name": "two-dof", "study_sha256": "f" * 64}})
         assert patched.status_code < 300, patched.text
         assert read_deployment(real_server, "two-dof").json()["parameters"]["study_sha256"] == "f" * 64
-        response = httpx.post(f"{real_server}/deployments/{deployment['id']}/create_flow_run", json={}, timeout=30)
+        response = api_call("POST", f"{real_server}/deployments/{deployment['id']}/create_flow_run", json={})
         assert response.status_code < 300, response.text
         created.append(response.json()["id"])
         assert len(created) >= 3
@@ -330,7 +340,7 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
     finally:
         stop_group(serve)
     assert [flow_run_state(real_server, run) for run in created] == ["FAILED"] * len(created), stdout
-    messages = [httpx.get(f"{real_server}/flow_runs/{run}", timeout=30).json()["state"]["message"] for run in created]
+    messages = [api_call("GET", f"{real_server}/flow_runs/{run}").json()["state"]["message"] for run in created]
     assert all(" REFUSED: " in message and "nothing was run" in message for message in messages), messages
     assert not marker.exists() and not (tmp_path / "evil-results").exists() and not (tmp_path / "runs").exists()
     assert not list((tmp_path / "results").rglob("manifest.json"))  # not even the registered study ran
@@ -347,8 +357,10 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
             assert restarted.poll() is None, restarted.communicate()
             assert time.monotonic() < deadline
             time.sleep(0.5)
-        restarted.send_signal(signal.SIGINT)
-        stdout, _ = restarted.communicate(timeout=30)
+        restarted.send_signal(signal.SIGTERM)  # as a service manager stops it
+        stdout, stderr = restarted.communicate(timeout=30)
     finally:
         stop_group(restarted)
     assert "two-dof: the server's deployment was changed: parameters" in stdout and "restoring" in stdout, stdout
+    assert restarted.returncode == 143 and "never awaited" not in stderr and "Traceback" not in stderr, stderr
+    assert stderr.strip().splitlines()[-1].startswith("nlupdate serve: interrupted (SIGTERM); stopped serving"), stderr
