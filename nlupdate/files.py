@@ -21,6 +21,7 @@ import re
 import secrets
 import shutil
 import socket
+import stat
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +34,47 @@ ON_EXISTS = ("suffix", "replace", "error")
 #: This host's name as it appears in temporary names.
 HOST = re.sub(r"[^A-Za-z0-9_.]", "_", socket.gethostname()) or "host"
 _LEFTOVER = re.compile(r"^\.(?:tmp-.+|.+\.tmp)-(?P<host>[A-Za-z0-9_.]+)-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$")
+
+
+#: The longest name nlupdate gives a folder from user input (a study name).
+MAX_NAME = 100
+
+
+def name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be one folder name nlupdate writes (None when it can): it must
+    be one path component — printable, at most :data:`MAX_NAME` characters, no ``/`` or
+    ``\\``, not starting with ``.`` (hidden and temporary names are nlupdate's own)."""
+    if not isinstance(name, str) or not name.strip():
+        return "an empty name"
+    if len(name) > MAX_NAME:
+        return f"{len(name)} characters (at most {MAX_NAME})"
+    if "/" in name or "\\" in name:
+        return "a path, not one name (it holds '/' or '\\')"
+    if name.startswith("."):
+        return "a name starting with '.'"
+    if not name.isprintable():
+        return "unprintable characters"
+    return None
+
+
+def inside(root: str | os.PathLike, path: str | os.PathLike) -> Path:
+    """``path`` after checking that it resolves inside ``root`` (symbolic links followed);
+    ``ValueError`` naming both otherwise."""
+    root_resolved, resolved = Path(root).resolve(), Path(path).resolve()
+    if resolved != root_resolved and root_resolved not in resolved.parents:
+        raise ValueError(f"{path} is outside {root}")
+    return Path(path)
+
+
+def copy_private(source: str | os.PathLike, target: str | os.PathLike) -> None:
+    """Copy the file ``source`` to ``target`` with permissions never wider than the
+    source's (nor than the umask allows): a 0600 file stays 0600."""
+    source, target = Path(source), Path(target)
+    mode = stat.S_IMODE(source.stat().st_mode) & (0o666 & ~_umask())
+    descriptor = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(descriptor, "wb") as out, open(source, "rb") as stream:
+        shutil.copyfileobj(stream, out, 1 << 20)
+    os.chmod(target, mode)
 
 
 def run_name(prefix: str) -> str:

@@ -78,12 +78,17 @@ def _resolve(spec: str, root: str):
 
 
 def _list_entry(run) -> dict:
-    from nlupdate.reporting.catalogue import key_results
+    from nlupdate.reporting.catalogue import ArchiveError, key_results
 
     entry = {"study": run.study, "run_id": run.run_id, "folder": str(run.folder), "status": run.status,
              "started_utc": run.started or None}
+    if run.reason:
+        entry["reason"] = run.reason
     if run.manifest:
-        entry.update(key_results(run))
+        try:
+            entry.update(key_results(run))
+        except ArchiveError as error:  # one damaged table: this run is damaged, the others are listed
+            return {**entry, "status": "damaged", "reason": str(error)}
         entry["rerun_of"] = run.manifest.get("run", {}).get("rerun_of")
         entry["error"] = run.manifest.get("error")
         entry["failed_runs"] = [failure["run"] for failure in run.manifest.get("failures", [])]
@@ -95,6 +100,8 @@ def _list_line(entry: dict) -> str:
 
     date = (entry["started_utc"] or "")[:16].replace("T", " ")
     parts = [f"{entry['study']:<14}", f"{entry['run_id']:<28}", f"{date or '–':<16}", f"{entry['status']:<10}"]
+    if entry.get("reason"):
+        parts.append(f"({entry['reason']})")
     if entry.get("best"):
         updated = ", ".join(f"{name} {format_value(value)}" for name, value in entry["updated"].items())
         parts.append(f"best {entry['best']!r}: {updated}")

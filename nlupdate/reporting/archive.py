@@ -27,13 +27,16 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
-import shutil
+import os
+import stat
+import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.report import plot_fit, plot_linear_frf
-from nlupdate.files import atomic_directory
+from nlupdate.files import atomic_directory, copy_private, inside, name_problem
+from nlupdate.notices import NlupdateWarning
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment, file_hash, table_hash, tree_hash
 from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
@@ -73,7 +76,9 @@ def inputs_hash(result) -> str:
 
 def archive_inputs(study, folder: Path) -> list[dict[str, str]]:
     """Copy every file (or folder) ``study`` reads into ``folder/inputs``; returns their
-    manifest entries (see the module docstring)."""
+    manifest entries (see the module docstring). Copies are never more readable than
+    their originals; links in an input folder are followed only when they point inside
+    it, others are kept as links (and said so in one line)."""
     entries = []
     for written, source in sorted(study.input_files.items()):
         source = Path(source)
@@ -83,12 +88,39 @@ def archive_inputs(study, folder: Path) -> list[dict[str, str]]:
         if not target.exists():
             target.parent.mkdir(parents=True, exist_ok=True)
             if source.is_dir():
-                shutil.copytree(source, target)
+                copy_input_folder(source, target)
             else:
-                shutil.copyfile(source, target)
+                copy_private(source, target)
         entries.append({"as_written": written, "source": str(source.resolve()), "archived": archived.as_posix(),
                         "sha256": digest})
     return entries
+
+
+def copy_input_folder(source: Path, target: Path, top: Path | None = None) -> None:
+    """Copy the input folder ``source`` to ``target``: files with permissions no wider than
+    theirs; a link that resolves inside ``source`` is followed, any other (pointing outside,
+    or to nothing) is archived as the link it is and reported in one line — its target is
+    not read. ``top``: the input folder a subfolder ``source`` belongs to."""
+    top = (top or source).resolve()
+    target.mkdir(mode=0o700)
+    for entry in sorted(source.iterdir()):
+        copy = target / entry.name
+        if entry.is_symlink():
+            pointee = entry.resolve()
+            within = pointee.exists() and (pointee == top or top in pointee.parents)
+            if within and pointee.is_file():
+                copy_private(pointee, copy)
+                continue
+            if not within:
+                reason = "points to nothing" if not pointee.exists() else "points outside the input folder"
+                warnings.warn(f"input folder {top}: {entry} is a link that {reason} ({os.readlink(entry)}); "
+                              f"archived as a link, its target not copied", NlupdateWarning, stacklevel=2)
+            os.symlink(os.readlink(entry), copy)
+        elif entry.is_dir():
+            copy_input_folder(entry, copy, top)
+        elif entry.is_file():
+            copy_private(entry, copy)
+    os.chmod(target, stat.S_IMODE(source.stat().st_mode) & 0o777)
 
 
 def study_record(study) -> dict[str, str]:
@@ -100,8 +132,13 @@ def study_record(study) -> dict[str, str]:
 
 
 def run_folder(root: str | Path, study_name: str, started: dt.datetime, digest: str) -> Path:
-    """``<root>/<study>/<UTC time>-<8 hex digits of the inputs hash>``."""
-    return Path(root) / study_name / f"{started.astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}-{digest[:8]}"
+    """``<root>/<study>/<UTC time>-<8 hex digits of the inputs hash>``, checked to be inside
+    ``root`` (a study name is one folder name, :func:`nlupdate.files.name_problem`)."""
+    problem = name_problem(study_name)
+    if problem is not None:
+        raise ValueError(f"study name {study_name!r} is {problem}; it cannot name a folder under {root}")
+    folder = Path(root) / study_name / f"{started.astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}-{digest[:8]}"
+    return inside(root, folder)
 
 
 def _solver(spec: AdapterSpec | None) -> dict[str, Any] | None:

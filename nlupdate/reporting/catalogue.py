@@ -7,7 +7,10 @@ A run is ``<root>/<study>/<run id>/`` (:mod:`nlupdate.reporting.archive`). Its s
 * ``failed``     the archive is whole but some updating runs failed (named in it);
 * ``incomplete`` a temporary folder a run left when it was killed while writing (its
   writer no longer runs, or runs on another host; the next run removes it);
-* ``writing``    a temporary folder whose writer still runs on this host.
+* ``writing``    a temporary folder whose writer still runs on this host;
+* ``damaged``    a folder under its final name whose manifest or tables cannot be read,
+  or whose manifest points outside the archive (listed with the reason; never read
+  further, so one bad archive hides no other).
 
 Only a folder under its final name holds a manifest that :func:`find_runs` reads as
 whole: archives are written in a temporary sibling and renamed when complete.
@@ -22,11 +25,11 @@ from typing import Any
 
 import pandas as pd
 
-from nlupdate.files import HOST, temporary_writer, writer_alive
+from nlupdate.files import HOST, inside, name_problem, temporary_writer, writer_alive
 from nlupdate.reporting.archive import MANIFEST
 from nlupdate.reporting.manifest import file_hash, tree_hash
 
-STATUSES = ("complete", "failed", "incomplete", "writing")
+STATUSES = ("complete", "failed", "incomplete", "writing", "damaged")
 
 
 class ArchiveError(ValueError):
@@ -42,25 +45,67 @@ class ArchivedRun:
     run_id: str
     status: str
     manifest: dict[str, Any] = field(default_factory=dict, repr=False)
+    reason: str = ""
 
     @property
     def started(self) -> str:
         return self.manifest.get("run", {}).get("started_utc", "")
 
     def table(self, name: str) -> pd.DataFrame | None:
-        """``tables/<name>.parquet`` of the archive, or None when the run has none."""
+        """``tables/<name>.parquet`` of the archive, or None when the run has none;
+        :class:`ArchiveError` naming the file when it cannot be read."""
         path = self.folder / "tables" / f"{name}.parquet"
-        return pd.read_parquet(path) if path.is_file() else None
+        if not path.is_file():
+            return None
+        try:
+            return pd.read_parquet(path)
+        except Exception as error:  # pyarrow's errors for a corrupt file
+            raise ArchiveError(f"{path}: cannot be read ({type(error).__name__}: {error})") from None
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
+    """The manifest of the archive ``folder``, checked (:func:`check_manifest`)."""
     path = Path(folder) / MANIFEST
     try:
-        return json.loads(path.read_text())
+        manifest = json.loads(path.read_text())
     except FileNotFoundError:
         raise ArchiveError(f"{folder} is not a run archive (no {MANIFEST})") from None
-    except (OSError, json.JSONDecodeError) as error:
+    except (OSError, ValueError) as error:
         raise ArchiveError(f"{path}: cannot read the manifest ({error})") from None
+    check_manifest(folder, manifest)
+    return manifest
+
+
+def check_manifest(folder: Path, manifest: Any) -> None:
+    """:class:`ArchiveError` unless ``manifest`` has the shape nlupdate writes and every
+    path in it stays inside ``folder``: the study name is one folder name, every archived
+    input a relative path that resolves inside the archive."""
+    where = Path(folder) / MANIFEST
+    if not isinstance(manifest, dict):
+        raise ArchiveError(f"{where}: holds a {type(manifest).__name__}, not a manifest object")
+    if not isinstance(manifest.get("run_id"), str) or not isinstance(manifest.get("run"), dict):
+        raise ArchiveError(f"{where}: no run record (run_id, run): not a manifest nlupdate wrote")
+    study = manifest.get("study", {})
+    name = study.get("name") if isinstance(study, dict) else None
+    if not isinstance(study, dict) or (name is not None and name_problem(name) is not None):
+        raise ArchiveError(f"{where}: study name {name!r} is not one folder name ({name_problem(name)}); "
+                           f"the manifest points outside the archive")
+    inputs = manifest.get("inputs", {})
+    files = inputs.get("files", []) if isinstance(inputs, dict) else None
+    if not isinstance(files, list):
+        raise ArchiveError(f"{where}: inputs.files is not a list")
+    for entry in files:
+        if not isinstance(entry, dict) or not all(isinstance(entry.get(k), str)
+                                                  for k in ("as_written", "archived", "sha256")):
+            raise ArchiveError(f"{where}: an inputs.files entry lacks as_written, archived or sha256")
+        archived = Path(entry["archived"])
+        if archived.is_absolute() or ".." in archived.parts:
+            raise ArchiveError(f"{where}: archived input {entry['archived']!r} points outside the archive")
+        try:
+            inside(folder, Path(folder) / archived)
+        except ValueError:
+            raise ArchiveError(f"{where}: archived input {entry['archived']!r} points outside the archive "
+                               f"(through a link)") from None
 
 
 def _temporary_status(folder: Path) -> str:
@@ -77,6 +122,8 @@ def open_run(folder: str | os.PathLike) -> ArchivedRun:
     manifest = read_manifest(folder)
     status = manifest.get("status") or ("failed" if manifest.get("failures") else "complete")
     study = manifest.get("study", {}).get("name") or folder.parent.name
+    if status not in STATUSES:
+        raise ArchiveError(f"{folder / MANIFEST}: unknown status {status!r}")
     return ArchivedRun(folder, study, folder.name, status, manifest)
 
 
@@ -94,8 +141,8 @@ def find_runs(root: str | os.PathLike = "results", study: str | None = None) -> 
             elif (folder / MANIFEST).is_file():
                 try:
                     runs.append(open_run(folder))
-                except ArchiveError:
-                    runs.append(ArchivedRun(folder, study_folder.name, folder.name, "incomplete"))
+                except ArchiveError as error:
+                    runs.append(ArchivedRun(folder, study_folder.name, folder.name, "damaged", reason=str(error)))
     if study is not None:
         runs = [r for r in runs if r.study == study or r.folder.parent.name == study]
     return sorted(runs, key=lambda r: (r.started or r.run_id.removeprefix(".tmp-"), r.run_id))
@@ -114,6 +161,8 @@ def resolve_run(spec: str, root: str | os.PathLike = "results") -> ArchivedRun:
         names = ", ".join(f"{r.study}/{r.run_id}" for r in matches[:6])
         raise ArchiveError(f"{spec!r} names {len(matches)} runs under {root} ({names}{', …' if len(matches) > 6 else ''}); "
                            f"give more of the id")
+    if matches[0].status == "damaged":
+        raise ArchiveError(matches[0].reason)
     return matches[0]
 
 
@@ -155,6 +204,7 @@ def archived_inputs(run: ArchivedRun) -> tuple[dict[str, Path], list[str]]:
     changed since the run). A copy whose content no longer matches its recorded hash is
     still used; the note says so, so a rerun can explain a difference."""
     redirect, notes = {}, []
+    check_manifest(run.folder, run.manifest)
     for entry in run.manifest.get("inputs", {}).get("files", []):
         copy = run.folder / entry["archived"]
         if not copy.exists():
@@ -177,5 +227,5 @@ def archived_study(run: ArchivedRun):
     if not text_path.is_file():
         raise ArchiveError(f"{run.folder}: no study.toml: this archive cannot be rerun")
     redirect, notes = archived_inputs(run)
-    study = study_from_text(text_path.read_text(), text_path, redirect)
+    study = study_from_text(text_path.read_text(), text_path, redirect, redirect_only=True)
     return replace(study, name=run.manifest.get("study", {}).get("name", study.name)), notes

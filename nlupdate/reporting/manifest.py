@@ -3,6 +3,7 @@ content hashes of its inputs, the versions of everything that computed it, the s
 from __future__ import annotations
 
 import hashlib
+import os
 import importlib.metadata
 import platform
 import subprocess
@@ -64,10 +65,17 @@ def file_hash(path: str | Path) -> str:
 
 
 def tree_hash(folder: str | Path) -> str:
-    """SHA-256 over a folder's files: their relative paths and contents, in sorted order."""
+    """SHA-256 over a folder's files: their relative paths and contents, in sorted order.
+    A link is hashed by its content when it points to a file inside the folder, else by
+    the text of the link (its target is not read)."""
     digest = hashlib.sha256()
     root = Path(folder)
-    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+    inner = root.resolve()
+    for path in sorted(p for p in root.rglob("*") if p.is_file() or p.is_symlink()):
         digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(file_hash(path).encode())
+        pointee = path.resolve()
+        if path.is_symlink() and not (pointee.is_file() and inner in pointee.parents):
+            digest.update(b"link:" + os.fsencode(os.readlink(path)))
+        else:
+            digest.update(file_hash(path).encode())
     return digest.hexdigest()

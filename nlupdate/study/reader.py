@@ -17,12 +17,15 @@ class Reader:
 
     ``redirect`` maps paths as written in the file to the files to read instead (a rerun
     reads the copies kept in its archive); :attr:`files` records every path the file
-    names, as written → the path read."""
+    names, as written → the path read. With ``redirect_only``, a path that ``redirect``
+    does not map is refused (a rerun reads nothing outside its archive)."""
 
-    def __init__(self, path: Path, allowed: Mapping[str, set[str]], redirect: Mapping[str, Path] | None = None) -> None:
+    def __init__(self, path: Path, allowed: Mapping[str, set[str]], redirect: Mapping[str, Path] | None = None,
+                 redirect_only: bool = False) -> None:
         self.path = path
         self.allowed = allowed
         self.redirect = dict(redirect or {})
+        self.redirect_only = redirect_only
         self.files: dict[str, Path] = {}
 
     def fail(self, where: str, key: str | None, expected: str, got: object = None) -> StudyError:
@@ -138,6 +141,9 @@ class Reader:
         """A path given in the file (relative to the file's directory), or its redirect."""
         if written in self.redirect:
             path = Path(self.redirect[written])
+        elif self.redirect_only:
+            raise StudyError(f"{self.path}: names {written!r}, which is not among the files kept with it; "
+                             f"only those are read")
         else:
             path = Path(written)
             path = path if path.is_absolute() else self.path.parent / path

@@ -73,6 +73,7 @@ import numpy as np
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.identification.pipeline import IdentificationSettings
+from nlupdate.files import MAX_NAME, name_problem
 from nlupdate.input_files import read_input_text
 from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
@@ -224,23 +225,31 @@ def load_study(path: str | os.PathLike) -> Study:
     return study_from_text(read_input_text(path, "study file"), path)
 
 
-def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, Path] | None = None) -> Study:
+def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, Path] | None = None,
+                    redirect_only: bool = False) -> Study:
     """Parse and check study ``text``; ``path`` names it in errors and anchors relative paths.
 
     ``redirect``: files to read instead of those the study names (path as written → path),
-    e.g. the copies kept in a run archive."""
+    e.g. the copies kept in a run archive; with ``redirect_only`` no other file is read."""
     path = Path(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise StudyError(f"{path}: not valid TOML ({error})") from error
-    read = Reader(path, _ALLOWED, redirect)
+    read = Reader(path, _ALLOWED, redirect, redirect_only)
     for (table, key), hint in _MOVED.items():
         if isinstance(data.get(table), dict) and key in data[table]:
             raise read.fail(table, key, f"nothing: this key was removed ({hint})", data[table][key])
     read.check_keys(data, "")
     meta = read.table(data, "study") or {}
     name = read.string(meta, "study", "name", default=path.stem)
+    problem = name_problem(name)
+    if problem is not None:
+        if "name" in meta:
+            raise read.fail("study", "name", f"one folder name (printable, at most {MAX_NAME} characters, no '/' "
+                                             f"or '\\', not starting with '.'), not {problem}", name)
+        raise StudyError(f"{path}: the study is named after its file, {name!r}, which is {problem}; give it a "
+                         f"[study] name")
     description = read.string(meta, "study", "description", default="")
 
     adapter, fixed, parameters = None, {}, ()
