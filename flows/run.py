@@ -52,11 +52,15 @@ def run_study_flow(
     annotations: dict[str, str] | None = None,
 ) -> Path:
     """Run ``study`` as Prefect flows and write its archive under ``results_root``
-    (``annotations``: extra entries of the manifest's ``run`` record)."""
+    (``annotations``: extra entries of the manifest's ``run`` record). Its input files are
+    read once, as the run starts (:func:`nlupdate.study.spec.inputs_read_once`)."""
     from nlupdate.flows.study import Cache, study_flow, study_handle
 
+    from nlupdate.study.spec import inputs_read_once
+
     progress = progress or Progress()
-    with _flow_session(execution, cache_dir, progress) as (url, runner, description, store):
+    with inputs_read_once(study) as study, _flow_session(execution, cache_dir, progress) as (url, runner, description,
+                                                                                           store):
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, API {url}"

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
+from nlupdate.input_files import pinned_bytes
 from nlupdate.notices import NlupdateWarning
 
 ON_EXISTS = ("suffix", "replace", "error")
@@ -68,12 +69,18 @@ def inside(root: str | os.PathLike, path: str | os.PathLike) -> Path:
 
 def copy_private(source: str | os.PathLike, target: str | os.PathLike) -> None:
     """Copy the file ``source`` to ``target`` with permissions never wider than the
-    source's (nor than the umask allows): a 0600 file stays 0600."""
+    source's (nor than the umask allows): a 0600 file stays 0600. A file a run has pinned
+    is copied as the run read it (:func:`nlupdate.input_files.pinned`)."""
     source, target = Path(source), Path(target)
     mode = stat.S_IMODE(source.stat().st_mode) & (0o666 & ~_umask())
+    taken = pinned_bytes(source)
     descriptor = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    with os.fdopen(descriptor, "wb") as out, open(source, "rb") as stream:
-        shutil.copyfileobj(stream, out, 1 << 20)
+    with os.fdopen(descriptor, "wb") as out:
+        if taken is not None:  # what the run read, not what the file holds now
+            out.write(taken)
+        else:
+            with open(source, "rb") as stream:
+                shutil.copyfileobj(stream, out, 1 << 20)
     os.chmod(target, mode)
 
 

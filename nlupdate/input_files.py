@@ -14,12 +14,21 @@ Every reader of a user's file (study, model, measured data, decks) goes through
 :func:`sniff` names the kind of content from its first bytes (parquet, HDF5/MAT v7.3,
 MAT v5, universal file, text, binary), so readers can say "this is a parquet file, not a
 CSV table" instead of a parser's error.
+
+A run reads each input once: :func:`snapshot` takes the bytes of its files when the run
+starts, and within :func:`pinned` every read of those paths — by any reader, in any
+thread — gets those bytes, as do the hashes and copies its archive makes
+(:func:`pinned_bytes`). A file replaced on disk while the run goes on changes nothing:
+what was hashed and archived is what was read.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
+import threading
 from pathlib import Path
+from typing import Iterable, Iterator, Mapping
 
 #: Default largest input file, in megabytes.
 DEFAULT_MAX_INPUT_MB = 512.0
@@ -75,9 +84,56 @@ def checked_input(path: str | os.PathLike, what: str = "input file") -> Path:
     return path
 
 
+_PINNED: dict[Path, bytes] = {}
+_PIN_COUNT: dict[Path, int] = {}
+_PIN_LOCK = threading.Lock()
+
+
+def snapshot(paths: Iterable[str | os.PathLike]) -> dict[str, bytes]:
+    """The bytes of the input files ``paths`` (a folder: every regular file under it that
+    is not a link), read now, by resolved path."""
+    taken: dict[str, bytes] = {}
+    for given in paths:
+        path = Path(given)
+        files = ([p for p in sorted(path.rglob("*")) if p.is_file() and not p.is_symlink()] if path.is_dir()
+                 else [path])
+        for file in files:
+            taken[str(file.resolve())] = read_input_bytes(file)
+    return taken
+
+
+@contextlib.contextmanager
+def pinned(snapshots: Mapping[str, bytes]) -> Iterator[None]:
+    """Within the block, reading a path of ``snapshots`` gives its snapshot, in every thread."""
+    keys = [Path(p) for p in snapshots]
+    with _PIN_LOCK:
+        for key in keys:
+            _PINNED[key] = snapshots[str(key)]
+            _PIN_COUNT[key] = _PIN_COUNT.get(key, 0) + 1
+    try:
+        yield
+    finally:
+        with _PIN_LOCK:
+            for key in keys:
+                _PIN_COUNT[key] -= 1
+                if not _PIN_COUNT[key]:
+                    del _PIN_COUNT[key], _PINNED[key]
+
+
+def pinned_bytes(path: str | os.PathLike) -> bytes | None:
+    """The snapshot of ``path`` when it is pinned, else None."""
+    if not _PINNED:
+        return None
+    with _PIN_LOCK:
+        return _PINNED.get(Path(path).resolve())
+
+
 def read_input_bytes(path: str | os.PathLike, what: str = "input file") -> bytes:
-    """The bytes of a checked input file (:func:`checked_input`); never more than the limit,
-    even when the file grows while it is read."""
+    """The bytes of a checked input file (:func:`checked_input`) — its snapshot when it is
+    :func:`pinned`; never more than the limit, even when the file grows while it is read."""
+    taken = pinned_bytes(path)
+    if taken is not None:
+        return taken
     path = checked_input(path, what)
     limit = max_input_bytes()
     try:

@@ -35,6 +35,11 @@ SCHEMA = 1
 TRUSTED_PACKAGES = ("nlupdate",)
 
 
+#: pandas' own column dtypes a record keeps (others are stored as plain lists).
+PANDAS_DTYPES = frozenset({"Int8", "Int16", "Int32", "Int64", "UInt8", "UInt16", "UInt32", "UInt64", "Float32",
+                           "Float64", "boolean", "string"})
+
+
 class RecordError(ValueError):
     """A value cannot be written as a record, or bytes are not a valid record."""
 
@@ -106,10 +111,13 @@ class _Writer:
         return self._object(value, where)
 
     def _column(self, column: pd.Series | pd.Index, where: str) -> Any:
-        """A table column as an array member (numbers, booleans, times) or a list."""
+        """A table column as an array member (numbers, booleans, times) or a list, with its
+        dtype when it is one of pandas' own (nullable integers, strings, …)."""
         if isinstance(column.dtype, np.dtype) and column.dtype.kind in "biufcmM":
             return {"array": self._array(column.to_numpy())}
-        return {"values": [self.encode(v, where) for v in column.tolist()]}
+        dtype = str(column.dtype)
+        encoded = {"values": [self.encode(None if v is pd.NA else v, where) for v in column.tolist()]}
+        return {**encoded, "dtype": dtype} if dtype in PANDAS_DTYPES else encoded
 
     def _index(self, index: pd.Index, where: str) -> Any:
         if isinstance(index, pd.RangeIndex):
@@ -144,7 +152,13 @@ class _Reader:
     def _column(self, value: Any) -> Any:
         if "array" in value:
             return self._array(value["array"])
-        return [self.decode(v) for v in value["values"]]
+        values = [self.decode(v) for v in value["values"]]
+        dtype = value.get("dtype")
+        if dtype is None:
+            return values
+        if dtype not in PANDAS_DTYPES:
+            raise RecordError(f"unknown column dtype {dtype!r}")
+        return pd.array(values, dtype=dtype)
 
     def decode(self, value: Any) -> Any:
         if value is None or isinstance(value, (bool, str, int, float)):

@@ -27,6 +27,7 @@ from nlupdate.adapters.base import ModalResult
 from nlupdate.discovery.candidates import CandidateFit
 from nlupdate.discovery.workflow import fit_candidate
 from nlupdate.identification.pipeline import Identification
+from nlupdate.input_files import pinned
 from nlupdate.study import steps
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import Prediction, TargetSet
@@ -49,19 +50,22 @@ def _keyed(*live: str):
 @task(name="measured data", cache_policy=_keyed("study"), persist_result=True)
 def measured_data(key: str, study: Study) -> pd.DataFrame:
     """The study's measured-FRF table (read or simulated)."""
-    return steps.measured_table(study)
+    with pinned(study.snapshots):  # the run's inputs as read when it started, also on a Dask worker
+        return steps.measured_table(study)
 
 
 @task(name="identification", cache_policy=_keyed("study", "table"), persist_result=True)
 def identification(key: str, study: Study, table: pd.DataFrame) -> Identification:
     """PRD/DDF identification, linear-FRF extraction, modes and Monte Carlo."""
-    return steps.identification_step(study, table)
+    with pinned(study.snapshots):  # the run's inputs as read when it started, also on a Dask worker
+        return steps.identification_step(study, table)
 
 
 @task(name="targets", cache_policy=_keyed("study", "identified"), persist_result=True)
 def targets(key: str, study: Study, identified: Identification | None) -> TargetSet:
     """The updating targets (and their uncertainty) of the study."""
-    return steps.study_targets(study, identified)
+    with pinned(study.snapshots):  # the run's inputs as read when it started, also on a Dask worker
+        return steps.study_targets(study, identified)
 
 
 @task(name="FE point", cache_policy=_keyed("spec", "point"), persist_result=True)
@@ -89,7 +93,8 @@ def comparison(key: str, study: Study, target_set: TargetSet, runs: Sequence[Upd
 def prediction(key: str, study: Study, name: str, point: Mapping[str, float], modes: ModalResult,
                identified: Identification, table: pd.DataFrame) -> Prediction:
     """The updated nonlinear model of one run at every force level, and its correlation."""
-    return steps.predict_model(study, name, point, modes, identified, table)
+    with pinned(study.snapshots):  # the run's inputs as read when it started, also on a Dask worker
+        return steps.predict_model(study, name, point, modes, identified, table)
 
 
 @task(name="candidate fit", cache_policy=_keyed("job"), persist_result=True)

@@ -173,3 +173,49 @@ def test_a_rerun_reads_no_file_the_archive_does_not_keep(tmp_path):
     (folder / "study.toml").write_text(study_text(None))  # names the model file, which is not kept here
     with pytest.raises(ValueError, match="names '.*two_dof.toml', which is not among the files kept with it"):
         archived_study(open_run(folder))
+
+
+# ----------------------------------------------------------------------------- an input replaced mid-run
+
+
+def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monkeypatch, capsys):
+    """The issue's case: the measured CSV is replaced while the run goes on. The run reads
+    its inputs once, as it starts; the manifest's hash, the archived copy and the results
+    all come from those bytes."""
+    import hashlib
+
+    import pandas as pd
+
+    import nlupdate.cli.update as update_command
+
+    measured = tmp_path / "frf.csv"
+    assert main(["simulate", str(MODEL), "--input-dof", "0", "--freqs", "690:770:40", "--forces",
+                 "0.01,20,40,60,80,100", "--noise", "0.01", "--seed", "3", "--out", str(measured)]) == 0
+    original = measured.read_bytes()
+    text = study_text(None)
+    start, end = text.index("[measured.simulate]"), text.index("[identification]")
+    path = tmp_path / "study.toml"
+    path.write_text(text[:start] + f'[measured]\nfile = "{measured}"\n\n' + text[end:])
+
+    real_run_study = update_command.run_study
+
+    def replaced_first(study, say):
+        table = pd.read_csv(measured)
+        table["h_real"] *= 1.05  # someone rewrites the data while the run goes on
+        table.to_csv(measured, index=False)
+        return real_run_study(study, say)
+
+    monkeypatch.setattr(update_command, "run_study", replaced_first)
+    assert main(["update", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert measured.read_bytes() != original
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    [entry] = [e for e in manifest["inputs"]["files"] if e["as_written"] == str(measured)]
+    assert entry["sha256"] == hashlib.sha256(original).hexdigest()
+    assert (tmp_path / "out" / entry["archived"]).read_bytes() == original
+    assert manifest["inputs"]["measured"]["file_sha256"] == hashlib.sha256(original).hexdigest()
+    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.reporting.manifest import table_hash
+
+    measured.write_bytes(original)
+    assert manifest["inputs"]["measured"]["sha256"] == table_hash(read_frf_table(measured))

@@ -26,7 +26,8 @@ from nlupdate.tasks.store import RECORDS_FOLDER, sign, verified
 
 
 def test_results_round_trip_as_data():
-    table = pd.DataFrame({"frequency_hz": [1.0, 2.0], "response_dof": ["a", "b"], "h": [1 + 2j, np.nan]})
+    table = pd.DataFrame({"frequency_hz": [1.0, 2.0], "response_dof": ["a", "b"], "h": [1 + 2j, np.nan],
+                          "rank": pd.array([1, None], dtype="Int64"), "label": pd.array(["x", None], dtype="string")})
     modes = ModalResult(natural_frequencies_hz=np.array([10.0, 20.0]), mode_shapes=np.eye(2), coordinates=("a", "b"))
     value = {"modes": modes, ("tuple", 1): [1, 2.5, float("inf"), -0.0, None, True, "x"],
              "complex": 1 - 1j, "array": np.arange(6, dtype=np.complex128).reshape(2, 3), "table": table,

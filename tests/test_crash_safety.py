@@ -129,10 +129,12 @@ def complete_archives(results: Path) -> list[Path]:
 def assert_no_record_is_truncated(cache: Path) -> None:
     from prefect.results import ResultRecord
 
-    records = [p for p in cache.iterdir() if not p.name.startswith(".")]
+    from nlupdate.tasks.store import RECORDS_FOLDER, verified
+
+    records = [p for p in (cache / RECORDS_FOLDER).iterdir() if not p.name.startswith(".")]
     assert records, "the killed run left no cache record"
-    for path in records:
-        ResultRecord.deserialize(path.read_bytes())  # raises on a truncated or mixed record
+    for path in records:  # raises on a truncated or mixed record
+        ResultRecord.deserialize(verified(path.name, path.read_bytes()))
 
 
 def api(url: str):

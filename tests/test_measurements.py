@@ -269,7 +269,7 @@ def test_bad_table_is_not_written_and_existing_file_survives(tmp_path):
 
 
 def test_missing_file_and_unknown_suffix(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nothere.csv"):
+    with pytest.raises(ValueError, match="nothere.csv: no such file"):
         read_frf_table(tmp_path / "nothere.csv")
     with pytest.raises(MeasurementTableError) as error:
         read_frf_table(tmp_path / "frf.xlsx")

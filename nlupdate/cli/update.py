@@ -13,7 +13,7 @@ from nlupdate.cli import add_command
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.run import check_solver, exit_code_for_failures
 from nlupdate.reporting.archive import ARCHIVE_KIND, write_archive
-from nlupdate.study import load_study, run_study
+from nlupdate.study import inputs_read_once, load_study, run_study
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,10 +34,12 @@ def run(args: argparse.Namespace) -> int:
     args.interrupt_note = f"nothing was written to {out}"
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()
-    result = run_study(study, (lambda message: None) if args.quiet else (lambda message: print(f"  {message}")))
-    run_info = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
-                "wall_time_s": time.perf_counter() - clock, "orchestration": "sequential, in one process (nlupdate update)"}
-    folder = write_archive(result, out, run_info, on_exists="replace" if args.overwrite else "error")
+    with inputs_read_once(study) as study:  # what was read is what is hashed and archived
+        result = run_study(study, (lambda message: None) if args.quiet else (lambda message: print(f"  {message}")))
+        run_info = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
+                    "wall_time_s": time.perf_counter() - clock,
+                    "orchestration": "sequential, in one process (nlupdate update)"}
+        folder = write_archive(result, out, run_info, on_exists="replace" if args.overwrite else "error")
     if result.targets is not None:
         targets = result.targets.targets
         print(f"study {study.name!r}: targets " + ", ".join(

@@ -55,8 +55,10 @@ the read fails and says which fields are missing).
 """
 from __future__ import annotations
 
+import io
 import os
 import re
+import tempfile
 import warnings
 from pathlib import Path
 from typing import Iterable
@@ -67,6 +69,7 @@ import pyuff
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.files import atomic_file
+from nlupdate.input_files import read_input_bytes
 from nlupdate.notices import NlupdateWarning
 
 FRF_COLUMNS: tuple[str, ...] = (
@@ -411,13 +414,12 @@ def _curve_from_uff(dataset: dict, where: str) -> pd.DataFrame:
     })
 
 
-def _check_complete(path: Path, uff: pyuff.UFF) -> None:
+def _check_complete(path: Path, uff: pyuff.UFF, content: bytes) -> None:
     """Refuse a file whose last dataset has no end delimiter (a truncated file).
 
     pyuff indexes only complete datasets (between ``-1`` delimiter lines) and would
     silently drop a cut-off last one.
     """
-    content = path.read_bytes()
     blocks = getattr(uff, "_block_ind", None)
     end = int(blocks[-1][1]) + 1 if blocks is not None and len(blocks) else 0  # [first, last] byte
     rest = content[end:].replace(b"-1", b"", 1).strip() if end else content.strip()
@@ -429,14 +431,19 @@ def _check_complete(path: Path, uff: pyuff.UFF) -> None:
         )
 
 
-def _read_uff(path: Path) -> pd.DataFrame:
-    try:
-        uff = pyuff.UFF(str(path))
-        indices = [i for i, t in enumerate(uff.get_set_types()) if t == 58]
-        datasets = [uff.read_sets(i) for i in indices]
-    except Exception as error:  # pyuff raises bare Exception on malformed files
-        raise MeasurementTableError(f"{path}: not a readable UFF file ({error})") from error
-    _check_complete(path, uff)
+def _read_uff(path: Path, content: bytes) -> pd.DataFrame:
+    """The datasets 58 of the universal file ``content`` (read from ``path``); pyuff reads
+    files only, so it parses a private temporary copy of exactly these bytes."""
+    with tempfile.TemporaryDirectory(prefix="nlupdate-uff-") as folder:
+        copy = Path(folder) / path.name
+        copy.write_bytes(content)
+        try:
+            uff = pyuff.UFF(str(copy))
+            indices = [i for i, t in enumerate(uff.get_set_types()) if t == 58]
+            datasets = [uff.read_sets(i) for i in indices]
+        except Exception as error:  # pyuff raises bare Exception on malformed files
+            raise MeasurementTableError(f"{path}: not a readable UFF file ({error})") from error
+    _check_complete(path, uff, content)
     if not datasets:
         raise MeasurementTableError(f"{path}: no dataset 58 (function at nodal DOF) found")
     curves, seen = [], {}
@@ -469,20 +476,19 @@ def read_frf_table(path: str | os.PathLike, known_dofs: Iterable[str] | None = N
     """Read and validate a measured-FRF table (.parquet, .csv, .uff/.unv); canonical order."""
     path = Path(path)
     suffix = table_suffix(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"measured-FRF file not found: {path}")
+    content = read_input_bytes(path, "measured-FRF table")
     if suffix == ".parquet":
         try:
-            raw = pd.read_parquet(path)
+            raw = pd.read_parquet(io.BytesIO(content))
         except (OSError, ValueError) as error:
             raise MeasurementTableError(f"{path}: not a readable parquet file ({error})") from error
     elif suffix == ".csv":
         try:
-            raw = pd.read_csv(path, dtype={c: str for c in _DOF_COLUMNS}, keep_default_na=False)
+            raw = pd.read_csv(io.BytesIO(content), dtype={c: str for c in _DOF_COLUMNS}, keep_default_na=False)
         except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
             raise MeasurementTableError(f"{path}: not a readable CSV file ({error})") from error
     else:
-        raw = _read_uff(path)
+        raw = _read_uff(path, content)
     return _canonical(validate_frf_table(raw, source=str(path), known_dofs=known_dofs))
 
 

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from nlupdate.input_files import pinned_bytes
+
 PACKAGES = ("nlupdate", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "pyuff", "prefect", "prefect-dask", "dask",
             "distributed")
 
@@ -56,7 +58,11 @@ def table_hash(table: pd.DataFrame) -> str:
 
 
 def file_hash(path: str | Path) -> str:
-    """SHA-256 of a file's bytes."""
+    """SHA-256 of a file's bytes (of its snapshot, when a run has pinned it:
+    :func:`nlupdate.input_files.pinned`)."""
+    taken = pinned_bytes(path)
+    if taken is not None:
+        return hashlib.sha256(taken).hexdigest()
     digest = hashlib.sha256()
     with open(path, "rb") as handle:
         for block in iter(lambda: handle.read(1 << 20), b""):

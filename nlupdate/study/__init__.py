@@ -5,6 +5,6 @@
 * :mod:`~nlupdate.study.run` — :func:`run_study`, every step in order, in one process.
 """
 from nlupdate.study.run import StudyResult, run_study, study_warnings
-from nlupdate.study.spec import Study, StudyError, load_study, study_from_text
+from nlupdate.study.spec import Study, StudyError, inputs_read_once, load_study, study_from_text
 
 __all__ = ["Study", "StudyError", "StudyResult", "load_study", "run_study", "study_from_text", "study_warnings"]

@@ -61,20 +61,21 @@ Every table rejects unknown keys, so a misspelt option is an error, not a silent
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.identification.pipeline import IdentificationSettings
 from nlupdate.files import MAX_NAME, name_problem
-from nlupdate.input_files import read_input_text
+from nlupdate.input_files import pinned, read_input_text, snapshot
 from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
@@ -183,7 +184,8 @@ class PredictionSpec:
 @dataclass(frozen=True, eq=False)
 class Study:
     """A parsed and checked study file. ``sha256`` is the hash of its text; ``input_files``
-    maps every path the study names (as written) to the file read for it."""
+    maps every path the study names (as written) to the file read for it; ``snapshots``
+    holds their bytes once a run has read them (:func:`inputs_read_once`)."""
 
     path: Path
     name: str
@@ -202,6 +204,7 @@ class Study:
     comparison: Mapping[str, Any]
     prediction: PredictionSpec | None
     input_files: Mapping[str, Path] = field(default_factory=dict)
+    snapshots: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 
     @property
     def sha256(self) -> str:
@@ -216,6 +219,16 @@ class Study:
 
     def parameter(self, name: str) -> Parameter:
         return next(p for p in self.parameters if p.name == name)
+
+
+@contextlib.contextmanager
+def inputs_read_once(study: Study) -> Iterator[Study]:
+    """``study`` with the bytes of every file it names read now, and pinned for the block
+    (:func:`nlupdate.input_files.pinned`): every step, hash and archive copy of the run sees
+    those bytes, even if a file is replaced on disk meanwhile."""
+    taken = study if study.snapshots else dataclasses.replace(study, snapshots=snapshot(study.input_files.values()))
+    with pinned(taken.snapshots):
+        yield taken
 
 
 # ----------------------------------------------------------------------------- loading

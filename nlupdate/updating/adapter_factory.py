@@ -33,10 +33,10 @@ from __future__ import annotations
 import importlib
 import json
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Mapping
 
 from nlupdate.adapters.base import FEAdapter
+from nlupdate.input_files import read_input_text
 
 ADAPTER_KINDS = ("lumped", "surrogate", "calculix", "mapdl")
 
@@ -95,7 +95,7 @@ def build_adapter(spec: AdapterSpec) -> FEAdapter:
     if spec.kind == "mapdl":
         module = _module("nlupdate.adapters.mapdl", spec.kind)
         try:
-            deck = Path(options.pop("deck")).read_text()
+            deck = read_input_text(options.pop("deck"), "MAPDL deck")
             names = options.pop("parameter_names")
             coordinates = {name: tuple(value) for name, value in options.pop("coordinates").items()}
         except KeyError as error:

@@ -32,6 +32,7 @@ import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.correlation.metrics import natural_frequencies
+from nlupdate.input_files import read_input_text
 from nlupdate.measurement.frf_table import read_frf_table
 
 #: File name of the extracted linear FRF inside an identification result directory.
@@ -120,7 +121,7 @@ def linear_frf_path(path: str | os.PathLike) -> Path:
         raise FileNotFoundError(f"identification result not found: {path}")
     if path.suffix.lower() == ".json":
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(read_input_text(path, "identification result"))
         except json.JSONDecodeError as error:
             raise ValueError(f"{path}: not valid JSON ({error})") from error
         entry = data.get("linear_frf") if isinstance(data, dict) else None
