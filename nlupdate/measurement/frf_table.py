@@ -182,7 +182,7 @@ def _finite_numbers(table: pd.DataFrame, column: str, source: str) -> NDArray[np
     if pd.api.types.is_bool_dtype(raw) or any(isinstance(v, (bool, np.bool_)) for v in raw.iloc[:1000]):
         row = next((i for i, v in enumerate(raw) if isinstance(v, (bool, np.bool_))), 0)
         raise MeasurementTableError(
-            f"{_where(source, row)}, column '{column}': {raw.iloc[row]!r} is a boolean (True/False); expected a "
+            f"{_where(source, row)}, column '{column}': {bool(raw.iloc[row])} is a boolean (True/False); expected a "
             f"finite number"
         )
     values = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
