@@ -178,8 +178,8 @@ def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | Non
     ``1/H ≈ (k_r/A_r)(1 − ω²/ω_r²)``: it falls through zero for a positive modal constant
     (a point FRF) and rises through zero for a negative one (a transfer FRF across a
     node), so both directions count. ``Re(1/H)`` also changes sign at an antiresonance,
-    through infinity (H → 0): a sign change whose two values exceed the median of
-    ``|Re(1/H)|`` over the neighbouring 2·window points is such a pole and is skipped.
+    where ``|1/H|`` is at a maximum instead of a minimum: a sign change where the averaged
+    ``|1/H|`` exceeds its median over the neighbouring 2·window points is skipped.
 
     ``window`` (odd; default about 1 % of the points, at least 5) averages out the noise
     of an extracted FRF; crossings closer than 3 % of their frequency are merged (noise
@@ -196,7 +196,7 @@ def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | Non
     smooth = np.convolve(z, np.ones(window) / window, mode="valid")
     centres = f[window // 2 : f.size - window // 2]
     changes = np.flatnonzero(((smooth[:-1] > 0) & (smooth[1:] <= 0)) | ((smooth[:-1] < 0) & (smooth[1:] >= 0)))
-    magnitude = np.abs(smooth)
+    magnitude = np.convolve(np.abs(1.0 / np.asarray(h, dtype=complex)), np.ones(window) / window, mode="valid")
     zeros = []
     for k in changes:
         around = magnitude[max(k - window, 0): k + window + 2]
