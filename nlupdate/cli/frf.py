@@ -37,6 +37,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sine sweep: window length in cycles of the instantaneous frequency (default 10)")
     parser.add_argument("--resolution", type=non_negative_float, metavar="HZ",
                         help="random/burst: frequency resolution (default: 8 segments of the record)")
+    parser.add_argument("--sample-rate", type=non_negative_float, metavar="HZ",
+                        help="sample rate of records without a time_s column (default: their constant 'Fs' column)")
+    parser.add_argument("--reference", choices=("force", "voltage"),
+                        help="the reference column when a record has both (default force)")
     parser.add_argument("--reference-calibration", type=non_negative_float, metavar="N_PER_V",
                         help="newtons per volt of a voltage reference: write the FRFs per newton")
     add_overwrite_option(parser)
@@ -49,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     if args.window_cycles < 2:
         raise CliError(f"--window-cycles {args.window_cycles:g}: expected at least 2 cycles")
     args.interrupt_note = f"nothing was written to {out}"
-    records = [read_time_record(path) for path in args.records]
+    records = [read_time_record(path, args.sample_rate or None, args.reference) for path in args.records]
     input_dof = args.input_dof or ("force" if records[0].reference_unit == "N" else "voltage")
     if args.input_dof is None:
         print(f"default input_dof: {input_dof} (the reference column)")
@@ -66,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         table, unit = calibrated(table, args.reference_calibration, str(out)), "N"
     per = f"m/{unit}"
     print(f"excitation: {estimate.excitation.replace('_', ' ')}; reference in {unit}, FRFs in {per}")
-    factor = args.reference_calibration if args.reference_calibration and estimate.table is not table else 1.0
+    factor = args.reference_calibration or 1.0
     for level in estimate.levels:
         what = "RMS" if estimate.excitation in ("random", "burst") else "first-harmonic amplitude"
         print(f"level {level['level'] * factor:.6g} {unit} ({what}; spread {level['spread'] * factor:.3g}, "

@@ -107,13 +107,35 @@ class FRFEstimate:
 
 
 # ------------------------------------------------------------------------------ reading
-def _record_from_columns(columns: dict[str, np.ndarray], source: str) -> TimeRecord:
+def _record_from_columns(columns: dict[str, np.ndarray], source: str, sample_rate_hz: float | None = None,
+                         reference: str | None = None) -> TimeRecord:
+    """A record from named columns. Names are matched without regard to case (``Force``
+    is ``force``). Without ``time_s`` the samples are taken as evenly spaced at
+    ``sample_rate_hz`` (or at the value of a constant column ``fs``, as some benchmark
+    exports carry it). With both a ``force`` and a ``voltage`` column the force is the
+    reference unless ``reference`` says ``voltage``; the other one is not a response.
+    Trailing samples where every signal is exactly 0 (padding some exports add) are dropped."""
+    columns = {str(name).strip().lower() if str(name).strip().lower() in _RESERVED + ("fs",) else str(name).strip():
+               value for name, value in columns.items()}
     if "time_s" not in columns:
-        raise TimeHistoryError(f"{source}: no 'time_s' column (sample times in s); found {sorted(columns)}")
-    references = [name for name in ("force", "voltage") if name in columns]
-    if len(references) != 1:
-        raise TimeHistoryError(f"{source}: expected one reference column, 'force' (N) or 'voltage' (V); found "
-                               f"{references or 'neither'} among {sorted(columns)}")
+        rate = sample_rate_hz
+        if rate is None and "fs" in columns and np.ptp(np.asarray(columns["fs"], float)) == 0:
+            rate = float(np.asarray(columns["fs"], float)[0])
+        if rate is None or not rate > 0:
+            raise TimeHistoryError(f"{source}: no 'time_s' column (sample times in s) and no sample rate (give "
+                                   f"--sample-rate HZ); found {sorted(columns)}")
+        columns["time_s"] = np.arange(len(next(iter(columns.values())))) / rate
+    columns.pop("fs", None)
+    present = [name for name in ("force", "voltage") if name in columns]
+    if not present:
+        raise TimeHistoryError(f"{source}: expected a reference column, 'force' (N) or 'voltage' (V); found "
+                               f"neither among {sorted(columns)}")
+    chosen = reference or present[0]
+    if chosen not in present:
+        raise TimeHistoryError(f"{source}: no '{chosen}' column to take as the reference; found {present}")
+    for other in present:
+        if other != chosen:
+            columns.pop(other)
     numbers = {}
     for name, values in columns.items():
         array = np.asarray(values)
@@ -125,6 +147,11 @@ def _record_from_columns(columns: dict[str, np.ndarray], source: str) -> TimeRec
         if bad.size:
             raise TimeHistoryError(f"{source}: column '{name}', sample {bad[0]}: {array[bad[0]]!r} is not a finite number")
         numbers[name] = array
+    signals = np.vstack([v for name, v in numbers.items() if name != "time_s"])
+    nonzero = np.flatnonzero(np.any(signals != 0, axis=0))
+    end = int(nonzero[-1]) + 1 if nonzero.size else 0
+    if end < signals.shape[1]:  # some exports pad records with zeros: drop the padding
+        numbers = {name: v[:end] for name, v in numbers.items()}
     time = numbers["time_s"]
     if time.size < 16 or np.any(np.diff(time) <= 0):
         raise TimeHistoryError(f"{source}: 'time_s' must increase strictly over at least 16 samples")
@@ -134,8 +161,7 @@ def _record_from_columns(columns: dict[str, np.ndarray], source: str) -> TimeRec
     responses = {name: v for name, v in numbers.items() if name not in _RESERVED}
     if not responses:
         raise TimeHistoryError(f"{source}: no response column (one per response coordinate, named by its header)")
-    reference = references[0]
-    return TimeRecord(source, time, numbers[reference], "N" if reference == "force" else "V", responses,
+    return TimeRecord(source, time, numbers[chosen], "N" if chosen == "force" else "V", responses,
                       numbers.get("frequency_hz"), numbers.get("level"))
 
 
@@ -177,9 +203,10 @@ def _uff_record(data: bytes, path: Path) -> TimeRecord:
     return _record_from_columns({"time_s": time, **columns}, str(path))
 
 
-def read_time_record(path: str | Path) -> TimeRecord:
+def read_time_record(path: str | Path, sample_rate_hz: float | None = None, reference: str | None = None) -> TimeRecord:
     """A time record from CSV, parquet, UFF 58 (function type 1) or MATLAB (module
-    docstring of :mod:`nlupdate.measurement.matfile`), read through the input gate."""
+    docstring of :mod:`nlupdate.measurement.matfile`), read through the input gate;
+    ``sample_rate_hz`` and ``reference`` as for :func:`_record_from_columns`."""
     path = Path(path)
     suffix = path.suffix.lower()
     data = read_input_bytes(path, "time-history file")
@@ -195,13 +222,15 @@ def read_time_record(path: str | Path) -> TimeRecord:
         if len(frame.columns) == 1 and ";" in str(frame.columns[0]):
             raise TimeHistoryError(f"{path}: columns are separated by ';'; nlupdate reads comma-separated values with "
                                    f"'.' as the decimal point")
-        return _record_from_columns({c: frame[c].to_numpy() for c in frame.columns}, str(path))
+        return _record_from_columns({c: frame[c].to_numpy() for c in frame.columns}, str(path), sample_rate_hz,
+                                    reference)
     if suffix == ".parquet" and kind == "parquet":
         try:
             frame = pd.read_parquet(io.BytesIO(data))
         except Exception as error:
             raise TimeHistoryError(f"{path}: not a readable parquet file ({error})") from None
-        return _record_from_columns({c: frame[c].to_numpy() for c in frame.columns}, str(path))
+        return _record_from_columns({c: frame[c].to_numpy() for c in frame.columns}, str(path), sample_rate_hz,
+                                    reference)
     if suffix in (".uff", ".unv") and kind in ("uff", "text"):
         return _uff_record(data, path)
     if suffix == ".mat" and kind in ("mat5", "hdf5"):
@@ -210,7 +239,7 @@ def read_time_record(path: str | Path) -> TimeRecord:
         variables = mat_variables(data, path, kind)
         columns = {name: value for name, value in variables.items()
                    if isinstance(value, np.ndarray) and value.size > 1 and value.squeeze().ndim == 1}
-        return _record_from_columns(columns, str(path))
+        return _record_from_columns(columns, str(path), sample_rate_hz, reference)
     raise TimeHistoryError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; time histories are read from "
                            f".csv, .parquet, .uff/.unv (dataset 58, function type 1) or .mat")
 
@@ -359,7 +388,12 @@ def sine_sweep_frf(record: TimeRecord, power: int, window_cycles: float = 10.0) 
     if len(frequencies) < 2:
         raise TimeHistoryError(f"{record.source}: the record is shorter than two windows of {window_cycles:g} cycles")
     direction = "up" if frequencies[-1] > frequencies[0] else "down"
-    return rows, direction, []
+    rate = abs(np.polyfit(t[: instantaneous.size], instantaneous, 1)[0])
+    slowest = math.sqrt(rate / SWEEP_RATE_LIMIT)
+    note = (f"{record.source}: sweep rate {rate:.3g} Hz/s ({direction}): the swept FRF is within 2 % of the stepped-sine "
+            f"FRF only for modes with ζ·f_r ≥ {slowest:.3g} Hz (r ≤ {SWEEP_RATE_LIMIT:g}·(ζ f_r)²); a less damped or "
+            f"lower mode is shifted and lowered in the sweep direction")
+    return rows, direction, [note]
 
 
 def random_frf(record: TimeRecord, power: int, resolution_hz: float | None = None) -> list[dict]:
