@@ -223,3 +223,29 @@ def test_a_dwell_too_short_to_settle_is_warned_about():
                         {"tip": frame["tip"].to_numpy()}, frame["frequency_hz"].to_numpy())
     with pytest.warns(NlupdateWarning, match="short: the dwell at 20 Hz had not settled"):
         estimate_frf([record], "drive")
+
+
+def test_a_benchmark_style_sweep_file(tmp_path):
+    """The F-16 benchmark's CSV layout: Force, Voltage, Acceleration1…, a constant Fs column,
+    no time column and zero padding at the end; acceleration responses."""
+    record = sweep_record(SWEEP_RATE_LIMIT * (SWEEP_ZETA * 20.0) ** 2, fs=1000.0)
+    damping = 2 * SWEEP_ZETA * np.sqrt(K * M)
+    system = scipy.signal.lti([1.0, 0.0, 0.0], [M, damping, K])  # acceleration per force
+    _, acceleration, _ = scipy.signal.lsim(system, record.reference, record.time_s)
+    pad = 500
+    frame = pd.DataFrame({"Force": np.r_[record.reference, np.zeros(pad)],
+                          "Voltage": np.r_[0.1 * record.reference, np.zeros(pad)],
+                          "Acceleration1": np.r_[acceleration, np.zeros(pad)], "Fs": 1000.0})
+    frame.to_csv(tmp_path / "F16Data_SineSw_Level1.csv", index=False)
+    out = tmp_path / "frf.parquet"
+    result = subprocess.run([sys.executable, "-m", "nlupdate", "frf", tmp_path / "F16Data_SineSw_Level1.csv",
+                             "--response-quantity", "acceleration", "--out", out], capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "excitation: sine sweep; reference in N" in result.stdout and "sweep rate" in result.stderr
+    table = read_frf_table(out)
+    f, h = select_frf(table, "Acceleration1", "force", table["force_level_n"].iloc[0])
+    inside = (f > 18.0) & (f < 22.0)
+    w = 2 * np.pi * f[inside]
+    steady = 1.0 / (K - M * w**2 + 1j * damping * w)
+    assert np.max(np.abs(h[inside] / steady - 1)) < 0.02
