@@ -435,7 +435,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         f_low, h_low = data.curve(data.levels[0])
         try:
             noise = estimate_noise_fraction(f_low, h_low)
-            source = f"estimated from the {data.levels[0]:g} N sweep (local quadratic fits of 1/H)"
+            source = f"estimated from the {data.levels[0]:g} {data.reference_unit} sweep (local quadratic fits of 1/H)"
         except ValueError as error:
             if getattr(result, "noise_fraction", None) is None:
                 raise IdentificationError(f"cannot estimate the noise level ({error}); give noise_fraction") from None

@@ -20,7 +20,6 @@ import re
 from dataclasses import dataclass, field
 from typing import Mapping
 
-import numpy as np
 import pandas as pd
 
 REFERENCE_UNITS: tuple[str, ...] = ("N", "V")
@@ -161,12 +160,3 @@ def units_block(reference_unit: str, calibration: float | None = None) -> dict[s
     if calibration is not None:
         block["calibration_n_per_v"] = calibration
     return block
-
-
-def level_label(level: float, reference_unit: str = "N") -> str:
-    """``"0.1 V"`` / ``"10 N"``: a level with its unit."""
-    return f"{level:g} {reference_unit}"
-
-
-def finite_positive(values: np.ndarray) -> bool:
-    return bool(np.all(np.isfinite(values)) and np.all(values > 0))
