@@ -397,3 +397,10 @@ def test_frf_command_time_record_mistakes(tmp_path, content, fragments):
     result = nlupdate("frf", tmp_path / "rec.csv", "--out", tmp_path / "frf.parquet", timeout=60)
     assert_one_clear_line(result, 2, *fragments)
     assert_nothing_written(tmp_path, "rec.csv")
+
+
+def test_discover_band_without_measured_lines(measured, tmp_path):
+    result = nlupdate("discover", "--model", TWO_DOF, "--measured", measured, "--band", "10:20", "--out",
+                      tmp_path / "d", timeout=60)
+    assert_one_clear_line(result, 2, "--band 10:20", "has no line between 10 and 20 Hz")
+    assert_nothing_written(tmp_path)
