@@ -157,7 +157,8 @@ def test_identify_input_dof_out_of_range_names_the_option(measured, tmp_path):
     (["--seed", "-5"], "argument --seed: expected an integer ≥ 0"),
     (["--samples", "0"], "argument --samples: expected an integer ≥ 1"),
     (["--method", "magic"], "argument --method: invalid choice: 'magic'"),
-    (["--band", "1,2"], "--force-pair and --band apply to --method ddf"),
+    (["--band", "5:1"], "--band '5:1': expected LOW:HIGH in Hz with 0 ≤ LOW < HIGH"),
+    (["--force-pair", "1,2"], "--force-pair applies to --method ddf"),
 ])
 def test_identify_option_mistakes_fail_before_the_work(measured, tmp_path, extra, fragment):
     result = nlupdate("identify", "--measured", measured, *extra, "--out", tmp_path / "id", timeout=20)
@@ -322,3 +323,89 @@ def test_version_and_help_are_plain_text():
         page = nlupdate(command, "--help").stdout
         assert "``" not in page and ":func:" not in page and ":mod:" not in page, command
         assert len(page.split("\n\n")[1]) > 40, command  # a description, not only the usage
+
+
+# ------------------------------------------------------------------ measured data as test systems export it (issue 20)
+def _identify(tmp_path: Path, measured: Path, *extra: str):
+    return nlupdate("identify", "--measured", measured, *extra, "--out", tmp_path / "id", timeout=60)
+
+
+def _csv_variant(measured: Path, tmp_path: Path, transform) -> Path:
+    table = pd.read_parquet(measured)
+    path = tmp_path / "frf.csv"
+    path.write_text(transform(table))
+    return path
+
+
+@pytest.mark.parametrize("transform, fragments", [
+    (lambda t: t.to_csv(index=False, sep=";"), ("frf.csv: columns are separated by ';'", "comma-separated")),
+    (lambda t: t.to_csv(index=False, sep=";", decimal=","), ("separated by ';' and decimal commas",)),
+    (lambda t: t.iloc[:0].to_csv(index=False), ("frf.csv: holds no measurement (no data rows)",)),
+    (lambda t: t.assign(force_level_n=t["force_level_n"].where(t["force_level_n"] > 1, 0.0)).to_csv(index=False),
+     ("frf.csv: level 0 N: identification needs measured levels > 0",)),
+    (lambda t: t.assign(h_real=t["h_real"] * 1e300, h_imag=t["h_imag"] * 1e300).to_csv(index=False),
+     ("frf.csv: row 0 (line 2), columns 'h_real', 'h_imag'", "is no receptance")),
+    (lambda t: t[t["frequency_hz"] <= 660].to_csv(index=False),
+     ("frf.csv: level 0.01 N: 2 frequencies in the band", "need at least 3 per level")),
+])
+def test_measured_table_mistakes_name_the_file(measured, tmp_path, transform, fragments):
+    path = _csv_variant(measured, tmp_path, transform)
+    result = _identify(tmp_path, path, "--samples", "2")
+    assert_one_clear_line(result, 2, *fragments)
+    assert_nothing_written(tmp_path, "frf.csv")
+
+
+def test_a_folder_given_as_the_measured_file(tmp_path):
+    (tmp_path / "frf.csv").mkdir()
+    result = _identify(tmp_path, tmp_path / "frf.csv")
+    assert_one_clear_line(result, 2, "frf.csv: is a folder; expected a regular file (measured-FRF file)")
+    assert_nothing_written(tmp_path, "frf.csv")
+
+
+def test_a_boolean_h_real_column_in_parquet(measured, tmp_path):
+    table = pd.read_parquet(measured)
+    table["h_real"] = table["h_real"] > 0
+    table.to_parquet(tmp_path / "bool.parquet")
+    result = _identify(tmp_path, tmp_path / "bool.parquet")
+    assert_one_clear_line(result, 2, "bool.parquet: row 0, column 'h_real'", "is a boolean (True/False); expected a "
+                                     "finite number")
+    assert_nothing_written(tmp_path, "bool.parquet")
+
+
+@pytest.mark.parametrize("fields, fragments", [
+    (dict(abscissa_spec_data_type=17), ("dataset 0: abscissa specific data type 17 (time",
+                                        "expected 18 (frequency, Hz)")),
+    (dict(orddenom_spec_data_type=8), ("dataset 0: ordinate denominator specific data type 8 (displacement)",
+                                       "transmissibility")),
+    (dict(orddenom_spec_data_type=0, orddenom_axis_units_lab="V"), ("the FRF is per volt", "--reference-unit V")),
+])
+def test_uff_data_of_the_wrong_kind(tmp_path, fields, fragments):
+    import pyuff
+
+    f = np.linspace(10.0, 20.0, 11)
+    base = dict(binary=0, func_type=4, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3, data=1e-6 / (1 + 1j * f), x=f,
+                id1="force_level_n=2.0", abscissa_spacing=1, abscissa_spec_data_type=18, ordinate_spec_data_type=8,
+                orddenom_spec_data_type=13)
+    base.update(fields)
+    pyuff.UFF(str(tmp_path / "frf.uff")).write_sets([pyuff.prepare_58(**base)], mode="add")
+    result = _identify(tmp_path, tmp_path / "frf.uff")
+    assert_one_clear_line(result, 2, "frf.uff", *fragments)
+    assert_nothing_written(tmp_path, "frf.uff")
+
+
+@pytest.mark.parametrize("content, fragments", [
+    ("t,force,tip\n0,1,2\n", ("rec.csv: no 'time_s' column",)),
+    ("time_s;force;tip\n0;1;2\n", ("rec.csv: columns are separated by ';'",)),
+])
+def test_frf_command_time_record_mistakes(tmp_path, content, fragments):
+    (tmp_path / "rec.csv").write_text(content)
+    result = nlupdate("frf", tmp_path / "rec.csv", "--out", tmp_path / "frf.parquet", timeout=60)
+    assert_one_clear_line(result, 2, *fragments)
+    assert_nothing_written(tmp_path, "rec.csv")
+
+
+def test_discover_band_without_measured_lines(measured, tmp_path):
+    result = nlupdate("discover", "--model", TWO_DOF, "--measured", measured, "--band", "10:20", "--out",
+                      tmp_path / "d", timeout=60)
+    assert_one_clear_line(result, 2, "--band 10:20", "has no line between 10 and 20 Hz")
+    assert_nothing_written(tmp_path)

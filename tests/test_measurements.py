@@ -128,13 +128,15 @@ def foreign_uff(path: Path, **fields) -> Path:
 
 
 def test_foreign_uff_uses_node_direction_and_z_axis_force(tmp_path):
+    """The reference measured along −z (ref_dir −3): the sign is applied and the
+    coordinate named by its positive direction."""
     table = read_frf_table(foreign_uff(tmp_path / "foreign.unv"))
     assert table["response_dof"].unique().tolist() == ["12:uz"]
-    assert table["input_dof"].unique().tolist() == ["5:-uz"]
+    assert table["input_dof"].unique().tolist() == ["5:uz"]
     np.testing.assert_array_equal(force_levels(table), [2.5])
-    f, h = select_frf(table, "12:uz", "5:-uz", 2.5)
+    f, h = select_frf(table, "12:uz", "5:uz", 2.5)
     np.testing.assert_allclose(f, [10.0, 20.0, 30.0], rtol=1e-12)
-    np.testing.assert_allclose(h, np.array([1.0 + 2.0j, 3.0 - 1.0j, -0.5 + 0.25j]) * 1e-6, rtol=1e-11)
+    np.testing.assert_allclose(h, -np.array([1.0 + 2.0j, 3.0 - 1.0j, -0.5 + 0.25j]) * 1e-6, rtol=1e-11)
 
 
 def test_foreign_uff_without_force_level_is_explained(tmp_path):

@@ -19,6 +19,7 @@ from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
 from nlupdate.discovery.report import write_discovery
+from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
 from nlupdate.measurement.frf_table import read_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
 from nlupdate.model.model_file import load_system
@@ -50,6 +51,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="modal table: relative std of the natural frequencies (default 0.002)")
     parser.add_argument("--damping-uncertainty", type=non_negative_float, default=0.05,
                         help="modal table: relative std of the damping ratios (default 0.05)")
+    add_band_option(parser, "to compare model and test in (measured lines outside it are left out; a modal table keeps "
+                            "the modes inside it)")
+    add_reference_options(parser)
     add_overwrite_option(parser)
     add_harmonic_options(parser)
     add_execution_options(parser)
@@ -66,7 +70,21 @@ def run(args: argparse.Namespace) -> int:
     else:
         writable_folder(Path(args.archive), "--archive")
     system = load_system(args.model)
-    table = read_modal_table(args.measured) if is_modal_table_file(args.measured) else read_frf_table(args.measured)
+    band = parse_band(args.band)
+    if args.archive is not None and (band is not None or args.reference_unit or args.reference_calibration or args.level):
+        raise CliError("--band, --reference-unit, --reference-calibration and --level apply to --out runs; the archived "
+                       "flow reads the measured file as it is")
+    if is_modal_table_file(args.measured):
+        table = read_modal_table(args.measured)
+        column = "natural_frequency_hz"
+    else:
+        table = read_frf_table(args.measured, options=read_options(args))
+        column = "frequency_hz"
+    if band is not None:
+        table = table[(table[column] >= band[0]) & (table[column] <= band[1])].reset_index(drop=True)
+        if table.empty:
+            raise CliError(f"--band {args.band}: {args.measured} has no {'mode' if column != 'frequency_hz' else 'line'} "
+                           f"between {band[0]:g} and {band[1]:g} Hz")
     try:
         options = DiscoveryOptions(
             effects=None if not args.effects else tuple(n.strip() for n in args.effects.split(",") if n.strip()),

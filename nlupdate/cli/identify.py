@@ -24,13 +24,18 @@ from nlupdate.identification.prd import ESTIMATORS
 from nlupdate.identification.report import (
     JSON_NAME, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
 )
-from nlupdate.measurement.frf_table import read_frf_table, write_frf_table
+from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
+from nlupdate.identification.prd import IdentificationError
+from nlupdate.measurement.frf_table import read_frf_tables, write_frf_table
+from nlupdate.measurement.units import parameter_unit
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "identify", __doc__,
                          help="identify the nonlinearity and the linear FRF (PRD or DDF method)")
-    parser.add_argument("--measured", required=True, metavar="FILE", help="measured-FRF table (.parquet, .csv, .uff)")
+    parser.add_argument("--measured", required=True, nargs="+", metavar="FILE",
+                        help="measured-FRF table(s) (.parquet, .csv, .uff, .mat): one, or one per level/run")
+    add_reference_options(parser)
     parser.add_argument("--method", choices=("prd", "ddf"), default="prd", help="identification method (default prd)")
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
     parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving point)")
@@ -53,7 +58,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="PRD: Δ_f1 = ν_low(|H_1(ω)|F_1) at every frequency (default: the constant Δ_f1 "
                              "identified at the excitation frequency, the source's eq. 2.55)")
     parser.add_argument("--force-pair", help="DDF levels F1,F2 in N (default: lowest and highest)")
-    parser.add_argument("--band", help="DDF band LOW,HIGH in Hz (default: all common frequencies)")
+    add_band_option(parser, "that every method uses (default: the excited band: where the coherence is ≥ the "
+                            "threshold, or, without coherence, where the FRF is smooth)")
+    parser.add_argument("--coherence-threshold", type=non_negative_float, metavar="GAMMA2",
+                        help="leave out lines whose coherence is below it (default 0.8 when the data carry coherence)")
     parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="noise std / |H| for the uncertainty (default: estimated from the lowest-force sweep)")
     parser.add_argument("--samples", type=positive_int, default=200,
@@ -77,8 +85,10 @@ def _floats(text: str, option: str, count: int | None = None) -> list[float]:
 def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationSettings, dict[str, object]]:
     """Identification settings for the command-line options (and the defaults chosen here)."""
     defaults: dict[str, object] = {}
-    if args.method == "prd" and (args.force_pair or args.band):
-        raise CliError("--force-pair and --band apply to --method ddf")
+    if args.method == "prd" and args.force_pair:
+        raise CliError("--force-pair applies to --method ddf")
+    if args.coherence_threshold is not None and args.coherence_threshold > 1:
+        raise CliError(f"--coherence-threshold {args.coherence_threshold:g}: expected a coherence between 0 and 1")
     if args.method == "ddf" and (args.frequency is not None or args.low_force is not None or args.high_forces is not None
                                  or args.smooth_linear or args.amplitude_dependent_delta or args.half_window is not None):
         raise CliError("--frequency, --low-force, --high-forces, --half-window, --smooth-linear and "
@@ -89,23 +99,27 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
             raise CliError(f"--estimator {args.estimator!r}: {args.method.upper()} estimators are {', '.join(allowed)}")
     if args.samples < 2:
         raise CliError(f"--samples must be at least 2, got {args.samples}")
+    measured = ", ".join(args.measured)
     inputs = sorted(set(table["input_dof"].astype(str)))
     responses = sorted(set(table["response_dof"].astype(str)))
     input_dof = args.input_dof
     if input_dof is None:
         if len(inputs) != 1:
-            raise CliError(f"{args.measured}: the table has several input dofs {inputs}; choose one with --input-dof")
+            raise CliError(f"{measured}: the table has several input dofs {inputs}; choose one with --input-dof")
         input_dof = defaults["input_dof"] = inputs[0]
     elif input_dof not in inputs:
-        raise CliError(f"--input-dof {input_dof}: {args.measured} has input_dof {', '.join(inputs)}")
+        raise CliError(f"--input-dof {input_dof}: {measured} has input_dof {', '.join(inputs)}")
     response_dof = args.response_dof
     if response_dof is None:
-        response_dof = defaults["response_dof"] = str(input_dof)
+        response_dof = str(input_dof)
         if response_dof not in responses:
-            raise CliError(f"{args.measured} has no driving-point FRF at {response_dof}; choose one of response_dof "
-                           f"{', '.join(responses)} with --response-dof")
+            if len(responses) != 1:
+                raise CliError(f"{measured} has no driving-point FRF at {response_dof}; choose one of response_dof "
+                               f"{', '.join(responses)} with --response-dof")
+            response_dof = responses[0]  # the only measured response: a transfer FRF
+        defaults["response_dof"] = response_dof
     elif response_dof not in responses:
-        raise CliError(f"--response-dof {response_dof}: {args.measured} has response_dof {', '.join(responses)}")
+        raise CliError(f"--response-dof {response_dof}: {measured} has response_dof {', '.join(responses)}")
     settings = IdentificationSettings(
         response_dof=str(response_dof), input_dof=str(input_dof), method=args.method,
         elements=tuple(e.strip() for e in args.elements.split(",") if e.strip()) if args.elements else (),
@@ -113,7 +127,7 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
         half_window=args.half_window, frequency_hz=args.frequency, low_force_n=args.low_force,
         high_forces_n=None if args.high_forces is None else tuple(_floats(args.high_forces, "--high-forces")),
         force_pair_n=None if args.force_pair is None else tuple(_floats(args.force_pair, "--force-pair", 2)),
-        band_hz=None if args.band is None else tuple(_floats(args.band, "--band", 2)),
+        band_hz=parse_band(args.band), coherence_threshold=args.coherence_threshold,
         smoothing_window=args.smooth_linear, amplitude_dependent_delta=args.amplitude_dependent_delta,
         noise_fraction=args.noise_fraction, samples=args.samples, seed=args.seed,
     )
@@ -131,22 +145,33 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     files = [JSON_NAME, "linear_frf.parquet", "fit.png", "linear_frf.png"]
     summary["files"] = files
     title = f"{s.method.upper()} ({identification.result.estimator}), response {s.response_dof} / input {s.input_dof}"
+    unit = identification.reference_unit
     write_json(summary, folder / JSON_NAME)
-    write_frf_table(linear_frf_table(f, h, s.response_dof, s.input_dof), folder / "linear_frf.parquet")
-    plot_fit(identification.result, folder / "fit.png", title)
-    plot_linear_frf(f, h, [(f"{level:g} N", *data.curve(level)) for level in data.levels], folder / "linear_frf.png",
-                    title, identification.modal_receptance(f))
+    linear = linear_frf_table(f, h, s.response_dof, s.input_dof)
+    if unit != "N":
+        linear["reference_unit"] = unit
+    write_frf_table(linear, folder / "linear_frf.parquet")
+    plot_fit(identification.result, folder / "fit.png", title, unit)
+    plot_linear_frf(f, h, [(f"{level:g} {unit}", *data.curve(level)) for level in data.levels],
+                    folder / "linear_frf.png", title, identification.modal_receptance(f), unit)
     return files
 
 
 def run(args: argparse.Namespace) -> int:
-    out = checked_output(args.out, args.overwrite, folder=True, kind="identification", inputs=[args.measured])
+    out = checked_output(args.out, args.overwrite, folder=True, kind="identification", inputs=args.measured)
     args.interrupt_note = f"nothing was written to {out}"
-    table = read_frf_table(args.measured)
+    table = read_frf_tables(args.measured, options=read_options(args))
     settings, cli_defaults = settings_from_args(args, table)
-    data = FRFLevels.from_table(table, settings.response_dof, settings.input_dof)
-    with terminal_progress() as progress:
-        identification = identify(data, settings, progress)
+    measured = ", ".join(args.measured)
+    try:
+        data = FRFLevels.from_table(table, settings.response_dof, settings.input_dof)
+        with terminal_progress() as progress:
+            identification = identify(data, settings, progress)
+    except (IdentificationError, ValueError) as error:
+        raise CliError(f"{measured}: {error}") from None
+    unit = identification.reference_unit
+    if unit == "V":
+        print("reference: excitation voltage — levels in V, FRFs in m/V, parameters per volt (V where N would stand)")
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
     out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder),
@@ -154,7 +179,8 @@ def run(args: argparse.Namespace) -> int:
     for key, value in defaults.items():
         print(f"default {key}: {value}")
     for name, stats in identification.uncertainty.parameters.items():
-        print(f"{name} = {stats.value:.6g} (MC mean {stats.mean:.6g} ± {stats.std:.3g}, 95 % "
+        suffix = f" {parameter_unit(name, unit)}" if parameter_unit(name, unit) else ""
+        print(f"{name} = {stats.value:.6g}{suffix} (MC mean {stats.mean:.6g} ± {stats.std:.3g}, 95 % "
               f"[{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}])")
     for warning in identification.warnings:
         print(f"warning: {warning}")

@@ -7,6 +7,7 @@ measured-FRF table (:mod:`nlupdate.measurement.frf_table`). Frequencies are matc
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,18 +33,33 @@ def _match(available: NDArray, wanted: NDArray) -> NDArray[np.int64]:
 
 @dataclass(frozen=True, eq=False)
 class FRFLevels:
-    """Receptance curves of one coordinate pair, one per force level (ascending)."""
+    """Receptance curves of one coordinate pair, one per force level (ascending).
+
+    coherences: per level the ordinary coherence at each frequency (None when the table
+    has none); reference_unit: ``"N"`` or ``"V"`` (levels in V and H in m/V);
+    excitation: how the FRFs were measured (``stepped_sine``, ``chirp``, ``random`` …,
+    ``unknown``); averages: per level the number of averages at each frequency (None
+    when unknown).
+    """
 
     response_dof: str
     input_dof: str
     levels: NDArray[np.float64]
     frequencies: tuple[NDArray[np.float64], ...]
     receptances: tuple[NDArray[np.complex128], ...]
+    coherences: tuple[NDArray[np.float64], ...] | None = None
+    reference_unit: str = "N"
+    excitation: str = "unknown"
+    averages: tuple[NDArray[np.float64], ...] | None = None
+    h_stds: tuple[NDArray[np.float64], ...] | None = None
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, response_dof: str, input_dof: str) -> "FRFLevels":
-        """All force levels of ``response_dof``/``input_dof``; unknown dofs raise ValueError."""
+        """All force levels of ``response_dof``/``input_dof``; unknown dofs raise ValueError,
+        and so does a receptance of exactly 0 (it has no inverse)."""
         response, inp = str(response_dof), str(input_dof)
+        if table.empty:
+            raise ValueError("the measured table holds no measurement (no rows)")
         for column, name in (("response_dof", response), ("input_dof", inp)):
             names = sorted(set(table[column].astype(str)))
             if name not in names:
@@ -53,7 +69,45 @@ class FRFLevels:
             raise ValueError(f"no measured FRF with response_dof={response!r} and input_dof={inp!r}")
         levels = force_levels(pair)
         curves = [select_frf(pair, response, inp, level) for level in levels]
-        return cls(response, inp, levels, tuple(c[0] for c in curves), tuple(c[1] for c in curves))
+        for level, (f, h) in zip(levels, curves):
+            if np.any(h == 0):
+                raise ValueError(f"H = 0 at {f[np.flatnonzero(h == 0)[0]]:g} Hz, level {level:g}: a receptance of "
+                                 f"0 has no inverse (no response was measured there)")
+
+        def column(name: str) -> tuple[NDArray[np.float64], ...] | None:
+            if name not in pair.columns:
+                return None
+            out = []
+            for level in levels:
+                rows = pair[np.isclose(pair["force_level_n"].to_numpy(float), level, rtol=_RTOL, atol=0.0)]
+                rows = rows.sort_values("frequency_hz", kind="mergesort")
+                out.append(rows[name].to_numpy(dtype=float))
+            return tuple(out)
+
+        excitation = sorted(set(pair["excitation"])) if "excitation" in pair.columns else ["unknown"]
+        unit = str(pair["reference_unit"].iloc[0]) if "reference_unit" in pair.columns else "N"
+        return cls(response, inp, levels, tuple(c[0] for c in curves), tuple(c[1] for c in curves),
+                   column("coherence"), unit, "+".join(excitation), column("averages"), column("h_std"))
+
+    def _masked(self, keep: list[NDArray[np.bool_]]) -> "FRFLevels":
+        def pick(arrays):
+            return None if arrays is None else tuple(a[k] for a, k in zip(arrays, keep))
+
+        return dataclasses.replace(self, frequencies=pick(self.frequencies), receptances=pick(self.receptances),
+                                   coherences=pick(self.coherences), averages=pick(self.averages),
+                                   h_stds=pick(self.h_stds))
+
+    def within(self, band_hz: tuple[float, float]) -> "FRFLevels":
+        """The curves restricted to ``band_hz`` = (low, high) Hz, ends included."""
+        low, high = band_hz
+        return self._masked([(f >= low * (1 - _RTOL)) & (f <= high * (1 + _RTOL)) for f in self.frequencies])
+
+    def coherent(self, threshold: float) -> "FRFLevels":
+        """The curves without the lines whose coherence is below ``threshold`` (unchanged
+        without coherence)."""
+        if self.coherences is None:
+            return self
+        return self._masked([c >= threshold for c in self.coherences])
 
     def level_index(self, force_n: float) -> int:
         hit = np.flatnonzero(np.isclose(self.levels, float(force_n), rtol=_RTOL, atol=0.0))
@@ -96,14 +150,13 @@ class FRFLevels:
 
     def subset(self, levels: ArrayLike) -> "FRFLevels":
         indices = [self.level_index(level) for level in np.atleast_1d(levels)]
-        return FRFLevels(
-            self.response_dof, self.input_dof, self.levels[indices],
-            tuple(self.frequencies[k] for k in indices), tuple(self.receptances[k] for k in indices),
-        )
+        def pick(arrays):
+            return None if arrays is None else tuple(arrays[k] for k in indices)
+
+        return dataclasses.replace(self, levels=self.levels[indices], frequencies=pick(self.frequencies),
+                                   receptances=pick(self.receptances), coherences=pick(self.coherences),
+                                   averages=pick(self.averages), h_stds=pick(self.h_stds))
 
     def with_noise(self, fraction: float, rng: np.random.Generator) -> "FRFLevels":
         """A copy with METHODS §8 noise (std = fraction·|H|) added to every value."""
-        return FRFLevels(
-            self.response_dof, self.input_dof, self.levels, self.frequencies,
-            tuple(add_frf_noise(h, fraction, rng) for h in self.receptances),
-        )
+        return dataclasses.replace(self, receptances=tuple(add_frf_noise(h, fraction, rng) for h in self.receptances))

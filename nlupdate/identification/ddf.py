@@ -55,7 +55,7 @@ def ddf_setup(
     if data.levels.size < 2:
         raise IdentificationError(
             f"DDF needs two force levels; response {data.response_dof!r} / input {data.input_dof!r} has only "
-            f"{data.levels.size} ({float(data.levels[0]):g} N)"
+            f"{data.levels.size} ({float(data.levels[0]):g} {data.reference_unit})"
         )
     if force_pair is None:
         pair = (float(data.levels[0]), float(data.levels[-1]))
@@ -65,7 +65,7 @@ def ddf_setup(
             raise IdentificationError(f"DDF force pair must be two different measured levels, got {force_pair}")
     common = data.common_frequencies(pair)
     if common.size == 0:
-        raise IdentificationError(f"levels {pair[0]:g} N and {pair[1]:g} N share no frequency")
+        raise IdentificationError(f"levels {pair[0]:g} and {pair[1]:g} {data.reference_unit} share no frequency")
     band = (float(common.min()), float(common.max())) if band_hz is None else (float(min(band_hz)), float(max(band_hz)))
     if int(order) < 1:
         raise IdentificationError(f"DDF polynomial order must be ≥ 1, got {order}")

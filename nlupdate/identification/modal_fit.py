@@ -174,8 +174,12 @@ def fit_modal_model(
 
 def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | None = None) -> NDArray[np.float64]:
     """Frequencies (Hz, ascending) where ``Re(1/H)``, averaged over ``window`` neighbouring
-    points, falls through zero with increasing frequency: the resonances of a receptance
-    (``Re(1/H) ≈ k_r(1 − ω²/ω_r²)`` is positive below ω_r and negative above).
+    points, passes through zero: the resonances of a receptance. Near a mode
+    ``1/H ≈ (k_r/A_r)(1 − ω²/ω_r²)``: it falls through zero for a positive modal constant
+    (a point FRF) and rises through zero for a negative one (a transfer FRF across a
+    node), so both directions count. ``Re(1/H)`` also changes sign at an antiresonance,
+    where ``|1/H|`` is at a maximum instead of a minimum: a sign change where the averaged
+    ``|1/H|`` exceeds its median over the neighbouring 2·window points is skipped.
 
     ``window`` (odd; default about 1 % of the points, at least 5) averages out the noise
     of an extracted FRF; crossings closer than 3 % of their frequency are merged (noise
@@ -191,9 +195,16 @@ def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | Non
         raise ValueError(f"resonance_crossings: need more than {window + 1} frequencies, got {f.size}")
     smooth = np.convolve(z, np.ones(window) / window, mode="valid")
     centres = f[window // 2 : f.size - window // 2]
-    falling = np.flatnonzero((smooth[:-1] > 0) & (smooth[1:] <= 0))
-    crossings = centres[falling] + (centres[falling + 1] - centres[falling]) * smooth[falling] / (
-        smooth[falling] - smooth[falling + 1])
+    changes = np.flatnonzero(((smooth[:-1] > 0) & (smooth[1:] <= 0)) | ((smooth[:-1] < 0) & (smooth[1:] >= 0)))
+    magnitude = np.convolve(np.abs(1.0 / np.asarray(h, dtype=complex)), np.ones(window) / window, mode="valid")
+    zeros = []
+    for k in changes:
+        around = magnitude[max(k - window, 0): k + window + 2]
+        if max(magnitude[k], magnitude[k + 1]) <= np.median(around):
+            zeros.append(k)
+    zeros = np.asarray(zeros, dtype=int)
+    crossings = centres[zeros] + (centres[zeros + 1] - centres[zeros]) * smooth[zeros] / (
+        smooth[zeros] - smooth[zeros + 1])
     merged: list[list[float]] = []
     for value in crossings:
         if merged and value - merged[-1][-1] <= 0.03 * value:

@@ -38,7 +38,10 @@ from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResu
 from nlupdate.identification.report import elements_summary
 from nlupdate.identification.trust import RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, identification_warnings
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
+from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
+from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.measurement.units import parameter_unit, units_block
 from nlupdate.progress import ProgressCallback, no_progress
 
 METHODS = ("prd", "ddf")
@@ -58,7 +61,12 @@ class IdentificationSettings:
         (default 0.01).
     frequency_hz: PRD excitation frequency (default: recommended). low_force_n,
         high_forces_n: PRD levels (default: lowest; all others).
-    force_pair_n, band_hz: DDF levels and band (default: lowest and highest; common band).
+    force_pair_n: DDF levels (default: lowest and highest).
+    band_hz: the band (Hz) every step uses, for every method (default: the excited band,
+        :func:`nlupdate.measurement.band.excited_band` on the lowest level — where the
+        coherence is at least ``coherence_threshold``, or, without coherence, where the
+        FRF is smooth). coherence_threshold: lines with a lower coherence are left out
+        (default 0.8 when the data carry coherence).
     smoothing_window, amplitude_dependent_delta: PRD linear-FRF extraction options.
     noise_fraction: noise std / |H| (default: estimated from the lowest-force sweep).
     samples, seed: Monte-Carlo samples and seed.
@@ -88,6 +96,7 @@ class IdentificationSettings:
     seed: int = 0
     linear_modes_hz: tuple[float, ...] | None = None
     modal_band_fraction: float = 0.1
+    coherence_threshold: float | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -96,9 +105,15 @@ class IdentificationSettings:
             raise ValueError(f"Monte-Carlo samples must be at least 2, got {self.samples}")
         if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
             raise ValueError(f"noise_fraction must be a number ≥ 0 (std / |H|), got {self.noise_fraction}")
+        if self.band_hz is not None:
+            low, high = (float(v) for v in self.band_hz)
+            if not (np.isfinite(low) and np.isfinite(high) and 0 <= low < high):
+                raise ValueError(f"band_hz {list(self.band_hz)}: expected LOW < HIGH, both ≥ 0 Hz")
+        if self.coherence_threshold is not None and not 0 <= self.coherence_threshold <= 1:
+            raise ValueError(f"coherence_threshold must be between 0 and 1, got {self.coherence_threshold}")
         if self.method == "prd":
-            if self.force_pair_n is not None or self.band_hz is not None:
-                raise ValueError("force_pair_n and band_hz apply to the DDF method")
+            if self.force_pair_n is not None:
+                raise ValueError("force_pair_n applies to the DDF method")
             if self.estimator is not None and self.estimator not in ESTIMATORS:
                 raise ValueError(f"estimator {self.estimator!r}: PRD estimators are {', '.join(ESTIMATORS)}")
         else:
@@ -144,6 +159,11 @@ class Identification:
     noise_fraction: float
     noise_source: str
     model_description: str = field(default="")
+    band_hz: tuple[float, float] | None = None
+    band_reason: str = ""
+    reference_unit: str = "N"
+    excitation: str = "unknown"
+    lines_below_coherence: int = 0
 
     @property
     def natural_frequencies_hz(self) -> NDArray[np.float64]:
@@ -181,9 +201,11 @@ class Identification:
     @property
     def warnings(self) -> tuple[TrustWarning, ...]:
         """Parameters on a bound or not determined by the data, a residual far above the
-        noise (:func:`nlupdate.identification.trust.identification_warnings`); empty when
+        noise (:func:`nlupdate.identification.trust.identification_warnings`), a parameter
+        that must be positive and is not, data that are not stepped-sine FRFs; empty when
         nothing is suspicious."""
-        return identification_warnings(self)
+        return identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
+            excitation_warnings(self.excitation, self.settings.method)
 
     def parameters(self) -> dict[str, float]:
         """Identified nonlinearity parameters (SI) by name."""
@@ -198,7 +220,11 @@ class Identification:
         s, r = self.settings, self.result
         out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": self.model_description,
                                "response_dof": s.response_dof, "input_dof": s.input_dof,
-                               "warnings": [w.as_dict() for w in self.warnings]}
+                               "warnings": [w.as_dict() for w in self.warnings],
+                               "units": units_block(self.reference_unit),
+                               "band_hz": None if self.band_hz is None else list(self.band_hz),
+                               "band_reason": self.band_reason, "excitation": self.excitation,
+                               "lines_below_coherence_threshold": self.lines_below_coherence}
         order = max(self.defaults_used.get("order", s.order) or 2, 1)
         real, imag = r.describing_function(order)
         if s.method == "prd":
@@ -241,7 +267,8 @@ class Identification:
         stats = self.uncertainty.parameters
         out.update({
             "linear_from_level_n": self.linear_from_level_n,
-            "parameters": {name: stats[name].as_dict() for name in r.parameters()},
+            "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, self.reference_unit))
+                           for name in r.parameters()},
             "uncertainty": dict(self.uncertainty.as_dict(),
                                 held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
             "noise_fraction": {"value": self.noise_fraction, "source": self.noise_source},
@@ -369,7 +396,13 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
             f"the data are response {data.response_dof!r} / input {data.input_dof!r}, the settings ask for "
             f"{settings.response_dof!r} / {settings.input_dof!r}"
         )
-    settings, defaults = _resolved(settings, data)
+    data, settings, defaults, band = prepared_data(data, settings)
+    lines_masked = int(sum(f.size for f in data.frequencies))
+    data = data.coherent(settings.coherence_threshold) if settings.coherence_threshold is not None else data
+    lines_masked -= int(sum(f.size for f in data.frequencies))
+    _check_levels(data)
+    resolved, more = _resolved(settings, data)
+    settings, defaults = resolved, {**defaults, **more}
     choice = None
     frequency = settings.frequency_hz
     if settings.method == "prd" and frequency is None:
@@ -389,11 +422,20 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
 
     if settings.noise_fraction is not None:
         noise, source = float(settings.noise_fraction), "given"
+    elif data.h_stds is not None:
+        noise = noise_fraction_from_std(data.receptances[0], data.h_stds[0])
+        source = f"the stated standard deviations (h_std) of the {data.levels[0]:g} {data.reference_unit} curve"
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
+    elif data.coherences is not None and data.averages is not None:
+        noise = noise_fraction_from_coherence(data.coherences[0], data.averages[0])
+        source = (f"coherence and averages of the {data.levels[0]:g} {data.reference_unit} curve "
+                  f"(H1 random error, Bendat & Piersol)")
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
     else:
         f_low, h_low = data.curve(data.levels[0])
         try:
             noise = estimate_noise_fraction(f_low, h_low)
-            source = f"estimated from the {data.levels[0]:g} N sweep (local quadratic fits of 1/H)"
+            source = f"estimated from the {data.levels[0]:g} {data.reference_unit} sweep (local quadratic fits of 1/H)"
         except ValueError as error:
             if getattr(result, "noise_fraction", None) is None:
                 raise IdentificationError(f"cannot estimate the noise level ({error}); give noise_fraction") from None
@@ -415,4 +457,72 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         settings=settings, defaults_used=defaults, result=result, frequency_choice=choice, linear_from_level_n=level,
         linear_frequency_hz=f_linear, linear_frf=h_linear, modes=modes, uncertainty=uncertainty,
         noise_fraction=noise, noise_source=source, model_description=description,
+        band_hz=band.hz, band_reason=band.reason, reference_unit=data.reference_unit, excitation=data.excitation,
+        lines_below_coherence=lines_masked,
     )
+
+
+def prepared_data(data: FRFLevels, settings: IdentificationSettings):
+    """(data within the band, settings with the band and coherence threshold filled in,
+    the defaults chosen, the :class:`~nlupdate.measurement.band.Band`). The band comes
+    from the settings or from the lowest level's excited band; every later step (the
+    excitation frequency, the fits, the linear FRF and its modes) sees only it."""
+    defaults: dict[str, Any] = {}
+    changes: dict[str, Any] = {}
+    if settings.coherence_threshold is None and data.coherences is not None:
+        changes["coherence_threshold"] = defaults["coherence_threshold"] = COHERENCE_THRESHOLD
+    threshold = changes.get("coherence_threshold", settings.coherence_threshold)
+    if settings.band_hz is not None:
+        band = Band(float(settings.band_hz[0]), float(settings.band_hz[1]), "given")
+    else:
+        f, h = data.frequencies[0], data.receptances[0]
+        coherence = None if data.coherences is None else data.coherences[0]
+        band = excited_band(f, h, coherence, threshold if threshold is not None else COHERENCE_THRESHOLD)
+        changes["band_hz"] = band.hz
+        defaults["band_hz"] = f"{band.low_hz:g}:{band.high_hz:g} Hz ({band.reason}, {data.levels[0]:g} " \
+                              f"{data.reference_unit} curve)"
+    inside = data.within(band.hz)
+    return inside, dataclasses.replace(settings, **changes), defaults, band
+
+
+def _check_levels(data: FRFLevels) -> None:
+    """Levels > 0, and at least 3 frequencies per level: what every method needs."""
+    unit = data.reference_unit
+    zero = [float(level) for level in data.levels if not level > 0]
+    if zero:
+        raise IdentificationError(
+            f"level {zero[0]:g} {unit}: identification needs measured levels > 0 (force_level_n = 0 marks an "
+            f"extracted linear FRF); leave that curve out")
+    for level, f in zip(data.levels, data.frequencies):
+        if f.size < 3:
+            raise IdentificationError(
+                f"level {level:g} {unit}: {f.size} frequencies in the band (and above the coherence threshold); "
+                f"need at least 3 per level")
+
+
+def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tuple[TrustWarning, ...]:
+    """A warning for each parameter that must be positive and is not (``kf``: a stuck
+    friction stiffness, from a polynomial's constant term)."""
+    out = []
+    for name, value in parameters.items():
+        if name.split("_")[0] == "kf" and value < 0:
+            out.append(TrustWarning(
+                name, "negative",
+                f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction "
+                f"stiffness is > 0: the describing function has the wrong sign (a transfer FRF, a negative modal "
+                f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
+                f"low level is not stuck", "identification"))
+    return tuple(out)
+
+
+def excitation_warnings(excitation: str, method: str) -> tuple[TrustWarning, ...]:
+    """A warning when the FRFs are not stepped-sine FRFs, which PRD and DDF assume."""
+    kinds = set(excitation.split("+")) - {"stepped_sine", "unknown"}
+    if not kinds:
+        return ()
+    return (TrustWarning(
+        "data", "not_stepped_sine",
+        f"{method.upper()} assumes stepped-sine FRFs at a constant force amplitude; these are {excitation} FRFs "
+        f"(an estimate averaged over the amplitudes the excitation passed through), so the describing function is an "
+        f"equivalent linearisation at an ill-defined amplitude and the fit residual includes that distortion",
+        "identification"),)

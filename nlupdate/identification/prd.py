@@ -86,7 +86,8 @@ def prd_setup(
     if data.levels.size < 2:
         raise IdentificationError(
             f"PRD needs a low force level and at least one high level; response {data.response_dof!r} / input "
-            f"{data.input_dof!r} has only {data.levels.size} force level ({float(data.levels[0]):g} N)"
+            f"{data.input_dof!r} has only {data.levels.size} force level "
+            f"({float(data.levels[0]):g} {data.reference_unit})"
         )
     low = float(data.levels[0]) if low_force is None else float(data.levels[data.level_index(low_force)])
     if high_forces is None:
@@ -94,14 +95,16 @@ def prd_setup(
     else:
         highs = tuple(sorted(float(data.levels[data.level_index(level)]) for level in np.atleast_1d(high_forces)))
     if not highs:
-        raise IdentificationError(f"no high force level above the low level {low:g} N; levels {list(data.levels)} N")
+        unit = data.reference_unit
+        raise IdentificationError(f"no high force level above the low level {low:g} {unit}; levels "
+                                  f"{list(data.levels)} {unit}")
     if low in highs:
-        raise IdentificationError(f"the low level {low:g} N is also listed as a high level")
+        raise IdentificationError(f"the low level {low:g} {data.reference_unit} is also listed as a high level")
     for level in (low,) + highs:
         if not data.has_frequency(level, frequency_hz):
             f, _ = data.curve(level)
             raise IdentificationError(
-                f"excitation frequency {float(frequency_hz):g} Hz is not in the data at {level:g} N "
+                f"excitation frequency {float(frequency_hz):g} Hz is not in the data at {level:g} {data.reference_unit} "
                 f"(measured {f.min():g}–{f.max():g} Hz, {f.size} points); pick a measured frequency"
             )
     return PRDSetup(float(frequency_hz), low, highs)

@@ -63,8 +63,9 @@ def elements_summary(result: Any, dof_name: str) -> list[dict] | None:
     return out
 
 
-def plot_fit(result: Any, path: Path, title: str) -> Path:
-    """PRD/DDF points and the fitted curve: real and imaginary parts against amplitude."""
+def plot_fit(result: Any, path: Path, title: str, reference_unit: str = "N") -> Path:
+    """PRD/DDF points and the fitted curve: real and imaginary parts against amplitude
+    (y in N/m, or V/m for a voltage reference)."""
     amplitude = np.asarray(result.amplitude)
     y = np.asarray(result.y)
     low, high = result.amplitude_range
@@ -76,7 +77,7 @@ def plot_fit(result: Any, path: Path, title: str) -> Path:
         ax.plot(amplitude * 1e3, part(y), ".", ms=4, alpha=0.6, label="data")
         ax.plot(grid * 1e3, part(curve), "-", lw=1.5, label="fit")
         ax.set_xlabel("response amplitude |X| (mm)")
-        ax.set_ylabel(f"{label} y (N/m)")
+        ax.set_ylabel(f"{label} y ({reference_unit}/m)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
     what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
@@ -92,9 +93,10 @@ def plot_linear_frf(
     path: Path,
     title: str,
     h_model: ArrayLike | None = None,
+    reference_unit: str = "N",
 ) -> Path:
     """|H| (log) and phase of the extracted linear FRF with measured curves for comparison
-    (and a fitted modal model of it, if given)."""
+    (and a fitted modal model of it, if given); |H| in m/N, or m/V for a voltage reference."""
     f = np.asarray(frequency_hz)
     h = np.asarray(h_linear)
     fig = Figure(figsize=(8, 6))
@@ -109,7 +111,7 @@ def plot_linear_frf(
     if h_model is not None:
         ax_mag.semilogy(f, np.abs(h_model), "--", color="black", lw=1.2, label="modal fit of the linear FRF")
         ax_phase.plot(f, phase_deg(np.asarray(h_model)), "--", color="black", lw=1.2)
-    ax_mag.set_ylabel("|H| (m/N)")
+    ax_mag.set_ylabel(f"|H| (m/{reference_unit})")
     ax_phase.set_ylabel("phase (deg)")
     ax_phase.set_xlabel("frequency (Hz)")
     for ax in (ax_mag, ax_phase):

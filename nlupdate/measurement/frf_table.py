@@ -20,57 +20,43 @@ Errors in a table raise :class:`MeasurementTableError` naming the source, the 0-
 data row, the column and the offending value; for a ``.csv`` source the line number in
 the file (row + 2: line 1 is the header) is given as well.
 
-UFF58 convention (``.uff`` / ``.unv``)
---------------------------------------
-One dataset 58 per curve (force level, response, input); function type 4 (FRF), complex
-double-precision ordinate, receptance: abscissa specific data type 18 (frequency, Hz),
-ordinate 8 (displacement, m), ordinate denominator 13 (excitation force, N). The files
-are written in the binary variant ("58b", IEEE doubles) so the data round-trip
-bit-exactly; the ASCII variant (12 significant digits for the ordinate, 6 for the
-abscissa) would not. Evenly spaced frequencies are stored with even abscissa spacing,
-others as uneven (x, Re, Im) triples. The ID lines carry the exact metadata as
-``key=value`` (value = rest of the line, which is at most 80 characters)::
+Optional columns (filled by readers when a file carries them; code works without them):
 
-    ID line 1   response_dof=<name>
-    ID line 2   input_dof=<name>
-    ID line 3   force_level_n=<float, shortest round-trip repr>
-    ID line 4   abscissa_hz=<first>,<increment>   (even spacing; else NONE)
-    ID line 5   nlupdate receptance m/N
+==================  =====  ========================================================
+coherence           float  ordinary coherence of the (response, input) pair, 0…1
+averages            int    number of averages behind an H1 estimate (≥ 1)
+h_std               float  standard deviation of the complex estimate |δH| (unit of H, ≥ 0)
+excitation          str    stepped_sine, sine_sweep, chirp, random, burst or unknown
+sweep_direction     str    up, down or unknown
+reference_unit      str    "N" (default) or "V": levels and H per volt (one for the table)
+level_achieved      float  first-harmonic reference amplitude achieved at that line (> 0)
+harmonic_distortion float  RMS of the response harmonics 2… over its first harmonic (≥ 0)
+==================  =====  ========================================================
 
-The header record 7 holds the abscissa minimum and increment with only 6 significant
-digits, hence ID line 4. The force level is also written as the z-axis value (record 7
-field 6, z-axis specific data type 13 = excitation force, 6 digits). Coordinate names
-are also mapped to node/direction fields where possible: a name ``"<n>"`` (n a
-non-negative integer of up to 9 digits) is node n, scalar direction 0; ``"<label>:<d>"`` with
-d ∈ {ux, uy, uz, rx, ry, rz} (optionally signed, e.g. ``-uz``) is direction ±1..±6 and
-node = label if it is an integer, else node 0 with the label as entity name when it fits
-(10 characters, no blanks).
-
-Reading UFF files written by other tools: datasets other than 58 are skipped; the
-function must be an FRF (type 4) with complex ordinate and an ordinate that is not
-velocity or acceleration. Missing ID-line keys are replaced by the header fields: the
-coordinate name becomes ``"<node>"`` (direction 0) or ``"<node>:<d>"``, and the force
-level is taken from the z-axis value when the z-axis specific data type is 13 (otherwise
-the read fails and says which fields are missing).
+Files are read through :mod:`nlupdate.input_files` (regular files only, a size limit,
+content sniffed before parsing), once: :func:`frf_table_from_bytes` parses the bytes that
+were read. Formats: parquet, CSV (comma-separated, ``.`` decimals), UFF 58
+(:mod:`nlupdate.measurement.uff`) and MATLAB v5 / v7.3 (:mod:`nlupdate.measurement.matfile`).
+What the reference is (N or V) and the level of each file can be stated by the user
+(:class:`~nlupdate.measurement.units.ReadOptions`).
 """
 from __future__ import annotations
 
 import io
 import os
 import re
-import tempfile
-import warnings
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 import pandas as pd
-import pyuff
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.files import atomic_file
-from nlupdate.input_files import read_input_bytes
-from nlupdate.notices import NlupdateWarning
+from nlupdate.input_files import decode_text, read_input_bytes, sniff
+from nlupdate.measurement.units import (
+    REFERENCE_UNITS, ReadOptions, ReferenceUnitError, calibrated, checked_reference_unit, table_reference_unit,
+)
 
 FRF_COLUMNS: tuple[str, ...] = (
     "frequency_hz", "force_level_n", "response_dof", "input_dof", "h_real", "h_imag",
@@ -79,17 +65,16 @@ _FLOAT_COLUMNS = ("frequency_hz", "force_level_n", "h_real", "h_imag")
 _DOF_COLUMNS = ("response_dof", "input_dof")
 _KEY_COLUMNS = ("frequency_hz", "force_level_n", "response_dof", "input_dof")
 _SORT_COLUMNS = ["force_level_n", "input_dof", "response_dof", "frequency_hz"]
-SUPPORTED_SUFFIXES: tuple[str, ...] = (".parquet", ".csv", ".uff", ".unv")
-
-# UFF58 codes (see module docstring)
-_FRF_FUNCTION = 4
-_FREQUENCY, _DISPLACEMENT, _FORCE = 18, 8, 13
-# ordinate specific data type → power of iω that turns it into receptance (0: unknown, read as receptance)
-_RECEPTANCE_POWER = {0: 0, _DISPLACEMENT: 0, 11: 1, 12: 2}
-_DIRECTIONS = {"ux": 1, "uy": 2, "uz": 3, "rx": 4, "ry": 5, "rz": 6}
-_DIRECTION_NAMES = {code: name for name, code in _DIRECTIONS.items()}
-_ID_LINE_WIDTH = 80
-_EVEN_RTOL = 1e-13  # relative deviation below which a grid counts as evenly spaced
+SUPPORTED_SUFFIXES: tuple[str, ...] = (".parquet", ".csv", ".uff", ".unv", ".mat")
+EXCITATIONS: tuple[str, ...] = ("stepped_sine", "sine_sweep", "chirp", "random", "burst", "unknown")
+SWEEP_DIRECTIONS: tuple[str, ...] = ("up", "down", "unknown")
+#: optional columns, in the order they are kept
+OPTIONAL_COLUMNS: tuple[str, ...] = (
+    "coherence", "averages", "h_std", "excitation", "sweep_direction", "reference_unit", "level_achieved",
+    "harmonic_distortion",
+)
+#: largest |H| taken as a measurement (m/N or m/V): beyond it squares overflow and the value is no receptance
+MAX_RECEPTANCE = 1e20
 
 
 class MeasurementTableError(ValueError):
@@ -124,8 +109,10 @@ def validate_frf_table(
 ) -> pd.DataFrame:
     """Check a measured-FRF table and return a clean copy (row order kept).
 
-    The copy has exactly the columns :data:`FRF_COLUMNS` (others are dropped), float
-    columns as float64 and coordinate names as str (ints such as 0 become "0").
+    The copy has the columns :data:`FRF_COLUMNS` and those of :data:`OPTIONAL_COLUMNS`
+    the table has (others are dropped), float columns as float64 and coordinate names as
+    str (ints such as 0 become "0"). A column of booleans is refused (True/False is no
+    number), and so is a receptance larger than :data:`MAX_RECEPTANCE`.
     ``source`` names the table in error messages (a file path ending in ``.csv`` adds the
     file line numbers). ``known_dofs``: if given, every coordinate name must be in it.
     Raises :class:`MeasurementTableError`.
@@ -139,16 +126,14 @@ def validate_frf_table(
         )
     clean = pd.DataFrame(index=pd.RangeIndex(len(table)))
     for column in _FLOAT_COLUMNS:
-        raw = table[column].reset_index(drop=True)
-        values = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            more = f" (and {bad.size - 1} more row(s))" if bad.size > 1 else ""
-            raise MeasurementTableError(
-                f"{_where(source, int(bad[0]))}, column '{column}': {raw.iloc[bad[0]]!r} is not a "
-                f"finite number{more}"
-            )
-        clean[column] = values
+        clean[column] = _finite_numbers(table, column, source)
+    magnitude = np.hypot(clean["h_real"].to_numpy(), clean["h_imag"].to_numpy())
+    bad = np.flatnonzero(magnitude > MAX_RECEPTANCE)
+    if bad.size:
+        raise MeasurementTableError(
+            f"{_where(source, int(bad[0]))}, columns 'h_real', 'h_imag': |H| = {magnitude[bad[0]]:.3g} is no receptance "
+            f"(expected |H| ≤ {MAX_RECEPTANCE:g} m/N; is the unit or scale of the file wrong?)"
+        )
     for column, condition, expected in (
         ("frequency_hz", clean["frequency_hz"] < 0, "a frequency ≥ 0 Hz"),
         ("force_level_n", clean["force_level_n"] < 0, "a force amplitude ≥ 0 N (0 = linear FRF)"),
@@ -186,7 +171,62 @@ def validate_frf_table(
             f"measurement ({described}); each (frequency, force level, response, input) must "
             f"appear once"
         )
-    return clean[list(FRF_COLUMNS)]
+    for column in OPTIONAL_COLUMNS:
+        if column in table.columns:
+            clean[column] = _optional_column(table, column, source)
+    return clean[list(FRF_COLUMNS) + [c for c in OPTIONAL_COLUMNS if c in clean.columns]]
+
+
+def _finite_numbers(table: pd.DataFrame, column: str, source: str) -> NDArray[np.float64]:
+    raw = table[column].reset_index(drop=True)
+    if pd.api.types.is_bool_dtype(raw) or any(isinstance(v, (bool, np.bool_)) for v in raw.iloc[:1000]):
+        row = next((i for i, v in enumerate(raw) if isinstance(v, (bool, np.bool_))), 0)
+        raise MeasurementTableError(
+            f"{_where(source, row)}, column '{column}': {bool(raw.iloc[row])} is a boolean (True/False); expected a "
+            f"finite number"
+        )
+    values = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        more = f" (and {bad.size - 1} more row(s))" if bad.size > 1 else ""
+        raise MeasurementTableError(
+            f"{_where(source, int(bad[0]))}, column '{column}': {raw.iloc[bad[0]]!r} is not a finite number{more}"
+        )
+    return values
+
+
+def _optional_column(table: pd.DataFrame, column: str, source: str) -> pd.Series:
+    """One optional column checked against its rule (module docstring)."""
+    if column in ("excitation", "sweep_direction", "reference_unit"):
+        allowed = {"excitation": EXCITATIONS, "sweep_direction": SWEEP_DIRECTIONS,
+                   "reference_unit": REFERENCE_UNITS}[column]
+        values = [str(v).strip() for v in table[column]]
+        if column == "reference_unit":
+            values = [v.upper() for v in values]
+        else:
+            values = [v.lower().replace("-", "_").replace(" ", "_") for v in values]
+        bad = [row for row, v in enumerate(values) if v not in allowed]
+        if bad:
+            raise MeasurementTableError(f"{_where(source, bad[0])}, column '{column}': {table[column].iloc[bad[0]]!r}; "
+                                        f"expected one of {list(allowed)}")
+        if column == "reference_unit" and len(set(values)) > 1:
+            raise MeasurementTableError(f"{source}: column 'reference_unit' mixes {sorted(set(values))}; one table "
+                                        f"holds FRFs of one reference (N or V)")
+        return pd.Series(values, dtype=object)
+    values = _finite_numbers(table, column, source)
+    rules = {
+        "coherence": ((values >= 0) & (values <= 1), "a coherence between 0 and 1"),
+        "averages": ((values >= 1) & (values == np.round(values)), "a whole number of averages ≥ 1"),
+        "h_std": (values >= 0, "a standard deviation ≥ 0"),
+        "level_achieved": (values > 0, "an achieved level > 0"),
+        "harmonic_distortion": (values >= 0, "a distortion ratio ≥ 0"),
+    }
+    valid, expected = rules[column]
+    bad = np.flatnonzero(~valid)
+    if bad.size:
+        raise MeasurementTableError(f"{_where(source, int(bad[0]))}, column '{column}': {values[bad[0]]!r}, "
+                                    f"expected {expected}")
+    return pd.Series(values.astype(int) if column == "averages" else values)
 
 
 def _canonical(table: pd.DataFrame) -> pd.DataFrame:
@@ -254,217 +294,10 @@ def select_frf(
     return frequency, h
 
 
-# --------------------------------------------------------------------------- UFF58
-def _node_fields(name: str) -> tuple[str, int, int]:
-    """(entity name, node, direction) best representing a coordinate name."""
-    if re.fullmatch(r"[0-9]{1,9}", name):
-        return "NONE", int(name), 0
-    match = re.fullmatch(r"(.+):([+-]?)([ur][xyz])", name)
-    if match is None:
-        return "NONE", 0, 0
-    label, sign, direction = match.groups()
-    code = _DIRECTIONS[direction] * (-1 if sign == "-" else 1)
-    if re.fullmatch(r"[0-9]{1,9}", label):
-        return "NONE", int(label), code
-    entity = label if len(label) <= 10 and not any(ch.isspace() for ch in label) else "NONE"
-    return entity, 0, code
-
-
-def _name_from_node(node: int, direction: int) -> str:
-    if direction == 0 or abs(direction) not in _DIRECTION_NAMES:
-        return str(node) if direction == 0 else f"{node}:{direction}"
-    sign = "-" if direction < 0 else ""
-    return f"{node}:{sign}{_DIRECTION_NAMES[abs(direction)]}"
-
-
-def _id_line(key: str, value: str, where: str) -> str:
-    line = f"{key}={value}"
-    if len(line) > _ID_LINE_WIDTH or value != value.strip() or not value.isascii() or not value.isprintable():
-        raise MeasurementTableError(
-            f"{where}: cannot store {key} {value!r} in a UFF58 ID line: '{key}=<value>' must be at "
-            f"most {_ID_LINE_WIDTH} printable ASCII characters without leading/trailing blanks"
-        )
-    return line
-
-
-def _uff_datasets(table: pd.DataFrame, where: str) -> list[dict]:
-    if table.empty:
-        raise MeasurementTableError(f"{where}: an empty table cannot be written as UFF58 (no curve to store)")
-    datasets = []
-    for (level, inp, resp), curve in table.groupby(["force_level_n", "input_dof", "response_dof"], sort=False):
-        f = curve["frequency_hz"].to_numpy()
-        h = curve["h_real"].to_numpy() + 1j * curve["h_imag"].to_numpy()
-        df = (f[-1] - f[0]) / (len(f) - 1) if len(f) > 1 else 0.0
-        even = bool(np.all(np.abs(f[0] + df * np.arange(len(f)) - f) <= _EVEN_RTOL * np.abs(f)))
-        rsp_ent, rsp_node, rsp_dir = _node_fields(resp)
-        ref_ent, ref_node, ref_dir = _node_fields(inp)
-        dataset = pyuff.prepare_58(
-            binary=1, func_type=_FRF_FUNCTION, load_case_id=0,
-            id1=_id_line("response_dof", resp, where),
-            id2=_id_line("input_dof", inp, where),
-            id3=f"force_level_n={float(level)!r}",
-            id4=f"abscissa_hz={float(f[0])!r},{float(df)!r}" if even else "NONE",
-            id5="nlupdate receptance m/N",
-            rsp_ent_name=rsp_ent, rsp_node=rsp_node, rsp_dir=rsp_dir,
-            ref_ent_name=ref_ent, ref_node=ref_node, ref_dir=ref_dir,
-            abscissa_spacing=int(even), z_axis_value=float(level),
-            abscissa_spec_data_type=_FREQUENCY, abscissa_axis_units_lab="Hz",
-            ordinate_spec_data_type=_DISPLACEMENT, ordinate_len_unit_exp=1, ordinate_axis_units_lab="m",
-            orddenom_spec_data_type=_FORCE, orddenom_force_unit_exp=1, orddenom_axis_units_lab="N",
-            z_axis_spec_data_type=_FORCE, z_axis_force_unit_exp=1, z_axis_axis_units_lab="N",
-            data=h,
-            # pyuff computes the increment from x[1] - x[0] even for a single point
-            x=f if len(f) > 1 else np.repeat(f, 2),
-        )
-        datasets.append(dataset)
-    return datasets
-
-
-def _fix_binary_byte_counts(path: Path, datasets: list[dict]) -> None:
-    """Patch record 1 field 6 (bytes of binary data) in a file written by pyuff.
-
-    pyuff writes 8·n there also for complex data, which holds 16·n (even abscissa) or
-    24·n (uneven) bytes; readers that trust the field would truncate the data.
-    """
-    content = bytearray(path.read_bytes())
-    position = 0
-    for dataset in datasets:
-        n_bytes = 8 * len(dataset["data"]) * (2 if dataset["abscissa_spacing"] else 3)
-        start = content.index(b"    58b", position)
-        # '    58', 'b', byte order and float format ('%6i' each), ASCII lines ('%12i'), n_bytes
-        field = slice(start + 31, start + 43)
-        content[field] = b"%12i" % n_bytes
-        position = content.index(b"\n", start) + 1
-        for _ in range(11):  # ID lines 1-5 and records 6-11, then the binary data
-            position = content.index(b"\n", position) + 1
-        position += n_bytes
-    path.write_bytes(bytes(content))
-
-
-def _id_keys(dataset: dict) -> dict[str, str]:
-    keys = {}
-    for n in range(1, 6):
-        key, sep, value = str(dataset.get(f"id{n}", "")).partition("=")
-        if sep:
-            keys[key.strip()] = value
-    return keys
-
-
-def _id_floats(keys: dict[str, str], key: str, count: int, where: str) -> list[float]:
-    try:
-        values = [float(v) for v in keys[key].split(",")]
-    except ValueError:
-        values = []
-    if len(values) != count:
-        raise MeasurementTableError(
-            f"{where}: ID line '{key}={keys[key]}' should hold {count} comma-separated number(s)"
-        )
-    return values
-
-
-def _curve_from_uff(dataset: dict, where: str) -> pd.DataFrame:
-    if dataset.get("func_type") != _FRF_FUNCTION:
-        raise MeasurementTableError(
-            f"{where}: function type {dataset.get('func_type')}, expected 4 (frequency response function)"
-        )
-    if dataset.get("ord_data_type") not in (5, 6):
-        raise MeasurementTableError(
-            f"{where}: ordinate data type {dataset.get('ord_data_type')} is real; a receptance "
-            f"needs complex data (5 or 6)"
-        )
-    ordinate = dataset.get("ordinate_spec_data_type", 0)
-    if ordinate not in _RECEPTANCE_POWER:
-        raise MeasurementTableError(
-            f"{where}: ordinate specific data type {ordinate}; expected 8 (displacement, receptance), 11 (velocity, "
-            f"mobility) or 12 (acceleration, accelerance)"
-        )
-    if len(dataset["data"]) != int(dataset.get("num_pts", len(dataset["data"]))):
-        raise MeasurementTableError(
-            f"{where}: incomplete record: {len(dataset['data'])} of the {dataset['num_pts']} values its header "
-            f"announces (is the file truncated?)"
-        )
-    keys = _id_keys(dataset)
-    if "force_level_n" in keys:
-        (level,) = _id_floats(keys, "force_level_n", 1, where)
-    elif dataset.get("z_axis_spec_data_type") == _FORCE:
-        level = float(dataset["z_axis_value"])
-    else:
-        raise MeasurementTableError(
-            f"{where}: no force level: expected an ID line 'force_level_n=<amplitude in N>' or a "
-            f"z-axis specific data type 13 (excitation force) with the amplitude as z-axis value "
-            f"(record 7 field 6); found ID lines {[dataset.get(f'id{n}') for n in range(1, 6)]} and "
-            f"z-axis specific data type {dataset.get('z_axis_spec_data_type')}"
-        )
-    response = keys.get("response_dof", _name_from_node(dataset["rsp_node"], dataset["rsp_dir"]))
-    inp = keys.get("input_dof", _name_from_node(dataset["ref_node"], dataset["ref_dir"]))
-    h = np.asarray(dataset["data"], dtype=complex)
-    frequency = np.asarray(dataset["x"], dtype=float)
-    if "abscissa_hz" in keys and dataset.get("abscissa_spacing") == 1:
-        first, increment = _id_floats(keys, "abscissa_hz", 2, where)
-        frequency = first + increment * np.arange(len(h))
-    power = _RECEPTANCE_POWER[ordinate]
-    if power:
-        h = h / (1j * 2 * np.pi * frequency) ** power
-        name = {1: "mobility (velocity/force)", 2: "accelerance (acceleration/force)"}[power]
-        warnings.warn(f"{where}: converted {name} to receptance: H = {'A' if power == 2 else 'V'}/(iω)"
-                      f"{'²' if power == 2 else ''}", NlupdateWarning, stacklevel=4)
-    return pd.DataFrame({
-        "frequency_hz": frequency, "force_level_n": level, "response_dof": response,
-        "input_dof": inp, "h_real": h.real, "h_imag": h.imag,
-    })
-
-
-def _check_complete(path: Path, uff: pyuff.UFF, content: bytes) -> None:
-    """Refuse a file whose last dataset has no end delimiter (a truncated file).
-
-    pyuff indexes only complete datasets (between ``-1`` delimiter lines) and would
-    silently drop a cut-off last one.
-    """
-    blocks = getattr(uff, "_block_ind", None)
-    end = int(blocks[-1][1]) + 1 if blocks is not None and len(blocks) else 0  # [first, last] byte
-    rest = content[end:].replace(b"-1", b"", 1).strip() if end else content.strip()
-    if end and rest or not end and content.strip():
-        count = len(blocks) if blocks is not None else 0
-        raise MeasurementTableError(
-            f"{path}: incomplete record: dataset {count} (from byte {end}) has no end delimiter '-1'; the file "
-            f"is truncated or not a complete UFF file ({len(content)} bytes)"
-        )
-
-
-def _read_uff(path: Path, content: bytes) -> pd.DataFrame:
-    """The datasets 58 of the universal file ``content`` (read from ``path``); pyuff reads
-    files only, so it parses a private temporary copy of exactly these bytes."""
-    with tempfile.TemporaryDirectory(prefix="nlupdate-uff-") as folder:
-        copy = Path(folder) / path.name
-        copy.write_bytes(content)
-        try:
-            uff = pyuff.UFF(str(copy))
-            indices = [i for i, t in enumerate(uff.get_set_types()) if t == 58]
-            datasets = [uff.read_sets(i) for i in indices]
-        except Exception as error:  # pyuff raises bare Exception on malformed files
-            raise MeasurementTableError(f"{path}: not a readable UFF file ({error})") from error
-    _check_complete(path, uff, content)
-    if not datasets:
-        raise MeasurementTableError(f"{path}: no dataset 58 (function at nodal DOF) found")
-    curves, seen = [], {}
-    for index, dataset in zip(indices, datasets):
-        where = f"{path}, dataset {index}"
-        curve = validate_frf_table(_curve_from_uff(dataset, where), source=where)
-        key = tuple(curve.loc[0, ["force_level_n", "response_dof", "input_dof"]])
-        if key in seen:
-            raise MeasurementTableError(
-                f"{path}: datasets {seen[key]} and {index} hold the same curve (force_level_n, "
-                f"response_dof, input_dof) = {key}"
-            )
-        seen[key] = index
-        curves.append(curve)
-    return pd.concat(curves, ignore_index=True)
-
-
 # --------------------------------------------------------------------------- files
 def table_suffix(path: Path) -> str:
-    """The format suffix of a measured-FRF file (.parquet, .csv, .uff, .unv), or an error naming the file."""
-    suffix = path.suffix.lower()
+    """The format suffix of a measured-FRF file (.parquet, .csv, .uff, .unv, .mat), or an error naming the file."""
+    suffix = Path(path).suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES:
         raise MeasurementTableError(
             f"{path}: unsupported file type {suffix!r}; supported: {', '.join(SUPPORTED_SUFFIXES)}"
@@ -472,44 +305,183 @@ def table_suffix(path: Path) -> str:
     return suffix
 
 
-def read_frf_table(path: str | os.PathLike, known_dofs: Iterable[str] | None = None) -> pd.DataFrame:
-    """Read and validate a measured-FRF table (.parquet, .csv, .uff/.unv); canonical order."""
+_EXPECTED_CONTENT = {".parquet": "parquet", ".csv": "text", ".uff": "uff", ".unv": "uff", ".mat": "mat"}
+_CONTENT_NAMES = {"parquet": "a parquet file", "hdf5": "an HDF5 (MATLAB v7.3) file", "mat5": "a MATLAB v5 file",
+                  "uff": "a universal file (UFF)", "text": "text", "binary": "binary data"}
+
+
+def _check_content(data: bytes, path: Path, suffix: str) -> str:
+    """The sniffed kind of ``data``; an error when it does not fit the suffix."""
+    kind = sniff(data[:4096])
+    if kind == "binary" and data.lstrip(b"\r\n ").startswith(b"-1"):
+        kind = "uff"  # binary UFF (58b): a '-1' delimiter line, then binary records
+    expected = _EXPECTED_CONTENT[suffix]
+    fits = kind == expected or (expected == "mat" and kind in ("mat5", "hdf5")) or (expected == "uff" and kind == "text")
+    if not data.strip():
+        raise MeasurementTableError(f"{path}: the file is empty; expected a measured-FRF table")
+    if not fits:
+        raise MeasurementTableError(f"{path}: holds {_CONTENT_NAMES[kind]}, not what its suffix {suffix!r} says "
+                                    f"({_CONTENT_NAMES.get(expected, 'a MATLAB file')})")
+    return kind
+
+
+def _csv_separator_problem(text: str, path: Path) -> str | None:
+    """Why a CSV header does not look comma-separated (None when it does)."""
+    header = next((line for line in text.splitlines() if line.strip()), "")
+    if "," in header:
+        return None
+    for separator, name in ((";", "';'"), ("\t", "tabs"), ("|", "'|'")):
+        if separator in header:
+            decimal = " and decimal commas" if re.search(r"\d,\d", text[:4096]) else ""
+            return (f"{path}: columns are separated by {name}{decimal} (header {header.strip()[:80]!r}); nlupdate reads "
+                    f"comma-separated values with '.' as the decimal point")
+    return None
+
+
+def _read_csv(data: bytes, path: Path) -> pd.DataFrame:
+    text = decode_text(data, path, "measured-FRF table")
+    problem = _csv_separator_problem(text, path)
+    if problem:
+        raise MeasurementTableError(problem)
+    try:
+        return pd.read_csv(io.StringIO(text), dtype={c: str for c in _DOF_COLUMNS + ("excitation", "reference_unit")},
+                           keep_default_na=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as error:
+        raise MeasurementTableError(f"{path}: not a readable CSV file ({error})") from None
+
+
+def _read_parquet(data: bytes, path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(io.BytesIO(data))
+    except Exception as error:  # pyarrow raises its own errors on corrupt files
+        raise MeasurementTableError(f"{path}: not a readable parquet file ({error})") from None
+
+
+def frf_table_from_bytes(
+    data: bytes, path: str | os.PathLike, known_dofs: Iterable[str] | None = None, options: ReadOptions | None = None,
+) -> pd.DataFrame:
+    """A measured-FRF table parsed from the bytes ``data`` of the file ``path`` (its
+    suffix names the format); validated, in canonical order, with the user's statements
+    ``options`` applied (reference unit, calibration, level of the file)."""
     path = Path(path)
+    options = options or ReadOptions()
     suffix = table_suffix(path)
-    content = read_input_bytes(path, "measured-FRF table")
+    kind = _check_content(data, path, suffix)
     if suffix == ".parquet":
-        try:
-            raw = pd.read_parquet(io.BytesIO(content))
-        except (OSError, ValueError) as error:
-            raise MeasurementTableError(f"{path}: not a readable parquet file ({error})") from error
+        raw = _read_parquet(data, path)
     elif suffix == ".csv":
-        try:
-            raw = pd.read_csv(io.BytesIO(content), dtype={c: str for c in _DOF_COLUMNS}, keep_default_na=False)
-        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
-            raise MeasurementTableError(f"{path}: not a readable CSV file ({error})") from error
+        raw = _read_csv(data, path)
+    elif suffix == ".mat":
+        from nlupdate.measurement.matfile import read_mat_frf
+
+        raw = read_mat_frf(data, path, kind)
     else:
-        raw = _read_uff(path, content)
-    return _canonical(validate_frf_table(raw, source=str(path), known_dofs=known_dofs))
+        from nlupdate.measurement.uff import read_uff_frf
+
+        raw = read_uff_frf(data, path, options)
+    if len(raw) == 0:
+        raise MeasurementTableError(f"{path}: holds no measurement (no data rows); a measured-FRF table has one row "
+                                    f"per frequency, level, response and input")
+    raw = _with_user_statements(raw, path, suffix, options)
+    table = validate_frf_table(raw, source=str(path), known_dofs=known_dofs)
+    if options.reference_calibration is not None:
+        table = calibrated(table, options.reference_calibration, str(path))
+    return _canonical(table)
+
+
+def _with_user_statements(raw: pd.DataFrame, path: Path, suffix: str, options: ReadOptions) -> pd.DataFrame:
+    """The reference unit and the file's level as the user stated them, checked against the file."""
+    raw = raw.copy()
+    if "reference_unit" in raw.columns:
+        units = sorted({checked_reference_unit(u, f"{path}: column 'reference_unit'") for u in raw["reference_unit"]})
+        if options.reference_unit is not None and units != [options.reference_unit]:
+            raise MeasurementTableError(f"{path}: the file's reference is in {', '.join(units)} (column "
+                                        f"'reference_unit'), not in {options.reference_unit} as stated")
+    elif options.reference_unit == "V":  # a table without the column is in N
+        raw["reference_unit"] = "V"
+    level = options.level_of(str(path))
+    if level is not None and suffix not in (".uff", ".unv"):  # the UFF reader applies it per dataset
+        if "force_level_n" in raw.columns and len(set(np.asarray(raw["force_level_n"]).tolist())) > 1:
+            raise MeasurementTableError(f"{path}: holds several levels {sorted(set(raw['force_level_n']))}; a level "
+                                        f"given for the file ({level:g}) fits a file of one level")
+        raw["force_level_n"] = level
+    if options.reference_calibration is not None and table_reference_unit(raw) != "V":
+        raise MeasurementTableError(f"{path}: a reference calibration (N per V) applies to FRFs per volt; this file's "
+                                    f"reference is in N")
+    return raw
+
+
+def read_frf_table(
+    path: str | os.PathLike, known_dofs: Iterable[str] | None = None, options: ReadOptions | None = None,
+) -> pd.DataFrame:
+    """Read and validate a measured-FRF table (.parquet, .csv, .uff/.unv, .mat); canonical order.
+
+    The file is read once through :func:`nlupdate.input_files.read_input_bytes` (a regular
+    file within the input size limit) and its content sniffed before any parser sees it.
+    """
+    path = Path(path)
+    table_suffix(path)
+    data = read_input_bytes(path, "measured-FRF file")
+    return frf_table_from_bytes(data, path, known_dofs, options)
+
+
+def read_frf_tables(
+    paths: Iterable[str | os.PathLike], known_dofs: Iterable[str] | None = None, options: ReadOptions | None = None,
+) -> pd.DataFrame:
+    """Several files of one measurement (one per level, or per run) as one table.
+
+    The files must share their reference unit; a curve (frequency, level, response,
+    input) found in two files is an error naming both. Optional columns present in only
+    some files are dropped.
+    """
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise MeasurementTableError("no measured-FRF file given")
+    tables = [read_frf_table(p, known_dofs, options) for p in paths]
+    if len(tables) == 1:
+        return tables[0]
+    units = {p: table_reference_unit(t) for p, t in zip(paths, tables)}
+    if len(set(units.values())) > 1:
+        described = ", ".join(f"{p.name}: {u}" for p, u in units.items())
+        raise MeasurementTableError(f"the files mix references ({described}); one measurement has one reference unit")
+    common = [c for c in OPTIONAL_COLUMNS if all(c in t.columns for t in tables)]
+    origin = np.concatenate([np.full(len(t), i) for i, t in enumerate(tables)])
+    combined = pd.concat([t[list(FRF_COLUMNS) + common] for t in tables], ignore_index=True)
+    duplicated = combined.duplicated(list(_KEY_COLUMNS), keep=False).to_numpy()
+    if duplicated.any():
+        first = np.flatnonzero(duplicated)[0]
+        key = combined.loc[first, list(_KEY_COLUMNS)]
+        both = sorted({paths[origin[i]].name for i in np.flatnonzero(duplicated)
+                       if combined.loc[i, list(_KEY_COLUMNS)].equals(key)})
+        raise MeasurementTableError(
+            f"{' and '.join(both)} hold the same measurement (frequency {key['frequency_hz']:g} Hz, level "
+            f"{key['force_level_n']:g}, response {key['response_dof']!r}, input {key['input_dof']!r}); give each level "
+            f"once (a file's level: --level FILE=VALUE)")
+    return _canonical(validate_frf_table(combined, source=", ".join(str(p) for p in paths), known_dofs=known_dofs))
 
 
 def write_frf_table(table: pd.DataFrame, path: str | os.PathLike) -> Path:
     """Validate ``table`` and write it atomically (temp file + os.replace); returns the path.
 
-    The format follows the suffix (.parquet, .csv, .uff/.unv, see the module docstring);
-    rows are written in canonical order. CSV floats use the shortest round-trip repr.
+    The format follows the suffix (.parquet, .csv, .uff/.unv, see
+    :mod:`nlupdate.measurement.uff`); rows are written in canonical order. CSV floats use
+    the shortest round-trip repr. Optional columns go into parquet and CSV files; a UFF
+    file holds the receptances (and states a per-volt reference in its units).
     """
     path = Path(path)
     suffix = table_suffix(path)
+    if suffix == ".mat":
+        raise MeasurementTableError(f"{path}: nlupdate reads MATLAB files but writes measured FRFs as .parquet, .csv "
+                                    f"or .uff")
     clean = _canonical(validate_frf_table(table, source=f"table to write to {path}"))
-    datasets = _uff_datasets(clean, str(path)) if suffix in (".uff", ".unv") else None
+    if suffix in (".uff", ".unv"):
+        from nlupdate.measurement.uff import write_uff_frf
+
+        write_uff_frf(clean, path)
+        return path
     with atomic_file(path) as temporary:
         if suffix == ".parquet":
             clean.to_parquet(temporary, index=False)
-        elif suffix == ".csv":
-            clean.to_csv(temporary, index=False)
         else:
-            # 'add' to a fresh file: pyuff's 'overwrite' truncates the file when it switches
-            # to binary mode, erasing the first dataset's header
-            pyuff.UFF(str(temporary)).write_sets(datasets, mode="add")
-            _fix_binary_byte_counts(temporary, datasets)
+            clean.to_csv(temporary, index=False)
     return path

@@ -18,6 +18,7 @@ naming the source, the 0-based row (and the CSV line), the column and the value.
 """
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -26,6 +27,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from nlupdate.files import atomic_file
+from nlupdate.input_files import read_input_text
 
 MODAL_COLUMNS: tuple[str, ...] = ("force_level_n", "mode", "natural_frequency_hz", "damping_ratio")
 OPTIONAL_COLUMNS: tuple[str, ...] = ("input_dof",)
@@ -101,22 +103,24 @@ def is_modal_table_file(path: str | os.PathLike) -> bool:
     path = Path(path)
     if path.suffix.lower() != ".csv" or not path.is_file():
         return False
-    with path.open(encoding="utf-8", errors="replace") as handle:
-        header = {name.strip() for name in handle.readline().strip().split(",")}
+    with path.open("rb") as handle:  # only the first line: the file is read through the gate later
+        header = {name.strip() for name in handle.readline(4096).decode("utf-8", "replace").strip().split(",")}
     return set(MODAL_COLUMNS) <= header
 
 
 def read_modal_table(path: str | os.PathLike) -> pd.DataFrame:
-    """Read and validate a modal table from CSV."""
+    """Read and validate a modal table from CSV, through the input gate
+    (:mod:`nlupdate.input_files`: a regular file within the size limit, UTF-8 text)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"modal table not found: {path}")
     if path.suffix.lower() != ".csv":
         raise ModalTableError(f"{path}: a modal table is a .csv file, got {path.suffix!r}")
+    text = read_input_text(path, "modal table")
     try:
-        raw = pd.read_csv(path, dtype={"input_dof": str}, keep_default_na=False)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        raw = pd.read_csv(io.StringIO(text), dtype={"input_dof": str}, keep_default_na=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as error:
         raise ModalTableError(f"{path}: not a readable CSV file ({error})") from None
+    if len(raw) == 0:
+        raise ModalTableError(f"{path}: holds no mode (no data rows)")
     return validate_modal_table(raw, str(path))
 
 

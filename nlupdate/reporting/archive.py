@@ -58,7 +58,9 @@ def measured_fingerprint(result) -> dict[str, str] | None:
     if result.measured is None:
         return None
     spec = result.study.measured
-    out = {"source": spec.file if spec.file is not None else "simulated ([measured.simulate])",
+    source = spec.file or ", ".join([p for p, _ in spec.files] or list(spec.time_histories)) or \
+        "simulated ([measured.simulate])"
+    out = {"source": source,
            "sha256": table_hash(result.measured)}
     if spec.file is not None:
         out["file_sha256"] = file_hash(spec.file)

@@ -92,7 +92,14 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
                       f"{min(sim.frequencies_hz):g}–{max(sim.frequencies_hz):g} Hz, noise {100 * sim.noise:g} % "
                       f"(METHODS §8), seed {sim.seed}.", ""]
         else:
-            lines += [f"Read from `{study.measured.file}` (SHA-256 `{manifest['inputs']['measured']['sha256'][:16]}…`).", ""]
+            spec = study.measured
+            sources = [spec.file] if spec.file else [p for p, _ in spec.files] or list(spec.time_histories)
+            how = "FRFs estimated by `nlupdate frf` from the time histories " if spec.time_histories else "Read from "
+            unit = result.measured["reference_unit"].iloc[0] if "reference_unit" in result.measured.columns else "N"
+            per_volt = " The reference is the excitation voltage: levels in V, FRFs in m/V, parameters per volt." \
+                if unit == "V" else ""
+            lines += [f"{how}{', '.join(f'`{s}`' for s in sources)} (SHA-256 of the table "
+                      f"`{manifest['inputs']['measured']['sha256'][:16]}…`).{per_volt}", ""]
         if "measured" in plots:
             lines += [f"![measured FRFs]({plots['measured']})", ""]
 

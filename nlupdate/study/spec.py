@@ -96,7 +96,8 @@ _ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
          "optimisation", "comparison", "prediction"},
     "study": {"name", "description"},
-    "measured": {"file", "simulate"},
+    "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "input_dof",
+                 "excitation", "response_quantity"},
     "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
                           "frequencies_hz", "noise", "seed", "sweep"},
     "measured.simulate.adapter": {"kind", "model", "options"},
@@ -151,10 +152,28 @@ class SimulationSpec:
 
 @dataclass(frozen=True)
 class MeasuredSpec:
-    """``[measured]``: a file (absolute path) or a :class:`SimulationSpec`."""
+    """``[measured]``: a file (absolute path), several files of one measurement (``files``:
+    absolute path → level, None when the file holds it), time histories turned into FRFs
+    (``time_histories``, with ``input_dof``, ``excitation``, ``response_quantity``), or a
+    :class:`SimulationSpec`. ``reference_unit`` (``"N"``/``"V"``, None: as the files say)
+    and ``reference_calibration`` (N per V) state what the reference is."""
 
     file: str | None = None
     simulate: SimulationSpec | None = None
+    files: tuple[tuple[str, float | None], ...] = ()
+    time_histories: tuple[str, ...] = ()
+    reference_unit: str | None = None
+    reference_calibration: float | None = None
+    input_dof: str | None = None
+    excitation: str = "auto"
+    response_quantity: str = "displacement"
+
+    def read_options(self):
+        """The :class:`~nlupdate.measurement.units.ReadOptions` of these statements."""
+        from nlupdate.measurement.units import ReadOptions
+
+        return ReadOptions(self.reference_unit, self.reference_calibration,
+                           {path: level for path, level in self.files if level is not None})
 
 
 @dataclass(frozen=True)
@@ -354,13 +373,30 @@ def _read_measured(read: Reader, data: Mapping[str, Any], study_adapter: Adapter
     table = read.table(data, "measured")
     if table is None:
         return None
-    if ("file" in table) == ("simulate" in table):
-        raise read.fail("measured", None, "exactly one of file = \"<FRF table>\" or a [measured.simulate] table")
+    sources = [key for key in ("file", "files", "time_histories", "simulate") if key in table]
+    if len(sources) != 1:
+        raise read.fail("measured", None, "exactly one of file = \"<FRF table>\", files = {\"<file>\" = level, …}, "
+                                          "time_histories = [\"<time record>\", …] or a [measured.simulate] table",
+                        sources or None)
+    statements = _measured_statements(read, table, sources[0])
     if "file" in table:
         file = read.path_of(read.string(table, "measured", "file", required=True))
         if not file.is_file():
-            raise read.fail("measured", "file", "an existing FRF table (.parquet, .csv or .uff)", str(file))
-        return MeasuredSpec(file=str(file))
+            raise read.fail("measured", "file", "an existing FRF table (.parquet, .csv, .uff or .mat)", str(file))
+        return MeasuredSpec(file=str(file), **statements)
+    if "files" in table:
+        return MeasuredSpec(files=_measured_files(read, table["files"]), **statements)
+    if "time_histories" in table:
+        written = read.strings(table, "measured", "time_histories", required=True)
+        paths = []
+        for name in written:
+            path = read.path_of(name)
+            if not path.is_file():
+                raise read.fail("measured", "time_histories", "existing time-record files", name)
+            paths.append(str(path))
+        if not paths:
+            raise read.fail("measured", "time_histories", "at least one time-record file", written)
+        return MeasuredSpec(time_histories=tuple(paths), **statements)
     where = "measured.simulate"
     sim = read.table(table, where, required=True)
     has_model = "model" in sim
@@ -394,6 +430,53 @@ def _read_measured(read: Reader, data: Mapping[str, Any], study_adapter: Adapter
     ))
 
 
+def _measured_statements(read: Reader, table: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """reference_unit, reference_calibration and the time-history keys of ``[measured]``."""
+    out: dict[str, Any] = {}
+    if "reference_unit" in table:
+        out["reference_unit"] = read.string(table, "measured", "reference_unit", choices=("N", "V"))
+    if "reference_calibration" in table:
+        value = read.number(table, "measured", "reference_calibration", nonnegative=True)
+        if not value > 0:
+            raise read.fail("measured", "reference_calibration", "newtons per volt, a number > 0", value)
+        if out.get("reference_unit", "V") != "V":
+            raise read.fail("measured", "reference_calibration", "a voltage reference (reference_unit = \"V\")", value)
+        out["reference_calibration"] = value
+    history_keys = {"input_dof", "excitation", "response_quantity"} & set(table)
+    if history_keys and source != "time_histories":
+        raise read.fail("measured", sorted(history_keys)[0], "nothing: it applies to time_histories = [...]")
+    if "input_dof" in table:
+        out["input_dof"] = read.string(table, "measured", "input_dof")
+    if "excitation" in table:
+        out["excitation"] = read.string(table, "measured", "excitation",
+                                        choices=("auto", "stepped_sine", "sine_sweep", "random", "burst"))
+    if "response_quantity" in table:
+        out["response_quantity"] = read.string(table, "measured", "response_quantity",
+                                               choices=("displacement", "velocity", "acceleration"))
+    return out
+
+
+def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None], ...]:
+    """``files = ["a.uff", …]`` (levels in the files) or ``{"a.uff" = 0.1, …}`` (levels given)."""
+    if isinstance(value, list) and all(isinstance(v, str) for v in value) and value:
+        entries = [(name, None) for name in value]
+    elif isinstance(value, dict) and value:
+        entries = []
+        for name, level in value.items():
+            if isinstance(level, bool) or not isinstance(level, (int, float)) or not level > 0:
+                raise read.fail("measured.files", name, "a level > 0 in the reference unit", level)
+            entries.append((name, float(level)))
+    else:
+        raise read.fail("measured", "files", "a list of files, or a table \"<file>\" = level", value)
+    out = []
+    for name, level in entries:
+        path = read.path_of(name)
+        if not path.is_file():
+            raise read.fail("measured", "files", "existing measured-FRF files", name)
+        out.append((str(path), level))
+    return tuple(out)
+
+
 def _read_identification(read: Reader, data: Mapping[str, Any]) -> IdentificationSettings | None:
     table = read.table(data, "identification")
     if table is None:
@@ -413,7 +496,8 @@ def _read_identification(read: Reader, data: Mapping[str, Any]) -> Identificatio
             values[key] = read.integer(table, where, key, minimum=0 if key == "smoothing_window" else 1)
     if "seed" in table:
         values["seed"] = read.integer(table, where, "seed", minimum=0)
-    for key in ("half_window", "frequency_hz", "low_force_n", "noise_fraction", "modal_band_fraction"):
+    for key in ("half_window", "frequency_hz", "low_force_n", "noise_fraction", "modal_band_fraction",
+                "coherence_threshold"):
         if key in table:
             values[key] = read.number(table, where, key, nonnegative=True)
     for key in ("complex_delta_f1", "amplitude_dependent_delta"):

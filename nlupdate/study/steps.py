@@ -23,7 +23,9 @@ from nlupdate.adapters.base import ModalResult
 from nlupdate.correlation.levels import correlate_levels
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import Identification, identify
-from nlupdate.measurement.frf_table import force_levels, read_frf_table, select_frf
+from nlupdate.measurement.frf_table import force_levels, read_frf_table, read_frf_tables, select_frf
+from nlupdate.measurement.time_history import estimate_frf, read_time_record
+from nlupdate.measurement.units import calibrated
 from nlupdate.model.model_file import element_from_table, load_system
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
@@ -95,8 +97,18 @@ def measured_table(study: Study) -> pd.DataFrame:
     off the continuation, METHODS §8 noise)."""
     if study.measured is None:
         raise StudyError(f"{study.path}: the study has no [measured] data")
-    if study.measured.file is not None:
-        return read_frf_table(study.measured.file)
+    spec = study.measured
+    if spec.file is not None:
+        return read_frf_table(spec.file, options=spec.read_options())
+    if spec.files:
+        return read_frf_tables([path for path, _ in spec.files], options=spec.read_options())
+    if spec.time_histories:
+        records = [read_time_record(path) for path in spec.time_histories]
+        input_dof = spec.input_dof or ("force" if records[0].reference_unit == "N" else "voltage")
+        table = estimate_frf(records, input_dof, spec.excitation, spec.response_quantity).table
+        if spec.reference_calibration is not None:
+            table = calibrated(table, spec.reference_calibration, str(study.path))
+        return table
     sim = study.measured.simulate
     table, _ = simulate_frf_table(truth_system(study, sim), sim.input_dof, np.asarray(sim.frequencies_hz), sim.forces_n,
                                   sweep=sim.sweep, noise=sim.noise, seed=sim.seed)

@@ -1,0 +1,91 @@
+"""The excited band of a measured FRF: where the test put energy in.
+
+A broadband export covers the analyser's whole range (0–512 Hz for 1024 Hz sampling)
+while the excitation covered a part of it (a 70–110 Hz chirp); outside, the "FRF" is
+the ratio of two noises. :func:`excited_band` finds the excited range:
+
+* **with coherence**: the longest run of lines whose coherence is at least
+  ``threshold`` (default :data:`COHERENCE_THRESHOLD`), gaps of up to two lines bridged;
+* **without**: where the FRF is smooth. The dynamic stiffness ``Z = 1/H`` of a structure
+  is smooth in frequency even at a resonance; its relative second difference
+  ``|Z_{k−1} − 2Z_k + Z_{k+1}| / mean|Z|`` is small where H is measured (about
+  ``2(Δω/ω_r)²/η`` at a resonance of loss factor η, about √6 × the relative noise
+  elsewhere) and of order 1 where H is noise. Its running median over 9 lines below
+  :data:`ROUGHNESS_LIMIT` (0.5) marks the excited lines; the longest run of them is the
+  band. When that run covers nearly all lines (≥ 80 % of the range), the whole range is
+  returned: the curve shows no unexcited part.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+COHERENCE_THRESHOLD = 0.8
+ROUGHNESS_LIMIT = 0.5
+_WINDOW = 9
+
+
+@dataclass(frozen=True)
+class Band:
+    """An excited band (Hz, ends included) and how it was found."""
+
+    low_hz: float
+    high_hz: float
+    reason: str
+
+    @property
+    def hz(self) -> tuple[float, float]:
+        return (self.low_hz, self.high_hz)
+
+
+def _longest_run(mask: np.ndarray, bridge: int = 2) -> tuple[int, int] | None:
+    """(first, last) index of the longest run of True, gaps up to ``bridge`` bridged."""
+    best, start, gap, last_true = None, None, 0, None
+    for k, value in enumerate(mask):
+        if value:
+            if start is None:
+                start = k
+            last_true, gap = k, 0
+        elif start is not None:
+            gap += 1
+            if gap > bridge:
+                if best is None or last_true - start > best[1] - best[0]:
+                    best = (start, last_true)
+                start, gap = None, 0
+    if start is not None and (best is None or last_true - start > best[1] - best[0]):
+        best = (start, last_true)
+    return best
+
+
+def roughness(frequency_hz: ArrayLike, h: ArrayLike) -> np.ndarray:
+    """Running median (9 lines) of the relative second difference of ``1/H`` (module docstring)."""
+    z = 1.0 / np.asarray(h, dtype=complex)
+    second = np.abs(z[:-2] - 2 * z[1:-1] + z[2:]) / ((np.abs(z[:-2]) + np.abs(z[1:-1]) + np.abs(z[2:])) / 3)
+    second = np.concatenate([[second[0]], second, [second[-1]]])
+    half = _WINDOW // 2
+    padded = np.pad(second, half, mode="edge")
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, _WINDOW), axis=1)
+
+
+def excited_band(frequency_hz: ArrayLike, h: ArrayLike, coherence: ArrayLike | None = None,
+                 threshold: float = COHERENCE_THRESHOLD) -> Band:
+    """The excited band of one measured curve (module docstring); the whole range when
+    nothing marks a smaller one."""
+    f = np.asarray(frequency_hz, dtype=float)
+    whole = Band(float(f[0]), float(f[-1]), "all measured frequencies")
+    if f.size < 2 * _WINDOW:
+        return whole
+    if coherence is not None:
+        run = _longest_run(np.asarray(coherence, dtype=float) >= threshold)
+        if run is None:
+            raise ValueError(f"no line has a coherence of {threshold:g} or more: nothing was measured (give the band "
+                             f"with --band LOW:HIGH)")
+        return Band(float(f[run[0]]), float(f[run[1]]), f"coherence ≥ {threshold:g}")
+    rough = roughness(f, h)
+    run = _longest_run(rough < ROUGHNESS_LIMIT)
+    if run is None or (f[run[1]] - f[run[0]]) >= 0.8 * (f[-1] - f[0]):
+        return whole
+    return Band(float(f[run[0]]), float(f[run[1]]),
+                f"where the FRF is smooth (relative 2nd difference of 1/H < {ROUGHNESS_LIMIT:g}; no coherence given)")
