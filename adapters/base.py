@@ -119,6 +119,13 @@ class FEAdapter(ABC):
         a failure in every updating run. In-process adapters are always available.
         """
 
+    def check_values(self, parameters: Mapping[str, float]) -> None:
+        """``ValueError`` saying why the model cannot take ``parameters`` (unknown names, a
+        thickness ≤ 0, …), without solving; a study checks its bounds with it before any
+        work. The base class checks names and finiteness; subclasses add their model's
+        ranges."""
+        self._check(parameters)
+
     def key(self, parameters: Mapping[str, float]) -> str:
         """Identity of the point ``parameters`` of this model (checked values)."""
         return parameter_key(self.name, self.model_fingerprint(), self._check(parameters))

@@ -353,6 +353,9 @@ class CalculixAdapter(FEAdapter):
         write_text_atomic(path, deck)
         return path, checked, deck
 
+    def check_values(self, parameters: Mapping[str, float]) -> None:
+        self.deck_generator(self._check(parameters))  # the generator refuses values its model cannot take
+
     def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
         run_dir = self.runner.new_run_dir(self.key(parameters))
         _, coordinates, deck = self.write_deck(parameters, run_dir)

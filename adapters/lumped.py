@@ -82,6 +82,9 @@ class LumpedAdapter(FEAdapter):
                 stiffness[right, left] -= k
         return mass, stiffness
 
+    def check_values(self, parameters: Mapping[str, float]) -> None:
+        self.matrices(self._check(parameters))
+
     def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
         start = time.perf_counter()
         mass, stiffness = self.matrices(parameters)

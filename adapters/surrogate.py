@@ -165,6 +165,9 @@ class SurrogateAdapter(FEAdapter):
         """The base parameter dataclass with the named fields replaced."""
         return replace(self.base_parameters, **{k: float(v) for k, v in parameters.items()})
 
+    def check_values(self, parameters: Mapping[str, float]) -> None:
+        self.parameters_for(self._check(parameters))  # the parameter class checks its ranges
+
     def _solve(self, parameters: Mapping[str, float]) -> ModalResult:
         start = time.perf_counter()
         model = self._build(self.parameters_for(parameters))

@@ -13,12 +13,16 @@ from __future__ import annotations
 from nlupdate.response.harmonic_balance import AUTO_HARMONICS, HarmonicSettings
 
 RESPONSE_METHODS = ("continuation", "hb")
-HARMONICS_FORM = 'an integer ≥ 1 or "auto"'
+#: The most harmonics and samples per period a user may ask for (more is a mistake: the
+#: unknowns grow as 2H + 1 and every force evaluation as the samples).
+MAX_HARMONICS = 64
+MAX_SAMPLES = 65_536
+HARMONICS_FORM = f'an integer from 1 to {MAX_HARMONICS}, or "auto"'
 
 
 def valid_harmonics(value: object) -> bool:
-    """An integer ≥ 1 (not a bool) or ``"auto"``."""
-    return value == "auto" or (isinstance(value, int) and not isinstance(value, bool) and value >= 1)
+    """An integer from 1 to :data:`MAX_HARMONICS` (not a bool) or ``"auto"``."""
+    return value == "auto" or (isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= MAX_HARMONICS)
 
 
 def fewest_samples(harmonics: int | str) -> int:
@@ -28,15 +32,18 @@ def fewest_samples(harmonics: int | str) -> int:
 
 
 def valid_samples(value: object, harmonics: int | str) -> bool:
-    """An integer of at least :func:`fewest_samples` (``None``: the default, always valid)."""
-    return value is None or (isinstance(value, int) and not isinstance(value, bool) and value >= fewest_samples(harmonics))
+    """An integer from :func:`fewest_samples` to :data:`MAX_SAMPLES` (``None``: the
+    default, always valid)."""
+    return value is None or (isinstance(value, int) and not isinstance(value, bool)
+                             and fewest_samples(harmonics) <= value <= MAX_SAMPLES)
 
 
 def samples_form(harmonics: int | str) -> str:
     """The expected form of ``samples`` for ``harmonics``, as an error states it."""
     carried = f'the up to {max(AUTO_HARMONICS)} harmonics of "auto"' if harmonics == "auto" else f"{harmonics} harmonics"
     fewest = fewest_samples(harmonics)
-    return f"an integer ≥ {fewest} (samples per period; {carried} need more than {fewest - 1})"
+    return (f"an integer from {fewest} to {MAX_SAMPLES} (samples per period; {carried} need more than "
+            f"{fewest - 1})")
 
 
 def describe(settings: HarmonicSettings | None) -> str:

@@ -1,20 +1,28 @@
 """Every mistake a user can make ends as one clear line, the right exit code and nothing half-written.
 
-Each case runs the real ``nlupdate`` command in a subprocess (what a user sees: stderr,
-exit code) and checks: exit code 2 for a mistake in the input, 1 for a failure of the
+Each case runs the real ``nlupdate`` command line — in this process, through
+:func:`nlupdate.cli.main` with stdout and stderr captured (what a user sees: stderr, exit
+code; starting a Python process per case cost a minute and checks nothing more), or in a
+subprocess where the process itself is the point (the traceback of ``--debug``, the
+umask) — and checks: exit code 2 for a mistake in the input, 1 for a failure of the
 work; one or two lines on stderr naming the file, field or option; no traceback; and
 nothing left in the output location.
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
+
+from nlupdate.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_DOF = ROOT / "examples" / "two_dof.toml"
@@ -23,8 +31,37 @@ SIMULATE = ["--input-dof", "0", "--freqs", "650:800:16", "--forces", "0.01,100"]
 
 
 def nlupdate(*args: object, cwd: Path | None = None, env: dict | None = None, timeout: float = 120):
+    """``nlupdate ARGS`` in this process: (returncode, stdout, stderr) as a subprocess gives them."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.ExitStack() as stack:
+        if cwd is not None:
+            stack.enter_context(contextlib.chdir(cwd))
+        if env is not None:
+            stack.enter_context(_environment(env))
+        stack.enter_context(contextlib.redirect_stdout(out))
+        stack.enter_context(contextlib.redirect_stderr(err))
+        try:
+            code = main([str(a) for a in args])
+        except SystemExit as stop:  # argparse's errors, --help and --version
+            code = stop.code
+    return SimpleNamespace(returncode=code, stdout=out.getvalue(), stderr=err.getvalue())
+
+
+def nlupdate_process(*args: object, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "nlupdate", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, env=env, timeout=timeout)
+                          timeout=timeout)
+
+
+@contextlib.contextmanager
+def _environment(env: dict):
+    saved = dict(os.environ)
+    os.environ.clear()
+    os.environ.update(env)
+    try:
+        yield
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
 
 
 def assert_one_clear_line(result, code: int, *fragments: str) -> str:
@@ -72,6 +109,9 @@ def model_variant(tmp_path: Path, old: str, new: str) -> Path:
     ("mass = [[0.1, 0.0]", 'mass = [["0.1", 0.0]', ("'mass' must be a square matrix of numbers", "'0.1' (str)")),
     ("kind = \"lumped\"", "kind = \"lumped\"\nmystery = 3", ("unknown key(s) ['mystery']",)),
     ("[[nonlinear]]", "[[nonlinear]\n", ("model.toml: not valid TOML",)),
+    ("stiffness = [[2e6, -1e6]", "stiffness = [[nan, -1e6]", ("'stiffness' row 0, column 0 is nan: not a finite number",)),
+    ("stiffness = [[2e6, -1e6]", "stiffness = [[1e300, -1e6]", ("'stiffness' row 0, column 0 is 1e+300: larger",)),
+    ("loss_factor = 0.005", 'loss_factor = 0.005\ndof_names = ["m", "m"]', ("'dof_names' names 'm' more than once",)),
 ])
 def test_model_file_mistakes(tmp_path, old, new, fragments):
     model = model_variant(tmp_path, old, new)
@@ -98,7 +138,14 @@ def test_modal_model_with_negative_damping(tmp_path):
     (["--noise", "five"], ("argument --noise: expected a number ≥ 0, got 'five'",)),
     (["--input-dof", "7"], ("unknown dof 7",)),
     (["--freqs", "650-800"], ("START:STOP:COUNT",)),
-    (["--forces", "1,-2"], ("force levels must be positive",)),
+    (["--forces", "1,-2"], ("--forces '1,-2'", "-2 is not a number > 0")),
+    (["--forces", "0.01,nan"], ("--forces '0.01,nan'", "nan is not a number > 0")),
+    (["--forces", "30,30"], ("--forces '30,30'", "30 N is given more than once")),
+    (["--freqs", "650:nan:16"], ("--freqs '650:nan:16'", "nan is not a number > 0")),
+    (["--freqs", "650:800:100000000"], ("--freqs '650:800:100000000'", "2 ≤ COUNT ≤ 200000")),
+    (["--freqs", "800,650,700"], ("--freqs '800,650,700'", "increasing frequencies")),
+    (["--method", "hb", "--samples", "100000000"], ("argument --samples: expected an integer from 7 to 65536",)),
+    (["--method", "hb", "--harmonics", "1000"], ("argument --harmonics: expected an integer from 1 to 64",)),
 ])
 def test_simulate_option_mistakes(tmp_path, extra, fragments):
     result = nlupdate("simulate", TWO_DOF, *SIMULATE, *extra, "--out", tmp_path / "frf.parquet")
@@ -234,6 +281,12 @@ def study_variant(tmp_path: Path, old: str, new: str) -> Path:
      ("study.toml", "[eigensensitivity] key 'formulas'", "sideways")),
     ("upper = 1.5e6\n\n[[parameters]]", 'upper = "big"\n\n[[parameters]]', ("study.toml", "upper")),
     ("noise = 0.01", "noise = -0.01", ("study.toml", "noise")),
+    ('name = "k1"', 'name = "k9"', ("[[parameters]] key 'name': expected a parameter of the lumped model", "'k9'")),
+    ("lower = 0.5e6", "lower = 0.0", ("[[parameters]] 'k1': lower = 0 is a value the lumped model cannot take",
+                                       "must be positive")),
+    ("stiffnesses = [0.8e6, 1.2e6, 1.0e6] }", "stiffnesses = [0.8e6, 1.2e6, 1.0e6] }\nfixed = { k7 = 1e6 }",
+     ("[adapter.fixed] key 'k7': expected a parameter",)),
+    ('name = "two-dof"', 'name = "../../escaped"', ("[study] key 'name': expected one folder name",)),
 ])
 def test_study_file_mistakes(tmp_path, command, old, new, fragments):
     study = study_variant(tmp_path, old, new)
@@ -299,7 +352,7 @@ def test_failing_solver_fails_the_command_naming_the_run_folder_and_log(tmp_path
 
 def test_debug_shows_the_traceback(tmp_path):
     model = model_variant(tmp_path, "loss_factor = 0.005", "loss_factor = -0.005")
-    result = nlupdate("--debug", "simulate", model, *SIMULATE, "--out", tmp_path / "x.csv")
+    result = nlupdate_process("--debug", "simulate", model, *SIMULATE, "--out", tmp_path / "x.csv")
     assert result.returncode != 0 and "Traceback" in result.stderr and "ModelFileError" in result.stderr
 
 
@@ -409,3 +462,17 @@ def test_discover_band_without_measured_lines(measured, tmp_path):
                       tmp_path / "d", timeout=60)
     assert_one_clear_line(result, 2, "--band 10:20", "has no line between 10 and 20 Hz")
     assert_nothing_written(tmp_path)
+
+
+@pytest.mark.parametrize("targets, fragment", [
+    ("frequencies_hz = [178.0, 40.75, 260.5]", "[targets] key 'frequencies_hz': expected increasing natural frequencies"),
+    ("frequencies_hz = [40.75, 40.75, 260.5]", "[targets] key 'frequencies_hz': expected increasing natural frequencies"),
+])
+def test_target_lists_in_another_order_or_twice_are_refused(tmp_path, targets, fragment):
+    study = tmp_path / "study.toml"
+    text = (ROOT / "examples" / "tbeam_three_modes.toml").read_text()
+    assert "frequencies_hz = [40.75, 178.0, 260.5]" in text
+    study.write_text(text.replace("frequencies_hz = [40.75, 178.0, 260.5]", targets))
+    result = nlupdate("update", study, "--out", tmp_path / "out")
+    assert_one_clear_line(result, 2, "study.toml", fragment)
+    assert not (tmp_path / "out").exists()

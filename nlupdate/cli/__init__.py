@@ -115,7 +115,16 @@ def _interrupted_line(args: argparse.Namespace, signum: int) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     from nlupdate.cli import interrupts
 
-    interrupts.install()
+    handlers = interrupts.install()
+    try:
+        return _run_command(argv)
+    finally:
+        interrupts.restore(handlers)
+
+
+def _run_command(argv: Sequence[str] | None) -> int:
+    from nlupdate.cli import interrupts
+
     parser = build_parser()
     args = parser.parse_args(argv)
     from nlupdate.notices import NlupdateWarning

@@ -19,7 +19,9 @@ from nlupdate.cli.progress import terminal_progress
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS
-from nlupdate.identification.pipeline import Identification, IdentificationSettings, identify
+from nlupdate.identification.pipeline import (
+    MAX_MONTE_CARLO_SAMPLES, Identification, IdentificationSettings, identify,
+)
 from nlupdate.identification.prd import ESTIMATORS
 from nlupdate.identification.report import (
     JSON_NAME, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
@@ -97,8 +99,9 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
         allowed = ESTIMATORS if args.method == "prd" else DDF_ESTIMATORS
         if args.estimator not in allowed:
             raise CliError(f"--estimator {args.estimator!r}: {args.method.upper()} estimators are {', '.join(allowed)}")
-    if args.samples < 2:
-        raise CliError(f"--samples must be at least 2, got {args.samples}")
+    if not 2 <= args.samples <= MAX_MONTE_CARLO_SAMPLES:
+        raise CliError(f"--samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES} (Monte-Carlo samples), "
+                       f"got {args.samples}")
     measured = ", ".join(args.measured)
     inputs = sorted(set(table["input_dof"].astype(str)))
     responses = sorted(set(table["response_dof"].astype(str)))

@@ -87,9 +87,16 @@ def _interrupted(signum: int, frame) -> None:
     raise Interrupted(signum)
 
 
-def install() -> None:
-    """Make SIGINT and SIGTERM raise :class:`Interrupted` (main thread only)."""
+def install() -> dict:
+    """Make SIGINT and SIGTERM raise :class:`Interrupted` (main thread only); returns the
+    handlers they had, for :func:`restore`."""
     if threading.current_thread() is not threading.main_thread():
-        return
-    for signum in EXIT_CODES:
-        signal.signal(signum, _interrupted)
+        return {}
+    return {signum: signal.signal(signum, _interrupted) for signum in EXIT_CODES}
+
+
+def restore(previous: dict) -> None:
+    """Give the signals the handlers :func:`install` replaced (a command run in-process
+    leaves its host as it found it)."""
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)

@@ -17,7 +17,9 @@ import time
 import warnings
 from pathlib import Path
 
-from nlupdate.cli import add_command, non_negative_float, non_negative_int
+import numpy as np
+
+from nlupdate.cli import CliError, add_command, non_negative_float, non_negative_int
 from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress import terminal_progress
@@ -27,8 +29,6 @@ from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncat
 from nlupdate.response.simulate import (
     METHODS,
     SimulationReport,
-    parse_force_levels,
-    parse_frequency_grid,
     simulate_frf_table,
 )
 
@@ -52,6 +52,54 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+#: The most frequencies of one simulated curve (a finer grid is a mistake, or hours of work).
+MAX_FREQUENCIES = 200_000
+GRID_FORM = "START:STOP:COUNT in Hz (e.g. 600:850:501) or F1,F2,… with 0 < START < STOP"
+
+
+def _numbers(items: list[str], text: str, option: str, form: str) -> list[float]:
+    """``items`` as numbers > 0; a :class:`CliError` quoting the option's ``text`` otherwise."""
+    try:
+        values = [float(v) for v in items if v.strip()]
+    except ValueError:
+        raise CliError(f"{option} {text!r}: expected {form}") from None
+    bad = [v for v in values if not np.isfinite(v) or v <= 0]
+    if not values or bad:
+        raise CliError(f"{option} {text!r}: expected {form}; {f'{bad[0]:g}' if bad else 'nothing'} is not a number > 0")
+    return values
+
+
+def frequency_grid(text: str) -> np.ndarray:
+    """``--freqs``: ``START:STOP:COUNT`` (inclusive) or ``F1,F2,…`` in Hz, increasing, at
+    most :data:`MAX_FREQUENCIES`; a :class:`CliError` naming the option otherwise."""
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise CliError(f"--freqs {text!r}: expected {GRID_FORM}")
+        start, stop = _numbers(parts[:2], text, "--freqs", GRID_FORM)
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise CliError(f"--freqs {text!r}: COUNT {parts[2]!r} is not an integer") from None
+        if not 2 <= count <= MAX_FREQUENCIES or stop <= start:
+            raise CliError(f"--freqs {text!r}: expected {GRID_FORM}, 2 ≤ COUNT ≤ {MAX_FREQUENCIES}")
+        return np.linspace(start, stop, count)
+    values = np.array(_numbers(text.split(","), text, "--freqs", GRID_FORM))
+    if len(values) > MAX_FREQUENCIES or np.any(np.diff(values) <= 0):
+        raise CliError(f"--freqs {text[:60]!r}: expected increasing frequencies, at most {MAX_FREQUENCIES}")
+    return values
+
+
+def force_levels(text: str) -> list[float]:
+    """``--forces``: distinct force amplitudes in N, each > 0."""
+    values = _numbers(text.split(","), text, "--forces",
+                      "comma-separated force amplitudes in N, each > 0 (e.g. 0.01,100,150)")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise CliError(f"--forces {text!r}: {repeated[0]:g} N is given more than once")
+    return values
+
+
 def _is_frf_table(path: Path) -> bool:
     """Whether ``path`` reads as a measured-FRF table (what this command writes)."""
     try:
@@ -63,11 +111,11 @@ def _is_frf_table(path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     settings = harmonic_settings(args)
-    out = checked_output(args.out, args.overwrite, folder=False, inputs=[args.model], replaceable_file=_is_frf_table)
-    table_suffix(out)
+    frequencies, forces = frequency_grid(args.freqs), force_levels(args.forces)
+    table_suffix(Path(args.out))
     system = load_system(args.model)
     input_dof = int(args.input_dof) if args.input_dof.isdigit() else args.input_dof
-    frequencies, forces = parse_frequency_grid(args.freqs), parse_force_levels(args.forces)
+    out = checked_output(args.out, args.overwrite, folder=False, inputs=[args.model], replaceable_file=_is_frf_table)
     args.interrupt_note = f"nothing was written to {out}"
     started = time.perf_counter()
     level_starts: dict[int, int] = {}  # force level index → warnings recorded before it started

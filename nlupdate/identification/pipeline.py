@@ -47,6 +47,10 @@ from nlupdate.progress import ProgressCallback, no_progress
 METHODS = ("prd", "ddf")
 
 
+#: The most Monte-Carlo samples (each repeats the whole identification; more would take days).
+MAX_MONTE_CARLO_SAMPLES = 100_000
+
+
 @dataclass(frozen=True)
 class IdentificationSettings:
     """What to identify and how. ``None`` means "choose a default" (see ``defaults_used``).
@@ -101,8 +105,8 @@ class IdentificationSettings:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"identification method must be one of {list(METHODS)}, got {self.method!r}")
-        if self.samples < 2:
-            raise ValueError(f"Monte-Carlo samples must be at least 2, got {self.samples}")
+        if not 2 <= self.samples <= MAX_MONTE_CARLO_SAMPLES:
+            raise ValueError(f"Monte-Carlo samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES}, got {self.samples}")
         if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
             raise ValueError(f"noise_fraction must be a number ≥ 0 (std / |H|), got {self.noise_fraction}")
         if self.band_hz is not None:

@@ -92,11 +92,33 @@ def _numbers(value: Any, key: str, where: str, form: str) -> np.ndarray:
         raise ModelFileError(f"{where}: '{key}' must be {form}") from None
 
 
+#: The largest magnitude a model's number may have in SI units (anything larger is a unit
+#: mistake, and squares of it overflow).
+MAX_MAGNITUDE = 1e30
+
+
 def _matrix(table: Mapping[str, Any], key: str, where: str) -> np.ndarray:
     matrix = _numbers(_require(table, key, where), key, where, "a square matrix of numbers (list of rows)")
     if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1]:
         raise ModelFileError(f"{where}: '{key}' must be a square matrix (list of equal-length rows), got shape {matrix.shape}")
+    bad = np.argwhere(~np.isfinite(matrix) | (np.abs(matrix) > MAX_MAGNITUDE))
+    if len(bad):
+        i, j = bad[0]
+        problem = "not a finite number" if not np.isfinite(matrix[i, j]) else f"larger than {MAX_MAGNITUDE:g} (SI units?)"
+        raise ModelFileError(f"{where}: '{key}' row {i}, column {j} is {matrix[i, j]:g}: {problem}")
     return matrix
+
+
+def _dof_names(table: Mapping[str, Any], where: str) -> tuple[str, ...]:
+    """The optional ``dof_names``: distinct strings (numbers are taken as their text)."""
+    names = table.get("dof_names", [])
+    if not isinstance(names, list) or any(not isinstance(n, (str, int)) or isinstance(n, bool) for n in names):
+        raise ModelFileError(f"{where}: 'dof_names' must be a list of names (strings), got {names!r}")
+    names = tuple(str(n) for n in names)
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ModelFileError(f"{where}: 'dof_names' names {repeated[0]!r} more than once; every dof needs its own name")
+    return names
 
 
 def _check_definite(matrix: np.ndarray, key: str, where: str, positive: bool, meaning: str) -> None:
@@ -144,14 +166,16 @@ def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel
             if not _is_number(table["loss_factor"]):
                 raise ModelFileError(f"{where}: 'loss_factor' must be a number ≥ 0, got {table['loss_factor']!r}")
             structural = float(_non_negative(table, "loss_factor", where)) * stiffness
+        names = _dof_names(table, where)
         try:
-            return LumpedModel(mass, stiffness, damping, structural, tuple(str(n) for n in table.get("dof_names", ())))
+            return LumpedModel(mass, stiffness, damping, structural, names)
         except ValueError as error:
             raise ModelFileError(f"{where}: {error}") from None
     if kind == "modal":
         unknown = set(table) - MODAL_KEYS
         if unknown:
             raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)}; a modal model accepts {sorted(MODAL_KEYS)}")
+        names = _dof_names(table, where)
         try:
             _require(table, "natural_frequencies_hz", where)
             return ModalModel(
@@ -160,7 +184,7 @@ def linear_model_from_table(table: Mapping[str, Any], where: str) -> LumpedModel
                                      "a matrix of numbers (one row per dof, one column per mode)"),
                 damping_ratios=_non_negative(table, "damping_ratios", where),
                 loss_factors=_non_negative(table, "loss_factors", where),
-                dof_names=tuple(str(n) for n in table.get("dof_names", ())),
+                dof_names=names,
             )
         except ValueError as error:
             raise ModelFileError(f"{where}: {error}") from None

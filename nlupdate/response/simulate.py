@@ -152,27 +152,3 @@ def simulate_frf_table(
     if noise:
         table = add_table_noise(table, noise, seed)
     return table, report
-
-
-def parse_frequency_grid(text: str) -> np.ndarray:
-    """``"start:stop:count"`` (inclusive, Hz) or a comma-separated list of frequencies."""
-    try:
-        if ":" in text:
-            start, stop, count = text.split(":")
-            count = int(count)
-            if count < 2:
-                raise ValueError
-            return np.linspace(float(start), float(stop), count)
-        return np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        raise ValueError(
-            f"frequency grid {text!r} is not of the form START:STOP:COUNT (e.g. 600:850:501) or F1,F2,…"
-        ) from None
-
-
-def parse_force_levels(text: str) -> list[float]:
-    """Comma-separated force amplitudes in N, e.g. ``"0.01,100,150"``."""
-    try:
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"force levels {text!r} must be comma-separated numbers in N (e.g. 0.01,100,150)") from None

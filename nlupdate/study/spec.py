@@ -79,7 +79,7 @@ from nlupdate.input_files import pinned, read_input_text, snapshot
 from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec
+from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec, build_adapter
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS
 from nlupdate.updating.pairing import PAIRING_METHODS
 from nlupdate.updating.sensitivity import FORMULAS
@@ -291,6 +291,7 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
         overlap = sorted({p.name for p in parameters} & set(fixed))
         if overlap:
             raise read.fail("adapter.fixed", overlap[0], "parameters that are not also updated ([[parameters]])")
+        _check_parameter_domain(read, adapter, parameters, fixed)
     elif "parameters" in data or "targets" in data:
         raise StudyError(f"{path}: [[parameters]] and [targets] need an [adapter] table (the FE model to update)")
 
@@ -512,6 +513,31 @@ def _read_identification(read: Reader, data: Mapping[str, Any]) -> Identificatio
         raise StudyError(f"{read.path}: [identification]: {error}") from None
 
 
+def _check_parameter_domain(read: Reader, spec: AdapterSpec, parameters: tuple[Parameter, ...],
+                            fixed: Mapping[str, float]) -> None:
+    """Every updated and fixed parameter is one the model has, and every bound a value it
+    can take (with the others at their start): checked now, not part-way through a run."""
+    try:
+        adapter = build_adapter(spec)
+    except ValueError as error:
+        raise StudyError(f"{read.path}: [adapter]: {error}") from None
+    known = list(adapter.parameter_names)
+    for p in parameters:
+        if p.name not in known:
+            raise read.fail("[parameters]", "name", f"a parameter of the {adapter.name} model ({', '.join(known)})", p.name)
+    for name in fixed:
+        if name not in known:
+            raise read.fail("adapter.fixed", name, f"a parameter of the {adapter.name} model ({', '.join(known)})")
+    start = {**fixed, **{p.name: p.start for p in parameters}}
+    for p in parameters:
+        for bound, value in (("start", p.start), ("lower", p.lower), ("upper", p.upper)):
+            try:
+                adapter.check_values({**start, p.name: value})
+            except ValueError as error:
+                raise StudyError(f"{read.path}: [[parameters]] '{p.name}': {bound} = {value:g} is a value the "
+                                 f"{adapter.name} model cannot take ({error})") from None
+
+
 def _read_parameters(read: Reader, data: Mapping[str, Any]) -> tuple[Parameter, ...]:
     entries = data.get("parameters")
     if not isinstance(entries, list) or not entries or any(not isinstance(e, dict) for e in entries):
@@ -555,7 +581,11 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
     if source != "frequencies_hz" and "std_hz" in targets:
         raise read.fail(where, "std_hz", "nothing: target uncertainties come from the identification")
     if source == "frequencies_hz":
-        n = len(read.numbers(targets, where, "frequencies_hz", required=True))
+        frequencies = read.numbers(targets, where, "frequencies_hz", required=True)
+        n = len(frequencies)
+        if any(f <= 0 for f in frequencies) or any(b <= a for a, b in zip(frequencies, frequencies[1:])):
+            raise read.fail(where, "frequencies_hz", "increasing natural frequencies > 0 Hz, each once (mode by mode; "
+                                                     "pair them with model modes through model_modes)", frequencies)
         read.numbers(targets, where, "std_hz", length=n)
     elif source == "from_identification":
         if read.boolean(targets, where, "from_identification", False) is not True:
@@ -564,8 +594,10 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
             raise read.fail(where, "from_identification", "an [identification] table to take the targets from")
         modes = targets.get("modes")
         if modes is not None and (not isinstance(modes, list) or not modes
-                                  or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes)):
-            raise read.fail(where, "modes", "a list of mode numbers ≥ 1 (of the extracted linear FRF, ascending)", modes)
+                                  or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes)
+                                  or any(b <= a for a, b in zip(modes, modes[1:]))):
+            raise read.fail(where, "modes", "a list of mode numbers ≥ 1 (of the extracted linear FRF, ascending, "
+                                            "each once)", modes)
         n = len(modes) if modes is not None else -1
     else:
         read.path_of(read.string(targets, where, "identification", required=True))
@@ -598,8 +630,10 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
                                         "are given per target mode)")
     if "model_modes" in targets:
         modes = targets["model_modes"]
-        if not isinstance(modes, list) or len(modes) != n or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes):
-            raise read.fail(where, "model_modes", f"a list of {n} mode numbers ≥ 1", modes)
+        if (not isinstance(modes, list) or len(modes) != n
+                or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes)
+                or len(set(modes)) != len(modes)):
+            raise read.fail(where, "model_modes", f"a list of {n} distinct mode numbers ≥ 1", modes)
     if ("coordinates" in targets) != ("mode_shapes" in targets):
         raise read.fail(where, None, "'coordinates' and 'mode_shapes' together")
     if "coordinates" in targets:
