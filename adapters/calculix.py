@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import hashlib
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -65,6 +64,7 @@ from nlupdate.adapters.runner import (
     ProcessRunner,
     RunResult,
     RunTimeoutError,
+    log_lines,
     run_failure,
     write_text_atomic,
 )
@@ -265,13 +265,13 @@ def check_coordinates(coordinates: Coordinates, deck: str) -> dict[str, tuple[st
 def _first_error_line(log_path: Path) -> str | None:
     """First ``*ERROR`` line of a ccx log with the line after it (None if there is none)."""
     try:
-        lines = log_path.read_text(errors="replace").splitlines()
+        lines = log_lines(log_path)
+        for line in lines:
+            if "*ERROR" in line.upper():
+                following = next(lines, "").strip()
+                return f"{line.strip()} {following}".strip()
     except OSError:
         return None
-    for number, line in enumerate(lines):
-        if "*ERROR" in line.upper():
-            following = lines[number + 1].strip() if number + 1 < len(lines) else ""
-            return f"{line.strip()} {following}".strip()
     return None
 
 
@@ -282,7 +282,7 @@ class CalculixAdapter(FEAdapter):
     parameter_names: names the generator accepts (all SI).
     n_modes: number of eigenpairs requested from ``*FREQUENCY``.
     work_root: directory for run directories ``<work_root>/<evaluation key>``
-        (default: a fresh temporary directory per adapter).
+        (default: one private temporary folder per process, made at the first run).
     executable: ccx program (name on PATH or path).
     timeout_s: wall-clock limit per run (s).
     threads: OMP_NUM_THREADS / CCX_NPROC_EQUATION_SOLVER given to ccx.
@@ -320,10 +320,10 @@ class CalculixAdapter(FEAdapter):
         self.n_modes = n_modes
         self.model_id = model_id
         self.negative_eigenvalue_tolerance = negative_eigenvalue_tolerance
-        root = Path(work_root) if work_root is not None else Path(tempfile.mkdtemp(prefix="nlupdate-ccx-"))
         self.runner = ProcessRunner(
             executable=executable,
-            work_root=root,
+            work_root=work_root,
+            scratch_prefix="nlupdate-ccx-",
             timeout_s=timeout_s,
             env={"OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads)},
             install_hint=CCX_INSTALL_HINT,

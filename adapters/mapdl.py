@@ -173,7 +173,6 @@ import hashlib
 import math
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -187,6 +186,7 @@ from nlupdate.adapters.runner import (
     ProcessRunner,
     RunResult,
     RunTimeoutError,
+    log_lines,
     run_failure,
     write_text_atomic,
 )
@@ -556,28 +556,36 @@ def requested_point(node: NodeSpec, units: DeckUnits) -> tuple[float, float, flo
     return None
 
 
+#: The most errors :func:`find_errors` reports from one file.
+MAX_ERRORS = 20
+
+
 def find_errors(path: Path) -> list[tuple[int, str]]:
-    """``(line, message)`` of every ``*** ERROR ***`` in a MAPDL output or error file.
+    """``(line, message)`` of the ``*** ERROR ***`` in a MAPDL output or error file (the
+    first :data:`MAX_ERRORS`), scanned line by line with every line cut to a bounded length.
 
     The message is the marker line without its ``CP = … TIME= …`` stamp, followed by the
     next lines up to a blank line or the next ``***`` marker (at most 4 lines).
     """
+    found: list[tuple[int, str]] = []
+    collecting: list[str] | None = None
     try:
-        lines = path.read_text(errors="replace").splitlines()
+        for number, line in enumerate(log_lines(path), start=1):
+            if collecting is not None:
+                if not line.strip() or line.strip().startswith("***") or len(collecting) == 5:
+                    found[-1] = (found[-1][0], " ".join(collecting) or "(no message text)")
+                    collecting = None
+                else:
+                    collecting.append(line.strip())
+                    continue
+            if ERROR_MARKER in line and len(found) < MAX_ERRORS:
+                head = re.sub(r"CP\s*=\s*\S+|TIME\s*=\s*\S+", "", line.split(ERROR_MARKER, 1)[1]).strip()
+                collecting = [head] if head else []
+                found.append((number, ""))
     except OSError:
-        return []
-    found = []
-    for index, line in enumerate(lines):
-        if ERROR_MARKER not in line:
-            continue
-        head = line.split(ERROR_MARKER, 1)[1]
-        head = re.sub(r"CP\s*=\s*\S+|TIME\s*=\s*\S+", "", head).strip()
-        parts = [head] if head else []
-        for following in lines[index + 1 : index + 5]:
-            if not following.strip() or following.strip().startswith("***"):
-                break
-            parts.append(following.strip())
-        found.append((index + 1, " ".join(parts) or "(no message text)"))
+        return found
+    if collecting is not None:
+        found[-1] = (found[-1][0], " ".join(collecting) or "(no message text)")
     return found
 
 
@@ -704,10 +712,10 @@ class MapdlAdapter(FEAdapter):
         # Validate the deck now (with placeholder values) so a bad deck fails early.
         check_reserved_names(deck_text)
         substitute_parameters(deck_text, {name: 0.0 for name in self.parameter_names}, self.apdl_names, self.safe_names)
-        root = Path(work_root) if work_root is not None else Path(tempfile.mkdtemp(prefix="nlupdate-mapdl-"))
         self.runner = ProcessRunner(
             executable=executable or os.environ.get(MAPDL_EXEC_ENV, ""),
-            work_root=root,
+            work_root=work_root,
+            scratch_prefix="nlupdate-mapdl-",
             timeout_s=timeout_s,
             install_hint=MAPDL_INSTALL_HINT,
             log_name="mapdl.log",

@@ -29,10 +29,11 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Iterator, Mapping, Sequence
 
 from nlupdate.adapters.base import AdapterError
 
@@ -78,13 +79,51 @@ def resolve_executable(executable: str | os.PathLike[str], install_hint: str) ->
     return found
 
 
+#: Bounds of what a log contributes to messages, reports and manifests: a program that
+#: writes one 1.5 GB line must not make a 1.5 GB report.
+TAIL_SCAN_BYTES = 65_536
+EXCERPT_LINE_CHARS = 240
+EXCERPT_CHARS = 4_096
+SCAN_LINE_BYTES = 1_000
+
+
+def _cut(line: str, limit: int) -> str:
+    return line if len(line) <= limit else line[:limit - 1] + "…"
+
+
 def log_tail(path: Path, n_lines: int = LOG_TAIL_LINES) -> str:
-    """Last ``n_lines`` lines of a text file ('' when it does not exist)."""
+    """The last ``n_lines`` lines of a log ('' when it does not exist), read from its last
+    :data:`TAIL_SCAN_BYTES` only, each cut to :data:`EXCERPT_LINE_CHARS` characters and the
+    whole to :data:`EXCERPT_CHARS`."""
     try:
-        text = path.read_text(errors="replace")
+        with open(path, "rb") as stream:
+            size = stream.seek(0, os.SEEK_END)
+            stream.seek(max(0, size - TAIL_SCAN_BYTES))
+            data = stream.read(TAIL_SCAN_BYTES)
     except OSError:
         return ""
-    return "\n".join(text.rstrip().splitlines()[-n_lines:])
+    lines = data.decode("utf-8", errors="replace").rstrip().splitlines()
+    if size > TAIL_SCAN_BYTES and lines:
+        lines = lines[1:]  # the first one is a part of a line
+    excerpt = "\n".join(_cut(line, EXCERPT_LINE_CHARS) for line in lines[-n_lines:])
+    return excerpt if len(excerpt) <= EXCERPT_CHARS else "…" + excerpt[-(EXCERPT_CHARS - 1):]
+
+
+def log_lines(path: Path, max_line_bytes: int = SCAN_LINE_BYTES) -> Iterator[str]:
+    """The lines of a log, each cut to ``max_line_bytes`` bytes: the rest of a longer line
+    is skipped without being held in memory, so a log of any size can be scanned."""
+    with open(path, "rb") as stream:
+        while True:
+            chunk = stream.readline(max_line_bytes)
+            if not chunk:
+                return
+            if not chunk.endswith(b"\n"):
+                while True:
+                    rest = stream.readline(1 << 16)
+                    if not rest or rest.endswith(b"\n"):
+                        break
+                chunk += b"..."
+            yield chunk.decode("utf-8", errors="replace").rstrip("\r\n")
 
 
 def run_failure(reason: str, run_dir: Path, log_path: Path) -> AdapterError:
@@ -112,8 +151,44 @@ def _spawn_options() -> dict[str, object]:
     return {"creationflags": getattr(subprocess, "CREATE_NEW_PROCESS_GROUP", 0)}
 
 
-def _kill_group(process: subprocess.Popen[bytes]) -> None:
-    """POSIX: terminate the process group of ``process`` (it leads its own session)."""
+def descendants(pid: int) -> list[int]:
+    """Every process ``pid`` started and that still runs, children first (Linux ``/proc``;
+    [] where it is not available). A process that left the program's group or session
+    (``setsid``) is found here while its parent lives."""
+    found, todo = [], [pid]
+    while todo:
+        parent = todo.pop()
+        try:
+            tasks = list(Path(f"/proc/{parent}/task").iterdir())
+        except OSError:
+            continue
+        for task in tasks:
+            try:
+                children = [int(c) for c in (task / "children").read_text().split()]
+            except (OSError, ValueError):
+                continue
+            found += children
+            todo += children
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:  # a zombie is gone
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _kill_group(process: subprocess.Popen[bytes]) -> list[int]:
+    """POSIX: terminate the process group of ``process`` (it leads its own session) and
+    every process it started that left the group; returns those still running after."""
+    started = descendants(process.pid)
     for sig, wait_s in ((signal.SIGTERM, KILL_GRACE_S), (signal.SIGKILL, None)):
         try:
             os.killpg(process.pid, sig)
@@ -129,6 +204,15 @@ def _kill_group(process: subprocess.Popen[bytes]) -> None:
         except ProcessLookupError:
             break
     process.wait()
+    for pid in started:  # also those in another group or session
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+    deadline = time.monotonic() + KILL_GRACE_S
+    while time.monotonic() < deadline and any(_alive(pid) for pid in started):
+        time.sleep(0.05)
+    return [pid for pid in started if _alive(pid)]
 
 
 def _kill_tree_windows(process: subprocess.Popen[bytes]) -> None:
@@ -152,12 +236,34 @@ def _kill_tree_windows(process: subprocess.Popen[bytes]) -> None:
     process.wait()
 
 
-def kill_process_tree(process: subprocess.Popen[bytes]) -> None:
-    """Kill ``process`` and what it started, and reap it (see the module docstring)."""
+def kill_process_tree(process: subprocess.Popen[bytes]) -> list[int]:
+    """Kill ``process`` and what it started, and reap it (see the module docstring);
+    returns the processes it started that could not be stopped (POSIX)."""
     if PROCESS_GROUPS:
-        _kill_group(process)
-    else:
-        _kill_tree_windows(process)
+        return _kill_group(process)
+    _kill_tree_windows(process)
+    return []
+
+
+def _killed(escaped: list[int]) -> str:
+    if not escaped:
+        return "it was killed with the processes it started"
+    return (f"it was killed, but {len(escaped)} process(es) it started could not be stopped (pid "
+            f"{', '.join(map(str, escaped))}): stop them yourself")
+
+
+_SCRATCH: dict[tuple[int, str], Path] = {}
+_SCRATCH_LOCK = threading.Lock()
+
+
+def scratch_folder(prefix: str) -> Path:
+    """This process's private temporary folder for runs (``<tmp>/<prefix>XXXX``, 0700),
+    made on first use; one per process and prefix."""
+    key = (os.getpid(), prefix)
+    with _SCRATCH_LOCK:
+        if key not in _SCRATCH:
+            _SCRATCH[key] = Path(tempfile.mkdtemp(prefix=prefix))
+        return _SCRATCH[key]
 
 
 @dataclass
@@ -166,7 +272,10 @@ class ProcessRunner:
 
     executable: name on PATH or path of the program (resolved at each run, so a
         missing program is reported when it is needed, with ``install_hint``).
-    work_root: directory under which the run directories are created.
+    work_root: directory under which the run directories are created; None: one private
+        temporary folder per process and ``scratch_prefix``, made at the first run
+        (:func:`scratch_folder`), so an adapter that is only built (to check a study) leaves
+        nothing behind and a run leaves one folder, not one per adapter.
     timeout_s: wall-clock limit per run in seconds (None: no limit).
     env: extra environment variables for the child (merged over ``os.environ``).
     install_hint: sentence telling the user how to install/configure the program.
@@ -174,14 +283,15 @@ class ProcessRunner:
     """
 
     executable: str
-    work_root: Path
+    work_root: Path | None = None
     timeout_s: float | None = None
     env: Mapping[str, str] = field(default_factory=dict)
     install_hint: str = ""
     log_name: str = "run.log"
+    scratch_prefix: str = "nlupdate-run-"
 
     def __post_init__(self) -> None:
-        self.work_root = Path(self.work_root)
+        self.work_root = None if self.work_root is None else Path(self.work_root)
         if self.timeout_s is not None and not self.timeout_s > 0:
             raise ValueError(f"timeout_s must be positive seconds or None, got {self.timeout_s}")
 
@@ -206,15 +316,16 @@ class ProcessRunner:
         """Create and return a directory ``work_root/name`` that no other run uses."""
         if not name or "/" in name or name in {".", ".."}:
             raise ValueError(f"run directory name must be a plain file name, got {name!r}")
-        self.work_root.mkdir(parents=True, exist_ok=True)
+        root = self.work_root if self.work_root is not None else scratch_folder(self.scratch_prefix)
+        root.mkdir(parents=True, exist_ok=True)
         for attempt in range(1, 10_000):
-            candidate = self.work_root / (name if attempt == 1 else f"{name}-{attempt}")
+            candidate = root / (name if attempt == 1 else f"{name}-{attempt}")
             try:
                 candidate.mkdir()
             except FileExistsError:
                 continue
             return candidate
-        raise AdapterError(f"could not create a fresh run directory for {name!r} under {self.work_root}")
+        raise AdapterError(f"could not create a fresh run directory for {name!r} under {root}")
 
     def run(self, arguments: Sequence[str], run_dir: Path) -> RunResult:
         """Run ``executable arguments…`` with ``run_dir`` as working directory.
@@ -241,14 +352,10 @@ class ProcessRunner:
             try:
                 returncode = process.wait(timeout=self.timeout_s)
             except subprocess.TimeoutExpired:
-                kill_process_tree(process)
-                raise RunTimeoutError(
-                    _failure_message(
-                        f"{Path(executable).name} timed out after {self.timeout_s} s; it was killed with the processes it started",
-                        run_dir,
-                        log_path,
-                    )
-                ) from None
+                escaped = kill_process_tree(process)
+                raise RunTimeoutError(_failure_message(
+                    f"{Path(executable).name} timed out after {self.timeout_s} s; {_killed(escaped)}",
+                    run_dir, log_path)) from None
             except BaseException:
                 kill_process_tree(process)
                 raise

@@ -351,6 +351,12 @@ def atomic_directory(final: str | os.PathLike, on_exists: str = "suffix",
             if on_exists == "error" and archive.final != final:
                 warnings.warn(f"{final} was written by another run while this one was writing; this output is "
                               f"{archive.final}", NlupdateWarning, stacklevel=3)
+    except OSError as error:
+        shutil.rmtree(archive.path, ignore_errors=True)
+        if error.filename is None:  # e.g. a full disk seen by a writer that does not say where
+            raise OSError(error.errno, f"{error.strerror or error} while writing {final} (nothing of it was kept)") \
+                from error
+        raise
     except BaseException:
         shutil.rmtree(archive.path, ignore_errors=True)
         raise

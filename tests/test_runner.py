@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import stat
 import sys
 import textwrap
@@ -166,6 +167,53 @@ def test_timeout_kills_the_whole_process_group(tmp_path: Path) -> None:
     assert not _alive(child), "the solver's child process survived the timeout"
 
 
+def test_timeout_kills_a_process_the_solver_started_in_a_session_of_its_own(tmp_path: Path) -> None:
+    """A solver whose helper leaves the process group (setsid): killing the group alone
+    missed it, and the message said it was killed."""
+    exe = make_script(
+        tmp_path / "daemonising",
+        f"""
+        import subprocess, time
+        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"], start_new_session=True)
+        open("helper.pid", "w").write(str(helper.pid))
+        print("started helper", flush=True)
+        time.sleep(60)
+        """,
+    )
+    run_dir = time_out(exe, tmp_path, "timed out after 1.0 s; it was killed with the processes it started")
+    helper = int((run_dir / "helper.pid").read_text())
+    deadline = time.time() + 5
+    while _alive(helper) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not _alive(helper), "the helper in its own session survived the timeout"
+
+
+def test_a_process_that_cannot_be_stopped_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import nlupdate.adapters.runner as runner_module
+
+    exe = make_script(tmp_path / "daemonising", f"""
+        import subprocess, time
+        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(30)"], start_new_session=True)
+        open("helper.pid", "w").write(str(helper.pid))
+        time.sleep(60)
+        """)
+    real_kill = os.kill
+
+    def refuses_for_the_helper(pid: int, sig: int) -> None:
+        helper = Path(tmp_path / "runs" / "slow" / "helper.pid")
+        if helper.exists() and pid == int(helper.read_text()) and sig == signal.SIGKILL:
+            raise PermissionError(1, "Operation not permitted")  # as for a process of another user
+        real_kill(pid, sig)
+
+    monkeypatch.setattr(runner_module.os, "kill", refuses_for_the_helper)
+    try:
+        time_out(exe, tmp_path, r"could not be stopped \(pid \d+\): stop them yourself")
+    finally:
+        monkeypatch.undo()
+        helper = int((tmp_path / "runs" / "slow" / "helper.pid").read_text())
+        real_kill(helper, signal.SIGKILL)
+
+
 FAKE_TASKKILL = """
 import os, signal, sys
 args = sys.argv[1:]
@@ -300,3 +348,24 @@ def test_write_text_atomic_leaves_no_temporary_files(tmp_path: Path) -> None:
 def test_invalid_timeout_is_rejected(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="timeout_s"):
         ProcessRunner("true", tmp_path, timeout_s=0)
+
+
+def test_a_huge_log_line_gives_a_bounded_message(tmp_path: Path) -> None:
+    """A program that prints one 50 MB line and fails: the error (which goes into the
+    report and the manifest) holds a bounded excerpt, read without loading the log."""
+    from nlupdate.adapters.runner import EXCERPT_CHARS
+    from nlupdate.adapters.mapdl import find_errors
+
+    exe = make_script(tmp_path / "chatty", """
+        import sys
+        sys.stdout.write("x" * 50_000_000 + "\\n*** ERROR ***  CP = 1.0 TIME= 2.0\\n" + "y" * 5_000_000)
+        sys.exit(3)
+        """)
+    runner = ProcessRunner(str(exe), tmp_path / "runs")
+    run_dir = runner.new_run_dir("loud")
+    with pytest.raises(AdapterError) as info:
+        runner.run([], run_dir)
+    message = str(info.value)
+    assert "exited with code 3" in message and len(message) < EXCERPT_CHARS + 1000, len(message)
+    [(line, text)] = find_errors(run_dir / runner.log_name)
+    assert line == 2 and len(text) < 2000
