@@ -476,3 +476,13 @@ def test_target_lists_in_another_order_or_twice_are_refused(tmp_path, targets, f
     result = nlupdate("update", study, "--out", tmp_path / "out")
     assert_one_clear_line(result, 2, "study.toml", fragment)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_study_file_saved_with_a_byte_order_mark_is_read(tmp_path):
+    """Windows editors save UTF-8 with a BOM; it was 'Invalid statement (at line 1, column 1)'."""
+    study = tmp_path / "study.toml"
+    study.write_bytes(b"\xef\xbb\xbf" + STUDY.read_text().replace("../../../examples/two_dof.toml",
+                                                                  str(TWO_DOF)).encode())
+    from nlupdate.study import load_study
+
+    assert load_study(study).name == "two-dof"

@@ -369,3 +369,19 @@ def test_a_huge_log_line_gives_a_bounded_message(tmp_path: Path) -> None:
     assert "exited with code 3" in message and len(message) < EXCERPT_CHARS + 1000, len(message)
     [(line, text)] = find_errors(run_dir / runner.log_name)
     assert line == 2 and len(text) < 2000
+
+
+def test_an_adapter_only_built_leaves_no_folder_and_runs_share_one(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                    echo_exe: Path) -> None:
+    """Without work_root, building adapters (a study is checked by building its adapter)
+    made a temporary folder each: three per run were left in /tmp."""
+    import tempfile
+
+    import nlupdate.adapters.runner as runner_module
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(runner_module, "_SCRATCH", {})
+    runners = [ProcessRunner(str(echo_exe), scratch_prefix="nlupdate-test-") for _ in range(3)]
+    assert [p for p in tmp_path.iterdir() if p.name.startswith("nlupdate-test-")] == []
+    folders = {runner.new_run_dir(f"run{i}").parent for i, runner in enumerate(runners)}
+    assert len(folders) == 1 and next(iter(folders)).name.startswith("nlupdate-test-")
