@@ -11,6 +11,7 @@
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -187,13 +188,14 @@ def stop_group(process: subprocess.Popen, sig: int = signal.SIGTERM, timeout_s: 
     process.wait(timeout=timeout_s)
 
 
-@pytest.fixture
-def real_server(tmp_path):
-    """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free port."""
+@contextlib.contextmanager
+def prefect_server_process(tmp_path: Path, **extra_env: str):
+    """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free
+    port; yields its API URL."""
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
     env.update(PREFECT_HOME=str(tmp_path / "server-home"), PREFECT_SERVER_ANALYTICS_ENABLED="false",
-               PREFECT_UI_ENABLED="false")
+               PREFECT_UI_ENABLED="false", **extra_env)
     with open(tmp_path / "server.log", "w") as log:
         server = subprocess.Popen([sys.executable, "-m", "prefect", "server", "start", "--host", "127.0.0.1",
                                    "--port", str(port)], env=env, stdout=log, stderr=subprocess.STDOUT,
@@ -213,6 +215,12 @@ def real_server(tmp_path):
         yield url
     finally:
         stop_group(server)
+
+
+@pytest.fixture
+def real_server(tmp_path):
+    with prefect_server_process(tmp_path) as url:
+        yield url
 
 
 def completed_runs(url: str) -> list[dict]:
@@ -364,3 +372,17 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
     assert "two-dof: the server's deployment was changed: parameters" in stdout and "restoring" in stdout, stdout
     assert restarted.returncode == 143 and "never awaited" not in stderr and "Traceback" not in stderr, stderr
     assert stderr.strip().splitlines()[-1].startswith("nlupdate serve: interrupted (SIGTERM); stopped serving"), stderr
+
+
+def test_a_server_with_authentication_is_used_with_its_password_and_refused_without(tmp_path, study):
+    """The README's advice for a shared server: basic authentication. Without the password
+    nlupdate says in one line what to set; with it, scheduling works."""
+    with prefect_server_process(tmp_path, PREFECT_SERVER_API_AUTH_STRING="alice:s3cret") as url:
+        refused = nlupdate("schedule", "list", cwd=tmp_path, env=api_env(url))
+        assert refused.returncode == 1 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+        assert "refused the request (401 Unauthorized)" in refused.stderr and "PREFECT_API_AUTH_STRING" in refused.stderr
+        env = api_env(url, PREFECT_API_AUTH_STRING="alice:s3cret")
+        registered = nlupdate("schedule", study, "--cron", "0 2 * * *", cwd=tmp_path, env=env)
+        assert registered.returncode == 0, registered.stderr
+        listed = nlupdate("schedule", "list", cwd=tmp_path, env=env)
+        assert listed.returncode == 0 and listed.stdout.startswith("two-dof: cron"), listed.stderr

@@ -89,9 +89,23 @@ def _input_errors() -> tuple[type[BaseException], ...]:
 
 
 def _runtime_errors() -> tuple[type[BaseException], ...]:
+    import httpx
+
     from nlupdate.adapters.base import AdapterError
 
-    return CliRuntimeError, AdapterError, OSError, RuntimeError
+    return CliRuntimeError, AdapterError, OSError, RuntimeError, httpx.HTTPStatusError
+
+
+def _runtime_message(error: BaseException) -> str:
+    """One line for a runtime error; a Prefect API that refuses us says how to log in."""
+    import httpx
+
+    if isinstance(error, httpx.HTTPStatusError) and error.response.status_code in (401, 403):
+        api = str(error.request.url).split("/api/")[0] + "/api"
+        return (f"the Prefect API at {api} refused the request ({error.response.status_code} "
+                f"{error.response.reason_phrase}); a server with authentication needs "
+                f"PREFECT_API_AUTH_STRING=user:password (its PREFECT_SERVER_API_AUTH_STRING) here")
+    return one_line(error)
 
 
 def one_line(message: object) -> str:
@@ -155,7 +169,7 @@ def _run_command(argv: Sequence[str] | None) -> int:
     except _runtime_errors() as error:
         if args.debug:
             raise
-        print(f"nlupdate {args.command}: error: {one_line(error)}", file=sys.stderr)
+        print(f"nlupdate {args.command}: error: {_runtime_message(error)}", file=sys.stderr)
         return EXIT_RUNTIME
     except Exception as error:  # a bug: say so in one line; --debug shows where
         if args.debug:
