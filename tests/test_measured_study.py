@@ -1,5 +1,6 @@
 """Study keys for measured data as tests deliver it: several files with their levels,
-time histories, a voltage reference and its calibration."""
+time histories, a voltage reference and its calibration, the coordinates of stepped-sine
+runs that name none."""
 from __future__ import annotations
 
 import sys
@@ -42,7 +43,23 @@ def test_time_histories_in_a_study(tmp_path):
     np.testing.assert_allclose(h, sdof_receptance(f), rtol=0.005)
 
 
+def test_coordinates_of_stepped_sine_runs_in_a_study(tmp_path):
+    """The public Brake–Reuss beam runs, the sensor's axis against the force (README)."""
+    data = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
+    (tmp_path / "study.toml").write_text(
+        f'[study]\nname = "brb"\n[measured]\nfile = "{data}"\n'
+        f'coordinates = {{ "{data}" = ["acc3:-y", "acc3:y"] }}\n')
+    with pytest.warns(Warning, match="left out 8 run"):
+        table = measured_table(load_study(tmp_path / "study.toml"))
+    assert set(table["response_dof"]) == {"acc3:y"}
+    assert sorted(set(table["force_level_n"])) == [0.1947, 0.4886, 0.9699, 1.46]
+    f, h = select_frf(table, "acc3:y", "acc3:y", 0.1947)
+    assert h[0].real > 0  # below the resonance a collocated receptance is positive
+
+
 @pytest.mark.parametrize("measured, fragment", [
+    ('file = "x.csv"\ncoordinates = ["a", "b"]', "'coordinates'"),
+    ('file = "x.csv"\ncoordinates = { "x.csv" = ["a"] }', "<response>"),
     ('file = "x.csv"\ntime_histories = ["x.csv"]', "exactly one of file"),
     ('file = "x.csv"\ninput_dof = "0"', "'input_dof'"),
     ('file = "x.csv"\nreference_unit = "A"', "'reference_unit'"),

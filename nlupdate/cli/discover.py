@@ -1,7 +1,7 @@
 """``nlupdate discover``: which effect the model is missing, where — added, with proof.
 
 Reads a model file and measurements at several force levels (a measured-FRF table:
-.parquet, .csv or .uff; or a modal table: .csv with columns force_level_n, mode,
+.parquet, .csv, .uff or .mat; or a modal table: .csv with columns force_level_n, mode,
 natural_frequency_hz, damping_ratio), runs :func:`nlupdate.discovery.discover` and writes
 ``DIR/discovery.json``, ``DIR/augmented_model.toml`` and plots
 (:mod:`nlupdate.discovery.report`). The folder appears only when complete.
@@ -32,7 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          help="find the effect a model is missing (where, which, parameters), add it and show the gap shrink")
     parser.add_argument("--model", required=True, metavar="MODEL.toml", help="model file ([model] + [[nonlinear]])")
     parser.add_argument("--measured", required=True, metavar="FILE",
-                        help="measured FRFs at several force levels (.parquet/.csv/.uff) or a modal table (.csv)")
+                        help="measured FRFs at several force levels (.parquet/.csv/.uff/.mat) or a modal table (.csv)")
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument("--out", metavar="DIR", help="output directory, in this process (appears when complete)")
     where.add_argument("--archive", metavar="ROOT",

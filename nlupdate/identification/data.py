@@ -39,7 +39,11 @@ class FRFLevels:
     has none); reference_unit: ``"N"`` or ``"V"`` (levels in V and H in m/V);
     excitation: how the FRFs were measured (``stepped_sine``, ``chirp``, ``random`` …,
     ``unknown``); averages: per level the number of averages at each frequency (None
-    when unknown).
+    when unknown); achieved: per level the force amplitude achieved at each frequency
+    (the table's ``level_achieved``; None when the table has none, and then every line
+    of a level was measured at the level itself). A controller that does not hold the
+    force through a resonance leaves it lower there than the level: the response
+    amplitude of a line is ``|H|·achieved``, not ``|H|·level`` (:meth:`force_at`).
     """
 
     response_dof: str
@@ -52,6 +56,7 @@ class FRFLevels:
     excitation: str = "unknown"
     averages: tuple[NDArray[np.float64], ...] | None = None
     h_stds: tuple[NDArray[np.float64], ...] | None = None
+    achieved: tuple[NDArray[np.float64], ...] | None = None
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, response_dof: str, input_dof: str) -> "FRFLevels":
@@ -87,7 +92,8 @@ class FRFLevels:
         excitation = sorted(set(pair["excitation"])) if "excitation" in pair.columns else ["unknown"]
         unit = str(pair["reference_unit"].iloc[0]) if "reference_unit" in pair.columns else "N"
         return cls(response, inp, levels, tuple(c[0] for c in curves), tuple(c[1] for c in curves),
-                   column("coherence"), unit, "+".join(excitation), column("averages"), column("h_std"))
+                   column("coherence"), unit, "+".join(excitation), column("averages"), column("h_std"),
+                   column("level_achieved"))
 
     def _masked(self, keep: list[NDArray[np.bool_]]) -> "FRFLevels":
         def pick(arrays):
@@ -95,7 +101,7 @@ class FRFLevels:
 
         return dataclasses.replace(self, frequencies=pick(self.frequencies), receptances=pick(self.receptances),
                                    coherences=pick(self.coherences), averages=pick(self.averages),
-                                   h_stds=pick(self.h_stds))
+                                   h_stds=pick(self.h_stds), achieved=pick(self.achieved))
 
     def within(self, band_hz: tuple[float, float]) -> "FRFLevels":
         """The curves restricted to ``band_hz`` = (low, high) Hz, ends included."""
@@ -144,6 +150,16 @@ class FRFLevels:
             )
         return h[index]
 
+    def force_at(self, force_n: float, frequency_hz: ArrayLike) -> NDArray[np.float64]:
+        """Force amplitude (reference unit) at which the level ``force_n`` was measured at
+        each of ``frequency_hz``: the achieved force, linearly interpolated between the
+        measured lines (held at the ends), or the level itself when none is recorded."""
+        wanted = np.asarray(frequency_hz, dtype=float)
+        k = self.level_index(force_n)
+        if self.achieved is None:
+            return np.full(wanted.shape, float(self.levels[k]))
+        return np.interp(wanted, self.frequencies[k], self.achieved[k])
+
     def has_frequency(self, force_n: float, frequency_hz: float) -> bool:
         f, _ = self.curve(force_n)
         return bool(_match(f, np.array([float(frequency_hz)]))[0] >= 0)
@@ -155,7 +171,8 @@ class FRFLevels:
 
         return dataclasses.replace(self, levels=self.levels[indices], frequencies=pick(self.frequencies),
                                    receptances=pick(self.receptances), coherences=pick(self.coherences),
-                                   averages=pick(self.averages), h_stds=pick(self.h_stds))
+                                   averages=pick(self.averages), h_stds=pick(self.h_stds),
+                                   achieved=pick(self.achieved))
 
     def with_noise(self, fraction: float, rng: np.random.Generator) -> "FRFLevels":
         """A copy with METHODS §8 noise (std = fraction·|H|) added to every value."""

@@ -150,9 +150,10 @@ class DDFResult:
         real, imag = self.describing_function()
         return [PolynomialDF(tuple(dofs), real=tuple(real), imag=tuple(imag))]
 
-    def extract_linear_frf(self, frequency_hz: ArrayLike, h: ArrayLike, force: float | None = None) -> NDArray[np.complex128]:
-        """``H^L = 1/(1/H_j − Δ(|H_j|F_j))`` from a curve measured at force F_j (m/N)."""
-        level = self.setup.linear_level if force is None else float(force)
+    def extract_linear_frf(self, frequency_hz: ArrayLike, h: ArrayLike, force: ArrayLike | None = None) -> NDArray[np.complex128]:
+        """``H^L = 1/(1/H_j − Δ(|H_j|F_j))`` from a curve measured at force F_j (m/N): one
+        value, or the force achieved at each frequency (default: the level)."""
+        level = self.setup.linear_level if force is None else np.asarray(force, dtype=float)
         h = np.asarray(h, dtype=complex)
         omega = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
         return 1.0 / (1.0 / h - self.nu_high(np.abs(h) * level, omega))
@@ -182,7 +183,7 @@ def identify_ddf(
             f"{n_coefficients} coefficients; widen the band or lower the order"
         )
     h1, h2 = data.values(f1, band), data.values(f2, band)
-    x1, x2 = np.abs(h1) * f1, np.abs(h2) * f2
+    x1, x2 = np.abs(h1) * data.force_at(f1, band), np.abs(h2) * data.force_at(f2, band)
     rhs = 1.0 / h2 - 1.0 / h1
     weights = np.ones(band.size)
     if estimator == "weighted":

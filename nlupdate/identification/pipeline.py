@@ -344,11 +344,12 @@ def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDRe
     if settings.method == "prd":
         level = result.setup.low_force
         f, h = data.curve(level)
-        return level, f, result.extract_linear_frf(f, h, amplitude_dependent=settings.amplitude_dependent_delta,
+        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f),
+                                                    amplitude_dependent=settings.amplitude_dependent_delta,
                                                     smoothing_window=settings.smoothing_window), h
     level = result.setup.linear_level
     f, h = data.curve(level)
-    return level, f, result.extract_linear_frf(f, h), h
+    return level, f, result.extract_linear_frf(f, h, data.force_at(level, f)), h
 
 
 def locate_linear_modes(

@@ -214,7 +214,7 @@ class PRDResult:
         self,
         frequency_hz: ArrayLike,
         h_low: ArrayLike,
-        low_force: float | None = None,
+        low_force: ArrayLike | None = None,
         *,
         amplitude_dependent: bool = False,
         smoothing_window: int = 0,
@@ -228,8 +228,10 @@ class PRDResult:
         the slip force is well identified (under noise it often is not, and a too small
         slip force then puts a spurious peak into H^L). ``smoothing_window`` > 0 first
         smooths ``1/H_1`` (:func:`~nlupdate.identification.data.smooth_inverse_receptance`).
+        ``low_force``: the force of the sweep, one value or the force achieved at each
+        frequency (default: the low level).
         """
-        force = self.setup.low_force if low_force is None else float(low_force)
+        force = self.setup.low_force if low_force is None else np.asarray(low_force, dtype=float)
         f = np.asarray(frequency_hz, dtype=float)
         h = np.asarray(h_low, dtype=complex)
         inverse = smooth_inverse_receptance(f, h, smoothing_window) if smoothing_window else 1.0 / h
@@ -338,9 +340,9 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
     h_low = complex(data.values(setup.low_force, f)[0])
     forces = np.array(setup.high_forces)
     h_high = np.array([complex(data.values(level, f)[0]) for level in forces])
-    amplitude = np.abs(h_high) * forces
+    amplitude = np.abs(h_high) * np.array([data.force_at(level, f) for level in forces])
     y = 1.0 / h_high - 1.0 / h_low
-    a_low = abs(h_low) * setup.low_force
+    a_low = abs(h_low) * float(data.force_at(setup.low_force, f))
     omega = 2 * np.pi * f
     p, at_bound = fit_y_points(model, amplitude, y, a_low, omega)
     # noise of y_i = 1/H_i − 1/H_1: fraction·|1/H| on each term (METHODS §8)
@@ -370,9 +372,12 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     h_h = np.array([data.values(level, f_h) for level in forces])  # (n_high, n_f)
     x_l = (f_l - fe) / fe
     x_h = np.repeat((f_h - fe) / fe, forces.size)
-    force_h = np.tile(forces, f_h.size)
-    xm_h = (h_h.T * forces[None, :]).ravel()          # measured complex amplitudes, f-major
-    xm_l = h_l * setup.low_force
+    # the force each point was measured at: the level, or the force achieved at that line
+    achieved_h = np.array([data.force_at(level, f_h) for level in forces])  # (n_high, n_f)
+    force_h = achieved_h.T.ravel()
+    force_l = data.force_at(setup.low_force, f_l)
+    xm_h = (h_h * achieved_h).T.ravel()               # measured complex amplitudes, f-major
+    xm_l = h_l * force_l
     omega_l, omega_h = 2 * np.pi * f_l, 2 * np.pi * np.repeat(f_h, forces.size)
     am_l, am_h = np.abs(xm_l), np.abs(xm_h)
     _check_points(am_h.size, model)
@@ -383,9 +388,11 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     w_coefficients = np.linalg.lstsq(w_design_l * weights_l[:, None], (1 / h_l) * weights_l, rcond=None)[0]
     w_smooth_h = _window_design(x_h, degree) @ w_coefficients
     y_pool = 1.0 / (xm_h / force_h) - w_smooth_h
-    a_low_h = np.abs(1.0 / w_smooth_h) * setup.low_force
+    low_force_h = data.force_at(setup.low_force, np.repeat(f_h, forces.size))
+    low_force_e = float(data.force_at(setup.low_force, fe))
+    a_low_h = np.abs(1.0 / w_smooth_h) * low_force_h
     p0, _ = fit_y_points(model, am_h, y_pool, a_low_h, omega_h, weights=np.abs(xm_h / force_h))
-    a_low_e = float(abs(1.0 / w_coefficients[0]) * setup.low_force)
+    a_low_e = float(abs(1.0 / w_coefficients[0]) * low_force_e)
     z0 = w_coefficients.copy()
     z0[0] -= complex(model.nu_low(p0, np.array([a_low_e]), 2 * np.pi * fe)[0])
     n_z = degree + 1
@@ -415,8 +422,8 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
             nu_l = lambda a, om: delta + nu_h(a, om) - reference  # noqa: E731
         else:
             nu_l = model.function(p, "low")
-        a_l = solve(w_l, nu_l, np.full(w_l.shape, setup.low_force), omega_l, am_l, "low")
-        x_model_l = setup.low_force / (w_l + nu_l(a_l, omega_l))
+        a_l = solve(w_l, nu_l, force_l, omega_l, am_l, "low")
+        x_model_l = force_l / (w_l + nu_l(a_l, omega_l))
         a_h = solve(w_h, nu_h, force_h, omega_h, am_h, "high")
         x_model_h = force_h / (w_h + nu_h(a_h, omega_h))
         return x_model_l, x_model_h
@@ -460,10 +467,10 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     p = theta[2 * n_z :]
     # PRD points relative to the fitted low-force dynamic stiffness, for plots and reports
     w_h = design_h @ z
-    a_low_points = np.abs(1.0 / (w_h + model.nu_low(p, np.full(w_h.shape, a_low_e), omega_h))) * setup.low_force
+    a_low_points = np.abs(1.0 / (w_h + model.nu_low(p, np.full(w_h.shape, a_low_e), omega_h))) * low_force_h
     low_stiffness = w_h + model.nu_low(p, a_low_points, omega_h)
     y_points = force_h / xm_h - low_stiffness
-    a_low_fit = float(abs(setup.low_force / (z[0] + model.nu_low(p, np.array([a_low_e]), 2 * np.pi * fe)[0])))
+    a_low_fit = float(abs(low_force_e / (z[0] + model.nu_low(p, np.array([a_low_e]), 2 * np.pi * fe)[0])))
     return PRDResult(
         "prd", "improved", model, p, setup, am_h, y_points, np.repeat(f_h, forces.size), a_low_fit,
         covariance=None if covariance is None else covariance[2 * n_z :, 2 * n_z :],

@@ -374,7 +374,7 @@ def frf_table_from_bytes(
     elif suffix == ".mat":
         from nlupdate.measurement.matfile import read_mat_frf
 
-        raw = read_mat_frf(data, path, kind)
+        raw = read_mat_frf(data, path, kind, options)
     else:
         from nlupdate.measurement.uff import read_uff_frf
 
@@ -392,6 +392,9 @@ def frf_table_from_bytes(
 def _with_user_statements(raw: pd.DataFrame, path: Path, suffix: str, options: ReadOptions) -> pd.DataFrame:
     """The reference unit and the file's level as the user stated them, checked against the file."""
     raw = raw.copy()
+    if suffix != ".mat" and options.coordinates_of(str(path)) is not None:
+        raise MeasurementTableError(f"{path}: names its coordinates itself; --coordinates is for MATLAB stepped-sine "
+                                    f"runs that name none")
     if "reference_unit" in raw.columns:
         units = sorted({checked_reference_unit(u, f"{path}: column 'reference_unit'") for u in raw["reference_unit"]})
         if options.reference_unit is not None and units != [options.reference_unit]:

@@ -72,7 +72,9 @@ import pyuff
 
 from nlupdate.files import atomic_file
 from nlupdate.measurement.frf_table import MeasurementTableError, validate_frf_table
-from nlupdate.measurement.units import ReadOptions, table_reference_unit
+from nlupdate.measurement.units import (
+    REFERENCE_UNIT_LABELS, RESPONSE_QUANTITY, RESPONSE_UNIT_LABELS, ReadOptions, table_reference_unit,
+)
 from nlupdate.notices import NlupdateWarning
 
 # function types
@@ -88,19 +90,10 @@ _DIRECTIONS = {"ux": 1, "uy": 2, "uz": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIRECTION_NAMES = {code: name for name, code in _DIRECTIONS.items()}
 _ID_LINE_WIDTH = 80
 _EVEN_RTOL = 1e-13  # relative deviation below which a grid counts as evenly spaced
-_G = 9.80665
-
-# ordinate unit labels → (power of iω to receptance, factor to SI)
-_ORDINATE_LABELS = {
-    "m": (0, 1.0), "mm": (0, 1e-3), "um": (0, 1e-6), "µm": (0, 1e-6),
-    "m/s": (1, 1.0), "mm/s": (1, 1e-3),
-    "m/s^2": (2, 1.0), "m/s2": (2, 1.0), "m/s²": (2, 1.0), "m/s**2": (2, 1.0), "g": (2, _G), "mm/s^2": (2, 1e-3),
-    "mm/s2": (2, 1e-3), "mm/s²": (2, 1e-3),
-}
+_ORDINATE_LABELS = RESPONSE_UNIT_LABELS
 _ORDINATE_TYPES = {_DISPLACEMENT: 0, _VELOCITY: 1, _ACCELERATION: 2}
-_QUANTITY = {0: "displacement", 1: "velocity", 2: "acceleration"}
-# reference unit labels → (unit, factor from the label's unit to the table's unit)
-_REFERENCE_LABELS = {"n": ("N", 1.0), "kn": ("N", 1e3), "v": ("V", 1.0), "mv": ("V", 1e-3)}
+_QUANTITY = RESPONSE_QUANTITY
+_REFERENCE_LABELS = REFERENCE_UNIT_LABELS
 _LEVEL_IN_ID = re.compile(r"(?<![\w.])(\d+(?:\.\d*)?|\.\d+)(?:[eE]([-+]?\d+))?\s*(mV|kN|V|N)(?![A-Za-z])")
 _EXCITATION_WORDS = (
     (re.compile(r"step(?:ped)?[\s_-]*sine", re.I), "stepped_sine"),

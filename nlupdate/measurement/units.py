@@ -24,6 +24,17 @@ import pandas as pd
 
 REFERENCE_UNITS: tuple[str, ...] = ("N", "V")
 REFERENCE_QUANTITY = {"N": "force", "V": "voltage"}
+# unit labels of a reference (lower case) → (unit, factor from the label's unit to the table's)
+REFERENCE_UNIT_LABELS = {"n": ("N", 1.0), "kn": ("N", 1e3), "v": ("V", 1.0), "mv": ("V", 1e-3)}
+# unit labels of a response → (power of iω that turns it into a displacement, factor to SI)
+_G = 9.80665
+RESPONSE_UNIT_LABELS = {
+    "m": (0, 1.0), "mm": (0, 1e-3), "um": (0, 1e-6), "µm": (0, 1e-6),
+    "m/s": (1, 1.0), "mm/s": (1, 1e-3),
+    "m/s^2": (2, 1.0), "m/s2": (2, 1.0), "m/s²": (2, 1.0), "m/s**2": (2, 1.0), "g": (2, _G), "mm/s^2": (2, 1e-3),
+    "mm/s2": (2, 1e-3), "mm/s²": (2, 1e-3),
+}
+RESPONSE_QUANTITY = {0: "displacement", 1: "velocity", 2: "acceleration"}
 
 
 class ReferenceUnitError(ValueError):
@@ -40,11 +51,15 @@ class ReadOptions:
     reference_calibration: newtons per volt; converts per-volt data to per-newton on reading.
     levels: the level of each file (in the reference unit), by the file name as given,
         its resolved path or its base name; it takes precedence over what the file holds.
+    coordinates: the (response, input) coordinate names of each file that does not name
+        them (keyed like ``levels``); a name ``NODE:-DIR`` states a sensor or force along
+        the negative direction: the FRF is negated and the coordinate named ``NODE:DIR``.
     """
 
     reference_unit: str | None = None
     reference_calibration: float | None = None
     levels: Mapping[str, float] = field(default_factory=dict)
+    coordinates: Mapping[str, tuple[str, str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.reference_unit is not None:
@@ -58,25 +73,39 @@ class ReadOptions:
         for name, level in self.levels.items():
             if not (isinstance(level, (int, float)) and math.isfinite(level) and level > 0):
                 raise ReferenceUnitError(f"level of {name}: {level!r}; expected a number > 0 (in the reference unit)")
+        for name, pair in self.coordinates.items():
+            if not (isinstance(pair, tuple) and len(pair) == 2 and all(isinstance(c, str) and c.strip() for c in pair)):
+                raise ReferenceUnitError(f"coordinates of {name}: {pair!r}; expected two names (response, input)")
 
     def level_of(self, path: str) -> float | None:
         """The level the user gave for the file ``path`` (None when none)."""
-        from pathlib import Path
+        value = _statement_for(self.levels, path)
+        return None if value is None else float(value)
 
-        candidates = {str(path), Path(path).name}
+    def coordinates_of(self, path: str) -> tuple[str, str] | None:
+        """The (response, input) names the user gave for the file ``path`` (None when none)."""
+        return _statement_for(self.coordinates, path)
+
+
+def _statement_for(statements: Mapping[str, object], path: str) -> object | None:
+    """The statement about the file ``path``, keyed by its name as given, its resolved path
+    or (for a key without folder) its base name."""
+    from pathlib import Path
+
+    candidates = {str(path), Path(path).name}
+    try:
+        candidates.add(str(Path(path).resolve()))
+    except OSError:
+        pass
+    for key, value in statements.items():
+        if key in candidates or Path(key).name == Path(path).name and Path(key).parent == Path("."):
+            return value
         try:
-            candidates.add(str(Path(path).resolve()))
+            if str(Path(key).resolve()) in candidates:
+                return value
         except OSError:
-            pass
-        for key, value in self.levels.items():
-            if key in candidates or Path(key).name == Path(path).name and Path(key).parent == Path("."):
-                return float(value)
-            try:
-                if str(Path(key).resolve()) in candidates:
-                    return float(value)
-            except OSError:
-                continue
-        return None
+            continue
+    return None
 
 
 def checked_reference_unit(value: object, where: str) -> str:

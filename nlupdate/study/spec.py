@@ -96,7 +96,8 @@ _ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
          "optimisation", "comparison", "prediction"},
     "study": {"name", "description"},
-    "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "input_dof",
+    "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "coordinates",
+                 "input_dof",
                  "excitation", "response_quantity"},
     "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
                           "frequencies_hz", "noise", "seed", "sweep"},
@@ -156,7 +157,8 @@ class MeasuredSpec:
     absolute path → level, None when the file holds it), time histories turned into FRFs
     (``time_histories``, with ``input_dof``, ``excitation``, ``response_quantity``), or a
     :class:`SimulationSpec`. ``reference_unit`` (``"N"``/``"V"``, None: as the files say)
-    and ``reference_calibration`` (N per V) state what the reference is."""
+    and ``reference_calibration`` (N per V) state what the reference is; ``coordinates``
+    (absolute path → (response, input)) names the coordinates of files that do not."""
 
     file: str | None = None
     simulate: SimulationSpec | None = None
@@ -167,13 +169,14 @@ class MeasuredSpec:
     input_dof: str | None = None
     excitation: str = "auto"
     response_quantity: str = "displacement"
+    coordinates: tuple[tuple[str, tuple[str, str]], ...] = ()
 
     def read_options(self):
         """The :class:`~nlupdate.measurement.units.ReadOptions` of these statements."""
         from nlupdate.measurement.units import ReadOptions
 
         return ReadOptions(self.reference_unit, self.reference_calibration,
-                           {path: level for path, level in self.files if level is not None})
+                           {path: level for path, level in self.files if level is not None}, dict(self.coordinates))
 
 
 @dataclass(frozen=True)
@@ -443,6 +446,8 @@ def _measured_statements(read: Reader, table: Mapping[str, Any], source: str) ->
         if out.get("reference_unit", "V") != "V":
             raise read.fail("measured", "reference_calibration", "a voltage reference (reference_unit = \"V\")", value)
         out["reference_calibration"] = value
+    if "coordinates" in table:
+        out["coordinates"] = _measured_coordinates(read, table["coordinates"], source)
     history_keys = {"input_dof", "excitation", "response_quantity"} & set(table)
     if history_keys and source != "time_histories":
         raise read.fail("measured", sorted(history_keys)[0], "nothing: it applies to time_histories = [...]")
@@ -455,6 +460,22 @@ def _measured_statements(read: Reader, table: Mapping[str, Any], source: str) ->
         out["response_quantity"] = read.string(table, "measured", "response_quantity",
                                                choices=("displacement", "velocity", "acceleration"))
     return out
+
+
+def _measured_coordinates(read: Reader, value: Any, source: str) -> tuple[tuple[str, tuple[str, str]], ...]:
+    """``coordinates = { "runs.mat" = ["tip:-uz", "tip:uz"] }``: (response, input) of files
+    that name none (MATLAB stepped-sine runs)."""
+    if source not in ("file", "files"):
+        raise read.fail("measured", "coordinates", "nothing: it applies to file = or files = measured FRFs", value)
+    if not isinstance(value, dict) or not value:
+        raise read.fail("measured", "coordinates", "a table \"<file>\" = [\"<response>\", \"<input>\"]", value)
+    out = []
+    for name, pair in value.items():
+        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(c, str) and c.strip() for c in pair)):
+            raise read.fail("measured.coordinates", name, "[\"<response>\", \"<input>\"] (e.g. [\"tip:-uz\", \"tip:uz\"])",
+                            pair)
+        out.append((str(read.path_of(name)), (pair[0].strip(), pair[1].strip())))
+    return tuple(out)
 
 
 def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None], ...]:
