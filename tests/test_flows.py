@@ -140,19 +140,31 @@ def test_a_dask_cluster_gives_the_same_candidates_as_threads(first_run, tmp_path
     pd.testing.assert_frame_equal(a.filter(like="p:"), b.filter(like="p:"), rtol=1e-10)
 
 
-def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_path):
-    """A candidate whose start is a negative mass fails in the lumped adapter; the rest of
-    the sweep, the comparison and the prediction go on."""
+def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_path, monkeypatch):
+    """A candidate whose FE runs fail (the lumped solver made to crash at its start point;
+    values a model cannot take are refused when the study is read); the rest of the sweep,
+    the comparison and the prediction go on."""
+    from nlupdate.adapters.base import AdapterError
+    from nlupdate.adapters.lumped import LumpedAdapter
+
+    solve = LumpedAdapter._solve
+
+    def crashes_at_the_candidates_start(self, parameters):
+        if parameters.get("m1") == 0.123456:
+            raise AdapterError("lumped solver crashed (as a test)")
+        return solve(self, parameters)
+
+    monkeypatch.setattr(LumpedAdapter, "_solve", crashes_at_the_candidates_start)
     text = STUDY.read_text() + (
-        '\n[[parameters]]\nname = "m1"\nunit = "kg"\nstart = 0.1\nlower = -0.2\nupper = 0.3\n'
-        '\n[[optimisation.candidates]]\nname = "negative mass"\nparameters = ["m1"]\nstart = { m1 = -0.1 }\n')
+        '\n[[parameters]]\nname = "m1"\nunit = "kg"\nstart = 0.1\nlower = 0.05\nupper = 0.3\n'
+        '\n[[optimisation.candidates]]\nname = "crashing solver"\nparameters = ["m1"]\nstart = { m1 = 0.123456 }\n')
     archive, manifest = flow_run(study_from_text(text, STUDY), tmp_path)
-    assert [f["run"] for f in manifest["failures"]] == ["negative mass"]
-    assert "must be positive" in manifest["failures"][0]["error"]
+    assert [f["run"] for f in manifest["failures"]] == ["crashing solver"]
+    assert "lumped solver crashed" in manifest["failures"][0]["error"]
     runs = pd.read_parquet(archive / "tables" / "runs.parquet")
-    assert len(runs) == 9 and "negative mass" not in set(runs["candidate"])
+    assert len(runs) == 9 and "crashing solver" not in set(runs["candidate"])
     report = (archive / "report.md").read_text()
-    assert "Failed updating runs" in report and "negative mass" in report
+    assert "Failed updating runs" in report and "crashing solver" in report
     assert (archive / "tables" / "correlation.parquet").exists()
 
 

@@ -137,12 +137,12 @@ def test_a_truncation_warning_is_one_line_naming_its_force_level(duffing, tmp_pa
 @pytest.mark.parametrize(
     "options,message",
     [
-        (["--method", "hb", "--harmonics", "0"], "argument --harmonics: expected an integer ≥ 1 or \"auto\", got '0'"),
-        (["--method", "hb", "--harmonics", "x"], "argument --harmonics: expected an integer ≥ 1 or \"auto\", got 'x'"),
+        (["--method", "hb", "--harmonics", "0"], "argument --harmonics: expected an integer from 1 to 64, or \"auto\", got '0'"),
+        (["--method", "hb", "--harmonics", "x"], "argument --harmonics: expected an integer from 1 to 64, or \"auto\", got 'x'"),
         (["--method", "hb", "--harmonics", "5", "--samples", "10"],
-         "argument --samples: expected an integer ≥ 11 (samples per period; 5 harmonics need more than 10), got 10"),
-        (["--method", "hb", "--samples", "6"], "argument --samples: expected an integer ≥ 7"),
-        (["--method", "hb", "--harmonics", "auto", "--samples", "62"], "argument --samples: expected an integer ≥ 63"),
+         "argument --samples: expected an integer from 11 to 65536 (samples per period; 5 harmonics need more than 10), got 10"),
+        (["--method", "hb", "--samples", "6"], "argument --samples: expected an integer from 7 to 65536"),
+        (["--method", "hb", "--harmonics", "auto", "--samples", "62"], "argument --samples: expected an integer from 63 to 65536"),
         (["--method", "hb", "--samples", "many"], "argument --samples: expected an integer"),
         (["--harmonics", "3"], "--harmonics applies to --method hb (harmonic balance), not --method continuation"),
         (["--method", "time", "--no-stability"], "--no-stability applies to --method hb (harmonic balance), not --method time"),
@@ -162,8 +162,8 @@ def test_bad_harmonic_balance_options_are_one_line_with_exit_2(duffing, tmp_path
 def test_discover_takes_the_same_options_and_checks_them(tmp_path):
     model, measured = EXAMPLES / "discovery" / "sdof_linear.toml", EXAMPLES / "discovery" / "sdof_friction_cubic.csv"
     for options, message in ((["--harmonics", "2"], "--harmonics applies to --method hb"),
-                             (["--method", "hb", "--harmonics", "0"], "argument --harmonics: expected an integer ≥ 1"),
-                             (["--method", "hb", "--harmonics", "4", "--samples", "8"], "expected an integer ≥ 9")):
+                             (["--method", "hb", "--harmonics", "0"], "argument --harmonics: expected an integer from 1 to 64"),
+                             (["--method", "hb", "--harmonics", "4", "--samples", "8"], "expected an integer from 9 to 65536")):
         code, _, err = cli("discover", "--model", str(model), "--measured", str(measured), "--out", str(tmp_path / "d"),
                            *options)
         assert code == 2 and message in err.splitlines()[0], err
@@ -233,12 +233,12 @@ def test_study_reads_the_prediction_method():
     "extra,message",
     [
         ('method = "time"', "[prediction] key 'method': expected one of ['continuation', 'hb'], got 'time'"),
-        ('method = "hb"\nharmonics = 0', "[prediction] key 'harmonics': expected an integer ≥ 1 or \"auto\""),
-        ('method = "hb"\nharmonics = "many"', "[prediction] key 'harmonics': expected an integer ≥ 1 or \"auto\""),
+        ('method = "hb"\nharmonics = 0', "[prediction] key 'harmonics': expected an integer from 1 to 64, or \"auto\""),
+        ('method = "hb"\nharmonics = "many"', "[prediction] key 'harmonics': expected an integer from 1 to 64, or \"auto\""),
         ('method = "hb"\nharmonics = 2.0', "[prediction] key 'harmonics'"),
         ('method = "hb"\nharmonics = 5\nsamples = 10',
-         "[prediction] key 'samples': expected an integer ≥ 11 (samples per period; 5 harmonics need more than 10), got 10"),
-        ('method = "hb"\nharmonics = "auto"\nsamples = 32', "[prediction] key 'samples': expected an integer ≥ 63"),
+         "[prediction] key 'samples': expected an integer from 11 to 65536 (samples per period; 5 harmonics need more than 10), got 10"),
+        ('method = "hb"\nharmonics = "auto"\nsamples = 32', "[prediction] key 'samples': expected an integer from 63 to 65536"),
         ('method = "hb"\nstability = "yes"', "[prediction] key 'stability': expected true or false"),
         ("harmonics = 5", "[prediction] key 'harmonics': expected nothing unless method = \"hb\""),
         ('method = "continuation"\nsamples = 64', "[prediction] key 'samples': expected nothing unless method = \"hb\""),

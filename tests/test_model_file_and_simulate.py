@@ -105,7 +105,7 @@ def test_simulate_noise_is_reproducible_and_methods_agree(model_file, tmp_path):
     [
         (["--input-dof", "7", "--freqs", "600:850:5", "--forces", "1"], "unknown dof 7"),
         (["--input-dof", "0", "--freqs", "600-850", "--forces", "1"], "START:STOP:COUNT"),
-        (["--input-dof", "0", "--freqs", "600:850:5", "--forces", "1,-2"], "force levels must be positive"),
+        (["--input-dof", "0", "--freqs", "600:850:5", "--forces", "1,-2"], "--forces '1,-2'"),
         (["--input-dof", "0", "--freqs", "600:850:5", "--forces", "1", "--noise", "-1"], "argument --noise: expected a number ≥ 0"),
     ],
 )
