@@ -125,3 +125,41 @@ def test_identify_chain_on_a_wide_band_time_integration_test():
         assert p["chi"] == pytest.approx(-0.5, abs=0.05)
         assert identification.natural_frequencies_hz[0] == pytest.approx(truth_hz, rel=3e-3)
         assert not [w for w in identification.warnings if w.kind in ("not_identifiable", "residual_above_noise")]
+
+
+def test_a_model_that_cannot_describe_the_data_is_called_a_poor_fit(iwan_table, tmp_path):
+    """Iwan data (0.5 % noise) fitted with a single Jenkins slider: ``"fit": "poor"`` with the ratio, in the
+    summary, on stdout and in identification.json; the Iwan joint fits the same data."""
+    import json
+    from types import SimpleNamespace
+
+    from nlupdate.cli.identify import run
+
+    noisy = add_table_noise(iwan_table, 0.005, 11)
+    data = FRFLevels.from_table(noisy, "0", "0")
+    verdicts = {}
+    for element in ("jenkins", "iwan"):
+        identification = identify(data, IdentificationSettings("0", "0", elements=(element,), frequency_hz=710.0,
+                                                                half_window=0.006, samples=2))
+        summary = identification.summary()
+        verdicts[element] = (summary["fit"], summary["fit_ratio_to_noise"])
+    assert verdicts["jenkins"][0] == "poor" and verdicts["jenkins"][1] > 10, verdicts  # measured 18–27 (seeds 11–13)
+    assert verdicts["iwan"][0] == "consistent" and verdicts["iwan"][1] < 2, verdicts
+
+    measured = tmp_path / "measured.parquet"
+    noisy.to_parquet(measured)
+    args = SimpleNamespace(
+        measured=str(measured), method="prd", input_dof="0", response_dof="0", frequency=710.0, low_force=None,
+        high_forces=None, elements="jenkins", order=None, imag_order=None, complex_delta_f1=False, estimator=None,
+        half_window=0.006, smooth_linear=0, amplitude_dependent_delta=False, force_pair=None, band=None,
+        noise_fraction=None, samples=2, seed=0, out=str(tmp_path / "ident"), overwrite=False,
+    )
+    import contextlib
+    import io
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert run(args) == 0
+    assert "fit: poor" in printed.getvalue()
+    written = json.loads((tmp_path / "ident" / "identification.json").read_text())
+    assert written["fit"] == "poor" and written["fit_ratio_to_noise"] > 5
+    assert (tmp_path / "ident" / "fit.png").stat().st_size > 0

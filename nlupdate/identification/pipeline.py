@@ -36,7 +36,9 @@ from nlupdate.identification.frequency import FrequencyChoice, recommend_frequen
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
 from nlupdate.identification.report import elements_summary
-from nlupdate.identification.trust import RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, identification_warnings
+from nlupdate.identification.trust import (
+    POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, fit_verdict, identification_warnings,
+)
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
 from nlupdate.progress import ProgressCallback, no_progress
@@ -239,6 +241,7 @@ class Identification:
                 },
             })
         stats = self.uncertainty.parameters
+        verdict, ratio = fit_verdict(self.residual_noise_fraction, self.noise_fraction)
         out.update({
             "linear_from_level_n": self.linear_from_level_n,
             "parameters": {name: stats[name].as_dict() for name in r.parameters()},
@@ -251,8 +254,12 @@ class Identification:
                                    if self.residual_noise_fraction is not None and self.noise_fraction > 0 else None),
                 "definition": "RMS of the fit's residuals normalised like the noise (std / |H|), corrected for the "
                               "fitted degrees of freedom; about noise_fraction when the model fits; warned above "
-                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g})",
+                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g}); 'fit' is 'poor' above "
+                              f"{POOR_FIT_FACTOR:g} x (the model does not describe the data: see the residual against "
+                              "amplitude in fit.png)",
             },
+            "fit": verdict,
+            "fit_ratio_to_noise": ratio,
             "elements": elements_summary(r, s.response_dof),
             "linear_frf": {
                 "file": "linear_frf.parquet",

@@ -58,6 +58,7 @@ import numpy as np
 from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
 
 RESIDUAL_FACTOR = 3.0
+POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
 JENKINS_END = -0.98  # an Iwan joint's χ at or below this acts as a Jenkins element
 RESIDUAL_FLOOR = 1e-3
 SLIP_TOLERANCE = 0.1
@@ -164,6 +165,16 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str) -> list[
                                         f"{name} = {value:.4g} ran off to the end of the number range: the data do not "
                                         f"determine it", source))
     return out + [w for w in _slip_force_warnings(result, values, source) if w.subject not in flagged]
+
+
+def fit_verdict(residual: float | None, noise: float) -> tuple[str, float | None]:
+    """(``"poor"`` | ``"consistent"`` | ``"unknown"``, ratio of the fit's residual to
+    max(noise, ``RESIDUAL_FLOOR``)): poor above ``POOR_FIT_FACTOR``, the misfit is then far
+    above what the noise explains and the model does not describe the data."""
+    if residual is None or not np.isfinite(residual):
+        return "unknown", None
+    ratio = float(residual) / max(float(noise), RESIDUAL_FLOOR)
+    return ("poor" if ratio > POOR_FIT_FACTOR else "consistent"), ratio
 
 
 def residual_warnings(residual: float | None, noise: float, noise_source: str, source: str = "") -> list[TrustWarning]:
