@@ -339,9 +339,11 @@ class IwanJoint:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        for name in ("slip_force", "kt", "chi", "beta"):
+            object.__setattr__(self, name, float(getattr(self, name)))
         _positive("slip_force", self.slip_force)
         _positive("kt", self.kt)
-        chi = float(self.chi)
+        chi = self.chi
         if not (np.isfinite(chi) and -1.0 < chi <= 0.0):
             raise ValueError(f"chi must be a number with -1 < chi <= 0, got {self.chi}")
         _positive("beta", self.beta, allow_zero=True)
@@ -377,18 +379,21 @@ class IwanJoint:
 
     # -- describing function ------------------------------------------------------------
     def _parts(self, a: NDArray):
+        """φ_max, χ, r = min(1, φ_max/A), b = arccos(1 − 2r) and B(r; χ+5/2, 3/2) (the
+        incomplete beta function, complete where r = 1: microslip)."""
         phi, chi = self.phi_max, self.chi
         r = np.minimum(1.0, phi / a)
-        b = np.arccos(1.0 - 2.0 * r)
-        shape = chi + 2.5
-        incomplete = scipy.special.betainc(shape, 1.5, r) * scipy.special.beta(shape, 1.5)
-        return phi, chi, r, b, incomplete
+        complete = scipy.special.beta(chi + 2.5, 1.5)
+        if np.all(r == 1.0):
+            return phi, chi, r, np.full(r.shape, pi), np.full(r.shape, complete)
+        return phi, chi, r, np.arccos(1.0 - 2.0 * r), scipy.special.betainc(chi + 2.5, 1.5, r) * complete
 
     def describing_function(self, amplitude, omega=0.0):
         a = _amplitude(amplitude)
         phi, chi, r, b, incomplete = self._parts(a)
         rp, s = self.r_prime, self.concentrated_stiffness
-        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * rp / pi * a ** (chi + 1) * incomplete
+        power = a ** (chi + 1)
+        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * rp / pi * power * incomplete
         m = np.minimum(a, phi)
         imag = 4 * (chi + 1) * rp / (pi * a) * (m ** (chi + 2) / (chi + 2) - m ** (chi + 3) / ((chi + 3) * a))
         imag = imag + np.where(a > phi, 4 * s * phi / (pi * a) * (1 - phi / a), 0.0)
