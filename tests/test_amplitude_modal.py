@@ -186,3 +186,57 @@ def test_files_round_trip_and_bad_input_is_named(tmp_path):
     (tmp_path / "bad.json").write_text('{"backbone": "spline"}')
     with pytest.raises(AmplitudeModelError, match="bad.json"):
         read_amplitude_model(tmp_path / "bad.json")
+
+
+def test_linear_limit_of_an_amplitude_model_is_an_updating_target(tmp_path):
+    """[targets] amplitude_models: the FE model (the joint tied: one spring) is updated to the
+    model's linear limit, here the stuck SDOF's √((k + K_T)/m)."""
+    from nlupdate.study.run import run_study
+    from nlupdate.study.spec import StudyError, study_from_text
+
+    joint = IwanJoint((0,), slip_force=JOINT.slip_force * PHI, kt=JOINT.kt * PHI**2, chi=-0.5, beta=0.5)
+    stuck_hz = np.sqrt((STIFFNESS + JOINT.kt) / MASS) / (2 * np.pi)
+    write_amplitude_model(AmplitudeModalModel(stuck_hz, 0.005, (("x1", PHI),), joint=joint), tmp_path / "mode1.json")
+    text = """
+[adapter]
+kind = "lumped"
+options = { masses = [0.1], stiffnesses = [2.0e6] }
+
+[[parameters]]
+name = "k1"
+unit = "N/m"
+start = 2.0e6
+lower = 1.0e6
+upper = 4.0e6
+
+[targets]
+amplitude_models = ["mode1.json"]
+
+[eigensensitivity]
+formulas = ["central2"]
+"""
+    result = run_study(study_from_text(text, tmp_path / "study.toml"))
+    assert result.targets.targets.frequencies_hz[0] == pytest.approx(stuck_hz, rel=1e-12)
+    assert result.runs[0].parameters["k1"] == pytest.approx(STIFFNESS + JOINT.kt, rel=1e-4)
+    with pytest.raises(StudyError, match="amplitude_models"):
+        run_study(study_from_text(text.replace("mode1.json", "missing.json"), tmp_path / "study.toml"))
+
+
+def test_command_line_from_a_modal_table_and_from_frfs(measured_modal_table, tmp_path):
+    from nlupdate.cli import main
+    from nlupdate.measurement.modal_table import write_modal_table
+
+    modal = write_modal_table(measured_modal_table, tmp_path / "modal.csv")
+    out = tmp_path / "amm"
+    assert main(["amplitude", "--measured", str(modal), "--shape", f"0={PHI}", "--forces", "0.5", "--freqs",
+                 "725:750:26", "--out", str(out)]) == 0
+    model = read_amplitude_model(out / "amplitude_model.json")
+    assert model.backbone == "iwan" and model.joint.chi == pytest.approx(-0.5, abs=0.05)
+    assert (out / "backbone.png").stat().st_size > 0 and (out / "predicted_frf.parquet").stat().st_size > 0
+    assert main(["amplitude", "--measured", str(modal), "--out", str(tmp_path / "no_shape")]) == 2  # needs --shape
+    assert main(["amplitude", "--measured", str(modal), "--shape", f"0={PHI}", "--out", str(out)]) == 2  # exists
+    frfs, _ = simulate_frf_table(SYSTEM, 0, np.linspace(700.0, 770.0, 71), [0.01, 0.1, 1.0, 3.0])
+    frfs.to_parquet(tmp_path / "frf.parquet")
+    assert main(["amplitude", "--measured", str(tmp_path / "frf.parquet"), "--backbone", "polynomial",
+                 "--forces", "0.01,1", "--freqs", "700:770:71", "--out", str(tmp_path / "from_frf")]) == 0
+    assert (tmp_path / "from_frf" / "predicted_frf.png").stat().st_size > 0

@@ -15,7 +15,9 @@ import sys
 import warnings
 from typing import Sequence
 
-COMMAND_MODULES = ("run", "demo", "simulate", "identify", "update", "discover", "archive", "schedule", "serve")
+COMMAND_MODULES = (
+    "run", "demo", "simulate", "identify", "amplitude", "update", "discover", "archive", "schedule", "serve",
+)
 
 EXIT_RUNTIME, EXIT_INPUT, EXIT_INTERRUPTED = 1, 2, 130
 
