@@ -125,7 +125,9 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"{args.measured}: the table has input dofs {inputs}; choose one with --input-dof")
         data = FRFLevels.from_table(table, input_dof, input_dof)
         samples = samples_from_frfs(data, shapes.get(input_dof))
-        model = amplitude_model_from_frfs(data, args.backbone, samples.input_shape, args.order, mode=args.mode)
+        model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
+        if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
+            samples = samples.with_shape(model.shapes[0][1])
     predicted = None
     if args.forces is not None:
         predicted = model.frf_table(parse_frequency_grid(args.freqs), parse_force_levels(args.forces), input_dof)

@@ -16,11 +16,13 @@ Backbones (ω(a), ζ(a)):
   modal units: K_T in rad²/s², i.e. N/m per kg of modal mass; F_S in N/√kg; φ_max in
   m·√kg; a physical joint whose relative displacement is ψ·q gives ψ²K_T and ψF_S)::
 
-      ω(a)² = ω₀² − K_T + Re ν(a),      ζ(a) = ζ₀ω₀/ω(a) + Im ν(a) / (2ω(a)²),
+      ω(a)² = ω₀² − K_T + Re ν(a),      ζ(a) = ζ_lin(a) + Im ν(a) / (2ω(a)²),
 
-  ν the joint's describing function, so ω(0) = ω₀, and ζ₀ω₀ the constant viscous part
-  (2ζ₀ω₀ = modal damping coefficient); the joint softens the mode and adds damping that
-  grows as a^(χ+1) in microslip and falls as 1/a in macroslip;
+  ν the joint's describing function, so ω(0) = ω₀; the joint softens the mode and adds
+  damping that grows as a^(χ+1) in microslip and falls as 1/a in macroslip. The rest of
+  the structure's damping ``ζ_lin`` is ``linear_damping = "viscous"`` (a constant modal
+  damping coefficient 2ζ₀ω₀: ζ_lin = ζ₀ω₀/ω(a)) or ``"structural"`` (a loss factor on the
+  stiffness: ζ_lin = ζ₀ω₀²/ω(a)²), both ζ₀ at a → 0;
 * ``polynomial`` — ``f(a) = f₀(1 + Σ_k c_k (a/a_ref)^k)``, ``ζ(a) = ζ₀ + Σ_k d_k (a/a_ref)^k``,
   k = 1 … n, a_ref the largest amplitude it was fitted to (trust it only up to there).
 
@@ -53,6 +55,7 @@ from nlupdate.measurement.frf_table import frf_table
 from nlupdate.model.elements import IwanJoint
 
 BACKBONES = ("iwan", "polynomial")
+LINEAR_DAMPING = ("viscous", "structural")
 _CURVE_POINTS = 1500
 
 
@@ -80,6 +83,7 @@ class AmplitudeModalModel:
     damping_coefficients: tuple[float, ...] = ()
     reference_amplitude: float = 1.0
     mode: int = 1
+    linear_damping: str = "viscous"
     note: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -98,6 +102,8 @@ class AmplitudeModalModel:
                 raise AmplitudeModelError(
                     f"joint kt = {self.joint.kt:.4g} rad²/s² must be below ω₀² = {(2 * np.pi * f0) ** 2:.4g} (the mode "
                     "without the joint would have no stiffness)")
+        if self.linear_damping not in LINEAR_DAMPING:
+            raise AmplitudeModelError(f"linear_damping must be one of {list(LINEAR_DAMPING)}, got {self.linear_damping!r}")
         if not (np.isfinite(self.reference_amplitude) and self.reference_amplitude > 0):
             raise AmplitudeModelError(f"reference_amplitude must be > 0 (m·√kg), got {self.reference_amplitude}")
         object.__setattr__(self, "natural_frequency_hz", f0)
@@ -134,7 +140,8 @@ class AmplitudeModalModel:
             nu = self.joint.describing_function(a)
             omega = np.sqrt(np.maximum(w0**2 - self.joint.kt + nu.real, 0.0))
             with np.errstate(divide="ignore", invalid="ignore"):
-                zeta = z0 * w0 / omega + nu.imag / (2 * omega**2)
+                linear = z0 * w0 / omega if self.linear_damping == "viscous" else z0 * w0**2 / omega**2
+                zeta = linear + nu.imag / (2 * omega**2)
             return omega, zeta
         x = a / self.reference_amplitude
         omega = w0 * (1 + sum(c * x ** (k + 1) for k, c in enumerate(self.frequency_coefficients)))
@@ -269,6 +276,7 @@ class AmplitudeModalModel:
             j = self.joint
             out["joint"] = {"slip_force": j.slip_force, "kt": j.kt, "chi": j.chi, "beta": j.beta,
                             "units": "modal: slip_force N/sqrt(kg), kt rad^2/s^2"}
+            out["linear_damping"] = self.linear_damping
         else:
             out["polynomial"] = {"frequency_coefficients": list(self.frequency_coefficients),
                                  "damping_coefficients": list(self.damping_coefficients),
@@ -287,7 +295,7 @@ class AmplitudeModalModel:
             if data.get("backbone") == "iwan":
                 j = data["joint"]
                 joint = IwanJoint((0,), slip_force=j["slip_force"], kt=j["kt"], chi=j["chi"], beta=j["beta"])
-                return cls(joint=joint, **common)
+                return cls(joint=joint, linear_damping=str(data.get("linear_damping", "viscous")), **common)
             if data.get("backbone") == "polynomial":
                 p = data["polynomial"]
                 return cls(frequency_coefficients=tuple(p["frequency_coefficients"]),
