@@ -83,17 +83,24 @@ def _plot_backbone(model, samples, path: Path) -> Path:
 
 
 def _plot_prediction(predicted, data: FRFLevels, path: Path) -> Path:
+    """|H| the model predicts (lines) against the measured curves (dots) over the predicted
+    band; a level measured and predicted shares its colour."""
+    f_low, f_high = float(predicted["frequency_hz"].min()), float(predicted["frequency_hz"].max())
     fig = Figure(figsize=(8, 5))
     ax = fig.subplots()
-    colours = level_colours(len(data.levels), 0.1, 0.9)
-    for level, f, h, colour in zip(data.levels, data.frequencies, data.receptances, colours):
-        ax.semilogy(f, np.abs(h), ".", ms=3, color=colour, label=f"measured {level:g} N")
+    colours = dict(zip(data.levels, level_colours(len(data.levels), 0.1, 0.9)))
+    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
+        band = (f >= f_low) & (f <= f_high)
+        ax.semilogy(f[band], np.abs(h[band]), ".", ms=3, color=colours[level], label=f"measured {level:g} N")
     for level, curve in predicted.groupby("force_level_n"):
         h = curve["h_real"].to_numpy() + 1j * curve["h_imag"].to_numpy()
-        ax.semilogy(curve["frequency_hz"], np.abs(h), "-", lw=1.2, color="black")
-    ax.plot([], [], "-", color="black", label="amplitude-dependent modal model")
+        match = [c for lv, c in colours.items() if np.isclose(lv, level, rtol=1e-9)]
+        ax.semilogy(curve["frequency_hz"], np.abs(h), "-", lw=1.4, color=match[0] if match else "black",
+                    label=f"model {level:g} N")
+    ax.set_xlim(f_low, f_high)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("|H| (m/N)")
+    ax.set_title("amplitude-dependent modal model (lines) against the measurement (dots)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
