@@ -57,4 +57,4 @@ def test_microslip_hidden_in_an_sdof_is_named_at_its_place_and_closes_the_gap():
 def test_microslip_hidden_in_a_two_dof_is_named_at_its_place_and_closes_the_gap(dofs):
     joint, result = _discover(two_dof(), dofs, seed=6)
     assert result.effect == "microslip" and result.dofs == dofs, result.stop_reason
-    assert result.gap_after.gap <= 0.3 * result.gap_before.gap  # measured 0.0022 and 0.0023
+    assert result.gap_after.gap <= 0.3 * result.gap_before.gap  # measured 0.0018 and 0.0020
