@@ -11,7 +11,9 @@ import pytest
 from nlupdate.identification.amplitude_modal import amplitude_model_from_frfs
 from nlupdate.identification.data import FRFLevels
 from nlupdate.study import load_study
-from nlupdate.study.steps import measured_table
+from nlupdate.measurement.noise import add_table_noise
+from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.study.steps import measured_table, truth_system
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "bolted_beam" / "study.toml"
@@ -27,21 +29,25 @@ def measured(study):
     return measured_table(study)
 
 
-def test_amplitude_model_from_the_example_frfs_follows_every_level(study, measured):
-    data = FRFLevels.from_table(measured, "tip:uz", "tip:uz")
-    model = amplitude_model_from_frfs(data, "iwan")
-    # the FE shape of mode 1 at the tip, at the truth (the joint slips in this shape)
+def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
+    """The example's test around mode 1 (30–70 Hz, 401 frequencies: its truth, levels and 1 %
+    noise), five noise seeds; each model against the structure's own (noise-free) FRFs."""
     truth = study.measured.simulate
-    modes = build_adapter(AdapterSpec("surrogate", "tbeam", {"coordinates": ["tip:uz"], "n_modes": 2})).evaluate(
-        truth.parameters)
-    assert model.shape("tip:uz") == pytest.approx(abs(modes.mode_shapes[0, 0]), rel=0.02)
-    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
-        first = f < 70.0
-        fine = np.linspace(30.0, 70.0, 4001)
-        predicted = model.frf(fine, level, "tip:uz", "tip:uz")
-        f_peak, f_model = f[first][np.argmax(np.abs(h[first]))], fine[np.argmax(np.abs(predicted))]
-        assert abs(f_model / f_peak - 1) < 0.005  # measured ≤ 0.42 %
-        assert abs(np.abs(predicted).max() / np.abs(h[first]).max() - 1) < 0.08  # measured ≤ 5.2 %
+    exact, _ = simulate_frf_table(truth_system(study, truth), truth.input_dof, np.linspace(30.0, 70.0, 401),
+                                  truth.forces_n)
+    reference = FRFLevels.from_table(exact, "tip:uz", "tip:uz")
+    # the FE shape of mode 1 at the tip, at the truth (the joint slips in this shape)
+    fe_shape = abs(build_adapter(AdapterSpec("surrogate", "tbeam", {"coordinates": ["tip:uz"], "n_modes": 2})).evaluate(
+        truth.parameters).mode_shapes[0, 0])
+    fine = np.linspace(30.0, 70.0, 4001)
+    for seed in range(1, 6):
+        model = amplitude_model_from_frfs(FRFLevels.from_table(add_table_noise(exact, truth.noise, seed), "tip:uz",
+                                                                "tip:uz"), "iwan")
+        assert model.shape("tip:uz") == pytest.approx(fe_shape, rel=0.025)  # measured 2.78–2.85 (FE 2.794)
+        for level, f, h in zip(reference.levels, reference.frequencies, reference.receptances):
+            predicted = model.frf(fine, level, "tip:uz", "tip:uz")
+            assert abs(fine[np.argmax(np.abs(predicted))] / f[np.argmax(np.abs(h))] - 1) < 0.01  # measured ≤ 0.88 %
+            assert abs(np.abs(predicted).max() / np.abs(h).max() - 1) < 0.2  # measured ≤ 15.7 % (transition levels)
 
 
 @pytest.mark.slow

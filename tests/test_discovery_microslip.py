@@ -17,11 +17,13 @@ from nlupdate.model.elements import IwanJoint
 from nlupdate.model.system import NonlinearSystem
 
 
-def hidden_joint(structure: Structure, dofs: tuple[int, ...], chi: float = -0.4, beta: float = 0.3) -> IwanJoint:
+def hidden_joint(structure: Structure, dofs: tuple[int, ...], chi: float = -0.4, beta: float = 0.3,
+                 sliders: int = 400) -> IwanJoint:
     place = place_scales(structure, dofs)
     phi_max = place.amplitude_low ** 0.4 * place.amplitude_top ** 0.6
     kt = 0.08 * place.k_ref
-    return IwanJoint(dofs, slip_force=phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta), kt=kt, chi=chi, beta=beta)
+    return IwanJoint(dofs, slip_force=phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta), kt=kt, chi=chi,
+                     beta=beta, sliders=sliders)
 
 
 def test_microslip_is_in_the_library_and_fits_its_own_describing_function():
@@ -37,14 +39,14 @@ def test_microslip_is_in_the_library_and_fits_its_own_describing_function():
     assert IwanJoint((0,), slip_force=start[1], kt=start[0], chi=start[2], beta=start[3]).phi_max == pytest.approx(joint.phi_max)
 
 
-def _discover(structure: Structure, dofs: tuple[int, ...], seed: int):
-    joint = hidden_joint(structure, dofs)
+def _discover(structure: Structure, dofs: tuple[int, ...], seed: int, sliders: int = 400):
+    joint = hidden_joint(structure, dofs, sliders=sliders)
     table = measure_by_time_integration(NonlinearSystem(structure.model, (joint,)), structure, 0.02, seed)
     return joint, discover(NonlinearSystem(structure.model, ()), table)
 
 
 def test_microslip_hidden_in_an_sdof_is_named_at_its_place_and_closes_the_gap():
-    joint, result = _discover(sdof(), (0,), seed=5)
+    joint, result = _discover(sdof(), (0,), seed=5, sliders=150)  # the truth's DF within 1e-2 of the exact joint's
     assert result.effect == "microslip" and result.dofs == (0,), result.stop_reason
     assert result.gap_after.gap <= 0.3 * result.gap_before.gap  # measured 0.0015
     p = result.parameters
