@@ -8,6 +8,7 @@ from microslip (0.13 φ_max) into macroslip (20 φ_max).
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from nlupdate.identification.data import FRFLevels
@@ -29,7 +30,7 @@ WINDOW_HZ = np.linspace(706.0, 714.0, 9)
 SEEDS = (1, 2, 3, 4, 5)
 
 
-def time_integration_table(system: NonlinearSystem, levels, frequency_hz) -> "pd.DataFrame":  # noqa: F821
+def time_integration_table(system: NonlinearSystem, levels, frequency_hz) -> pd.DataFrame:
     """Steady-state first harmonics by time integration (started from the describing-function
     solution, which only shortens the transient) at every level and frequency."""
     start, _ = simulate_frf_table(system, 0, frequency_hz, levels)

@@ -292,9 +292,3 @@ def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_sha
     samples = samples_from_frfs(data, input_shape, near_hz)
     return fit_amplitude_model(samples, ((data.input_dof, samples.input_shape),), backbone, order,
                                frequency_std=1e-3, damping_std=0.05, mode=mode)
-
-
-def modal_amplitude_table(samples: ModalSamples) -> pd.DataFrame:
-    """The samples as a table (for plots and reports)."""
-    return pd.DataFrame({"modal_amplitude": samples.amplitude, "natural_frequency_hz": samples.frequency_hz,
-                         "damping_ratio": samples.damping_ratio, "force_level_n": samples.force_n})
