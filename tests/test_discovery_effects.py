@@ -73,8 +73,8 @@ def test_library_describing_functions_follow_methods_formulas(effect, values, ex
 
 def test_library_selects_by_name_and_rejects_unknown_names():
     assert {e.name for e in LIBRARY} == {
-        "cubic_stiffness", "softening_stiffness", "dry_friction", "coulomb_friction", "quadratic_damping", "gap",
-        "stiffness_error", "mass_error", "damping_error",
+        "cubic_stiffness", "softening_stiffness", "dry_friction", "microslip", "coulomb_friction", "quadratic_damping",
+        "gap", "stiffness_error", "mass_error", "damping_error",
     }
     assert library(["dry_friction"]) == (DryFriction(), DryFriction(stuck_in_model=True))
     with pytest.raises(DiscoveryError, match="unknown effect 'glue'"):

@@ -39,7 +39,9 @@ def test_example_table_is_the_published_data(gun_barrel):
 
 def test_gun_barrel_names_friction_and_follows_both_trends(gun_barrel):
     _, _, result = gun_barrel
-    assert result.effect in ("dry_friction", "coulomb_friction"), result.stop_reason
+    # friction-type; since the library has it, the Iwan joint (microslip) — χ² 34 against the Jenkins
+    # slider's 128, both trends followed closer (0.35 % and 3.8 % against 0.58 % and 7.5 %)
+    assert result.effect in ("microslip", "dry_friction", "coulomb_friction"), result.stop_reason
     before, after = result.prediction_before, result.prediction_after
     # the linear equivalent misses both trends ...
     assert np.max(np.abs(before.frequency_hz / FREQUENCY - 1)) > 0.04

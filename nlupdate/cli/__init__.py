@@ -18,7 +18,9 @@ import threading
 import warnings
 from typing import Sequence
 
-COMMAND_MODULES = ("run", "demo", "simulate", "frf", "identify", "update", "discover", "archive", "schedule", "serve")
+COMMAND_MODULES = (
+    "run", "demo", "simulate", "frf", "identify", "amplitude", "update", "discover", "archive", "schedule", "serve",
+)
 
 EXIT_RUNTIME, EXIT_INPUT = 1, 2
 

@@ -23,6 +23,7 @@ from nlupdate.identification.pipeline import (
     MAX_MONTE_CARLO_SAMPLES, Identification, IdentificationSettings, identify,
 )
 from nlupdate.identification.prd import ESTIMATORS
+from nlupdate.identification.trust import POOR_FIT_FACTOR, fit_verdict
 from nlupdate.identification.report import (
     JSON_NAME, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
 )
@@ -154,7 +155,7 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     if unit != "N":
         linear["reference_unit"] = unit
     write_frf_table(linear, folder / "linear_frf.parquet")
-    plot_fit(identification.result, folder / "fit.png", title, unit)
+    plot_fit(identification.result, folder / "fit.png", title, identification.noise_fraction, POOR_FIT_FACTOR, unit)
     plot_linear_frf(f, h, [(f"{level:g} {unit}", *data.curve(level)) for level in data.levels],
                     folder / "linear_frf.png", title, identification.modal_receptance(f), unit)
     return files
@@ -187,5 +188,10 @@ def run(args: argparse.Namespace) -> int:
               f"[{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}])")
     for warning in identification.warnings:
         print(f"warning: {warning}")
+    verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
+    if verdict == "poor":
+        print(f"fit: poor — the fit's residual is {ratio:.3g}× the noise level ({POOR_FIT_FACTOR:g}× at most for a "
+              f"model that describes the data): {identification.model_description} misses part of the behaviour; "
+              f"{out / 'fit.png'} shows the residual against amplitude")
     print(f"wrote {out / JSON_NAME} and the linear FRF, fit and FRF plots")
     return 0

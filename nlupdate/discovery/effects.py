@@ -8,7 +8,8 @@ frequency. Every DF of the library is a scale times a shape,
 
     ν(A, ω) = c · b_s(A, ω),
 
-with at most one shape parameter s (the slip amplitude of a Jenkins element, the clearance
+with at most one shape parameter s (the slip amplitude of a Jenkins element, the macroslip
+displacement of an Iwan joint — whose other parameters start from fixed values —, the clearance
 of a gap). Each effect is one small frozen class that states
 
 * ``name`` and ``parameters`` (name, SI unit, sign: positive, negative or either) and
@@ -36,7 +37,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.discovery.errors import DiscoveryError
 from nlupdate.discovery.linear_edits import add_linear_correction
-from nlupdate.model.elements import CoulombFriction, CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
+from nlupdate.model.elements import (
+    CoulombFriction, CubicStiffness, IwanJoint, JenkinsFriction, QuadraticDamping, SymmetricGap,
+)
 from nlupdate.model.system import NonlinearSystem
 
 POSITIVE, NEGATIVE, SIGNED = 1, -1, 0
@@ -184,6 +187,62 @@ class DryFriction(ElementEffect):
 
 
 @dataclass(frozen=True)
+class Microslip(ElementEffect):
+    """Segalman's four-parameter Iwan joint (:class:`~nlupdate.model.elements.IwanJoint`):
+    tangential stiffness K_T (N/m, the scale), macroslip force F_S (N), exponent χ ∈ (−1, 0)
+    and share β ≥ 0 of its concentrated part.
+
+    Shape: φ_max, the displacement of macroslip, with χ = −0.5 and β = 0.5 to start (the fit
+    refines all four; χ is held inside (−1, 0)). ``stuck_in_model=True`` is the same joint
+    when the model's linear stiffness already holds its K_T (a model tuned to a low-force
+    test): the DF added is ``ν_Iwan(A) − K_T`` (softening and damping that grow from zero
+    with the amplitude as more of the contact slips).
+    """
+
+    name: ClassVar[str] = "microslip"
+    parameters: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("kt", "N/m", POSITIVE), Parameter("slip_force", "N", POSITIVE), Parameter("chi", "1", NEGATIVE),
+        Parameter("beta", "1", POSITIVE),
+    )
+    stuck_in_model: bool = False
+    start_chi: ClassVar[float] = -0.5
+    start_beta: ClassVar[float] = 0.5
+
+    @property
+    def variant(self) -> str:
+        return "stuck_in_model" if self.stuck_in_model else ""
+
+    @staticmethod
+    def _chi(value: float) -> float:
+        return float(np.clip(value, -1.0 + 1e-6, -1e-9))
+
+    def parameter_dict(self, values):
+        out = super().parameter_dict(values)
+        out["chi"] = self._chi(out["chi"])
+        return out
+
+    def element(self, dofs, values):
+        kt, slip_force, chi, beta = (float(v) for v in values)
+        return IwanJoint(tuple(dofs), slip_force=slip_force, kt=kt, chi=self._chi(chi), beta=beta)
+
+    def shapes(self, amplitude):
+        return tuple(np.geomspace(amplitude.min() / 3, amplitude.max() * 3, SHAPE_POINTS))
+
+    def values(self, scale, shape):
+        chi, beta = self.start_chi, self.start_beta
+        return np.array([scale, shape * scale * (beta + (chi + 1) / (chi + 2)) / (1 + beta), chi, beta])
+
+    def nu(self, values, amplitude, omega):
+        return super().nu(values, amplitude, omega) - (float(values[0]) if self.stuck_in_model else 0.0)
+
+    def apply(self, system, dofs, values):
+        with_joint = super().apply(system, dofs, values)
+        if not self.stuck_in_model:
+            return with_joint
+        return NonlinearSystem(add_linear_correction(with_joint.model, dofs, stiffness=-float(values[0])), with_joint.elements)
+
+
+@dataclass(frozen=True)
 class CoulombSlider(ElementEffect):
     """Coulomb friction ``Fs·sign(ẋ)`` (Fs in N): ``ν = i·4Fs/(πA)``."""
 
@@ -285,6 +344,8 @@ LIBRARY: tuple[Effect, ...] = (
     CubicSoftening(),
     DryFriction(),
     DryFriction(stuck_in_model=True),
+    Microslip(),
+    Microslip(stuck_in_model=True),
     CoulombSlider(),
     QuadraticDamper(),
     Clearance(),

@@ -33,10 +33,18 @@ friction, the source's assumption in its case studies) and the imaginary constan
 ``delta_f1_imag`` reports the imaginary part used.
 
 :class:`PhysicalModel` — named elements of :data:`nlupdate.model.elements.ELEMENT_TYPES`
-(``cubic``, ``jenkins``, ``coulomb``, ``quadratic_damping``, ``gap``) acting at all force
-levels: ``nu_high = nu_low = Σ ν_e(A; θ)``. Positive parameters are fitted as
-logarithms; ``k3`` (which may be negative: softening) linearly. This model is exact for
-describing-function data of those elements, including a slipping low-force level.
+(``cubic``, ``jenkins``, ``coulomb``, ``quadratic_damping``, ``gap``, ``iwan``) acting at all
+force levels: ``nu_high = nu_low = Σ ν_e(A; θ)``. Positive parameters are fitted as
+logarithms; ``k3`` (which may be negative: softening) linearly; an Iwan joint's exponent
+χ ∈ (−1, 0) through a logistic map. This model is exact for describing-function data of
+those elements, including a slipping low-force level.
+
+What PRD data determine of an Iwan joint: ``y = ν(A_i) − ν(A_1)``. While every level stays
+in microslip (A < φ_max), ``ν = K_T − c_r A^(χ+1) + i c_i A^(χ+1)`` with c_i/c_r fixed by χ:
+K_T cancels in y (it is part of the linear stiffness the PRD extracts) and F_S and β enter
+only through ``R' = K_T/((1+β)φ_max^(χ+1))`` — the data determine χ and R' alone. A level
+in macroslip adds the stiffness the joint loses (K_T) and its slip force (F_S); β (the
+sharpness of the transition) needs levels near φ_max.
 """
 from __future__ import annotations
 
@@ -44,19 +52,24 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
+import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.model.elements import ELEMENT_TYPES, PolynomialDF
 
 # parameter names of each physical element (constructor keyword order) and whether they
-# are positive (fitted as log) or signed
+# are positive (fitted as log) or not; those in INTERVAL_PARAMETERS are fitted through a
+# logistic map onto their open interval
 ELEMENT_PARAMETERS: dict[str, tuple[tuple[str, bool], ...]] = {
     "cubic": (("k3", False),),
     "jenkins": (("kf", True), ("slip_force", True)),
     "coulomb": (("slip_force", True),),
     "quadratic_damping": (("cq", True),),
     "gap": (("gap", True), ("kc", True)),
+    "iwan": (("slip_force", True), ("kt", True), ("chi", False), ("beta", True)),
 }
+INTERVAL_PARAMETERS: dict[str, tuple[float, float]] = {"chi": (-1.0, 0.0)}
+_INTERVAL_MARGIN = 1e-9  # interval values are kept this far (relative) inside their ends
 
 
 class ModelError(ValueError):
@@ -185,9 +198,15 @@ class PolynomialModel:
 
 @dataclass(frozen=True)
 class PhysicalModel:
-    """Sum of named physical elements acting at every force level (see module doc)."""
+    """Sum of named physical elements acting at every force level (see module doc).
+
+    ``fixed`` holds parameters not fitted, by reported name (an Iwan joint's ``phi_max``
+    may be fixed in place of its ``slip_force``, which then follows from K_T, χ and β);
+    ``note`` says why they are fixed."""
 
     element_names: tuple[str, ...]
+    fixed: tuple[tuple[str, float], ...] = ()
+    note: str = ""
     kind: str = field(default="physical", init=False)
 
     def __post_init__(self) -> None:
@@ -200,17 +219,31 @@ class PhysicalModel:
                 f"unknown element(s) {unknown}; identifiable elements: {', '.join(ELEMENT_PARAMETERS)}"
             )
         object.__setattr__(self, "element_names", names)
+        object.__setattr__(self, "fixed", tuple((str(k), float(v)) for k, v in self.fixed))
+        known = {name for _, name, _ in self._all_slots()} | {f"phi_max{sfx}" for el, sfx in self._suffixes() if el == "iwan"}
+        unknown = [k for k, _ in self.fixed if k not in known]
+        if unknown:
+            raise ModelError(f"fixed parameter(s) {unknown} are not parameters of {' + '.join(names)}")
+
+    def _suffixes(self) -> list[tuple[str, str]]:
+        """(element, suffix of its parameter names) per element; the suffix numbers repeated elements."""
+        out, seen = [], {}
+        for element in self.element_names:
+            seen[element] = seen.get(element, 0) + 1
+            out.append((element, "" if self.element_names.count(element) == 1 else f"_{seen[element]}"))
+        return out
+
+    def _all_slots(self) -> list[tuple[str, str, bool]]:
+        return [(element, name + suffix, positive) for element, suffix in self._suffixes()
+                for name, positive in ELEMENT_PARAMETERS[element]]
 
     @property
     def _slots(self) -> list[tuple[str, str, bool]]:
-        """(element, reported parameter name, positive) per entry of p."""
-        slots, seen = [], {}
-        for element in self.element_names:
-            seen[element] = seen.get(element, 0) + 1
-            suffix = "" if self.element_names.count(element) == 1 else f"_{seen[element]}"
-            for name, positive in ELEMENT_PARAMETERS[element]:
-                slots.append((element, name + suffix, positive))
-        return slots
+        """(element, reported parameter name, positive) per entry of p (the fitted ones)."""
+        fixed = dict(self.fixed)
+        replaced = {f"slip_force{suffix}" for element, suffix in self._suffixes()
+                    if element == "iwan" and f"phi_max{suffix}" in fixed}
+        return [slot for slot in self._all_slots() if slot[1] not in fixed and slot[1] not in replaced]
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -221,13 +254,28 @@ class PhysicalModel:
         return len(self._slots)
 
     def description(self) -> str:
-        return "physical elements: " + " + ".join(self.element_names)
+        text = "physical elements: " + " + ".join(self.element_names)
+        if self.fixed:
+            text += " (fixed: " + ", ".join(f"{k} = {v:.4g}" for k, v in self.fixed) + ")"
+        return text
+
+    def _intervals(self) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
+        """Which entries are interval parameters, and their lower and upper ends."""
+        ends = [INTERVAL_PARAMETERS.get(name.rsplit("_", 1)[0] if name not in INTERVAL_PARAMETERS else name)
+                for _, name, _ in self._slots]
+        inside = np.array([e is not None for e in ends])
+        low = np.array([e[0] if e else 0.0 for e in ends])
+        high = np.array([e[1] if e else 1.0 for e in ends])
+        return inside, low, high
 
     def values(self, p: ArrayLike) -> NDArray[np.float64]:
-        """Parameter values in SI units from the fitted vector (exp of the log entries)."""
+        """Parameter values in SI units from the fitted vector (exp of the log entries, the
+        logistic map onto their interval for :data:`INTERVAL_PARAMETERS`)."""
         p = np.asarray(p, dtype=float)
         positive = np.array([pos for _, _, pos in self._slots])
-        return np.where(positive, np.exp(np.clip(p, -700, 700)), p)
+        inside, low, high = self._intervals()
+        share = np.clip(scipy.special.expit(p), _INTERVAL_MARGIN, 1 - _INTERVAL_MARGIN)
+        return np.where(positive, np.exp(np.clip(p, -700, 700)), np.where(inside, low + (high - low) * share, p))
 
     def vector(self, values: ArrayLike) -> NDArray[np.float64]:
         """Inverse of :meth:`values`."""
@@ -235,13 +283,23 @@ class PhysicalModel:
         positive = np.array([pos for _, _, pos in self._slots])
         if np.any(v[positive] <= 0):
             raise ModelError(f"parameters {[n for n, pos, x in zip(self.names, positive, v) if pos and x <= 0]} must be > 0")
-        return np.where(positive, np.log(np.where(positive, v, 1.0)), v)
+        inside, low, high = self._intervals()
+        outside = inside & ((v <= low) | (v > high))
+        if np.any(outside):
+            raise ModelError(f"parameters {[n for n, x in zip(self.names, outside) if x]} must lie in their intervals "
+                             f"{[INTERVAL_PARAMETERS.get(n.rsplit('_', 1)[0], INTERVAL_PARAMETERS.get(n)) for n, x in zip(self.names, outside) if x]}")
+        share = np.clip((v - low) / (high - low), _INTERVAL_MARGIN, 1 - _INTERVAL_MARGIN)
+        return np.where(positive, np.log(np.where(positive, v, 1.0)), np.where(inside, scipy.special.logit(share), v))
 
     def elements(self, p: ArrayLike, dofs: tuple[int, ...] = (0,)) -> list:
-        values = iter(self.values(p))
+        values = {**dict(zip(self.names, self.values(p))), **dict(self.fixed)}
         out = []
-        for element in self.element_names:
-            kwargs = {name: float(next(values)) for name, _ in ELEMENT_PARAMETERS[element]}
+        for element, suffix in self._suffixes():
+            kwargs = {name: float(values[name + suffix]) for name, _ in ELEMENT_PARAMETERS[element]
+                      if name + suffix in values}
+            if element == "iwan" and "slip_force" not in kwargs:  # from φ_max (IwanJoint.phi_max inverted)
+                chi, beta = kwargs["chi"], kwargs["beta"]
+                kwargs["slip_force"] = values["phi_max" + suffix] * kwargs["kt"] * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
             out.append(ELEMENT_TYPES[element](tuple(dofs), **kwargs))
         return out
 
@@ -266,7 +324,11 @@ class PhysicalModel:
     nu_low = nu
 
     def parameters(self, p: ArrayLike) -> dict[str, float]:
-        return {name: float(v) for name, v in zip(self.names, self.values(p))}
+        """Every element parameter (SI) by reported name, fitted or fixed."""
+        out = {}
+        for (element, suffix), built in zip(self._suffixes(), self.elements(p)):
+            out.update({name + suffix: float(getattr(built, name)) for name, _ in ELEMENT_PARAMETERS[element]})
+        return out
 
     def initial_guesses(
         self, amplitude: NDArray, y: NDArray, amplitude_low: float, omega: float
@@ -291,12 +353,56 @@ class PhysicalModel:
         }
         if "jenkins" not in self.element_names:
             guess["slip_force"] = [max(damping_force, 1e-6 * scale * a_min)]
+        iwan = _iwan_guesses(a, y, scale)
         starts = [[]]
-        for _, name, _ in self._slots:
+        for element, name, _ in self._slots:
             base = name.rsplit("_", 1)[0] if name not in guess else name
-            options = guess.get(base, [1.0])
+            options = iwan.get(base, [1.0]) if element == "iwan" else guess.get(base, [1.0])
             starts = [s + [o] for s in starts for o in options]
         return [self.vector(s) for s in starts]
+
+
+def _iwan_guesses(amplitude: NDArray, y: NDArray, scale: float) -> dict[str, list[float]]:
+    """Starts of an Iwan joint from PRD (or DDF) points: K_T from the stiffness lost at the
+    largest amplitude; F_S from the damping there (``Im ν ≈ 4F_S/(πA)`` in macroslip) and,
+    in case that level is not in macroslip, from K_T times the middle amplitude; two
+    exponents and two shares of the concentrated part."""
+    largest = int(np.argmax(amplitude))
+    kt = max(-float(np.min(y.real)), 1e-3 * scale) * 1.2
+    floor = 1e-6 * kt * float(amplitude.min())
+    slips = [max(float(np.pi / 4 * y.imag[largest] * amplitude[largest]), floor), kt * float(np.median(amplitude))]
+    return {"slip_force": slips, "kt": [kt], "chi": [-0.3, -0.7], "beta": [0.1, 1.0]}
+
+
+MACROSLIP_REACH = 2.0
+"""An Iwan joint's F_S, K_T and β count as determined only when the largest measured
+amplitude reaches ``MACROSLIP_REACH × φ_max`` of the fit."""
+
+
+def iwan_identifiability(model: "PhysicalModel | PolynomialModel | None", p: ArrayLike | None,
+                         amplitude_max: float) -> "PhysicalModel | None":
+    """The model to refit when an Iwan joint of a fit has no level in macroslip, else None.
+
+    Below φ_max the PRD/DDF data determine the joint's χ and ``R' = K_T/((1+β)φ_max^(χ+1))``
+    only (module docstring). The refit fixes β = 0 and φ_max at the largest measured
+    amplitude: the smallest joint that keeps every level in microslip, so its K_T and F_S
+    are lower bounds, and χ and R' are what the data say."""
+    if not isinstance(model, PhysicalModel) or model.fixed or p is None or "iwan" not in model.element_names:
+        return None
+    fixed, reaches = [], []
+    for (element, suffix), built in zip(model._suffixes(), model.elements(p)):
+        if element == "iwan" and amplitude_max < MACROSLIP_REACH * built.phi_max:
+            fixed += [(f"beta{suffix}", 0.0), (f"phi_max{suffix}", float(amplitude_max))]
+            reaches.append(amplitude_max / built.phi_max)
+    if not fixed:
+        return None
+    note = (f"no measured level reaches the Iwan joint's macroslip (largest amplitude {amplitude_max:.4g} m, "
+            f"{min(reaches):.2g} × the φ_max of a free fit; {MACROSLIP_REACH:g} × needed): the data determine its "
+            f"chi and R' = kt/((1+beta)·phi_max^(chi+1)) only (kt trades with the linear stiffness, slip_force "
+            f"and beta act above φ_max). Fixed beta = 0 and phi_max = the largest amplitude — the smallest joint "
+            f"that keeps every level in microslip — so kt and slip_force are lower bounds, and the extracted "
+            f"linear FRF holds the rest of the joint's stiffness")
+    return PhysicalModel(model.element_names, tuple(fixed), note)
 
 
 def polynomial_approximation(

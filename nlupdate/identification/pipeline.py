@@ -31,12 +31,14 @@ from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, parse_elements
+from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
 from nlupdate.identification.report import elements_summary
-from nlupdate.identification.trust import RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, identification_warnings
+from nlupdate.identification.trust import (
+    POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, fit_verdict, identification_warnings,
+)
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
@@ -269,6 +271,7 @@ class Identification:
                 },
             })
         stats = self.uncertainty.parameters
+        verdict, ratio = fit_verdict(self.residual_noise_fraction, self.noise_fraction)
         out.update({
             "linear_from_level_n": self.linear_from_level_n,
             "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, self.reference_unit))
@@ -282,8 +285,12 @@ class Identification:
                                    if self.residual_noise_fraction is not None and self.noise_fraction > 0 else None),
                 "definition": "RMS of the fit's residuals normalised like the noise (std / |H|), corrected for the "
                               "fitted degrees of freedom; about noise_fraction when the model fits; warned above "
-                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g})",
+                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g}); 'fit' is 'poor' above "
+                              f"{POOR_FIT_FACTOR:g} x (the model does not describe the data: see the residual against "
+                              "amplitude in fit.png)",
             },
+            "fit": verdict,
+            "fit_ratio_to_noise": ratio,
             "elements": elements_summary(r, s.response_dof),
             "linear_frf": {
                 "file": "linear_frf.parquet",
@@ -330,13 +337,21 @@ def _model(settings: IdentificationSettings) -> PhysicalModel | PolynomialModel:
 
 
 def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None) -> PRDResult | DDFResult:
-    """The nonlinearity fit alone (also each Monte-Carlo sample's)."""
-    if settings.method == "prd":
-        return identify_prd(data, frequency_hz, _model(settings), low_force=settings.low_force_n,
-                            high_forces=settings.high_forces_n, estimator=settings.estimator,
-                            half_window=settings.half_window)
-    return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
-                        physical=parse_elements(settings.elements), estimator=settings.estimator)
+    """The nonlinearity fit alone (also each Monte-Carlo sample's); an Iwan joint no level
+    drives into macroslip is refitted with what the data cannot show fixed
+    (:func:`~nlupdate.identification.dfmodels.iwan_identifiability`)."""
+    def fit(model):
+        if settings.method == "prd":
+            return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
+                                high_forces=settings.high_forces_n, estimator=settings.estimator,
+                                half_window=settings.half_window)
+        return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
+                            physical=model if isinstance(model, PhysicalModel) else None, estimator=settings.estimator)
+
+    result = fit(_model(settings))
+    refit = iwan_identifiability(getattr(result, "physical", None) or getattr(result, "model", None), result.p,
+                                 float(np.max(result.amplitude)))
+    return result if refit is None else fit(refit)
 
 
 def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult):
@@ -454,8 +469,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
     estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz)
     uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress)
-    physical = parse_elements(settings.elements)
-    model = physical or getattr(result, "model", None)
+    model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
     description = model.description() if model is not None else (
         f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")
     return Identification(

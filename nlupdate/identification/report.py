@@ -17,6 +17,9 @@
 * ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
   (how the statistics were made); ``noise_fraction`` (the noise level used) and
   ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
+* ``fit``: ``"poor"`` when that ratio exceeds 5 (the model does not describe the data; the
+  fit plot shows the residual against amplitude), ``"consistent"``, or ``"unknown"`` (no
+  spare degrees of freedom), with ``fit_ratio_to_noise``;
 * ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
 * ``defaults_used``: every option that was not given and the value chosen.
 """
@@ -63,22 +66,51 @@ def elements_summary(result: Any, dof_name: str) -> list[dict] | None:
     return out
 
 
-def plot_fit(result: Any, path: Path, title: str, reference_unit: str = "N") -> Path:
-    """PRD/DDF points and the fitted curve: real and imaginary parts against amplitude
-    (y in N/m, or V/m for a voltage reference)."""
+def residual_in_noise_units(result: Any, noise_fraction: float) -> np.ndarray:
+    """The misfit of each PRD/DDF point, ``|y_i − ŷ(A_i)|``, over the noise it carries,
+    about ``σ·√2·F_i/A_i`` (σ: relative noise; ``F_i/A_i = |1/H_i|``, and the reference
+    level's ``|1/H|`` taken as the same size) — about 1 where the model fits."""
+    amplitude = np.asarray(result.amplitude, dtype=float)
+    if result.method == "prd":
+        forces = np.asarray(result.setup.high_forces, dtype=float)
+        force = np.tile(forces, max(amplitude.size // forces.size, 1))[: amplitude.size]
+    else:
+        force = np.full(amplitude.size, float(result.setup.force_pair[1]))
+    misfit = np.abs(np.asarray(result.y) - result.fitted_y(amplitude))
+    return misfit / (max(float(noise_fraction), 1e-12) * np.sqrt(2) * force / amplitude)
+
+
+def plot_fit(result: Any, path: Path, title: str, noise_fraction: float | None = None,
+             poor_factor: float | None = None, reference_unit: str = "N") -> Path:
+    """PRD/DDF points and the fitted curve: real and imaginary parts against amplitude (y in
+    N/m, or V/m for a voltage reference), and (given the noise level) each point's misfit in
+    units of its noise against amplitude, so a person sees where the model misses
+    (``poor_factor`` draws the "poor fit" line)."""
     amplitude = np.asarray(result.amplitude)
     y = np.asarray(result.y)
     low, high = result.amplitude_range
     grid = np.linspace(0.0 if result.method == "prd" else 0.5 * low, 1.1 * high, 300)
     curve = result.fitted_y(grid)
-    fig = Figure(figsize=(10, 4))
-    axes = fig.subplots(1, 2)
+    panels = 2 if noise_fraction is None else 3
+    fig = Figure(figsize=(5 * panels, 4))
+    axes = fig.subplots(1, panels)
     for ax, part, label in ((axes[0], np.real, "Re"), (axes[1], np.imag, "Im")):
         ax.plot(amplitude * 1e3, part(y), ".", ms=4, alpha=0.6, label="data")
         ax.plot(grid * 1e3, part(curve), "-", lw=1.5, label="fit")
         ax.set_xlabel("response amplitude |X| (mm)")
         ax.set_ylabel(f"{label} y ({reference_unit}/m)")
         ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    if noise_fraction is not None:
+        ax = axes[2]
+        ax.loglog(amplitude * 1e3, residual_in_noise_units(result, noise_fraction), ".", ms=4, label="points")
+        ax.axhline(1.0, color="grey", lw=1, label="noise level")
+        if poor_factor is not None:
+            ax.axhline(poor_factor, color="crimson", lw=1, ls="--", label=f"{poor_factor:g}× noise: poor fit")
+        ax.set_xlabel("response amplitude |X| (mm)")
+        ax.set_ylabel("|y − fit| / noise of y")
+        ax.set_title("residual against amplitude", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
     fig.suptitle(f"{title}: {what}", fontsize=10)

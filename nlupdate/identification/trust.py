@@ -30,6 +30,10 @@ A fit always returns numbers; these checks say when the numbers are not measurem
     or above ``kf·A_max/1.1`` (A_max: the largest high-force amplitude) means no
     measured level slips (or barely): the data bound it from below only.
 
+* ``not_identifiable`` — parameters the data cannot show were fixed, and why (an Iwan joint
+  no level drives into macroslip: :func:`~nlupdate.identification.dfmodels.iwan_identifiability`),
+  or an Iwan joint fitted at χ ≤ −0.98, which acts as a Jenkins element whose K_T and β the
+  data cannot separate (only βK_T/(1+β)).
 * ``residual_above_noise`` — the fit's residual, as a relative noise level
   (:attr:`~nlupdate.identification.pipeline.Identification.residual_noise_fraction`),
   is more than ``RESIDUAL_FACTOR`` (3) times the noise level the identification used
@@ -54,6 +58,8 @@ import numpy as np
 from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
 
 RESIDUAL_FACTOR = 3.0
+POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
+JENKINS_END = -0.98  # an Iwan joint's χ at or below this acts as a Jenkins element
 RESIDUAL_FLOOR = 1e-3
 SLIP_TOLERANCE = 0.1
 LOG_LIMIT = 699.0  # PhysicalModel.values clips log-parameters at ±700
@@ -101,7 +107,7 @@ def uncertainty_warnings(values: dict[str, float], std: dict[str, float], what: 
 
 def _jenkins_slots(model: PhysicalModel) -> list[tuple[str, str]]:
     """(kf name, slip force name) of every Jenkins element of a physical model."""
-    names = iter(model.names)
+    names = iter(name for _, name, _ in model._all_slots())
     out = []
     for element in model.element_names:
         slot = [next(names) for _ in ELEMENT_PARAMETERS[element]]
@@ -161,6 +167,16 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str) -> list[
     return out + [w for w in _slip_force_warnings(result, values, source) if w.subject not in flagged]
 
 
+def fit_verdict(residual: float | None, noise: float) -> tuple[str, float | None]:
+    """(``"poor"`` | ``"consistent"`` | ``"unknown"``, ratio of the fit's residual to
+    max(noise, ``RESIDUAL_FLOOR``)): poor above ``POOR_FIT_FACTOR``, the misfit is then far
+    above what the noise explains and the model does not describe the data."""
+    if residual is None or not np.isfinite(residual):
+        return "unknown", None
+    ratio = float(residual) / max(float(noise), RESIDUAL_FLOOR)
+    return ("poor" if ratio > POOR_FIT_FACTOR else "consistent"), ratio
+
+
 def residual_warnings(residual: float | None, noise: float, noise_source: str, source: str = "") -> list[TrustWarning]:
     """``residual_above_noise`` when the fit's residual noise level exceeds
     ``RESIDUAL_FACTOR`` × max(noise, ``RESIDUAL_FLOOR``)."""
@@ -189,4 +205,26 @@ def identification_warnings(identification: Any, source: str = "identification")
             if w.subject not in flagged]
     out += residual_warnings(identification.residual_noise_fraction, identification.noise_fraction,
                              identification.noise_source, source)
-    return tuple(out)
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if isinstance(model, PhysicalModel) and model.note:
+        out.append(TrustWarning(", ".join(name for name, _ in model.fixed), "not_identifiable", model.note, source))
+    return tuple(out + _jenkins_end_warnings(model, values, source))
+
+
+def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+    """An Iwan joint fitted at χ → −1 is a Jenkins element (kf = βK_T/(1+β), Fs = F_S): its
+    K_T and β are then not determined separately."""
+    if not isinstance(model, PhysicalModel):
+        return []
+    out = []
+    for element, suffix in model._suffixes():
+        chi = values.get(f"chi{suffix}")
+        if element != "iwan" or chi is None or chi > JENKINS_END:
+            continue
+        kt, beta, slip = values[f"kt{suffix}"], values[f"beta{suffix}"], values[f"slip_force{suffix}"]
+        out.append(TrustWarning(
+            f"kt{suffix}, beta{suffix}", "not_identifiable",
+            f"chi{suffix} = {chi:.4g} sits at the Jenkins end of the Iwan joint (chi → −1): it acts as a Jenkins "
+            f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} N/m and slip force {slip:.4g} N; "
+            f"kt and beta are not determined separately (fit a jenkins element instead)", source))
+    return out

@@ -21,10 +21,12 @@ Elements are frozen dataclasses of plain floats and tuples, hence hashable.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import gamma, pi, sqrt
 from typing import Protocol, Sequence, Union
 
 import numpy as np
+import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 _TINY_AMPLITUDE = 1e-300
@@ -258,6 +260,185 @@ class SymmetricGap(_Stateless):
         return self.kc
 
 
+IWAN_DECADES = 6
+"""Decades of slip displacement below φ_max that the sliders of an :class:`IwanJoint`'s
+time-domain realisation cover (the lowest bin holds [0, 10^−6 φ_max])."""
+
+
+def _unit_jenkins_df(amplitude: NDArray, slip: NDArray) -> NDArray[np.complex128]:
+    """DF of Jenkins elements of unit stiffness and slip displacements ``slip`` (m) at
+    amplitudes ``amplitude`` (m), broadcast together."""
+    r = np.minimum(1.0, slip / amplitude)
+    b = np.arccos(1.0 - 2.0 * r)
+    real = (b - 0.5 * np.sin(2 * b)) / pi
+    imag = np.where(amplitude > slip, 4 * slip / (pi * amplitude) * (1 - slip / amplitude), 0.0)
+    return real + 1j * imag
+
+
+@lru_cache(maxsize=64)
+def _iwan_sliders(phi_max: float, r_prime: float, chi: float, concentrated: float, count: int):
+    """Stiffnesses (N/m) and slip displacements (m) of the parallel-Jenkins realisation."""
+    edges = np.concatenate([[0.0], phi_max * np.logspace(-IWAN_DECADES, 0.0, count)])
+    stiffness = r_prime * np.diff(edges ** (chi + 1))
+    slip_force = (chi + 1) * r_prime * np.diff(edges ** (chi + 2)) / (chi + 2)
+    slip = slip_force / stiffness
+    if concentrated > 0:
+        stiffness, slip = np.append(stiffness, concentrated), np.append(slip, phi_max)
+    stiffness.setflags(write=False)
+    slip.setflags(write=False)
+    return stiffness, slip
+
+
+@dataclass(frozen=True)
+class IwanJoint:
+    """Segalman's four-parameter Iwan model of a bolted (lap) joint: a continuum of Jenkins
+    elements (unit-stiffness springs in series with sliders) with slip displacements φ
+    distributed as ``ρ(φ) = R φ^χ [H(φ) − H(φ − φ_max)] + S δ(φ − φ_max)``.
+
+    Parameters: ``slip_force`` F_S (N), the force at which the whole joint slips
+    (macroslip); ``kt`` K_T (N/m), the tangential stiffness of the stuck joint;
+    ``chi`` χ ∈ (−1, 0], the exponent of the distribution (microslip dissipation per cycle
+    ∝ A^(χ+3)); ``beta`` β ≥ 0, the stiffness of the concentrated part S over that of the
+    continuous part. With ``R' = R/(χ+1)``::
+
+        φ_max = F_S (1+β) / (K_T (β + (χ+1)/(χ+2))),   R' φ_max^(χ+1) = K_T/(1+β),
+        S = β K_T/(1+β).
+
+    Backbone (virgin loading, u ≥ 0): ``F_bb(u) = K_T u − R' u^(χ+2)/(χ+2)`` for u < φ_max,
+    ``F_S`` beyond. The steady cycle follows Masing's rules, and its describing function
+    in closed form (r = min(1, φ_max/A), b = arccos(1 − 2r), a = χ + 5/2, ``B(r; a, 3/2)``
+    the incomplete beta function)::
+
+        Re ν = K_T (b − ½ sin 2b)/π − (8R'/π) A^(χ+1) B(r; a, 3/2)
+        Im ν = (4(χ+1)R'/(πA)) [m^(χ+2)/(χ+2) − m^(χ+3)/((χ+3)A)]
+               + S (4φ_max/(πA)) (1 − φ_max/A) [A > φ_max],      m = min(A, φ_max).
+
+    In microslip (A ≤ φ_max) ``Re ν = K_T − (8R'/π) B(a, 3/2) A^(χ+1)`` and
+    ``Im ν = 4(χ+1)R' A^(χ+1)/(π(χ+2)(χ+3))``: the energy dissipated per cycle,
+    ``πA² Im ν``, grows as A^(χ+3). Jenkins limits: β → ∞ is a Jenkins element
+    (kf = K_T, Fs = F_S); χ → −1 at fixed β is a Jenkins element (kf = βK_T/(1+β),
+    Fs = F_S) at every A > 0.
+
+    Time domain: ``sliders`` Jenkins elements realise the continuous part (bins of the
+    slip displacement, geometric over the :data:`IWAN_DECADES` decades below φ_max plus
+    [0, 10⁻⁶φ_max]; each slider has the bin's stiffness ∫ρ and slip force ∫φρ, so the
+    realisation's backbone interpolates the exact one at the bin edges), plus one slider
+    (S, φ_max) for the concentrated part. Its describing function differs from the exact
+    one by O(1/sliders²): with the default 400, by less than 1.5e-4 in Re ν and 1e-3 in
+    Im ν (relative) for 1e-4 ≤ A/φ_max ≤ 10 (χ from −0.99 to 0, β from 0 to 100; 1000
+    sliders: 1e-4 and 1.5e-4); below 1e-5 φ_max it barely slips. The state is
+    the slider positions (m), shape ``x.shape + (n_sliders,)``.
+    """
+
+    dofs: tuple[int, ...]
+    slip_force: float
+    kt: float
+    chi: float
+    beta: float
+    sliders: int = 400
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dofs", _check_dofs(self.dofs))
+        for name in ("slip_force", "kt", "chi", "beta"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        _positive("slip_force", self.slip_force)
+        _positive("kt", self.kt)
+        chi = self.chi
+        if not (np.isfinite(chi) and -1.0 < chi <= 0.0):
+            raise ValueError(f"chi must be a number with -1 < chi <= 0, got {self.chi}")
+        _positive("beta", self.beta, allow_zero=True)
+        sliders = float(self.sliders)
+        if not (np.isfinite(sliders) and sliders == int(sliders) and sliders >= 2):
+            raise ValueError(f"sliders must be an integer >= 2, got {self.sliders}")
+        object.__setattr__(self, "sliders", int(sliders))
+
+    # -- the distribution ---------------------------------------------------------------
+    @property
+    def phi_max(self) -> float:
+        """Largest slip displacement (m): the joint is in macroslip beyond it."""
+        chi, beta = self.chi, self.beta
+        return self.slip_force * (1 + beta) / (self.kt * (beta + (chi + 1) / (chi + 2)))
+
+    @property
+    def r_prime(self) -> float:
+        """``R' = R/(χ+1)`` (N/m^(χ+2)), with ``R' φ_max^(χ+1) = K_T/(1+β)``."""
+        return self.kt / ((1 + self.beta) * self.phi_max ** (self.chi + 1))
+
+    @property
+    def concentrated_stiffness(self) -> float:
+        """S = βK_T/(1+β) (N/m), the stiffness of the sliders that slip at φ_max."""
+        return self.beta * self.kt / (1 + self.beta)
+
+    def backbone(self, displacement: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Virgin-loading force ``F_bb(u)`` (N, odd in u) and its slope (N/m)."""
+        u = np.asarray(displacement, dtype=float)
+        s = np.minimum(np.abs(u), self.phi_max)
+        force = self.kt * s - self.r_prime * s ** (self.chi + 2) / (self.chi + 2)
+        slope = np.where(np.abs(u) < self.phi_max, self.kt - self.r_prime * s ** (self.chi + 1), 0.0)
+        return np.sign(u) * np.where(np.abs(u) < self.phi_max, force, self.slip_force), slope
+
+    # -- describing function ------------------------------------------------------------
+    def _parts(self, a: NDArray):
+        """φ_max, χ, r = min(1, φ_max/A), b = arccos(1 − 2r) and B(r; χ+5/2, 3/2) (the
+        incomplete beta function, complete where r = 1: microslip)."""
+        phi, chi = self.phi_max, self.chi
+        r = np.minimum(1.0, phi / a)
+        complete = scipy.special.beta(chi + 2.5, 1.5)
+        if np.all(r == 1.0):
+            return phi, chi, r, np.full(r.shape, pi), np.full(r.shape, complete)
+        return phi, chi, r, np.arccos(1.0 - 2.0 * r), scipy.special.betainc(chi + 2.5, 1.5, r) * complete
+
+    def describing_function(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        phi, chi, r, b, incomplete = self._parts(a)
+        rp, s = self.r_prime, self.concentrated_stiffness
+        power = a ** (chi + 1)
+        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * rp / pi * power * incomplete
+        m = np.minimum(a, phi)
+        imag = 4 * (chi + 1) * rp / (pi * a) * (m ** (chi + 2) / (chi + 2) - m ** (chi + 3) / ((chi + 3) * a))
+        imag = imag + np.where(a > phi, 4 * s * phi / (pi * a) * (1 - phi / a), 0.0)
+        return real + 1j * imag
+
+    def describing_function_derivatives(self, amplitude, omega=0.0):
+        a = _amplitude(amplitude)
+        phi, chi, r, b, incomplete = self._parts(a)
+        rp, s = self.r_prime, self.concentrated_stiffness
+        slip = a > phi
+        root = np.sqrt(np.maximum(r * (1 - r), 0.0))
+        d_real = (-8 / pi * self.kt * r * root / a
+                  - 8 * rp / pi * ((chi + 1) * a**chi * incomplete - a**chi * r ** (chi + 2.5) * np.sqrt(1 - r)))
+        micro_imag = 4 * (chi + 1) ** 2 * rp * a**chi / (pi * (chi + 2) * (chi + 3))
+        macro_imag = (4 * (chi + 1) * rp / pi * (-phi ** (chi + 2) / ((chi + 2) * a**2) + 2 * phi ** (chi + 3) / ((chi + 3) * a**3))
+                      + 4 * s * phi / pi * (-1 / a**2 + 2 * phi / a**3))
+        d_da = d_real + 1j * np.where(slip, macro_imag, micro_imag)
+        return d_da, np.zeros_like(d_da)
+
+    # -- time domain --------------------------------------------------------------------
+    def realisation(self) -> tuple[NDArray, NDArray]:
+        """(stiffness N/m, slip displacement m) of the time-domain sliders (read-only)."""
+        return _iwan_sliders(self.phi_max, self.r_prime, float(self.chi), self.concentrated_stiffness, self.sliders)
+
+    def realisation_describing_function(self, amplitude: ArrayLike) -> NDArray[np.complex128]:
+        """Exact DF of the time-domain realisation: Σ k_i ν_Jenkins(A; φ_i) (N/m)."""
+        stiffness, slip = self.realisation()
+        a = _amplitude(amplitude)[..., None]
+        return _unit_jenkins_df(a, slip) @ stiffness
+
+    def force(self, displacement, velocity, state, omega=0.0):
+        """Return mapping of every slider: its force is ``k_i·clip(u − x_i, ±φ_i)``."""
+        stiffness, slip = self.realisation()
+        u = np.asarray(displacement, dtype=float)
+        sliders = self.initial_state(u.shape) if state is None else state
+        stretch = np.clip(u[..., None] - sliders, -slip, slip)
+        return stretch @ stiffness, u[..., None] - stretch
+
+    def initial_state(self, shape: tuple[int, ...]) -> NDArray:
+        return np.zeros(tuple(shape) + (self.realisation()[0].size,))
+
+    def stiffness_bound(self, amplitude: float) -> float:
+        return self.kt
+
+
 def _cos_power_mean(power: int) -> float:
     """``(1/π)∫₀^{2π} |cos θ|^{power+2} dθ``: DF gain of the force ``x|x|^power``."""
     n = power + 2
@@ -317,7 +498,9 @@ class PolynomialDF(_Stateless):
         )
 
 
-Element = Union[CubicStiffness, JenkinsFriction, CoulombFriction, QuadraticDamping, SymmetricGap, PolynomialDF]
+Element = Union[
+    CubicStiffness, JenkinsFriction, CoulombFriction, QuadraticDamping, SymmetricGap, IwanJoint, PolynomialDF
+]
 
 ELEMENT_TYPES: dict[str, type] = {
     "cubic": CubicStiffness,
@@ -325,6 +508,7 @@ ELEMENT_TYPES: dict[str, type] = {
     "coulomb": CoulombFriction,
     "quadratic_damping": QuadraticDamping,
     "gap": SymmetricGap,
+    "iwan": IwanJoint,
     "polynomial": PolynomialDF,
 }
 

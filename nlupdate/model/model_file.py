@@ -28,6 +28,15 @@ Elements (``dofs`` = one dof to ground or two dofs, by index or name)::
     kf = 8e4
     slip_force = 1.0
 
+    [[nonlinear]]                          # Segalman's four-parameter Iwan joint
+    type = "iwan"
+    dofs = [0, 1]
+    slip_force = 1.0                       # F_S, macroslip force (N)
+    kt = 3e5                               # K_T, tangential stiffness (N/m)
+    chi = -0.5                             # χ, −1 < χ ≤ 0
+    beta = 0.5                             # β ≥ 0
+    sliders = 400                          # optional: Jenkins sliders in time integration
+
 :func:`system_to_toml` / :func:`write_system` write a system in this form (dense matrices,
 ``structural_damping`` as a matrix, floats in shortest round-trip form) so that
 :func:`load_system` reads back the same model.
@@ -55,9 +64,10 @@ ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
     "coulomb": ("slip_force",),
     "quadratic_damping": ("cq",),
     "gap": ("gap", "kc"),
+    "iwan": ("slip_force", "kt", "chi", "beta", "sliders"),
     "polynomial": ("real", "imag"),
 }
-OPTIONAL_ELEMENT_KEYS = {"polynomial": ("imag",)}
+OPTIONAL_ELEMENT_KEYS = {"polynomial": ("imag",), "iwan": ("sliders",)}
 LUMPED_KEYS = {"kind", "mass", "stiffness", "damping", "loss_factor", "structural_damping", "dof_names"}
 MODAL_KEYS = {"kind", "natural_frequencies_hz", "mode_shapes", "damping_ratios", "loss_factors", "dof_names"}
 
@@ -295,7 +305,8 @@ def system_to_toml(system: NonlinearSystem) -> str:
         lines += ["", "[[nonlinear]]", f'type = "{kind}"', f"dofs = {list(element.dofs)}"]
         for key in ELEMENT_KEYS[kind]:
             value = getattr(element, key)
-            lines.append(f"{key} = {_row(value) if kind == 'polynomial' else _number(value)}")
+            text = _row(value) if kind == "polynomial" else str(value) if isinstance(value, int) else _number(value)
+            lines.append(f"{key} = {text}")
     return "\n".join(lines) + "\n"
 
 

@@ -20,13 +20,21 @@ transformed column by column. Two elements need more than a pointwise law:
   ``f(θ) = ±Fs + kf (u(θ) − u(θ_a))`` with θ_a the last slip sample, so
   ``∂f(θ)/∂c = kf (E(θ) − E(θ_a))``, zero in slip. A cycle whose peak-to-peak motion stays
   below ``2Fs/kf`` sticks with the slider centred (the limit of the slipping cycle).
+* Iwan: Masing's rules with memory on the samples (:func:`_iwan_branches`): every sample
+  lies on a branch from a turning point o, ``f = F_o + 2 sgn(u − u_o) F_bb(|u − u_o|/2)``
+  with the joint's backbone F_bb, and a turning point's force is built the same way from
+  the one before it, down to the outer loop's ``±F_bb(a)`` at the global extremes
+  (a = half the peak-to-peak motion; the sliders that never slip are centred, as for
+  Jenkins). So ``∂f/∂c = ∂F_o/∂c + F_bb'(|u − u_o|/2)(E(θ) − E(θ_o))``, recursively.
+  Exact for the continuous distribution (not the time-domain sliders); turning points
+  are taken on the samples.
 * Coulomb: ``Fs·sign(u̇)`` is piecewise constant, so samples would give a zero Jacobian.
   Its harmonics are integrated exactly between the zero crossings θ_c of u' (found on
   the samples, refined by Newton on the trigonometric polynomial) and differentiated
   through them, ``∂θ_c/∂c = −E'(θ_c)/u''(θ_c)``.
 
 Aliasing: a force law with powers up to p needs ``N > (p + 1)·H`` for exact low harmonics;
-non-smooth laws (gap, Jenkins) converge with N. :func:`aliasing_change` measures it.
+non-smooth laws (gap, Jenkins, Iwan) converge with N. :func:`aliasing_change` measures it.
 """
 from __future__ import annotations
 
@@ -39,6 +47,7 @@ from numpy.typing import NDArray
 from nlupdate.model.elements import (
     CoulombFriction,
     CubicStiffness,
+    IwanJoint,
     JenkinsFriction,
     PolynomialDF,
     QuadraticDamping,
@@ -205,6 +214,62 @@ def _jenkins_forces(element: JenkinsFriction, c, omega, fourier: Fourier) -> Per
     return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
 
 
+# -- Iwan: Masing hysteresis with memory ------------------------------------------------------
+def _iwan_branches(element: IwanJoint, u: NDArray, fourier: Fourier):
+    """The steady cycle of an Iwan joint on the samples ``u`` by Masing's rules.
+
+    Returns, per sample, the index of its branch's turning point (the origin), and the
+    force (N) and force gradient ``∂F/∂c`` (2H+1) at every turning point, keyed by sample.
+    The cycle starts at the global maximum on the outer loop, whose turning points carry
+    ``±F_bb(a)``, a = half the peak-to-peak motion; every later turning point j on a branch
+    from origin o carries ``F_j = F_o + 2 sgn(u_j − u_o) F_bb(|u_j − u_o|/2)``; a branch that
+    runs past the turning point before its origin closes that inner loop (both are dropped)
+    and continues on the branch they interrupted."""
+    n = u.size
+    top, bottom = int(np.argmax(u)), int(np.argmin(u))
+    half = 0.5 * (u[top] - u[bottom])
+    f_half, t_half = (float(v) for v in element.backbone(half))
+    outer = 0.5 * t_half * (fourier.E[top] - fourier.E[bottom])
+    force = {bottom: -f_half, top: f_half}
+    gradient = {bottom: -outer, top: outer}
+    stack = [bottom, top]
+    values = u.tolist()
+    origin = np.empty(n, dtype=np.int64)
+    origin[top] = top
+    direction = -1.0
+    previous = top
+    for step in range(1, n):
+        j = (top + step) % n
+        value = values[j]
+        if (value - values[previous]) * direction < 0:  # the previous sample is a turning point
+            o = stack[-1]
+            stretch = values[previous] - values[o]
+            f_bb, t_bb = (float(v) for v in element.backbone(0.5 * abs(stretch)))
+            force[previous] = force[o] + 2.0 * np.copysign(f_bb, stretch)
+            gradient[previous] = gradient[o] + t_bb * (fourier.E[previous] - fourier.E[o])
+            stack.append(previous)
+            direction = -direction
+        while len(stack) > 2 and (value - values[stack[-2]]) * direction > 0:  # an inner loop closes
+            del stack[-2:]
+        origin[j] = stack[-1]
+        previous = j
+    return origin, force, gradient
+
+
+def _iwan_forces(element: IwanJoint, c, omega, fourier: Fourier) -> PeriodForces:
+    u = fourier.to_time(c)
+    origin, force_at, gradient_at = _iwan_branches(element, u, fourier)
+    keys = np.array(sorted(force_at))
+    slot = np.searchsorted(keys, origin)
+    turning_force = np.array([force_at[k] for k in keys])
+    turning_gradient = np.array([gradient_at[k] for k in keys])
+    stretch = u - u[origin]
+    f_bb, t_bb = element.backbone(0.5 * stretch)
+    force = turning_force[slot] + 2.0 * f_bb
+    tangent = turning_gradient[slot] + t_bb[:, None] * (fourier.E - fourier.E[origin])
+    return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
+
+
 # -- Coulomb: exact integration between velocity zero crossings -------------------------------
 def _crossing_basis(theta: NDArray, fourier: Fourier) -> tuple[NDArray, NDArray]:
     """Rows ``∂u'(θ)/∂c`` and ``∂u''(θ)/∂c`` at the angles θ."""
@@ -268,6 +333,8 @@ def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> Period
     """Harmonics of one element's force for relative-motion coefficients ``c`` (m) at ω (rad/s)."""
     if isinstance(element, JenkinsFriction):
         return _jenkins_forces(element, c, omega, fourier)
+    if isinstance(element, IwanJoint):
+        return _iwan_forces(element, c, omega, fourier)
     if isinstance(element, CoulombFriction):
         return _coulomb_forces(element, c, omega, fourier)
     law = _POINTWISE.get(type(element))
@@ -279,8 +346,8 @@ def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> Period
 def damping_coefficients(element, c: NDArray, omega: float, fourier: Fourier) -> NDArray[np.complex128]:
     """Fourier coefficients (m = −2H … 2H) of an element's tangent damping ``∂f/∂u̇`` (N·s/m)
     along the motion ``c``, for Hill's method. Coulomb: ``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``, whose
-    coefficients in θ are ``(1/2π) Σ_c 2Fs e^{−imθ_c} / |u̇'(θ_c)|``; Jenkins: none (rate-independent)."""
-    if isinstance(element, JenkinsFriction):
+    coefficients in θ are ``(1/2π) Σ_c 2Fs e^{−imθ_c} / |u̇'(θ_c)|``; Jenkins and Iwan: none (rate-independent)."""
+    if isinstance(element, (JenkinsFriction, IwanJoint)):
         return np.zeros(4 * fourier.harmonics + 1, complex)
     if isinstance(element, CoulombFriction):
         theta, _, slope = _velocity_crossings(c, fourier)

@@ -54,7 +54,8 @@ for sticking contacts.
 
 Hysteretic elements (operator splitting)
 ----------------------------------------
-An element's history state (Jenkins slider position) is *committed* once per step: the four
+An element's history state (Jenkins slider position; an Iwan joint's slider positions, one
+row per case) is *committed* once per step: the four
 RK4 stage forces are evaluated with the state committed at the start of the step (the
 return mapping inside ``force`` clips the trial force, the new state is discarded), and at
 the end of the step ``force`` is called at the new displacement and its returned state is
@@ -534,7 +535,7 @@ def _integrate(
     }
     final = {
         "y": np.full((2 * ops.n_q, n_total), np.nan),
-        "states": [None if s is None else np.full(n_total, np.nan) for s in batch.states],
+        "states": [None if s is None else np.full((n_total,) + s.shape[1:], np.nan) for s in batch.states],
         "amp": np.zeros((len(ops.elements), n_total)),
         "vel": np.zeros((len(ops.elements), n_total)),
     }

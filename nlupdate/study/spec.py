@@ -32,7 +32,9 @@ runs as far as the file says. Relative paths are relative to the study file.
                             from_identification = true (the modes of the extracted linear
                             FRF; modes = [1, 2] picks some, default all)         — or —
                             identification = "<identify output dir | .json | FRF table>",
-                            n_modes, band_hz, force_level_n, frf_method = "peak" | "line_fit";
+                            n_modes, band_hz, force_level_n, frf_method = "peak" | "line_fit" — or —
+                            amplitude_models = ["<amplitude-dependent modal model .json>", …]
+                            (their linear limits f(a → 0), joint stuck; one per target mode);
                             response_dof, input_dof (that FRF's curve), model_response_dof,
                             model_input_dof (the same coordinates in the FE model), weights,
                             labels, model_modes, coordinates + mode_shapes
@@ -106,7 +108,8 @@ _ALLOWED: dict[str, set[str]] = {
     "adapter": {"kind", "model", "options", "fixed"},
     "parameters": {"name", "unit", "start", "lower", "upper", "relative_step"},
     "targets": {
-        "frequencies_hz", "std_hz", "from_identification", "modes", "identification", "n_modes", "band_hz",
+        "frequencies_hz", "std_hz", "from_identification", "modes", "identification", "amplitude_models", "n_modes",
+        "band_hz",
         "force_level_n", "frf_method", "response_dof", "input_dof", "model_response_dof", "model_input_dof", "weights",
         "labels", "model_modes", "coordinates", "mode_shapes",
     },
@@ -594,10 +597,12 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
     """Check the [targets] table; returns the number of target modes (−1: all modes the
     identification finds, known only after it ran)."""
     where = "targets"
-    sources = [key for key in ("frequencies_hz", "identification", "from_identification") if key in targets]
+    sources = [key for key in ("frequencies_hz", "identification", "from_identification", "amplitude_models")
+               if key in targets]
     if len(sources) != 1:
-        raise read.fail(where, None, "exactly one of frequencies_hz = [...] (Hz), from_identification = true, or "
-                                     "identification = \"<identify output>\"", sources or None)
+        raise read.fail(where, None, "exactly one of frequencies_hz = [...] (Hz), from_identification = true, "
+                                     "identification = \"<identify output>\" or amplitude_models = [\"<model.json>\", …]",
+                        sources or None)
     source = sources[0]
     if source != "frequencies_hz" and "std_hz" in targets:
         raise read.fail(where, "std_hz", "nothing: target uncertainties come from the identification")
@@ -608,6 +613,14 @@ def _check_targets(read: Reader, targets: Mapping[str, Any], identification: Ide
             raise read.fail(where, "frequencies_hz", "increasing natural frequencies > 0 Hz, each once (mode by mode; "
                                                      "pair them with model modes through model_modes)", frequencies)
         read.numbers(targets, where, "std_hz", length=n)
+    elif source == "amplitude_models":
+        paths = read.strings(targets, where, "amplitude_models")
+        if not paths:
+            raise read.fail(where, "amplitude_models", "a list of amplitude-dependent modal model files (JSON), one per "
+                                                       "target mode", targets["amplitude_models"])
+        for written in paths:
+            read.path_of(written)
+        n = len(paths)
     elif source == "from_identification":
         if read.boolean(targets, where, "from_identification", False) is not True:
             raise read.fail(where, "from_identification", "true (or leave the key out)", False)

@@ -26,6 +26,7 @@ from nlupdate.identification.pipeline import Identification, identify
 from nlupdate.measurement.frf_table import force_levels, read_frf_table, read_frf_tables, select_frf
 from nlupdate.measurement.time_history import estimate_frf, read_time_record
 from nlupdate.measurement.units import calibrated
+from nlupdate.model.amplitude_modal import read_amplitude_model
 from nlupdate.model.model_file import element_from_table, load_system
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
@@ -151,6 +152,14 @@ def study_targets(study: Study, identification: Identification | None) -> Target
             frequencies = frf_natural_frequencies(frequency, h, t["n_modes"], t.get("band_hz"), t.get("frf_method", "peak"))
         except ValueError as error:
             raise StudyError(f"{study.path}: [targets] identification {t['identification']!r}: {error}") from None
+    elif "amplitude_models" in t:  # the linear limits (joint stuck) of amplitude-dependent modal models
+        try:
+            models = [read_amplitude_model(study.resolve(written)) for written in t["amplitude_models"]]
+        except (ValueError, OSError) as error:  # AmplitudeModelError, InputFileError: the file named
+            raise StudyError(f"{study.path}: [targets] amplitude_models: {error}") from None
+        frequencies = np.array([m.natural_frequency_hz for m in models])
+        if "model_modes" not in t:
+            t = {**t, "model_modes": [m.mode for m in models]}
     else:
         frequencies = np.asarray(t["frequencies_hz"], dtype=float)
         std = np.asarray(t["std_hz"], dtype=float) if "std_hz" in t else None

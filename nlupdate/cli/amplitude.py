@@ -1,0 +1,160 @@
+"""``nlupdate amplitude``: an amplitude-dependent modal model of one mode from a modal table or FRFs.
+
+From a modal table (CSV: force level, mode, natural frequency, damping ratio per row) and the
+mode's mass-normalised shape at the excited coordinate (--shape NAME=VALUE, 1/√kg), or from a
+measured-FRF table (driving point, several force levels; the shape then comes from a one-mode
+fit of the lowest level unless given), fit the natural frequency and damping ratio against
+modal amplitude (--backbone iwan: a modal Iwan joint; polynomial: of --order) and write
+DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its linear limit)
+and DIR/backbone.png. With --forces and --freqs it also writes the FRFs the model predicts at
+those levels (DIR/predicted_frf.parquet, single-nonlinear-mode theory) and, for an FRF table,
+DIR/predicted_frf.png against the measured curves.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from nlupdate.cli import CliError, add_command, positive_int
+from nlupdate.cli.output import add_overwrite_option, checked_output
+from nlupdate.files import atomic_directory
+from nlupdate.identification.amplitude_modal import (
+    amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
+)
+from nlupdate.identification.data import FRFLevels
+from nlupdate.measurement.frf_table import read_frf_table, write_frf_table
+from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
+from nlupdate.model.amplitude_modal import BACKBONES, write_amplitude_model
+from nlupdate.reporting.figures import level_colours, save_figure
+from nlupdate.cli.simulate import force_levels, frequency_grid
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = add_command(subparsers, "amplitude", __doc__,
+                         help="amplitude-dependent modal model of one mode (backbone and damping curve)")
+    parser.add_argument("--measured", required=True, metavar="FILE", help="modal table (.csv) or measured-FRF table")
+    parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
+    parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
+                        help="mass-normalised mode shape (1/√kg) at a coordinate; needed at the input for a modal table")
+    parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
+    parser.add_argument("--backbone", choices=BACKBONES, default="iwan", help="backbone model (default iwan)")
+    parser.add_argument("--order", type=positive_int, default=2, help="polynomial order (default 2)")
+    parser.add_argument("--forces", help="force levels (N) to predict FRFs at, comma-separated")
+    parser.add_argument("--freqs", help="frequency grid (Hz) of the predictions: START:STOP:COUNT or F1,F2,…")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
+    add_overwrite_option(parser)
+    parser.set_defaults(run=run)
+
+
+def _shapes(texts: list[str]) -> dict[str, float]:
+    shapes = {}
+    for text in texts:
+        name, _, value = text.partition("=")
+        try:
+            shapes[name.strip()] = float(value)
+        except ValueError:
+            raise CliError(f"--shape {text!r}: expected NAME=VALUE (mass-normalised shape in 1/√kg)") from None
+        if not name.strip() or not np.isfinite(shapes[name.strip()]) or shapes[name.strip()] == 0:
+            raise CliError(f"--shape {text!r}: expected NAME=VALUE with a finite shape ≠ 0 (1/√kg)")
+    return shapes
+
+
+def _plot_backbone(model, samples, path: Path) -> Path:
+    fig = Figure(figsize=(10, 4))
+    ax_f, ax_z = fig.subplots(1, 2)
+    a = np.geomspace(samples.amplitude.min() / 3, samples.amplitude.max() * 3, 300)
+    f, z = model.frequency_hz(a), model.damping(a)
+    ax_f.semilogx(samples.amplitude, samples.frequency_hz, ".", label="measured")
+    ax_f.semilogx(a, f, "-", label=f"{model.backbone} backbone")
+    ax_z.semilogx(samples.amplitude, 100 * samples.damping_ratio, ".", label="measured")
+    ax_z.semilogx(a, 100 * z, "-", label=f"{model.backbone} damping curve")
+    for ax, label in ((ax_f, "natural frequency (Hz)"), (ax_z, "damping ratio (%)")):
+        ax.set_xlabel("modal amplitude a (m·√kg)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.4g} Hz, "
+                 f"ζ₀ = {100 * model.damping_ratio:.3g} %", fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def _plot_prediction(predicted, data: FRFLevels, path: Path) -> Path:
+    """|H| the model predicts (lines) against the measured curves (dots) over the predicted
+    band; a level measured and predicted shares its colour."""
+    f_low, f_high = float(predicted["frequency_hz"].min()), float(predicted["frequency_hz"].max())
+    fig = Figure(figsize=(8, 5))
+    ax = fig.subplots()
+    colours = dict(zip(data.levels, level_colours(len(data.levels), 0.1, 0.9)))
+    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
+        band = (f >= f_low) & (f <= f_high)
+        ax.semilogy(f[band], np.abs(h[band]), ".", ms=3, color=colours[level], label=f"measured {level:g} N")
+    for level, curve in predicted.groupby("force_level_n"):
+        h = curve["h_real"].to_numpy() + 1j * curve["h_imag"].to_numpy()
+        match = [c for lv, c in colours.items() if np.isclose(lv, level, rtol=1e-9)]
+        ax.semilogy(curve["frequency_hz"], np.abs(h), "-", lw=1.4, color=match[0] if match else "black",
+                    label=f"model {level:g} N")
+    ax.set_xlim(f_low, f_high)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("|H| (m/N)")
+    ax.set_title("amplitude-dependent modal model (lines) against the measurement (dots)", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = checked_output(args.out, args.overwrite, folder=True)
+    if (args.forces is None) != (args.freqs is None):
+        raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
+    shapes = _shapes(args.shape)
+    data = None
+    if is_modal_table_file(args.measured):
+        table = read_modal_table(args.measured)
+        inputs = sorted(set(table["input_dof"])) if "input_dof" in table.columns else []
+        input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
+        if input_dof is None:
+            raise CliError(f"{args.measured}: name the excited coordinate with --input-dof")
+        if input_dof not in shapes:
+            raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the excited "
+                           f"coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
+        samples = samples_from_modal_table(table, shapes[input_dof], args.mode, str(args.measured))
+        model = fit_amplitude_model(samples, tuple(shapes.items()), args.backbone, args.order, mode=args.mode)
+    else:
+        table = read_frf_table(args.measured)
+        inputs = sorted(set(table["input_dof"].astype(str)))
+        input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
+        if input_dof is None:
+            raise CliError(f"{args.measured}: the table has input dofs {inputs}; choose one with --input-dof")
+        data = FRFLevels.from_table(table, input_dof, input_dof)
+        samples = samples_from_frfs(data, shapes.get(input_dof))
+        model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
+        if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
+            samples = samples.with_shape(model.shapes[0][1])
+    predicted = None
+    if args.forces is not None:
+        predicted = model.frf_table(frequency_grid(args.freqs), force_levels(args.forces), input_dof)
+    with atomic_directory(out, on_exists="replace") as archive:
+        folder = archive.path
+        write_amplitude_model(model, folder / "amplitude_model.json")
+        _plot_backbone(model, samples, folder / "backbone.png")
+        if predicted is not None:
+            write_frf_table(predicted, folder / "predicted_frf.parquet")
+            if data is not None:
+                _plot_prediction(predicted, data, folder / "predicted_frf.png")
+    print(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
+          f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, modal "
+          f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)")
+    if model.joint is not None:
+        j = model.joint
+        print(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} N/√kg, chi = {j.chi:.4g}, "
+              f"beta = {j.beta:.4g}")
+    if model.note:
+        print(f"note: {model.note}")
+    print(f"wrote {out / 'amplitude_model.json'} and the backbone plot"
+          + (" and the predicted FRFs" if predicted is not None else ""))
+    return 0
