@@ -132,9 +132,6 @@ def test_a_model_that_cannot_describe_the_data_is_called_a_poor_fit(iwan_table, 
     """Iwan data (0.5 % noise) fitted with a single Jenkins slider: ``"fit": "poor"`` with the ratio, in the
     summary, on stdout and in identification.json; the Iwan joint fits the same data."""
     import json
-    from types import SimpleNamespace
-
-    from nlupdate.cli.identify import run
 
     noisy = add_table_noise(iwan_table, 0.005, 11)
     data = FRFLevels.from_table(noisy, "0", "0")
