@@ -15,14 +15,13 @@ the Prefect flows (:mod:`nlupdate.tasks`). Subclasses implement only
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.model.linear import ModalModel
 
 
@@ -85,11 +84,7 @@ class AdapterError(RuntimeError):
 
 def parameter_key(adapter_name: str, model_fingerprint: str, parameters: Mapping[str, float]) -> str:
     """Hash of (adapter, model, parameters); parameter values are hashed exactly (repr)."""
-    payload = json.dumps(
-        {"adapter": adapter_name, "model": model_fingerprint, "parameters": {k: repr(float(v)) for k, v in sorted(parameters.items())}},
-        sort_keys=True,
-    )
-    return hashlib.sha256(payload.encode()).hexdigest()[:20]
+    return fingerprint(adapter_name, model_fingerprint, {k: float(v) for k, v in parameters.items()}, length=20)
 
 
 class FEAdapter(ABC):

@@ -50,7 +50,6 @@ error. Every such failure names the run directory and the log (and quotes its en
 """
 from __future__ import annotations
 
-import hashlib
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +57,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult
 from nlupdate.adapters.runner import (
     ExecutableNotFoundError,
@@ -337,9 +337,9 @@ class CalculixAdapter(FEAdapter):
         return f"CalculiX {self.runner.version()}"
 
     def model_fingerprint(self) -> str:
-        fingerprint = getattr(self.deck_generator, "fingerprint", None)
-        model = fingerprint() if callable(fingerprint) else self.model_id
-        return hashlib.sha256(f"{model}|n_modes={self.n_modes}".encode()).hexdigest()[:16]
+        generator_fingerprint = getattr(self.deck_generator, "fingerprint", None)
+        model = generator_fingerprint() if callable(generator_fingerprint) else self.model_id
+        return fingerprint(model, self.n_modes, length=16)
 
     def write_deck(self, parameters: Mapping[str, float], run_dir: Path) -> tuple[Path, dict[str, tuple[str, str]], str]:
         """Write ``job.inp`` (model + frequency step) into ``run_dir``."""

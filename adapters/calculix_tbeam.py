@@ -38,8 +38,6 @@ lengths that reproduce the source's published FE frequencies.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -47,6 +45,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.adapters.base import ModalResult
 from nlupdate.adapters.calculix import CalculixAdapter
 
@@ -225,11 +224,8 @@ class TBeamDeck:
         self.element_type = element_type
 
     def fingerprint(self) -> str:
-        payload = json.dumps(
-            {"version": _FORMAT_VERSION, "mesh": asdict(self.mesh), "stations": self.stations, "element": self.element_type, "defaults": TBEAM_DEFAULTS},
-            sort_keys=True,
-        )
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+        return fingerprint({"version": _FORMAT_VERSION, "mesh": self.mesh, "stations": self.stations,
+                            "element": self.element_type, "defaults": TBEAM_DEFAULTS}, length=16)
 
     def build_mesh(self, p: Mapping[str, float]) -> tuple[HexMesh, dict[str, np.ndarray]]:
         """Mesh and named node sets (zero-based node indices) for parameter values ``p``."""

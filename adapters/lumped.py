@@ -12,13 +12,12 @@ eigenproblem ``K φ = ω² M φ`` (:meth:`nlupdate.model.linear.LumpedModel.mode
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from typing import Mapping, Sequence
 
 import numpy as np
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.adapters.base import FEAdapter, ModalResult
 from nlupdate.model.linear import LumpedModel
 
@@ -56,8 +55,7 @@ class LumpedAdapter(FEAdapter):
         return tuple(f"x{i + 1}" for i in range(self.n_masses))
 
     def model_fingerprint(self) -> str:
-        payload = json.dumps({"defaults": {k: repr(v) for k, v in self.defaults.items()}}, sort_keys=True)
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+        return fingerprint({"defaults": self.defaults}, length=16)
 
     def solver_version(self) -> str:
         return "nlupdate lumped chain (scipy.linalg.eigh)"

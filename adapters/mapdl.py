@@ -169,7 +169,6 @@ parser and the process handling are tested against hand-written files and a fake
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import re
@@ -179,6 +178,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult
 from nlupdate.adapters.calculix import fortran_float
 from nlupdate.adapters.runner import (
@@ -751,18 +751,8 @@ class MapdlAdapter(FEAdapter):
         return f"ANSYS MAPDL batch: {executable}"
 
     def model_fingerprint(self) -> str:
-        payload = repr(
-            (
-                _BLOCK_VERSION,
-                self.deck_text,
-                self.n_modes,
-                list(self.coordinates.items()),
-                sorted(self.apdl_names.items()),
-                self.units.name,
-                self.min_frequency_hz,
-            )
-        )
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+        return fingerprint(_BLOCK_VERSION, self.deck_text, self.n_modes, self.coordinates, self.apdl_names,
+                           self.units.name, self.min_frequency_hz, length=16)
 
     def node_expression(self, node: NodeSpec) -> int | str:
         """What the block assigns to ``NLU_N<c>``: points (m) become ``NODE(…)`` in deck units."""

@@ -16,15 +16,14 @@ or, if that entry is negligible (< 1e-6 of the mode's largest entry), its larges
 """
 from __future__ import annotations
 
-import hashlib
 import inspect
-import json
 import time
 from dataclasses import dataclass, fields, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.adapters.base import FEAdapter, ModalResult
 from nlupdate.fe.frame import FrameModel, ModalSolution
 from nlupdate.fe.gunbarrel import GUNBARREL_COORDINATES, GunBarrelParameters, gunbarrel_model
@@ -144,19 +143,11 @@ class SurrogateAdapter(FEAdapter):
         return self.spec.builder(params, **self.mesh_options)
 
     def model_fingerprint(self) -> str:
-        payload = json.dumps(
-            {
-                "version": SURROGATE_VERSION,
-                "model": self.model_name,
-                "base": repr(self.base_parameters),
-                "coordinates": list(self.coordinates),
-                "n_modes": self.n_modes,
-                "mesh_options": {k: repr(v) for k, v in sorted(self.mesh_options.items())},
-                "global_modes_only": self.global_modes_only,
-            },
-            sort_keys=True,
-        )
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+        return fingerprint({
+            "version": SURROGATE_VERSION, "model": self.model_name, "base": self.base_parameters,
+            "coordinates": self.coordinates, "n_modes": self.n_modes, "mesh_options": self.mesh_options,
+            "global_modes_only": self.global_modes_only,
+        }, length=16)
 
     def solver_version(self) -> str:
         return f"nlupdate frame surrogate {SURROGATE_VERSION}"

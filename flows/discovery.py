@@ -25,7 +25,8 @@ from nlupdate.reporting.archive import run_folder
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.discovery_report import discovery_markdown
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.reporting.manifest import environment, file_hash, table_hash
+from nlupdate.fingerprints import file_hash, table_hash
+from nlupdate.reporting.manifest import environment
 from nlupdate.tasks import keys
 from nlupdate.tasks import steps as tasks
 

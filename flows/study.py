@@ -28,7 +28,7 @@ from nlupdate.flows.liveness import claim_flow_run
 from nlupdate.flows.progress import current_progress
 from nlupdate.identification.pipeline import Identification
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
-from nlupdate.reporting.manifest import table_hash
+from nlupdate.fingerprints import table_hash
 from nlupdate.study import steps
 from nlupdate.study.run import StudyResult
 from nlupdate.study.spec import Study

@@ -28,7 +28,7 @@ import pandas as pd
 
 import nlupdate
 import nlupdate.adapters
-from nlupdate.reporting.manifest import file_hash, table_hash
+from nlupdate.fingerprints import file_hash, table_hash
 from nlupdate.study.spec import Study
 from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import UpdatingTask

@@ -17,7 +17,7 @@ two runs computing the same key at once both compute it and write the same resul
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import pandas as pd
 from prefect import Task, task

@@ -14,7 +14,7 @@ import pytest
 from nlupdate.cli import main
 from nlupdate.reporting.archive import archive_inputs, write_failed_archive
 from nlupdate.reporting.catalogue import ArchiveError, archived_study, find_runs, open_run
-from nlupdate.reporting.manifest import tree_hash
+from nlupdate.fingerprints import tree_hash
 from nlupdate.study import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -215,7 +215,7 @@ def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monke
     assert (tmp_path / "out" / entry["archived"]).read_bytes() == original
     assert manifest["inputs"]["measured"]["file_sha256"] == hashlib.sha256(original).hexdigest()
     from nlupdate.measurement.frf_table import read_frf_table
-    from nlupdate.reporting.manifest import table_hash
+    from nlupdate.fingerprints import table_hash
 
     measured.write_bytes(original)
     assert manifest["inputs"]["measured"]["sha256"] == table_hash(read_frf_table(measured))

@@ -12,7 +12,7 @@ import pytest
 import nlupdate.reporting.archive as archive_module
 from nlupdate.reporting.archive import run_folder, write_archive
 from nlupdate.files import atomic_directory
-from nlupdate.reporting.manifest import table_hash
+from nlupdate.fingerprints import table_hash
 from nlupdate.study import load_study, run_study
 
 STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"

@@ -14,7 +14,6 @@ interpolation in ω of every entry.
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
@@ -22,6 +21,7 @@ import numpy as np
 import scipy.interpolate
 from numpy.typing import ArrayLike, NDArray
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.identification.amplitude import all_amplitudes
 
 
@@ -105,10 +105,7 @@ class SampledReceptance:
         return self.h.shape[1]
 
     def fingerprint(self) -> str:
-        digest = hashlib.sha256(b"sampled")
-        digest.update(self.frequency_hz.tobytes())
-        digest.update(np.ascontiguousarray(self.h).tobytes())
-        return digest.hexdigest()[:16]
+        return fingerprint("sampled", self.frequency_hz, self.h, length=16)
 
     def receptance(
         self, omega: ArrayLike, rows: Sequence[int], cols: Sequence[int], derivative: bool = False

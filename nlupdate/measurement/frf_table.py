@@ -55,7 +55,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlupdate.files import atomic_file
 from nlupdate.input_files import decode_text, read_input_bytes, sniff
 from nlupdate.measurement.units import (
-    REFERENCE_UNITS, ReadOptions, ReferenceUnitError, calibrated, checked_reference_unit, table_reference_unit,
+    REFERENCE_UNITS, ReadOptions, calibrated, checked_reference_unit, table_reference_unit,
 )
 
 FRF_COLUMNS: tuple[str, ...] = (

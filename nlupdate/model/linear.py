@@ -17,7 +17,6 @@ continuation solvers.
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import Protocol, Sequence
 
@@ -26,6 +25,8 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
+
+from nlupdate.fingerprints import fingerprint
 
 ComplexArray = NDArray[np.complex128]
 FloatArray = NDArray[np.float64]
@@ -45,24 +46,6 @@ class LinearModel(Protocol):
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]: ...
 
     def fingerprint(self) -> str: ...
-
-
-def _hash_arrays(kind: str, *parts: object) -> str:
-    digest = hashlib.sha256(kind.encode())
-    for part in parts:
-        if part is None:
-            digest.update(b"none")
-        elif scipy.sparse.issparse(part):
-            coo = scipy.sparse.coo_matrix(part)
-            for arr in (coo.row, coo.col, coo.data):
-                digest.update(np.ascontiguousarray(arr).tobytes())
-            digest.update(repr(coo.shape).encode())
-        elif isinstance(part, np.ndarray):
-            digest.update(np.ascontiguousarray(part).tobytes())
-            digest.update(repr(part.shape).encode())
-        else:
-            digest.update(repr(part).encode())
-    return digest.hexdigest()[:16]
 
 
 def _as_matrix(name: str, value: ArrayLike, n: int | None) -> np.ndarray | scipy.sparse.csr_matrix:
@@ -148,8 +131,8 @@ class LumpedModel:
 
     def fingerprint(self) -> str:
         """Stable content hash (for caching)."""
-        return _hash_arrays(
-            "lumped", self.mass, self.stiffness, self.damping, self.structural_damping, self.dof_names
+        return fingerprint(
+            "lumped", self.mass, self.stiffness, self.damping, self.structural_damping, self.dof_names, length=16
         )
 
     def _dense(self, matrix: object) -> np.ndarray:
@@ -333,13 +316,14 @@ class ModalModel:
         return 2 * np.pi * self.natural_frequencies_hz
 
     def fingerprint(self) -> str:
-        return _hash_arrays(
+        return fingerprint(
             "modal",
             self.natural_frequencies_hz,
             self.mode_shapes,
             self.damping_ratios,
             self.loss_factors,
             self.dof_names,
+            length=16,
         )
 
     def receptance(

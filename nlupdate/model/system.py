@@ -15,13 +15,13 @@ and its real Jacobians with respect to ``y`` and ω.
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlupdate.fingerprints import fingerprint
 from nlupdate.model.elements import NonlinearElement, nonlinear_dofs
 from nlupdate.model.linear import LinearModel, dof_index
 
@@ -48,9 +48,7 @@ class NonlinearSystem:
         return nonlinear_dofs(self.elements)
 
     def fingerprint(self) -> str:
-        digest = hashlib.sha256(self.model.fingerprint().encode())
-        digest.update(repr(self.elements).encode())
-        return digest.hexdigest()[:16]
+        return fingerprint(self.model.fingerprint(), self.elements, length=16)
 
     def with_elements(self, elements: Sequence[NonlinearElement]) -> "NonlinearSystem":
         return NonlinearSystem(self.model, tuple(elements))

@@ -38,7 +38,8 @@ from nlupdate.identification.report import plot_fit, plot_linear_frf
 from nlupdate.files import atomic_directory, copy_private, inside, name_problem
 from nlupdate.notices import NlupdateWarning
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.reporting.manifest import environment, file_hash, table_hash, tree_hash
+from nlupdate.fingerprints import file_hash, table_hash, tree_hash
+from nlupdate.reporting.manifest import environment
 from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
 from nlupdate.reporting.report import report_markdown
 from nlupdate.reporting.tables import study_tables

@@ -27,7 +27,7 @@ import pandas as pd
 
 from nlupdate.files import HOST, inside, name_problem, temporary_writer, writer_alive
 from nlupdate.reporting.archive import MANIFEST
-from nlupdate.reporting.manifest import file_hash, tree_hash
+from nlupdate.fingerprints import file_hash, tree_hash
 
 STATUSES = ("complete", "failed", "incomplete", "writing", "damaged")
 

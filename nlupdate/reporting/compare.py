@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import pandas as pd
 
 from nlupdate.reporting.catalogue import ArchivedRun
-from nlupdate.reporting.manifest import table_hash
+from nlupdate.fingerprints import table_hash
 from nlupdate.reporting.plots import plot_predictions
 
 DEFAULT_RTOL = 1e-6

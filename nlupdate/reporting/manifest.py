@@ -1,18 +1,13 @@
-"""What a run archive records so the run can be understood and repeated months later:
-content hashes of its inputs, the versions of everything that computed it, the seeds."""
+"""What a run archive records about the software that computed it, so the run can be
+understood and repeated months later: versions and the source revision (content hashes:
+:mod:`nlupdate.fingerprints`)."""
 from __future__ import annotations
 
-import hashlib
-import os
 import importlib.metadata
 import platform
 import subprocess
 import sys
 from pathlib import Path
-
-import pandas as pd
-
-from nlupdate.input_files import pinned_bytes
 
 PACKAGES = ("nlupdate", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "pyuff", "prefect", "prefect-dask", "dask",
             "distributed")
@@ -50,38 +45,3 @@ def environment() -> dict[str, object]:
             "source": source_revision()}
 
 
-def table_hash(table: pd.DataFrame) -> str:
-    """SHA-256 of a table's content (values, column names and order; index ignored)."""
-    digest = hashlib.sha256(",".join(map(str, table.columns)).encode())
-    digest.update(pd.util.hash_pandas_object(table, index=False).to_numpy().tobytes())
-    return digest.hexdigest()
-
-
-def file_hash(path: str | Path) -> str:
-    """SHA-256 of a file's bytes (of its snapshot, when a run has pinned it:
-    :func:`nlupdate.input_files.pinned`)."""
-    taken = pinned_bytes(path)
-    if taken is not None:
-        return hashlib.sha256(taken).hexdigest()
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def tree_hash(folder: str | Path) -> str:
-    """SHA-256 over a folder's files: their relative paths and contents, in sorted order.
-    A link is hashed by its content when it points to a file inside the folder, else by
-    the text of the link (its target is not read)."""
-    digest = hashlib.sha256()
-    root = Path(folder)
-    inner = root.resolve()
-    for path in sorted(p for p in root.rglob("*") if p.is_file() or p.is_symlink()):
-        digest.update(path.relative_to(root).as_posix().encode())
-        pointee = path.resolve()
-        if path.is_symlink() and not (pointee.is_file() and inner in pointee.parents):
-            digest.update(b"link:" + os.fsencode(os.readlink(path)))
-        else:
-            digest.update(file_hash(path).encode())
-    return digest.hexdigest()

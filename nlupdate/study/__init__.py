@@ -7,4 +7,5 @@
 from nlupdate.study.run import StudyResult, run_study, study_warnings
 from nlupdate.study.spec import Study, StudyError, inputs_read_once, load_study, study_from_text
 
-__all__ = ["Study", "StudyError", "StudyResult", "load_study", "run_study", "study_from_text", "study_warnings"]
+__all__ = ["Study", "StudyError", "StudyResult", "inputs_read_once", "load_study", "run_study", "study_from_text",
+           "study_warnings"]
