@@ -368,3 +368,17 @@ def mesh_study(
         row["all_frequencies_hz"] = result.natural_frequencies_hz.tolist()
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def from_options(model: str | None, options: dict) -> CalculixAdapter:
+    """The adapter of a study's ``[adapter] kind = "calculix"`` (:mod:`nlupdate.adapters.registry`):
+    the solid T-beam deck in CalculiX."""
+    if model != "tbeam":
+        raise ValueError(f"calculix adapter: model must be 'tbeam', got {model!r}")
+    mesh = TBeamMesh(**options.pop("mesh", {}))
+    deck_options = {k: options.pop(k) for k in ("element_type", "stations") if k in options}
+    deck = TBeamDeck(mesh, **deck_options)
+    try:
+        return CalculixAdapter(deck, TBEAM_PARAMETER_NAMES, **options)
+    except TypeError as error:
+        raise ValueError(f"calculix adapter: {error}") from None

@@ -98,3 +98,13 @@ class LumpedAdapter(FEAdapter):
                 "log_path": None,
             },
         )
+
+
+def from_options(model: str | None, options: dict) -> LumpedAdapter:
+    """The adapter of a study's ``[adapter] kind = "lumped"`` (:mod:`nlupdate.adapters.registry`)."""
+    try:
+        return LumpedAdapter(options.pop("masses"), options.pop("stiffnesses"), **options)
+    except KeyError as error:
+        raise ValueError(f"lumped adapter: missing option {error.args[0]!r} (list of masses in kg / stiffnesses in N/m)") from None
+    except TypeError as error:
+        raise ValueError(f"lumped adapter: {error}") from None

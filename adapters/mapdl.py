@@ -179,6 +179,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from nlupdate.fingerprints import fingerprint
+from nlupdate.input_files import read_input_text
 from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult
 from nlupdate.adapters.calculix import fortran_float
 from nlupdate.adapters.runner import (
@@ -738,11 +739,6 @@ class MapdlAdapter(FEAdapter):
             raise ValueError(f"coordinate {name!r}: {node!r} is not a single APDL expression (no '$', '!', line breaks or commas outside parentheses)")
         return (int(node) if isinstance(node, (int, np.integer)) else node.strip(), direction)
 
-    @classmethod
-    def from_file(cls, deck_path: str | Path, parameter_names: Sequence[str], coordinates: Coordinates, **options: object) -> "MapdlAdapter":
-        """Adapter for the APDL deck stored in ``deck_path``."""
-        return cls(Path(deck_path).read_text(), parameter_names, coordinates, **options)  # type: ignore[arg-type]
-
     def check_available(self) -> None:
         self.runner.resolve()
 
@@ -861,3 +857,17 @@ def _single_expression(text: str) -> bool:
 
 def _format_point(point: Sequence[float] | np.ndarray) -> str:
     return "(" + ", ".join(f"{float(v):.6g}" for v in point) + ")"
+
+
+def from_options(model: str | None, options: dict) -> MapdlAdapter:
+    """The adapter of a study's ``[adapter] kind = "mapdl"`` (:mod:`nlupdate.adapters.registry`)."""
+    try:
+        deck = read_input_text(options.pop("deck"), "MAPDL deck")
+        names = options.pop("parameter_names")
+        coordinates = {name: tuple(value) for name, value in options.pop("coordinates").items()}
+    except KeyError as error:
+        raise ValueError(f"mapdl adapter: missing option {error.args[0]!r} (deck, parameter_names, coordinates)") from None
+    try:
+        return MapdlAdapter(deck, names, coordinates, **options)
+    except TypeError as error:
+        raise ValueError(f"mapdl adapter: {error}") from None

@@ -184,4 +184,17 @@ class SurrogateAdapter(FEAdapter):
         )
 
 
-__all__ = ["MODELS", "SURROGATE_VERSION", "SurrogateAdapter", "SurrogateModel"]
+def from_options(model: str | None, options: dict) -> SurrogateAdapter:
+    """The adapter of a study's ``[adapter] kind = "surrogate"`` (:mod:`nlupdate.adapters.registry`)."""
+    if model not in MODELS:
+        raise ValueError(f"surrogate adapter: model must be one of {sorted(MODELS)}, got {model!r}")
+    base = options.pop("base_parameters", None)
+    try:
+        if base is not None:
+            base = MODELS[model].parameter_class(**base)
+        return SurrogateAdapter(model, base, **options)
+    except TypeError as error:
+        raise ValueError(f"surrogate adapter: {error}") from None
+
+
+__all__ = ["MODELS", "SURROGATE_VERSION", "SurrogateAdapter", "SurrogateModel", "from_options"]

@@ -24,7 +24,7 @@ from prefect.futures import PrefectFuture
 
 from nlupdate.adapters.base import ModalResult
 from nlupdate.tasks.keys import point_key
-from nlupdate.updating.adapter_factory import AdapterSpec
+from nlupdate.adapters.registry import AdapterSpec
 
 
 class PointRegistry:

@@ -30,7 +30,7 @@ import nlupdate
 import nlupdate.adapters
 from nlupdate.fingerprints import file_hash, table_hash
 from nlupdate.study.spec import Study
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import UpdatingTask
 
 #: The subpackages a study step runs (not the CLI, flows, tasks, reports or discovery).

@@ -34,7 +34,7 @@ from nlupdate.study.steps import Prediction, TargetSet
 from nlupdate.tasks.evaluation import current_evaluator
 from nlupdate.tasks.keys import adapter_for
 from nlupdate.tasks.store import DataSerializer, record_store
-from nlupdate.updating.adapter_factory import AdapterSpec
+from nlupdate.adapters.registry import AdapterSpec
 from nlupdate.updating.candidates import UpdatingTask, update
 from nlupdate.updating.eigensensitivity import UpdatingResult
 

@@ -3,7 +3,6 @@ out of an input folder, and one damaged archive hides no other (issue 19, items 
 from __future__ import annotations
 
 import json
-import os
 import stat
 import warnings
 from pathlib import Path
@@ -13,7 +12,7 @@ import pytest
 
 from nlupdate.cli import main
 from nlupdate.reporting.archive import archive_inputs, write_failed_archive
-from nlupdate.reporting.catalogue import ArchiveError, archived_study, find_runs, open_run
+from nlupdate.reporting.catalogue import ArchiveError, archived_study, open_run
 from nlupdate.fingerprints import tree_hash
 from nlupdate.study import load_study
 

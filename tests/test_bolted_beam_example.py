@@ -14,7 +14,7 @@ from nlupdate.study import load_study
 from nlupdate.measurement.noise import add_table_noise
 from nlupdate.response.simulate import simulate_frf_table
 from nlupdate.study.steps import measured_table, truth_system
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "bolted_beam" / "study.toml"
 

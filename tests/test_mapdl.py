@@ -257,7 +257,7 @@ def test_adapter_checks_its_configuration(tmp_path: Path) -> None:
 def test_units_and_options_come_from_the_study_file(tmp_path: Path) -> None:
     """[adapter.options] of a study reach the adapter: units, tolerance, keep_files, points in metres."""
     from nlupdate.study import load_study
-    from nlupdate.updating.adapter_factory import build_adapter
+    from nlupdate.adapters.registry import build_adapter
 
     (tmp_path / "springs.inp").write_text(SPRING_DECKS["mm-t-s"])
     study = tmp_path / "mapdl.toml"
@@ -541,9 +541,8 @@ def fake_mapdl(tmp_path: Path) -> Path:
 
 
 def make_adapter(tmp_path: Path, executable: str | None, **options) -> MapdlAdapter:
-    return MapdlAdapter.from_file(
-        DATA / "tbeam_parametric.inp", ["E", "h1"], COORDINATES, n_modes=3, executable=executable, work_root=tmp_path / "runs", **options
-    )
+    return MapdlAdapter((DATA / "tbeam_parametric.inp").read_text(), ["E", "h1"], COORDINATES, n_modes=3,
+                        executable=executable, work_root=tmp_path / "runs", **options)
 
 
 def only_run_dir(tmp_path: Path) -> Path:

@@ -20,7 +20,6 @@ import scipy.io
 from nlupdate.cli import main
 from nlupdate.measurement.frf_table import MeasurementTableError, read_frf_table
 from nlupdate.measurement.units import ReadOptions
-from nlupdate.notices import NlupdateWarning
 
 F_HZ = np.arange(79.0, 81.01, 0.05)
 W = 2 * np.pi * F_HZ

@@ -256,7 +256,7 @@ def test_example_studies_are_valid(name):
         assert list(study.eigensensitivity["formulas"]) == case["formulas"]
     assert [tuple(c.parameters) for c in study.candidates] == case["sets"]
     if case["f1"] is not None:
-        from nlupdate.updating.adapter_factory import build_adapter
+        from nlupdate.adapters.registry import build_adapter
 
         start = {**study.fixed, **{p.name: p.start for p in study.parameters}}
         assert build_adapter(study.adapter).evaluate(start).natural_frequencies_hz[0] == pytest.approx(case["f1"], abs=0.005)
@@ -333,7 +333,7 @@ def test_mapdl_adapter_is_built_from_a_study(tmp_path):
         [eigensensitivity]
     """))
     from nlupdate.adapters.mapdl import MapdlAdapter
-    from nlupdate.updating.adapter_factory import build_adapter
+    from nlupdate.adapters.registry import build_adapter
 
     spec = load_study(study).adapter
     spec = dataclasses.replace(spec, options={**spec.options, "work_root": str(tmp_path / "runs")})

@@ -12,7 +12,7 @@ from nlupdate.adapters.base import Parameter
 from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.model.linear import LumpedModel, ModalModel
 from nlupdate.measurement.frf_table import frf_table, write_frf_table
-from nlupdate.updating.adapter_factory import AdapterSpec
+from nlupdate.adapters.registry import AdapterSpec
 from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies

@@ -63,7 +63,7 @@ def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
 
 def check_solver(study) -> None:
     """A study whose FE program is missing fails here, in one line, before any work."""
-    from nlupdate.updating.adapter_factory import build_adapter
+    from nlupdate.adapters.registry import build_adapter
 
     if study.adapter is not None:
         build_adapter(study.adapter).check_available()

@@ -45,7 +45,7 @@ from nlupdate.reporting.report import report_markdown
 from nlupdate.reporting.tables import study_tables
 from nlupdate.study.run import study_warnings
 from nlupdate.study.steps import comparison_damping, model_pair, prediction_adapter
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import candidate_frf
 from nlupdate.updating.plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
 

@@ -20,7 +20,7 @@ from nlupdate.study.steps import (
     Prediction, RunFailure, TargetSet, compare_runs, identification_step, measured_table, parameter_uncertainties,
     predict_model, prediction_adapter, prediction_points, study_targets, updating_tasks,
 )
-from nlupdate.updating.adapter_factory import build_adapter
+from nlupdate.adapters.registry import build_adapter
 from nlupdate.updating.candidates import update
 from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.evaluation import MemoisedEvaluator

@@ -81,7 +81,7 @@ from nlupdate.input_files import pinned, read_input_text, snapshot
 from nlupdate.response.harmonic_balance import HarmonicSettings
 from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.updating.adapter_factory import ADAPTER_KINDS, AdapterSpec, build_adapter
+from nlupdate.adapters.registry import ADAPTER_KINDS, AdapterSpec, build_adapter
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS
 from nlupdate.updating.pairing import PAIRING_METHODS
 from nlupdate.updating.sensitivity import FORMULAS

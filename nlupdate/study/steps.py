@@ -32,7 +32,7 @@ from nlupdate.model.system import NonlinearSystem
 from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
 from nlupdate.response.simulate import simulate_frf_table
 from nlupdate.study.spec import SimulationSpec, Study, StudyError
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult
 from nlupdate.updating.optimisation import OptimisationOptions

@@ -11,7 +11,7 @@
 * :mod:`~nlupdate.updating.trust` — warnings: runs that ended on a bound, spread above the value
 * :mod:`~nlupdate.updating.plots` — PNG plots
 """
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks, update
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies

@@ -3,7 +3,7 @@
 A sweep is a list of :class:`UpdatingTask` — one per finite-difference formula, per
 parameter set, per weighting… :func:`update` runs one task: a pure function of its
 (picklable) task and of the point evaluator it is given (by default it builds its own
-adapter from the task's :class:`~nlupdate.updating.adapter_factory.AdapterSpec` and
+adapter from the task's :class:`~nlupdate.adapters.registry.AdapterSpec` and
 evaluates in order). :func:`run_tasks` runs a sweep in order, sharing one memoised
 evaluator per model so that a point two runs need (every run's start point, for one) is
 solved once. Running the tasks concurrently, and where the FE runs go, is the flow
@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.correlation.metrics import frac
-from nlupdate.updating.adapter_factory import AdapterSpec, build_adapter
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
