@@ -78,6 +78,28 @@ class ModalResult:
         )
 
 
+def check_frequencies(frequencies_hz: np.ndarray, order_rtol: float, positive_hint: str | None = None) -> None:
+    """``ValueError`` unless the natural frequencies (Hz) an FE code returned are finite,
+    not negative (positive when ``positive_hint`` says what to do about a zero one) and
+    ascending within ``order_rtol`` of the largest — the precision the code prints its
+    results with (repeated roots may then come out a last digit apart)."""
+    frequencies = np.asarray(frequencies_hz, dtype=float)
+    bad = [i + 1 for i, f in enumerate(frequencies) if not np.isfinite(f)]
+    if bad:
+        raise ValueError(f"frequencies of mode(s) {bad} are not finite: {frequencies.tolist()} Hz")
+    bad = [i + 1 for i, f in enumerate(frequencies) if f < 0 or (positive_hint is not None and not f > 0)]
+    if bad:
+        kind = "positive" if positive_hint is not None else "negative"
+        message = (f"frequencies of mode(s) {bad} are not positive: {frequencies.tolist()} Hz ({positive_hint})"
+                   if kind == "positive" else f"negative frequencies for mode(s) {bad}: {frequencies.tolist()} Hz")
+        raise ValueError(message)
+    slack = order_rtol * float(np.max(frequencies, initial=0.0))
+    descending = [i + 1 for i in range(1, frequencies.size) if frequencies[i] < frequencies[i - 1] - slack]
+    if descending:
+        raise ValueError(f"frequencies are not ascending (mode(s) {descending} below the previous one): "
+                         f"{frequencies.tolist()} Hz")
+
+
 class AdapterError(RuntimeError):
     """An FE run failed; the message names the run directory and log."""
 

@@ -58,7 +58,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from nlupdate.fingerprints import fingerprint
-from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult
+from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult, check_frequencies
 from nlupdate.adapters.runner import (
     ExecutableNotFoundError,
     ProcessRunner,
@@ -92,7 +92,7 @@ _NOT_MESH = {"MASS", "SPRING1", "SPRING2", "SPRINGA", "DASHPOTA"}
 
 # a Fortran real, or the NaN/Infinity a broken solve prints (read, then refused by the checks)
 _FLOAT = r"(?:[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd]?[-+]\d+)?|[-+]?(?i:nan|inf(?:inity)?))"
-#: Relative slack of the "ascending frequencies" check (ccx prints 7 significant digits,
+#: Relative slack of the "ascending frequencies" check, the precision ccx prints (7 significant digits,
 #: so two equal roots may be printed in either order).
 FREQUENCY_ORDER_RTOL = 1e-6
 _EIGEN_HEADER = re.compile(r"E I G E N V A L U E\s+O U T P U T")
@@ -194,14 +194,7 @@ def check_modes(eigenvalues: np.ndarray, frequencies_hz: np.ndarray, n_modes: in
     if bad:
         raise ValueError(f"mode(s) {bad} are not finite numbers: eigenvalues {eigenvalues.tolist()} (rad/s)², "
                          f"frequencies {frequencies.tolist()} Hz")
-    bad = [i + 1 for i in range(n_modes) if frequencies[i] < 0]
-    if bad:
-        raise ValueError(f"negative frequencies for mode(s) {bad}: {frequencies.tolist()} Hz")
-    slack = FREQUENCY_ORDER_RTOL * float(np.max(frequencies, initial=0.0))
-    descending = [i + 1 for i in range(1, n_modes) if frequencies[i] < frequencies[i - 1] - slack]
-    if descending:
-        raise ValueError(f"frequencies are not ascending (mode(s) {descending} below the previous one): "
-                         f"{frequencies.tolist()} Hz")
+    check_frequencies(frequencies, FREQUENCY_ORDER_RTOL)
 
 
 def frequency_step(n_modes: int, node_sets: Sequence[str]) -> str:

@@ -180,7 +180,7 @@ import numpy as np
 
 from nlupdate.fingerprints import fingerprint
 from nlupdate.input_files import read_input_text
-from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult
+from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult, check_frequencies
 from nlupdate.adapters.calculix import fortran_float
 from nlupdate.adapters.runner import (
     ExecutableNotFoundError,
@@ -203,7 +203,8 @@ TABLE_NAME = "modal_table.txt"
 JOB_NAME = "job"
 ERROR_MARKER = "*** ERROR ***"
 DEFAULT_LOCATION_TOLERANCE_M = 1e-3
-#: Relative slack of the "ascending frequencies" check (repeated roots).
+#: Relative slack of the "ascending frequencies" check: the precision of the table the
+#: generated block writes (E24.16), so repeated roots a last digit apart pass.
 FREQUENCY_ORDER_RTOL = 1e-9
 #: Files of a job deleted after a successful run unless ``keep_files``: the result,
 #: matrix, element, database, page, restart and scratch files, also the ``job<N>.*``
@@ -531,18 +532,8 @@ def check_modes(frequencies_hz: np.ndarray, modes_found: int, n_modes: int) -> N
     frequencies = np.asarray(frequencies_hz, dtype=float)
     if frequencies.shape != (n_modes,):
         raise ValueError(f"expected {n_modes} frequencies, got shape {frequencies.shape}")
-    bad = [i + 1 for i, f in enumerate(frequencies) if not np.isfinite(f)]
-    if bad:
-        raise ValueError(f"frequencies of mode(s) {bad} are not finite: {frequencies.tolist()} Hz")
-    bad = [i + 1 for i, f in enumerate(frequencies) if not f > 0]
-    if bad:
-        raise ValueError(
-            f"frequencies of mode(s) {bad} are not positive: {frequencies.tolist()} Hz (rigid-body modes of an unsupported "
-            f"model? set min_frequency_hz above them, or support the model)"
-        )
-    descending = [i + 1 for i in range(1, n_modes) if frequencies[i] < frequencies[i - 1] * (1 - FREQUENCY_ORDER_RTOL)]
-    if descending:
-        raise ValueError(f"frequencies are not ascending (mode(s) {descending} below the previous one): {frequencies.tolist()} Hz")
+    check_frequencies(frequencies, FREQUENCY_ORDER_RTOL, positive_hint="rigid-body modes of an unsupported model? set "
+                      "min_frequency_hz above them, or support the model")
 
 
 def requested_point(node: NodeSpec, units: DeckUnits) -> tuple[float, float, float] | None:
