@@ -20,11 +20,12 @@ from pathlib import Path
 
 from nlupdate.adapters.base import Parameter
 from nlupdate.adapters.surrogate import SurrogateAdapter
-from nlupdate.updating.candidates import compare_candidates, rank_candidates, run_tasks
+from nlupdate.updating.runs import compare_candidates, rank_candidates
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
 from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.study import load_study
-from nlupdate.study.steps import study_targets, updating_tasks
+from nlupdate.study import run_study
+from nlupdate.study.steps import study_targets, updating_runs
 from nlupdate.updating.targets import UpdatingTargets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -98,9 +99,9 @@ def print_three_modes() -> None:
     study = load_study(THREE_MODE_STUDY)
     target_set = study_targets(study, None)
     targets = target_set.targets
-    tasks = updating_tasks(study, target_set)
+    tasks = updating_runs(study, target_set)
     started = time.perf_counter()
-    results = run_tasks(tasks)
+    results = list(run_study(study).runs)  # the chain, in order: one memo for the sweep
     elapsed = time.perf_counter() - started
     comparison = compare_candidates(results)
 

@@ -8,7 +8,6 @@ on the flow's task runner (threads or Dask), and the run leaves an archive like 
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import shutil
 import time
 from pathlib import Path
@@ -20,15 +19,16 @@ from nlupdate.discovery import discover
 from nlupdate.discovery.report import write_discovery
 from nlupdate.flows.liveness import claim_flow_run
 from nlupdate.flows.progress import current_progress
-from nlupdate.flows.study import Cache, Handle
+from nlupdate.flows.cache import Cache
+from nlupdate.flows.handles import Handle
 from nlupdate.reporting.archive import run_folder
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.discovery_report import discovery_markdown
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.fingerprints import file_hash, table_hash
+from nlupdate.fingerprints import file_hash, fingerprint, table_hash
 from nlupdate.reporting.manifest import environment
 from nlupdate.tasks import keys
-from nlupdate.tasks import steps as tasks
+from nlupdate.tasks import cached as tasks
 
 
 @flow(name="discovery")
@@ -60,7 +60,7 @@ def discovery_flow(inputs: Handle, cache: Cache, results_root: str, orchestratio
     result = discover(system, table, options, map_candidates=map_candidates, source=str(measured_file))
     found = ", ".join(f"{e.name} on {list(e.dofs)}" for e in result.effects) or "none"
     progress.say(f"[bold]discovery[/bold]: {found}; gap {result.gap_before.gap:.3g} → {result.gap_after.gap:.3g}")
-    digest = hashlib.sha256((file_hash(model_file) + table_hash(table) + repr(options)).encode()).hexdigest()
+    digest = fingerprint(file_hash(model_file), table_hash(table), options)
     folder = run_folder(results_root, f"discovery-{Path(model_file).stem}", started, digest)
     run = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
            "wall_time_s": time.perf_counter() - clock, "orchestration": orchestration,

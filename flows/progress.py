@@ -18,6 +18,7 @@ from collections import Counter, defaultdict
 from typing import Iterator
 
 from rich.console import Console
+from rich.markup import escape
 from rich.text import Text
 
 STATE_WORDS = {"Completed": "computed", "Cached": "cached", "Failed": "FAILED", "Crashed": "CRASHED"}
@@ -50,7 +51,8 @@ class Progress:
         word = STATE_WORDS.get(state, state)
         style = {"computed": "green", "cached": "cyan"}.get(word, "bold red")
         timing = f" in {seconds:.1f} s" if seconds is not None else ""
-        self.say(f"[bold]{step}[/bold]{': ' + detail if detail else ''} — [{style}]{word}[/{style}]{timing}")
+        detail = f": {escape(detail)}" if detail else ""  # a "[prediction]" in a message is text, not markup
+        self.say(f"[bold]{escape(step)}[/bold]{detail} — [{style}]{word}[/{style}]{timing}")
 
     def summary(self) -> dict[str, dict[str, int]]:
         """``{step: {"computed": n, "cached": n, "failed": n}}`` for the manifest."""

@@ -54,7 +54,9 @@ def run_study_flow(
     """Run ``study`` as Prefect flows and write its archive under ``results_root``
     (``annotations``: extra entries of the manifest's ``run`` record). Its input files are
     read once, as the run starts (:func:`nlupdate.study.spec.inputs_read_once`)."""
-    from nlupdate.flows.study import Cache, study_flow, study_handle
+    from nlupdate.flows.cache import Cache
+    from nlupdate.flows.handles import study_handle
+    from nlupdate.flows.study import study_flow
 
     from nlupdate.study.spec import inputs_read_once
 
@@ -82,7 +84,8 @@ def run_discovery_flow(
     """Run :func:`~nlupdate.flows.discovery.discovery_flow` on a model file and measured
     data (FRF or modal table); returns the archive."""
     from nlupdate.flows.discovery import discovery_flow
-    from nlupdate.flows.study import Cache, handle
+    from nlupdate.flows.cache import Cache
+    from nlupdate.flows.handles import handle
     from nlupdate.measurement.frf_table import read_frf_table
     from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
     from nlupdate.model.model_file import load_system

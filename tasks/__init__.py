@@ -1,6 +1,7 @@
-"""Prefect tasks: one thin cached task per study step and one per FE evaluation.
+"""Prefect tasks: one thin cached task per chain step, per job and per FE evaluation.
 
-* :mod:`~nlupdate.tasks.keys` — cache keys from the project's fingerprints;
-* :mod:`~nlupdate.tasks.steps` — the tasks;
-* :mod:`~nlupdate.tasks.evaluation` — the point evaluator that runs FE points as tasks.
+* :mod:`~nlupdate.tasks.cached` — the tasks;
+* :mod:`~nlupdate.tasks.keys` — their cache keys, from the chain's declaration and fingerprints;
+* :mod:`~nlupdate.tasks.evaluation` — the point evaluator that runs FE points as tasks;
+* :mod:`~nlupdate.tasks.store`, :mod:`~nlupdate.tasks.records` — where results persist, as signed data.
 """

@@ -17,31 +17,46 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import threading
-from typing import Iterator, Mapping, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 from prefect import Task
 from prefect.futures import PrefectFuture
 
-from nlupdate.adapters.base import ModalResult
+from nlupdate.adapters.base import FEAdapter, ModalResult
+from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.tasks.keys import point_key
-from nlupdate.adapters.registry import AdapterSpec
+
+
+_ADAPTERS: dict[str, FEAdapter] = {}
+_ADAPTERS_LOCK = threading.Lock()
+
+
+def adapter_for(spec: AdapterSpec) -> FEAdapter:
+    """The adapter of ``spec``, built once per process (adapters are stateless solvers)."""
+    identity = spec.identity()
+    with _ADAPTERS_LOCK:
+        if identity not in _ADAPTERS:
+            _ADAPTERS[identity] = build_adapter(spec)
+        return _ADAPTERS[identity]
 
 
 class PointRegistry:
-    """The FE-point futures of one flow run, by point key (thread-safe)."""
+    """The FE-point futures of one flow run, by point key (thread-safe). ``evaluate_point``
+    gives the FE-point task for a task-run name (``FE point E=1.97e+11 h2=0.00142``)."""
 
-    def __init__(self, evaluate_point: Task) -> None:
+    def __init__(self, evaluate_point: Callable[[str], Task]) -> None:
         self.evaluate_point = evaluate_point
         self._futures: dict[str, PrefectFuture] = {}
         self._lock = threading.Lock()
 
     def future(self, spec: AdapterSpec, point: Mapping[str, float]) -> tuple[PrefectFuture, bool]:
         """The future of ``point`` of model ``spec``, and whether this call submitted it."""
-        key = point_key(spec, point)
+        key = point_key(spec, adapter_for(spec).key(point))
         with self._lock:
             if key in self._futures:
                 return self._futures[key], False
-            future = self.evaluate_point.submit(key, spec, dict(point))
+            label = " ".join(f"{name}={float(value):.4g}" for name, value in sorted(point.items()))
+            future = self.evaluate_point(f"FE point {label}").submit(key, spec, dict(point))
             self._futures[key] = future
             return future, True
 

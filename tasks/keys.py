@@ -1,168 +1,121 @@
-"""Cache keys from the project's own fingerprints.
+"""Cache keys: what a cached result depends on, as one fingerprint.
 
-Every task takes a ``key`` string as its first argument and its cache policy hashes that
-key (and the task's source), never the heavy or live arguments beside it (tables, models,
-evaluators), which Prefect could not hash reliably. A key is the SHA-256 of a canonical
-description of everything the result depends on:
+A key is :func:`nlupdate.fingerprints.fingerprint` of everything the result depends on:
 
-* the code that computes it — :data:`NUMERICS_CODE` (the numerics the study steps run)
-  for the study steps, :data:`FE_CODE` (adapters and the built-in FE) for FE points, so editing a
-  report template does not throw away hours of FE runs;
-* the inputs: study sections as parsed, content hashes of input files and tables,
-  an adapter's model fingerprint (deck, mesh) and the parameter values.
+* the code that computes it — :func:`numerics_code` (the packages a study step runs, not
+  the reporting, plots, CLI, flows or tasks: editing a plot or the report keeps every
+  cached identification and updating run) for the chain's steps and jobs,
+  :func:`fe_code` (adapters, built-in FE, linear models) for FE points, so editing a
+  report does not throw away hours of FE runs, :func:`discovery_code` for candidate fits;
+* the inputs: the study sections the step's entry in :data:`nlupdate.study.chain.CHAIN`
+  names, the content of every input file of the study (as the run read it), the keys of
+  the step's inputs; for a job, the job itself and the FE model's identity; for an FE
+  point, the adapter's point key (model fingerprint and parameter values).
 
-:func:`canonical` turns dataclasses, arrays, mappings and floats into JSON with floats
-written exactly (``float.hex``), so two keys are equal only for equal inputs.
+The code hashes are computed once per process, when first needed.
 """
 from __future__ import annotations
 
-import dataclasses
+import functools
 import hashlib
-import json
-import math
 from pathlib import Path
-from typing import Any, Iterable, Mapping
-
-import numpy as np
-import pandas as pd
+from typing import Any, Iterable, Sequence
 
 import nlupdate
 import nlupdate.adapters
-from nlupdate.fingerprints import file_hash, table_hash
+from nlupdate.adapters.registry import AdapterSpec
+from nlupdate.fingerprints import fingerprint, path_hash
+from nlupdate.study.chain import Step
 from nlupdate.study.spec import Study
-from nlupdate.adapters.registry import AdapterSpec, build_adapter
-from nlupdate.updating.candidates import UpdatingTask
 
-#: The subpackages a study step runs (not the CLI, flows, tasks, reports or discovery).
+#: The subpackages a study step runs (not the CLI, flows, tasks, reporting or discovery).
 STUDY_PACKAGES = ("model", "response", "measurement", "identification", "updating", "prediction", "correlation",
                   "study", "fe")
+#: The subpackages a discovery candidate fit runs.
+DISCOVERY_PACKAGES = ("discovery", "model", "response", "identification", "measurement", "correlation")
+#: Single modules of the numerics the steps use besides their packages.
+NUMERICS_MODULES = ("fingerprints.py", "input_files.py", "response_method.py", "files.py", "notices.py")
 
 
-def _source_hash(roots: Iterable[Path], skip: set[str]) -> str:
+def source_hash(paths: Iterable[Path]) -> str:
+    """SHA-256 of the Python sources under ``paths`` (files or folders), names included."""
     digest = hashlib.sha256()
-    for root in sorted(roots):
-        for path in sorted(root.rglob("*.py")):
-            if skip & set(path.relative_to(root).parts):
-                continue
-            digest.update(str(path.relative_to(root)).encode())
+    for root in sorted(Path(p) for p in paths):
+        files = [root] if root.is_file() else sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts)
+        for path in files:
+            digest.update(str(path.relative_to(root.parent)).encode())
             digest.update(path.read_bytes())
     return digest.hexdigest()
 
 
 _PACKAGE = Path(nlupdate.__file__).parent
 _ADAPTERS = Path(nlupdate.adapters.__file__).parent
-#: Hash of the source of the study steps (:data:`STUDY_PACKAGES`) and the adapters.
-NUMERICS_CODE = _source_hash([_PACKAGE / name for name in STUDY_PACKAGES] + [_ADAPTERS], {"__pycache__"})
-#: Hash of the code a discovery candidate fit depends on.
-DISCOVERY_CODE = _source_hash([_PACKAGE / name for name in ("discovery", "model", "response", "identification",
-                                                             "measurement", "correlation")], {"__pycache__"})
-#: Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models).
-FE_CODE = _source_hash({_ADAPTERS, _PACKAGE / "fe", _PACKAGE / "model"}, {"__pycache__"})
 
 
-def canonical(value: Any) -> Any:
-    """A JSON-serialisable, exact and order-independent description of ``value``."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {"__type__": type(value).__name__,
-                **{f.name: canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}}
-    if isinstance(value, Mapping):
-        return {str(k): canonical(v) for k, v in sorted(value.items(), key=lambda item: str(item[0]))}
-    if isinstance(value, (list, tuple)):
-        return [canonical(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return {"shape": list(value.shape), "values": [canonical(v) for v in value.ravel().tolist()]}
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value).hex() if math.isfinite(value) else repr(float(value))
-    if isinstance(value, complex):
-        return [canonical(value.real), canonical(value.imag)]
-    if isinstance(value, pd.DataFrame):
-        return {"table": table_hash(value)}
-    if isinstance(value, Path):
-        return str(value)
-    if value is None or isinstance(value, str):
-        return value
-    raise TypeError(f"no canonical form for {type(value).__name__}")
+@functools.cache
+def numerics_code() -> str:
+    """Hash of the code the study's steps run (:data:`STUDY_PACKAGES`, the adapters and
+    :data:`NUMERICS_MODULES`)."""
+    return source_hash([_PACKAGE / name for name in STUDY_PACKAGES + NUMERICS_MODULES] + [_ADAPTERS])
 
 
-def digest(*parts: Any) -> str:
-    """SHA-256 (hex) of the canonical form of ``parts``."""
-    text = json.dumps(canonical(list(parts)), sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
+@functools.cache
+def discovery_code() -> str:
+    """Hash of the code a discovery candidate fit depends on."""
+    return source_hash([_PACKAGE / name for name in DISCOVERY_PACKAGES + NUMERICS_MODULES])
 
 
-_ADAPTER_CACHE: dict[str, Any] = {}
+@functools.cache
+def fe_code() -> str:
+    """Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models)."""
+    return source_hash([_ADAPTERS, _PACKAGE / "fe", _PACKAGE / "model", _PACKAGE / "fingerprints.py"])
 
 
-def adapter_for(spec: AdapterSpec):
-    """The adapter of ``spec``, built once per process (adapters are stateless solvers)."""
-    identity = spec.identity()
-    if identity not in _ADAPTER_CACHE:
-        _ADAPTER_CACHE[identity] = build_adapter(spec)
-    return _ADAPTER_CACHE[identity]
+def input_files(study: Study) -> dict[str, str]:
+    """Content hashes of the files the study reads (as written → SHA-256), as a run
+    pinned them (:func:`nlupdate.study.spec.inputs_read_once`)."""
+    return {written: path_hash(path) for written, path in sorted(study.input_files.items())}
 
 
-def _input_files(study: Study) -> dict[str, str]:
-    """Content hashes of the files the study reads (data, truth model, APDL decks)."""
-    files = {}
-    measured = study.measured
-    if measured is not None and measured.file is not None:
-        files["measured"] = file_hash(measured.file)
-    if measured is not None and measured.simulate is not None and measured.simulate.model_file is not None:
-        files["truth_model"] = file_hash(measured.simulate.model_file)
-    return files
+def sections(study: Study, step: Step) -> list[Any]:
+    """The study sections a step depends on."""
+    return [getattr(study, name) for name in step.sections]
 
 
-def measured_key(study: Study) -> str:
-    """The measured-data step: its study section and input files."""
-    spec = study.measured
-    model = None
-    if spec.simulate is not None and spec.simulate.adapter is not None:
-        model = adapter_for(spec.simulate.adapter).model_fingerprint()
-    return digest("measured", NUMERICS_CODE, spec, model, _input_files(study))
+def step_key(step: Step, study: Study, input_keys: Sequence[str | None]) -> str:
+    """A chain step's result: the step, the code, its study sections, the study's input
+    files and the keys of its inputs."""
+    return fingerprint("step", step.name, numerics_code(), sections(study, step), input_files(study),
+                       list(input_keys))
 
 
-def identification_key(study: Study, measured_hash: str) -> str:
-    """The identification step: its settings and the measured table's content."""
-    return digest("identification", NUMERICS_CODE, study.identification, measured_hash)
+def job_key(step: Step, study: Study, job: Any, model_identity: str, input_keys: Sequence[str | None]) -> str:
+    """One job of a fan-out step (an updating run, a prediction): the job and its FE
+    model, and — unless the job describes itself (:attr:`~nlupdate.study.chain.Step.jobs_describe_themselves`)
+    — what its step's key is made of."""
+    if step.jobs_describe_themselves:
+        return fingerprint("job", step.name, numerics_code(), job, model_identity)
+    return fingerprint("job", step.name, numerics_code(), job, model_identity, sections(study, step),
+                       input_files(study), list(input_keys))
 
 
-def adapter_identity(spec: AdapterSpec) -> str:
-    """An adapter description and its built model's fingerprint (a deck's content, …)."""
-    return digest("adapter", spec, adapter_for(spec).model_fingerprint())
+def gathered_key(step: Step, job_keys: Sequence[str]) -> str:
+    """The key of a fan-out step's gathered result: its jobs' keys."""
+    return fingerprint("gathered", step.name, list(job_keys))
 
 
-def point_key(spec: AdapterSpec, point: Mapping[str, float]) -> str:
+def model_identity(spec: AdapterSpec, model_fingerprint: str) -> str:
+    """An FE model: its description and its built adapter's fingerprint (a deck's content, …)."""
+    return fingerprint("adapter", spec.identity(), model_fingerprint)
+
+
+def point_key(spec: AdapterSpec, point_of_adapter: str) -> str:
     """One FE evaluation: the adapter's own point key (model fingerprint and values) and
     the FE code."""
-    return digest("point", FE_CODE, spec.identity(), adapter_for(spec).key(point))
-
-
-def run_key(task: UpdatingTask) -> str:
-    """One updating run: its task (parameters with bounds, targets, method, options, fixed
-    values) and the model."""
-    return digest("run", NUMERICS_CODE, adapter_identity(task.adapter), dataclasses.replace(task, adapter=None))
-
-
-def step_key(name: str, *parts: Any) -> str:
-    """Any other step: a name and the keys or values it depends on."""
-    return digest(name, NUMERICS_CODE, *parts)
-
-
-def prediction_key(study: Study, spec: AdapterSpec, point: Mapping[str, float], identification_key: str,
-                   measured_hash: str) -> str:
-    """One prediction: the FE point of its model, the identification and the measured
-    table, the ``[prediction]`` settings (levels, loss factor, sweep, response method:
-    describing function or harmonic balance with its harmonics, samples and stability) and
-    the targets (the measured curve)."""
-    return step_key("prediction", point_key(spec, point), identification_key, measured_hash, study.prediction,
-                    study.targets)
+    return fingerprint("point", fe_code(), spec.identity(), point_of_adapter)
 
 
 def candidate_key(job: Any) -> str:
     """One discovery candidate fit: the job's content (data, model, place and effect) and
     the discovery code."""
-    return digest("candidate", DISCOVERY_CODE, job)
+    return fingerprint("candidate", discovery_code(), job)

@@ -133,7 +133,7 @@ def _run_twice_with(tmp_path, prefect_server, tamper):
     again. Returns (state names, results, computations, warnings of the second run)."""
     from prefect import flow, task
 
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
 
     calls = []
 
@@ -229,7 +229,7 @@ def test_a_full_cache_disk_warns_once_and_the_run_goes_on(tmp_path, monkeypatch)
     from prefect.results import ResultStore
 
     import nlupdate.tasks.store as store
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
     from prefect import task
 
     @task

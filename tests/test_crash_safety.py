@@ -104,7 +104,7 @@ class Run:
                 self.lines.append(line)
 
 
-STEP_LINE = re.compile(r"^(?P<step>measured data|identification|targets|comparison|updating \d+/\d+|prediction \d+/\d+)"
+STEP_LINE = re.compile(r"^(?P<step>measured data|identification|targets|comparison|updating \d+/\d+|predictions \d+/\d+)"
                        r"(?:: (?P<detail>.*?))? — (?P<state>computed|cached|FAILED|CRASHED)")
 
 
@@ -116,7 +116,7 @@ def outcomes(lines: list[str]) -> dict[str, str]:
         if match is None:
             continue
         step = match["step"]
-        if step.startswith(("updating", "prediction")):  # by the run's name: i/N is the order of finishing
+        if step.startswith(("updating", "predictions")):  # by the run's name: i/N is the order of finishing
             step = f"{step.split()[0]} {match['detail'].split(':')[0]}"
         found[step] = match["state"]
     return found
@@ -176,7 +176,7 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     assert code == 0, (stderr, again.lines)
     resumed = outcomes(again.lines)
     assert {step: resumed[step] for step in finished_before} == {step: "cached" for step in finished_before}, again.lines
-    assert [resumed["prediction initial"], resumed["prediction optimisation {k1}"]] == ["computed"] * 2
+    assert [resumed["predictions initial"], resumed["predictions optimisation {k1}"]] == ["computed"] * 2
 
     archives = complete_archives(results)
     assert len(archives) == 1 and not [p for p in (results / "two-dof").iterdir() if p.name.startswith(".")]
@@ -298,7 +298,7 @@ CACHE_WRITER = textwrap.dedent("""
     from pathlib import Path
     from prefect import task
     from prefect.results import ResultStore, resolve_result_storage
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
 
     @task
     def step():
@@ -320,7 +320,7 @@ def test_a_record_rewritten_by_another_run_is_never_read_half_written(tmp_path):
     from prefect import task
     from prefect.results import ResultStore, resolve_result_storage
 
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
 
     @task
     def step():
@@ -355,7 +355,7 @@ KILLED_CACHE_WRITER = textwrap.dedent("""
     from pathlib import Path
     from prefect import task
     from prefect.results import ResultStore
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
 
     @task
     def step():
@@ -376,7 +376,7 @@ def test_a_writer_killed_mid_write_leaves_the_record_whole_and_its_leftover_is_c
     from prefect import task
     from prefect.results import ResultStore
 
-    import nlupdate.tasks.steps as steps
+    import nlupdate.tasks.cached as steps
     import nlupdate.tasks.store as store
 
     @task
@@ -406,7 +406,7 @@ def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server
     leave): the task runs again and rewrites the record."""
     from prefect import flow, task
 
-    from nlupdate.tasks.steps import configured
+    from nlupdate.tasks.cached import configured
 
     calls = []
 

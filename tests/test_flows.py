@@ -20,8 +20,6 @@ from nlupdate.flows.progress import Progress
 from nlupdate.flows.run import run_study_flow
 from nlupdate.flows.runners import Execution, ExecutionError, task_runner
 from nlupdate.study import load_study, run_study, study_from_text
-from nlupdate.study.steps import study_targets, updating_tasks
-from nlupdate.updating.candidates import run_tasks
 
 STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
 
@@ -71,7 +69,8 @@ def test_flow_and_sequential_run_give_the_same_numbers(first_run):
 
 
 def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
-    """Flow runs are read back from the API: the study flow and its three subflows, completed."""
+    """Flow runs are read back from the API: the study flow and its two fan-out subflows,
+    completed, named after their step and the study."""
     from prefect.client.orchestration import get_client
 
     _, _, manifest = first_run
@@ -88,7 +87,8 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
 
     parent, children = asyncio.run(flow_runs())
     assert parent.state_name == "Completed" and parent.name == "two-dof"
-    assert sorted(run.state_name for run in children) == ["Completed"] * 3
+    assert sorted(run.state_name for run in children) == ["Completed"] * 2
+    assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
 
 
 def test_an_unchanged_rerun_is_all_cached(first_run):
@@ -121,7 +121,7 @@ def test_each_base_point_is_evaluated_once_in_a_four_formula_sweep(prefect_serve
     study = dataclasses.replace(study, prediction=None, identification=None, measured=None,
                                 targets={"frequencies_hz": [740.0], "model_modes": [2]})
     _, manifest = flow_run(study, tmp_path, cache="cold")
-    sequential = run_tasks(updating_tasks(study, study_targets(study, None)))
+    sequential = run_study(study).runs  # in order, one memo for the whole sweep
     distinct_points = sum(result.counts["new"] for result in sequential)
     assert tally(manifest, "FE point") == {"computed": distinct_points, "cached": 0, "failed": 0}
     histories = pd.read_parquet(sorted((tmp_path / "results").rglob("histories.parquet"))[0])

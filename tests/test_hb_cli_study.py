@@ -297,12 +297,14 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
 
 
 def test_the_prediction_cache_key_follows_the_method_and_its_settings():
-    from nlupdate.study.steps import prediction_adapter
+    from nlupdate.study.chain import STEPS
+    from nlupdate.study.steps import PredictionJob
     from nlupdate.tasks import keys
 
     def key(extra: str) -> str:
         study = study_from_text(STUDY + extra, "s.toml")
-        return keys.prediction_key(study, prediction_adapter(study), {"k1": 0.8e6}, "identification", "measured")
+        return keys.job_key(STEPS["predictions"], study, PredictionJob("initial", {"k1": 0.8e6}), "model",
+                            ["updating", "comparison", "identification", "measured"])
 
     variants = ["", 'method = "continuation"\n', HB, 'method = "hb"\nharmonics = 5\n',
                 'method = "hb"\nharmonics = 3\nsamples = 128\n', 'method = "hb"\nharmonics = 3\nstability = false\n',
@@ -330,9 +332,9 @@ def test_under_prefect_a_changed_harmonics_recomputes_only_the_predictions(prefe
 
     given = STUDY + "loss_factor = 0.005\n"
     _, first = flow_run(given + 'method = "hb"\nharmonics = 1\n')
-    assert tally(first, "prediction") == (2, 0)
+    assert tally(first, "predictions") == (2, 0)
     archive, second = flow_run(given + 'method = "hb"\nharmonics = 2\n')
-    assert tally(second, "prediction") == (2, 0)
+    assert tally(second, "predictions") == (2, 0)
     for step in ("measured data", "identification", "targets", "updating", "comparison"):
         computed, cached = tally(second, step)
         assert computed == 0 and cached > 0, (step, second["run"]["tasks"])

@@ -13,7 +13,9 @@ from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.model.linear import LumpedModel, ModalModel
 from nlupdate.measurement.frf_table import frf_table, write_frf_table
 from nlupdate.adapters.registry import AdapterSpec
-from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks
+from nlupdate.adapters.registry import build_adapter
+from nlupdate.updating.evaluation import MemoisedEvaluator
+from nlupdate.updating.runs import UpdatingRun, compare_candidates, rank_candidates, update
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies, read_linear_frf
@@ -22,6 +24,12 @@ MASSES = [0.1, 0.3, 0.2]
 NOMINAL_K = [1e6, 1e6, 1e6, 1e6]
 TRUTH_K = {"k1": 1.25e6, "k2": 0.8e6, "k3": 1.1e6}
 SPEC = AdapterSpec("lumped", options={"masses": MASSES, "stiffnesses": NOMINAL_K})
+
+
+def run_in_order(runs: list[UpdatingRun]):
+    """The runs in order, one memoised evaluator for all (they share one model)."""
+    evaluator = MemoisedEvaluator(build_adapter(runs[0].adapter))
+    return [update(run, evaluator) for run in runs]
 
 
 def truth_frequencies():
@@ -78,13 +86,13 @@ def sweep():
     targets = UpdatingTargets(truth_frequencies())
     fixed = {"k3": TRUTH_K["k3"]}
     tasks = [
-        UpdatingTask(f"eig {formula}", SPEC, (spring("k1"), spring("k2")), targets, "eigensensitivity",
+        UpdatingRun(f"eig {formula}", SPEC, (spring("k1"), spring("k2")), targets, "eigensensitivity",
                      EigensensitivityOptions(formula=formula), fixed)
         for formula in ("forward", "central4")
     ]
     tasks += [
-        UpdatingTask("opt k1", SPEC, (spring("k1"),), targets, "optimisation", OptimisationOptions(), fixed),
-        UpdatingTask("opt k1 k2", SPEC, (spring("k1"), spring("k2")), targets.with_weights([1, 2, 3]), "optimisation",
+        UpdatingRun("opt k1", SPEC, (spring("k1"),), targets, "optimisation", OptimisationOptions(), fixed),
+        UpdatingRun("opt k1 k2", SPEC, (spring("k1"), spring("k2")), targets.with_weights([1, 2, 3]), "optimisation",
                      OptimisationOptions(), fixed),
     ]
     return tasks
@@ -93,7 +101,7 @@ def sweep():
 def test_a_sweep_solves_a_point_shared_by_its_runs_once():
     """Every run of the sweep starts at the same point of the same model: only the first
     run computes it, and each run still reaches the truth on its own."""
-    results = run_tasks(sweep())
+    results = run_in_order(sweep())
     assert [r.name for r in results] == [t.name for t in sweep()]
     first_rows = [r.history.iloc[0] for r in results]
     assert (first_rows[0]["new_evaluations"], first_rows[0]["cached_evaluations"]) == (1, 0)
@@ -129,7 +137,7 @@ def test_candidate_frf_comparison_identifies_the_truth():
     mass, stiffness = adapter.matrices(truth)
     frequencies = np.linspace(150, 900, 1501)
     h_reference = LumpedModel.with_loss_factor(mass, stiffness, gamma).receptance(2 * np.pi * frequencies, [0], [0])[:, 0, 0]
-    results = run_tasks(sweep())
+    results = run_in_order(sweep())
     comparison = compare_candidates(results, (frequencies, h_reference), "x1", "x1", loss_factors=gamma)
 
     assert list(comparison["candidate"].unique()) == ["initial"] + [t.name for t in sweep()]

@@ -24,9 +24,10 @@ from nlupdate.identification.pipeline import (
 )
 from nlupdate.identification.prd import ESTIMATORS
 from nlupdate.identification.trust import POOR_FIT_FACTOR, fit_verdict
-from nlupdate.identification.report import (
-    JSON_NAME, linear_frf_table, plot_fit, plot_linear_frf, write_directory_atomically, write_json,
-)
+from nlupdate.files import atomic_directory
+from nlupdate.identification.summary import JSON_NAME
+from nlupdate.reporting.identification_plots import plot_fit, plot_linear_frf
+from nlupdate.reporting.jsonfile import write_json
 from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
 from nlupdate.identification.prd import IdentificationError
 from nlupdate.measurement.frf_table import read_frf_tables, write_frf_table
@@ -151,11 +152,12 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     title = f"{s.method.upper()} ({identification.result.estimator}), response {s.response_dof} / input {s.input_dof}"
     unit = identification.reference_unit
     write_json(summary, folder / JSON_NAME)
-    linear = linear_frf_table(f, h, s.response_dof, s.input_dof)
+    linear = identification.linear_frf_table()
     if unit != "N":
         linear["reference_unit"] = unit
     write_frf_table(linear, folder / "linear_frf.parquet")
-    plot_fit(identification.result, folder / "fit.png", title, identification.noise_fraction, POOR_FIT_FACTOR, unit)
+    plot_fit(identification.result, folder / "fit.png", title, identification.misfit_in_noise_units(), POOR_FIT_FACTOR,
+             unit)
     plot_linear_frf(f, h, [(f"{level:g} {unit}", *data.curve(level)) for level in data.levels],
                     folder / "linear_frf.png", title, identification.modal_receptance(f), unit)
     return files
@@ -178,8 +180,9 @@ def run(args: argparse.Namespace) -> int:
         print("reference: excitation voltage — levels in V, FRFs in m/V, parameters per volt (V where N would stand)")
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
-    out = write_directory_atomically(out, lambda folder: write_identification(identification, data, folder),
-                                     replace=args.overwrite)
+    with atomic_directory(out, on_exists="replace" if args.overwrite else "error", kind="identification") as folder:
+        write_identification(identification, data, folder.path)
+    out = folder.final
     for key, value in defaults.items():
         print(f"default {key}: {value}")
     for name, stats in identification.uncertainty.parameters.items():

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels
@@ -35,7 +36,7 @@ from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwa
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
-from nlupdate.identification.report import elements_summary
+from nlupdate.identification.summary import elements_summary, linear_frf_table, residual_in_noise_units
 from nlupdate.identification.trust import (
     POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, fit_verdict, identification_warnings,
 )
@@ -221,8 +222,18 @@ class Identification:
         """Forward-model elements at model coordinate(s) ``dofs``."""
         return self.result.elements(dofs)
 
+    def misfit_in_noise_units(self) -> NDArray[np.float64]:
+        """Each PRD/DDF point's misfit over the noise it carries — about 1 where the model
+        fits (:func:`nlupdate.identification.summary.residual_in_noise_units`)."""
+        return residual_in_noise_units(self.result, self.noise_fraction)
+
+    def linear_frf_table(self) -> pd.DataFrame:
+        """The extracted linear FRF as a measured-FRF table (``force_level_n = 0``)."""
+        return linear_frf_table(self.linear_frequency_hz, self.linear_frf, self.settings.response_dof,
+                                self.settings.input_dof)
+
     def summary(self) -> dict[str, Any]:
-        """The ``identification.json`` content (see :mod:`nlupdate.identification.report`)."""
+        """The ``identification.json`` content (see :mod:`nlupdate.identification.summary`)."""
         s, r = self.settings, self.result
         out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": self.model_description,
                                "response_dof": s.response_dof, "input_dof": s.input_dof,

@@ -6,7 +6,7 @@
                       commit, seeds, adapter and solver versions, start/end, how the run was
                       orchestrated (flow-run id, tasks computed vs cached), failures and
                       warnings (results not to be trusted as they stand, each
-                      {"subject", "kind", "message", "source"}: nlupdate.study.run.study_warnings)
+                      {"subject", "kind", "message", "source"}: nlupdate.study.steps.study_warnings)
     study.toml        the study file as run
     inputs/           a copy of every file the study reads (measured data, model files,
                       decks, identification outputs) as ``inputs/<sha256[:12]>/<name>``,
@@ -33,21 +33,21 @@ import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.report import plot_fit, plot_linear_frf
+import numpy as np
+import pandas as pd
+
 from nlupdate.files import atomic_directory, copy_private, inside, name_problem
-from nlupdate.notices import NlupdateWarning
-from nlupdate.reporting.jsonfile import write_json
 from nlupdate.fingerprints import file_hash, table_hash, tree_hash
+from nlupdate.identification.trust import POOR_FIT_FACTOR
+from nlupdate.notices import NlupdateWarning
+from nlupdate.reporting.figures import frf_curve
+from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
-from nlupdate.reporting.plots import plot_correlation_levels, plot_frf_levels, plot_predictions
+from nlupdate.reporting.identification_plots import plot_fit, plot_linear_frf
+from nlupdate.reporting.prediction_plots import plot_correlation_levels, plot_frf_levels, plot_predictions
 from nlupdate.reporting.report import report_markdown
 from nlupdate.reporting.tables import study_tables
-from nlupdate.study.run import study_warnings
-from nlupdate.study.steps import comparison_damping, model_pair, prediction_adapter
-from nlupdate.adapters.registry import AdapterSpec, build_adapter
-from nlupdate.updating.candidates import candidate_frf
-from nlupdate.updating.plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
+from nlupdate.reporting.updating_plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
 
 MANIFEST = "manifest.json"
 #: The kind of output folder an archive is (:func:`nlupdate.files.check_replaceable`).
@@ -144,16 +144,6 @@ def run_folder(root: str | Path, study_name: str, started: dt.datetime, digest: 
     return inside(root, folder)
 
 
-def _solver(spec: AdapterSpec | None) -> dict[str, Any] | None:
-    if spec is None:
-        return None
-    try:
-        version = build_adapter(spec).solver_version()
-    except (ValueError, RuntimeError) as error:
-        version = f"unknown ({error})"
-    return {"kind": spec.kind, "model": spec.model, "options": dict(spec.options), "solver": version}
-
-
 def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str], plots: Mapping[str, str],
                    inputs: list[dict[str, str]]) -> dict:
     """The manifest of a run (see the module docstring); ``run`` describes how it ran,
@@ -164,25 +154,27 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
         seeds["simulated_noise"] = study.measured.simulate.seed
     if study.identification is not None:
         seeds["monte_carlo"] = study.identification.seed
-    adapters = {"updating": _solver(study.adapter)}
-    if study.measured is not None and study.measured.simulate is not None and study.measured.simulate.adapter is not None:
-        adapters["simulated_truth"] = _solver(study.measured.simulate.adapter)
-    if study.prediction is not None:
-        adapters["prediction"] = _solver(prediction_adapter(study))
     return {
         "run_id": run_id,
         "status": "failed" if result.failures else "complete",
         "study": study_record(study),
         "inputs": {"measured": measured_fingerprint(result), "inputs_sha256": inputs_hash(result), "files": inputs},
         "seeds": seeds,
-        "adapters": adapters,
+        "adapters": dict(result.models),
         "environment": environment(),
         "run": dict(run),
         "failures": [{"run": f.name, "error": f.error} for f in result.failures],
-        "warnings": [w.as_dict() for w in study_warnings(result)],
+        "warnings": [w.as_dict() for w in result.warnings],
         "tables": tables,
         "plots": dict(plots),
     }
+
+
+def _curves(table: pd.DataFrame, response: str, inp: str, unit: str = "N") -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(label, frequency Hz, receptance) of every force level of one measured pair."""
+    pair = table[(table["response_dof"].astype(str) == response) & (table["input_dof"].astype(str) == inp)]
+    return [(f"{level:g} {unit}", *frf_curve(pair, response, inp, level))
+            for level in sorted(set(pair["force_level_n"].astype(float)))]
 
 
 def _plots(result, folder: Path) -> dict[str, str]:
@@ -206,11 +198,9 @@ def _plots(result, folder: Path) -> dict[str, str]:
             lambda path: plot_frf_levels(result.measured, *pair, path, f"measured receptance {pair[0]}/{pair[1]}"))
     if ident is not None:
         title = f"{ident.settings.method.upper()} ({ident.result.estimator}), {pair[0]}/{pair[1]}"
-        add("fit", "identification_fit.png", lambda path: plot_fit(ident.result, path, title))
-        measured_curves = []
-        if result.measured is not None:
-            data = FRFLevels.from_table(result.measured, *pair)
-            measured_curves = [(f"{level:g} N", *data.curve(level)) for level in data.levels]
+        add("fit", "identification_fit.png",
+            lambda path: plot_fit(ident.result, path, title, ident.misfit_in_noise_units(), POOR_FIT_FACTOR))
+        measured_curves = _curves(result.measured, *pair) if result.measured is not None else []
         add("linear_frf", "linear_frf.png",
             lambda path: plot_linear_frf(ident.linear_frequency_hz, ident.linear_frf, measured_curves, path,
                                          f"extracted linear FRF ({title})", ident.modal_receptance(ident.linear_frequency_hz)))
@@ -218,14 +208,11 @@ def _plots(result, folder: Path) -> dict[str, str]:
         tables = study_tables(result)
         add("convergence", "convergence.png", lambda path: plot_convergence(tables["histories"], path))
         add("frequency_errors", "frequency_errors.png", lambda path: plot_frequency_errors(result.comparison, path))
-        if result.targets is not None and result.targets.reference is not None:
-            frequency, h = result.targets.reference
-            response, inp = model_pair(study)
-            damping = comparison_damping(study, result.targets)
-            curves = {"initial": candidate_frf(result.runs[0], frequency, response, inp, *damping, "initial")}
-            curves.update({r.name: candidate_frf(r, frequency, response, inp, *damping) for r in result.runs})
+        frfs = result.candidate_frfs
+        if frfs is not None:
             add("frf_comparison", "candidate_frfs.png",
-                lambda path: plot_frf_comparison(frequency, h, curves, path, f"{study.name}: linear FRF {response}/{inp}"))
+                lambda path: plot_frf_comparison(frfs.frequency_hz, frfs.reference, frfs.curves, path,
+                                                 f"{study.name}: linear FRF {frfs.response_dof}/{frfs.input_dof}"))
     if result.predictions:
         add("predictions", "prediction_vs_measurement.png",
             lambda path: plot_predictions(result.measured, result.predictions, *pair, path,

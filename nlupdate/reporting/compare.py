@@ -21,7 +21,7 @@ import pandas as pd
 
 from nlupdate.reporting.catalogue import ArchivedRun
 from nlupdate.fingerprints import table_hash
-from nlupdate.reporting.plots import plot_predictions
+from nlupdate.reporting.prediction_plots import plot_predictions
 
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-12

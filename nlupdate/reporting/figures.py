@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from matplotlib import colormaps
 from matplotlib.figure import Figure
 
@@ -33,3 +34,14 @@ def level_colours(count: int, low: float = 0.0, high: float = 0.9) -> np.ndarray
 def phase_deg(h: np.ndarray) -> np.ndarray:
     """Phase in degrees in [−270, 90): a receptance with positive damping lies in [−180, 0]."""
     return (np.degrees(np.angle(h)) + 270.0) % 360.0 - 270.0
+
+
+def frf_curve(table: pd.DataFrame, response_dof: str, input_dof: str,
+              force_level: float) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of one curve of a measured-FRF table, by ascending frequency: (Hz, H);
+    empty arrays when the table has no such curve (the plot then shows nothing there)."""
+    rows = table[(table["response_dof"].astype(str) == str(response_dof))
+                 & (table["input_dof"].astype(str) == str(input_dof))
+                 & np.isclose(table["force_level_n"].to_numpy(dtype=float), float(force_level), rtol=1e-9, atol=0.0)]
+    rows = rows.sort_values("frequency_hz", kind="mergesort")
+    return rows["frequency_hz"].to_numpy(dtype=float), rows["h_real"].to_numpy() + 1j * rows["h_imag"].to_numpy()

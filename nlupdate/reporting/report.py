@@ -1,7 +1,7 @@
 """``report.md``: a run archive's report, written to be read top to bottom.
 
 It opens with the warnings about results that should not be trusted as they stand
-(:func:`nlupdate.study.run.study_warnings`; the CLI prints the summary, so they reach
+(:func:`nlupdate.study.steps.study_warnings`; the CLI prints the summary, so they reach
 the terminal too) and the answer (identified nonlinearity, updated parameters with their
 uncertainty, how well the updated nonlinear model predicts every force level), then
 shows how each step got there, with the plots linked beside the numbers. For a
@@ -15,8 +15,6 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.response_method import describe
-from nlupdate.study.run import study_warnings
-from nlupdate.updating.trust import updating_warnings
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
                     "propagated through the updating sensitivities for updated parameters); the interval given as "
@@ -122,7 +120,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
 
 def _warning_lines(result) -> list[str]:
     """The **Warnings** block that opens the summary (nothing when there are none)."""
-    warnings = study_warnings(result)
+    warnings = result.warnings
     if not warnings:
         return []
     lines = [f"**Warnings** ({len(warnings)}: results not to be trusted as they stand):", ""]
@@ -212,10 +210,9 @@ def _targets_section(result) -> list[str]:
 def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     lines = ["## Updating", ""]
     rows = []
-    bounds = {p.name: (p.lower, p.upper) for p in result.study.parameters}
     for run in result.runs:
         u = result.uncertainties.get(run.name)
-        on_bound = [w.subject for w in updating_warnings(run, {**(run.bounds or {}), **bounds}) if w.kind == "at_bound"]
+        on_bound = [w.subject for w in result.warnings if w.source == run.name and w.kind == "at_bound"]
         converged = "yes" if run.converged else f"no ({run.reason})"
         if on_bound:
             converged += f", on the bound of {', '.join(on_bound)}"

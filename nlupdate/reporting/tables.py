@@ -18,14 +18,39 @@ correlation          per model and force level: FRAC, normalised error, peak err
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import pandas as pd
 
-from nlupdate.identification.report import linear_frf_table
-from nlupdate.updating.candidates import candidate_table
+from nlupdate.updating.eigensensitivity import UpdatingResult
+from nlupdate.updating.sensitivity import FORMULA_LABELS
+
+
+def runs_table(results: Sequence[UpdatingResult]) -> pd.DataFrame:
+    """One row per candidate: method, formula, parameters (``p:<name>``), convergence, cost."""
+    rows = []
+    for result in results:
+        row: dict[str, object] = {
+            "candidate": result.name,
+            "method": result.method,
+            "formula": FORMULA_LABELS[result.history["formula"].iloc[0]] if len(result.history) else "",
+            "parameter_set": ",".join(result.parameters),
+        }
+        row.update({f"p:{k}": v for k, v in result.parameters.items()})
+        row.update({
+            "converged": result.converged,
+            "reason": result.reason,
+            "iterations": result.iterations,
+            "new_evaluations": result.counts["new"],
+            "cached_evaluations": result.counts["cached"],
+            "wall_time_s": result.wall_time_s,
+        })
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def study_tables(result) -> dict[str, pd.DataFrame]:
-    """Every table a :class:`~nlupdate.study.run.StudyResult` holds, by name."""
+    """Every table a :class:`~nlupdate.study.chain.StudyResult` holds, by name."""
     tables: dict[str, pd.DataFrame] = {}
     if result.measured is not None:
         tables["measured"] = result.measured
@@ -36,8 +61,7 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
             {"parameter": name, "value": s.value, "mean": s.mean, "std": s.std, "ci95_low": s.ci95[0], "ci95_high": s.ci95[1]}
             for name, s in stats.items() if name in ident.parameters()
         ])
-        tables["linear_frf"] = linear_frf_table(ident.linear_frequency_hz, ident.linear_frf, ident.settings.response_dof,
-                                                ident.settings.input_dof)
+        tables["linear_frf"] = ident.linear_frf_table()
         tables["linear_modes"] = pd.DataFrame([
             {"mode": i + 1, "natural_frequency_hz": stats[f"linear_f{i + 1}_hz"].value,
              "natural_frequency_std_hz": stats[f"linear_f{i + 1}_hz"].std, "loss_factor": stats[f"linear_eta{i + 1}"].value,
@@ -50,7 +74,7 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
         tables["targets"] = pd.DataFrame({"mode": list(t.labels), "frequency_hz": t.frequencies_hz,
                                           "std_hz": std if std is not None else float("nan"), "weight": t.weights})
     if result.runs:
-        runs = candidate_table(result.runs)
+        runs = runs_table(result.runs)
         for name in sorted({n for r in result.runs for n in r.parameters}):
             runs[f"std:{name}"] = [
                 result.uncertainties[r.name].std.get(name, float("nan")) if r.name in result.uncertainties else float("nan")

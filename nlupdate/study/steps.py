@@ -1,13 +1,15 @@
 """The steps of a study, each a function of plain inputs (a :class:`~nlupdate.study.spec.Study`
-and what earlier steps returned).
+and what earlier steps returned); :mod:`nlupdate.study.chain` declares their order.
 
-:func:`nlupdate.study.run.run_study` calls them in order in one process; the Prefect
-flows (:mod:`nlupdate.flows`) call the very same functions inside cached tasks and decide
-where the FE evaluations run. Nothing here knows which of the two is calling.
+Both interpreters of the chain — :func:`nlupdate.study.run.run_study` in one process and
+the Prefect flows (:mod:`nlupdate.flows`) as cached tasks — call these very functions;
+nothing here knows which of the two is calling, nor where FE points are evaluated (the
+fan-out steps get an evaluator).
 
 measured data → identification → targets → updating runs (one per formula × parameter
-set and per optimisation candidate) → comparison and ranking → parameter uncertainty →
-predictions of the updated nonlinear model at every force level → correlation.
+set and per optimisation candidate) → comparison, ranking and parameter uncertainty →
+the candidates' linear FRFs → predictions of the updated nonlinear models at every force
+level, correlated → the warnings on results not to be trusted as they stand.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from nlupdate.adapters.base import ModalResult
 from nlupdate.correlation.levels import correlate_levels
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import Identification, identify
+from nlupdate.identification.trust import TrustWarning
 from nlupdate.measurement.frf_table import force_levels, read_frf_table, read_frf_tables, select_frf
 from nlupdate.measurement.time_history import estimate_frf, read_time_record
 from nlupdate.measurement.units import calibrated
@@ -33,7 +36,9 @@ from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
 from nlupdate.response.simulate import simulate_frf_table
 from nlupdate.study.spec import SimulationSpec, Study, StudyError
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
-from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates
+from nlupdate.updating.runs import UpdatingRun, candidate_frf, compare_candidates, rank_candidates, update
+from nlupdate.updating.evaluation import PointEvaluator
+from nlupdate.updating.trust import updating_warnings
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult
 from nlupdate.updating.optimisation import OptimisationOptions
 from nlupdate.updating.sensitivity import FORMULA_LABELS
@@ -59,6 +64,51 @@ class RunFailure:
 
     name: str
     error: str
+
+
+@dataclass(frozen=True, eq=False)
+class UpdatingOutcome:
+    """The updating runs that finished and those that failed, in the order of the runs."""
+
+    runs: tuple[UpdatingResult, ...]
+    failures: tuple[RunFailure, ...]
+
+    @classmethod
+    def of(cls, outcomes: Sequence[UpdatingResult | RunFailure]) -> "UpdatingOutcome":
+        return cls(tuple(o for o in outcomes if isinstance(o, UpdatingResult)),
+                   tuple(o for o in outcomes if isinstance(o, RunFailure)))
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """The runs compared mode by mode (``table``), ranked for the user's weights, and each
+    run's parameter uncertainty propagated from the targets'."""
+
+    table: pd.DataFrame
+    ranking: pd.DataFrame
+    uncertainties: Mapping[str, ParameterUncertainty]
+
+
+@dataclass(frozen=True, eq=False)
+class CandidateFRFs:
+    """The reference linear FRF of the targets and every run's (and the initial model's)
+    linear receptance at the measured pair of the model (m/N), over ``frequency_hz`` (Hz):
+    modal superposition of the modes each model computed, with the comparison's damping."""
+
+    frequency_hz: NDArray[np.float64]
+    reference: NDArray[np.complex128]
+    curves: Mapping[str, NDArray[np.complex128]]
+    response_dof: str
+    input_dof: str
+    modes: int
+
+
+@dataclass(frozen=True)
+class PredictionJob:
+    """One model to predict with: its name (``initial`` or a run) and its FE point."""
+
+    name: str
+    point: Mapping[str, float]
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +141,14 @@ def truth_system(study: Study, simulation: SimulationSpec) -> NonlinearSystem:
         for i, table in enumerate(simulation.elements)
     )
     return NonlinearSystem(model, elements)
+
+
+def measured_description(study: Study) -> str:
+    """Where the measured data come from, in a few words."""
+    spec = study.measured
+    if spec.simulate is not None:
+        return "simulated test"
+    return str(spec.file) if spec.file is not None else f"{len(spec.files or spec.time_histories)} files"
 
 
 def measured_table(study: Study) -> pd.DataFrame:
@@ -203,7 +261,12 @@ def held_at_start(study: Study, updated: Sequence[str]) -> dict[str, float]:
     return {**study.fixed, **{p.name: p.start for p in study.parameters if p.name not in updated}}
 
 
-def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
+def updating_model(study: Study) -> AdapterSpec:
+    """The FE model the updating runs evaluate."""
+    return study.adapter
+
+
+def updating_runs(study: Study, targets: TargetSet) -> list[UpdatingRun]:
     """One task per eigensensitivity formula × parameter set and per optimisation candidate."""
     by_name = {p.name: p for p in study.parameters}
     tasks = []
@@ -211,7 +274,7 @@ def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
         for parameter_set in study.eigensensitivity["parameter_sets"]:
             for formula in study.eigensensitivity["formulas"]:
                 options = EigensensitivityOptions(formula=formula, **study.eigensensitivity["options"], **study.updating)
-                tasks.append(UpdatingTask(run_name("eigensensitivity", formula, parameter_set), study.adapter,
+                tasks.append(UpdatingRun(run_name("eigensensitivity", formula, parameter_set), study.adapter,
                                           tuple(by_name[n] for n in parameter_set), targets.targets, "eigensensitivity",
                                           options, held_at_start(study, parameter_set)))
     if study.optimisation is not None:
@@ -225,7 +288,7 @@ def updating_tasks(study: Study, targets: TargetSet) -> list[UpdatingTask]:
                 weighted = targets.targets.with_weights(entry.weights)
             except ValueError as error:
                 raise StudyError(f"{study.path}: [[optimisation.candidates]] {entry.name!r}: {error}") from None
-            tasks.append(UpdatingTask(entry.name, study.adapter, parameters, weighted, "optimisation", options,
+            tasks.append(UpdatingRun(entry.name, study.adapter, parameters, weighted, "optimisation", options,
                                       held_at_start(study, entry.parameters)))
     return tasks
 
@@ -240,14 +303,42 @@ def comparison_damping(study: Study, targets: TargetSet) -> tuple[float | list[f
     return (0.0 if ratios is None else ratios), losses
 
 
-def compare_runs(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Mode-by-mode comparison (with FRAC against the reference FRF when there is one) and
-    the ranking for the study's user weights (default: the target weights)."""
+def run_update(study: Study, run: UpdatingRun, evaluator: PointEvaluator, targets: TargetSet) -> UpdatingResult:
+    """One updating run, its FE points evaluated by ``evaluator``."""
+    return update(run, evaluator)
+
+
+def run_verdict(run: UpdatingRun, outcome: UpdatingResult | RunFailure) -> str:
+    """A run's progress detail: converged or not, and its new and cached FE evaluations."""
+    if isinstance(outcome, RunFailure):
+        return f"{run.name}: FAILED: {outcome.error}"
+    verdict = "converged" if outcome.converged else f"not converged ({outcome.reason})"
+    return f"{run.name}: {verdict}, {outcome.counts['new']} new / {outcome.counts['cached']} cached FE runs"
+
+
+def compare_runs(study: Study, targets: TargetSet, updating: UpdatingOutcome) -> Comparison:
+    """Mode-by-mode comparison (with FRAC against the reference FRF when there is one), the
+    ranking for the study's user weights (default: the target weights) and each run's
+    parameter uncertainty."""
+    runs = updating.runs
     response, inp = model_pair(study) if targets.reference is not None else (None, None)
     comparison = compare_candidates(runs, targets.reference, response, inp, *comparison_damping(study, targets),
                                     study.comparison["band_fraction"])
     weights = study.comparison["user_weights"]
-    return comparison, rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights))
+    ranking = rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights))
+    return Comparison(comparison, ranking, parameter_uncertainties(study, targets, runs))
+
+
+def candidate_frfs(study: Study, targets: TargetSet, updating: UpdatingOutcome) -> CandidateFRFs:
+    """Every run's (and the initial model's) linear FRF against the targets' reference."""
+    frequency, h = targets.reference
+    response, inp = model_pair(study)
+    damping = comparison_damping(study, targets)
+    runs = updating.runs
+    curves = {"initial": candidate_frf(runs[0], frequency, response, inp, *damping, "initial")}
+    curves.update({run.name: candidate_frf(run, frequency, response, inp, *damping) for run in runs})
+    return CandidateFRFs(np.asarray(frequency, dtype=float), np.asarray(h), curves, response, inp,
+                         len(runs[0].final.natural_frequencies_hz))
 
 
 def parameter_uncertainties(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> dict[str, ParameterUncertainty]:
@@ -268,9 +359,10 @@ def prediction_adapter(study: Study) -> AdapterSpec:
     return AdapterSpec(study.adapter.kind, study.adapter.model, options)
 
 
-def prediction_points(study: Study, runs: Sequence[UpdatingResult], ranking: pd.DataFrame) -> list[tuple[str, dict[str, float]]]:
-    """(name, model point) of every model to predict with: ``initial`` and the runs the
-    ``[prediction] candidates`` choice names (default: the best-ranked run)."""
+def prediction_jobs(study: Study, updating: UpdatingOutcome, comparison: Comparison, *_: object) -> list[PredictionJob]:
+    """Every model to predict with: ``initial`` and the runs the ``[prediction] candidates``
+    choice names (default: the best-ranked run)."""
+    runs, ranking = updating.runs, comparison.ranking
     start = held_at_start(study, ())
     by_name = {run.name: run for run in runs}
     choice = study.prediction.candidates
@@ -284,7 +376,8 @@ def prediction_points(study: Study, runs: Sequence[UpdatingResult], ranking: pd.
             raise StudyError(f"{study.path}: [prediction] candidates {unknown} are not runs of this study; runs: "
                              f"{list(by_name)}")
         names = list(choice)
-    return [("initial", start)] + [(name, {**start, **by_name[name].parameters}) for name in names]
+    return [PredictionJob("initial", start)] + [PredictionJob(name, {**start, **by_name[name].parameters})
+                                                for name in names]
 
 
 def prediction_levels(study: Study, table: pd.DataFrame) -> tuple[float, ...]:
@@ -294,6 +387,14 @@ def prediction_levels(study: Study, table: pd.DataFrame) -> tuple[float, ...]:
     response, inp = _measured_pair(study)
     curve = table[(table["response_dof"].astype(str) == response) & (table["input_dof"].astype(str) == inp)]
     return tuple(float(level) for level in force_levels(curve))
+
+
+def predict_job(study: Study, job: PredictionJob, evaluator: PointEvaluator, updating: UpdatingOutcome,
+                comparison: Comparison, identification: Identification, table: pd.DataFrame) -> Prediction:
+    """The prediction of one model: its FE modes at its point (through ``evaluator``), then
+    :func:`predict_model`."""
+    modes = evaluator([job.point])[0]
+    return predict_model(study, job.name, job.point, modes, identification, table)
 
 
 def predict_model(
@@ -330,3 +431,42 @@ def predict_model(
     predicted = predicted[(predicted["response_dof"] == model_response) & (predicted["input_dof"] == model_input)]
     predicted = predicted.assign(response_dof=response, input_dof=inp).reset_index(drop=True)
     return Prediction(name, dict(point), loss_factor, source, predicted, correlate_levels(table, predicted, response, inp))
+
+
+# --------------------------------------------------------------------------- record
+def _model_record(spec: AdapterSpec | None) -> dict | None:
+    if spec is None:
+        return None
+    try:
+        version = build_adapter(spec).solver_version()
+    except (ValueError, RuntimeError) as error:
+        version = f"unknown ({error})"
+    return {"kind": spec.kind, "model": spec.model, "options": dict(spec.options), "solver": version}
+
+
+def models_used(study: Study) -> dict[str, dict | None]:
+    """The FE models the study used — for updating, as the simulated truth, for
+    predictions — and the version of the program that solved each."""
+    models = {"updating": _model_record(study.adapter)}
+    simulation = study.measured.simulate if study.measured is not None else None
+    if simulation is not None and simulation.adapter is not None:
+        models["simulated_truth"] = _model_record(simulation.adapter)
+    if study.prediction is not None and study.adapter is not None:
+        models["prediction"] = _model_record(prediction_adapter(study))
+    return models
+
+
+# --------------------------------------------------------------------------- trust
+def study_warnings(study: Study, identification: Identification | None, updating: UpdatingOutcome | None,
+                   comparison: Comparison | None) -> tuple[TrustWarning, ...]:
+    """The identification's warnings (:mod:`nlupdate.identification.trust`), then each
+    updating run's (:mod:`nlupdate.updating.trust`: parameters that ended on a bound of
+    the study, propagated uncertainty above the value), in run order."""
+    out: list[TrustWarning] = []
+    if identification is not None:
+        out += identification.warnings
+    bounds = {p.name: (p.lower, p.upper) for p in study.parameters}
+    uncertainties = {} if comparison is None else comparison.uncertainties
+    for run in (updating.runs if updating is not None else ()):
+        out += updating_warnings(run, {**(run.bounds or {}), **bounds}, uncertainties.get(run.name))
+    return tuple(out)

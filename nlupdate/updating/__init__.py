@@ -6,23 +6,21 @@
 * :mod:`~nlupdate.updating.eigensensitivity` — inverse eigensensitivity iteration
 * :mod:`~nlupdate.updating.optimisation` — bounded weighted least-squares fit
 * :mod:`~nlupdate.updating.evaluation` — point evaluators: who runs the FE evaluations
-* :mod:`~nlupdate.updating.candidates` — one run (:func:`update`), sweeps, candidate comparison, ranking
+* :mod:`~nlupdate.updating.runs` — one run (:func:`update`), the candidates' comparison and ranking
 * :mod:`~nlupdate.updating.uncertainty` — parameter uncertainty from target uncertainty
 * :mod:`~nlupdate.updating.trust` — warnings: runs that ended on a bound, spread above the value
-* :mod:`~nlupdate.updating.plots` — PNG plots
 """
-from nlupdate.adapters.registry import AdapterSpec, build_adapter
-from nlupdate.updating.candidates import UpdatingTask, compare_candidates, rank_candidates, run_tasks, update
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
+from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
 from nlupdate.updating.pairing import ModePairing, pair_modes
-from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
+from nlupdate.updating.runs import UpdatingRun, compare_candidates, rank_candidates, update
 from nlupdate.updating.sensitivity import FORMULAS, assemble_jacobian, jacobian, stencil_points
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies
 
 __all__ = [
-    "AdapterSpec", "build_adapter", "UpdatingTask", "compare_candidates", "rank_candidates", "run_tasks", "update",
-    "EigensensitivityOptions", "UpdatingResult", "inverse_eigensensitivity", "OptimisationOptions",
-    "optimise_frequencies", "ModePairing", "pair_modes", "FORMULAS", "assemble_jacobian", "jacobian", "stencil_points", "MemoisedEvaluator", "PointEvaluator", "UpdatingTargets", "peak_frequencies",
-    "frf_natural_frequencies",
+    "UpdatingRun", "compare_candidates", "rank_candidates", "update", "EigensensitivityOptions", "UpdatingResult",
+    "inverse_eigensensitivity", "OptimisationOptions", "optimise_frequencies", "ModePairing", "pair_modes", "FORMULAS",
+    "assemble_jacobian", "jacobian", "stencil_points", "MemoisedEvaluator", "PointEvaluator", "UpdatingTargets",
+    "peak_frequencies", "frf_natural_frequencies",
 ]

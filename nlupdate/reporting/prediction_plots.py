@@ -8,8 +8,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from nlupdate.measurement.frf_table import select_frf
-from nlupdate.reporting.figures import level_colours, save_figure
+from nlupdate.reporting.figures import frf_curve, level_colours, save_figure
 
 
 def plot_frf_levels(table: pd.DataFrame, response_dof: str, input_dof: str, path: Path, title: str = "") -> Path:
@@ -47,14 +46,14 @@ def plot_predictions(
     if styles is None:
         styles = [dict(color="0.45", ls="--", lw=1.0)] + [dict(color=f"C{k + 3}", lw=1.3) for k in range(len(predictions))]
     for ax, level in zip(axes, levels):
-        f_m, h_m = select_frf(measured, response_dof, input_dof, level)
+        f_m, h_m = frf_curve(measured, response_dof, input_dof, level)
         ax.semilogy(f_m, np.abs(h_m), ".", ms=1.5, color="k", label="measured")
         if other_measured is not None:
-            f_o, h_o = select_frf(other_measured[1], response_dof, input_dof, level)
+            f_o, h_o = frf_curve(other_measured[1], response_dof, input_dof, level)
             ax.semilogy(f_o, np.abs(h_o), "x", ms=2, color="0.6", label=other_measured[0])
         fracs = []
         for prediction, style in zip(predictions, styles):
-            f_p, h_p = select_frf(prediction.table, response_dof, input_dof, level)
+            f_p, h_p = frf_curve(prediction.table, response_dof, input_dof, level)
             ax.semilogy(f_p, np.abs(h_p), label=prediction.name, **style)
             row = prediction.correlation[np.isclose(prediction.correlation["force_level_n"], level)]
             fracs.append(f"{row['frac'].iloc[0]:.2f}" if len(row) else "–")

@@ -1,13 +1,12 @@
-"""Candidate models: sweeps of updating runs, their comparison and ranking.
+"""Updating runs and the candidate models they give: running one, comparing and ranking them.
 
-A sweep is a list of :class:`UpdatingTask` — one per finite-difference formula, per
-parameter set, per weighting… :func:`update` runs one task: a pure function of its
-(picklable) task and of the point evaluator it is given (by default it builds its own
-adapter from the task's :class:`~nlupdate.adapters.registry.AdapterSpec` and
-evaluates in order). :func:`run_tasks` runs a sweep in order, sharing one memoised
-evaluator per model so that a point two runs need (every run's start point, for one) is
-solved once. Running the tasks concurrently, and where the FE runs go, is the flow
-layer's business (:mod:`nlupdate.flows`).
+A sweep is a list of :class:`UpdatingRun` — one per finite-difference formula, per
+parameter set, per weighting… :func:`update` runs one: a pure function of its (picklable)
+description and of the point evaluator it is given (by default it builds its own adapter
+from the run's :class:`~nlupdate.adapters.registry.AdapterSpec` and evaluates in order).
+Running the sweep — in order with one memoised evaluator per model, so that a point two
+runs need is solved once, or concurrently — is the chain's business
+(:mod:`nlupdate.study.chain`).
 
 Each result is a candidate model. :func:`compare_candidates` tabulates them mode by mode
 against the targets (frequency error in %) and, when the extracted linear FRF of the
@@ -32,14 +31,13 @@ from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
-from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.updating.targets import UpdatingTargets
 
 METHODS = ("eigensensitivity", "optimisation")
 
 
 @dataclass(frozen=True)
-class UpdatingTask:
+class UpdatingRun:
     """One updating run.
 
     method: ``eigensensitivity`` (options: EigensensitivityOptions) or ``optimisation``
@@ -62,7 +60,7 @@ class UpdatingTask:
             raise ValueError(f"task {self.name!r}: method {self.method!r} needs {expected.__name__}")
 
 
-def update(task: UpdatingTask, evaluate_points: PointEvaluator | None = None) -> UpdatingResult:
+def update(task: UpdatingRun, evaluate_points: PointEvaluator | None = None) -> UpdatingResult:
     """Run one updating task; the result carries the task's name.
 
     ``evaluate_points`` runs the FE evaluations (default: a memoised evaluator over a new
@@ -74,45 +72,6 @@ def update(task: UpdatingTask, evaluate_points: PointEvaluator | None = None) ->
     else:
         result = optimise_frequencies(evaluator, task.parameters, task.targets, task.options, task.fixed)
     return dataclasses.replace(result, name=task.name)
-
-
-def run_tasks(tasks: Sequence[UpdatingTask]) -> list[UpdatingResult]:
-    """Run ``tasks`` in order, one shared memoised evaluator per adapter spec; results in
-    task order. Task names must be unique."""
-    names = [task.name for task in tasks]
-    if len(set(names)) != len(names):
-        raise ValueError(f"task names must be unique, got {names}")
-    evaluators: dict[str, MemoisedEvaluator] = {}
-    results = []
-    for task in tasks:
-        identity = task.adapter.identity()
-        if identity not in evaluators:
-            evaluators[identity] = MemoisedEvaluator(build_adapter(task.adapter))
-        results.append(update(task, evaluators[identity]))
-    return results
-
-
-def candidate_table(results: Sequence[UpdatingResult]) -> pd.DataFrame:
-    """One row per candidate: method, formula, parameters (``p:<name>``), convergence, cost."""
-    rows = []
-    for result in results:
-        row: dict[str, object] = {
-            "candidate": result.name,
-            "method": result.method,
-            "formula": FORMULA_LABELS[result.history["formula"].iloc[0]] if len(result.history) else "",
-            "parameter_set": ",".join(result.parameters),
-        }
-        row.update({f"p:{k}": v for k, v in result.parameters.items()})
-        row.update({
-            "converged": result.converged,
-            "reason": result.reason,
-            "iterations": result.iterations,
-            "new_evaluations": result.counts["new"],
-            "cached_evaluations": result.counts["cached"],
-            "wall_time_s": result.wall_time_s,
-        })
-        rows.append(row)
-    return pd.DataFrame(rows)
 
 
 def _modal_damping(value: float | Sequence[float], result: UpdatingResult, what: str) -> float | NDArray[np.float64]:

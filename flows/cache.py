@@ -1,0 +1,26 @@
+"""Where a run's task results persist, and whether to recompute them anyway: :class:`Cache`."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from prefect import Task
+
+from nlupdate.tasks.cached import configured
+
+
+@dataclass(frozen=True)
+class Cache:
+    """``store``: the cache folder; ``refresh``: compute every task even when the store has
+    its result (and overwrite it)."""
+
+    store: str
+    refresh: bool = False
+
+    def task(self, step: Task, name: str | None = None, run_name: str | None = None) -> Task:
+        """``step`` persisting its results in this cache, its runs called ``run_name`` (as
+        written: not a format template) and the task ``name`` if given."""
+        options = {} if name is None else {"name": name}
+        if run_name is not None:
+            options["task_run_name"] = lambda: run_name
+        return configured(step.with_options(**options) if options else step, Path(self.store), self.refresh)

@@ -1,0 +1,75 @@
+"""What an identification reports: the ``identification.json`` schema and the tables and
+numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporting.identification_plots`).
+
+``identification.json`` keys (SI units, polynomial coefficients highest order first):
+
+* ``method`` ("prd"/"ddf"), ``estimator``, ``model``, ``response_dof``, ``input_dof``;
+* ``warnings``: results not to be trusted as they stand, each ``{"subject", "kind",
+  "message", "source"}`` (:mod:`nlupdate.identification.trust`; empty when none);
+* ``excitation_frequency_hz`` (PRD; null for DDF), ``low_force_n`` and ``high_forces_n``
+  (PRD) or ``force_pair_n`` and ``band_hz`` (DDF);
+* ``describing_function``: ``{"real", "imag", "definition", "amplitude_range_m"}`` — the DF
+  ν(A) (N/m) that, added to the extracted linear dynamic stiffness, reproduces the
+  high-force data (PRD: ``y + Δ_f1``; DDF: ``Δ``);
+* ``prd_fit`` (PRD): the fitted PRD curve ``y(A) = 1/H_i − 1/H_1`` (the source's
+  "identified DF", constant term ``−Δ_f1``) and ``delta_f1`` (real, imag);
+* ``elements`` (physical models): type, dofs and parameters, ready for
+  :data:`nlupdate.model.elements.ELEMENT_TYPES`;
+* ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
+  (how the statistics were made); ``noise_fraction`` (the noise level used) and
+  ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
+* ``fit``: ``"poor"`` when that ratio exceeds 5 (the model does not describe the data; the
+  fit plot shows the residual against amplitude), ``"consistent"``, or ``"unknown"`` (no
+  spare degrees of freedom), with ``fit_ratio_to_noise``;
+* ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
+* ``defaults_used``: every option that was not given and the value chosen.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike
+
+from nlupdate.identification.dfmodels import PhysicalModel
+
+JSON_NAME = "identification.json"
+
+
+def linear_frf_table(frequency_hz: ArrayLike, h: ArrayLike, response_dof: str, input_dof: str) -> pd.DataFrame:
+    """Tidy table of the extracted linear FRF; ``force_level_n = 0`` means "linear"."""
+    f = np.asarray(frequency_hz, dtype=float)
+    hh = np.asarray(h, dtype=complex)
+    return pd.DataFrame({
+        "frequency_hz": f, "force_level_n": np.zeros(f.size), "response_dof": str(response_dof),
+        "input_dof": str(input_dof), "h_real": hh.real, "h_imag": hh.imag,
+    })
+
+
+def elements_summary(result: Any, dof_name: str) -> list[dict] | None:
+    """Physical elements as ``{"type", "dofs", <parameters>}`` dictionaries, else None."""
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if not isinstance(model, PhysicalModel):
+        return None
+    p = result.p
+    out = []
+    for name, element in zip(model.element_names, model.elements(p)):
+        entry = {"type": name, "dofs": [dof_name]}
+        entry.update({k: float(v) for k, v in vars(element).items() if k != "dofs"})
+        out.append(entry)
+    return out
+
+
+def residual_in_noise_units(result: Any, noise_fraction: float) -> np.ndarray:
+    """The misfit of each PRD/DDF point, ``|y_i − ŷ(A_i)|``, over the noise it carries,
+    about ``σ·√2·F_i/A_i`` (σ: relative noise; ``F_i/A_i = |1/H_i|``, and the reference
+    level's ``|1/H|`` taken as the same size) — about 1 where the model fits."""
+    amplitude = np.asarray(result.amplitude, dtype=float)
+    if result.method == "prd":
+        forces = np.asarray(result.setup.high_forces, dtype=float)
+        force = np.tile(forces, max(amplitude.size // forces.size, 1))[: amplitude.size]
+    else:
+        force = np.full(amplitude.size, float(result.setup.force_pair[1]))
+    misfit = np.abs(np.asarray(result.y) - result.fitted_y(amplitude))
+    return misfit / (max(float(noise_fraction), 1e-12) * np.sqrt(2) * force / amplitude)
