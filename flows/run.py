@@ -86,7 +86,7 @@ def run_discovery_flow(
     from nlupdate.flows.discovery import discovery_flow
     from nlupdate.flows.cache import Cache
     from nlupdate.flows.handles import handle
-    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.measurement.frf_files import read_frf_table
     from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
     from nlupdate.model.model_file import load_system
 

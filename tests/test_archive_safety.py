@@ -213,7 +213,7 @@ def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monke
     assert entry["sha256"] == hashlib.sha256(original).hexdigest()
     assert (tmp_path / "out" / entry["archived"]).read_bytes() == original
     assert manifest["inputs"]["measured"]["file_sha256"] == hashlib.sha256(original).hexdigest()
-    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.measurement.frf_files import read_frf_table
     from nlupdate.fingerprints import table_hash
 
     measured.write_bytes(original)

@@ -247,7 +247,7 @@ def test_uff_mobility_and_accelerance_are_converted_to_receptance(tmp_path, ordi
     """An ASCII UFF 58 written by pyuff as another tool would: A = (iω)^p H, read back as H."""
     import pyuff
 
-    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.measurement.frf_files import read_frf_table
     from nlupdate.notices import NlupdateWarning
 
     f = np.linspace(10.0, 20.0, 11)

@@ -201,7 +201,7 @@ def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_
     takes every fit from the cache."""
     from nlupdate.discovery import DiscoveryOptions, discover
     from nlupdate.flows.run import run_discovery_flow
-    from nlupdate.measurement.frf_table import read_frf_table
+    from nlupdate.measurement.frf_files import read_frf_table
     from nlupdate.model.model_file import load_system
 
     examples = Path(__file__).resolve().parents[1] / "examples" / "discovery"

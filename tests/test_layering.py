@@ -1,12 +1,20 @@
-"""The layers, checked: numerics and adapters import no orchestration, CLI or pyplot.
+"""The layers, checked: CLI → flows → tasks → reporting → numerics and adapters.
 
-Every module of the numerics (``nlupdate`` without ``cli``, ``flows``, ``tasks``) and of
-the adapters is imported in a fresh interpreter, which must not have loaded Prefect,
-the flows, the tasks, the CLI or ``matplotlib.pyplot`` afterwards; no source file of
-theirs selects a matplotlib backend.
+* Every module of the numerics (``nlupdate`` without ``cli``, ``flows``, ``tasks``) and of
+  the adapters is imported in a fresh interpreter, which must not have loaded Prefect,
+  the flows, the tasks, the CLI or ``matplotlib.pyplot`` afterwards; no source file of
+  theirs selects a matplotlib backend.
+* In the import graph (read from the sources, imports inside functions included) no
+  module imports a layer above its own, and no modules import each other in a circle.
+* Reporting renders: from the numerics it imports types and constants, not functions.
+* Editing a plot or the report changes no cached identification or updating result.
 """
 from __future__ import annotations
 
+import ast
+import dataclasses
+import importlib
+import inspect
 import pkgutil
 import subprocess
 import sys
@@ -46,3 +54,152 @@ def test_no_module_selects_a_matplotlib_backend():
     roots = [Path(nlupdate.__file__).parent, Path(nlupdate.adapters.__file__).parent]
     offenders = [str(path) for root in roots for path in root.rglob("*.py") if "matplotlib.use(" in path.read_text()]
     assert offenders == []
+
+
+# ----------------------------------------------------------------------------- the import graph
+ROOTS = {"nlupdate": Path(nlupdate.__file__).parent, "nlupdate.adapters": Path(nlupdate.adapters.__file__).parent}
+ROOTS.update({f"nlupdate.{name}": ROOTS["nlupdate"].parent / name for name in ("flows", "tasks")})
+#: Top to bottom; a module may import its own layer and the ones below it only.
+LAYERS = ("nlupdate.cli", "nlupdate.flows", "nlupdate.tasks", "nlupdate.reporting")
+NUMERICS_PACKAGES = ("nlupdate.model", "nlupdate.response", "nlupdate.measurement", "nlupdate.identification",
+                     "nlupdate.updating", "nlupdate.prediction", "nlupdate.correlation", "nlupdate.discovery",
+                     "nlupdate.fe", "nlupdate.study", "nlupdate.adapters", "nlupdate.response_method")
+#: Functions reporting may import from the numerics, and why.
+REPORTING_MAY_CALL = {
+    ("nlupdate.response_method", "describe"): "the wording of the response method's settings",
+    ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
+}
+
+
+def _modules() -> dict[str, Path]:
+    found = {}
+    for prefix, folder in ROOTS.items():
+        for path in folder.rglob("*.py"):
+            parts = list(path.relative_to(folder).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            if prefix == "nlupdate" and parts and parts[0] in ("flows", "tasks", "adapters"):
+                continue
+            found[".".join([prefix, *parts])] = path
+    return found
+
+
+def _imports(path: Path) -> list[tuple[str, str | None]]:
+    """(module, name) of every nlupdate import in a file, function bodies included."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [(alias.name, None) for alias in node.names if alias.name.startswith("nlupdate")]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nlupdate"):
+            found += [(node.module, alias.name) for alias in node.names]
+    return found
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = _modules()
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for module, imported in _imports(path):
+            if imported is not None and f"{module}.{imported}" in modules:
+                targets.add(f"{module}.{imported}")
+            elif module in modules:
+                targets.add(module)
+        graph[name] = targets - {name}
+    return graph
+
+
+def _layer(module: str) -> int:
+    for rank, prefix in enumerate(LAYERS):
+        if module == prefix or module.startswith(prefix + "."):
+            return len(LAYERS) - rank
+    return 0  # the numerics and adapters
+
+
+def test_no_module_imports_a_layer_above_its_own():
+    upward = sorted((module, target) for module, targets in _graph().items() for target in targets
+                    if _layer(target) > _layer(module) and module != "nlupdate.__main__")
+    assert upward == []
+
+
+def test_no_modules_import_each_other_in_a_circle():
+    graph = _graph()
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    circles = []
+
+    def visit(node: str) -> None:  # Tarjan's strongly connected components
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for target in graph[node]:
+            if target not in index:
+                visit(target)
+                low[node] = min(low[node], low[target])
+            elif target in stack:
+                low[node] = min(low[node], index[target])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    assert circles == []
+
+
+def test_reporting_imports_types_and_constants_from_the_numerics_not_functions():
+    """Reporting renders the results the chain computed; it calls no numerics function."""
+    offenders = []
+    for name, path in _modules().items():
+        if not name.startswith("nlupdate.reporting"):
+            continue
+        for module, imported in _imports(path):
+            if imported is None or not module.startswith(NUMERICS_PACKAGES):
+                continue
+            value = getattr(importlib.import_module(module), imported)
+            if callable(value) and not inspect.isclass(value) and (module, imported) not in REPORTING_MAY_CALL:
+                offenders.append(f"{name} imports {module}.{imported}")
+    assert offenders == []
+
+
+# ----------------------------------------------------------------------------- cache keys and the code
+
+
+def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkeypatch):
+    """The code part of a step's key covers the numerics the step runs: editing a plot or
+    the report (here in a copy of the package) changes no identification or updating key;
+    editing the identification's code changes the identification key."""
+    import shutil
+
+    from nlupdate.study import load_study
+    from nlupdate.study.chain import STEPS
+    from nlupdate.study.steps import study_targets, updating_runs
+    from nlupdate.tasks import keys
+
+    package, adapters = tmp_path / "nlupdate", tmp_path / "adapters"
+    shutil.copytree(ROOTS["nlupdate"], package, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOTS["nlupdate.adapters"], adapters, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(keys, "_PACKAGE", package)
+    monkeypatch.setattr(keys, "_ADAPTERS", adapters)
+    study = load_study(Path(__file__).parent / "data" / "studies" / "two_dof.toml")
+    run = updating_runs(study, study_targets(dataclasses.replace(study, targets={"frequencies_hz": [732.0],
+                                                                                 "model_modes": [2]}), None))[0]
+
+    def step_keys() -> tuple[str, str]:
+        keys.numerics_code.cache_clear()
+        return (keys.step_key(STEPS["identification"], study, ["measured"]),
+                keys.job_key(STEPS["updating"], study, run, "model", ["targets"]))
+
+    before = step_keys()
+    for plots in ("reporting/updating_plots.py", "reporting/identification_plots.py", "reporting/report.py"):
+        (package / plots).write_text((package / plots).read_text() + "\n# a plot or a sentence changed\n")
+    assert step_keys() == before
+    (package / "identification" / "prd.py").write_text((package / "identification" / "prd.py").read_text() + "\n#\n")
+    assert step_keys()[0] != before[0]

@@ -18,7 +18,8 @@ import pytest
 import scipy.io
 
 from nlupdate.cli import main
-from nlupdate.measurement.frf_table import MeasurementTableError, read_frf_table
+from nlupdate.measurement.frf_table import MeasurementTableError
+from nlupdate.measurement.frf_files import read_frf_table
 from nlupdate.measurement.units import ReadOptions
 
 F_HZ = np.arange(79.0, 81.01, 0.05)

@@ -15,7 +15,9 @@ import pandas as pd
 import pytest
 import pyuff
 
-from nlupdate.measurement.frf_table import MeasurementTableError, read_frf_table, read_frf_tables, select_frf
+from nlupdate.measurement.frf_table import MeasurementTableError, select_frf
+
+from nlupdate.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.measurement.units import ReadOptions
 from nlupdate.notices import NlupdateWarning
 

@@ -14,7 +14,8 @@ import scipy.linalg
 from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.cli import main
 from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.frf_table import frf_table, write_frf_table
+from nlupdate.measurement.frf_table import frf_table
+from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.study import StudyError, load_study
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -19,7 +19,9 @@ import pytest
 import scipy.integrate
 import scipy.signal
 
-from nlupdate.measurement.frf_table import read_frf_table, select_frf
+from nlupdate.measurement.frf_table import select_frf
+
+from nlupdate.measurement.frf_files import read_frf_table
 from nlupdate.measurement.time_history import SWEEP_RATE_LIMIT, TimeRecord, estimate_frf, read_time_record
 from nlupdate.model.model_file import system_from_dict
 from nlupdate.response.time_integration import steady_state_response

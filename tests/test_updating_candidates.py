@@ -11,7 +11,8 @@ import scipy.optimize
 from nlupdate.adapters.base import Parameter
 from nlupdate.adapters.lumped import LumpedAdapter
 from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.measurement.frf_table import frf_table, write_frf_table
+from nlupdate.measurement.frf_table import frf_table
+from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.adapters.registry import AdapterSpec
 from nlupdate.adapters.registry import build_adapter
 from nlupdate.updating.evaluation import MemoisedEvaluator

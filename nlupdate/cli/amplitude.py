@@ -25,7 +25,7 @@ from nlupdate.identification.amplitude_modal import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels
-from nlupdate.measurement.frf_table import read_frf_table, write_frf_table
+from nlupdate.measurement.frf_files import read_frf_table, write_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
 from nlupdate.model.amplitude_modal import BACKBONES, write_amplitude_model
 from nlupdate.reporting.figures import level_colours, save_figure

@@ -20,7 +20,7 @@ from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
 from nlupdate.discovery.report import write_discovery
 from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
-from nlupdate.measurement.frf_table import read_frf_table
+from nlupdate.measurement.frf_files import read_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
 from nlupdate.model.model_file import load_system
 from nlupdate.files import atomic_directory

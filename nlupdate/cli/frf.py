@@ -16,7 +16,7 @@ import argparse
 
 from nlupdate.cli import CliError, add_command, non_negative_float
 from nlupdate.cli.output import add_overwrite_option, checked_output
-from nlupdate.measurement.frf_table import table_suffix, write_frf_table
+from nlupdate.measurement.frf_files import table_suffix, write_frf_table
 from nlupdate.measurement.time_history import (
     EXCITATION_CHOICES, RESPONSE_QUANTITIES, TimeHistoryError, estimate_frf, read_time_record,
 )

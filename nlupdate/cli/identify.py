@@ -30,7 +30,7 @@ from nlupdate.reporting.identification_plots import plot_fit, plot_linear_frf
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
 from nlupdate.identification.prd import IdentificationError
-from nlupdate.measurement.frf_table import read_frf_tables, write_frf_table
+from nlupdate.measurement.frf_files import read_frf_tables, write_frf_table
 from nlupdate.measurement.units import parameter_unit
 
 

@@ -36,9 +36,10 @@ USAGE = ("nlupdate schedule STUDY.toml (--cron EXPR | --interval SECONDS) [optio
          "       nlupdate schedule delete NAME")
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    from nlupdate.cli.serve import add_serve_options
+NOTE = "stopped serving; the schedules stay registered (nlupdate schedule list); a run in progress, if any, was stopped"
 
+
+def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "schedule", __doc__, help="run a study on a cron or interval schedule (Prefect deployment)")
     parser.usage = USAGE
     parser.add_argument("target", metavar="STUDY.toml | list | delete", help="study file to schedule, or an action")
@@ -151,8 +152,6 @@ def add_schedule(args: argparse.Namespace) -> int:
         if not args.serve:
             print("its runs start while `nlupdate serve` runs")
             return 0
-        from nlupdate.cli.serve import serve_with
-
         return serve_with(schedule, args)
 
 
@@ -184,4 +183,19 @@ def delete_schedule(args: argparse.Namespace) -> int:
             raise CliError(f"no scheduled study named {args.name_to_delete!r} "
                            f"({'registered: ' + ', '.join(names) if names else 'none is registered'})") from None
     print(f"deleted scheduled study {args.name_to_delete!r} and its future runs")
+    return 0
+
+
+def add_serve_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--limit", type=positive_int, default=1, metavar="N",
+                        help="scheduled runs at a time (default 1: a run that comes due during another waits for it)")
+
+
+def serve_with(schedule: ModuleType, args: argparse.Namespace) -> int:
+    """Serve with :mod:`nlupdate.flows.schedule` already talking to the server."""
+    from nlupdate.cli.run import prefect_errors
+
+    args.interrupt_note = NOTE
+    with prefect_errors(args):
+        schedule.serve(limit=getattr(args, "limit", 1))
     return 0

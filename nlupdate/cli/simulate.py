@@ -23,7 +23,7 @@ from nlupdate.cli import CliError, add_command, non_negative_float, non_negative
 from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress import terminal_progress
-from nlupdate.measurement.frf_table import read_frf_table, table_suffix, write_frf_table
+from nlupdate.measurement.frf_files import read_frf_table, table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
 from nlupdate.response.simulate import (

@@ -1,6 +1,7 @@
 """Measured data: FRF and modal tables, the files tests deliver, noise.
 
-* :mod:`~nlupdate.measurement.frf_table` — validation, selection and file I/O of FRF tables;
+* :mod:`~nlupdate.measurement.frf_table` — what a measured-FRF table is: validation, building, selecting curves;
+* :mod:`~nlupdate.measurement.frf_files` — reading and writing them (parquet, CSV, UFF 58, MATLAB);
 * :mod:`~nlupdate.measurement.uff` — UFF 58 FRFs as test systems export them;
 * :mod:`~nlupdate.measurement.matfile` — MATLAB v5 / v7.3 files;
 * :mod:`~nlupdate.measurement.units` — force or voltage reference, calibration, units per volt;

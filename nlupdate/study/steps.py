@@ -26,7 +26,8 @@ from nlupdate.correlation.levels import correlate_levels
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import Identification, identify
 from nlupdate.identification.trust import TrustWarning
-from nlupdate.measurement.frf_table import force_levels, read_frf_table, read_frf_tables, select_frf
+from nlupdate.measurement.frf_table import force_levels, select_frf
+from nlupdate.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.measurement.time_history import estimate_frf, read_time_record
 from nlupdate.measurement.units import calibrated
 from nlupdate.model.amplitude_modal import read_amplitude_model

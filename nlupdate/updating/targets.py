@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.correlation.metrics import natural_frequencies
 from nlupdate.input_files import read_input_text
-from nlupdate.measurement.frf_table import read_frf_table
+from nlupdate.measurement.frf_files import read_frf_table
 
 #: File name of the extracted linear FRF inside an identification result directory.
 LINEAR_FRF_FILE = "linear_frf.parquet"
