@@ -32,7 +32,6 @@ class Progress:
         self.quiet = quiet
         self.tally: dict[str, Counter] = defaultdict(Counter)
         self._lock = threading.Lock()
-        self._started = time.perf_counter()
 
     def say(self, message: str) -> None:
         if not self.quiet:
@@ -62,10 +61,6 @@ class Progress:
                        "failed": sum(v for k, v in counts.items() if k not in ("Completed", "Cached"))}
                 for step, counts in self.tally.items()
             }
-
-    @property
-    def elapsed_s(self) -> float:
-        return time.perf_counter() - self._started
 
 
 _CURRENT: contextvars.ContextVar[Progress] = contextvars.ContextVar("nlupdate_progress")
