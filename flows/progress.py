@@ -13,7 +13,6 @@ import contextlib
 import contextvars
 import logging
 import threading
-import time
 from collections import Counter, defaultdict
 from typing import Iterator
 

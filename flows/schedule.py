@@ -131,7 +131,7 @@ def scheduled_study(name: str, study_sha256: str):
     from nlupdate.flows.progress import Progress
     from nlupdate.flows.run import run_study_flow
     from nlupdate.flows.runners import Execution
-    from nlupdate.study.spec import study_from_text
+    from nlupdate.study.loading import study_from_text
 
     claim_flow_run()  # killed with serve, it is marked Crashed when the next run starts
     label = f"{name}: run {flow_run.name!r}"

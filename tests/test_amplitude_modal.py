@@ -192,7 +192,7 @@ def test_linear_limit_of_an_amplitude_model_is_an_updating_target(tmp_path):
     """[targets] amplitude_models: the FE model (the joint tied: one spring) is updated to the
     model's linear limit, here the stuck SDOF's √((k + K_T)/m)."""
     from nlupdate.study.run import run_study
-    from nlupdate.study.spec import StudyError, study_from_text
+    from nlupdate.study import StudyError, study_from_text
 
     joint = IwanJoint((0,), slip_force=JOINT.slip_force * PHI, kt=JOINT.kt * PHI**2, chi=-0.5, beta=0.5)
     stuck_hz = np.sqrt((STIFFNESS + JOINT.kt) / MASS) / (2 * np.pi)

@@ -20,6 +20,7 @@ from nlupdate.flows.progress import Progress
 from nlupdate.flows.run import run_study_flow
 from nlupdate.flows.runners import Execution, ExecutionError, task_runner
 from nlupdate.study import load_study, run_study, study_from_text
+from nlupdate.study.spec import TargetsSpec
 
 STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
 
@@ -119,7 +120,7 @@ def test_each_base_point_is_evaluated_once_in_a_four_formula_sweep(prefect_serve
     from the study's starts, the parameters it does not update held there)."""
     study = load_study(STUDY)
     study = dataclasses.replace(study, prediction=None, identification=None, measured=None,
-                                targets={"frequencies_hz": [740.0], "model_modes": [2]})
+                                targets=TargetsSpec(frequencies_hz=(740.0,), model_modes=(2,)))
     _, manifest = flow_run(study, tmp_path, cache="cold")
     sequential = run_study(study).runs  # in order, one memo for the whole sweep
     distinct_points = sum(result.counts["new"] for result in sequential)

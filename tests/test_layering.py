@@ -189,8 +189,10 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     monkeypatch.setattr(keys, "_PACKAGE", package)
     monkeypatch.setattr(keys, "_ADAPTERS", adapters)
     study = load_study(Path(__file__).parent / "data" / "studies" / "two_dof.toml")
-    run = updating_runs(study, study_targets(dataclasses.replace(study, targets={"frequencies_hz": [732.0],
-                                                                                 "model_modes": [2]}), None))[0]
+    from nlupdate.study.spec import TargetsSpec
+
+    targets = TargetsSpec(frequencies_hz=(732.0,), model_modes=(2,))
+    run = updating_runs(study, study_targets(dataclasses.replace(study, targets=targets), None))[0]
 
     def step_keys() -> tuple[str, str]:
         keys.numerics_code.cache_clear()

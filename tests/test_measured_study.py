@@ -15,7 +15,7 @@ from test_time_history import sdof_receptance, stepped_record  # noqa: E402
 
 from nlupdate.measurement.frf_table import select_frf  # noqa: E402
 from nlupdate.study.reader import StudyError  # noqa: E402
-from nlupdate.study.spec import load_study  # noqa: E402
+from nlupdate.study.loading import load_study  # noqa: E402
 from nlupdate.study.steps import measured_table  # noqa: E402
 
 

@@ -207,12 +207,20 @@ def test_cli_runs_a_study_from_an_identification_result(study_file, tmp_path, ca
     ],
 )
 def test_study_errors_name_the_file_table_and_expected_form(tmp_path, edit, message):
+    (tmp_path / "ident").mkdir()  # the identify output the study names exists; the mistake is elsewhere
     path = tmp_path / "bad.toml"
     path.write_text(edit(STUDY))
     with pytest.raises(StudyError) as error:
         load_study(path)
     assert str(path) in str(error.value)
     assert message in str(error.value)
+
+
+def test_an_identify_output_that_is_not_there_is_named_when_the_study_is_read(tmp_path):
+    path = tmp_path / "study.toml"
+    path.write_text(STUDY)
+    with pytest.raises(StudyError, match="key 'identification': expected an existing identify output .*got 'ident'"):
+        load_study(path)
 
 
 def test_cli_reports_study_errors_in_one_line(tmp_path, capsys):
@@ -248,13 +256,13 @@ def test_example_studies_are_valid(name):
     case = EXAMPLE_CASES[name]
     study = load_study(EXAMPLES / name)
     assert study.adapter.kind == "surrogate"
-    assert study.targets["frequencies_hz"] == case["targets"]
+    assert list(study.targets.frequencies_hz) == case["targets"]
     assert dict(study.fixed) == case["fixed"]
     assert {p.name: (p.start, p.lower, p.upper) for p in study.parameters} == case["parameters"]
     if case["formulas"] is None:
         assert study.eigensensitivity is None
     else:
-        assert list(study.eigensensitivity["formulas"]) == case["formulas"]
+        assert list(study.eigensensitivity.formulas) == case["formulas"]
     assert [tuple(c.parameters) for c in study.candidates] == case["sets"]
     if case["f1"] is not None:
         from nlupdate.adapters.registry import build_adapter

@@ -7,7 +7,8 @@
 """
 from nlupdate.study.chain import CHAIN, StudyResult
 from nlupdate.study.run import run_study
-from nlupdate.study.spec import Study, StudyError, inputs_read_once, load_study, study_from_text
+from nlupdate.study.loading import load_study, study_from_text
+from nlupdate.study.spec import Study, StudyError, inputs_read_once
 
 __all__ = ["CHAIN", "Study", "StudyError", "StudyResult", "inputs_read_once", "load_study", "run_study",
            "study_from_text"]

@@ -40,8 +40,7 @@ from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.runs import UpdatingRun, candidate_frf, compare_candidates, rank_candidates, update
 from nlupdate.updating.evaluation import PointEvaluator
 from nlupdate.updating.trust import updating_warnings
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult
-from nlupdate.updating.optimisation import OptimisationOptions
+from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
 from nlupdate.updating.uncertainty import ParameterUncertainty, propagate_target_uncertainty
@@ -189,8 +188,9 @@ def study_targets(study: Study, identification: Identification | None) -> Target
     the linear FRF of an earlier ``nlupdate identify`` output."""
     t = study.targets
     reference, std, loss_factors = None, None, None
-    if "from_identification" in t:
-        modes = t.get("modes") or list(range(1, len(identification.modes) + 1))
+    model_modes = t.model_modes
+    if t.from_identification:
+        modes = list(t.modes or range(1, len(identification.modes) + 1))
         if not identification.modes:
             raise StudyError(f"{study.path}: [targets] from_identification: the extracted linear FRF has no resonance "
                              f"in the measured band")
@@ -203,32 +203,29 @@ def study_targets(study: Study, identification: Identification | None) -> Target
         std = identification.natural_frequency_std_hz[index]
         loss_factors = identification.loss_factors[index]
         reference = (identification.linear_frequency_hz, identification.linear_frf)
-    elif "identification" in t:
-        frequency, h = read_linear_frf(study.resolve(t["identification"]), t["response_dof"], t["input_dof"],
-                                       t.get("force_level_n"))
+    elif t.identification is not None:
+        frequency, h = read_linear_frf(study.resolve(t.identification), t.response_dof, t.input_dof, t.force_level_n)
         reference = (frequency, h)
         try:
-            frequencies = frf_natural_frequencies(frequency, h, t["n_modes"], t.get("band_hz"), t.get("frf_method", "peak"))
+            frequencies = frf_natural_frequencies(frequency, h, t.n_modes, t.band_hz, t.frf_method)
         except ValueError as error:
-            raise StudyError(f"{study.path}: [targets] identification {t['identification']!r}: {error}") from None
-    elif "amplitude_models" in t:  # the linear limits (joint stuck) of amplitude-dependent modal models
+            raise StudyError(f"{study.path}: [targets] identification {t.identification!r}: {error}") from None
+    elif t.amplitude_models:  # the linear limits (joint stuck) of amplitude-dependent modal models
         try:
-            models = [read_amplitude_model(study.resolve(written)) for written in t["amplitude_models"]]
+            models = [read_amplitude_model(study.resolve(written)) for written in t.amplitude_models]
         except (ValueError, OSError) as error:  # AmplitudeModelError, InputFileError: the file named
             raise StudyError(f"{study.path}: [targets] amplitude_models: {error}") from None
         frequencies = np.array([m.natural_frequency_hz for m in models])
-        if "model_modes" not in t:
-            t = {**t, "model_modes": [m.mode for m in models]}
+        model_modes = model_modes or tuple(m.mode for m in models)
     else:
-        frequencies = np.asarray(t["frequencies_hz"], dtype=float)
-        std = np.asarray(t["std_hz"], dtype=float) if "std_hz" in t else None
-    if study.comparison["frf"] is not None:
+        frequencies = np.asarray(t.frequencies_hz, dtype=float)
+        std = np.asarray(t.std_hz, dtype=float) if t.std_hz is not None else None
+    if study.comparison.frf is not None:
         response, inp = _measured_pair(study)
-        reference = read_linear_frf(study.comparison["frf"], response, inp, t.get("force_level_n"))
-    shapes = np.asarray(t["mode_shapes"], dtype=float).T if "mode_shapes" in t else None
+        reference = read_linear_frf(study.comparison.frf, response, inp, t.force_level_n)
+    shapes = np.asarray(t.mode_shapes, dtype=float).T if t.mode_shapes is not None else None
     try:
-        targets = UpdatingTargets(frequencies, t.get("weights"), shapes, tuple(t.get("coordinates", ())),
-                                  tuple(t.get("labels", ())), tuple(t.get("model_modes", ())))
+        targets = UpdatingTargets(frequencies, t.weights, shapes, t.coordinates, t.labels, model_modes)
     except ValueError as error:
         raise StudyError(f"{study.path}: [targets]: {error}") from None
     return TargetSet(targets, std, reference, loss_factors)
@@ -236,9 +233,9 @@ def study_targets(study: Study, identification: Identification | None) -> Target
 
 def _measured_pair(study: Study) -> tuple[str, str]:
     """(response, input) names of the measured curve the study compares with."""
-    t = study.targets or {}
-    if "response_dof" in t and "input_dof" in t:
-        return t["response_dof"], t["input_dof"]
+    t = study.targets
+    if t is not None and t.response_dof is not None and t.input_dof is not None:
+        return t.response_dof, t.input_dof
     if study.identification is not None:
         return study.identification.response_dof, study.identification.input_dof
     raise StudyError(f"{study.path}: comparing with an FRF needs [targets] response_dof and input_dof")
@@ -247,8 +244,10 @@ def _measured_pair(study: Study) -> tuple[str, str]:
 def model_pair(study: Study) -> tuple[str, str]:
     """(response, input) names of the measured curve's coordinates in the FE model."""
     response, inp = _measured_pair(study)
-    t = study.targets or {}
-    return t.get("model_response_dof", response), t.get("model_input_dof", inp)
+    t = study.targets
+    if t is None:
+        return response, inp
+    return t.model_response_dof or response, t.model_input_dof or inp
 
 
 def run_name(method: str, formula: str, parameter_set: Sequence[str]) -> str:
@@ -272,14 +271,14 @@ def updating_runs(study: Study, targets: TargetSet) -> list[UpdatingRun]:
     by_name = {p.name: p for p in study.parameters}
     tasks = []
     if study.eigensensitivity is not None:
-        for parameter_set in study.eigensensitivity["parameter_sets"]:
-            for formula in study.eigensensitivity["formulas"]:
-                options = EigensensitivityOptions(formula=formula, **study.eigensensitivity["options"], **study.updating)
+        for parameter_set in study.eigensensitivity.parameter_sets:
+            for formula in study.eigensensitivity.formulas:
+                options = dataclasses.replace(study.eigensensitivity.options, formula=formula)
                 tasks.append(UpdatingRun(run_name("eigensensitivity", formula, parameter_set), study.adapter,
                                           tuple(by_name[n] for n in parameter_set), targets.targets, "eigensensitivity",
                                           options, held_at_start(study, parameter_set)))
     if study.optimisation is not None:
-        options = OptimisationOptions(**study.optimisation, **study.updating)
+        options = study.optimisation
         for entry in study.candidates:
             parameters = tuple(
                 dataclasses.replace(by_name[n], start=entry.start[n]) if n in entry.start else by_name[n]
@@ -297,8 +296,8 @@ def updating_runs(study: Study, targets: TargetSet) -> list[UpdatingRun]:
 def comparison_damping(study: Study, targets: TargetSet) -> tuple[float | list[float], float | list[float]]:
     """(damping ratios, loss factors) of the candidates' modal FRFs: the study's, else the
     loss factors the identification measured for the target modes, else none."""
-    ratios = study.comparison["damping_ratios"]
-    losses = study.comparison["loss_factors"]
+    ratios = study.comparison.damping_ratios
+    losses = study.comparison.loss_factors
     if losses is None:
         losses = list(targets.loss_factors) if targets.loss_factors is not None and ratios is None else 0.0
     return (0.0 if ratios is None else ratios), losses
@@ -324,8 +323,8 @@ def compare_runs(study: Study, targets: TargetSet, updating: UpdatingOutcome) ->
     runs = updating.runs
     response, inp = model_pair(study) if targets.reference is not None else (None, None)
     comparison = compare_candidates(runs, targets.reference, response, inp, *comparison_damping(study, targets),
-                                    study.comparison["band_fraction"])
-    weights = study.comparison["user_weights"]
+                                    study.comparison.band_fraction)
+    weights = study.comparison.user_weights
     ranking = rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights))
     return Comparison(comparison, ranking, parameter_uncertainties(study, targets, runs))
 
