@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike
 from nlupdate.correlation.metrics import peak
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.modal_fit import fit_mode_near, resonance_crossings
-from nlupdate.identification.prd import IdentificationError, Model, identify_prd, prd_setup
+from nlupdate.identification.prd import DEFAULT_HALF_WINDOW, IdentificationError, Model, identify_prd, prd_setup
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,7 @@ def recommend_frequency(
     low_force: float | None = None,
     high_forces: ArrayLike | None = None,
     estimator: str = "improved",
-    half_window: float = 0.01,
+    half_window: float = DEFAULT_HALF_WINDOW,
     max_iterations: int = 8,
     tolerance: float = 0.005,
 ) -> FrequencyChoice:

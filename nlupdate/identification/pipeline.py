@@ -31,23 +31,23 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
+from nlupdate.identification.ddf import DDFResult
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
-from nlupdate.identification.prd import ESTIMATORS, IdentificationError, PRDResult, identify_prd
-from nlupdate.identification.summary import elements_summary, linear_frf_table, residual_in_noise_units
+from nlupdate.identification.methods import METHODS
+from nlupdate.identification.prd import IdentificationError, PRDResult
+from nlupdate.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
 from nlupdate.identification.trust import (
-    POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, TrustWarning, fit_verdict, identification_warnings,
+    TrustWarning, identification_warnings,
 )
 from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
-from nlupdate.measurement.units import parameter_unit, units_block
+from nlupdate.measurement.units import parameter_unit
 from nlupdate.progress import ProgressCallback, no_progress
 
-METHODS = ("prd", "ddf")
 
 
 #: The most Monte-Carlo samples (each repeats the whole identification; more would take days).
@@ -108,6 +108,10 @@ class IdentificationSettings:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"identification method must be one of {list(METHODS)}, got {self.method!r}")
+        method = METHODS[self.method]
+        if self.estimator is not None and self.estimator not in method.estimators:
+            raise ValueError(f"estimator {self.estimator!r}: {self.method.upper()} estimators are "
+                             f"{', '.join(method.estimators)}")
         if not 2 <= self.samples <= MAX_MONTE_CARLO_SAMPLES:
             raise ValueError(f"Monte-Carlo samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES}, got {self.samples}")
         if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
@@ -121,8 +125,6 @@ class IdentificationSettings:
         if self.method == "prd":
             if self.force_pair_n is not None:
                 raise ValueError("force_pair_n applies to the DDF method")
-            if self.estimator is not None and self.estimator not in ESTIMATORS:
-                raise ValueError(f"estimator {self.estimator!r}: PRD estimators are {', '.join(ESTIMATORS)}")
         else:
             prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
                         "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
@@ -131,8 +133,6 @@ class IdentificationSettings:
             given = [name for name, value in prd_only.items() if value is not None]
             if given:
                 raise ValueError(f"{', '.join(given)} apply to the PRD method")
-            if self.estimator is not None and self.estimator not in DDF_ESTIMATORS:
-                raise ValueError(f"estimator {self.estimator!r}: DDF estimators are {', '.join(DDF_ESTIMATORS)}")
         parse_elements(self.elements)  # unknown element names fail here
         if not 0 < self.modal_band_fraction < 0.5:
             raise ValueError(f"modal_band_fraction must be in (0, 0.5), got {self.modal_band_fraction}")
@@ -233,113 +233,22 @@ class Identification:
                                 self.settings.input_dof)
 
     def summary(self) -> dict[str, Any]:
-        """The ``identification.json`` content (see :mod:`nlupdate.identification.summary`)."""
-        s, r = self.settings, self.result
-        out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": self.model_description,
-                               "response_dof": s.response_dof, "input_dof": s.input_dof,
-                               "warnings": [w.as_dict() for w in self.warnings],
-                               "units": units_block(self.reference_unit),
-                               "band_hz": None if self.band_hz is None else list(self.band_hz),
-                               "band_reason": self.band_reason, "excitation": self.excitation,
-                               "lines_below_coherence_threshold": self.lines_below_coherence}
-        order = max(self.defaults_used.get("order", s.order) or 2, 1)
-        real, imag = r.describing_function(order)
-        if s.method == "prd":
-            prd_real, prd_imag = r.prd_polynomial(order)
-            delta = r.delta_f1
-            out.update({
-                "excitation_frequency_hz": r.setup.frequency_hz,
-                "low_force_n": r.setup.low_force,
-                "high_forces_n": list(r.setup.high_forces),
-                "describing_function": {
-                    "real": real, "imag": imag, "amplitude_range_m": list(r.amplitude_range),
-                    "definition": "high-force DF nu(|X|) in N/m, first-harmonic force = nu*X at the response dof; "
-                                  "1/H = 1/H_linear + nu; coefficients highest order first (m -> N/m)",
-                },
-                "prd_fit": {"real": prd_real, "imag": prd_imag,
-                            "definition": "y(|X|) = 1/H_i - 1/H_1 fitted against |X_i| = |H_i| F_i; y(0) = -delta_f1"},
-                "delta_f1": {"real": delta.real, "imag": delta.imag,
-                             "definition": "DF at the low-force amplitude (stuck friction: kf); "
-                                           "1/H_linear = 1/H_1 - delta_f1"},
-                "linear_extraction": {"delta_f1": "amplitude dependent" if s.amplitude_dependent_delta else "constant",
-                                      "smoothing_window_points": s.smoothing_window},
-            })
-            if self.frequency_choice is not None:
-                out["frequency_choice"] = {"visited_hz": list(self.frequency_choice.visited_hz),
-                                           "linear_natural_frequency_hz": self.frequency_choice.linear_natural_frequency_hz,
-                                           "reason": self.frequency_choice.reason}
-            if r.extras:
-                out["estimator_details"] = dict(r.extras, noise_fraction_from_fit=r.noise_fraction)
-        else:
-            out.update({
-                "excitation_frequency_hz": None,
-                "force_pair_n": list(r.setup.force_pair),
-                "band_hz": list(r.setup.band_hz),
-                "describing_function": {
-                    "real": real, "imag": imag, "amplitude_range_m": list(r.amplitude_range),
-                    "definition": "DF Delta(|X|) in N/m (no constant term), first-harmonic force = Delta*X; "
-                                  "coefficients highest order first (m -> N/m)",
-                },
-            })
-        stats = self.uncertainty.parameters
-        verdict, ratio = fit_verdict(self.residual_noise_fraction, self.noise_fraction)
-        out.update({
-            "linear_from_level_n": self.linear_from_level_n,
-            "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, self.reference_unit))
-                           for name in r.parameters()},
-            "uncertainty": dict(self.uncertainty.as_dict(),
-                                held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
-            "noise_fraction": {"value": self.noise_fraction, "source": self.noise_source},
-            "fit_residual": {
-                "noise_fraction": self.residual_noise_fraction,
-                "ratio_to_noise": (self.residual_noise_fraction / self.noise_fraction
-                                   if self.residual_noise_fraction is not None and self.noise_fraction > 0 else None),
-                "definition": "RMS of the fit's residuals normalised like the noise (std / |H|), corrected for the "
-                              "fitted degrees of freedom; about noise_fraction when the model fits; warned above "
-                              f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g}); 'fit' is 'poor' above "
-                              f"{POOR_FIT_FACTOR:g} x (the model does not describe the data: see the residual against "
-                              "amplitude in fit.png)",
-            },
-            "fit": verdict,
-            "fit_ratio_to_noise": ratio,
-            "elements": elements_summary(r, s.response_dof),
-            "linear_frf": {
-                "file": "linear_frf.parquet",
-                "from_force_level_n": self.linear_from_level_n,
-                "modes": [
-                    {"natural_frequency_hz": stats[f"linear_f{i + 1}_hz"].as_dict(),
-                     "loss_factor": stats[f"linear_eta{i + 1}"].as_dict(),
-                     "relative_rms_error": m.relative_rms_error}
-                    for i, m in enumerate(self.modes)
-                ],
-                "definition": "one mode + residuals H = A/(w_r^2 - w^2 + i eta w_r^2) + R - R_m/w^2 fitted over "
-                              f"±{100 * s.modal_band_fraction:g} % around each resonance of the extracted linear FRF, "
-                              "weighted by the noise of 1/H of the level it came from",
-            },
-            "defaults_used": self.defaults_used,
-        })
-        return out
+        """The ``identification.json`` content (:func:`nlupdate.identification.summary.identification_summary`)."""
+        return identification_summary(self)
 
 
 # ------------------------------------------------------------------------------------ steps
 def _resolved(settings: IdentificationSettings, data: FRFLevels) -> tuple[IdentificationSettings, dict[str, Any]]:
     """Settings with every default filled in, and the defaults that were used."""
+    method = METHODS[settings.method]
     defaults: dict[str, Any] = {}
     changes: dict[str, Any] = {}
     if settings.order is None:
         changes["order"] = defaults["order"] = 2
     if settings.estimator is None:
-        changes["estimator"] = defaults["estimator"] = "improved" if settings.method == "prd" else "naive"
-    if settings.method == "prd":
-        if settings.half_window is None:
-            changes["half_window"] = 0.01
-            if changes.get("estimator", settings.estimator) == "improved":
-                defaults["half_window"] = 0.01
-        if settings.low_force_n is None and data.levels.size:
-            changes["low_force_n"] = defaults["low_force_n"] = float(data.levels[0])
-        if settings.high_forces_n is None:
-            defaults["high_forces_n"] = "all levels above the low force"
-    return dataclasses.replace(settings, **changes), defaults
+        changes["estimator"] = defaults["estimator"] = method.default_estimator
+    own_changes, own_defaults = method.defaults(dataclasses.replace(settings, **changes), data)
+    return dataclasses.replace(settings, **changes, **own_changes), {**defaults, **own_defaults}
 
 
 def _model(settings: IdentificationSettings) -> PhysicalModel | PolynomialModel:
@@ -352,12 +261,7 @@ def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float 
     drives into macroslip is refitted with what the data cannot show fixed
     (:func:`~nlupdate.identification.dfmodels.iwan_identifiability`)."""
     def fit(model):
-        if settings.method == "prd":
-            return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
-                                high_forces=settings.high_forces_n, estimator=settings.estimator,
-                                half_window=settings.half_window)
-        return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
-                            physical=model if isinstance(model, PhysicalModel) else None, estimator=settings.estimator)
+        return METHODS[settings.method].fit(data, settings, frequency_hz, model)
 
     result = fit(_model(settings))
     refit = iwan_identifiability(getattr(result, "physical", None) or getattr(result, "model", None), result.p,
@@ -367,15 +271,7 @@ def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float 
 
 def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult):
     """(level, frequencies, extracted linear receptance, the level's measured receptance)."""
-    if settings.method == "prd":
-        level = result.setup.low_force
-        f, h = data.curve(level)
-        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f),
-                                                    amplitude_dependent=settings.amplitude_dependent_delta,
-                                                    smoothing_window=settings.smoothing_window), h
-    level = result.setup.linear_level
-    f, h = data.curve(level)
-    return level, f, result.extract_linear_frf(f, h, data.force_at(level, f)), h
+    return METHODS[settings.method].linear_frf(data, settings, result)
 
 
 def locate_linear_modes(

@@ -64,6 +64,9 @@ from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, pol
 Model = PolynomialModel | PhysicalModel
 ESTIMATORS = ("improved", "naive")
 
+#: Relative half-width of the improved estimator's frequency window around f_e (1 %).
+DEFAULT_HALF_WINDOW = 0.01
+
 
 class IdentificationError(ValueError):
     """The data cannot support the requested identification (message says why)."""
@@ -352,7 +355,7 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
                      residual_noise_fraction=residual, amplitude_low_max=a_low, at_bound=at_bound)
 
 
-def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: float = 0.01) -> PRDResult:
+def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: float = DEFAULT_HALF_WINDOW) -> PRDResult:
     """Joint output-error maximum-likelihood PRD over a frequency window (module docstring)."""
     if not 0 <= half_window < 0.5:
         raise IdentificationError(f"half_window must be a relative width in [0, 0.5), got {half_window}")
@@ -490,7 +493,7 @@ def identify_prd(
     low_force: float | None = None,
     high_forces: ArrayLike | None = None,
     estimator: str = "improved",
-    half_window: float = 0.01,
+    half_window: float = DEFAULT_HALF_WINDOW,
 ) -> PRDResult:
     """PRD identification at ``frequency_hz`` (Hz) with the chosen estimator."""
     setup = prd_setup(data, frequency_hz, low_force, high_forces)

@@ -33,6 +33,9 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from nlupdate.identification.dfmodels import PhysicalModel
+from nlupdate.identification.methods import METHODS
+from nlupdate.identification.trust import POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, fit_verdict
+from nlupdate.measurement.units import parameter_unit, units_block
 
 JSON_NAME = "identification.json"
 
@@ -73,3 +76,62 @@ def residual_in_noise_units(result: Any, noise_fraction: float) -> np.ndarray:
         force = np.full(amplitude.size, float(result.setup.force_pair[1]))
     misfit = np.abs(np.asarray(result.y) - result.fitted_y(amplitude))
     return misfit / (max(float(noise_fraction), 1e-12) * np.sqrt(2) * force / amplitude)
+
+
+def identification_summary(identification: Any) -> dict[str, Any]:
+    """The ``identification.json`` content of an
+    :class:`~nlupdate.identification.pipeline.Identification` (keys: the module docstring)."""
+    s, r = identification.settings, identification.result
+    out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": identification.model_description,
+                           "response_dof": s.response_dof, "input_dof": s.input_dof,
+                           "warnings": [w.as_dict() for w in identification.warnings],
+                           "units": units_block(identification.reference_unit),
+                           "band_hz": None if identification.band_hz is None else list(identification.band_hz),
+                           "band_reason": identification.band_reason, "excitation": identification.excitation,
+                           "lines_below_coherence_threshold": identification.lines_below_coherence}
+    order = max(identification.defaults_used.get("order", s.order) or 2, 1)
+    real, imag = r.describing_function(order)
+    out.update(METHODS[s.method].summary(r, s, real, imag, order))
+    if identification.frequency_choice is not None:
+        choice = identification.frequency_choice
+        out["frequency_choice"] = {"visited_hz": list(choice.visited_hz),
+                                   "linear_natural_frequency_hz": choice.linear_natural_frequency_hz,
+                                   "reason": choice.reason}
+    stats = identification.uncertainty.parameters
+    verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
+    out.update({
+        "linear_from_level_n": identification.linear_from_level_n,
+        "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, identification.reference_unit))
+                       for name in r.parameters()},
+        "uncertainty": dict(identification.uncertainty.as_dict(),
+                            held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
+        "noise_fraction": {"value": identification.noise_fraction, "source": identification.noise_source},
+        "fit_residual": {
+            "noise_fraction": identification.residual_noise_fraction,
+            "ratio_to_noise": (identification.residual_noise_fraction / identification.noise_fraction
+                               if identification.residual_noise_fraction is not None and identification.noise_fraction > 0 else None),
+            "definition": "RMS of the fit's residuals normalised like the noise (std / |H|), corrected for the "
+                          "fitted degrees of freedom; about noise_fraction when the model fits; warned above "
+                          f"{RESIDUAL_FACTOR:g} x max(noise_fraction, {RESIDUAL_FLOOR:g}); 'fit' is 'poor' above "
+                          f"{POOR_FIT_FACTOR:g} x (the model does not describe the data: see the residual against "
+                          "amplitude in fit.png)",
+        },
+        "fit": verdict,
+        "fit_ratio_to_noise": ratio,
+        "elements": elements_summary(r, s.response_dof),
+        "linear_frf": {
+            "file": "linear_frf.parquet",
+            "from_force_level_n": identification.linear_from_level_n,
+            "modes": [
+                {"natural_frequency_hz": stats[f"linear_f{i + 1}_hz"].as_dict(),
+                 "loss_factor": stats[f"linear_eta{i + 1}"].as_dict(),
+                 "relative_rms_error": m.relative_rms_error}
+                for i, m in enumerate(identification.modes)
+            ],
+            "definition": "one mode + residuals H = A/(w_r^2 - w^2 + i eta w_r^2) + R - R_m/w^2 fitted over "
+                          f"±{100 * s.modal_band_fraction:g} % around each resonance of the extracted linear FRF, "
+                          "weighted by the noise of 1/H of the level it came from",
+        },
+        "defaults_used": identification.defaults_used,
+    })
+    return out

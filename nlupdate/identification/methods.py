@@ -1,0 +1,125 @@
+"""The two identification methods behind one interface: PRD (docs/methods.md §4) and DDF (§5).
+
+:func:`nlupdate.identification.pipeline.identify` runs the same steps for both — fit the
+nonlinearity, extract the linear FRF, locate its modes, Monte Carlo — and asks the
+method (:data:`METHODS`) only what differs: its settings' defaults, the fit, which level
+the linear FRF comes from, and its own part of ``identification.json``.
+"""
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
+from nlupdate.identification.dfmodels import PhysicalModel
+from nlupdate.identification.prd import DEFAULT_HALF_WINDOW, ESTIMATORS, PRDResult, identify_prd
+
+
+class Method(Protocol):
+    """What an identification method supplies (see the module docstring)."""
+
+    estimators: tuple[str, ...]
+    default_estimator: str
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(changes to the settings, the defaults to list) for its own settings."""
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult | DDFResult:
+        """The nonlinearity fit."""
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: Any):
+        """(level, frequencies Hz, extracted linear receptance, the level's measured receptance)."""
+
+    def summary(self, result: Any, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        """Its own part of ``identification.json``."""
+
+
+class PRD:
+    """Pseudo receptance difference at one excitation frequency."""
+
+    estimators = ESTIMATORS
+    default_estimator = "improved"
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        changes: dict[str, Any] = {}
+        listed: dict[str, Any] = {}
+        if settings.half_window is None:
+            changes["half_window"] = DEFAULT_HALF_WINDOW
+            if (settings.estimator or self.default_estimator) == "improved":
+                listed["half_window"] = DEFAULT_HALF_WINDOW
+        if settings.low_force_n is None and data.levels.size:
+            changes["low_force_n"] = listed["low_force_n"] = float(data.levels[0])
+        if settings.high_forces_n is None:
+            listed["high_forces_n"] = "all levels above the low force"
+        return changes, listed
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult:
+        return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
+                            high_forces=settings.high_forces_n, estimator=settings.estimator,
+                            half_window=settings.half_window)
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: PRDResult):
+        level = result.setup.low_force
+        f, h = data.curve(level)
+        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f),
+                                                    amplitude_dependent=settings.amplitude_dependent_delta,
+                                                    smoothing_window=settings.smoothing_window), h
+
+    def summary(self, result: PRDResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        prd_real, prd_imag = result.prd_polynomial(order)
+        delta = result.delta_f1
+        out = {
+            "excitation_frequency_hz": result.setup.frequency_hz,
+            "low_force_n": result.setup.low_force,
+            "high_forces_n": list(result.setup.high_forces),
+            "describing_function": {
+                "real": real, "imag": imag, "amplitude_range_m": list(result.amplitude_range),
+                "definition": "high-force DF nu(|X|) in N/m, first-harmonic force = nu*X at the response dof; "
+                              "1/H = 1/H_linear + nu; coefficients highest order first (m -> N/m)",
+            },
+            "prd_fit": {"real": prd_real, "imag": prd_imag,
+                        "definition": "y(|X|) = 1/H_i - 1/H_1 fitted against |X_i| = |H_i| F_i; y(0) = -delta_f1"},
+            "delta_f1": {"real": delta.real, "imag": delta.imag,
+                         "definition": "DF at the low-force amplitude (stuck friction: kf); "
+                                       "1/H_linear = 1/H_1 - delta_f1"},
+            "linear_extraction": {"delta_f1": "amplitude dependent" if settings.amplitude_dependent_delta else "constant",
+                                  "smoothing_window_points": settings.smoothing_window},
+        }
+        if result.extras:
+            out["estimator_details"] = dict(result.extras, noise_fraction_from_fit=result.noise_fraction)
+        return out
+
+
+class DDF:
+    """Direct describing function from two force levels over many frequencies."""
+
+    estimators = DDF_ESTIMATORS
+    default_estimator = "naive"
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        return {}, {}
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> DDFResult:
+        return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
+                            physical=model if isinstance(model, PhysicalModel) else None, estimator=settings.estimator)
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: DDFResult):
+        level = result.setup.linear_level
+        f, h = data.curve(level)
+        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f)), h
+
+    def summary(self, result: DDFResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        return {
+            "excitation_frequency_hz": None,
+            "force_pair_n": list(result.setup.force_pair),
+            "band_hz": list(result.setup.band_hz),
+            "describing_function": {
+                "real": real, "imag": imag, "amplitude_range_m": list(result.amplitude_range),
+                "definition": "DF Delta(|X|) in N/m (no constant term), first-harmonic force = Delta*X; "
+                              "coefficients highest order first (m -> N/m)",
+            },
+        }
+
+
+#: The methods by name.
+METHODS: dict[str, Method] = {"prd": PRD(), "ddf": DDF()}
