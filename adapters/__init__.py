@@ -2,7 +2,9 @@
 
 * :mod:`nlupdate.adapters.surrogate` — built-in beam FE (T-beam, gun barrel), in process;
 * :mod:`nlupdate.adapters.calculix` (+ :mod:`~nlupdate.adapters.calculix_tbeam`) — CalculiX ``ccx`` in batch;
-* :mod:`nlupdate.adapters.mapdl` — ANSYS MAPDL in batch on a user's parametric APDL deck;
+* :mod:`nlupdate.adapters.mapdl` — ANSYS MAPDL in batch on a user's parametric APDL deck
+  (its deck rules and units in ``mapdl_deck``, the generated block and table in ``mapdl_block``,
+  the run's files and errors in ``mapdl_files``);
 * :mod:`nlupdate.adapters.runner` — the process runner both external adapters share.
 """
 from nlupdate.adapters.base import AdapterError, FEAdapter, ModalResult, Parameter, parameter_key

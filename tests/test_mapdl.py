@@ -25,20 +25,15 @@ import numpy as np
 import pytest
 
 from nlupdate.adapters.base import AdapterError
-from nlupdate.adapters.mapdl import (
-    MAPDL_EXEC_ENV,
-    MapdlAdapter,
-    check_modes,
-    modal_block,
-    parse_modal_table,
-    substitute_parameters,
-)
+from nlupdate.adapters.mapdl import MAPDL_EXEC_ENV, MapdlAdapter
+from nlupdate.adapters.mapdl_block import check_modes, modal_block, parse_modal_table
+from nlupdate.adapters.mapdl_deck import substitute_parameters
 from nlupdate.adapters.runner import ExecutableNotFoundError, RunTimeoutError
 
 DATA = Path(__file__).parent / "data" / "mapdl"
 COORDINATES = {"tip:uz": (101, "uz"), "mid:uy": ("NODE(0.215,0,0)", "uy")}
 
-# The block for 3 modes and COORDINATES, written by hand from the module docstring.
+# The block for 3 modes and COORDINATES, written by hand from nlupdate.adapters.mapdl_block's docstring.
 EXPECTED_BLOCK = """\
 ! ---- nlupdate modal block (generated) ----
 FINISH

@@ -354,7 +354,7 @@ def test_a_huge_log_line_gives_a_bounded_message(tmp_path: Path) -> None:
     """A program that prints one 50 MB line and fails: the error (which goes into the
     report and the manifest) holds a bounded excerpt, read without loading the log."""
     from nlupdate.adapters.runner import EXCERPT_CHARS
-    from nlupdate.adapters.mapdl import find_errors
+    from nlupdate.adapters.mapdl_files import find_errors
 
     exe = make_script(tmp_path / "chatty", """
         import sys
