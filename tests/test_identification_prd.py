@@ -15,17 +15,15 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, assemble_delta
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction
 from nlupdate.response.fixed_point import fixed_point_response
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
 from nlupdate.identification.prd import IdentificationError, identify_prd
-from nlupdate.identification.prd_matrix import frf_matrices, identify_prd_matrix
 from nlupdate.model.linear import LumpedModel
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.response.stepped_sine import stepped_sine
@@ -178,37 +176,3 @@ def test_bad_requests_raise_clear_errors(sdof_df_data):
     same_amplitude = levels_from(frequency, force, np.full(frequency.size, 1e-3 + 0j))
     with pytest.raises(IdentificationError, match="singular"):
         identify_prd(same_amplitude, 710.0, model, estimator="naive")
-
-
-def test_aa_partition_two_nonlinear_coordinates():
-    """Cubic to ground at 0, Jenkins to ground at 1 and a cubic between 0 and 1."""
-    model = LumpedModel.with_loss_factor(np.diag([0.1, 0.5]), [[2e6, -1e6], [-1e6, 2e6]], 0.005)
-    elements = (CubicStiffness((0,), 1e10), JenkinsFriction((1,), 5e4, 1.0), CubicStiffness((0, 1), 5e9))
-    system = NonlinearSystem(model, elements)
-    grid = np.arange(250.0, 291.0)
-    omega = 2 * np.pi * grid
-    linear = model.receptance(omega, [0, 1], [0, 1])
-    tables = []
-    for level in (0.01, 3.0, 5.0, 7.0, 9.0, 11.0, 13.0, 15.0):
-        state = fixed_point_response(system, {0: level}, omega)
-        assert state.converged.all()
-        h = np.array([np.linalg.inv(np.linalg.inv(linear[k]) + assemble_delta(elements, state.x_nonlinear[k], omega[k]))
-                      for k in range(grid.size)])
-        for r in range(2):
-            for q in range(2):
-                tables.append(frf_table(grid, level, str(r), str(q), h[:, r, q]))
-    table = pd.concat(tables, ignore_index=True)
-    result = identify_prd_matrix(
-        table, ["0", "1"], "0", 266.0, [("0",), ("1",), ("0", "1")],
-        [PhysicalModel(("cubic",)), PhysicalModel(("jenkins",)), PhysicalModel(("cubic",))],
-    )
-    cubic_ground, jenkins, cubic_link = (r.parameters() for r in result.elements)
-    assert cubic_ground["k3"] == pytest.approx(1e10, rel=1e-6)
-    assert jenkins["kf"] == pytest.approx(5e4, rel=1e-6)
-    assert jenkins["slip_force"] == pytest.approx(1.0, rel=1e-6)
-    assert cubic_link["k3"] == pytest.approx(5e9, rel=1e-6)
-    f_low, h_low = frf_matrices(table, ["0", "1"], 0.01)
-    extracted = result.extract_linear_frf(h_low)
-    for r in range(2):
-        for q in range(2):
-            assert frac(linear[:, r, q], extracted[:, r, q]) > 0.999999

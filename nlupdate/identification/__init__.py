@@ -7,8 +7,6 @@ Modules
   polynomial and named physical elements (cubic, Jenkins, Coulomb, quadratic damping, gap).
 * :mod:`~nlupdate.identification.prd` — PRD at one coordinate: the source's naive least
   squares and the improved joint output-error estimator; linear-FRF extraction.
-* :mod:`~nlupdate.identification.prd_matrix` — PRD with the ``aa`` partition (several
-  nonlinear coordinates).
 * :mod:`~nlupdate.identification.ddf` — DDF method for comparison.
 * :mod:`~nlupdate.identification.frequency` — choice of the excitation frequency.
 * :mod:`~nlupdate.identification.uncertainty` — Monte-Carlo statistics over the noise model.
