@@ -10,7 +10,6 @@
   parameters to round-off, the polynomial fit to the source's accuracy.
 * Under 5 % noise the improved estimator's spread over seeds is smaller than the
   source's naive least squares.
-* The aa partition with elements on two coordinates (consistent H^NL_aa matrices).
 """
 from __future__ import annotations
 

@@ -36,20 +36,15 @@ while the friction is stuck (ν_high hardly changes over the tiny low-force ampl
 and the right amplitude dependence when the "low" level is itself in the smooth
 nonlinear regime (the source's §3.5 uses 50 N as its low level).
 
-Evidence (§3.1 SDOF at 710 Hz, 5 % noise, 100 seeds, ``benchmarks/identification_study.py``;
-error of the estimate, mean ± std): quadratic polynomial, naive k3 −78 % ± 128 %,
-kf +14 % ± 25 % → improved (±1 %) k3 −0.7 % ± 17 %, kf +0.7 % ± 3.2 %; cubic + Jenkins
-elements, naive k3 −4.7 % ± 10 %, kf −0.4 % ± 4.6 % → improved k3 +1.0 % ± 3.2 %,
-kf +0.3 % ± 1.2 %. Without pooling (half_window 0) the improved estimator only removes
-the errors-in-variables bias (k3 +1.5 % ± 9 % with elements). Weighting the naive fit by
-the noise model or an effective-variance (linearised errors-in-variables) fit were tried
-first and left out: they halved the k3 bias at most and did not reduce the spread.
+How much this gains under noise (100 seeds, ``benchmarks/identification_study.py``):
+docs/methods.md §9.
 
 The returned :class:`PRDResult` carries the parameters, the PRD points for plotting,
 the DFs and the linear-FRF extraction.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -333,7 +328,146 @@ def residual_noise_fraction(residual: NDArray, noise_scale: NDArray, n_parameter
 
 
 def _window_design(x: NDArray, degree: int) -> NDArray:
+    """Columns 1, x, x², … (up to ``degree``) of the window's quadratic ``Z_L(x)``."""
     return x[:, None] ** np.arange(degree + 1)[None, :]
+
+
+@dataclass(frozen=True, eq=False)
+class _Window:
+    """The measured points of the improved estimator's window ``|f − f_e| ≤ half_window·f_e``.
+
+    Low level: frequencies ``f_low`` (Hz), receptances ``h_low`` (m/N), forces ``force_low``
+    (N, achieved at each line). High levels: points f-major (each frequency of ``f_high``
+    repeated for every level): forces ``force_high``, measured complex amplitudes
+    ``x_high`` (m), the low level's force at their frequency ``low_force_high``.
+    ``degree``: of the quadratic ``Z_L`` (less with fewer low-force lines).
+    """
+
+    frequency_hz: float
+    degree: int
+    levels: NDArray[np.float64]
+    f_low: NDArray[np.float64]
+    h_low: NDArray[np.complex128]
+    force_low: NDArray[np.float64]
+    f_high: NDArray[np.float64]
+    force_high: NDArray[np.float64]
+    x_high: NDArray[np.complex128]
+    low_force_high: NDArray[np.float64]
+    low_force_e: float
+
+    @property
+    def x_low(self) -> NDArray[np.complex128]:
+        """Measured complex amplitudes (m) of the low level."""
+        return self.h_low * self.force_low
+
+    @property
+    def omega_low(self) -> NDArray[np.float64]:
+        return 2 * np.pi * self.f_low
+
+    @property
+    def omega_high(self) -> NDArray[np.float64]:
+        return 2 * np.pi * np.repeat(self.f_high, self.levels.size)
+
+    def design(self, which: str) -> NDArray[np.float64]:
+        """``Z_L``'s design matrix at the ``"low"`` or ``"high"`` points (``x = (f − f_e)/f_e``)."""
+        f = self.f_low if which == "low" else np.repeat(self.f_high, self.levels.size)
+        return _window_design((f - self.frequency_hz) / self.frequency_hz, self.degree)
+
+
+def _window(data: FRFLevels, setup: PRDSetup, half_window: float) -> _Window:
+    """The points of :class:`_Window` from the measured curves."""
+    fe = setup.frequency_hz
+    f_low_all, h_low_all = data.curve(setup.low_force)
+    inside = np.abs(f_low_all - fe) <= half_window * fe + 1e-9 * fe
+    f_low, h_low = f_low_all[inside], h_low_all[inside]
+    levels = np.array(setup.high_forces)
+    common = data.common_frequencies(levels)
+    f_high = common[np.abs(common - fe) <= half_window * fe + 1e-9 * fe]
+    # Z_L(ω) is a quadratic in the window, fixed mostly by the low-force sweep; with a
+    # single low-force frequency it is a constant and only ω_e can be used at high force
+    degree = int(min(2, max(f_low.size - 1, 0)))
+    if degree == 0:
+        f_high = f_high[np.isclose(f_high, fe, rtol=1e-9, atol=0.0)]
+    h_high = np.array([data.values(level, f_high) for level in levels])          # (n_levels, n_f)
+    achieved = np.array([data.force_at(level, f_high) for level in levels])      # the force at each line
+    return _Window(
+        frequency_hz=fe, degree=degree, levels=levels, f_low=f_low, h_low=h_low,
+        force_low=data.force_at(setup.low_force, f_low), f_high=f_high, force_high=achieved.T.ravel(),
+        x_high=(h_high * achieved).T.ravel(),
+        low_force_high=data.force_at(setup.low_force, np.repeat(f_high, levels.size)),
+        low_force_e=float(data.force_at(setup.low_force, fe)),
+    )
+
+
+class _OutputError:
+    """Residuals ``(X_model − X̃)/|X̃|`` of every window point for θ = (Re z, Im z, p)
+    (module docstring). Each point's amplitude root is followed from call to call (warm
+    start at the previous root; the measured amplitude when that branch is lost)."""
+
+    def __init__(self, window: _Window, model: Model, a_low_e: float) -> None:
+        self.window, self.model, self.a_low_e = window, model, a_low_e
+        self.n_z = window.degree + 1
+        self.design_low, self.design_high = window.design("low"), window.design("high")
+        self.previous = {"low": np.abs(window.x_low), "high": np.abs(window.x_high)}
+
+    def split(self, theta: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
+        """(z: ``Z_L``'s complex coefficients, p: the DF parameters)."""
+        return theta[: self.n_z] + 1j * theta[self.n_z : 2 * self.n_z], theta[2 * self.n_z :]
+
+    def low_force_df(self, p: NDArray) -> Callable:
+        """ν at the low level. A polynomial model has no low-force DF of its own: Δ_f1 at
+        f_e, varying like the high-force DF with the low-force amplitude across the window."""
+        if not isinstance(self.model, PolynomialModel):
+            return self.model.function(p, "low")
+        nu_high = self.model.function(p, "high")
+        delta = self.model.delta_f1(p)
+        reference = nu_high(np.array([self.a_low_e]), 2 * np.pi * self.window.frequency_hz)[0]
+        return lambda a, omega: delta + nu_high(a, omega) - reference
+
+    def _amplitudes(self, z_l: NDArray, nu: Callable, force: NDArray, omega: NDArray, which: str) -> NDArray:
+        measured = np.abs(self.window.x_low if which == "low" else self.window.x_high)
+        a, ok = nearest_amplitude(z_l, nu, force, omega, self.previous[which])
+        if not np.all(ok):
+            a, ok = nearest_amplitude(z_l, nu, force, omega, measured)
+        self.previous[which] = a
+        return a
+
+    def responses(self, theta: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        """Model amplitudes ``X = F/(Z_L(ω) + ν(A))`` (m) at the low and the high points."""
+        w = self.window
+        z, p = self.split(theta)
+        z_low, z_high = self.design_low @ z, self.design_high @ z
+        nu_low, nu_high = self.low_force_df(p), self.model.function(p, "high")
+        a_low = self._amplitudes(z_low, nu_low, w.force_low, w.omega_low, "low")
+        a_high = self._amplitudes(z_high, nu_high, w.force_high, w.omega_high, "high")
+        return (w.force_low / (z_low + nu_low(a_low, w.omega_low)),
+                w.force_high / (z_high + nu_high(a_high, w.omega_high)))
+
+    def __call__(self, theta: NDArray) -> NDArray[np.float64]:
+        x_low, x_high = self.responses(theta)
+        w = self.window
+        r = np.concatenate([(x_low - w.x_low) / np.abs(w.x_low), (x_high - w.x_high) / np.abs(w.x_high)])
+        return np.concatenate([r.real, r.imag])
+
+
+def _equation_error_start(window: _Window, model: Model) -> tuple[NDArray, NDArray, float, NDArray]:
+    """Start of the output-error fit: ``Z_L`` from the low-force sweep (weighted by |H|:
+    the noise of 1/H is relative), then the DF from the pooled PRD points against it.
+    Returns (θ₀, the smooth low-force ``1/H`` coefficients, the low-force amplitude at f_e,
+    their design at the low points)."""
+    design_low = window.design("low")
+    weights = np.abs(window.h_low)
+    smooth = np.linalg.lstsq(design_low * weights[:, None], (1 / window.h_low) * weights, rcond=None)[0]
+    z_high_smooth = window.design("high") @ smooth
+    y_pooled = 1.0 / (window.x_high / window.force_high) - z_high_smooth
+    a_low_high = np.abs(1.0 / z_high_smooth) * window.low_force_high
+    p0, _ = fit_y_points(model, np.abs(window.x_high), y_pooled, a_low_high, window.omega_high,
+                         weights=np.abs(window.x_high / window.force_high))
+    a_low_e = float(abs(1.0 / smooth[0]) * window.low_force_e)
+    z0 = smooth.copy()
+    z0[0] -= complex(model.nu_low(p0, np.array([a_low_e]), 2 * np.pi * window.frequency_hz)[0])
+    return np.concatenate([z0.real, z0.imag, p0]), smooth, a_low_e, design_low
+
 
 
 # ------------------------------------------------------------------------------ estimators
@@ -359,82 +493,11 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     """Joint output-error maximum-likelihood PRD over a frequency window (module docstring)."""
     if not 0 <= half_window < 0.5:
         raise IdentificationError(f"half_window must be a relative width in [0, 0.5), got {half_window}")
-    fe = setup.frequency_hz
-    f_low, h_low_all = data.curve(setup.low_force)
-    in_low = np.abs(f_low - fe) <= half_window * fe + 1e-9 * fe
-    f_l, h_l = f_low[in_low], h_low_all[in_low]
-    forces = np.array(setup.high_forces)
-    common = data.common_frequencies(forces)
-    f_h = common[np.abs(common - fe) <= half_window * fe + 1e-9 * fe]
-    # Z_L(ω) is a quadratic in the window, fixed mostly by the low-force sweep; with a
-    # single low-force frequency it is a constant and only ω_e can be used at high force
-    degree = int(min(2, max(f_l.size - 1, 0)))
-    if degree == 0:
-        f_h = f_h[np.isclose(f_h, fe, rtol=1e-9, atol=0.0)]
-
-    h_h = np.array([data.values(level, f_h) for level in forces])  # (n_high, n_f)
-    x_l = (f_l - fe) / fe
-    x_h = np.repeat((f_h - fe) / fe, forces.size)
-    # the force each point was measured at: the level, or the force achieved at that line
-    achieved_h = np.array([data.force_at(level, f_h) for level in forces])  # (n_high, n_f)
-    force_h = achieved_h.T.ravel()
-    force_l = data.force_at(setup.low_force, f_l)
-    xm_h = (h_h * achieved_h).T.ravel()               # measured complex amplitudes, f-major
-    xm_l = h_l * force_l
-    omega_l, omega_h = 2 * np.pi * f_l, 2 * np.pi * np.repeat(f_h, forces.size)
-    am_l, am_h = np.abs(xm_l), np.abs(xm_h)
-    _check_points(am_h.size, model)
-
-    # start: smoothed low-force dynamic stiffness, then an equation-error fit on the pooled points
-    w_design_l = _window_design(x_l, degree)
-    weights_l = np.abs(h_l)                               # noise of 1/H is relative
-    w_coefficients = np.linalg.lstsq(w_design_l * weights_l[:, None], (1 / h_l) * weights_l, rcond=None)[0]
-    w_smooth_h = _window_design(x_h, degree) @ w_coefficients
-    y_pool = 1.0 / (xm_h / force_h) - w_smooth_h
-    low_force_h = data.force_at(setup.low_force, np.repeat(f_h, forces.size))
-    low_force_e = float(data.force_at(setup.low_force, fe))
-    a_low_h = np.abs(1.0 / w_smooth_h) * low_force_h
-    p0, _ = fit_y_points(model, am_h, y_pool, a_low_h, omega_h, weights=np.abs(xm_h / force_h))
-    a_low_e = float(abs(1.0 / w_coefficients[0]) * low_force_e)
-    z0 = w_coefficients.copy()
-    z0[0] -= complex(model.nu_low(p0, np.array([a_low_e]), 2 * np.pi * fe)[0])
-    n_z = degree + 1
-    theta0 = np.concatenate([z0.real, z0.imag, p0])
-    design_l, design_h = _window_design(x_l, degree), _window_design(x_h, degree)
-    polynomial = isinstance(model, PolynomialModel)
-
-    guesses = {"low": am_l.copy(), "high": am_h.copy()}
-
-    def solve(w, nu, force, omega, measured, key):
-        """Root nearest the last solution (warm start; starts at the measured amplitude)."""
-        a, ok = nearest_amplitude(w, nu, force, omega, guesses[key])
-        if not np.all(ok):  # lost the branch: restart from the measured amplitudes
-            a, ok = nearest_amplitude(w, nu, force, omega, measured)
-        guesses[key] = a
-        return a
-
-    def model_response(theta: NDArray):
-        z = theta[:n_z] + 1j * theta[n_z : 2 * n_z]
-        p = theta[2 * n_z :]
-        w_l, w_h = design_l @ z, design_h @ z
-        nu_h = model.function(p, "high")
-        if polynomial:
-            # Δ_f1 at the excitation frequency, varying like the high-force DF with the
-            # low-force amplitude across the window (see the module docstring)
-            delta, reference = model.delta_f1(p), nu_h(np.array([a_low_e]), 2 * np.pi * fe)[0]
-            nu_l = lambda a, om: delta + nu_h(a, om) - reference  # noqa: E731
-        else:
-            nu_l = model.function(p, "low")
-        a_l = solve(w_l, nu_l, force_l, omega_l, am_l, "low")
-        x_model_l = force_l / (w_l + nu_l(a_l, omega_l))
-        a_h = solve(w_h, nu_h, force_h, omega_h, am_h, "high")
-        x_model_h = force_h / (w_h + nu_h(a_h, omega_h))
-        return x_model_l, x_model_h
-
-    def residual(theta: NDArray) -> NDArray:
-        x_model_l, x_model_h = model_response(theta)
-        r = np.concatenate([(x_model_l - xm_l) / am_l, (x_model_h - xm_h) / am_h])
-        return np.concatenate([r.real, r.imag])
+    window = _window(data, setup, half_window)
+    _check_points(window.x_high.size, model)
+    theta0, smooth, a_low_e, design_low = _equation_error_start(window, model)
+    residual = _OutputError(window, model, a_low_e)
+    n_z = residual.n_z
 
     scale = np.abs(theta0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -446,14 +509,15 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
     # the fit ran to kf → 1e12 with a residual noise level of 33 %): if the residuals are
     # far above the noise level of the low-force points about their smooth fit, restart
     # from the single-frequency naive estimate and keep the better fit.
-    low_noise = np.sqrt(np.mean(np.abs(w_design_l @ w_coefficients * h_l - 1) ** 2)) if f_l.size > n_z else 0.0
+    fits_low_noise = window.f_low.size > n_z
+    low_noise = np.sqrt(np.mean(np.abs(design_low @ smooth * window.h_low - 1) ** 2)) if fits_low_noise else 0.0
     if np.sqrt(2 * solution.cost / solution.fun.size) > 3 * max(low_noise / np.sqrt(2), 1e-6):
         try:
             alternative = prd_naive(data, setup, model).p
         except IdentificationError:
             alternative = None
         if alternative is not None:
-            start = np.concatenate([z0.real, z0.imag, alternative])
+            start = np.concatenate([theta0[: 2 * n_z], alternative])
             retry = scipy.optimize.least_squares(lambda q: residual(q * scale), start / scale, method="lm")
             if retry.cost < solution.cost:
                 solution = retry
@@ -465,23 +529,26 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         covariance = sigma2 * np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
         covariance = None
-    low_response, _ = model_response(theta)  # the fitted low-force amplitudes over the window
-    z = theta[:n_z] + 1j * theta[n_z : 2 * n_z]
-    p = theta[2 * n_z :]
+    low_response, _ = residual.responses(theta)  # the fitted low-force amplitudes over the window
+    z, p = residual.split(theta)
     # PRD points relative to the fitted low-force dynamic stiffness, for plots and reports
-    w_h = design_h @ z
-    a_low_points = np.abs(1.0 / (w_h + model.nu_low(p, np.full(w_h.shape, a_low_e), omega_h))) * low_force_h
-    low_stiffness = w_h + model.nu_low(p, a_low_points, omega_h)
-    y_points = force_h / xm_h - low_stiffness
-    a_low_fit = float(abs(low_force_e / (z[0] + model.nu_low(p, np.array([a_low_e]), 2 * np.pi * fe)[0])))
+    omega_high = window.omega_high
+    z_high = residual.design_high @ z
+    a_low_points = np.abs(1.0 / (z_high + model.nu_low(p, np.full(z_high.shape, a_low_e), omega_high))) \
+        * window.low_force_high
+    y_points = window.force_high / window.x_high - (z_high + model.nu_low(p, a_low_points, omega_high))
+    fe = window.frequency_hz
+    a_low_fit = float(abs(window.low_force_e / (z[0] + model.nu_low(p, np.array([a_low_e]), 2 * np.pi * fe)[0])))
     return PRDResult(
-        "prd", "improved", model, p, setup, am_h, y_points, np.repeat(f_h, forces.size), a_low_fit,
+        "prd", "improved", model, p, setup, np.abs(window.x_high), y_points,
+        np.repeat(window.f_high, window.levels.size), a_low_fit,
         covariance=None if covariance is None else covariance[2 * n_z :, 2 * n_z :],
         noise_fraction=float(np.sqrt(2 * sigma2)), z_coefficients=z,
         residual_noise_fraction=float(np.sqrt(2 * sigma2)) if n_res > n_par else None,
         amplitude_low_max=float(np.max(np.abs(low_response))),
         extras={"half_window": half_window, "window_hz": (float(fe * (1 - half_window)), float(fe * (1 + half_window))),
-                "n_low_points": int(f_l.size), "n_high_points": int(am_h.size), "z_degree": degree},
+                "n_low_points": int(window.f_low.size), "n_high_points": int(window.x_high.size),
+                "z_degree": window.degree},
     )
 
 
