@@ -1,5 +1,8 @@
 """CalculiX (``ccx``) behind the :class:`~nlupdate.adapters.base.FEAdapter` interface.
 
+Length: the deck contract, the ``.dat`` parser and the adapter are one contract with
+CalculiX and change together; the docstring below is a third of it.
+
 Contract with the deck generator
 --------------------------------
 A deck generator is a callable ``parameters -> (model_text, coordinates)``:

@@ -1,5 +1,8 @@
 """Scheduled studies: Prefect deployments of :func:`scheduled_study`, and serving them.
 
+Length: registering, deploying and serving must agree on one check (a run only for a
+registered study with its hash), so they live together.
+
 * What a user schedules is kept in their own folder (:mod:`nlupdate.flows.registrations`):
   the study's text and hash, results root, cache folder, threads and schedule. The
   deployment on the Prefect API carries only the registration's name and study hash.

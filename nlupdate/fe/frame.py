@@ -1,5 +1,9 @@
 """3D frame (beam) finite elements: assembly, constraints and modal solution.
 
+Length: one module because the element matrices, the assembly, the constraints and
+the modal solution share the dof numbering and axes stated here; :class:`FrameModel` is
+most of it.
+
 Conventions
 -----------
 * SI units (m, kg, N, Pa); frequencies in Hz at the interface, rad/s inside.

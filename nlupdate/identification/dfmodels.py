@@ -1,5 +1,9 @@
 """Describing-function models fitted by the identification methods.
 
+Length: the two model families and their shared fitting interface; most of it is
+:class:`PhysicalModel`, whose parameters, bounds and starts follow from the element
+library.
+
 A model maps a real parameter vector ``p`` to two describing functions (DFs) of the
 response amplitude ``A`` (m) at the nonlinear coordinate (complex, N/m, first-harmonic
 force = ν·X, METHODS §1):

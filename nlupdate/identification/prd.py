@@ -1,5 +1,8 @@
 """PRD method (Pseudo Receptance Difference, METHODS §4) for a nonlinearity at one coordinate.
 
+Length: the result type, the setup and the two estimators share the PRD conventions
+stated below; the improved estimator's window is a third of it.
+
 Data: the driving-point (or any) receptance of the nonlinear coordinate measured at one
 excitation frequency ω_e at a low force F_1 (friction stuck) and at high forces F_i.
 Because the linear part does not depend on the force,

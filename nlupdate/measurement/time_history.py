@@ -1,5 +1,9 @@
 """First-harmonic FRFs from measured time histories: stepped-sine dwells, sine sweeps, random/burst.
 
+Length: three estimators (stepped sine, sine sweep, random) that share the record
+reading, the units and the least-squares harmonic fit; the rules below are their
+documentation.
+
 A time record holds the sample times ``time_s`` (s), the reference — the excitation
 ``force`` (N) or the amplifier ``voltage`` (V) — and one signal per response coordinate
 (displacement in m by default; velocity or acceleration are converted, ``H = V/(iω)``,

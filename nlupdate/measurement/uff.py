@@ -1,5 +1,9 @@
 """Measured FRFs in universal files (UFF dataset 58, ``.uff`` / ``.unv``), read and written with pyuff.
 
+Length: the format notes below and one small function per record field that test
+systems fill differently (reference, level, abscissa, coherence); they share the
+dataset-walking code.
+
 Writing (nlupdate's own files)
 ------------------------------
 One dataset 58 per curve (level, response, input); function type 4 (FRF), complex

@@ -2,6 +2,9 @@
 (:mod:`nlupdate.study.spec`); every mistake is one line naming the file, the table, the
 key, the expected form and what was found (:class:`~nlupdate.study.reader.Reader`). The
 tables and keys are documented in docs/study-files.md.
+
+Length: one reader per study table, kept together in the order of
+docs/study-files.md so that the checks can be read against it; each is short.
 """
 from __future__ import annotations
 
