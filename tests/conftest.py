@@ -7,6 +7,8 @@
 * Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
   when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
   the skip into a failure so CI always runs them.
+* Studies for the tests are built as data (:mod:`studies`); ``two_dof_study`` and
+  ``two_dof_study_file`` hand out the whole-chain 2-DOF study.
 """
 from __future__ import annotations
 
@@ -32,6 +34,22 @@ def pytest_runtest_setup(item):
         if os.environ.get("NLUPDATE_REQUIRE_CCX") == "1":
             pytest.fail("ccx is required here (NLUPDATE_REQUIRE_CCX=1) but not on PATH: apt-get install -y calculix-ccx")
         pytest.skip("needs CalculiX (ccx): apt-get install -y calculix-ccx")
+
+
+@pytest.fixture
+def two_dof_study() -> dict:
+    """The flow tests' whole-chain 2-DOF study as a dict (:mod:`studies`), a fresh copy per test."""
+    from studies import two_dof_study as study
+
+    return study()
+
+
+@pytest.fixture
+def two_dof_study_file(tmp_path, two_dof_study):
+    """The 2-DOF study written to ``tmp_path/study.toml`` with its model path absolute."""
+    from studies import write_study
+
+    return write_study(tmp_path / "study.toml", two_dof_study)
 
 
 @pytest.fixture(scope="session")

@@ -15,16 +15,16 @@ from nlupdate.reporting.archive import archive_inputs, write_failed_archive
 from nlupdate.reporting.catalogue import ArchiveError, archived_study, open_run
 from nlupdate.fingerprints import tree_hash
 from nlupdate.study import load_study
+import studies
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
 MODEL = ROOT / "examples" / "two_dof.toml"
 
 
 def study_text(name_line: str | None) -> str:
-    text = STUDY.read_text().replace("../../../examples/two_dof.toml", str(MODEL))
-    assert '[study]\nname = "two-dof"' in text
-    return text.replace('name = "two-dof"', name_line) if name_line is not None else text
+    """The 2-DOF study with ``name_line`` (TOML text, possibly invalid) as its [study] table."""
+    text = studies.study_text({key: value for key, value in studies.two_dof_study().items() if key != "study"})
+    return text + "\n[study]\n" + (name_line if name_line is not None else 'name = "two-dof"') + "\n"
 
 
 @pytest.mark.parametrize("name, problem", [

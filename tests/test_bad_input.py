@@ -23,6 +23,7 @@ import pandas as pd
 import pytest
 
 from nlupdate.cli import main
+from studies import two_dof_study, study_text, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_DOF = ROOT / "examples" / "two_dof.toml"
@@ -267,29 +268,28 @@ def test_uff_mobility_and_accelerance_are_converted_to_receptance(tmp_path, ordi
 
 
 # ------------------------------------------------------------------ study files: update and run
-def study_variant(tmp_path: Path, old: str, new: str) -> Path:
-    text = STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
-    assert old in text
-    path = tmp_path / "study.toml"
-    path.write_text(text.replace(old, new))
-    return path
+def study_variant(tmp_path: Path, edit=lambda study: None) -> Path:
+    """The 2-DOF study after ``edit`` (a function changing the study dict in place)."""
+    study = two_dof_study()
+    edit(study)
+    return write_study(tmp_path / "study.toml", study)
 
 
 @pytest.mark.parametrize("command", ["update", "run"])
-@pytest.mark.parametrize("old, new, fragments", [
-    ('formulas = ["forward", "backward", "central2", "central4"]', 'formulas = ["sideways"]',
+@pytest.mark.parametrize("edit, fragments", [
+    (lambda s: s["eigensensitivity"].update(formulas=["sideways"]),
      ("study.toml", "[eigensensitivity] key 'formulas'", "sideways")),
-    ("upper = 1.5e6\n\n[[parameters]]", 'upper = "big"\n\n[[parameters]]', ("study.toml", "upper")),
-    ("noise = 0.01", "noise = -0.01", ("study.toml", "noise")),
-    ('name = "k1"', 'name = "k9"', ("[[parameters]] key 'name': expected a parameter of the lumped model", "'k9'")),
-    ("lower = 0.5e6", "lower = 0.0", ("[[parameters]] 'k1': lower = 0 is a value the lumped model cannot take",
-                                       "must be positive")),
-    ("stiffnesses = [0.8e6, 1.2e6, 1.0e6] }", "stiffnesses = [0.8e6, 1.2e6, 1.0e6] }\nfixed = { k7 = 1e6 }",
-     ("[adapter.fixed] key 'k7': expected a parameter",)),
-    ('name = "two-dof"', 'name = "../../escaped"', ("[study] key 'name': expected one folder name",)),
-])
-def test_study_file_mistakes(tmp_path, command, old, new, fragments):
-    study = study_variant(tmp_path, old, new)
+    (lambda s: s["parameters"][0].update(upper="big"), ("study.toml", "upper")),
+    (lambda s: s["measured"]["simulate"].update(noise=-0.01), ("study.toml", "noise")),
+    (lambda s: s["parameters"][0].update(name="k9"),
+     ("[[parameters]] key 'name': expected a parameter of the lumped model", "'k9'")),
+    (lambda s: s["parameters"][0].update(lower=0.0),
+     ("[[parameters]] 'k1': lower = 0 is a value the lumped model cannot take", "must be positive")),
+    (lambda s: s["adapter"].update(fixed={"k7": 1e6}), ("[adapter.fixed] key 'k7': expected a parameter",)),
+    (lambda s: s["study"].update(name="../../escaped"), ("[study] key 'name': expected one folder name",)),
+], ids=["formula", "upper", "noise", "name", "lower", "fixed", "study-name"])
+def test_study_file_mistakes(tmp_path, command, edit, fragments):
+    study = study_variant(tmp_path, edit)
     out = ["--out", tmp_path / "out"]
     result = nlupdate(command, study, *out, timeout=60)
     assert_one_clear_line(result, 2, f"nlupdate {command}: error:", *fragments)
@@ -298,7 +298,7 @@ def test_study_file_mistakes(tmp_path, command, old, new, fragments):
 
 def test_update_refuses_an_existing_output(tmp_path):
     (tmp_path / "out").mkdir()
-    result = nlupdate("update", study_variant(tmp_path, "noise = 0.01", "noise = 0.01"), "--out", tmp_path / "out")
+    result = nlupdate("update", study_variant(tmp_path), "--out", tmp_path / "out")
     assert_one_clear_line(result, 2, "exists; pass --overwrite")
 
 
@@ -481,8 +481,7 @@ def test_target_lists_in_another_order_or_twice_are_refused(tmp_path, targets, f
 def test_a_study_file_saved_with_a_byte_order_mark_is_read(tmp_path):
     """Windows editors save UTF-8 with a BOM; it was 'Invalid statement (at line 1, column 1)'."""
     study = tmp_path / "study.toml"
-    study.write_bytes(b"\xef\xbb\xbf" + STUDY.read_text().replace("../../../examples/two_dof.toml",
-                                                                  str(TWO_DOF)).encode())
+    study.write_bytes(b"\xef\xbb\xbf" + study_text(two_dof_study()).encode())
     from nlupdate.study import load_study
 
     assert load_study(study).name == "two-dof"

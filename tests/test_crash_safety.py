@@ -30,18 +30,16 @@ import pytest
 
 from nlupdate.files import HOST, atomic_directory
 from nlupdate.reporting.catalogue import find_runs
+from studies import two_dof_study, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_DOF = ROOT / "examples" / "two_dof.toml"
-STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
 #: Bookkeeping columns that differ between runs of equal results (who computed a shared point, how long).
 BOOKKEEPING = re.compile(r"wall_time|_evaluations$")
 
 
 def study_file(tmp_path: Path) -> Path:
-    study = tmp_path / "study.toml"
-    study.write_text(STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"'))
-    return study
+    return write_study(tmp_path / "study.toml", two_dof_study())
 
 
 class Run:

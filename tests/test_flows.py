@@ -19,6 +19,7 @@ import pytest
 from nlupdate.flows.progress import Progress
 from nlupdate.flows.run import run_study_flow
 from nlupdate.flows.runners import Execution, ExecutionError, task_runner
+from studies import two_dof_study, study_text
 from nlupdate.study import load_study, run_study, study_from_text
 from nlupdate.study.spec import TargetsSpec
 
@@ -105,9 +106,10 @@ def test_an_unchanged_rerun_is_all_cached(first_run):
 
 def test_changing_one_bound_reruns_only_the_runs_that_depend_on_it(first_run):
     tmp_path, _, _ = first_run
-    text = STUDY.read_text().replace("start = 1.2e6\nlower = 0.5e6\nupper = 1.5e6", "start = 1.2e6\nlower = 0.5e6\nupper = 1.6e6")
-    assert text != STUDY.read_text()
-    _, changed = flow_run(study_from_text(text, STUDY), tmp_path)
+    study = two_dof_study(model="../../../examples/two_dof.toml")
+    assert study["parameters"][1]["name"] == "k2"
+    study["parameters"][1]["upper"] = 1.6e6
+    _, changed = flow_run(study_from_text(study_text(study), STUDY), tmp_path)
     assert tally(changed, "measured data") == {"computed": 0, "cached": 1, "failed": 0}
     assert tally(changed, "identification") == {"computed": 0, "cached": 1, "failed": 0}
     assert tally(changed, "updating") == {"computed": 4, "cached": 5, "failed": 0}  # the four {k2} runs
@@ -156,10 +158,11 @@ def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_pat
         return solve(self, parameters)
 
     monkeypatch.setattr(LumpedAdapter, "_solve", crashes_at_the_candidates_start)
-    text = STUDY.read_text() + (
-        '\n[[parameters]]\nname = "m1"\nunit = "kg"\nstart = 0.1\nlower = 0.05\nupper = 0.3\n'
-        '\n[[optimisation.candidates]]\nname = "crashing solver"\nparameters = ["m1"]\nstart = { m1 = 0.123456 }\n')
-    archive, manifest = flow_run(study_from_text(text, STUDY), tmp_path)
+    study = two_dof_study(model="../../../examples/two_dof.toml")
+    study["parameters"].append({"name": "m1", "unit": "kg", "start": 0.1, "lower": 0.05, "upper": 0.3})
+    study["optimisation"]["candidates"].append({"name": "crashing solver", "parameters": ["m1"],
+                                                "start": {"m1": 0.123456}})
+    archive, manifest = flow_run(study_from_text(study_text(study), STUDY), tmp_path)
     assert [f["run"] for f in manifest["failures"]] == ["crashing solver"]
     assert "lumped solver crashed" in manifest["failures"][0]["error"]
     runs = pd.read_parquet(archive / "tables" / "runs.parquet")

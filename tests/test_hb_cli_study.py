@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import re
 import warnings
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import pytest
 from nlupdate.cli import main
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
 from nlupdate.study import StudyError, run_study, study_from_text
+from studies import small_two_dof_study, study_text
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -190,32 +190,10 @@ def test_discovery_simulates_by_harmonic_balance_when_told(duffing, time_referen
 
 
 # --------------------------------------------------------------------------- studies
-SIMULATED = Path(__file__).resolve().parent / "data" / "studies" / "two_dof.toml"
-
-
-def small_study() -> str:
-    """The flow tests' 2-DOF study, made small (two force levels, 41 frequencies, 4
-    Monte-Carlo samples, k1 alone, forward differences, no optimisation); it ends in its
-    ``[prediction]`` table, so keys can be appended."""
-    text = SIMULATED.read_text()
-    replacements = [
-        ('"../../../examples/two_dof.toml"', f'"{EXAMPLES / "two_dof.toml"}"'),
-        ("forces_n = [0.01, 20, 40, 60, 80, 100]", "forces_n = [0.01, 60]"),
-        ("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 41]"),
-        ("samples = 8", "samples = 4"),
-        ('formulas = ["forward", "backward", "central2", "central4"]', 'formulas = ["forward"]'),
-    ]
-    for old, new in replacements:
-        assert text.count(old) == 1, old
-        text = text.replace(old, new)
-    for section in (r"\[\[parameters\]\]\nname = \"k2\".*?\n\n", r"parameter_sets = .*?\n", r"\[optimisation\].*?(?=\[prediction\])"):
-        text, count = re.subn(section, "", text, count=1, flags=re.S)
-        assert count == 1, section
-    assert text.endswith('[prediction]\ncandidates = "best"\n')
-    return text
-
-
-STUDY = small_study()
+#: The flow tests' 2-DOF study made small (:func:`studies.small_two_dof_study`); its text
+#: ends in the ``[prediction]`` table, so the tests append prediction keys to it.
+STUDY = study_text(small_two_dof_study())
+assert STUDY.endswith('[prediction]\ncandidates = "best"\n')
 HB = 'method = "hb"\nharmonics = 3\n'
 
 

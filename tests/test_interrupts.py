@@ -16,9 +16,17 @@ from pathlib import Path
 
 import pytest
 
+from studies import two_dof_study, write_study
+
 ROOT = Path(__file__).resolve().parents[1]
 TWO_DOF = ROOT / "examples" / "two_dof.toml"
-STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
+
+
+def long_study() -> dict:
+    """The 2-DOF study with 2001 frequencies: long enough to interrupt."""
+    study = two_dof_study()
+    study["measured"]["simulate"]["frequencies_hz"] = [690.0, 770.0, 2001]
+    return study
 
 
 def start(*args: object, cwd: Path, env: dict | None = None) -> subprocess.Popen:
@@ -62,9 +70,7 @@ def test_ctrl_c_during_a_time_domain_simulation(tmp_path):
 def test_ctrl_c_during_a_prefect_run_stops_within_seconds(tmp_path, prefect_server):
     """Tasks still running in threads do not hold the process: it ends within the grace time."""
     env = {**os.environ, "PREFECT_API_URL": prefect_server}
-    study = tmp_path / "study.toml"
-    study.write_text(STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
-                     .replace("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 2001]"))
+    study = write_study(tmp_path / "study.toml", long_study())
     process = start("run", study, "--workers", "2", "--out", tmp_path / "results", cwd=tmp_path, env=env)
     wait_for_line(process, "tasks on 2 threads", timeout_s=60)
     time.sleep(1)
@@ -101,9 +107,7 @@ def started_run(tmp_path: Path) -> tuple[subprocess.Popen, int, int]:
     """``nlupdate run`` of a long study with its own temporary Prefect server, once its
     tasks run: (process, server pid, server port)."""
     env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
-    study = tmp_path / "study.toml"
-    study.write_text(STUDY.read_text().replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"')
-                     .replace("frequencies_hz = [690.0, 770.0, 161]", "frequencies_hz = [690.0, 770.0, 2001]"))
+    study = write_study(tmp_path / "study.toml", long_study())
     process = subprocess.Popen([sys.executable, "-m", "nlupdate", "run", str(study), "--out", str(tmp_path / "results")],
                                cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                start_new_session=True)

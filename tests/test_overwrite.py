@@ -13,11 +13,11 @@ from pathlib import Path
 import pytest
 
 from nlupdate.cli import main
+from studies import two_dof_study, write_study
 from nlupdate.files import OUTPUT_MARKER, NotAnOutputError, atomic_directory, check_replaceable
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "examples" / "two_dof.toml"
-STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -41,7 +41,7 @@ def users_folder(tmp_path, monkeypatch) -> Path:
     (folder / "thesis.tex").write_text("\\documentclass{book}\n")
     (folder / "sub" / "data.bin").write_bytes(bytes(range(256)))
     (folder / "model.toml").write_text(MODEL.read_text())
-    (folder / "my_study.toml").write_text(STUDY.read_text().replace("../../../examples/two_dof.toml", "model.toml"))
+    write_study(folder / "my_study.toml", two_dof_study(model="model.toml"))
     monkeypatch.chdir(folder)
     return folder
 

@@ -28,8 +28,6 @@ import pytest
 from nlupdate.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-TWO_DOF = ROOT / "examples" / "two_dof.toml"
-STUDY = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
 FLOW = "scheduled study"
 
 
@@ -49,13 +47,9 @@ def own_registrations(tmp_path, monkeypatch):
 
 
 @pytest.fixture
-def study(tmp_path) -> Path:
+def study(two_dof_study_file) -> Path:
     """The two-dof study with its model path made absolute, so it runs from anywhere."""
-    copy = tmp_path / "study.toml"
-    text = STUDY.read_text()
-    assert 'model = "../../../examples/two_dof.toml"' in text
-    copy.write_text(text.replace('model = "../../../examples/two_dof.toml"', f'model = "{TWO_DOF}"'))
-    return copy
+    return two_dof_study_file
 
 
 def one_line_error(capsys, code: int, expected: int, *fragments: str) -> str:

@@ -1,0 +1,71 @@
+"""Every file in examples/ runs as its header says.
+
+Each TOML file in examples/ starts with the ``nlupdate`` commands that use it (comment
+lines ``#   nlupdate …``, ``\\`` continuing a line); the test runs them in order, in a
+fresh folder, with paths into examples/ and tests/data/ made absolute. Every other file
+in examples/ (measured data) must be read by one of those commands — so no example can
+rot unseen.
+"""
+from __future__ import annotations
+
+import re
+import shlex
+import warnings
+from pathlib import Path
+
+import pytest
+
+from nlupdate.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+#: Examples whose commands take more than half a minute here (2 cores): the whole
+#: bolted-beam chain (59 s) runs in the slow suite.
+SLOW = {"bolted_beam/study.toml"}
+
+
+def header_commands(path: Path) -> list[list[str]]:
+    """The ``nlupdate`` commands in the leading comment block of ``path`` (argv lists)."""
+    commands: list[str] = []
+    continuing = False
+    for line in path.read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        text = line[1:].strip()
+        if continuing:
+            commands[-1] += " " + text.rstrip("\\").strip()
+        elif text.startswith("nlupdate "):
+            commands.append(text.rstrip("\\").strip())
+        continuing = text.endswith("\\")
+    return [shlex.split(command)[1:] for command in commands]
+
+
+def absolute(argument: str) -> str:
+    """Paths into the repository (``examples/…``, ``tests/…``, also after ``=``) made absolute."""
+    return re.sub(r"(^|=)((?:examples|tests)/)", lambda m: m.group(1) + str(ROOT) + "/" + m.group(2), argument)
+
+
+EXAMPLE_FILES = sorted(p.relative_to(EXAMPLES).as_posix() for p in EXAMPLES.rglob("*.toml"))
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in EXAMPLE_FILES])
+def test_the_example_runs_as_its_header_says(name, tmp_path, monkeypatch):
+    commands = header_commands(EXAMPLES / name)
+    assert commands, f"examples/{name} names no 'nlupdate …' command in its header"
+    monkeypatch.chdir(tmp_path)
+    for argv in commands:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            code = main([absolute(a) for a in argv])
+        assert code == 0, f"examples/{name}: nlupdate {' '.join(argv)} exited with {code}"
+        out = argv[argv.index("--out") + 1] if "--out" in argv else None
+        assert out is None or (tmp_path / out).exists(), f"examples/{name}: {out} was not written"
+
+
+def test_every_data_file_is_read_by_an_example_header():
+    commands = [" ".join(argv) for name in EXAMPLE_FILES for argv in header_commands(EXAMPLES / name)]
+    data = [p for p in EXAMPLES.rglob("*") if p.is_file() and p.suffix not in (".toml", ".md")]
+    assert data
+    for path in data:
+        relative = path.relative_to(ROOT).as_posix()
+        assert any(relative in command for command in commands), f"{relative} is read by no example header"
