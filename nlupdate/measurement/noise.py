@@ -58,10 +58,10 @@ def contiguous_stretches(frequency_hz: ArrayLike, jump: float = 3.0) -> list[NDA
     """Index arrays (into ``frequency_hz``) of the contiguous stretches of a frequency grid.
 
     The grid is sorted; a gap separates two stretches where a step exceeds ``jump`` times the
-    typical step on either side of it (the median of up to four steps before it and of up to
-    four after it, whichever is smaller). So separate bands, a hole in a sweep or a coarser
-    stretch after a fine one are split, while an evenly, logarithmically or smoothly graded
-    grid stays one stretch. Repeated frequencies stay in their stretch.
+    typical step on both sides of it (the median of up to four steps before it and of up to
+    four after it). So separate bands and holes in a sweep are split, while an evenly,
+    logarithmically or smoothly graded grid stays one stretch, and so does a fine stretch
+    that continues with a coarser one. Repeated frequencies stay in their stretch.
     """
     f = np.asarray(frequency_hz, dtype=float).ravel()
     order = np.argsort(f, kind="stable")
@@ -74,7 +74,7 @@ def contiguous_stretches(frequency_hz: ArrayLike, jump: float = 3.0) -> list[NDA
     for position, i in enumerate(distinct):
         before = steps[distinct[max(position - 4, 0) : position]]
         after = steps[distinct[position + 1 : position + 5]]
-        typical = min([float(np.median(side)) for side in (before, after) if side.size], default=np.inf)
+        typical = max([float(np.median(side)) for side in (before, after) if side.size], default=np.inf)
         if steps[i] > jump * typical:
             cuts.append(i + 1)
     return [piece for piece in np.split(order, cuts) if piece.size]
@@ -218,11 +218,10 @@ def estimate_table_noise(table: pd.DataFrame, window: int = 9) -> NoiseEstimate:
     if "repeat" in columns:
         runs = table.groupby("repeat", sort=True)
         if runs.ngroups >= 2:
-            pivot = table.assign(h=h).pivot_table(index=keys + ["frequency_hz"], columns="repeat", values="h",
-                                                  aggfunc="first")
-            complete = pivot.dropna()
-            if len(complete):
-                return NoiseEstimate(repeat_noise_fraction(complete.to_numpy().T), "repeats",
+            by_point = table.assign(h=h).sort_values("repeat", kind="stable").groupby(keys + ["frequency_hz"], sort=False)
+            complete = [group["h"].to_numpy() for _, group in by_point if len(group) == runs.ngroups]
+            if complete:
+                return NoiseEstimate(repeat_noise_fraction(np.array(complete).T), "repeats",
                                      f"from {runs.ngroups} repeated runs at {len(complete)} points")
     estimates = []
     for _, curve in table.assign(h=h).groupby(keys, sort=True):
