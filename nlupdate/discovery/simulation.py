@@ -12,8 +12,12 @@ taken. The stepped-sine reading of the curve in the stated sweep direction
 (:mod:`nlupdate.response.stepped_sine`) is kept beside it, so a report can mark the points
 where the measurement follows another branch than the stated sweep.
 
-A model without nonlinear elements is evaluated directly, ``X = H(ω)·F``. Points that no
-stable branch reaches are NaN (they count as misfit, see
+A measured point that no stable segment of the traced curve reaches (the continuation
+stalled before it, or it lies on a branch the trace never visited) gets a second chance:
+Newton at its frequency started from the measured amplitudes, accepted when it converges
+to a stable solution (the determinant criterion of :mod:`nlupdate.response.continuation`;
+describing function only). A model without nonlinear elements is evaluated directly,
+``X = H(ω)·F``. Points still without a solution are NaN (they count as misfit, see
 :mod:`nlupdate.discovery.frf_evidence`). Any failure is a :class:`ModelSolveError` naming the
 force level.
 """
@@ -26,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.discovery.errors import ModelSolveError
-from nlupdate.model.system import NonlinearSystem, newton_fixed_frequency
+from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
 from nlupdate.response.continuation import ContinuationError, FrequencyResponse, trace_frequency_response
 from nlupdate.response.harmonic_balance import HarmonicSettings, trace_harmonic_balance
 from nlupdate.response.stepped_sine import stepped_sine
@@ -77,6 +81,18 @@ def _solutions_at(curve: FrequencyResponse, stable_segments: NDArray, target: fl
         if all(np.linalg.norm(state - other) > _SAME_SOLUTION * scale for other in found):
             found.append(state)
     return found
+
+
+def _from_measurement(problem: CondensedProblem, target: float, measured: NDArray, measured_at: dict) -> list[NDArray]:
+    """A stable solution at ``target`` (rad/s) by Newton from the measured amplitudes at the
+    nonlinear coordinates (the linear response where one is not measured), or none."""
+    _, x_linear = problem.linear_terms(target, derivative=False)
+    start = np.array([measured[measured_at[d]] if d in measured_at else x_linear[i] for i, d in enumerate(problem.a)])
+    y, ok, _ = newton_fixed_frequency(problem, target, problem.to_real(start))
+    if not ok:
+        return []
+    _, jacobian, _ = problem.residual_and_jacobians(y, target)
+    return [problem.to_complex(y)] if np.linalg.det(jacobian) > 0 else []
 
 
 def _trace(system: NonlinearSystem, input_dof: int, level: float, w: NDArray, settings: HarmonicSettings | None):
@@ -156,8 +172,11 @@ def simulate_nearest(
                     solutions[points] = np.isfinite(reading).all(axis=1)
                     continue
                 segments = _stable_segments(curve)
+                measured_at = {dofs[c]: k for k, c in enumerate(columns)}
                 for row, (point, target) in enumerate(zip(points, w)):
                     states = _solutions_at(curve, segments, target, polish=True)
+                    if not states and harmonic_balance is None:
+                        states = _from_measurement(curve.problem, target, measured[point], measured_at)
                     solutions[point] = len(states)
                     if not states:
                         continue

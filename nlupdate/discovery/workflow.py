@@ -22,16 +22,24 @@
    far and *every parameter of every effect* is refitted jointly, each point solved exactly
    for all of them (:mod:`nlupdate.discovery.joint`). Then each effect is reconsidered
    against that joint fit: an earlier effect that no longer improves the criterion by
-   ``min_evidence`` is dropped, an effect is swapped for another at the same place when
-   the joint fit prefers it by ``min_evidence``, and one that now sits in a degenerate
-   limit gives way to its simpler equivalent. The alternatives tried for an effect are its
-   rivals when it was chosen — the other candidates at its place whose criterion was within
-   10 % of its own (at least within ``min_evidence``) — refitted at the place against the
-   others' joint values; the three best are refitted jointly;
+   ``min_evidence`` is dropped, an effect is swapped for another (at the same place or
+   elsewhere) when the joint fit prefers it by ``min_evidence``, and one that now sits in a
+   degenerate limit gives way to its simpler equivalent. The alternatives to the new effect
+   are the next candidates of its round; those to an earlier effect are every library
+   effect at every place, screened by the criterion at their variable-projection starts
+   against the others' joint values, the five best fitted there; in both cases the three
+   best are refitted jointly, and the one swap the joint fit prefers most is made (at most
+   ``3 × effects`` joint refits per pass, three passes);
 5. **add and look again** — re-simulate; accept the new set only if the model can be
-   simulated and the simulated gap shrinks (else try the next significant candidate, up
-   to three); repeat until the misfit is at the noise level, nothing more is significant,
-   or ``max_effects`` are found.
+   simulated and its simulated misfit (the criterion: χ² of the traced model plus the cost
+   of its parameters) drops by more than ``min_evidence`` (else try the next significant
+   candidate, up to three); repeat until the misfit is at the noise level, nothing more is significant,
+   or ``max_effects`` are found;
+6. **restart** — a greedy search can take a first step that no later step repairs (a mass
+   error standing in for a stuck joint). When it ends with an RMS residual more than 1.5
+   times the noise level, the search is run again without its first choice (then without the next one; ``restarts`` = 2) and
+   the result with the lower criterion is kept (by more than ``min_evidence``); each
+   restart is a sentence in the result.
 
 At the end the misfit is compared with the noise: when the root-mean-square residual is more
 than ``poor_fit_ratio`` (5) times the noise level, the result says ``fit: poor`` with that
@@ -54,6 +62,7 @@ from nlupdate.discovery.candidates import (
 )
 from nlupdate.discovery.effects import DFSamples, Effect, library
 from nlupdate.discovery.equivalence import Equivalence, simpler_equivalent
+from nlupdate.discovery.starts import joint_starts
 from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError
 from nlupdate.discovery.frf_data import SWEEP_DIRECTIONS, FRFData
 from nlupdate.discovery.frf_evidence import FRFEvidence
@@ -70,8 +79,9 @@ from nlupdate.response_method import HARMONICS_FORM, describe, samples_form, val
 MapCandidates = Callable[[Callable[[Any], CandidateFit], Sequence[Any]], Any]
 _TRIALS = 3  # significant candidates tried in turn when the best cannot be simulated or does not help
 _SWAP_ALTERNATIVES = 3  # alternatives per effect refitted jointly when reconsidering it
-_RIVAL_SHARE = 0.1  # rivals: candidates at the chosen place within this share of its score (or min_evidence)
-_RECONSIDER_PASSES = 2
+_SCREENED = 5  # alternatives to an earlier effect fitted at their place after screening
+_RESTART_RATIO = 1.5  # a search whose RMS residual ends above this many times the noise level is restarted
+_RECONSIDER_PASSES = 3
 
 
 @dataclass(frozen=True)
@@ -99,6 +109,9 @@ class DiscoveryOptions:
     candidate counts as its simpler equivalent. poor_fit_ratio: RMS residual over noise
     level above which the fit is reported poor. joint_refit: refit every effect together
     after each addition and reconsider earlier choices (switch off only to compare).
+    restarts: when a search ends with an RMS residual above 1.5× the noise level, search
+    again without its first choice (then without the next first choice), up to this many times, and keep the result
+    with the lower criterion.
     """
 
     effects: tuple[str | Effect, ...] | None = None
@@ -117,6 +130,7 @@ class DiscoveryOptions:
     equivalence_tolerance: float = 0.1
     poor_fit_ratio: float = 5.0
     joint_refit: bool = True
+    restarts: int = 2
 
     def __post_init__(self) -> None:
         if self.criterion not in CRITERIA:
@@ -124,6 +138,8 @@ class DiscoveryOptions:
         if self.sweep is not None and self.sweep not in SWEEP_DIRECTIONS:
             raise DiscoveryError(f"options.sweep: expected one of {', '.join(SWEEP_DIRECTIONS)} or None (as the data "
                                  f"state), got {self.sweep!r}")
+        if int(self.restarts) < 0:
+            raise DiscoveryError(f"options.restarts: expected an integer ≥ 0, got {self.restarts!r}")
         for name in ("max_effects", "max_places"):
             if int(getattr(self, name)) < 1:
                 raise DiscoveryError(f"options.{name}: expected a positive integer, got {getattr(self, name)!r}")
@@ -199,6 +215,7 @@ class DiscoveryResult:
     sweep: str = "unknown"
     residuals_after: Any = None
     other_branch_after: Any = None
+    restarts: tuple[str, ...] = ()
 
     @property
     def fit(self) -> str:
@@ -256,6 +273,7 @@ class DiscoveryResult:
             "criterion": self.options.criterion,
             "response_method": describe(self.options.harmonic_balance) if self.kind == "frf" else None,
             "stop_reason": self.stop_reason,
+            "restarts": list(self.restarts),
             "levels_before": self.gap_before.to_dict(),
             "levels_after": self.gap_after.to_dict(),
             "steps": [
@@ -334,7 +352,9 @@ class _Settle:
     effects: tuple[Effect, ...]
     samples: dict
     options: DiscoveryOptions
-    rivals: dict
+    round: Sequence[CandidateFit]  # this iteration's significant-looking candidates, best first
+    places: Sequence[tuple[int, ...]]
+    newest: tuple = ()
 
     def equivalence(self, found: FoundEffect) -> Equivalence | None:
         samples = next((v for k, v in self.samples.items() if _same_place(k, found.dofs)), None)
@@ -344,35 +364,41 @@ class _Settle:
                                   self.options.equivalence_tolerance)
 
     def alternatives(self, trial: list[FoundEffect], index: int) -> list[FoundEffect]:
-        """The rivals of ``trial[index]`` at its place, fitted there with the rest of ``trial``
-        as background, best first (at most ``_SWAP_ALTERNATIVES``)."""
+        """What could stand instead of ``trial[index]``, best first (at most ``_SWAP_ALTERNATIVES``):
+        for the new effect, the next candidates of this round; for an earlier one, every
+        library effect at every place screened against the joint values of the others (the
+        criterion at the variable-projection starts), the best ``_SCREENED`` fitted there."""
         current = trial[index]
-        rivals = [e for e in self.rivals.get(_key(current), ()) if e != current.effect and e.applies_to(current.dofs)]
-        if not rivals:
-            return []
+        taken = {_key(f) for f in trial}
+        if _key(current) == self.newest:
+            chosen = [c.found() for c in self.round if _key(c.found()) not in taken]
+            return chosen[:_SWAP_ALTERNATIVES]
         rest = trial[:index] + trial[index + 1 :]
-        context = self.evidence.context(current.dofs, self.system, rest, self.prediction)
-        fits = []
-        for effect in rivals:
-            fit = context.fit(effect)
-            if fit.success and np.isfinite(fit.chi2):
-                fits.append(fit)
-        fits.sort(key=lambda f: f.chi2 + len(f.effect.parameters) * context.penalty)
+        screened = []
+        for place in self.places:
+            context = self.evidence.context(place, self.system, rest, self.prediction)
+            for effect in self.effects:
+                if effect.applies_to(place) and (effect, frozenset(place)) not in taken:
+                    screened.append((_screen(context, effect), context, effect))
+        screened.sort(key=lambda item: item[0])
+        fits = [context.fit(effect) for _, context, effect in screened[:_SCREENED]]
+        fits = [f for f in fits if f.success and np.isfinite(f.chi2)]
+        fits.sort(key=lambda f: f.chi2 + len(f.effect.parameters) * self.joint.penalty)
         alternatives = []
         for fit in fits:
-            if simpler_equivalent(fit.effect, fit.values, fit.dofs, context.samples, self.effects,
-                                  self.options.equivalence_tolerance) is not None:
-                continue
-            alternatives.append(fit.found())
-            if len(alternatives) == _SWAP_ALTERNATIVES:
-                break
-        return alternatives
+            if simpler_equivalent(fit.effect, fit.values, fit.dofs, self.samples_at(fit.dofs), self.effects,
+                                  self.options.equivalence_tolerance) is None:
+                alternatives.append(fit.found())
+        return alternatives[:_SWAP_ALTERNATIVES]
+
+    def samples_at(self, dofs: Sequence[int]) -> DFSamples:
+        return next(v for k, v in self.samples.items() if _same_place(k, dofs))
 
     def __call__(self, trial: list[FoundEffect]) -> tuple[list[FoundEffect], FoundEffect, float, list[str]]:
         """The trial (the last effect is the new one) refitted jointly and reconsidered:
         (effects, the new effect as it ended up, joint χ², what changed)."""
         joint, margin = self.joint, self.options.min_evidence
-        newest = _key(trial[-1])
+        newest = self.newest = _key(trial[-1])
         changes: list[str] = []
         refitted, chi2, _ = joint.refit(trial)
         trial = list(refitted)
@@ -398,8 +424,8 @@ class _Settle:
                     changes.append(f"joint refit: {trial[k].name} on dofs {list(trial[k].dofs)} dropped — without it "
                                    f"the criterion changes by {gain:+.1f} (needs more than +{margin:g} to keep it)")
                     trial, chi2, changed = list(refitted), chi2_new, True
-            for k in range(len(trial)):  # another effect at the same place
-                best = None
+            best = None  # the one swap the joint fit prefers most: another effect, here or elsewhere
+            for k in range(len(trial)):
                 for alternative in self.alternatives(trial, k):
                     candidate = trial[:k] + [alternative] + trial[k + 1 :]
                     refitted, chi2_new, ok = joint.refit(candidate)
@@ -407,12 +433,13 @@ class _Settle:
                         continue
                     gain = joint.criterion(trial, chi2) - joint.criterion(candidate, chi2_new)
                     if gain > margin and (best is None or gain > best[0]):
-                        best = (gain, list(refitted), chi2_new)
-                if best is not None:
-                    changes.append(f"joint refit: {trial[k].name} on dofs {list(trial[k].dofs)} swapped for "
-                                   f"{best[1][k].name} (criterion {-best[0]:+.1f})")
-                    newest = _key(best[1][k]) if _key(trial[k]) == newest else newest
-                    trial, chi2, changed = best[1], best[2], True
+                        best = (gain, k, list(refitted), chi2_new)
+            if best is not None:
+                gain, k, refitted, chi2_new = best
+                changes.append(f"joint refit: {trial[k].name} on dofs {list(trial[k].dofs)} swapped for "
+                               f"{refitted[k].name} on dofs {list(refitted[k].dofs)} (criterion {-gain:+.1f})")
+                newest = _key(refitted[k]) if _key(trial[k]) == newest else newest
+                trial, chi2, changed = refitted, chi2_new, True
             if not changed:
                 break
         added = next((f for f in trial if _key(f) == newest), trial[-1])
@@ -421,6 +448,115 @@ class _Settle:
 
 def _key(found: FoundEffect) -> tuple:
     return found.effect, frozenset(found.dofs)
+
+
+def _screen(context: Any, effect: Effect) -> float:
+    """Criterion of ``effect`` at a context's place at its best variable-projection start (with
+    the effects found there at their values): a cheap ranking before fitting."""
+    companions = [c.effect for c in context.companions]
+    current = [np.array(c.values) for c in context.companions]
+    samples = context.samples
+    if companions:
+        taken = sum((e.nu(v, samples.amplitude, samples.omega) for e, v in zip(companions, current)),
+                    np.zeros_like(samples.nu))
+        samples = DFSamples(samples.amplitude, samples.omega, samples.nu - taken, samples.std)
+    best = np.inf
+    with np.errstate(all="ignore"):
+        for start in joint_starts([effect], samples):
+            r = context.residual([effect] + companions, [start[0]] + current)
+            best = min(best, float(np.sum(np.where(np.isfinite(r), r, 1e6) ** 2)))
+    return best + len(effect.parameters) * context.penalty
+
+
+@dataclass(frozen=True, eq=False)
+class _Path:
+    """One greedy search: the effects found, its steps, why it stopped, the final prediction
+    and its criterion (χ² + cost of all parameters)."""
+
+    found: tuple[FoundEffect, ...]
+    steps: tuple[DiscoveryStep, ...]
+    stop: str
+    prediction: Any
+    chi2: float
+    criterion: float
+
+
+def _search(evidence: Any, system: NonlinearSystem, before: Any, options: DiscoveryOptions, effects: tuple[Effect, ...],
+            map_candidates: MapCandidates, excluded_first: frozenset) -> _Path:
+    """The loop of the module docstring from the model alone; ``excluded_first``: effect keys
+    the first iteration may not choose (a restart)."""
+    found: list[FoundEffect] = []
+    current, prediction = system, before
+    steps: list[DiscoveryStep] = []
+    stop = f"{options.max_effects} effect(s) found (max_effects)"
+    for iteration in range(1, options.max_effects + 1):
+        gap_now = evidence.gap(prediction).gap
+        chi2_now = evidence.chi2(prediction)
+        criterion_now = chi2_now + evidence.penalty * _parameters(found)
+        if at_noise_level(chi2_now, evidence.n_data):
+            stop = "the misfit is at the noise level"
+            steps.append(DiscoveryStep(iteration, (), (), (), None, None, gap_now, None, stop))
+            break
+        contexts = evidence.contexts(system, found, prediction)
+        fitted = select_places(contexts, options.place_share, options.max_places)
+        jobs = [(context, effect) for context in fitted for effect in effects if effect.applies_to(context.dofs)]
+        samples = {c.dofs: c.samples for c in contexts}
+        candidates = []
+        for fit in map_candidates(fit_candidate, jobs):
+            equivalent = simpler_equivalent(fit.effect, fit.values, fit.dofs, samples[fit.dofs], effects,
+                                            options.equivalence_tolerance) if fit.success else None
+            candidates.append(replace(fit, iteration=iteration, equivalent=equivalent))
+        candidates.sort(key=lambda fit: (fit.score, fit.name, fit.dofs))
+        ranked = [c for c in candidates if c.equivalent is None
+                  and not (iteration == 1 and _key(c.found()) in excluded_first)]
+        best = ranked[0] if ranked else None
+        place = next((c for c in fitted if best is not None and c.dofs == best.dofs), fitted[0])
+        common = dict(
+            iteration=iteration, localisation=tuple(c.localisation for c in contexts),
+            bands=tuple(evidence.bands(current, prediction)), candidates=tuple(candidates), samples=place.samples,
+            gap_before=gap_now, places_fitted=tuple(c.dofs for c in fitted),
+        )
+        settle = _Settle(evidence, system, prediction, evidence.joint(system, prediction), effects, samples, options,
+                         ranked, [c.dofs for c in contexts])
+        accepted, why, changes = None, "no candidates", []
+        for candidate in ranked[:_TRIALS]:
+            significant, reason = is_significant(candidate, options.min_evidence, options.min_explained)
+            if not significant:
+                why = reason if candidate is best else why  # later ones: keep why the earlier failed
+                break
+            refitted = iter(candidate.companions)  # the effects found earlier at this place, in order
+            trial = [next(refitted) if _same_place(f.dofs, candidate.dofs) else f for f in found] + [candidate.found()]
+            changes, added = [], trial[-1]
+            if options.joint_refit:
+                trial, added, _, changes = settle(trial)
+            trial_system = augment(system, trial)
+            try:
+                trial_prediction = evidence.predict(trial_system)
+            except ModelSolveError as error:
+                why = f"the model with {candidate.name} on dofs {list(candidate.dofs)} cannot be simulated ({error})"
+                continue
+            gap_trial = evidence.gap(trial_prediction).gap
+            criterion_trial = evidence.chi2(trial_prediction) + evidence.penalty * _parameters(trial)
+            if criterion_trial > criterion_now - options.min_evidence:
+                why = (f"adding {candidate.name} on dofs {list(candidate.dofs)} did not lower the simulated misfit "
+                       f"(criterion {criterion_now:.1f} → {criterion_trial:.1f}; gap {gap_now:.3g} → {gap_trial:.3g})")
+                continue
+            accepted = candidate
+            break
+        if accepted is None:
+            stop = why
+            steps.append(DiscoveryStep(**common, accepted=None, gap_after=None, note=why))
+            break
+        found = trial
+        current, prediction = trial_system, trial_prediction
+        steps.append(DiscoveryStep(**common, accepted=added, gap_after=gap_trial,
+                                   changes=tuple(changes), refitted=tuple(found)))
+    chi2 = evidence.chi2(prediction)
+    return _Path(tuple(found), tuple(steps), stop, prediction, chi2, chi2 + evidence.penalty * _parameters(found))
+
+
+def _parameters(found: Sequence[FoundEffect]) -> int:
+    return sum(len(f.effect.parameters) for f in found)
 
 
 def discover(
@@ -442,86 +578,40 @@ def discover(
     evidence = measurement_evidence(system, measured, options, source)
     effects = library(options.effects)
     before = evidence.predict(system)
-    found: list[FoundEffect] = []
-    rivals: dict = {}  # effect key → the candidates that came close to it at its place when it was chosen
-    current, prediction = system, before
-    steps: list[DiscoveryStep] = []
-    stop = f"{options.max_effects} effect(s) found (max_effects)"
-    for iteration in range(1, options.max_effects + 1):
-        gap_now = evidence.gap(prediction).gap
-        if at_noise_level(evidence.chi2(prediction), evidence.n_data):
-            stop = "the misfit is at the noise level"
-            steps.append(DiscoveryStep(iteration, (), (), (), None, None, gap_now, None, stop))
+    path = _search(evidence, system, before, options, effects, map_candidates, frozenset())
+    excluded: frozenset = frozenset()
+    restarts: list[str] = []
+    for _ in range(options.restarts):
+        if path.chi2 < _RESTART_RATIO**2 * evidence.n_data or not path.found or path.steps[0].accepted is None:
             break
-        contexts = evidence.contexts(system, found, prediction)
-        fitted = select_places(contexts, options.place_share, options.max_places)
-        jobs = [(context, effect) for context in fitted for effect in effects if effect.applies_to(context.dofs)]
-        samples = {c.dofs: c.samples for c in contexts}
-        candidates = []
-        for fit in map_candidates(fit_candidate, jobs):
-            equivalent = simpler_equivalent(fit.effect, fit.values, fit.dofs, samples[fit.dofs], effects,
-                                            options.equivalence_tolerance) if fit.success else None
-            candidates.append(replace(fit, iteration=iteration, equivalent=equivalent))
-        candidates.sort(key=lambda fit: (fit.score, fit.name, fit.dofs))
-        ranked = [c for c in candidates if c.equivalent is None]
-        best = ranked[0] if ranked else None
-        place = next((c for c in fitted if best is not None and c.dofs == best.dofs), fitted[0])
-        common = dict(
-            iteration=iteration, localisation=tuple(c.localisation for c in contexts),
-            bands=tuple(evidence.bands(current, prediction)), candidates=tuple(candidates), samples=place.samples,
-            gap_before=gap_now, places_fitted=tuple(c.dofs for c in fitted),
-        )
-        settle = _Settle(evidence, system, prediction, evidence.joint(system, prediction), effects, samples, options,
-                         rivals)
-        accepted, why, changes = None, "no candidates", []
-        for candidate in ranked[:_TRIALS]:
-            significant, reason = is_significant(candidate, options.min_evidence, options.min_explained)
-            if not significant:
-                why = reason if candidate is best else why  # later ones: keep why the earlier failed
-                break
-            refitted = iter(candidate.companions)  # the effects found earlier at this place, in order
-            trial = [next(refitted) if _same_place(f.dofs, candidate.dofs) else f for f in found] + [candidate.found()]
-            margin = max(options.min_evidence, _RIVAL_SHARE * abs(candidate.score))
-            rivals[_key(trial[-1])] = tuple(dict.fromkeys(
-                c.effect for c in ranked if _same_place(c.dofs, candidate.dofs) and c.score <= candidate.score + margin
-            ))
-            changes, added = [], trial[-1]
-            if options.joint_refit:
-                trial, added, _, changes = settle(trial)
-                for f in trial:  # a swapped effect inherits the rivals of the one it replaced
-                    rivals.setdefault(_key(f), rivals.get(_key(trial[-1]), ()))
-            trial_system = augment(system, trial)
-            try:
-                trial_prediction = evidence.predict(trial_system)
-            except ModelSolveError as error:
-                why = f"the model with {candidate.name} on dofs {list(candidate.dofs)} cannot be simulated ({error})"
-                continue
-            gap_trial = evidence.gap(trial_prediction).gap
-            if gap_trial >= gap_now:
-                why = (f"adding {candidate.name} on dofs {list(candidate.dofs)} did not shrink the simulated gap "
-                       f"({gap_now:.3g} → {gap_trial:.3g})")
-                continue
-            accepted = candidate
+        first = path.steps[0].accepted if not excluded else next(
+            (s.accepted for s in other.steps[:1] if s.accepted is not None), None)
+        if first is None:
             break
-        if accepted is None:
-            stop = why
-            steps.append(DiscoveryStep(**common, accepted=None, gap_after=None, note=why))
+        excluded = excluded | {_key(first)}
+        other = _search(evidence, system, before, options, effects, map_candidates, excluded)
+        names = ", ".join(f"{f.name} on {list(f.dofs)}" for f in other.found) or "none"
+        kept = other.criterion < path.criterion - options.min_evidence
+        restarts.append(f"restart without {first.name} on dofs {list(first.dofs)} first (the search ended at "
+                        f"{np.sqrt(path.chi2 / evidence.n_data):.2g}× the noise level): found {names}, criterion {other.criterion:.1f} against {path.criterion:.1f} — "
+                        f"{'kept' if kept else 'not kept'}")
+        if kept:
+            path = other
+        if not other.steps or other.steps[0].accepted is None:
             break
-        found = trial
-        current, prediction = trial_system, trial_prediction
-        steps.append(DiscoveryStep(**common, accepted=added, gap_after=gap_trial,
-                                   changes=tuple(changes), refitted=tuple(found)))
-    chi2_after, chi2_before = evidence.chi2(prediction), evidence.chi2(before)
+    prediction, found = path.prediction, path.found
+    chi2_before = evidence.chi2(before)
     gap_after = evidence.gap(prediction)
     result = DiscoveryResult(
         kind=evidence.kind, data=evidence.data, system=system, augmented=augment(system, found), effects=tuple(found),
-        steps=tuple(steps), gap_before=evidence.gap(before), gap_after=gap_after,
+        steps=path.steps, gap_before=evidence.gap(before), gap_after=gap_after,
         prediction_before=before, prediction_after=prediction, noise_fraction=getattr(evidence, "noise_fraction", 0.0),
-        stop_reason=stop, options=options, misfit_ratio=float(np.sqrt(chi2_after / evidence.n_data)),
+        stop_reason=path.stop, options=options, misfit_ratio=float(np.sqrt(path.chi2 / evidence.n_data)),
         misfit_ratio_before=float(np.sqrt(chi2_before / evidence.n_data)),
         noise_source=_noise_source(evidence, options), sweep=getattr(evidence, "sweep", "unknown"),
         residuals_after=evidence.residuals(prediction) if evidence.kind == "frf" else None,
         other_branch_after=evidence.other_branch(prediction) if evidence.kind == "frf" else None,
+        restarts=tuple(restarts),
     )
     return replace(result, warnings=_warnings(result, gap_after))
 
