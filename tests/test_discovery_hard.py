@@ -80,7 +80,7 @@ def test_grid_stretches_split_at_gaps_between_bands_only():
 
 @pytest.mark.parametrize("noise", [0.02, 0.05])
 def test_noise_estimate_on_a_banded_grid_is_right(noise):
-    """Over eight seeds the model-free estimate (median over the measured curves) is within
+    """Over eight seeds the model-free estimate (the windows of every measured curve pooled) is within
     10 % of the noise added, and their median within 4 %; windows spanning the gaps between
     bands made it 12–28 % high."""
     ratios = [FRFData.from_table(banded_frfs(noise, seed), THREE.model).noise_fraction() / noise for seed in range(8)]

@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"effects found: {found}")
     print(f"gap (mean 1 − FRAC): before {result.gap_before.gap:.4g}, after {result.gap_after.gap:.4g}; "
           f"stopped: {result.stop_reason}")
+    for note in result.restarts:
+        print(f"note: {note}")
     print(result.summary())
     for warning in result.warnings:
         if warning != result.summary():

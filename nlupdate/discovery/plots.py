@@ -73,7 +73,11 @@ def _plot_frf_levels(result: DiscoveryResult, figure: Figure) -> None:
                 axis.set_xlabel("frequency (Hz)", fontsize=8)
             if column == 0:
                 axis.set_ylabel("|H| (m/N)", fontsize=8)
-    axes[0, 0].legend(fontsize=7)
+    labelled = {}
+    for axis in axes.ravel():  # one legend with every kind of mark used anywhere
+        for handle, label in zip(*axis.get_legend_handles_labels()):
+            labelled.setdefault(label, handle)
+    axes[0, 0].legend(list(labelled.values()), list(labelled), fontsize=7)
 
 
 def _plot_modal_levels(result: DiscoveryResult, figure: Figure) -> None:

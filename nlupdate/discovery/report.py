@@ -28,6 +28,8 @@ element to ground, two for an element between coordinates):
   and the apparent DF per level, ``places_fitted``, ``equivalences``, ``changes`` (what the
   joint refit reconsidered: swaps, drops, simpler equivalents), ``effects_after_refit``, the
   share of the misfit per mode, what was added and the gap;
+* ``restarts`` — the searches run again without their first choice because the first one
+  ended above 1.5× the noise level, each with what it found and whether it was kept;
 * ``stop_reason``, ``criterion``, ``noise_fraction`` and ``noise_source`` (how it was
   obtained), ``sweep_direction`` (as stated by the data or the options),
   ``measurement`` ("frf" or "modal"),

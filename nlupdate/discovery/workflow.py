@@ -242,9 +242,9 @@ class DiscoveryResult:
     def summary(self) -> str:
         """One line on how well the effects found explain the data."""
         if self.fit == "poor":
-            named = "the effects found do not" if self.effects else "no effect of the library does"
+            named = "the effects found do not explain" if self.effects else "no effect of the library explains"
             return (f"fit: POOR — the residual is {self.misfit_ratio:.3g}× the noise level (limit "
-                    f"{self.options.poor_fit_ratio:g}×): {named} explain the measurement; see the residual against "
+                    f"{self.options.poor_fit_ratio:g}×): {named} the measurement; see the residual against "
                     "amplitude for what is missing")
         return f"fit: good — the residual is {self.misfit_ratio:.3g}× the noise level"
 

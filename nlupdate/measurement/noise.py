@@ -114,6 +114,17 @@ def _robust_variance(mean_squares: NDArray, dof: int) -> float:
     return variance
 
 
+def _curve_mean_squares(frequency_hz: ArrayLike, h: ArrayLike, window: int) -> list[float]:
+    """The window mean squares of one curve, windows within contiguous stretches."""
+    f = np.asarray(frequency_hz, dtype=float)
+    z = 1.0 / np.asarray(h, dtype=complex)
+    mean_squares: list[float] = []
+    for stretch in contiguous_stretches(f):
+        if stretch.size >= window:
+            mean_squares += _window_mean_squares(f[stretch], z[stretch], window)
+    return mean_squares
+
+
 def estimate_noise_fraction(frequency_hz: ArrayLike, h: ArrayLike, window: int = 9) -> float:
     """Relative noise level of a measured FRF (std of the noise / |H|), model-free.
 
@@ -130,13 +141,9 @@ def estimate_noise_fraction(frequency_hz: ArrayLike, h: ArrayLike, window: int =
     """
     if window < _DEGREE + 3:
         raise ValueError(f"noise estimate window: expected at least {_DEGREE + 3} points, got {window}")
-    f = np.asarray(frequency_hz, dtype=float)
-    z = 1.0 / np.asarray(h, dtype=complex)
-    mean_squares = []
-    for stretch in contiguous_stretches(f):
-        if stretch.size >= window:
-            mean_squares += _window_mean_squares(f[stretch], z[stretch], window)
+    mean_squares = _curve_mean_squares(frequency_hz, h, window)
     if not mean_squares:
+        f = np.asarray(frequency_hz, dtype=float)
         raise ValueError(
             f"noise estimate needs at least {window} contiguous frequencies, got {f.size} frequencies in stretches of "
             f"{[len(s) for s in contiguous_stretches(f)]} points"
@@ -178,7 +185,7 @@ class NoiseEstimate:
     fraction: relative std of the complex FRF error, ``sqrt(mean σ_k²)/|H|`` over the points
     (METHODS §8 form; σ² is what a perfect model's FRAC gap approaches); source: ``"h_std"``,
     ``"coherence"``, ``"repeats"`` or ``"smoothness"`` (the model-free estimate of
-    :func:`estimate_noise_fraction`, median over the measured curves); per_point: relative std
+    :func:`estimate_noise_fraction`, windows of every measured curve pooled); per_point: relative std
     per table row when the data state it (h_std, coherence), else None; detail: one line
     saying how it was obtained.
     """
@@ -197,7 +204,9 @@ def estimate_table_noise(table: pd.DataFrame, window: int = 9) -> NoiseEstimate:
     3. a ``repeat`` column (run number; the same frequency, level and coordinates measured in
        several runs): :func:`repeat_noise_fraction` of one run;
     4. otherwise the smoothness of ``1/H`` within contiguous stretches of every measured curve
-       (one force level, response and input), the median over the curves.
+       (one force level, response and input): the windows of all curves pooled into one
+       robust estimate (:func:`estimate_noise_fraction`), so the windows a nonlinearity or an
+       antiresonance spoils are trimmed wherever they are.
 
     A ``coherence`` column without ``averages`` cannot give a noise level (the number of
     averages is unknown); the smoothness estimate is used and the detail says so.
@@ -223,20 +232,21 @@ def estimate_table_noise(table: pd.DataFrame, window: int = 9) -> NoiseEstimate:
             if complete:
                 return NoiseEstimate(repeat_noise_fraction(np.array(complete).T), "repeats",
                                      f"from {runs.ngroups} repeated runs at {len(complete)} points")
-    estimates = []
+    mean_squares: list[float] = []
+    curves = 0
     for _, curve in table.assign(h=h).groupby(keys, sort=True):
         if "repeat" in columns:
             curve = curve[curve["repeat"] == curve["repeat"].iloc[0]]
-        try:
-            estimates.append(estimate_noise_fraction(curve["frequency_hz"].to_numpy(), curve["h"].to_numpy(), window))
-        except ValueError:
-            continue
-    if not estimates:
+        found = _curve_mean_squares(curve["frequency_hz"].to_numpy(), curve["h"].to_numpy(), window)
+        curves += bool(found)
+        mean_squares += found
+    if not mean_squares:
         return NoiseEstimate(0.0, "smoothness", f"no curve has {window} contiguous frequencies; noise unknown")
     why = " (a coherence column without averages gives no noise level)" if "coherence" in columns else ""
-    return NoiseEstimate(float(np.median(estimates)), "smoothness",
-                         f"model-free, from the smoothness of 1/H within contiguous stretches of {len(estimates)} "
-                         f"curve(s){why}")
+    fraction = float(np.sqrt(_robust_variance(np.array(mean_squares), 2 * (window - _DEGREE - 1))))
+    return NoiseEstimate(fraction, "smoothness",
+                         f"model-free, from the smoothness of 1/H within contiguous stretches of {curves} curve(s), "
+                         f"{len(mean_squares)} windows pooled{why}")
 
 
 def smooth_inverse_receptance(frequency_hz: ArrayLike, h: ArrayLike, window: int) -> NDArray[np.complex128]:

@@ -31,8 +31,9 @@ def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
     reasoning = [(s.iteration, text) for s in result.steps for text in s.changes]
     reasoning += [(c.iteration, c.equivalent.describe(c.dofs)) for s in result.steps for c in s.candidates
                   if c.equivalent is not None and c is s.candidates[0]]
+    reasoning += [(0, text) for text in result.restarts]
     if reasoning:
-        lines += ["Reconsidered on the way:", ""] + [f"* iteration {i}: {text}" for i, text in sorted(reasoning)] + [""]
+        lines += ["Reconsidered on the way:", ""] + [f"* {f'iteration {i}: ' if i else ''}{text}" for i, text in sorted(reasoning)] + [""]
     lines += ["## Gap per force level", ""]
     rows = [{"force (N)": b.force_n, "gap before": b.gap, "gap after": a.gap, "resonance shift before (%)":
              b.resonance_shift_percent, "after (%)": a.resonance_shift_percent, "unsolved points after":
