@@ -48,9 +48,10 @@ from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.stepped_sine import stepped_sine
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from discovery_cases import hidden_case, three_dof  # noqa: E402
+from discovery_cases import chain, hidden_case, three_dof  # noqa: E402
 
 THREE = three_dof(0)
+COARSE = chain("3dof-coarse", [0.1, 0.2, 0.15], [1e6, 1e6, 1e6, 1e6], 0, points=14)  # the chain on 14 points per band
 
 
 def found_set(result):
@@ -285,6 +286,29 @@ def test_a_fit_far_above_the_noise_is_called_poor():
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory):
     return tmp_path_factory.mktemp("measurements")
+
+
+def test_two_places_on_a_coarse_grid(cache):
+    """Faults 1 and 2 in the default run (time integration, 14 frequencies per band, 5 %
+    noise given): Jenkins at the driven dof 0 + cubic at dof 2. The old search named a gap at
+    dof 1 and kept the friction's slip force 6 % high."""
+    case = hidden_case(COARSE, (("cubic_stiffness", (2,)), ("dry_friction", (0,))), seed=6, noise=0.05)
+    result = discover(case.model, case.measure(cache), DiscoveryOptions(noise_fraction=0.05))
+    assert found_set(result) == [("cubic_stiffness", (2,)), ("dry_friction", (0,))], result.stop_reason
+    cubic, jenkins = case.truth.elements
+    values = {e.name: e.parameters for e in result.effects}
+    assert values["dry_friction"]["slip_force"] == pytest.approx(jenkins.slip_force, rel=0.02)
+    assert values["cubic_stiffness"]["k3"] == pytest.approx(cubic.k3, rel=0.1)
+
+
+def test_simplest_explanation_on_a_coarse_grid(cache):
+    """Fault 3 in the default run: stiffness error at dof 0 + cubic at dof 2 (5 % noise
+    given). The old search named a gap of 0.05 µm clearance, another gap and a mass error."""
+    case = hidden_case(COARSE, (("stiffness_error", (0,)), ("cubic_stiffness", (2,))), seed=7, noise=0.05)
+    result = discover(case.model, case.measure(cache), DiscoveryOptions(noise_fraction=0.05))
+    assert found_set(result) == [("cubic_stiffness", (2,)), ("stiffness_error", (0,))], result.stop_reason
+    assert any(c.equivalent is not None and c.equivalent.simpler.name == "stiffness_error"
+               for c in result.steps[0].candidates)
 
 
 @pytest.mark.slow
