@@ -36,13 +36,12 @@ _OTHER_BRANCH = 1e-3  # relative difference between two solutions that makes the
 @dataclass(frozen=True, eq=False)
 class Prediction:
     """Model amplitudes (m) at the measured points, at ``dofs`` (columns of ``x``): the
-    solution nearest the measurement (``x``), the stated sweep's reading (``x_sweep``, None
-    when the direction is unknown) and the number of stable solutions per point."""
+    solution nearest the measurement (``x``) and the stated sweep's reading (``x_sweep``, None
+    when the direction is unknown)."""
 
     dofs: tuple[int, ...]
     x: NDArray[np.complex128]
     x_sweep: NDArray[np.complex128] | None = None
-    solutions: NDArray[np.int64] | None = None
 
     def at(self, dof: int) -> NDArray[np.complex128]:
         return self.x[:, self.dofs.index(dof)]
@@ -94,14 +93,10 @@ class FRFEvidence:
             system, data.input_dof, data.force, data.omega, dofs, data.x, list(range(len(data.response_dofs))),
             np.sqrt(self.chi2_scale) / np.abs(data.x), self.sweep, self.harmonic_balance,
         )
-        return Prediction(dofs, simulated.x, simulated.x_sweep, simulated.solutions)
+        return Prediction(dofs, simulated.x, simulated.x_sweep)
 
     def h_model(self, prediction: Prediction) -> NDArray[np.complex128]:
         return np.column_stack([prediction.at(d) for d in self.data.response_dofs]) / self.data.force[:, None]
-
-    def unsolved(self, prediction: Prediction) -> NDArray[np.bool_]:
-        """Points where the model has no (finite) solution."""
-        return ~np.all(np.isfinite(self.h_model(prediction)), axis=1)
 
     def other_branch(self, prediction: Prediction) -> NDArray[np.bool_]:
         """Points where the solution nearest the measurement is not the stated sweep's."""

@@ -45,13 +45,11 @@ class SimulatedPoints:
 
     x: the stable solution nearest to the measurement at each point (without a
     measurement: the stepped-sine reading in the stated direction, up if unknown);
-    x_sweep: the stepped-sine reading in the stated direction (None when unknown);
-    solutions: how many distinct stable solutions the curve has at each point (0: none).
+    x_sweep: the stepped-sine reading in the stated direction (None when unknown).
     """
 
     x: NDArray[np.complex128]
     x_sweep: NDArray[np.complex128] | None
-    solutions: NDArray[np.int64]
 
 
 def _stable_segments(curve: FrequencyResponse) -> NDArray[np.bool_]:
@@ -145,7 +143,6 @@ def simulate_nearest(
     n = force.size
     out = np.full((n, len(dofs)), np.nan + 0j)
     out_sweep = np.full((n, len(dofs)), np.nan + 0j) if sweep in ("up", "down") else None
-    solutions = np.zeros(n, np.int64)
     if measured is not None and weight is None:
         weight = 1.0 / np.abs(measured)
     columns = list(measured_columns)
@@ -161,7 +158,6 @@ def simulate_nearest(
                     out[points] = x
                     if out_sweep is not None:
                         out_sweep[points] = x
-                    solutions[points] = 1
                     continue
                 curve = _trace(system, input_dof, level, w, harmonic_balance)
                 reading = stepped_sine(curve, w, "down" if sweep == "down" else "up").response(dofs)
@@ -169,15 +165,13 @@ def simulate_nearest(
                     out_sweep[points] = reading
                 if measured is None:
                     out[points] = reading
-                    solutions[points] = np.isfinite(reading).all(axis=1)
                     continue
                 segments = _stable_segments(curve)
                 measured_at = {dofs[c]: k for k, c in enumerate(columns)}
-                for row, (point, target) in enumerate(zip(points, w)):
+                for point, target in zip(points, w):
                     states = _solutions_at(curve, segments, target, polish=True)
                     if not states and harmonic_balance is None:
                         states = _from_measurement(curve.problem, target, measured[point], measured_at)
-                    solutions[point] = len(states)
                     if not states:
                         continue
                     if len(states) == 1:
@@ -190,4 +184,4 @@ def simulate_nearest(
             raise ModelSolveError(f"the model cannot be solved at {level:g} N, {band} ({error})") from None
         if not np.any(np.isfinite(out[points])):
             raise ModelSolveError(f"the model has no finite response at {level:g} N, {band} (singular or unstable)")
-    return SimulatedPoints(out, out_sweep, solutions)
+    return SimulatedPoints(out, out_sweep)
