@@ -1,20 +1,26 @@
 """Discovery of a hidden Iwan joint (``microslip``) from time-integration data with 2 % noise.
 
-The truth is the discovery benchmark's structure (:mod:`nlupdate.discovery.hidden_cases`) plus an
+The truth is the discovery benchmark's structure (``benchmarks/discovery_cases.py``) plus an
 Iwan joint at a chosen place, sized like the benchmark's friction: K_T = 8 % of the modal
 stiffness seen there, macroslip (φ_max) between the lowest and the highest level's amplitude,
 χ = −0.4, β = 0.3; the workflow gets the structure without it.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from nlupdate.discovery import discover
 from nlupdate.discovery.effects import Microslip, library
-from nlupdate.discovery.hidden_cases import Structure, measure_by_time_integration, place_scales, sdof, two_dof
 from nlupdate.model.elements import IwanJoint
+from nlupdate.measurement.noise import add_table_noise
 from nlupdate.model.system import NonlinearSystem
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from discovery_cases import Structure, place_scales, sdof, time_integration_table, two_dof  # noqa: E402
 
 
 def hidden_joint(structure: Structure, dofs: tuple[int, ...], chi: float = -0.4, beta: float = 0.3,
@@ -41,7 +47,7 @@ def test_microslip_is_in_the_library_and_fits_its_own_describing_function():
 
 def _discover(structure: Structure, dofs: tuple[int, ...], seed: int, sliders: int = 400):
     joint = hidden_joint(structure, dofs, sliders=sliders)
-    table = measure_by_time_integration(NonlinearSystem(structure.model, (joint,)), structure, 0.02, seed)
+    table = add_table_noise(time_integration_table(NonlinearSystem(structure.model, (joint,)), structure), 0.02, seed)
     return joint, discover(NonlinearSystem(structure.model, ()), table)
 
 

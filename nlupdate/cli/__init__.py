@@ -1,6 +1,9 @@
 """Command-line interface: ``nlupdate <command> …``.
 
-Each command lives in its own module exposing ``register(subparsers)``. Every failure a
+Each command lives in its own module exposing ``register(subparsers)``; :data:`COMMANDS`
+lists them with their one-line help, so ``nlupdate --help`` and ``--version`` import no
+command module (they start in a fraction of a second) and a command imports only its own.
+Every failure a
 user can meet ends as one line on stderr, ``nlupdate <command>: error: …``, and an exit
 code: 2 for a mistake in the input (options, study, model or data files), 1 when the work
 itself failed (an FE solver, the Prefect server, a Dask cluster, the file system), 130
@@ -18,9 +21,20 @@ import threading
 import warnings
 from typing import Sequence
 
-COMMAND_MODULES = (
-    "run", "demo", "simulate", "frf", "identify", "amplitude", "update", "discover", "archive", "schedule", "serve",
-)
+#: The commands, in the order ``--help`` lists them: name (= module) → one-line help.
+COMMANDS: dict[str, str] = {
+    "run": "run a study as Prefect flows (cached, parallel) and archive it",
+    "demo": "run the whole chain on the embedded T-beam study; archive in results/",
+    "simulate": "simulate measured FRFs (all dofs) of a model at several force levels",
+    "frf": "estimate first-harmonic FRFs per level from time histories",
+    "identify": "identify the nonlinearity and the linear FRF (PRD or DDF method)",
+    "amplitude": "amplitude-dependent modal model of one mode (backbone and damping curve)",
+    "update": "run a study (identification, updating, prediction) in this process, without Prefect",
+    "discover": "find the effect a model is missing (where, which, parameters), add it and show the gap shrink",
+    "archive": "list, show, compare and rerun archived runs",
+    "schedule": "run a study on a cron or interval schedule (Prefect deployment)",
+    "serve": "run the scheduled studies as they come due",
+}
 
 EXIT_RUNTIME, EXIT_INPUT = 1, 2
 
@@ -46,9 +60,9 @@ def plain(docstring: str) -> str:
     return text.replace("``", "").strip()
 
 
-def add_command(subparsers: argparse._SubParsersAction, name: str, docstring: str, help: str) -> argparse.ArgumentParser:
+def add_command(subparsers: argparse._SubParsersAction, name: str, docstring: str) -> argparse.ArgumentParser:
     """A sub-command whose ``--help`` shows ``docstring`` as plain text (first line = summary)."""
-    return subparsers.add_parser(name, help=help, description=plain(docstring),
+    return subparsers.add_parser(name, help=COMMANDS[name], description=plain(docstring),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
@@ -70,7 +84,10 @@ non_negative_int = _checked(int, 0, "an integer ≥ 0")
 non_negative_float = _checked(float, 0.0, "a number ≥ 0")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; of the commands only the one ``argv`` names gets its arguments (its
+    module imported), the others are listed with their help — so is every command when
+    ``argv`` is None."""
     from nlupdate import __version__
 
     parser = Parser(
@@ -81,8 +98,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"nlupdate {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the full traceback of an error")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    for name in COMMAND_MODULES:
-        importlib.import_module(f"nlupdate.cli.{name}").register(subparsers)
+    named = None if argv is None else next((a for a in argv if a in COMMANDS), None)
+    for name, help in COMMANDS.items():
+        if argv is None or name == named:
+            importlib.import_module(f"nlupdate.cli.{name}").register(subparsers)
+        else:
+            subparsers.add_parser(name, help=help)
     return parser
 
 
@@ -141,8 +162,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run_command(argv: Sequence[str] | None) -> int:
     from nlupdate.cli import interrupts
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(arguments).parse_args(arguments)
     from nlupdate.notices import NlupdateWarning
 
     warnings.showwarning = _show_warning

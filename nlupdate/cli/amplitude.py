@@ -33,8 +33,7 @@ from nlupdate.cli.simulate import force_levels, frequency_grid
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "amplitude", __doc__,
-                         help="amplitude-dependent modal model of one mode (backbone and damping curve)")
+    parser = add_command(subparsers, "amplitude", __doc__)
     parser.add_argument("--measured", required=True, metavar="FILE", help="modal table (.csv) or measured-FRF table")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",

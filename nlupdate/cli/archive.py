@@ -31,7 +31,7 @@ ROOT_HELP = "results folder holding the archives (default ./results)"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "archive", __doc__, help="list, show, compare and rerun archived runs")
+    parser = add_command(subparsers, "archive", __doc__)
     commands = parser.add_subparsers(dest="archive_command", required=True, metavar="ACTION")
 
     listing = commands.add_parser("list", help="one line per run under --root")

@@ -27,8 +27,7 @@ def demo_study_text(seed: int = 1) -> str:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "demo", __doc__,
-                         help="run the whole chain on the embedded T-beam study; archive in results/")
+    parser = add_command(subparsers, "demo", __doc__)
     parser.add_argument("--results", default="results", metavar="DIR", help="archive root (default ./results)")
     parser.add_argument("--seed", type=non_negative_int, default=1, help="noise and Monte-Carlo seed, ≥ 0 (default 1)")
     add_execution_options(parser)

@@ -28,8 +28,7 @@ from nlupdate.response_method import RESPONSE_METHODS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "discover", __doc__,
-                         help="find the effect a model is missing (where, which, parameters), add it and show the gap shrink")
+    parser = add_command(subparsers, "discover", __doc__)
     parser.add_argument("--model", required=True, metavar="MODEL.toml", help="model file ([model] + [[nonlinear]])")
     parser.add_argument("--measured", required=True, metavar="FILE",
                         help="measured FRFs at several force levels (.parquet/.csv/.uff/.mat) or a modal table (.csv)")
@@ -43,7 +42,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--max-effects", type=positive_int, default=3, help="most effects to add (default 3)")
     parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="FRF noise std / |H| (default: estimated from the measured FRFs)")
-    parser.add_argument("--sweep", choices=("up", "down"), default="up", help="stepped-sine direction of the test")
+    parser.add_argument("--sweep", choices=("up", "down", "unknown"),
+                        help="how the test reached each frequency (default: the table's sweep_direction column, else "
+                             "unknown); every point is compared with the model's nearest stable solution, the direction "
+                             "only marks points that follow another branch")
     parser.add_argument("--method", choices=RESPONSE_METHODS, default="continuation",
                         help="how the model is simulated against measured FRFs (default continuation: describing "
                              "function; hb: harmonic balance); the candidates' fits are describing-function fits")
@@ -114,5 +116,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"effects found: {found}")
     print(f"gap (mean 1 − FRAC): before {result.gap_before.gap:.4g}, after {result.gap_after.gap:.4g}; "
           f"stopped: {result.stop_reason}")
+    for note in result.restarts:
+        print(f"note: {note}")
+    print(result.summary())
+    for warning in result.warnings:
+        if warning != result.summary():
+            print(f"warning: {warning}")
     print(f"wrote {archive.final} in {time.perf_counter() - started:.1f} s")
     return 0

@@ -24,7 +24,7 @@ from nlupdate.measurement.units import calibrated, table_reference_unit
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "frf", __doc__, help="estimate first-harmonic FRFs per level from time histories")
+    parser = add_command(subparsers, "frf", __doc__)
     parser.add_argument("records", nargs="+", metavar="TIMEFILE", help="time records (.csv, .parquet, .uff, .mat)")
     parser.add_argument("--out", required=True, metavar="FRF", help="measured-FRF table to write (.parquet, .csv, .uff)")
     parser.add_argument("--input-dof", help="name of the excited coordinate (default: the reference column's name)")

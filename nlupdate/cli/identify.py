@@ -35,8 +35,7 @@ from nlupdate.measurement.units import parameter_unit
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "identify", __doc__,
-                         help="identify the nonlinearity and the linear FRF (PRD or DDF method)")
+    parser = add_command(subparsers, "identify", __doc__)
     parser.add_argument("--measured", required=True, nargs="+", metavar="FILE",
                         help="measured-FRF table(s) (.parquet, .csv, .uff, .mat): one, or one per level/run")
     add_reference_options(parser)

@@ -40,7 +40,7 @@ NOTE = "stopped serving; the schedules stay registered (nlupdate schedule list);
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "schedule", __doc__, help="run a study on a cron or interval schedule (Prefect deployment)")
+    parser = add_command(subparsers, "schedule", __doc__)
     parser.usage = USAGE
     parser.add_argument("target", metavar="STUDY.toml | list | delete", help="study file to schedule, or an action")
     parser.add_argument("name_to_delete", nargs="?", metavar="NAME", help="the scheduled study to delete (with delete)")

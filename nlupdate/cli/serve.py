@@ -17,7 +17,7 @@ from nlupdate.cli.schedule import add_serve_options, connect, serve_with
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "serve", __doc__, help="run the scheduled studies as they come due")
+    parser = add_command(subparsers, "serve", __doc__)
     add_serve_options(parser)
     parser.set_defaults(run=serve_schedules)
 

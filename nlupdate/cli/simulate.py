@@ -34,8 +34,7 @@ from nlupdate.response.simulate import (
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "simulate", __doc__,
-                         help="simulate measured FRFs (all dofs) of a model at several force levels")
+    parser = add_command(subparsers, "simulate", __doc__)
     parser.add_argument("model", metavar="MODEL.toml", help="model file ([model] + [[nonlinear]] tables)")
     parser.add_argument("--input-dof", required=True, help="forced coordinate (index or name)")
     parser.add_argument("--freqs", required=True, help="frequency grid in Hz: START:STOP:COUNT or F1,F2,…")

@@ -17,8 +17,7 @@ from nlupdate.study import inputs_read_once, load_study, run_study
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "update", __doc__,
-                         help="run a study (identification, updating, prediction) in this process, without Prefect")
+    parser = add_command(subparsers, "update", __doc__)
     parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)

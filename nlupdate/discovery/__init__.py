@@ -9,8 +9,10 @@ Modules: ``effects`` (the library), ``workflow`` (the loop), ``gap``, ``localisa
 ``frf_data`` / ``frf_evidence`` / ``frf_fit`` (stepped-sine FRFs), ``modal_data`` /
 ``modal_evidence`` / ``modal_fit`` (modal tables), ``candidates`` (criterion and
 significance), ``fitting`` and ``starts`` (least squares from variable-projection starts),
-``linear_edits``, ``simulation``, ``report`` and ``plots`` (output folder), ``errors``, and
-``hidden_cases`` (time-integration test cases with hidden effects, for tests and benchmarks).
+``joint`` (every effect refitted together), ``equivalence`` (degenerate candidates give way
+to simpler effects), ``linear_edits``, ``simulation`` (nearest stable solution per point),
+``report`` and ``plots`` (output folder), ``errors``. The hidden-effect test cases live in
+``benchmarks/discovery_cases.py``.
 """
 from nlupdate.discovery.candidates import CandidateFit, FoundEffect
 from nlupdate.discovery.effects import EFFECT_NAMES, LIBRARY, DFSamples, Effect, ElementEffect, LinearEffect, Parameter

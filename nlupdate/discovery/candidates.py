@@ -22,7 +22,7 @@ and the workflow stops before that when the model's misfit is already at the noi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -83,7 +83,8 @@ class CandidateFit:
     chi2 / baseline_chi2: misfit with and without the candidate (see module docstring);
     score: criterion change (negative = better); companions: effects found earlier at the
     same place, refitted jointly with the candidate; success: the fit converged to finite
-    values.
+    values; equivalent: set when the candidate degenerates to a simpler effect over the
+    measured amplitudes (:mod:`nlupdate.discovery.equivalence`) — it then gives way to it.
     """
 
     effect: Effect
@@ -96,6 +97,7 @@ class CandidateFit:
     success: bool
     companions: tuple[FoundEffect, ...] = ()
     iteration: int = field(default=0)
+    equivalent: Any = None
 
     @property
     def name(self) -> str:
@@ -122,6 +124,10 @@ class CandidateFit:
         }
         if self.effect.variant:
             out["variant"] = self.effect.variant
+        if self.equivalent is not None:
+            out["equivalent_to"] = self.equivalent.simpler.name
+            out["equivalent_parameters"] = self.equivalent.simpler.parameter_dict(self.equivalent.simpler_values)
+            out["equivalence_deviation"] = self.equivalent.deviation
         return out
 
 

@@ -4,6 +4,15 @@ A discovery compares the model with the measurement point by point: a point is o
 (force level, frequency) at which every measured response coordinate has a value. The
 measured-FRF table (:mod:`nlupdate.measurement.frf_table`) must have one input coordinate
 and at least two force levels > 0; its coordinate names must be coordinates of the model.
+
+Optional columns the table may carry (docs/measured-data.md):
+
+* ``h_std``, or ``coherence`` with ``averages`` — the noise of every value; then the misfit
+  weighs each value by its own noise (:func:`nlupdate.measurement.noise.estimate_table_noise`);
+* ``repeat`` — a run number: the same points measured in several runs are averaged, and
+  the noise is taken from their spread;
+* ``sweep_direction`` — ``up``, ``down`` or ``unknown`` per row (one value per force level):
+  how the test reached each frequency.
 """
 from __future__ import annotations
 
@@ -15,11 +24,12 @@ from numpy.typing import NDArray
 
 from nlupdate.discovery.errors import MeasuredDataError
 from nlupdate.measurement.frf_table import MeasurementTableError, validate_frf_table
-from nlupdate.measurement.noise import estimate_noise_fraction
+from nlupdate.measurement.noise import NoiseEstimate, estimate_table_noise
 from nlupdate.model.linear import LinearModel
 
 _MIN_POINTS_PER_LEVEL = 5
 _NOISE_WINDOW = 9
+SWEEP_DIRECTIONS = ("up", "down", "unknown")
 
 ONE_LEVEL_REASON = (
     "discovery needs FRFs at two or more force levels: a missing nonlinearity shows only as a change of "
@@ -44,6 +54,9 @@ class FRFData:
     force: force amplitude (N) per point; omega: excitation frequency (rad/s) per point;
     h: receptance (m/N), shape (n_points, n_responses); points sorted by force, frequency.
     Coordinates are model indices (``input_dof``, ``response_dofs``) with their names.
+    noise: the table's noise estimate (:func:`~nlupdate.measurement.noise.estimate_table_noise`);
+    point_noise: relative noise std of every value (n_points, n_responses) when the data state
+    it, else None; sweep_by_level: the stated sweep direction per force level.
     """
 
     input_dof: int
@@ -53,6 +66,9 @@ class FRFData:
     force: NDArray[np.float64]
     omega: NDArray[np.float64]
     h: NDArray[np.complex128]
+    noise: NoiseEstimate | None = None
+    point_noise: NDArray[np.float64] | None = None
+    sweep_by_level: tuple[str, ...] = ()
 
     @property
     def frequency_hz(self) -> NDArray[np.float64]:
@@ -73,23 +89,29 @@ class FRFData:
         return np.searchsorted(self.levels, self.force)
 
     def noise_fraction(self) -> float:
-        """Model-free noise estimate (std / |H|, METHODS §8 noise model): the median over the
-        measured curves of :func:`nlupdate.measurement.noise.estimate_noise_fraction`."""
-        estimates = [
-            estimate_noise_fraction(self.frequency_hz[mask], self.h[mask, k], window=_NOISE_WINDOW)
-            for mask in (self.level_index == i for i in range(self.levels.size))
-            for k in range(len(self.response_dofs))
-            if mask.sum() >= _NOISE_WINDOW
-        ]
-        return float(np.median(estimates)) if estimates else 0.0
+        """Relative noise std of the measured values (METHODS §8 form): the table's noise
+        estimate (stated uncertainty, repeats, or the model-free smoothness estimate within
+        contiguous stretches of every curve)."""
+        return self.noise.fraction if self.noise is not None else 0.0
+
+    @property
+    def sweep(self) -> str:
+        """The stated sweep direction: one for all levels, else ``"unknown"``."""
+        stated = set(self.sweep_by_level)
+        return stated.pop() if len(stated) == 1 else "unknown"
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, model: LinearModel, source: str = "measured") -> "FRFData":
         """Validate a measured-FRF table against the model (raises :class:`MeasuredDataError`)."""
+        table, noise = _averaged_repeats(table, source)
         try:
             clean = validate_frf_table(table, source)
         except MeasurementTableError as error:
             raise MeasuredDataError(str(error)) from None
+        clean = clean.assign(**{name: table[name].to_numpy() for name in _OPTIONAL if name in table.columns})
+        noise = noise or estimate_table_noise(clean, _NOISE_WINDOW)
+        clean["_noise"] = noise.per_point if noise.per_point is not None else np.nan
+        sweeps = _sweep_directions(clean, source)
         inputs = sorted(set(clean["input_dof"]))
         if len(inputs) != 1:
             raise MeasuredDataError(
@@ -107,11 +129,12 @@ class FRFData:
         input_dof = _model_index(model, inputs[0], "input_dof", source)
         responses = sorted(set(clean["response_dof"]), key=lambda name: _model_index(model, name, "response_dof", source))
         response_dofs = tuple(_model_index(model, name, "response_dof", source) for name in responses)
-        force, frequency, h = [], [], []
+        force, frequency, h, point_noise = [], [], [], []
         for level in levels:
             rows = clean[clean["force_level_n"] == level]
             curves = {
-                name: group.set_index("frequency_hz")[["h_real", "h_imag"]] for name, group in rows.groupby("response_dof")
+                name: group.set_index("frequency_hz")[["h_real", "h_imag", "_noise"]]
+                for name, group in rows.groupby("response_dof")
             }
             if len(curves) != len(responses):
                 missing = sorted(set(responses) - set(curves))
@@ -129,7 +152,57 @@ class FRFData:
             force.append(np.full(len(common), level))
             frequency.append(np.asarray(common, dtype=float))
             h.append(values)
+            point_noise.append(np.column_stack([curves[name].loc[common, "_noise"].to_numpy() for name in responses]))
+        stated = np.vstack(point_noise)
         return cls(
             input_dof, response_dofs, inputs[0], tuple(responses),
-            np.concatenate(force), 2 * np.pi * np.concatenate(frequency), np.vstack(h),
+            np.concatenate(force), 2 * np.pi * np.concatenate(frequency), np.vstack(h), noise,
+            stated if noise.per_point is not None else None, tuple(sweeps[level] for level in levels),
         )
+
+
+_OPTIONAL = ("h_std", "coherence", "averages", "sweep_direction", "excitation")
+
+
+def _averaged_repeats(table: pd.DataFrame, source: str) -> tuple[pd.DataFrame, NoiseEstimate | None]:
+    """A table with a ``repeat`` column → the mean over the runs per point, and the noise of
+    that mean (the spread of the runs over √runs); other tables unchanged, noise None."""
+    if not isinstance(table, pd.DataFrame) or "repeat" not in table.columns:
+        return table, None
+    keys = ["frequency_hz", "force_level_n", "response_dof", "input_dof"]
+    runs = int(table["repeat"].nunique())
+    single = estimate_table_noise(table, _NOISE_WINDOW)
+    grouped = table.groupby(keys, sort=False, as_index=False)
+    mean = grouped[["h_real", "h_imag"]].mean()
+    counts = grouped.size()["size"].to_numpy()
+    if runs < 2 or single.source != "repeats":
+        return mean, None
+    if np.any(counts != runs):
+        raise MeasuredDataError(
+            f"{source}: column 'repeat' has {runs} runs but some points are measured in fewer runs; "
+            "every run must cover the same frequencies, levels and coordinates"
+        )
+    for name in ("sweep_direction", "excitation"):
+        if name in table.columns:
+            mean[name] = grouped[name].first()[name].to_numpy()
+    fraction = single.fraction / np.sqrt(runs)
+    return mean, NoiseEstimate(fraction, "repeats", f"{single.detail}; the mean of {runs} runs has 1/√{runs} of it")
+
+
+def _sweep_directions(clean: pd.DataFrame, source: str) -> dict[float, str]:
+    """The stated sweep direction per force level (``unknown`` without the column)."""
+    levels = np.unique(clean["force_level_n"].to_numpy())
+    if "sweep_direction" not in clean.columns:
+        return {float(level): "unknown" for level in levels}
+    out = {}
+    for level in levels:
+        stated = set(str(v).strip().lower() for v in clean.loc[clean["force_level_n"] == level, "sweep_direction"])
+        bad = sorted(stated - set(SWEEP_DIRECTIONS))
+        if bad:
+            raise MeasuredDataError(f"{source}: column 'sweep_direction' has {bad[0]!r}; expected one of "
+                                    f"{', '.join(SWEEP_DIRECTIONS)}")
+        if len(stated) > 1:
+            raise MeasuredDataError(f"{source}: column 'sweep_direction' has {sorted(stated)} at {level:g} N; "
+                                    "expected one direction per force level")
+        out[float(level)] = stated.pop()
+    return out

@@ -84,7 +84,8 @@ class FRFContext:
     measured coordinates; h_uf, h_uu: (n,) from the force and the place to the place;
     x_measured (n, m) and u_measured (n,) measured amplitudes (m); fixed: the user's
     elements at the place; companions: effects found earlier at the place; chi2_scale:
-    ``2/σ²``; penalty: criterion cost per parameter.
+    ``2/σ²`` per measured value (n, m), σ its relative noise std; penalty: criterion cost
+    per parameter.
     """
 
     dofs: tuple[int, ...]
@@ -98,7 +99,7 @@ class FRFContext:
     h_uu: NDArray[np.complex128]
     fixed: tuple
     companions: tuple[FoundEffect, ...]
-    chi2_scale: float
+    chi2_scale: NDArray[np.float64]
     penalty: float
     samples: DFSamples
     localisation: Localisation
@@ -128,8 +129,8 @@ class FRFContext:
 
     def residual(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> NDArray[np.float64]:
         """Residuals scaled to unit noise std: ``Σ r² = χ²``."""
-        r = (self.predict(effects, values) - self.x_measured) / np.abs(self.x_measured)
-        return np.sqrt(self.chi2_scale) * np.concatenate([r.real.ravel(), r.imag.ravel()])
+        r = np.sqrt(self.chi2_scale) * (self.predict(effects, values) - self.x_measured) / np.abs(self.x_measured)
+        return np.concatenate([r.real.ravel(), r.imag.ravel()])
 
     def fit(self, effect: Effect) -> CandidateFit:
         """Fit ``effect`` here (see :func:`nlupdate.discovery.fitting.fit_at_place`)."""
@@ -148,11 +149,18 @@ def frf_context(
     level_index: NDArray,
     x_measured: NDArray,
     x_reference: Callable[[int], NDArray],
-    chi2_scale: float,
+    chi2_scale: NDArray | float,
     penalty: float,
+    current_misfit: float | None = None,
 ) -> FRFContext:
     """Build the context of one place: background receptances, the free element force
-    (localisation) and the apparent DF samples less the user's elements there."""
+    (localisation) and the apparent DF samples less the user's elements there.
+
+    ``current_misfit``: χ² of the current model (every effect found so far, also those at
+    this place); the place's ``explained`` is then the share of *that* misfit a free element
+    here removes — what the place explains beyond what is already explained. Without it,
+    the share of the background's misfit (the model without the effects at this place)."""
+    chi2_scale = np.broadcast_to(np.asarray(chi2_scale, dtype=float), np.shape(x_measured))
     coords = list(dict.fromkeys(list(response_dofs) + [input_dof] + list(dofs)))
     h = background_receptance(background, omega, coords, x_reference)
     at = {dof: i for i, dof in enumerate(coords)}
@@ -168,7 +176,7 @@ def frf_context(
     h_uu = column(at[dofs[0]], dofs) - (column(at[dofs[1]], dofs) if len(dofs) == 2 else 0.0)
     measured_at = {dof: x_measured[:, k] for k, dof in enumerate(response_dofs)}
     u = _relative(measured_at.__getitem__, dofs)
-    g, explained = free_element_force(h_mf, h_mu, x_measured, force)
+    g, explained = free_element_force(h_mf, h_mu, x_measured, force, np.sqrt(chi2_scale), current_misfit)
     nu = g / u
     spread = np.sqrt(sum(np.abs(measured_at[d]) ** 2 for d in dofs)) / np.abs(u)
     amplitude = np.abs(u)

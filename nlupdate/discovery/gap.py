@@ -8,6 +8,13 @@ Per level, over the measured band and all measured coordinates stacked into one 
   reference coordinate (the driving point if it is measured);
 * ``peak_ratio`` — peak |H| of the model over the measured one.
 
+Every measured point counts: where the model has no solution (no stable branch reaches the
+frequency, or the solver fails there) its receptance counts as zero, so FRAC and FRF error
+include the whole measured energy there; ``unsolved_points`` says how many points of the
+level that is and ``unsolved_hz`` their frequency range. ``other_branch_points`` counts
+the points where the model's solution nearest the measurement is not the one a stepped
+sweep in the stated direction would reach (see :mod:`nlupdate.discovery.simulation`).
+
 The discovery's headline figure is the mean gap over the force levels. With measurement
 noise of relative std σ (METHODS §8) a perfect model has ``gap ≈ σ²``. A linear model
 error gives a gap that does not depend on the force level; a missing nonlinearity gives a
@@ -36,6 +43,10 @@ class LevelGap:
     resonance_model_hz: float
     resonance_shift_percent: float
     peak_ratio: float
+    unsolved_points: int = 0
+    unsolved_hz: tuple[float, float] | None = None
+    other_branch_points: int = 0
+    points: int = 0
 
 
 @dataclass(frozen=True)
@@ -66,17 +77,26 @@ class GapReport:
         return {"gap": self.gap, "levels": [asdict(level) for level in self.levels], "trends": self.trends}
 
 
-def level_gap(force_n: float, frequency_hz: ArrayLike, h_measured: ArrayLike, h_model: ArrayLike, reference: int) -> LevelGap:
-    """Gap figures of one level: frequencies (n,) ascending in Hz, receptances (n, m) in m/N;
-    ``reference`` is the column used for the resonance and peak figures."""
+def level_gap(
+    force_n: float, frequency_hz: ArrayLike, h_measured: ArrayLike, h_model: ArrayLike, reference: int,
+    other_branch: ArrayLike | None = None,
+) -> LevelGap:
+    """Gap figures of one level: frequencies (n,) ascending in Hz, receptances (n, m) in m/N
+    (NaN where the model has no solution: counted as zero); ``reference`` is the column used
+    for the resonance and peak figures; ``other_branch`` (n,) marks points on another branch
+    than the stated sweep."""
     f = np.asarray(frequency_hz, dtype=float)
     measured = np.asarray(h_measured, dtype=complex)
     model = np.asarray(h_model, dtype=complex)
-    value = frac(measured, model)
-    finite = np.isfinite(model)
-    error = np.linalg.norm(np.where(finite, model - measured, 0)) / np.linalg.norm(np.where(finite, measured, 0))
+    unsolved = ~np.all(np.isfinite(model), axis=1)
+    filled = np.where(np.isfinite(model), model, 0.0)
+    value = frac(measured, filled)
+    error = np.linalg.norm(filled - measured) / np.linalg.norm(measured)
     f_measured, a_measured = peak(f, measured[:, reference])
-    f_model, a_model = peak(f, model[:, reference])
+    if unsolved.all():
+        f_model, a_model = float("nan"), 0.0
+    else:
+        f_model, a_model = peak(f, model[:, reference])
     return LevelGap(
         force_n=float(force_n),
         frac=value,
@@ -86,4 +106,8 @@ def level_gap(force_n: float, frequency_hz: ArrayLike, h_measured: ArrayLike, h_
         resonance_model_hz=f_model,
         resonance_shift_percent=100.0 * (f_model - f_measured) / f_measured,
         peak_ratio=a_model / a_measured,
+        unsolved_points=int(unsolved.sum()),
+        unsolved_hz=(float(f[unsolved].min()), float(f[unsolved].max())) if unsolved.any() else None,
+        other_branch_points=int(np.sum(other_branch)) if other_branch is not None else 0,
+        points=int(f.size),
     )

@@ -6,8 +6,10 @@ Place. For one extra element at place u (relative coordinate ``x_u = x_r − x_j
 the receptances of the model (METHODS §3, receptance form). Fitting one free complex g per
 point by least squares (weights ``1/|X̃_m|``, the noise model) tells
 
-* ``explained`` — the fraction of the model's misfit that *any* element at u removes: the
-  right place explains all of it up to noise, a wrong one leaves the part it cannot reach;
+* ``explained`` — the fraction of the current model's misfit that *any* element at u removes
+  (the element replaces what was found at u before, so this is what u explains beyond what
+  the current model already explains): the right place explains all of it up to noise, a
+  wrong one leaves the part it cannot reach;
 * the apparent describing function ``ν̃ = g / X̃_u`` against the measured amplitude
   ``|X̃_u|`` — the generalisation of PRD's ``1/H_measured − 1/H_model`` (METHODS §4) to any
   place; a linear model error gives a ν̃ that does not change with the force level, a
@@ -53,20 +55,25 @@ class Localisation:
 
 
 def free_element_force(
-    h_mf: NDArray, h_mu: NDArray, x_measured: NDArray, force: NDArray
+    h_mf: NDArray, h_mu: NDArray, x_measured: NDArray, force: NDArray, scale: NDArray | float = 1.0,
+    current_misfit: float | None = None,
 ) -> tuple[NDArray[np.complex128], float]:
     """Per-point LS element force g (N) and the fraction of the misfit it explains.
 
     ``h_mf`` (n, m) and ``h_mu`` (n, m) are receptances (m/N) from the force and from the
-    place to the measured coordinates, ``x_measured`` (n, m) the measured amplitudes (m).
+    place to the measured coordinates, ``x_measured`` (n, m) the measured amplitudes (m);
+    residuals are ``scale·(X − X̃)/|X̃|`` (``scale`` = 1/noise std per value, so their sum of
+    squares is χ²). The fraction is of ``current_misfit`` when given (the χ² of the current
+    model: what the place explains beyond what is already explained), else of the misfit
+    of the background alone; it is clipped to [0, 1].
     """
-    weight = 1.0 / np.abs(x_measured)
+    weight = scale / np.abs(x_measured)
     a = h_mu * weight
     b = (h_mf * force[:, None] - x_measured) * weight
     g = np.sum(np.conj(a) * b, axis=1) / np.sum(np.abs(a) ** 2, axis=1)  # b ≈ a·g
-    before = float(np.sum(np.abs(b) ** 2))
+    before = float(np.sum(np.abs(b) ** 2)) if current_misfit is None else float(current_misfit)
     after = float(np.sum(np.abs(b - a * g[:, None]) ** 2))
-    return g, (1.0 - after / before) if before > 0 else 0.0
+    return g, float(np.clip(1.0 - after / before, 0.0, 1.0)) if before > 0 else 0.0
 
 
 def summarise(

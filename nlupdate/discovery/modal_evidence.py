@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from nlupdate.discovery.candidates import FoundEffect, augment
 from nlupdate.discovery.gap import GapReport, level_gap
+from nlupdate.discovery.joint import ModalJoint
 from nlupdate.discovery.modal_data import ModalData, as_modal
 from nlupdate.discovery.modal_fit import ModalContext, element_terms, modal_context, phase_resonance
 from nlupdate.model.system import NonlinearSystem
@@ -97,24 +98,36 @@ class ModalEvidence:
             for m in np.unique(self.data.mode)
         ]
 
+    def context(
+        self, place: tuple[int, ...], system: NonlinearSystem, found: Sequence[FoundEffect], prediction: ModalPrediction,
+        current_misfit: float | None = None,
+    ) -> ModalContext:
+        """The fitting context of one place (user's elements there fixed, effects found there
+        the companions, everything else the background)."""
+        data = self.data
+        same = set(place)
+        fixed = tuple(e for e in system.elements if set(e.dofs) == same)
+        others = NonlinearSystem(system.model, tuple(e for e in system.elements if set(e.dofs) != same))
+        background = augment(others, [f for f in found if set(f.dofs) != same])
+        return modal_context(
+            as_modal(background.model), background.elements, fixed,
+            tuple(f for f in found if set(f.dofs) == same), place, data.input_dof, data.force, data.mode,
+            data.frequency_hz, data.damping_ratio, data.level_index, self.frequency_uncertainty,
+            self.damping_uncertainty, self.penalty,
+        )
+
     def contexts(
         self, system: NonlinearSystem, found: Sequence[FoundEffect], prediction: ModalPrediction
     ) -> list[ModalContext]:
         """One context per model coordinate where the tested modes move, most motion first."""
-        data = self.data
-        shapes = as_modal(system.model).mode_shapes[:, np.unique(data.mode)]
+        shapes = as_modal(system.model).mode_shapes[:, np.unique(self.data.mode)]
         motion = np.max(np.abs(shapes), axis=1)
         places = [(int(d),) for d in np.argsort(-motion, kind="stable") if motion[d] > 1e-12 * motion.max()]
-        contexts = []
-        for place in places:
-            same = set(place)
-            fixed = tuple(e for e in system.elements if set(e.dofs) == same)
-            others = NonlinearSystem(system.model, tuple(e for e in system.elements if set(e.dofs) != same))
-            background = augment(others, [f for f in found if set(f.dofs) != same])
-            contexts.append(modal_context(
-                as_modal(background.model), background.elements, fixed,
-                tuple(f for f in found if set(f.dofs) == same), place, data.input_dof, data.force, data.mode,
-                data.frequency_hz, data.damping_ratio, data.level_index, self.frequency_uncertainty,
-                self.damping_uncertainty, self.penalty,
-            ))
-        return contexts
+        return [self.context(place, system, found, prediction) for place in places]
+
+    def joint(self, system: NonlinearSystem, prediction: ModalPrediction) -> ModalJoint:
+        """Every effect at once in the single-mode model (see :mod:`nlupdate.discovery.joint`)."""
+        data = self.data
+        return ModalJoint(as_modal(system.model), data.mode, data.input_dof, data.force, data.frequency_hz,
+                          data.damping_ratio, tuple(system.elements), self.frequency_uncertainty,
+                          self.damping_uncertainty, self.penalty)

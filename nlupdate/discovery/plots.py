@@ -4,7 +4,13 @@
   |H| of every measured coordinate; modal data: natural frequency and damping vs force);
 * :func:`plot_describing_function` — the apparent describing function at the place of the
   first effect against the best candidates' DFs there;
-* :func:`plot_gap` — the gap (1 − FRAC) per force level before and after.
+* :func:`plot_gap` — the gap (1 − FRAC) per force level before and after;
+* :func:`plot_residuals` — the residual left after against the measured amplitude, per
+  force level, with the noise level and the poor-fit limit: what the model still misses.
+
+On the FRF plots, points where the measurement follows another branch than a stepped sweep
+in the stated direction would reach are ringed, and points the model cannot solve are
+marked at the bottom of the axis.
 """
 from __future__ import annotations
 
@@ -43,6 +49,7 @@ def _plot_frf_levels(result: DiscoveryResult, figure: Figure) -> None:
     axes = np.atleast_2d(figure.subplots(data.levels.size, columns, squeeze=False))
     before = np.column_stack([result.prediction_before.at(d) for d in data.response_dofs]) / data.force[:, None]
     after = np.column_stack([result.prediction_after.at(d) for d in data.response_dofs]) / data.force[:, None]
+    other = result.other_branch_after if result.other_branch_after is not None else np.zeros(data.force.size, bool)
     for row, level in enumerate(data.levels):
         mask = data.force == level
         f = data.frequency_hz[mask]
@@ -51,13 +58,26 @@ def _plot_frf_levels(result: DiscoveryResult, figure: Figure) -> None:
             axis.semilogy(f, np.abs(data.h[mask, column]), "k.", ms=3, label="measured")
             axis.semilogy(*_broken(f, np.abs(before[mask, column])), "C3--", lw=1, label="model before")
             axis.semilogy(*_broken(f, np.abs(after[mask, column])), "C0-", lw=1, label="model after")
+            ringed = other[mask]
+            if ringed.any():
+                axis.semilogy(f[ringed], np.abs(data.h[mask, column])[ringed], "o", mfc="none", mec="C1", ms=6,
+                              label=f"other branch than a sweep {result.sweep}")
+            unsolved = ~np.isfinite(after[mask, column])
+            if unsolved.any():
+                bottom = np.nanmin(np.abs(data.h[mask, column]))
+                axis.semilogy(f[unsolved], np.full(unsolved.sum(), bottom), "x", color="C3", ms=5,
+                              label="no stable solution (counts as misfit)")
             axis.set_title(f"{level:g} N, response {data.response_names[column]}", fontsize=8)
             axis.tick_params(labelsize=7)
             if row == data.levels.size - 1:
                 axis.set_xlabel("frequency (Hz)", fontsize=8)
             if column == 0:
                 axis.set_ylabel("|H| (m/N)", fontsize=8)
-    axes[0, 0].legend(fontsize=7)
+    labelled = {}
+    for axis in axes.ravel():  # one legend with every kind of mark used anywhere
+        for handle, label in zip(*axis.get_legend_handles_labels()):
+            labelled.setdefault(label, handle)
+    axes[0, 0].legend(list(labelled.values()), list(labelled), fontsize=7)
 
 
 def _plot_modal_levels(result: DiscoveryResult, figure: Figure) -> None:
@@ -153,4 +173,46 @@ def plot_gap(result: DiscoveryResult, path: str | os.PathLike) -> Path:
     axis.set(xlabel="force level (N)", ylabel="gap = 1 − FRAC")
     axis.legend(fontsize=8)
     axis.grid(True, axis="y", alpha=0.3)
+    return _save(figure, path)
+
+
+def plot_residuals(result: DiscoveryResult, path: str | os.PathLike) -> Path:
+    """The residual left by the model after, against amplitude (FRF data) or force (modal data).
+
+    FRFs: per point the RMS over the measured coordinates of ``|H_model − H̃|/|H̃|`` against
+    the measured amplitude at the place of the first effect found (the driven or first
+    measured coordinate when none), one colour per force level, with the noise level σ and
+    the poor-fit limit (``poor_fit_ratio``·σ). A residual that grows with amplitude is a
+    nonlinearity still missing; one flat in amplitude but above σ, a linear error.
+    Modal tables: frequency and damping errors relative to their uncertainties against force.
+    """
+    figure = Figure(figsize=(7.5, 4.5))
+    axis = figure.subplots()
+    limit = result.options.poor_fit_ratio
+    if result.kind == "modal":
+        data, after = result.data, result.prediction_after
+        axis.semilogx(data.force, np.abs(after.frequency_hz / data.frequency_hz - 1) / result.options.frequency_uncertainty,
+                      "o", label="natural frequency error / its uncertainty")
+        axis.semilogx(data.force, np.abs(after.damping_ratio / data.damping_ratio - 1) / result.options.damping_uncertainty,
+                      "s", label="damping error / its uncertainty")
+        axis.axhline(1.0, color="k", ls=":", label="noise level")
+        axis.axhline(limit, color="C3", ls="--", label=f"poor fit ({limit:g}× noise)")
+        axis.set(xlabel="force level (N)", ylabel="error / uncertainty")
+    else:
+        data = result.data
+        place = result.effects[0].dofs if result.effects else (
+            (data.input_dof,) if data.input_dof in data.response_dofs else (data.response_dofs[0],))
+        measured = {d: data.x[:, k] for k, d in enumerate(data.response_dofs)}
+        u = measured[place[0]] - (measured[place[1]] if len(place) == 2 else 0.0)
+        residual = np.sqrt(np.mean(np.abs(result.residuals_after) ** 2, axis=1))
+        for k, level in enumerate(data.levels):
+            mask = data.force == level
+            axis.loglog(np.abs(u[mask]), residual[mask], ".", ms=4, label=f"{level:g} N")
+        sigma = result.noise_fraction
+        axis.axhline(sigma, color="k", ls=":", label=f"noise level σ = {sigma:.2g}")
+        axis.axhline(limit * sigma, color="C3", ls="--", label=f"poor fit ({limit:g}σ)")
+        axis.set(xlabel=f"measured amplitude at dofs {list(place)} (m)", ylabel="relative residual |H_model − H̃|/|H̃|")
+    axis.set_title(f"residual after ({result.summary().split(' — ')[0]}, {result.misfit_ratio:.3g}× noise)", fontsize=9)
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend(fontsize=7)
     return _save(figure, path)

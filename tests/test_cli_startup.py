@@ -1,0 +1,43 @@
+"""``nlupdate --help`` and ``--version`` start without the numerics, and a command loads
+only its own module: the heavy imports (numpy, pandas, scipy, matplotlib, Prefect) are
+what made ``--version`` take 1.4 s."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "prefect")
+
+
+def modules_after(argv: list[str]) -> tuple[str, set[str]]:
+    script = (
+        "import sys\nfrom nlupdate.cli import main\n"
+        f"try:\n    main({argv!r})\nexcept SystemExit:\n    pass\n"
+        "print('MODULES', ' '.join(sorted(sys.modules)))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    *shown, last = done.stdout.strip().splitlines()
+    assert last.startswith("MODULES ")
+    return "\n".join(shown), set(last.split()[1:])
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["--help"]])
+def test_help_and_version_import_no_numerics(argv):
+    shown, modules = modules_after(argv)
+    assert "nlupdate" in shown
+    loaded = sorted(m for m in modules if m.split(".")[0] in HEAVY)
+    assert loaded == [], f"nlupdate {argv[0]} imported {loaded[:5]}"
+    assert not any(m.startswith("nlupdate.cli.") and m != "nlupdate.cli.interrupts" for m in modules)
+
+
+def test_help_lists_every_command_and_a_command_loads_only_its_module():
+    from nlupdate.cli import COMMANDS
+
+    shown, _ = modules_after(["--help"])
+    for name, help in COMMANDS.items():
+        assert name in shown and help[:30] in " ".join(shown.split()), name
+    _, modules = modules_after(["identify", "--help"])
+    commands = {m.split(".")[2] for m in modules if m.startswith("nlupdate.cli.") and m.count(".") == 2}
+    assert "identify" in commands and not commands & (set(COMMANDS) - {"identify"})
