@@ -196,8 +196,10 @@ def test_report_explains_its_numbers_and_shows_readable_columns(result, tmp_path
     assert f"own one-mode fits — curves fitted to these very data — reach {reachable}" in report
     tables = re.findall(r"(?:^\|.*\n)+", report, flags=re.MULTILINE)
     assert len(tables) >= 6
-    for table in tables:  # no "|" inside a cell or header splits a column
-        assert len({line.count("|") for line in table.splitlines()}) == 1, table
+    for table in tables:  # every line opening with "|" is a table row, and no "|" in a cell splits a column
+        rows = table.splitlines()
+        assert len(rows) >= 3 and re.fullmatch(r"\|(---\|)+", rows[1]), table
+        assert len({row.count("|") for row in rows}) == 1, table
 
 
 def test_report_mentions_no_frac_when_the_comparison_has_none(result, tmp_path):
@@ -215,5 +217,5 @@ def test_report_says_what_the_monte_carlo_samples_are_and_why_some_failed():
     note = monte_carlo_note(Uncertainty({}, 0.05, 40, 6, 1, {edge.format(47.7): 4, edge.format(39.1): 2}))
     assert "40 Monte-Carlo samples — the measured curves perturbed 40 times with fresh noise" in note
     assert "spread of the 34 results" in note and "6 samples failed and are left out" in note
-    assert "4 × modal fit near 43.37 Hz ran to the edge of its band (47.7 Hz)" in note
+    assert "(6 × modal fit near 43.37 Hz ran to the edge of its band: no clear resonance there)" in note
     assert "may be understated" in note

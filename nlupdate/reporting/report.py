@@ -9,6 +9,7 @@ simulated study the hidden truth is printed beside every estimate.
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping
 
 import numpy as np
@@ -219,13 +220,16 @@ def monte_carlo_note(uncertainty) -> str:
             f"in the plots are the spread of the {n - failed} results")
     if not failed:
         return text + " (none failed)."
-    reasons = "; ".join(f"{count} × {message.split(': ', 1)[-1]}"
-                        for message, count in list(uncertainty.failures.items())[:3])
-    more = len(uncertainty.failures) - 3
+    grouped: dict[str, int] = {}
+    for message, count in uncertainty.failures.items():  # one reason, whatever the numbers in parentheses
+        reason = re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])
+        grouped[reason] = grouped.get(reason, 0) + count
+    reasons = "; ".join(f"{count} × {reason}" for reason, count in sorted(grouped.items(), key=lambda g: -g[1])[:3])
+    more = len(grouped) - 3
     reasons += f"; {more} other reason{'s' if more > 1 else ''}" if more > 0 else ""
     return (text + f". {failed} sample{'s' if failed > 1 else ''} failed and {'are' if failed > 1 else 'is'} left "
-            f"out as a whole ({reasons}): these are the perturbed data hardest to identify, so the spread — of "
-            f"the quantity that failed most — may be understated.")
+            f"out as a whole ({reasons}): these are the perturbed data hardest to identify, so the ± of what "
+            f"failed there may be understated.")
 
 
 def _targets_section(result) -> list[str]:
@@ -322,8 +326,8 @@ def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
              f"{describe(result.study.prediction.harmonic_balance)}.", ""]
     if "predictions" in plots:
         lines += [f"![predictions]({plots['predictions']})", "",
-                  "|H| and phase at each force level; each panel's title gives the FRAC of the initial and of the "
-                  "updated model at that level.", ""]
+                  "Magnitude and phase at each force level; each panel's title gives the FRAC of the initial and of "
+                  "the updated model at that level.", ""]
     columns = {"model": "model", "force_level_n": "force level (N)", "frac": "FRAC",
                "normalised_error": "‖H_model − H_measured‖ / ‖H_measured‖",
                "peak_frequency_error_pct": "peak frequency error (%)",

@@ -101,7 +101,7 @@ def frequency_errors_figure(comparison: pd.DataFrame, styles: Mapping[str, dict]
             ax.set_xticks(np.concatenate([-decades[::-1], [0.0], decades]))
             ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
             ax.xaxis.set_minor_locator(NullLocator())
-            ax.set_xlabel(f"frequency error (%); linear within ±{threshold:.2g} %, logarithmic beyond")
+            ax.set_xlabel(f"frequency error (%), log scale beyond ±{threshold:.2g} %")
         else:
             ax.set_xlim(-1.45 * reach, 1.45 * reach)
             ax.set_xlabel("frequency error (%)")
@@ -150,12 +150,11 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
 def truncation_note(frfs: Any) -> str:
     """What a reader must know about the candidates' FRFs: modal superposition of the
     computed modes, without residual terms."""
-    highest = f" ({frfs.highest_mode_hz:.4g} Hz)" if frfs.highest_mode_hz is not None else ""
     note = (f"Model curves: modal superposition of the {frfs.modes}\nmodes each model computed, no residual terms.\n"
             f"Higher modes of the model are left out\n(modal truncation)")
     if frfs.response_dof == frfs.input_dof:
         note += (f": at this driving point they\nwould add flexibility below their resonances,\nso without them "
-                 f"anti-resonances sit too high\nand |H| above the last computed mode{highest}\nis too large.")
+                 f"anti-resonances sit too high\nand |H| above the last computed mode\nis too large.")
     else:
         note += ":\nanti-resonances and the level away\nfrom the modes are off."
     return note + "\nNot an updating error: the updating\nmatches natural frequencies only."

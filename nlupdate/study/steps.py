@@ -104,10 +104,9 @@ class Comparison:
 class CandidateFRFs:
     """The reference linear FRF of the targets and every run's (and the initial model's)
     linear receptance at the measured pair of the model (m/N), over ``frequency_hz`` (Hz):
-    modal superposition of the ``modes`` modes each model computed (the highest of the
-    initial model at ``highest_mode_hz``), with the comparison's damping; no residual
-    terms, so the modes left out are missing (modal truncation). ``reference_band``: the
-    reference's 95 % Monte-Carlo band, when it has one."""
+    modal superposition of the ``modes`` modes each model computed, with the comparison's
+    damping; no residual terms, so the modes left out are missing (modal truncation).
+    ``reference_band``: the reference's 95 % Monte-Carlo band, when it has one."""
 
     frequency_hz: NDArray[np.float64]
     reference: NDArray[np.complex128]
@@ -116,7 +115,6 @@ class CandidateFRFs:
     input_dof: str
     modes: int
     reference_band: CurveBand | None = None
-    highest_mode_hz: float | None = None
 
 
 @dataclass(frozen=True)
@@ -372,8 +370,7 @@ def candidate_frfs(study: Study, targets: TargetSet, updating: UpdatingOutcome) 
     curves = {"initial": candidate_frf(runs[0], frequency, response, inp, *damping, "initial")}
     curves.update({run.name: candidate_frf(run, frequency, response, inp, *damping) for run in runs})
     return CandidateFRFs(np.asarray(frequency, dtype=float), np.asarray(h), curves, response, inp,
-                         len(runs[0].final.natural_frequencies_hz), targets.reference_band,
-                         float(np.max(runs[0].initial.natural_frequencies_hz)))
+                         len(runs[0].final.natural_frequencies_hz), targets.reference_band)
 
 
 def parameter_uncertainties(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> dict[str, ParameterUncertainty]:
