@@ -423,11 +423,12 @@ def locate_linear_modes(
 def fit_amplitude_grid(result: PRDResult | DDFResult) -> NDArray[np.float64]:
     """Amplitudes (m) to draw a fitted curve and its band over: from 0 (PRD: y(0) = −Δ_f1)
     or half the smallest fitted amplitude (DDF) to 1.1 × the largest, denser towards 0
-    where friction's describing function turns fastest. Outside ``result.amplitude_range``
+    (down to a tenth of the smallest fitted amplitude, for a log axis) where friction's
+    describing function turns fastest. Outside ``result.amplitude_range``
     the curve is an extrapolation."""
     low, high = result.amplitude_range
     if result.method == "prd":
-        grid = np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(1e-3 * high, low, 120)])
+        grid = np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(min(1e-3 * high, 0.1 * low), low, 120)])
     else:
         grid = np.linspace(0.5 * low, 1.1 * high, 301)
     return np.unique(np.concatenate([grid, [low, high]]))

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, NullFormatter
 from numpy.typing import ArrayLike
 
 from nlupdate.reporting.figures import (
@@ -85,7 +85,12 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
                     label="fit, extrapolated")
         ax.set_xlabel("response amplitude |X| (mm)")
         ax.set_ylabel(f"{name} y ({unit}/m)")
-        ax.set_xlim(grid[0] * 1e3, grid[-1] * 1e3)
+        if high > 30 * low:  # data over decades of amplitude: a log axis shows each decade
+            ax.set_xscale("log")
+            ax.set_xlim(grid[grid > 0][0] * 1e3, grid[-1] * 1e3)
+            ax.set_xlabel("response amplitude |X| (mm, log scale)")
+        else:
+            ax.set_xlim(grid[0] * 1e3, grid[-1] * 1e3)
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=7, loc="best")
     ax = axes[2]
@@ -93,7 +98,10 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # mm, not 2×10⁰
-    ax.xaxis.set_minor_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    if high < 10 * low:  # less than a decade: label the minor ticks too, there may be no major one
+        ax.xaxis.set_minor_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    else:
+        ax.xaxis.set_minor_formatter(NullFormatter())
     ax.axhline(1.0, color="grey", lw=1, label="noise level")
     if poor_factor is not None:
         ax.axhline(poor_factor, color="crimson", lw=1, ls="--", label=f"{poor_factor:g}× noise: poor fit")
