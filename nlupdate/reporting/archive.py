@@ -212,9 +212,11 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
                       lambda: frequency_errors_figure(result.comparison, styles, sigma)))
         frfs = result.candidate_frfs
         if frfs is not None:
+            reference = "linear FRF of [comparison] frf" if study.comparison["frf"] is not None else \
+                "extracted linear FRF"
             plots.append(("frf_comparison", "candidate_frfs.png",
                           lambda: candidate_frfs_figure(frfs, styles, f"{study.name}: linear FRF of each candidate "
-                                                                      f"model against the extracted one")))
+                                                                      f"model against the {reference}", reference)))
     if result.predictions:
         plots.append(("predictions", "prediction_vs_measurement.png",
                       lambda: predictions_figure(result.measured, result.predictions, *pair,

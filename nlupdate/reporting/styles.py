@@ -23,7 +23,7 @@ HATCHES = {"-": "", "--": "//", ":": "..", "-.": "xx"}
 MARKER_HATCHES = {"": "", "o": "o", "s": "O", "^": "*", "v": "+", "D": "|"}
 
 
-def run_family(method: str, formula: str, parameter_set: Sequence[str], name: str) -> tuple:
+def run_family(method: str, parameter_set: Sequence[str], name: str) -> tuple:
     """The family of a run: eigensensitivity runs of one parameter set share one; every
     other run (an optimisation candidate) is its own."""
     if method == "eigensensitivity":
@@ -35,9 +35,8 @@ def run_styles(runs: Iterable) -> dict[str, dict]:
     """Name → matplotlib line keywords (``color``, ``ls``, ``marker``) for ``initial`` and
     every run (:class:`~nlupdate.updating.eigensensitivity.UpdatingResult`), all distinct."""
     families: dict[tuple, list[str]] = {}
-    for run in runs:
-        formula = str(run.history["formula"].iloc[0]) if len(run.history) else ""
-        families.setdefault(run_family(run.method, formula, tuple(run.parameters), run.name), []).append(run.name)
+    for run in runs:  # in run order: within a family, the formulas in the order the study lists them
+        families.setdefault(run_family(run.method, tuple(run.parameters), run.name), []).append(run.name)
     combinations = list(itertools.product(COLOURS, LINE_STYLES, MARKERS))
     used = {(INITIAL_STYLE["color"], INITIAL_STYLE["ls"], "")}
     styles = {"initial": {**INITIAL_STYLE, "marker": ""}}

@@ -125,10 +125,12 @@ def frequency_errors_figure(comparison: pd.DataFrame, styles: Mapping[str, dict]
     return figure
 
 
-def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = "") -> Figure:
-    """|H| (log, m/N) of the reference linear FRF (with its 95 % band when it has one) and
-    of every candidate model (:class:`~nlupdate.study.steps.CandidateFRFs`), with what
-    modal truncation does to the models' curves said on the plot."""
+def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = "",
+                          reference_label: str = "extracted linear FRF") -> Figure:
+    """|H| (log, m/N) of the reference linear FRF (``reference_label``; with its 95 % band
+    when it has one) and of every candidate model
+    (:class:`~nlupdate.study.steps.CandidateFRFs`), with what modal truncation does to the
+    models' curves said on the plot."""
     f = np.asarray(frfs.frequency_hz, dtype=float)
     figure = Figure(figsize=(12, 5.4), layout="constrained")
     ax, side = figure.subplots(1, 2, width_ratios=[2.6, 1])
@@ -136,7 +138,7 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
     band = frfs.reference_band
     if band is not None:
         ax.fill_between(f, *band.magnitude, color="0.3", alpha=0.2, lw=0, label=f"its {BAND_LABEL}")
-    ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label="extracted linear FRF")
+    ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label=reference_label)
     for name, h in frfs.curves.items():
         ax.semilogy(f, np.abs(np.asarray(h)), label=name, **{"lw": 1.2, **styles[name], "marker": ""})
     ax.set(xlabel="frequency (Hz)", ylabel=f"|H| {frfs.response_dof}/{frfs.input_dof} (m/N)", title=title)
