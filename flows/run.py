@@ -31,15 +31,20 @@ def cache_directory(given: str | os.PathLike | None = None) -> Path:
 def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterator[tuple[str, object, str, Path]]:
     """What every run needs around its flow: the environment, the result store, one
     Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
-    end of every (sub)flow run). Yields (API URL, task runner, its description, store)."""
+    end of every (sub)flow run). Yields (where the run is recorded — the API's URL when the
+    user gave it, a note for a server started for the run, whose URL is gone after it —,
+    task runner, its description, store)."""
     prepare_environment()
     store = cache_directory(cache_dir)
     store.mkdir(parents=True, exist_ok=True)
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
+    users_api = bool(os.environ.get("PREFECT_API_URL"))
     with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
             temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}), using(progress):
-        yield url, runner, description, store
+        recorded = f"API {url}" if users_api else ("a Prefect server started for the run (the run stays in "
+                                                   "Prefect's local database)")
+        yield recorded, runner, description, store
 
 
 def run_study_flow(
@@ -61,11 +66,11 @@ def run_study_flow(
     from nlupdate.study.spec import inputs_read_once
 
     progress = progress or Progress()
-    with inputs_read_once(study) as study, _flow_session(execution, cache_dir, progress) as (url, runner, description,
-                                                                                           store):
+    with inputs_read_once(study) as study, _flow_session(execution, cache_dir, progress) as (recorded, runner,
+                                                                                           description, store):
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
-        orchestration = f"Prefect flow `study` on {description}, API {url}"
+        orchestration = f"Prefect flow `study` on {description}, {recorded}"
         archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
             study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration, annotations)
     return Path(archive)
@@ -95,9 +100,9 @@ def run_discovery_flow(
     inputs = handle((Path(model_file).resolve(), system, Path(measured_file).resolve(), table, options),
                     f"model {model_file}, measured {measured_file}")
     progress = progress or Progress()
-    with _flow_session(execution, cache_dir, progress) as (url, runner, description, store):
+    with _flow_session(execution, cache_dir, progress) as (recorded, runner, description, store):
         progress.say(f"discovery: tasks on {description}; cache {store}")
         archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
             inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
-            f"Prefect flow `discovery` on {description}, API {url}")
+            f"Prefect flow `discovery` on {description}, {recorded}")
     return Path(archive)

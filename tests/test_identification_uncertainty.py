@@ -72,3 +72,32 @@ def test_monte_carlo_spread_from_one_data_set_matches_spread_over_seeds():
     noisy = clean.with_noise(0.05, rng)
     stats = monte_carlo(estimate, noisy, estimate(noisy).parameters(), 0.05, n_samples=300, seed=5)
     assert stats.parameters["kf"].std == pytest.approx(over_seeds.std(), rel=0.3)
+
+
+def test_a_curve_band_covers_the_truth_95_percent_of_the_time():
+    """The band of a curve the estimate returns (here the noisy curve itself) holds the
+    noise-free curve at about 95 % of the frequencies — in Re, Im, |H| and phase."""
+    noisy = add_frf_noise(H, 0.05, 7)
+    data = FRFLevels("0", "0", np.array([1.0]), (F,), (noisy,))
+    stats = monte_carlo(lambda d: {"curve": d.receptances[0]}, data, {}, 0.05, n_samples=400, seed=2,
+                        curves={"curve": (F, noisy)})
+    band = stats.curves["curve"]
+    assert band.n_samples == 400 and np.array_equal(band.x, F)
+    offset = np.degrees(np.angle(H / noisy))
+    for (low, high), truth in ((band.real, H.real), (band.imag, H.imag), (band.magnitude, np.abs(H)),
+                               (band.phase_offset_deg, offset)):
+        assert 0.91 < np.mean((low <= truth) & (truth <= high)) < 0.99
+
+
+def test_failed_samples_are_counted_with_their_reason():
+    data = FRFLevels("0", "0", np.array([1.0]), (F,), (H,))
+
+    def estimate(d):
+        if d.receptances[0][0].real > H[0].real:  # about half the draws
+            raise ValueError("modal fit near 700 Hz ran to the edge of its band")
+        return {"re": float(d.receptances[0][0].real)}
+
+    stats = monte_carlo(estimate, data, {"re": float(H[0].real)}, 0.05, n_samples=40, seed=1)
+    assert 10 < stats.n_failed < 30
+    assert stats.failures == {"ValueError: modal fit near 700 Hz ran to the edge of its band": stats.n_failed}
+    assert stats.as_dict()["failures"] == stats.failures

@@ -55,7 +55,7 @@ def test_a_failure_while_writing_leaves_no_archive(result, tmp_path, monkeypatch
     def broken(*args, **kwargs):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(archive_module, "plot_predictions", broken)
+    monkeypatch.setattr(archive_module, "predictions_figure", broken)
     with pytest.raises(RuntimeError, match="disk full"):
         write_archive(result, tmp_path / "study" / "run", RUN)
     assert list((tmp_path / "study").iterdir()) == []

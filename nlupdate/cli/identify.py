@@ -26,7 +26,8 @@ from nlupdate.identification.prd import ESTIMATORS
 from nlupdate.identification.trust import POOR_FIT_FACTOR, fit_verdict
 from nlupdate.files import atomic_directory
 from nlupdate.identification.summary import JSON_NAME
-from nlupdate.reporting.identification_plots import plot_fit, plot_linear_frf
+from nlupdate.reporting.figures import save_figure
+from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
 from nlupdate.identification.prd import IdentificationError
@@ -142,7 +143,7 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     """``identification.json``, ``linear_frf.parquet``, ``fit.png`` and ``linear_frf.png``
     into ``folder``; returns the file names."""
     s = identification.settings
-    f, h = identification.linear_frequency_hz, identification.linear_frf
+    h = identification.linear_frf
     f_ref, h_ref = data.curve(identification.linear_from_level_n)
     summary = identification.summary()
     summary["linear_frf"]["frac_vs_measured_at_that_level"] = frac(h_ref, h)
@@ -155,10 +156,9 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     if unit != "N":
         linear["reference_unit"] = unit
     write_frf_table(linear, folder / "linear_frf.parquet")
-    plot_fit(identification.result, folder / "fit.png", title, identification.misfit_in_noise_units(), POOR_FIT_FACTOR,
-             unit)
-    plot_linear_frf(f, h, [(f"{level:g} {unit}", *data.curve(level)) for level in data.levels],
-                    folder / "linear_frf.png", title, identification.modal_receptance(f), unit)
+    level = identification.linear_from_level_n
+    save_figure(fit_figure(identification, title, POOR_FIT_FACTOR), folder / "fit.png")
+    save_figure(linear_frf_figure(identification, (f"{level:g} {unit}", f_ref, h_ref), title), folder / "linear_frf.png")
     return files
 
 

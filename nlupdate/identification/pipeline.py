@@ -13,7 +13,9 @@ From the measured curves of one (response, input) pair at several force levels
    (:mod:`nlupdate.identification.uncertainty`): each sample re-identifies at the chosen
    frequency, re-extracts the linear FRF from its own perturbed low-force sweep and
    re-fits the modes, so the natural frequencies carry the uncertainty of Δ_f1 (kf)
-   *and* of the low-force noise, ready to be propagated into updated parameters.
+   *and* of the low-force noise, ready to be propagated into updated parameters; the
+   fitted curve (over :func:`fit_amplitude_grid`) and the extracted linear FRF get a 95 %
+   band from the same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`).
 
 Every option left out is filled by a default, listed in ``defaults_used``. The result,
 :class:`Identification`, is plain data (picklable) and :meth:`Identification.summary`
@@ -41,7 +43,7 @@ from nlupdate.identification.summary import identification_summary, linear_frf_t
 from nlupdate.identification.trust import (
     TrustWarning, identification_warnings,
 )
-from nlupdate.identification.uncertainty import Uncertainty, monte_carlo
+from nlupdate.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
 from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
@@ -173,6 +175,18 @@ class Identification:
     lines_below_coherence: int = 0
 
     @property
+    def fit_band(self) -> CurveBand | None:
+        """95 % Monte-Carlo band of the fitted curve ``result.fitted_y`` (N/m) over the
+        amplitudes (m) of :func:`fit_amplitude_grid`; None for results made without it."""
+        return self.uncertainty.curves.get("fit")
+
+    @property
+    def linear_frf_band(self) -> CurveBand | None:
+        """95 % Monte-Carlo band of the extracted linear receptance (m/N) over
+        ``linear_frequency_hz``; None for results made without it."""
+        return self.uncertainty.curves.get("linear_frf")
+
+    @property
     def natural_frequencies_hz(self) -> NDArray[np.float64]:
         """Natural frequencies (Hz) of the linear modes of the extracted FRF."""
         return np.array([float(m.natural_frequencies_hz[0]) for m in self.modes])
@@ -302,13 +316,33 @@ def locate_linear_modes(
     return tuple(sorted(modes, key=lambda m: float(m.natural_frequencies_hz[0])))
 
 
+def fit_amplitude_grid(result: PRDResult | DDFResult) -> NDArray[np.float64]:
+    """Amplitudes (m) to draw a fitted curve and its band over: from 0 (PRD: y(0) = −Δ_f1)
+    or half the smallest fitted amplitude (DDF) to 1.1 × the largest, denser towards 0
+    (down to a tenth of the smallest fitted amplitude, for a log axis) where friction's
+    describing function turns fastest. Outside ``result.amplitude_range``
+    the curve is an extrapolation."""
+    low, high = result.amplitude_range
+    if result.method == "prd":
+        grid = np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(min(1e-3 * high, 0.1 * low), low, 120)])
+    else:
+        grid = np.linspace(0.5 * low, 1.1 * high, 301)
+    return np.unique(np.concatenate([grid, [low, high]]))
+
+
 def _sample_values(
-    data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None, modes_hz: tuple[float, ...]
-) -> dict[str, float]:
-    """One Monte-Carlo sample: the parameters and the linear modes of perturbed data."""
+    data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None, modes_hz: tuple[float, ...],
+    amplitude_grid: NDArray | None = None,
+) -> dict[str, Any]:
+    """One Monte-Carlo sample: the parameters and the linear modes of perturbed data, its
+    extracted linear FRF (``linear_frf``) and, given ``amplitude_grid``, its fitted curve
+    over it (``fit``)."""
     result = _fit(data, settings, frequency_hz)
-    values = dict(result.parameters())
+    values: dict[str, Any] = dict(result.parameters())
     _, f, h_linear, h_measured = _linear_frf(data, settings, result)
+    values["linear_frf"] = h_linear
+    if amplitude_grid is not None:
+        values["fit"] = result.fitted_y(amplitude_grid)
     for i, fit in enumerate(locate_linear_modes(f, h_linear, h_measured, modes_hz, settings.modal_band_fraction)):
         values[f"linear_f{i + 1}_hz"] = float(fit.natural_frequencies_hz[0])
         values[f"linear_eta{i + 1}"] = float(fit.loss_factors[0])
@@ -374,8 +408,11 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     for i, m in enumerate(modes):
         point[f"linear_f{i + 1}_hz"] = float(m.natural_frequencies_hz[0])
         point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
-    estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz)
-    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress)
+    grid = fit_amplitude_grid(result)
+    estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz,
+                                 amplitude_grid=grid)
+    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress,
+                              curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)})
     model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
     description = model.description() if model is not None else (
         f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")

@@ -126,7 +126,8 @@ class PRDResult:
     when there are no spare degrees of freedom). amplitude_low_max: the largest
     low-force amplitude the fit used (m; a Jenkins slider slipping there would show).
     at_bound: parameters that ended on the bounds of a bounded fit (naive physical fits
-    keep log-parameters within a factor 1e6 of their start).
+    keep log-parameters within a factor 1e6 of their start). point_force_n: the high
+    force level (N) each PRD point was measured at.
     """
 
     method: str
@@ -145,6 +146,7 @@ class PRDResult:
     residual_noise_fraction: float | None = None
     amplitude_low_max: float | None = None
     at_bound: tuple[str, ...] = ()
+    point_force_n: NDArray[np.float64] | None = None
 
     @property
     def omega(self) -> float:
@@ -489,7 +491,8 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
     misfit = y - model.nu_high(p, amplitude, omega) + model.nu_low(p, np.array([a_low]), omega)
     residual = residual_noise_fraction(misfit, np.sqrt(np.abs(1 / h_high) ** 2 + abs(1 / h_low) ** 2), model.n_params)
     return PRDResult("prd", "naive", model, p, setup, amplitude, y, np.full(amplitude.size, f), a_low,
-                     residual_noise_fraction=residual, amplitude_low_max=a_low, at_bound=at_bound)
+                     residual_noise_fraction=residual, amplitude_low_max=a_low, at_bound=at_bound,
+                     point_force_n=forces.astype(float))
 
 
 def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: float = DEFAULT_HALF_WINDOW) -> PRDResult:
@@ -548,7 +551,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         covariance=None if covariance is None else covariance[2 * n_z :, 2 * n_z :],
         noise_fraction=float(np.sqrt(2 * sigma2)), z_coefficients=z,
         residual_noise_fraction=float(np.sqrt(2 * sigma2)) if n_res > n_par else None,
-        amplitude_low_max=float(np.max(np.abs(low_response))),
+        amplitude_low_max=float(np.max(np.abs(low_response))), point_force_n=np.tile(window.levels.astype(float), window.f_high.size),
         extras={"half_window": half_window, "window_hz": (float(fe * (1 - half_window)), float(fe * (1 + half_window))),
                 "n_low_points": int(window.f_low.size), "n_high_points": int(window.x_high.size),
                 "z_degree": window.degree},

@@ -31,23 +31,23 @@ import os
 import stat
 import warnings
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
-import numpy as np
-import pandas as pd
+from matplotlib.figure import Figure
 
 from nlupdate.files import atomic_directory, copy_private, inside, name_problem
 from nlupdate.fingerprints import file_hash, table_hash, tree_hash
 from nlupdate.identification.trust import POOR_FIT_FACTOR
 from nlupdate.notices import NlupdateWarning
-from nlupdate.reporting.figures import frf_curve
+from nlupdate.reporting.figures import frf_curve, save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
-from nlupdate.reporting.identification_plots import plot_fit, plot_linear_frf
-from nlupdate.reporting.prediction_plots import plot_correlation_levels, plot_frf_levels, plot_predictions
-from nlupdate.reporting.report import report_markdown
+from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
+from nlupdate.reporting.prediction_plots import correlation_figure, measured_frfs_figure, predictions_figure
+from nlupdate.reporting.report import hidden_truth, report_markdown
+from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
-from nlupdate.reporting.updating_plots import plot_convergence, plot_frequency_errors, plot_frf_comparison
+from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
 
 MANIFEST = "manifest.json"
 #: The kind of output folder an archive is (:func:`nlupdate.files.check_replaceable`).
@@ -170,22 +170,19 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
     }
 
 
-def _curves(table: pd.DataFrame, response: str, inp: str, unit: str = "N") -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """(label, frequency Hz, receptance) of every force level of one measured pair."""
-    pair = table[(table["response_dof"].astype(str) == response) & (table["input_dof"].astype(str) == inp)]
-    return [(f"{level:g} {unit}", *frf_curve(pair, response, inp, level))
-            for level in sorted(set(pair["force_level_n"].astype(float)))]
+def target_sigma_pct(result) -> dict[str, float]:
+    """Each target's standard deviation in % of its frequency, by label (empty without)."""
+    if result.targets is None or result.targets.std_hz is None:
+        return {}
+    t = result.targets.targets
+    return {label: 100.0 * float(std) / float(f) for label, std, f in zip(t.labels, result.targets.std_hz, t.frequencies_hz)}
 
 
-def _plots(result, folder: Path) -> dict[str, str]:
-    """Write every plot the result supports into ``folder``; returns key → file name."""
+def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
+    """(key, file name, function drawing the Figure) of every plot ``result`` supports, in
+    the order of the report."""
     study = result.study
-    written: dict[str, str] = {}
-
-    def add(key: str, name: str, draw) -> None:
-        draw(folder / name)
-        written[key] = f"plots/{name}"
-
+    plots: list[tuple[str, str, Callable[[], Figure]]] = []
     ident = result.identification
     pair = None
     if ident is not None:
@@ -194,31 +191,47 @@ def _plots(result, folder: Path) -> dict[str, str]:
         first = result.measured.iloc[0]
         pair = (str(first["response_dof"]), str(first["input_dof"]))
     if result.measured is not None:
-        add("measured", "measured_frfs.png",
-            lambda path: plot_frf_levels(result.measured, *pair, path, f"measured receptance {pair[0]}/{pair[1]}"))
+        plots.append(("measured", "measured_frfs.png",
+                      lambda: measured_frfs_figure(result.measured, *pair, f"measured receptance {pair[0]}/{pair[1]}")))
     if ident is not None:
         title = f"{ident.settings.method.upper()} ({ident.result.estimator}), {pair[0]}/{pair[1]}"
-        add("fit", "identification_fit.png",
-            lambda path: plot_fit(ident.result, path, title, ident.misfit_in_noise_units(), POOR_FIT_FACTOR))
-        measured_curves = _curves(result.measured, *pair) if result.measured is not None else []
-        add("linear_frf", "linear_frf.png",
-            lambda path: plot_linear_frf(ident.linear_frequency_hz, ident.linear_frf, measured_curves, path,
-                                         f"extracted linear FRF ({title})", ident.modal_receptance(ident.linear_frequency_hz)))
+        plots.append(("fit", "identification_fit.png", lambda: fit_figure(ident, title, POOR_FIT_FACTOR)))
+        source = None
+        if result.measured is not None:
+            level = ident.linear_from_level_n
+            source = (f"{level:g} {ident.reference_unit}", *frf_curve(result.measured, *pair, level))
+        plots.append(("linear_frf", "linear_frf.png",
+                      lambda: linear_frf_figure(ident, source, f"extracted linear FRF ({title})")))
     if result.runs:
-        tables = study_tables(result)
-        add("convergence", "convergence.png", lambda path: plot_convergence(tables["histories"], path))
-        add("frequency_errors", "frequency_errors.png", lambda path: plot_frequency_errors(result.comparison, path))
+        styles = run_styles(result.runs)
+        sigma = target_sigma_pct(result)
+        plots.append(("convergence", "convergence.png",
+                      lambda: convergence_figure(study_tables(result)["histories"], styles, study.parameters,
+                                                 hidden_truth(study), sigma)))
+        plots.append(("frequency_errors", "frequency_errors.png",
+                      lambda: frequency_errors_figure(result.comparison, styles, sigma)))
         frfs = result.candidate_frfs
         if frfs is not None:
-            add("frf_comparison", "candidate_frfs.png",
-                lambda path: plot_frf_comparison(frfs.frequency_hz, frfs.reference, frfs.curves, path,
-                                                 f"{study.name}: linear FRF {frfs.response_dof}/{frfs.input_dof}"))
+            reference = "linear FRF of [comparison] frf" if study.comparison.frf is not None else \
+                "extracted linear FRF"
+            plots.append(("frf_comparison", "candidate_frfs.png",
+                          lambda: candidate_frfs_figure(frfs, styles, f"{study.name}: linear FRF of each candidate "
+                                                                      f"model against the {reference}", reference)))
     if result.predictions:
-        add("predictions", "prediction_vs_measurement.png",
-            lambda path: plot_predictions(result.measured, result.predictions, *pair, path,
-                                          f"{study.name}: updated nonlinear model vs measurement"))
-        correlation = study_tables(result)["correlation"]
-        add("correlation", "correlation_per_level.png", lambda path: plot_correlation_levels(correlation, path))
+        plots.append(("predictions", "prediction_vs_measurement.png",
+                      lambda: predictions_figure(result.measured, result.predictions, *pair,
+                                                 f"{study.name}: initial and updated nonlinear models vs measurement")))
+        plots.append(("correlation", "correlation_per_level.png",
+                      lambda: correlation_figure(study_tables(result)["correlation"])))
+    return plots
+
+
+def _plots(result, folder: Path) -> dict[str, str]:
+    """Write every plot of :func:`archive_figures` into ``folder``; returns key → file name."""
+    written: dict[str, str] = {}
+    for key, name, draw in archive_figures(result):
+        save_figure(draw(), folder / name, dpi=110 if key == "predictions" else 120)
+        written[key] = f"plots/{name}"
     return written
 
 

@@ -21,7 +21,8 @@ import pandas as pd
 
 from nlupdate.reporting.catalogue import ArchivedRun
 from nlupdate.fingerprints import table_hash
-from nlupdate.reporting.prediction_plots import plot_predictions
+from nlupdate.reporting.figures import save_figure
+from nlupdate.reporting.prediction_plots import predictions_figure
 
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-12
@@ -220,5 +221,5 @@ def plot_comparison(a: ArchivedRun, b: ArchivedRun, path: Path) -> Path | None:
     same_data = measured_b is not None and table_hash(measured_a) == table_hash(measured_b)
     other = None if same_data or measured_b is None else ("measured (B)", measured_b)
     styles = [dict(color="C0", lw=1.4), dict(color="C3", lw=1.1, ls="--")]
-    return plot_predictions(measured_a, [pa, pb], *pair, path,
-                            f"{a.study}: run A vs run B (panel titles: FRAC A / B)", styles, other)
+    return save_figure(predictions_figure(measured_a, [pa, pb], *pair, f"{a.study}: run A vs run B", styles, other,
+                                          short_names=["A", "B"]), path, dpi=110)

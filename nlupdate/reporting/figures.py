@@ -4,6 +4,11 @@ Importing this module (or any plotting module of the project) never selects a ba
 or touches pyplot's global state, so the numerics stay importable anywhere (servers,
 Dask workers, notebooks with their own backend). A PNG is written to a temporary file
 beside its target and renamed, so a reader never sees half a picture.
+
+Conventions of every plot: measured data are black (or viridis by force level) points,
+the initial model is grey and dashed, each updating run has its own colour and line
+style (:mod:`nlupdate.reporting.styles`), a shaded band is a 95 % Monte-Carlo band,
+and a grey region marks where a curve is extrapolated beyond its data.
 """
 from __future__ import annotations
 
@@ -14,8 +19,19 @@ import numpy as np
 import pandas as pd
 from matplotlib import colormaps
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.files import atomic_file
+
+#: How the plots style the initial model and the measured data.
+INITIAL_STYLE = {"color": "0.4", "ls": "--", "lw": 1.1}
+MEASURED_STYLE = {"color": "k", "ls": "none", "marker": ".", "ms": 2}
+#: Colour of an extracted linear FRF and of a fitted describing function.
+EXTRACTED_COLOUR = "crimson"
+FIT_COLOUR = "C1"
+#: Fill of a region where a curve is extrapolated (no data there).
+EXTRAPOLATION_FILL = {"color": "0.5", "alpha": 0.13, "lw": 0}
+BAND_LABEL = "95 % Monte-Carlo band"
 
 
 def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
@@ -31,9 +47,31 @@ def level_colours(count: int, low: float = 0.0, high: float = 0.9) -> np.ndarray
     return colormaps["viridis"](np.linspace(low, high, max(int(count), 1)))
 
 
-def phase_deg(h: np.ndarray) -> np.ndarray:
-    """Phase in degrees in [−270, 90): a receptance with positive damping lies in [−180, 0]."""
-    return (np.degrees(np.angle(h)) + 270.0) % 360.0 - 270.0
+def unwrapped_phase_deg(h: ArrayLike, window: int = 9) -> NDArray[np.float64]:
+    """Phase of ``h`` in degrees, continuous along the curve and robust to noise.
+
+    The phase is followed along a moving average of the unit phasors ``h/|h|`` (over
+    ``window`` points), and each point keeps its own deviation from it (within ±180°), so
+    a noisy point never adds a permanent 360° step. The curve is shifted by a multiple
+    of 360° so that its first points lie in [−270°, 90°) (a receptance with positive
+    damping starts near 0° and falls by 180° per mode). NaN points stay NaN; each
+    stretch between them is unwrapped on its own."""
+    h = np.asarray(h, dtype=complex)
+    out = np.full(h.shape, np.nan)
+    finite = np.isfinite(h) & (h != 0)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], finite.astype(int), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2]):
+        z = h[start:stop]
+        unit = z / np.abs(z)
+        k = min(int(window), z.size)
+        smooth = np.convolve(unit, np.ones(k) / k, mode="same")
+        smooth = np.where(np.abs(smooth) > 0, smooth, unit)
+        reference = np.unwrap(np.angle(smooth))
+        phase = reference + np.angle(z * np.exp(-1j * reference))
+        first = float(np.median(phase[: max(1, z.size // 20)]))
+        phase -= 2 * np.pi * np.floor((first + 1.5 * np.pi) / (2 * np.pi))
+        out[start:stop] = np.degrees(phase)
+    return out
 
 
 def frf_curve(table: pd.DataFrame, response_dof: str, input_dof: str,
@@ -45,3 +83,23 @@ def frf_curve(table: pd.DataFrame, response_dof: str, input_dof: str,
                  & np.isclose(table["force_level_n"].to_numpy(dtype=float), float(force_level), rtol=1e-9, atol=0.0)]
     rows = rows.sort_values("frequency_hz", kind="mergesort")
     return rows["frequency_hz"].to_numpy(dtype=float), rows["h_real"].to_numpy() + 1j * rows["h_imag"].to_numpy()
+
+
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
+#: Units a plot may write with an SI prefix (others are written as given).
+PREFIXABLE_UNITS = frozenset({"Pa", "m", "N", "N/m", "N/m²", "N/m³", "N/m^2", "N/m^3", "Hz", "s", "N s/m", "N·s/m"})
+
+
+def prefixed_unit(values: ArrayLike, unit: str) -> tuple[float, str]:
+    """(scale, unit with prefix) to write ``values`` in ``unit`` readably: E in Pa → GPa,
+    a thickness in m → mm; divide the values by the scale. Units outside
+    :data:`PREFIXABLE_UNITS` keep scale 1."""
+    values = np.abs(np.asarray(values, dtype=float))
+    values = values[np.isfinite(values) & (values > 0)]
+    if unit not in PREFIXABLE_UNITS or not values.size:
+        return 1.0, unit
+    largest = float(values.max())
+    for scale, prefix in _PREFIXES:
+        if largest >= scale:
+            return scale, prefix + unit
+    return _PREFIXES[-1][0], _PREFIXES[-1][1] + unit

@@ -9,6 +9,7 @@ simulated study the hidden truth is printed beside every estimate.
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping
 
 import numpy as np
@@ -33,7 +34,7 @@ def _table(frame: pd.DataFrame, digits: int = 4) -> str:
         if isinstance(value, (float, np.floating)):
             return _number(float(value), digits)
         return str(value).replace("|", "/")
-    header = "| " + " | ".join(map(str, frame.columns)) + " |"
+    header = "| " + " | ".join(str(c).replace("|", "/") for c in frame.columns) + " |"
     rule = "|" + "---|" * len(frame.columns)
     rows = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
     return "\n".join([header, rule, *rows])
@@ -178,15 +179,21 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
     else:
         lines += [f"DDF between {r.setup.force_pair[0]:g} and {r.setup.force_pair[1]:g} N over "
                   f"{r.setup.band_hz[0]:g}–{r.setup.band_hz[1]:g} Hz, {r.estimator} estimator."]
-    lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}); "
-                  f"{ident.uncertainty.n_samples} Monte-Carlo samples, {ident.uncertainty.n_failed} failed.", ""]
+    lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
+                  + monte_carlo_note(ident.uncertainty), ""]
     stats = ident.uncertainty.parameters
     rows = [{"parameter": name, "value": st.value, "std": st.std, "3σ interval": f"[{_number(st.value - 3 * st.std)}, "
              f"{_number(st.value + 3 * st.std)}]", **({"truth": truth.get(name, float("nan"))} if truth else {})}
             for name, st in stats.items() if name in ident.parameters()]
     lines += [_table(pd.DataFrame(rows)), ""]
     if "fit" in plots:
-        lines += [f"![PRD fit]({plots['fit']})", ""]
+        low, high = r.amplitude_range
+        lines += [f"![{s.method.upper()} fit]({plots['fit']})", "",
+                  f"The points are the data ({len(r.amplitude)} of them, coloured by force level), the line the fitted "
+                  f"model, solid over the amplitudes the data cover ({1e3 * low:.3g}–{1e3 * high:.3g} mm) and dotted "
+                  f"in the grey regions beyond them: an extrapolation no measurement supports, though predictions at "
+                  f"other levels and frequencies use it. The shaded band holds 95 % of the Monte-Carlo fits. Right: "
+                  f"each point's misfit in units of its noise (about 1 where the model fits).", ""]
     if ident.modes:
         rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
                  "std (Hz)": stats[f"linear_f{i + 1}_hz"].std, "loss factor": stats[f"linear_eta{i + 1}"].value,
@@ -195,8 +202,34 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
                   f"(one-mode fits over ±{100 * s.modal_band_fraction:g} % around each resonance):", "",
                   _table(pd.DataFrame(rows)), ""]
     if "linear_frf" in plots:
-        lines += [f"![extracted linear FRF]({plots['linear_frf']})", ""]
+        lines += [f"![extracted linear FRF]({plots['linear_frf']})", "",
+                  f"The extracted linear FRF (red) with the band holding 95 % of the Monte-Carlo extractions, the "
+                  f"one-mode fits (dashed) and the {ident.linear_from_level_n:g} {ident.reference_unit} measurement "
+                  f"it comes from (grey); right, each mode's fit band. Near a resonance of the linear structure the "
+                  f"extraction subtracts two nearly equal dynamic stiffnesses (1/H_L = 1/H_1 − Δ_f1), so the noise "
+                  f"grows there: where the band is wide, the modes' values and every FRF comparison against this "
+                  f"curve carry that uncertainty.", ""]
     return lines
+
+
+def monte_carlo_note(uncertainty) -> str:
+    """What the Monte-Carlo sample count means, how many failed and why."""
+    n, failed = uncertainty.n_samples, uncertainty.n_failed
+    text = (f"Uncertainty: {n} Monte-Carlo samples — the measured curves perturbed {n} times with fresh noise of "
+            f"that level and identified again (excitation frequency or band, force levels and model held fixed); the ± below and the bands "
+            f"in the plots are the spread of the {n - failed} results")
+    if not failed:
+        return text + " (none failed)."
+    grouped: dict[str, int] = {}
+    for message, count in uncertainty.failures.items():  # one reason, whatever the numbers in parentheses
+        reason = re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])
+        grouped[reason] = grouped.get(reason, 0) + count
+    reasons = "; ".join(f"{count} × {reason}" for reason, count in sorted(grouped.items(), key=lambda g: -g[1])[:3])
+    more = len(grouped) - 3
+    reasons += f"; {more} other reason{'s' if more > 1 else ''}" if more > 0 else ""
+    return (text + f". {failed} sample{'s' if failed > 1 else ''} failed and {'are' if failed > 1 else 'is'} left "
+            f"out as a whole ({reasons}): these are the perturbed data hardest to identify, so the ± of what "
+            f"failed there may be understated.")
 
 
 def _targets_section(result) -> list[str]:
@@ -231,19 +264,58 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
     lines += [f"* {note}" for note in sorted(notes)] + ([""] if notes else [])
     if "convergence" in plots:
         lines += [f"![convergence]({plots['convergence']})", ""]
-    lines += ["Comparison with the targets, mode by mode (FRAC: against the extracted linear FRF in a band around "
-              "each target):", ""]
-    pivot = result.comparison.pivot_table(index="candidate", columns="mode", values="error_pct", sort=False)
-    pivot.columns = [f"error {c} (%)" for c in pivot.columns]
-    lines += [_table(pivot.reset_index()), ""]
+    comparison = result.comparison
+    has_frac = bool(comparison["frac"].notna().any())
+    lines += ["Comparison with the targets, mode by mode: the frequency error of each candidate model"
+              + (" and the FRAC of its linear FRF against the extracted one (explained below the table):" if has_frac
+                 else ":"), ""]
+    errors = comparison.pivot_table(index="candidate", columns="mode", values="error_pct", sort=False)
+    errors.columns = [f"error {c} (%)" for c in errors.columns]
+    table = errors
+    if has_frac:
+        fracs = comparison.pivot_table(index="candidate", columns="mode", values="frac", sort=False, dropna=False)
+        fracs.columns = [f"FRAC {c}" for c in fracs.columns]
+        table = errors.join(fracs)
+    lines += [_table(table.reset_index()), ""]
+    if has_frac:
+        lines += [_frac_explanation(result), ""]
     if "frequency_errors" in plots:
-        lines += [f"![frequency errors]({plots['frequency_errors']})", ""]
+        sigma = (" The green bands are each target's ±1σ and ±2σ — the uncertainty the updating propagates into "
+                 "the updated parameters." if result.targets is not None and result.targets.std_hz is not None else "")
+        lines += [f"![frequency errors]({plots['frequency_errors']})", "",
+                  f"Each bar is a candidate's error for one target mode, its value beside it.{sigma}", ""]
     if "frf_comparison" in plots:
-        lines += [f"![candidate FRFs]({plots['frf_comparison']})", ""]
-    ranking = result.ranking[["rank", "candidate", "weighted_abs_error_pct", "weighted_frac"]]
-    lines += ["Ranking for the user weights (weighted mean |frequency error|, lower is better):", "",
+        lines += [f"![candidate FRFs]({plots['frf_comparison']})", "",
+                  f"The candidates' linear FRFs are modal superpositions of the {result.candidate_frfs.modes} modes "
+                  f"each model computed, without residual terms: if the model has higher modes, the curves miss them "
+                  f"(modal truncation) — anti-resonances and the level above the last computed mode are off for that "
+                  f"reason, not because of the updating.", ""]
+    columns = {"rank": "rank", "candidate": "candidate", "weighted_abs_error_pct": "weighted mean abs. frequency error (%)"}
+    if has_frac:
+        columns["weighted_frac"] = "weighted FRAC"
+    ranking = result.ranking[list(columns)].rename(columns=columns)
+    lines += ["Ranking for the user weights, by the weighted mean |frequency error| (Σ w·|error| / Σ w over the target "
+              "modes; lower is better): the first is the best updated model"
+              + (". Weighted FRAC (Σ w·FRAC / Σ w, higher is better) is shown beside it; read it against what the "
+                 "extracted FRF's own fits reach (above)." if has_frac else "."), "",
               _table(ranking), ""]
     return lines
+
+
+def _frac_explanation(result) -> str:
+    """What the candidates' per-mode FRAC measures and what it can reach here."""
+    band = result.study.comparison.band_fraction
+    text = (f"FRAC (0–1, 1 = same shape) compares a candidate's linear FRF — its computed modes with the "
+            f"identified loss factors — with the extracted linear FRF within ±{100 * band:g} % of each target. It "
+            f"is limited by the noise of that reference and by modal truncation, not only by the model")
+    reachable = result.targets.reference_fit_frac if result.targets is not None else None
+    if reachable is None:
+        return text + "."
+    values = ", ".join(f"{_number(v, 3)} ({label})" for label, v in zip(result.targets.targets.labels, reachable))
+    return (text + f": the extracted FRF's own one-mode fits — curves fitted to these very data — reach {values} in "
+            f"the same bands. A candidate near those values agrees with the reference as well as its noise lets "
+            f"any curve agree, however low the number; a low value there says the reference is noisy, not that the "
+            f"model is poor. How well the model predicts is the prediction's FRAC against the measurements, below.")
 
 
 def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
@@ -253,11 +325,18 @@ def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
              "model before updating with the same elements. Response method ([prediction] `method`): "
              f"{describe(result.study.prediction.harmonic_balance)}.", ""]
     if "predictions" in plots:
-        lines += [f"![predictions]({plots['predictions']})", ""]
+        lines += [f"![predictions]({plots['predictions']})", "",
+                  "Magnitude and phase at each force level; each panel's title gives the FRAC of the initial and of "
+                  "the updated model at that level.", ""]
+    columns = {"model": "model", "force_level_n": "force level (N)", "frac": "FRAC",
+               "normalised_error": "‖H_model − H_measured‖ / ‖H_measured‖",
+               "peak_frequency_error_pct": "peak frequency error (%)",
+               "peak_amplitude_ratio": "peak amplitude model / measured"}
     table = pd.concat([p.correlation.assign(model=p.name) for p in result.predictions], ignore_index=True)
-    table = table[["model", "force_level_n", "frac", "normalised_error", "peak_frequency_error_pct",
-                   "peak_amplitude_ratio"]]
-    lines += [_table(table, 3), ""]
+    table = table[list(columns)].rename(columns=columns)
+    lines += ["Per level, against the measurement itself over the whole measured band: FRAC (0–1, 1 = the "
+              "measured shape), the relative FRF error, and the error of the highest peak's frequency and "
+              "amplitude.", "", _table(table, 3), ""]
     if "correlation" in plots:
         lines += [f"![correlation per level]({plots['correlation']})", ""]
     return lines

@@ -1,87 +1,162 @@
-"""PNG plots of updating runs (files written atomically).
-
-Figures are built with :class:`matplotlib.figure.Figure` and rendered by the Agg
-canvas, without pyplot, so importing this module never changes the global backend.
-"""
+"""The plots of a study's updating runs: convergence, frequency errors against the
+targets, and the candidates' linear FRFs against the reference (Figures, see
+:mod:`nlupdate.reporting.figures`; each run styled by :mod:`nlupdate.reporting.styles`)."""
 from __future__ import annotations
 
-import os
-from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
-from numpy.typing import ArrayLike
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullLocator
 
-from nlupdate.reporting.figures import save_figure
+from nlupdate.reporting.figures import BAND_LABEL, MEASURED_STYLE, prefixed_unit
+from nlupdate.reporting.styles import bar_style
+
+#: Fill of a target's ±1σ and ±2σ interval.
+TARGET_BAND = ({"color": "tab:green", "alpha": 0.22, "lw": 0}, {"color": "tab:green", "alpha": 0.1, "lw": 0})
 
 
-def plot_convergence(history: pd.DataFrame, path: str | os.PathLike, run_column: str = "run") -> Path:
-    """Parameters (relative to their start) and the largest |frequency error| (%) per
-    iteration (objective call for optimisation runs), one colour per run
-    (``run_column``) and one line style per parameter."""
-    figure = Figure(figsize=(11, 4.2))
-    left, right = figure.subplots(1, 2)
-    parameter_columns = [c for c in history.columns if c.startswith("p:")]
-    styles = ["-", "--", ":", "-."]
-    markers = ["o", "s", "^", "v", "D"]
-    for k, (run, group) in enumerate(history.groupby(run_column, sort=False)):
-        colour = f"C{k % 10}"
-        for j, column in enumerate(parameter_columns):  # colour = run, line style = parameter
-            values = group[column].to_numpy(dtype=float)
-            if np.isnan(values).all():
+def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parameters: Sequence[Any],
+                       truth: Mapping[str, float] | None = None,
+                       target_sigma_pct: Mapping[str, float] | None = None) -> Figure:
+    """Each updated parameter (in its unit, one panel each) and the largest |frequency
+    error| over the target modes (%) per iteration of every run (``history``: the
+    runs' histories with a ``run`` column); ``parameters``: the study's parameters
+    (name, unit); ``truth``: hidden values drawn as lines; ``target_sigma_pct``: each
+    target's standard deviation in % of its frequency, drawn on the error panel."""
+    names = [p.name for p in parameters if f"p:{p.name}" in history.columns]
+    units = {p.name: p.unit for p in parameters}
+    count = len(names) + 1
+    columns = min(count, 3)
+    rows = -(-count // columns)
+    figure = Figure(figsize=(4.4 * columns, 3.3 * rows + 1.6), layout="constrained")
+    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    runs = list(dict.fromkeys(history["run"]))
+    for ax, name in zip(axes, names):
+        values = history[f"p:{name}"].to_numpy(dtype=float)
+        known = [truth[name]] if truth and name in truth else []
+        scale, unit = prefixed_unit(np.concatenate([values, known]), units.get(name, ""))
+        for run in runs:
+            group = history[history["run"] == run]
+            v = group[f"p:{name}"].to_numpy(dtype=float)
+            if np.isnan(v).all():
                 continue
-            left.plot(group["iteration"], values / values[0], color=colour, ls=styles[j % 4], marker=markers[j % 5], ms=3,
-                      label=f"{run}: {column[2:]}")
-        right.semilogy(group["iteration"], np.maximum(group["max_abs_error_pct"].to_numpy(dtype=float), 1e-12),
-                       color=colour, marker="o", ms=3, label=str(run))
-    left.set(xlabel="iteration", ylabel="parameter / start value", title="parameters")
-    right.set(xlabel="iteration", ylabel="max |frequency error| (%)", title="paired natural frequencies")
-    for axis in (left, right):
-        axis.xaxis.set_major_locator(MaxNLocator(integer=True))
-        axis.grid(True, alpha=0.3)
-        axis.legend(fontsize=7)
-    figure.tight_layout()
-    return save_figure(figure, path)
+            ax.plot(group["iteration"], v / scale, label=run, **{"ms": 4, "lw": 1.4, **styles[run]})
+        if known:
+            ax.axhline(known[0] / scale, color="k", lw=0.9, ls=(0, (6, 2, 1, 2)), label="_")
+            ax.annotate(f"hidden truth {known[0] / scale:.4g}", (1.0, known[0] / scale), xycoords=("axes fraction", "data"),
+                        xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7)
+        ax.set(xlabel="iteration", ylabel=f"{name} ({unit})" if unit else name, title=f"parameter {name}")
+    error_ax = axes[len(names)]
+    for run in runs:
+        group = history[history["run"] == run]
+        error_ax.semilogy(group["iteration"], np.maximum(group["max_abs_error_pct"].to_numpy(dtype=float), 1e-12),
+                          label=run, **{"ms": 4, "lw": 1.4, **styles[run]})
+    for label, sigma in (target_sigma_pct or {}).items():
+        if np.isfinite(sigma) and sigma > 0:
+            error_ax.axhline(sigma, color="tab:green", lw=0.9, ls=":", label="_")
+            error_ax.annotate(f"σ of target {label}: {sigma:.2g} %", (1.0, sigma), xycoords=("axes fraction", "data"),
+                              xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7, color="tab:green")
+    error_ax.set(xlabel="iteration", ylabel="max over target modes of\n|f_model − f_target| / f_target (%)",
+                 title="frequency error")
+    for ax in axes[:count]:
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes[count:]:
+        ax.axis("off")
+    handles, labels = error_ax.get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside lower center", ncol=min(3, len(labels)), fontsize=7,
+                  title="run (colour: parameter set or candidate; line style: difference formula)", title_fontsize=7)
+    figure.suptitle("convergence of every updating run", fontsize=10)
+    return figure
 
 
-def plot_frequency_errors(comparison: pd.DataFrame, path: str | os.PathLike) -> Path:
-    """Grouped bars of the frequency error (%) per mode, one bar per candidate."""
+def frequency_errors_figure(comparison: pd.DataFrame, styles: Mapping[str, dict],
+                            target_sigma_pct: Mapping[str, float] | None = None) -> Figure:
+    """Per target mode (one panel each) the frequency error (%) of every candidate, one
+    labelled row each, against the target's ±1σ and ±2σ interval (``target_sigma_pct``:
+    standard deviation in % of the target frequency)."""
     modes = list(dict.fromkeys(comparison["mode"]))
     candidates = list(dict.fromkeys(comparison["candidate"]))
-    width = 0.8 / len(candidates)
-    figure = Figure(figsize=(max(6, 1.6 * len(modes) + 0.4 * len(candidates)), 4.2))
-    axis = figure.subplots()
-    for k, name in enumerate(candidates):
-        rows = comparison[comparison["candidate"] == name].set_index("mode").loc[modes]
-        axis.bar(np.arange(len(modes)) + (k - (len(candidates) - 1) / 2) * width, rows["error_pct"], width, label=name)
-    axis.axhline(0, color="k", lw=0.8)
-    axis.set_xticks(np.arange(len(modes)), modes)
-    axis.set(ylabel="frequency error (%)", title="candidate models vs targets")
-    axis.grid(True, axis="y", alpha=0.3)
-    axis.legend(fontsize=7)
-    figure.tight_layout()
-    return save_figure(figure, path)
+    figure = Figure(figsize=(3.2 + 3.6 * len(modes), 1.2 + 0.3 * len(candidates)), layout="constrained")
+    axes = np.atleast_1d(figure.subplots(1, len(modes), sharey=True, squeeze=False)).ravel()
+    rows = np.arange(len(candidates))[::-1]
+    for ax, mode in zip(axes, modes):
+        table = comparison[comparison["mode"] == mode].set_index("candidate").loc[candidates]
+        errors = table["error_pct"].to_numpy(dtype=float)
+        sigma = (target_sigma_pct or {}).get(mode, float("nan"))
+        if np.isfinite(sigma) and sigma > 0:
+            ax.axvspan(-2 * sigma, 2 * sigma, **TARGET_BAND[1], label="target ±2σ")
+            ax.axvspan(-sigma, sigma, **TARGET_BAND[0], label="target ±1σ")
+        for row, name, error in zip(rows, candidates, errors):
+            ax.barh(row, error, 0.7, label=name, **bar_style(styles[name]))
+        sizes = np.abs(np.concatenate([errors, [2 * sigma if np.isfinite(sigma) else 0.0]]))
+        reach = float(np.nanmax(sizes)) if np.isfinite(sizes).any() and np.nanmax(sizes) > 0 else 1.0
+        threshold = sigma if np.isfinite(sigma) and sigma > 0 else 1e-2 * reach
+        if reach > 30 * threshold:  # errors from ≪σ to ≫σ: linear within ±σ, logarithmic beyond
+            ax.set_xscale("symlog", linthresh=threshold, linscale=0.6)
+            ax.set_xlim(-reach * 8, reach * 8)
+            decades = 10.0 ** np.arange(np.ceil(np.log10(3 * threshold)), np.floor(np.log10(reach * 8)) + 1)
+            ax.set_xticks(np.concatenate([-decades[::-1], [0.0], decades]))
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+            ax.xaxis.set_minor_locator(NullLocator())
+            ax.set_xlabel(f"frequency error (%), log scale beyond ±{threshold:.2g} %")
+        else:
+            ax.set_xlim(-1.45 * reach, 1.45 * reach)
+            ax.set_xlabel("frequency error (%)")
+        for row, error in zip(rows, errors):
+            if np.isfinite(error):
+                ax.annotate(f"{error:+.2g} %", (error, row), xytext=(3 if error >= 0 else -3, 0),
+                            textcoords="offset points", ha="left" if error >= 0 else "right", va="center", fontsize=6.5)
+        ax.axvline(0, color="k", lw=0.8)
+        target = table["target_hz"].iloc[0]
+        title = f"{mode}: target {target:.5g} Hz"
+        if np.isfinite(sigma):
+            title += f" (σ {sigma:.2g} %)"
+        ax.set_title(title, fontsize=9)
+        ax.grid(True, axis="x", alpha=0.3)
+    axes[0].set_yticks(rows, candidates, fontsize=7)
+    if any(np.isfinite((target_sigma_pct or {}).get(m, float("nan"))) for m in modes):
+        handles, labels = axes[0].get_legend_handles_labels()
+        keep = [i for i, label in enumerate(labels) if label.startswith("target")]
+        axes[0].legend([handles[i] for i in keep], [labels[i] for i in keep], fontsize=7, loc="lower left")
+    figure.suptitle("natural frequency of each candidate model against the targets", fontsize=10)
+    return figure
 
 
-def plot_frf_comparison(
-    frequency_hz: ArrayLike,
-    reference: ArrayLike,
-    curves: Mapping[str, ArrayLike],
-    path: str | os.PathLike,
-    title: str = "",
-) -> Path:
-    """|H| (log scale) of the reference (extracted linear FRF) and the model curves."""
-    f = np.asarray(frequency_hz, dtype=float)
-    figure = Figure(figsize=(8, 4.5))
-    axis = figure.subplots()
-    axis.semilogy(f, np.abs(np.asarray(reference)), "k.", ms=3, label="extracted linear FRF")
-    for name, h in curves.items():
-        axis.semilogy(f, np.abs(np.asarray(h)), lw=1.2, label=name)
-    axis.set(xlabel="frequency (Hz)", ylabel="|receptance| (m/N)", title=title)
-    axis.grid(True, which="both", alpha=0.3)
-    axis.legend(fontsize=7)
-    figure.tight_layout()
-    return save_figure(figure, path)
+def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = "",
+                          reference_label: str = "extracted linear FRF") -> Figure:
+    """|H| (log, m/N) of the reference linear FRF (``reference_label``; with its 95 % band
+    when it has one) and of every candidate model
+    (:class:`~nlupdate.study.steps.CandidateFRFs`), with what modal truncation does to the
+    models' curves said on the plot."""
+    f = np.asarray(frfs.frequency_hz, dtype=float)
+    figure = Figure(figsize=(12, 5.4), layout="constrained")
+    ax, side = figure.subplots(1, 2, width_ratios=[2.6, 1])
+    side.axis("off")
+    band = frfs.reference_band
+    if band is not None:
+        ax.fill_between(f, *band.magnitude, color="0.3", alpha=0.2, lw=0, label=f"its {BAND_LABEL}")
+    ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label=reference_label)
+    for name, h in frfs.curves.items():
+        ax.semilogy(f, np.abs(np.asarray(h)), label=name, **{"lw": 1.2, **styles[name], "marker": ""})
+    ax.set(xlabel="frequency (Hz)", ylabel=f"|H| {frfs.response_dof}/{frfs.input_dof} (m/N)", title=title)
+    ax.grid(True, which="both", alpha=0.3)
+    side.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="upper left", borderaxespad=0)
+    side.text(0.0, 0.0, truncation_note(frfs), fontsize=7.5, ha="left", va="bottom", transform=side.transAxes,
+              bbox={"boxstyle": "round", "facecolor": "lightyellow", "edgecolor": "0.6"})
+    return figure
+
+
+def truncation_note(frfs: Any) -> str:
+    """What a reader must know about the candidates' FRFs: modal superposition of the
+    computed modes, without residual terms."""
+    note = (f"Model curves: modal superposition of the {frfs.modes}\nmodes each model computed, no residual terms.\n"
+            f"Higher modes of the model are left out\n(modal truncation)")
+    if frfs.response_dof == frfs.input_dof:
+        note += (": at this driving point they\nwould add flexibility below their resonances,\nso without them "
+                 "anti-resonances sit too high\nand |H| above the last computed mode\nis too large.")
+    else:
+        note += ":\nanti-resonances and the level away\nfrom the modes are off."
+    return note + "\nNot an updating error: the updating\nmatches natural frequencies only."

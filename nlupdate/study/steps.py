@@ -23,9 +23,11 @@ from numpy.typing import NDArray
 
 from nlupdate.adapters.base import ModalResult
 from nlupdate.correlation.levels import correlate_levels
+from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import Identification, identify
 from nlupdate.identification.trust import TrustWarning
+from nlupdate.identification.uncertainty import CurveBand
 from nlupdate.measurement.frf_table import force_levels, select_frf
 from nlupdate.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.measurement.time_history import estimate_frf, read_time_record
@@ -50,12 +52,20 @@ from nlupdate.updating.uncertainty import ParameterUncertainty, propagate_target
 class TargetSet:
     """Updating targets, their standard deviations (Hz; None when unknown), the reference
     linear FRF (frequencies Hz, receptance m/N) when there is one, and the loss factors of
-    the target modes when the identification measured them."""
+    the target modes when the identification measured them.
+
+    When the reference is this study's extracted linear FRF: ``reference_band``, its 95 %
+    Monte-Carlo band, and ``reference_fit_frac``, per target the FRAC that the
+    identification's own one-mode fit of that mode reaches against the reference in the
+    comparison's band around the target — what a model can reach against a reference this
+    noisy (the candidates' per-mode FRAC is read against it)."""
 
     targets: UpdatingTargets
     std_hz: NDArray[np.float64] | None
     reference: tuple[NDArray[np.float64], NDArray[np.complex128]] | None
     loss_factors: NDArray[np.float64] | None = None
+    reference_band: CurveBand | None = None
+    reference_fit_frac: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -93,7 +103,9 @@ class Comparison:
 class CandidateFRFs:
     """The reference linear FRF of the targets and every run's (and the initial model's)
     linear receptance at the measured pair of the model (m/N), over ``frequency_hz`` (Hz):
-    modal superposition of the modes each model computed, with the comparison's damping."""
+    modal superposition of the ``modes`` modes each model computed, with the comparison's
+    damping; no residual terms, so the modes left out are missing (modal truncation).
+    ``reference_band``: the reference's 95 % Monte-Carlo band, when it has one."""
 
     frequency_hz: NDArray[np.float64]
     reference: NDArray[np.complex128]
@@ -101,6 +113,7 @@ class CandidateFRFs:
     response_dof: str
     input_dof: str
     modes: int
+    reference_band: CurveBand | None = None
 
 
 @dataclass(frozen=True)
@@ -187,7 +200,7 @@ def study_targets(study: Study, identification: Identification | None) -> Target
     """Targets from the study: a list, the modes of this study's extracted linear FRF, or
     the linear FRF of an earlier ``nlupdate identify`` output."""
     t = study.targets
-    reference, std, loss_factors = None, None, None
+    reference, std, loss_factors, band, fit_frac = None, None, None, None, None
     model_modes = t.model_modes
     if t.from_identification:
         modes = list(t.modes or range(1, len(identification.modes) + 1))
@@ -203,6 +216,8 @@ def study_targets(study: Study, identification: Identification | None) -> Target
         std = identification.natural_frequency_std_hz[index]
         loss_factors = identification.loss_factors[index]
         reference = (identification.linear_frequency_hz, identification.linear_frf)
+        band = identification.linear_frf_band
+        fit_frac = reference_fit_frac(identification, index, frequencies, study.comparison.band_fraction)
     elif t.identification is not None:
         frequency, h = read_linear_frf(study.resolve(t.identification), t.response_dof, t.input_dof, t.force_level_n)
         reference = (frequency, h)
@@ -223,12 +238,28 @@ def study_targets(study: Study, identification: Identification | None) -> Target
     if study.comparison.frf is not None:
         response, inp = _measured_pair(study)
         reference = read_linear_frf(study.comparison.frf, response, inp, t.force_level_n)
+        band, fit_frac = None, None
     shapes = np.asarray(t.mode_shapes, dtype=float).T if t.mode_shapes is not None else None
     try:
         targets = UpdatingTargets(frequencies, t.weights, shapes, t.coordinates, t.labels, model_modes)
     except ValueError as error:
         raise StudyError(f"{study.path}: [targets]: {error}") from None
-    return TargetSet(targets, std, reference, loss_factors)
+    return TargetSet(targets, std, reference, loss_factors, band, fit_frac)
+
+
+def reference_fit_frac(identification: Identification, modes: Sequence[int], frequencies_hz: NDArray,
+                       band_fraction: float) -> NDArray[np.float64]:
+    """Per target: FRAC of the identification's one-mode fit of mode ``modes[i]`` (0-based)
+    against the extracted linear FRF within ±``band_fraction`` of ``frequencies_hz[i]``
+    (as :func:`nlupdate.updating.runs.compare_candidates` scores the candidates; NaN with
+    fewer than 3 points in the band)."""
+    f, h = identification.linear_frequency_hz, identification.linear_frf
+    out = np.full(len(modes), np.nan)
+    for i, (mode, target) in enumerate(zip(modes, frequencies_hz)):
+        band = np.abs(f - target) <= band_fraction * target
+        if band.sum() >= 3:
+            out[i] = frac(h[band], identification.modes[mode].receptance(f[band]))
+    return out
 
 
 def _measured_pair(study: Study) -> tuple[str, str]:
@@ -338,7 +369,7 @@ def candidate_frfs(study: Study, targets: TargetSet, updating: UpdatingOutcome) 
     curves = {"initial": candidate_frf(runs[0], frequency, response, inp, *damping, "initial")}
     curves.update({run.name: candidate_frf(run, frequency, response, inp, *damping) for run in runs})
     return CandidateFRFs(np.asarray(frequency, dtype=float), np.asarray(h), curves, response, inp,
-                         len(runs[0].final.natural_frequencies_hz))
+                         len(runs[0].final.natural_frequencies_hz), targets.reference_band)
 
 
 def parameter_uncertainties(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> dict[str, ParameterUncertainty]:
