@@ -141,7 +141,7 @@ def trace_frequency_response(
     curve = trace_curve(problem, omega_start, omega_end, **options)
     stable = curve.jacobian_determinant > 0
     stable[curve.turning_point] = False
-    x = np.array([problem.to_complex(y) for y in curve.y])
+    x = problem.to_complex(curve.y)
     return FrequencyResponse(problem, curve.omega, x, stable, curve.turning_point)
 
 

@@ -36,7 +36,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.model.system import NonlinearSystem, forcing_vector
+from nlupdate.model.system import LinearTerms, NonlinearSystem, forcing_vector
 from nlupdate.response.aft import Fourier, aliasing_change, period_forces
 from nlupdate.response.continuation import (
     Bifurcation,
@@ -173,29 +173,59 @@ class HarmonicBalanceProblem:
         return x_lin / self.x_scale, np.zeros(self.size)
 
     def to_complex(self, y: NDArray) -> NDArray[np.complex128]:
-        """State ``(H+1, n_a)`` complex (m) from scaled unknowns."""
-        c = np.asarray(y).reshape(self.fourier.size, self.n) * self.x_scale
-        state = np.empty((self.harmonics + 1, self.n), complex)
-        state[0] = c[0]
-        state[1:] = c[1::2] + 1j * c[2::2]
+        """States ``(…, H+1, n_a)`` complex (m) from scaled unknowns (…, size)."""
+        y = np.asarray(y)
+        c = y.reshape(y.shape[:-1] + (self.fourier.size, self.n)) * self.x_scale
+        state = np.empty(y.shape[:-1] + (self.harmonics + 1, self.n), complex)
+        state[..., 0, :] = c[..., 0, :]
+        state[..., 1:, :] = c[..., 1::2, :] + 1j * c[..., 2::2, :]
         return state
 
     def to_real(self, state: NDArray) -> NDArray[np.float64]:
-        return self.coefficients(state).reshape(-1) / self.x_scale
+        """Scaled unknowns (…, size) of states (…, H+1, n_a) (m)."""
+        c = self.coefficients(state)
+        return c.reshape(c.shape[:-2] + (self.size,)) / self.x_scale
 
     def coefficients(self, state: NDArray) -> NDArray[np.float64]:
-        """Real coefficient array (2H+1, n_a) (m) of a state."""
+        """Real coefficient arrays (…, 2H+1, n_a) (m) of states (…, H+1, n_a)."""
         state = np.asarray(state, complex)
-        c = np.empty((self.fourier.size, self.n))
-        c[0] = state[0].real
-        c[1::2], c[2::2] = state[1:].real, state[1:].imag
+        c = np.empty(state.shape[:-2] + (self.fourier.size, self.n))
+        c[..., 0, :] = state[..., 0, :].real
+        c[..., 1::2, :], c[..., 2::2, :] = state[..., 1:, :].real, state[..., 1:, :].imag
         return c
+
+    def linear_batch(self, omega: ArrayLike, derivative: bool = True) -> LinearTerms:
+        """The linear part at every ω of ``omega`` (rad/s): the real block-diagonal receptance
+        (P, size, size) as ``h_aa``, ``X_lin`` (P, size) and their ω-derivatives."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        parts = [self._blocks(w, derivative) for w in omega]
+        stacked = [np.array([part[i] for part in parts]) if derivative or i in (0, 1) else None for i in range(4)]
+        return LinearTerms(omega, stacked[0], stacked[1], stacked[2], stacked[3])
 
     def residual(self, y: NDArray, omega: float) -> NDArray[np.float64]:
         big, x_lin, _, _ = self._blocks(omega, derivative=False)
         x = np.asarray(y) * self.x_scale
         g = self.forces(x.reshape(self.fourier.size, self.n), omega).reshape(-1)
         return (x - x_lin + big @ g) / self.x_scale
+
+    def residual_batch(self, y: NDArray, linear: LinearTerms, jacobian: bool = True):
+        """Scaled residuals (P, size) at states ``y`` (P, size) and the frequencies of ``linear``;
+        with ``jacobian`` also ``∂R/∂y`` (P, size, size) and ``∂R/∂ω`` (P, size; None when
+        ``linear`` has no derivatives)."""
+        x = np.asarray(y, dtype=float) * self.x_scale
+        shape = (self.fourier.size, self.n)
+        if not jacobian:
+            g = np.array([self.forces(state.reshape(shape), w).reshape(-1) for state, w in zip(x, linear.omega)])
+            return (x - linear.x_lin + np.einsum("pij,pj->pi", linear.h_aa, g)) / self.x_scale
+        parts = [self.forces(state.reshape(shape), w, jacobian=True) for state, w in zip(x, linear.omega)]
+        g, dg, dg_dw = (np.array([part[i] for part in parts]) for i in range(3))
+        r = (x - linear.x_lin + np.einsum("pij,pj->pi", linear.h_aa, g)) / self.x_scale
+        jac = np.eye(self.size) + linear.h_aa @ dg
+        jac_w = None
+        if linear.dh_aa is not None:
+            jac_w = (-linear.dx_lin + np.einsum("pij,pj->pi", linear.dh_aa, g)
+                     + np.einsum("pij,pj->pi", linear.h_aa, dg_dw)) / self.x_scale
+        return r, jac, jac_w
 
     def residual_and_jacobians(self, y: NDArray, omega: float):
         """Scaled residual, ``∂R/∂y`` and ``∂R/∂ω`` (per rad/s)."""
@@ -346,7 +376,7 @@ def trace_harmonic_balance(
         raise ValueError("harmonic balance needs at least one nonlinear element; the linear response is H(ω)·F")
     problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
     curve = trace_curve(problem, omega_start, omega_end, **options)
-    states = np.array([problem.to_complex(y) for y in curve.y])
+    states = problem.to_complex(curve.y)
     if stability and problem.harmonics > 1:
         stable, multipliers, bifurcations = _stability(problem, curve.omega, states, curve.turning_point)
     else:
