@@ -62,7 +62,8 @@ def default_samples(harmonics: int) -> int:
 
 
 class HarmonicBalanceProblem:
-    """Residual and Jacobians of the condensed multi-harmonic balance at one force vector.
+    """Residual and Jacobians of the condensed multi-harmonic balance at one force vector
+    (a :class:`~nlupdate.response.balance.MultiHarmonicProblem`).
 
     Unknowns ``y`` (scaled by ``x_scale``, m): the coefficients ``[X₀, Re X₁, Im X₁, …]`` of
     every nonlinear coordinate, stored coefficient-major, ``y[c·n_a + i]``.

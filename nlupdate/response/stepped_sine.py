@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.response.continuation import FrequencyResponse
 from nlupdate.model.system import newton_batch
+from nlupdate.response.balance import BalanceProblem
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,7 +37,7 @@ class SweepResult:
     in sweep order. Points no stable branch covers are NaN.
     """
 
-    problem: object
+    problem: BalanceProblem
     omega: NDArray[np.float64]
     x_nonlinear: NDArray[np.complex128]
     direction: str
