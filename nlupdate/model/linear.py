@@ -363,11 +363,12 @@ class ModalModel:
         denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + eta_scale * self.loss_factors * wr**2)
         phi_rows = self.mode_shapes[list(rows)]
         phi_cols = self.mode_shapes[list(cols)]
-        h = np.einsum("jr,wr,kr->wjk", phi_rows, 1.0 / denominator, phi_cols)
+        inverse = 1.0 / denominator
+        h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols.T
         if not derivative:
             return h
         d_denominator = -2 * w + 2j * self.damping_ratios * wr
-        dh = np.einsum("jr,wr,kr->wjk", phi_rows, -d_denominator / denominator**2, phi_cols)
+        dh = (phi_rows[None] * (-d_denominator * inverse**2)[:, None, :]) @ phi_cols.T
         return h, dh
 
 

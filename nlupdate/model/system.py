@@ -208,11 +208,11 @@ class CondensedProblem:
         with_w = jacobian and linear.dh_aa is not None
         if not jacobian:
             g = self.forces_batch(x, linear.omega)
-            r = (x - linear.x_lin + np.einsum("pij,pj->pi", linear.h_aa, g)) / self.x_scale
+            r = (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
             return np.concatenate([r.real, r.imag], axis=1)
         g, dg_dre, dg_dim, dg_dw = self.forces_batch(x, linear.omega, jacobian=True)
         h_aa = linear.h_aa
-        r = (x - linear.x_lin + np.einsum("pij,pj->pi", h_aa, g)) / self.x_scale
+        r = (x - linear.x_lin + (h_aa @ g[..., None])[..., 0]) / self.x_scale
         eye = np.eye(self.n)
         d_re = eye + h_aa @ dg_dre
         d_im = 1j * eye + h_aa @ dg_dim
@@ -221,7 +221,7 @@ class CondensedProblem:
         jac[:, :n, :n], jac[:, :n, n:], jac[:, n:, :n], jac[:, n:, n:] = d_re.real, d_im.real, d_re.imag, d_im.imag
         jac_w = None
         if with_w:
-            d_w = (-linear.dx_lin + np.einsum("pij,pj->pi", linear.dh_aa, g) + np.einsum("pij,pj->pi", h_aa, dg_dw))
+            d_w = -linear.dx_lin + (linear.dh_aa @ g[..., None] + h_aa @ dg_dw[..., None])[..., 0]
             d_w = d_w / self.x_scale
             jac_w = np.concatenate([d_w.real, d_w.imag], axis=1)
         return np.concatenate([r.real, r.imag], axis=1), jac, jac_w

@@ -4,8 +4,10 @@ A harmonic force of amplitude F (N) acts at one input coordinate; for each level
 receptance ``H = X/F`` (m/N) is computed at every coordinate of the model on a
 frequency grid (Hz) with one of three methods:
 
-* ``continuation`` — trace the curve (:mod:`nlupdate.response.continuation`) and read it like a
-  stepped-sine test sweeping ``up`` or ``down`` (:mod:`nlupdate.response.stepped_sine`);
+* ``continuation`` — the describing-function balance read like a stepped-sine test sweeping
+  ``up`` or ``down`` (:mod:`nlupdate.response.sweep`: closed-form roots, one batched solve of a
+  fold-free branch, or the traced curve (:mod:`nlupdate.response.continuation`) read by
+  :mod:`nlupdate.response.stepped_sine`);
 * ``hb`` — the same with H harmonics and the constant term, stability by Hill's method
   (:mod:`nlupdate.response.harmonic_balance`); the table holds the first harmonic;
 * ``fixed-point`` — the source's relaxed iteration from the linear response; points
@@ -24,13 +26,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.fixed_point import fixed_point_response
 from nlupdate.response.harmonic_balance import HarmonicSettings, trace_harmonic_balance
 from nlupdate.model.linear import dof_index
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.measurement.noise import add_table_noise
 from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.response.sweep import frequency_sweep
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.time_integration import time_sweep
 from nlupdate.progress import ProgressCallback, no_progress
@@ -40,13 +42,15 @@ METHODS = ("continuation", "hb", "fixed-point", "time")
 
 @dataclass
 class SimulationReport:
-    """What happened per force level: dropped (non-converged) points and jumps (Hz)."""
+    """What happened per force level: dropped (non-converged) points, jumps (Hz) and, for the
+    describing function, the route that solved it (:attr:`~nlupdate.response.stepped_sine.SweepResult.route`)."""
 
     dropped_points: dict[float, int] = field(default_factory=dict)
     jumps_hz: dict[float, tuple[float, ...]] = field(default_factory=dict)
     harmonics: dict[float, int] = field(default_factory=dict)
     harmonic_share: dict[float, float] = field(default_factory=dict)
     bifurcations: dict[float, tuple] = field(default_factory=dict)
+    routes: dict[float, str] = field(default_factory=dict)
 
 
 def _read_curve(curve, system, omega, sweep):
@@ -56,8 +60,12 @@ def _read_curve(curve, system, omega, sweep):
 
 
 def _responses_continuation(system, forcing, omega, sweep, progress, settings, report):
-    curve = trace_frequency_response(system, forcing, float(omega.min()), float(omega.max()))
-    return _read_curve(curve, system, omega, sweep)
+    # Once a level needed the trace (folds), the later ones go there directly: a choice of
+    # speed only, every route gives the same responses.
+    result = frequency_sweep(system, forcing, omega, sweep, fold_free="traced" not in report.routes.values())
+    report.routes[float(abs(next(iter(forcing.values()))))] = result.route
+    valid = np.isfinite(result.x_nonlinear.reshape(omega.size, -1)).all(axis=1)
+    return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
 
 def _responses_hb(system, forcing, omega, sweep, progress, settings, report):

@@ -34,7 +34,9 @@ class SweepResult:
     """Stepped-sine responses on a frequency grid (in increasing frequency order).
 
     jumps_hz: grid frequencies (Hz) at which the response jumped to another branch,
-    in sweep order. Points no stable branch covers are NaN.
+    in sweep order. Points no stable branch covers are NaN. route: how it was solved —
+    "traced" (continuation + this reading), "closed form" or "fold-free"
+    (:mod:`nlupdate.response.sweep`).
     """
 
     problem: BalanceProblem
@@ -42,6 +44,7 @@ class SweepResult:
     x_nonlinear: NDArray[np.complex128]
     direction: str
     jumps_hz: tuple[float, ...]
+    route: str = "traced"
 
     @property
     def frequency_hz(self) -> NDArray[np.float64]:
