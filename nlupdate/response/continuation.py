@@ -42,7 +42,7 @@ class ContinuationOptions:
     Lengths are in the scaled space of the continuation (frequency band = 1, amplitude
     scale = 1); residuals are scaled residuals ‖R‖∞.
 
-    Steps: ``step`` the first arc-length step, at most ``max_step``; after a corrector that
+    Steps: ``step`` the first arc-length step, later ones at most ``max_step``; after a corrector that
     converged within ``fast_iterations`` iterations the next step is ``grow`` × longer, after
     ``slow_iterations`` or more ``shrink`` × shorter; a corrector that fails, or a tangent that
     turns by more than ``max_angle_deg`` (except below ``kink_step``, where the turn is
@@ -90,9 +90,10 @@ class ContinuationOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, np.integer)) and value >= 1):
                 raise ValueError(f"continuation option {name}: expected an integer ≥ 1, got {value!r}")
-        if not self.min_step <= self.step <= self.max_step:
+        if not self.min_step <= min(self.step, self.max_step):
             raise ValueError(
-                f"continuation options: need min_step ≤ step ≤ max_step, got {self.min_step}, {self.step}, {self.max_step}"
+                f"continuation options: need min_step ≤ step and min_step ≤ max_step, got {self.min_step}, {self.step}, "
+                f"{self.max_step}"
             )
         if not (self.grow >= 1 and self.shrink <= 1 and self.max_angle_deg < 90):
             raise ValueError("continuation options: need grow ≥ 1, shrink ≤ 1 and max_angle_deg < 90")
