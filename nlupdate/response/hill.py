@@ -34,11 +34,10 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.response.aft import Fourier, damping_coefficients
+from nlupdate.response.aft import Fourier, damping_coefficients_batch
 
 SPARSE_MODES = 20
 
@@ -105,50 +104,81 @@ def floquet(
     depends on the last slip, not on the instantaneous motion) the only form in which a
     fold of the curve is a multiplier +1. ``L₁`` takes the tangent damping ``Ĉ``.
     """
+    exponents, multipliers = floquet_batch(
+        hill, element_index, np.asarray(x_coefficients)[None], np.array([omega], dtype=float), fourier,
+        np.asarray(force_jacobian)[None],
+    )
+    return Floquet(exponents[0], multipliers[0])
+
+
+def floquet_batch(
+    hill: HillModel,
+    element_index: Sequence[tuple],
+    x_coefficients: NDArray,
+    omega: NDArray,
+    fourier: Fourier,
+    force_jacobians: NDArray,
+    max_bytes: int = 2**26,
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """:func:`floquet` for P orbits at once: ``x_coefficients`` (P, 2H+1, n_a), ``omega`` (P,),
+    ``force_jacobians`` (P, size, size); returns exponents and multipliers, (P, 2·n_q) each.
+    Hill's matrices of all orbits are assembled as arrays and their eigenvalues computed by one
+    batched LAPACK call, ``max_bytes`` of companion matrices at a time."""
+    omega = np.asarray(omega, dtype=float)
     harmonics = fourier.harmonics
-    n_a = hill.phi_a.shape[0]
-    n_q = hill.mass.shape[0]
+    n_a, n_q = hill.phi_a.shape
     n_h = 2 * harmonics + 1
-    c_hat = np.zeros((4 * harmonics + 1, n_a, n_a), complex)
+    size = n_q * n_h
+    chunk = max(1, int(max_bytes // (16 * (2 * size) ** 2)))
+    exponents = np.empty((omega.size, 2 * n_q), complex)
+    for start in range(0, omega.size, chunk):
+        part = slice(start, start + chunk)
+        exponents[part] = _floquet_exponents(hill, element_index, x_coefficients[part], omega[part], fourier,
+                                             force_jacobians[part])
+    return exponents, np.exp(exponents * (2 * np.pi / omega)[:, None])
+
+
+def _floquet_exponents(hill, element_index, x_coefficients, omega, fourier, force_jacobians):
+    harmonics = fourier.harmonics
+    points = omega.size
+    n_a, n_q = hill.phi_a.shape
+    n_h = 2 * harmonics + 1
+    size = n_q * n_h
+    c_hat = np.zeros((points, 4 * harmonics + 1, n_a, n_a), complex)
     for element, r, j in element_index:
-        u = x_coefficients[:, r] - (x_coefficients[:, j] if j >= 0 else 0.0)
+        u = x_coefficients[:, :, r] - (x_coefficients[:, :, j] if j >= 0 else 0.0)
         s = np.zeros(n_a)
         s[r] = 1.0
         if j >= 0:
             s[j] = -1.0
-        c_hat += damping_coefficients(element, u, omega, fourier)[:, None, None] * np.outer(s, s)
+        c_hat += damping_coefficients_batch(element, u, omega, fourier)[:, :, None, None] * np.outer(s, s)
     to_exp, from_exp = _exponential_maps(harmonics)
-    jac = np.asarray(force_jacobian).reshape(n_h, n_a, n_h, n_a)
-    k_exp = np.einsum("mc,cadb,dn->manb", to_exp, jac, from_exp)
+    jac = np.asarray(force_jacobians).reshape(points, n_h, n_a, n_h, n_a)
     phi = hill.phi_a
-    k_q = np.einsum("ai,manb,bj->minj", phi, k_exp, phi)
-    c_q = np.einsum("ai,mab,bj->mij", phi, c_hat, phi)
-    c_eq = hill.damping + hill.structural / omega
-    size = n_q * (2 * harmonics + 1)
-    l0 = np.zeros((size, size), complex)
-    l1 = np.zeros((size, size), complex)
-    orders = range(-harmonics, harmonics + 1)
-    for row, k in enumerate(orders):
-        rk = slice(row * n_q, (row + 1) * n_q)
-        for col, j in enumerate(orders):
-            cj = slice(col * n_q, (col + 1) * n_q)
-            l0[rk, cj] = k_q[row, :, col, :]
-            l1[rk, cj] = c_q[k - j + 2 * harmonics]
-        l0[rk, rk] += hill.stiffness + 1j * k * omega * c_eq - (k * omega) ** 2 * hill.mass
-        l1[rk, rk] += c_eq + 2j * k * omega * hill.mass
+    k_q = np.einsum("mc,pcadb,dn,ai,bj->pminj", to_exp, jac, from_exp, phi, phi, optimize=True)
+    c_q = np.einsum("ai,pmab,bj->pmij", phi, c_hat, phi, optimize=True)
+    orders = np.arange(-harmonics, harmonics + 1)
+    k_o = orders[None, :, None, None]
+    w = omega[:, None, None, None]
+    c_eq = hill.damping[None, None] + hill.structural[None, None] / w  # (P, 1, n_q, n_q)
+    diagonal0 = hill.stiffness + 1j * k_o * w * c_eq - (k_o * w) ** 2 * hill.mass  # (P, n_h, n_q, n_q)
+    diagonal1 = c_eq + 2j * k_o * w * hill.mass
+    toeplitz = orders[:, None] - orders[None, :] + 2 * harmonics  # c_q index of block (k, j)
+    l1 = np.transpose(c_q[:, toeplitz], (0, 1, 3, 2, 4)).copy()  # (P, n_h, n_q, n_h, n_q)
+    l0 = k_q.astype(complex, copy=True)
+    index = np.arange(n_h)
+    l0[:, index, :, index, :] += np.moveaxis(diagonal0, 1, 0)
+    l1[:, index, :, index, :] += np.moveaxis(diagonal1, 1, 0)
     mass_inv = np.linalg.inv(hill.mass)
-    companion = np.zeros((2 * size, 2 * size), complex)
-    companion[:size, size:] = np.eye(size)
-    block_inv = np.kron(np.eye(2 * harmonics + 1), mass_inv)
-    companion[size:, :size] = -block_inv @ l0
-    companion[size:, size:] = -block_inv @ l1
-    values, vectors = scipy.linalg.eig(companion, check_finite=False)
-    power = np.abs(vectors[:size].reshape(2 * harmonics + 1, n_q, -1)) ** 2
-    power = power.sum(axis=1)
-    centroid = np.arange(-harmonics, harmonics + 1) @ power / np.maximum(power.sum(axis=0), 1e-300)
-    chosen = np.argsort(np.abs(centroid), kind="stable")[: 2 * n_q]
-    exponents = values[chosen]
-    return Floquet(exponents, np.exp(exponents * 2 * np.pi / omega))
+    companion = np.zeros((points, 2 * size, 2 * size), complex)
+    companion[:, :size, size:] = np.eye(size)
+    companion[:, size:, :size] = -np.einsum("ij,pmjnk->pmink", mass_inv, l0).reshape(points, size, size)
+    companion[:, size:, size:] = -np.einsum("ij,pmjnk->pmink", mass_inv, l1).reshape(points, size, size)
+    values, vectors = np.linalg.eig(companion)
+    power = (np.abs(vectors[:, :size].reshape(points, n_h, n_q, -1)) ** 2).sum(axis=2)  # (P, n_h, 2·size)
+    centroid = np.einsum("m,pmv->pv", orders.astype(float), power) / np.maximum(power.sum(axis=1), 1e-300)
+    chosen = np.argsort(np.abs(centroid), axis=1, kind="stable")[:, : 2 * n_q]
+    return np.take_along_axis(values, chosen, axis=1)
 
 
 def _exponential_maps(harmonics: int) -> tuple[NDArray, NDArray]:
