@@ -161,3 +161,20 @@ def test_fold_free_batch_equals_the_traced_route():
     # with folds (100 N) the batch is refused and the trace answers
     assert fold_free_branch(CondensedProblem(system, {0: 100.0}), omega, ContinuationOptions()) is None
     assert frequency_sweep(system, {0: 100.0}, omega, "up").route == "traced"
+
+
+def test_levels_traced_in_lockstep_are_the_curves_traced_one_by_one():
+    from nlupdate.response.continuation import trace_frequency_responses
+
+    model = LumpedModel.with_loss_factor(np.diag([0.1, 0.5]), np.array([[2e6, -1e6], [-1e6, 2e6]]), 0.005)
+    system = NonlinearSystem(model, (CubicStiffness((0,), 1e10), JenkinsFriction((0,), 8e4, 1.0)))
+    band = (2 * np.pi * 500, 2 * np.pi * 900)
+    forcings = [{0: level} for level in (20.0, 60.0, 100.0)]
+    together = trace_frequency_responses(system, forcings, *band)
+    for curve, forcing in zip(together, forcings):
+        alone = trace_frequency_response(system, forcing, *band)
+        assert curve.omega.size == alone.omega.size
+        np.testing.assert_allclose(curve.omega, alone.omega, rtol=1e-12)
+        np.testing.assert_allclose(curve.x_nonlinear, alone.x_nonlinear, rtol=1e-9, atol=1e-12 * np.abs(alone.x_nonlinear).max())
+        np.testing.assert_array_equal(curve.stable, alone.stable)
+        assert curve.turning_point.sum() == 2

@@ -200,19 +200,22 @@ class CondensedProblem:
         r = (x - x_lin + h_aa @ self.forces(x, omega)) / self.x_scale
         return np.concatenate([r.real, r.imag])
 
-    def residual_batch(self, y: NDArray, linear: LinearTerms, jacobian: bool = True):
+    def residual_batch(self, y: NDArray, linear: LinearTerms, jacobian: bool = True, scale: NDArray | None = None):
         """Scaled residuals (P, 2n) at states ``y`` (P, 2n) and the frequencies of ``linear``;
         with ``jacobian`` also ``∂R/∂y`` (P, 2n, 2n) and, when ``linear`` has derivatives,
-        ``∂R/∂ω`` (P, 2n, per rad/s; else None)."""
-        x = self.to_complex(y)
+        ``∂R/∂ω`` (P, 2n, per rad/s; else None). ``scale`` (P,) replaces ``x_scale`` point by
+        point (several force levels evaluated together)."""
+        y = np.asarray(y, dtype=float)
+        x_scale = self.x_scale if scale is None else np.asarray(scale, dtype=float)[:, None]
+        x = (y[:, : self.n] + 1j * y[:, self.n :]) * x_scale
         with_w = jacobian and linear.dh_aa is not None
         if not jacobian:
             g = self.forces_batch(x, linear.omega)
-            r = (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
+            r = (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / x_scale
             return np.concatenate([r.real, r.imag], axis=1)
         g, dg_dre, dg_dim, dg_dw = self.forces_batch(x, linear.omega, jacobian=True)
         h_aa = linear.h_aa
-        r = (x - linear.x_lin + (h_aa @ g[..., None])[..., 0]) / self.x_scale
+        r = (x - linear.x_lin + (h_aa @ g[..., None])[..., 0]) / x_scale
         eye = np.eye(self.n)
         d_re = eye + h_aa @ dg_dre
         d_im = 1j * eye + h_aa @ dg_dim
@@ -222,7 +225,7 @@ class CondensedProblem:
         jac_w = None
         if with_w:
             d_w = -linear.dx_lin + (linear.dh_aa @ g[..., None] + h_aa @ dg_dw[..., None])[..., 0]
-            d_w = d_w / self.x_scale
+            d_w = d_w / x_scale
             jac_w = np.concatenate([d_w.real, d_w.imag], axis=1)
         return np.concatenate([r.real, r.imag], axis=1), jac, jac_w
 

@@ -27,7 +27,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
+from nlupdate.model.system import CondensedProblem, LinearTerms, NonlinearSystem, newton_fixed_frequency
 from nlupdate.response.balance import BalanceProblem, MultiHarmonicProblem
 
 
@@ -223,6 +223,50 @@ def trace_frequency_response(
     return FrequencyResponse(problem, curve.omega, x, stable, curve.turning_point)
 
 
+def trace_frequency_responses(
+    system: NonlinearSystem,
+    forcings: Sequence[Mapping[int | str, complex]],
+    omega_start: float,
+    omega_end: float,
+    options: ContinuationOptions | None = None,
+) -> list[FrequencyResponse]:
+    """:func:`trace_frequency_response` for several force vectors that differ by a factor only
+    (force levels of one excitation), all traced in lockstep (:func:`trace_curves`): every step's
+    receptances and element forces of all levels come from one batched evaluation. The curves
+    are the ones traced one by one."""
+    check_band(omega_start, omega_end)
+    problems = [CondensedProblem(system, forcing) for forcing in forcings]
+    base = problems[0]
+    factors = []
+    for problem in problems:
+        if problem.forced != base.forced:
+            raise ValueError("force levels traced together need the same forced coordinates")
+        ratio = problem.force / base.force
+        if not np.allclose(ratio, ratio[0], rtol=1e-12, atol=0):
+            raise ValueError("force levels traced together need force vectors that differ by a factor")
+        factors.append(ratio[0])
+    if base.n == 0:
+        return [trace_frequency_response(system, forcing, omega_start, omega_end) for forcing in forcings]
+    unit_scale = default_x_scale(base, omega_start, omega_end)
+    factors = np.array(factors)
+    for problem, factor in zip(problems, factors):
+        problem.x_scale = unit_scale * abs(factor)  # the linear response, hence its maximum, scales with F
+
+    def evaluate_batch(indices, y, omega):
+        linear = base.linear_batch(omega)
+        linear = LinearTerms(omega, linear.h_aa, linear.x_lin * factors[indices, None], linear.dh_aa,
+                             linear.dx_lin * factors[indices, None])
+        return base.residual_batch(y, linear, scale=np.array([problems[i].x_scale for i in indices]))
+
+    curves = trace_curves(problems, evaluate_batch, omega_start, omega_end, options)
+    out = []
+    for problem, curve in zip(problems, curves):
+        stable = curve.jacobian_determinant > 0
+        stable[curve.turning_point] = False
+        out.append(FrequencyResponse(problem, curve.omega, problem.to_complex(curve.y), stable, curve.turning_point))
+    return out
+
+
 def check_band(omega_start: float, omega_end: float) -> None:
     if not (np.isfinite(omega_start) and np.isfinite(omega_end) and 0 <= omega_start < omega_end):
         raise ValueError(f"need 0 ≤ omega_start < omega_end, got {omega_start}, {omega_end} rad/s")
@@ -255,14 +299,56 @@ def trace_curve(
     every step, tolerance and iteration count.
     """
     o = (options or ContinuationOptions()).updated(**overrides)
-    step, max_step, min_step, tolerance = o.step, o.max_step, o.min_step, o.tolerance
     check_band(omega_start, omega_end)
     band = omega_end - omega_start
     size = problem.size
+    steps = _continuation(problem, omega_start, omega_end, o)
+    request = next(steps)
+    while True:
+        r, jac, jac_w = problem.residual_and_jacobians(request[:size], omega_start + band * request[size])
+        try:
+            request = steps.send((r, jac, jac_w * band))
+        except StopIteration as done:
+            return done.value
 
-    def evaluate(z: NDArray):
-        r, jac, jac_w = problem.residual_and_jacobians(z[:size], omega_start + band * z[size])
-        return r, jac, jac_w * band
+
+def trace_curves(
+    problems: Sequence[BalanceProblem],
+    evaluate_batch,
+    omega_start: float,
+    omega_end: float,
+    options: ContinuationOptions | None = None,
+) -> list[Curve]:
+    """:func:`trace_curve` of several problems in lockstep: each follows exactly its own
+    continuation, and at every step the evaluations all of them ask for are made together by
+    ``evaluate_batch(indices, y, omega)`` → (R, ∂R/∂y, ∂R/∂ω) stacked (indices: which problem
+    each row belongs to). The curves are those :func:`trace_curve` would give one by one."""
+    o = options or ContinuationOptions()
+    check_band(omega_start, omega_end)
+    band = omega_end - omega_start
+    steps = [_continuation(problem, omega_start, omega_end, o) for problem in problems]
+    requests = {index: next(step) for index, step in enumerate(steps)}
+    curves: list[Curve | None] = [None] * len(problems)
+    while requests:
+        indices = np.array(sorted(requests))
+        z = np.array([requests[index] for index in indices])
+        r, jac, jac_w = evaluate_batch(indices, z[:, :-1], omega_start + band * z[:, -1])
+        for row, index in enumerate(indices):
+            try:
+                requests[index] = steps[index].send((r[row], jac[row], jac_w[row] * band))
+            except StopIteration as done:
+                curves[index] = done.value
+                del requests[index]
+    return curves
+
+
+def _continuation(problem, omega_start: float, omega_end: float, o: ContinuationOptions):
+    """The continuation as a generator: it yields each point z = (y, ω̃) it needs evaluated and
+    receives (R, ∂R/∂y, ∂R/∂ω̃); its return value is the :class:`Curve`. Newton at the start and
+    at the band edge evaluates ``problem`` directly."""
+    step, max_step, min_step, tolerance = o.step, o.max_step, o.min_step, o.tolerance
+    band = omega_end - omega_start
+    size = problem.size
 
     for guess in problem.initial_guesses(omega_start):
         y, converged, _ = newton_fixed_frequency(problem, omega_start, guess, tol=tolerance)
@@ -274,7 +360,7 @@ def trace_curve(
             "start the band where the response is closer to linear"
         )
     z = np.append(y, 0.0)
-    r, jac, jac_w = evaluate(z)
+    r, jac, jac_w = yield z
     direction = np.zeros(size + 1)
     direction[size] = 1.0
     t = _tangent(jac, jac_w, direction)
@@ -292,7 +378,7 @@ def trace_curve(
         converged = False
         previous_residual = np.inf
         for iteration in range(1, o.corrector_iterations + 1):
-            r, jac, jac_w = evaluate(z_new)
+            r, jac, jac_w = yield z_new
             augmented[:size, :size] = jac
             augmented[:size, size] = jac_w
             augmented[size] = t
@@ -328,7 +414,7 @@ def trace_curve(
                 break
             continue
         if t_new[size] * t[size] < 0:
-            z_fold, jac_fold = _refine_fold(evaluate, z, t, z_new, t_new, augmented, o)
+            z_fold, jac_fold = yield from _refine_fold(z, t, z_new, t_new, augmented, o)
             points.append(z_fold)
             dets.append(np.linalg.det(jac_fold))
             turning.append(True)
@@ -353,25 +439,26 @@ def trace_curve(
         y_edge, ok, _ = newton_fixed_frequency(problem, omega_start + band * edge, guess, tol=tolerance)
         if ok:
             points_arr[-1] = np.append(y_edge, edge)
-            dets[-1] = np.linalg.det(evaluate(points_arr[-1])[1])
+            dets[-1] = np.linalg.det((yield points_arr[-1])[1])
     omega = omega_start + band * points_arr[:, size]
     return Curve(omega, points_arr[:, :size], np.array(turning), np.array(dets))
 
 
-def _refine_fold(evaluate, z0, t0, z1, t1, augmented, o: ContinuationOptions):
-    """Locate the turning point between two curve points (secant on t_ω along the chord)."""
+def _refine_fold(z0, t0, z1, t1, augmented, o: ContinuationOptions):
+    """Locate the turning point between two curve points (secant on t_ω along the chord); a
+    generator like :func:`_continuation`."""
     size = z0.size - 1
     s_low, s_high = 0.0, float(np.linalg.norm(z1 - z0))
     f_low, f_high = t0[size], t1[size]
     direction = (z1 - z0) / s_high
-    z_best, jac_best = z1, evaluate(z1)[1]
+    z_best, jac_best = z1, (yield z1)[1]
     for _ in range(o.fold_iterations):
         s = s_low - f_low * (s_high - s_low) / (f_high - f_low)
         s = min(max(s, s_low + 0.05 * (s_high - s_low)), s_high - 0.05 * (s_high - s_low))
         z_pred = z0 + s * direction
         z_try = z_pred.copy()
         for _ in range(o.fold_corrector_iterations):
-            r, jac, jac_w = evaluate(z_try)
+            r, jac, jac_w = yield z_try
             augmented[:size, :size] = jac
             augmented[:size, size] = jac_w
             augmented[size] = direction
@@ -379,7 +466,7 @@ def _refine_fold(evaluate, z0, t0, z1, t1, augmented, o: ContinuationOptions):
             z_try = z_try + dz
             if np.max(np.abs(dz)) < 1e-12:
                 break
-        r, jac, jac_w = evaluate(z_try)
+        r, jac, jac_w = yield z_try
         t_try = _tangent(jac, jac_w, t0)
         z_best, jac_best = z_try, jac
         if abs(t_try[size]) < o.fold_tolerance:

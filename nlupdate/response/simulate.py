@@ -32,7 +32,7 @@ from nlupdate.model.linear import dof_index
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.measurement.noise import add_table_noise
 from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.sweep import frequency_sweep
+from nlupdate.response.sweep import frequency_sweeps
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.time_integration import time_sweep
 from nlupdate.progress import ProgressCallback, no_progress
@@ -59,11 +59,7 @@ def _read_curve(curve, system, omega, sweep):
     return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
 
-def _responses_continuation(system, forcing, omega, sweep, progress, settings, report):
-    # Once a level needed the trace (folds), the later ones go there directly: a choice of
-    # speed only, every route gives the same responses.
-    result = frequency_sweep(system, forcing, omega, sweep, fold_free="traced" not in report.routes.values())
-    report.routes[float(abs(next(iter(forcing.values()))))] = result.route
+def _read_sweep(result, system, omega):
     valid = np.isfinite(result.x_nonlinear.reshape(omega.size, -1)).all(axis=1)
     return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
@@ -91,7 +87,6 @@ def _responses_time(system, forcing, omega, sweep, progress, settings, report):
 
 
 _SOLVERS: dict[str, Callable] = {
-    "continuation": _responses_continuation,
     "hb": _responses_hb,
     "fixed-point": _responses_fixed_point,
     "time": _responses_time,
@@ -136,13 +131,22 @@ def simulate_frf_table(
     names = list(system.model.dof_names)
     omega = 2 * np.pi * frequency_hz
     report = SimulationReport()
+    solved = {}
+    if method == "continuation":  # every level at once: the traced ones in lockstep
+        order = sorted(set(levels))
+        sweeps = frequency_sweeps(system, [{input_index: level} for level in order], omega, sweep)
+        solved = dict(zip(order, sweeps))
+        report.routes = {level: result.route for level, result in solved.items()}
     tables = []
     progress(f"force levels ({method})", 0, len(levels))
     for done, level in enumerate(levels, start=1):
         level_progress = lambda task, i, n, level=level: progress(f"{level:g} N: {task}", i, n)  # noqa: E731
-        x, valid, jumps = _SOLVERS[method](
-            system, {input_index: level}, omega, sweep, level_progress, harmonic_balance, report
-        )
+        if method == "continuation":
+            x, valid, jumps = _read_sweep(solved[level], system, omega)
+        else:
+            x, valid, jumps = _SOLVERS[method](
+                system, {input_index: level}, omega, sweep, level_progress, harmonic_balance, report
+            )
         report.dropped_points[level] = int((~valid).sum())
         report.jumps_hz[level] = tuple(jumps)
         h = x[valid] / level

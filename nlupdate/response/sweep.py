@@ -20,14 +20,14 @@ All give the same responses (to the Newton tolerance) and the same jumps.
 """
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_batch, newton_fixed_frequency
 from nlupdate.response import closed_form
-from nlupdate.response.continuation import ContinuationOptions, check_band, default_x_scale, trace_frequency_response
+from nlupdate.response.continuation import ContinuationOptions, check_band, default_x_scale, trace_frequency_responses
 from nlupdate.response.stepped_sine import SweepResult, stepped_sine
 
 
@@ -49,27 +49,57 @@ def frequency_sweep(
     the fold-free route's starting guess (e.g. the solution of a neighbouring model);
     ``options`` are the continuation's.
     """
+    return frequency_sweeps(system, [forcing], omega, direction, closed_form_roots=closed_form_roots,
+                            fold_free=fold_free, start=start, options=options)[0]
+
+
+def frequency_sweeps(
+    system: NonlinearSystem,
+    forcings: Sequence[Mapping[int | str, complex]],
+    omega: ArrayLike,
+    direction: str = "up",
+    *,
+    closed_form_roots: bool = True,
+    fold_free: bool = True,
+    start: NDArray | None = None,
+    options: ContinuationOptions | None = None,
+) -> list[SweepResult]:
+    """:func:`frequency_sweep` at several force vectors that differ by a factor (force levels,
+    in rising order for the best speed): the levels the direct routes do not solve are traced
+    together (:func:`~nlupdate.response.continuation.trace_frequency_responses`). Once a level
+    needs the trace, the later ones skip the fold-free attempt (a choice of speed only)."""
     if direction not in ("up", "down"):
         raise ValueError(f"direction must be 'up' or 'down', got {direction!r}")
     grid = np.sort(np.atleast_1d(np.asarray(omega, dtype=float)))
     check_band(float(grid[0]), float(grid[-1]))
-    problem = CondensedProblem(system, forcing)
-    if closed_form_roots:
-        if closed_form.applies(problem):
+    options = options or ContinuationOptions()
+    results: list[SweepResult | None] = []
+    for forcing in forcings:
+        problem = CondensedProblem(system, forcing)
+        result = None
+        if closed_form_roots and closed_form.applies(problem):
             roots = closed_form.cubic_roots(problem, grid)
             read = closed_form.sweep_roots(roots, direction)
             if read is not None:
                 index, jumped = read
                 x = roots.x[np.arange(grid.size), index][:, None]
                 jumps = grid[jumped] if direction == "up" else grid[jumped][::-1]
-                return SweepResult(problem, grid, x, direction, tuple(float(w / (2 * np.pi)) for w in jumps),
-                                   "closed form")
-    if problem.n and fold_free:
-        x = fold_free_branch(problem, grid, options or ContinuationOptions(), start)
-        if x is not None:
-            return SweepResult(problem, grid, x, direction, (), "fold-free")
-    curve = trace_frequency_response(system, forcing, float(grid[0]), float(grid[-1]), options=options)
-    return stepped_sine(curve, grid, direction)
+                result = SweepResult(problem, grid, x, direction, tuple(float(w / (2 * np.pi)) for w in jumps),
+                                     "closed form")
+        if result is None and problem.n and fold_free:
+            x = fold_free_branch(problem, grid, options, start)
+            if x is not None:
+                result = SweepResult(problem, grid, x, direction, (), "fold-free")
+            else:
+                fold_free = False
+        results.append(result)
+    traced = [i for i, result in enumerate(results) if result is None]
+    if traced:
+        curves = trace_frequency_responses(system, [forcings[i] for i in traced], float(grid[0]), float(grid[-1]),
+                                           options)
+        for i, curve in zip(traced, curves):
+            results[i] = stepped_sine(curve, grid, direction)
+    return results
 
 
 def fold_free_branch(
