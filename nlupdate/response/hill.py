@@ -139,11 +139,18 @@ def floquet_batch(
 
 
 def _floquet_exponents(hill, element_index, x_coefficients, omega, fourier, force_jacobians):
+    """Hill's quadratic eigenproblem in the real Fourier basis of the balance (coefficient-major
+    ``[X₀, Re X₁, Im X₁, …]``), where every matrix is real: the perturbation's time derivative is
+    λ + D with D = kω[[0, −1], [1, 0]] on harmonic k, the element part of ``L₀`` is the balance's
+    own Jacobian and that of ``L₁`` the tangent damping's multiplication operator. Its eigenvalues
+    are those of the exponential form (a similarity), at the cost of a real eigenproblem; the
+    eigenvectors are mapped to the exponential basis for the centring."""
     harmonics = fourier.harmonics
     points = omega.size
     n_a, n_q = hill.phi_a.shape
     n_h = 2 * harmonics + 1
     size = n_q * n_h
+    phi = hill.phi_a
     c_hat = np.zeros((points, 4 * harmonics + 1, n_a, n_a), complex)
     for element, r, j in element_index:
         u = x_coefficients[:, :, r] - (x_coefficients[:, :, j] if j >= 0 else 0.0)
@@ -152,30 +159,36 @@ def _floquet_exponents(hill, element_index, x_coefficients, omega, fourier, forc
         if j >= 0:
             s[j] = -1.0
         c_hat += damping_coefficients_batch(element, u, omega, fourier)[:, :, None, None] * np.outer(s, s)
-    to_exp, from_exp = _exponential_maps(harmonics)
-    jac = np.asarray(force_jacobians).reshape(points, n_h, n_a, n_h, n_a)
-    phi = hill.phi_a
-    k_q = np.einsum("mc,pcadb,dn,ai,bj->pminj", to_exp, jac, from_exp, phi, phi, optimize=True)
-    c_q = np.einsum("ai,pmab,bj->pmij", phi, c_hat, phi, optimize=True)
     orders = np.arange(-harmonics, harmonics + 1)
-    k_o = orders[None, :, None, None]
-    w = omega[:, None, None, None]
-    c_eq = hill.damping[None, None] + hill.structural[None, None] / w  # (P, 1, n_q, n_q)
-    diagonal0 = hill.stiffness + 1j * k_o * w * c_eq - (k_o * w) ** 2 * hill.mass  # (P, n_h, n_q, n_q)
-    diagonal1 = c_eq + 2j * k_o * w * hill.mass
-    toeplitz = orders[:, None] - orders[None, :] + 2 * harmonics  # c_q index of block (k, j)
-    l1 = np.transpose(c_q[:, toeplitz], (0, 1, 3, 2, 4)).copy()  # (P, n_h, n_q, n_h, n_q)
-    l0 = k_q.astype(complex, copy=True)
-    index = np.arange(n_h)
-    l0[:, index, :, index, :] += np.moveaxis(diagonal0, 1, 0)
-    l1[:, index, :, index, :] += np.moveaxis(diagonal1, 1, 0)
+    to_exp, from_exp = _exponential_maps(harmonics)
+    toeplitz = c_hat[:, orders[:, None] - orders[None, :] + 2 * harmonics]  # (P, n_h, n_h, n_a, n_a), exponential
+    c_real = np.einsum("cm,pmnab,nd->pcadb", from_exp, toeplitz, to_exp, optimize=True).real  # real basis
+    jac = np.asarray(force_jacobians).reshape(points, n_h, n_a, n_h, n_a)
+    l0 = np.einsum("ai,pcadb,bj->pcidj", phi, jac, phi, optimize=True)  # (P, n_h, n_q, n_h, n_q)
+    l1 = np.einsum("ai,pcadb,bj->pcidj", phi, c_real, phi, optimize=True)
+    w = omega[:, None, None]
+    c_eq = hill.damping[None] + hill.structural[None] / w  # (P, n_q, n_q)
+    l0[:, 0, :, 0, :] += hill.stiffness
+    l1[:, 0, :, 0, :] += c_eq
+    for k in range(1, harmonics + 1):  # harmonic k: coefficients 2k − 1 (Re), 2k (Im); D = kω[[0, −1], [1, 0]]
+        re, im = 2 * k - 1, 2 * k
+        kw = k * w
+        l0[:, re, :, re, :] += hill.stiffness - kw**2 * hill.mass
+        l0[:, im, :, im, :] += hill.stiffness - kw**2 * hill.mass
+        l0[:, re, :, im, :] -= kw * c_eq
+        l0[:, im, :, re, :] += kw * c_eq
+        l1[:, re, :, re, :] += c_eq
+        l1[:, im, :, im, :] += c_eq
+        l1[:, re, :, im, :] -= 2 * kw * hill.mass
+        l1[:, im, :, re, :] += 2 * kw * hill.mass
     mass_inv = np.linalg.inv(hill.mass)
-    companion = np.zeros((points, 2 * size, 2 * size), complex)
+    companion = np.zeros((points, 2 * size, 2 * size))
     companion[:, :size, size:] = np.eye(size)
-    companion[:, size:, :size] = -np.einsum("ij,pmjnk->pmink", mass_inv, l0).reshape(points, size, size)
-    companion[:, size:, size:] = -np.einsum("ij,pmjnk->pmink", mass_inv, l1).reshape(points, size, size)
+    companion[:, size:, :size] = -np.einsum("ij,pcjdk->pcidk", mass_inv, l0).reshape(points, size, size)
+    companion[:, size:, size:] = -np.einsum("ij,pcjdk->pcidk", mass_inv, l1).reshape(points, size, size)
     values, vectors = np.linalg.eig(companion)
-    power = (np.abs(vectors[:, :size].reshape(points, n_h, n_q, -1)) ** 2).sum(axis=2)  # (P, n_h, 2·size)
+    exponential = np.einsum("mc,pcqv->pmqv", to_exp, vectors[:, :size].reshape(points, n_h, n_q, -1))
+    power = (np.abs(exponential) ** 2).sum(axis=2)  # (P, n_h over m = −H … H, 2·size)
     centroid = np.einsum("m,pmv->pv", orders.astype(float), power) / np.maximum(power.sum(axis=1), 1e-300)
     chosen = np.argsort(np.abs(centroid), axis=1, kind="stable")[:, : 2 * n_q]
     return np.take_along_axis(values, chosen, axis=1)
