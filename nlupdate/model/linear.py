@@ -205,14 +205,7 @@ class LumpedModel:
         modes = self._proportional_modes()
         if modes is not None:
             omega_sq, phi, c_r, d_r = modes
-            w = omega[:, None]
-            inverse = 1.0 / (omega_sq - w**2 + 1j * (w * c_r + d_scale[:, None] * d_r))
-            phi_rows, phi_cols_t = phi[rows], phi[cols].T
-            h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols_t
-            if not derivative:
-                return h
-            dh = (phi_rows[None] * ((2 * w - 1j * c_r) * inverse**2)[:, None, :]) @ phi_cols_t
-            return h, dh
+            return _modal_block(omega_sq, c_r, d_r, phi[rows], phi[cols].T, omega, d_scale, derivative)
         return self._receptance_columns(omega, rows, cols, derivative, d_scale)
 
     def _proportional_modes(self):
@@ -419,19 +412,65 @@ class ModalModel:
 
     def _receptance(self, omega, rows, cols, derivative: bool, eta_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        eta_scale = np.broadcast_to(np.asarray(eta_scale, dtype=float), omega.shape)
+        omega_sq, c_r, d_r = self.modal_damping()
+        return _modal_block(omega_sq, c_r, d_r, self.mode_shapes[list(rows)], self.mode_shapes[list(cols)].T, omega,
+                            eta_scale, derivative)
+
+    def modal_damping(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(ω_r², c_r = 2ζ_r ω_r, d_r = η_r ω_r²): the receptance is
+        ``Σ_r φ_r φ_rᵀ / (ω_r² − ω² + i(ω c_r + d_r))``."""
         wr = self.omega_r
-        w = omega[:, None]
-        eta_scale = np.broadcast_to(np.asarray(eta_scale, dtype=float), omega.shape)[:, None]
-        denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + eta_scale * self.loss_factors * wr**2)
-        phi_rows = self.mode_shapes[list(rows)]
-        phi_cols = self.mode_shapes[list(cols)]
-        inverse = 1.0 / denominator
-        h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols.T
-        if not derivative:
-            return h
-        d_denominator = -2 * w + 2j * self.damping_ratios * wr
-        dh = (phi_rows[None] * (-d_denominator * inverse**2)[:, None, :]) @ phi_cols.T
-        return h, dh
+        return wr**2, 2 * self.damping_ratios * wr, self.loss_factors * wr**2
+
+
+def _modal_block(omega_sq, c_r, d_r, phi_rows, phi_cols_t, omega, d_scale, derivative: bool):
+    """``Σ_r φ_jr φ_kr / (ω_r² − ω² + i(ω c_r + s d_r))`` (P, rows, cols) at ω (P,) rad/s with the
+    structural-damping factor s (P,) (1 at the fundamental, h at harmonic h), and its
+    ω-derivative."""
+    w = omega[:, None]
+    inverse = 1.0 / (omega_sq - w**2 + 1j * (w * c_r + d_scale[:, None] * d_r))
+    h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols_t
+    if not derivative:
+        return h
+    dh = (phi_rows[None] * ((2 * w - 1j * c_r) * inverse**2)[:, None, :]) @ phi_cols_t
+    return h, dh
+
+
+class ReceptancePlan:
+    """Receptance blocks ``H[rows, cols]`` of one model at many frequencies, the rows and
+    columns fixed: with exact modal data (a :class:`ModalModel`, or a dense
+    :class:`LumpedModel` with proportional damping) the mode-shape rows are sliced once and
+    every call is the modal sum; otherwise it is the model's own receptance."""
+
+    def __init__(self, model: LinearModel, rows: Sequence[int], cols: Sequence[int]) -> None:
+        self.model, self.rows, self.cols = model, list(rows), list(cols)
+        self._modal = None
+        if isinstance(model, ModalModel):
+            omega_sq, c_r, d_r = model.modal_damping()
+            phi = model.mode_shapes
+        elif isinstance(model, LumpedModel) and not model.is_sparse and model._proportional_modes() is not None:
+            omega_sq, phi, c_r, d_r = model._proportional_modes()
+        else:
+            return
+        self._modal = (omega_sq, c_r, d_r, phi[self.rows], phi[self.cols].T)
+
+    def harmonic(self, omega: NDArray, harmonic: NDArray, derivative: bool = False):
+        """``H`` at the harmonics ``harmonic`` (P,) of the fundamentals ``omega`` (P,) rad/s, and its
+        derivative with respect to the fundamental (as :meth:`LumpedModel.harmonic_receptance`)."""
+        omega = np.asarray(omega, dtype=float)
+        harmonic = np.asarray(harmonic, dtype=float)
+        if self._modal is None:
+            return self.model.harmonic_receptance(omega, harmonic, self.rows, self.cols, derivative)
+        result = _modal_block(*self._modal, harmonic * omega, harmonic, derivative)
+        return (result[0], harmonic[:, None, None] * result[1]) if derivative else result
+
+    def __call__(self, omega: NDArray, derivative: bool = False):
+        """``H`` at the frequencies ``omega`` (P,) rad/s (and dH/dω)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        if self._modal is None:
+            return self.model.receptance(omega, self.rows, self.cols, derivative)
+        return _modal_block(*self._modal, omega, np.ones(omega.shape), derivative)
 
 
 def _harmonic_receptance(model, omega, harmonic, rows, cols, derivative):

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.model.elements import NonlinearElement, nonlinear_dofs
-from nlupdate.model.linear import LinearModel, dof_index
+from nlupdate.model.linear import LinearModel, ReceptancePlan, dof_index
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,13 +104,14 @@ class CondensedProblem:
             for element in system.elements
         ]
         self._cols = list(self.a) + list(self.forced)
+        self._plan = ReceptancePlan(self.model, self.a, self._cols)
 
     # -- linear part -------------------------------------------------------------------
     def linear_batch(self, omega: ArrayLike, derivative: bool = True) -> LinearTerms:
         """:class:`LinearTerms` at every ω (rad/s) of ``omega``."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         n = self.n
-        result = self.model.receptance(omega, self.a, self._cols, derivative=derivative)
+        result = self._plan(omega, derivative)
         h, dh = result if derivative else (result, None)
         terms = [h[:, :, :n], h[:, :, n:] @ self.force]
         if derivative:

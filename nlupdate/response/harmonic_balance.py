@@ -36,6 +36,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlupdate.model.linear import ReceptancePlan
 from nlupdate.model.system import LinearTerms, NonlinearSystem, forcing_vector
 from nlupdate.response.aft import Fourier, aliasing_change, period_forces_batch
 from nlupdate.response.continuation import (
@@ -100,6 +101,7 @@ class HarmonicBalanceProblem:
         ]
         self._cols = list(self.a) + list(self.forced)
         self._orders = np.arange(1, self.harmonics + 1)
+        self._plan = ReceptancePlan(self.model, self.a, self._cols)
         # flat positions in the size × size matrix of the blocks [[Re h, −Im h], [Im h, Re h]]
         # of harmonics 1 … H, in the order (harmonic, block, row, col) that _real_blocks fills
         n, k = self.n, np.arange(self.harmonics)[:, None, None, None]
@@ -123,7 +125,7 @@ class HarmonicBalanceProblem:
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         n, count, points = self.n, self.harmonics, omega.size
         fundamental = np.repeat(omega, count)
-        result = self.model.harmonic_receptance(fundamental, np.tile(self._orders, points), self.a, self._cols, derivative)
+        result = self._plan.harmonic(fundamental, np.tile(self._orders, points), derivative)
         h_all, dh_all = result if derivative else (result, None)
         h_all = h_all.reshape(points, count, n, -1)
         big = self._real_blocks(h_all[..., :n], self._static)
