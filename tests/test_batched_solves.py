@@ -178,3 +178,31 @@ def test_levels_traced_in_lockstep_are_the_curves_traced_one_by_one():
         np.testing.assert_allclose(curve.x_nonlinear, alone.x_nonlinear, rtol=1e-9, atol=1e-12 * np.abs(alone.x_nonlinear).max())
         np.testing.assert_array_equal(curve.stable, alone.stable)
         assert curve.turning_point.sum() == 2
+
+
+@pytest.mark.parametrize("name", list(ELEMENTS))
+def test_multi_harmonic_batch_equals_points_and_central_differences(name):
+    from nlupdate.response.harmonic_balance import HarmonicBalanceProblem
+
+    system = NonlinearSystem(TWO_DOF, (ELEMENTS[name]((0, 1)), ELEMENTS[name]((1,))))
+    problem = HarmonicBalanceProblem(system, {0: 0.1}, harmonics=3, samples=64, x_scale=0.1)
+    rng = np.random.default_rng(5)
+    omega = np.array([0.6, 1.1, 1.7])
+    y = rng.uniform(-1.0, 1.0, (omega.size, problem.size))
+    y[:, problem.n * 3 :] *= 0.2  # higher harmonics smaller, as in a response
+    linear = problem.linear_batch(omega)
+    r, jac, jac_w = problem.residual_batch(y, linear)
+    for p, w in enumerate(omega):  # one batch = the points one by one
+        r1, j1, jw1 = problem.residual_and_jacobians(y[p], w)
+        np.testing.assert_allclose(r[p], r1, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(jac[p], j1, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(jac_w[p], jw1, rtol=1e-12, atol=1e-14)
+    if name in ("coulomb", "jenkins", "iwan", "gap"):
+        return  # non-smooth laws: their Jacobians are checked against differences in test_harmonic_balance.py
+    h = 1e-6
+    for i in range(problem.size):
+        step = np.zeros(problem.size)
+        step[i] = h
+        central = (problem.residual_batch(y + step, linear, jacobian=False)
+                   - problem.residual_batch(y - step, linear, jacobian=False)) / (2 * h)
+        np.testing.assert_allclose(jac[:, :, i], central, rtol=1e-5, atol=1e-6)
