@@ -15,7 +15,10 @@ Two model kinds share one interface (:class:`LinearModel`):
 
 Both return receptance blocks ``H[rows, cols]`` for an array of frequencies with shape
 ``(n_omega, len(rows), len(cols))`` and the derivative ``dH/dω`` needed by Newton and
-continuation solvers.
+continuation solvers; :class:`ReceptancePlan` evaluates one block at many frequencies.
+
+(Over 400 lines: the two model kinds and the receptance routes they share — modal sum,
+column solves, sparse factorisation — belong together.)
 """
 from __future__ import annotations
 

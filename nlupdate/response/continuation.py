@@ -16,6 +16,9 @@ underlying linear system (which is +1 in receptance form). The determinant chang
 sign exactly at turning points (saddle-node bifurcations), so this flags the middle
 branches between folds — the branches a stepped-sine test jumps over. It does not
 detect Neimark–Sacker or symmetry-breaking bifurcations of multi-harmonic motion.
+
+(Over 400 lines because the continuation, its options, the curve it returns and its two
+drivers — one problem, or several force levels in lockstep — are one algorithm.)
 """
 from __future__ import annotations
 
