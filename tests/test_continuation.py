@@ -219,3 +219,23 @@ def test_stick_slip_kinks_are_passed_without_stalling(force):
     x_full = curve.response([0, 1])
     worst = max(full_harmonic_balance_residual(system, w, x, np.array([force, 0.0])) for w, x in zip(curve.omega, x_full))
     assert worst < 1e-8
+
+
+def test_continuation_options_in_one_place():
+    from nlupdate.response.continuation import ContinuationOptions
+
+    system = NonlinearSystem(LumpedModel([[1.0]], [[1.0]], [[0.05]]), (CubicStiffness((0,), 1.0),))
+    default = trace_frequency_response(system, {0: 0.5}, 0.5, 3.5)
+    options = ContinuationOptions(max_step=0.01)
+    finer = trace_frequency_response(system, {0: 0.5}, 0.5, 3.5, options=options)
+    same = trace_frequency_response(system, {0: 0.5}, 0.5, 3.5, max_step=0.01)  # keyword override
+    assert finer.omega.size > 2 * default.omega.size
+    np.testing.assert_array_equal(finer.omega, same.omega)
+    np.testing.assert_allclose(np.sort(finer.omega[finer.turning_point]), np.sort(default.omega[default.turning_point]),
+                               rtol=1e-7)
+    with pytest.raises(ValueError, match="min_step ≤ step"):
+        ContinuationOptions(step=1e-8)
+    with pytest.raises(ValueError, match="corrector_iterations: expected an integer"):
+        ContinuationOptions(corrector_iterations=0)
+    with pytest.raises(TypeError, match="unknown continuation option"):
+        trace_frequency_response(system, {0: 0.5}, 0.5, 3.5, max_stepp=0.01)

@@ -1,4 +1,5 @@
-"""Smoke tests of benchmarks/frf_speed.py: its exact reference and its equal-work set-ups.
+"""Smoke tests of benchmarks/frf (``python benchmarks/frf_speed.py``): its exact reference and
+its equal-work set-ups.
 
 The benchmark compares this project with pyHarm-os on equal point counts; these tests check
 that the configured step controls still give those counts (pyHarm only when installed, as the
@@ -10,24 +11,20 @@ harmonics are read in the project's convention.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "frf_speed.py"
+from benchmarks.frf import common, multi_harmonic, pyharm
+from nlupdate.response.continuation import trace_frequency_response
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("frf_speed_benchmark", PATH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look the module up while the class is built
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop(spec.name, None)
+    """The benchmark's parts under one name, as the tests below read them."""
+    names = {**vars(common), **vars(pyharm), **vars(multi_harmonic), "trace_frequency_response": trace_frequency_response}
+    return SimpleNamespace(**{k: v for k, v in names.items() if not k.startswith("__")})
 
 
 @pytest.fixture(scope="module")

@@ -57,3 +57,35 @@ def test_bad_matrices_are_rejected():
         ModalModel([10.0, 20.0], [[1.0, 2.0, 3.0]])
     with pytest.raises(ValueError, match="dof_names"):
         LumpedModel(M, K, dof_names=("a",))
+
+
+@pytest.mark.parametrize("proportional", [True, False])
+def test_dense_receptance_without_inverse_matches_the_inverse(proportional):
+    # a 30-dof chain with structural damping γK, plus (not proportional) a local dashpot and
+    # a joint's loss at one spring: the modal route is taken exactly when it is exact
+    n = 30
+    k = 1e4 * (2 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1))
+    k[-1, -1] = 1e4
+    m = np.eye(n) / n
+    d = 0.01 * k
+    c = np.zeros((n, n))
+    if not proportional:
+        c[n - 1, n - 1] = 0.3
+        d[3:5, 3:5] += 50.0 * np.array([[1, -1], [-1, 1]])
+    model = LumpedModel(m, k, c, d)
+    assert (model._proportional_modes() is not None) == proportional
+    omega = np.linspace(5.0, 900.0, 41)
+    rows, cols = [n - 1, 4], [0, 3, n - 1]
+    h, dh = model.receptance(omega, rows, cols, derivative=True)
+    h_2, dh_2 = model.harmonic_receptance(omega, 2, rows, cols, derivative=True)
+    for i, w in enumerate(omega):
+        full = np.linalg.inv(model.dynamic_stiffness(w))
+        d_full = -full @ (-2 * w * m + 1j * c) @ full
+        np.testing.assert_allclose(h[i], full[np.ix_(rows, cols)], rtol=1e-9, atol=1e-12 * np.abs(full).max())
+        np.testing.assert_allclose(dh[i], d_full[np.ix_(rows, cols)], rtol=1e-8, atol=1e-12 * np.abs(d_full).max())
+        # harmonic 2: K − (2ω)²M + i(2ωC + 2D)
+        z2 = k - (2 * w) ** 2 * m + 1j * (2 * w * c + 2 * d)
+        full2 = np.linalg.inv(z2)
+        np.testing.assert_allclose(h_2[i], full2[np.ix_(rows, cols)], rtol=1e-9, atol=1e-12 * np.abs(full2).max())
+        d_full2 = -full2 @ (-2 * (2 * w) * m + 1j * c) @ full2 * 2
+        np.testing.assert_allclose(dh_2[i], d_full2[np.ix_(rows, cols)], rtol=1e-8, atol=1e-12 * np.abs(d_full2).max())

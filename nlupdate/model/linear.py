@@ -7,13 +7,18 @@ Angular frequency ω is in rad/s everywhere in this module.
 Two model kinds share one interface (:class:`LinearModel`):
 
 * :class:`LumpedModel` — mass, viscous damping, structural damping and stiffness
-  matrices (dense or scipy.sparse); receptance by direct solve.
+  matrices (dense or scipy.sparse); receptance by modal superposition over all modes where
+  that is exact (dense, proportional damping: one eigenproblem per model), else by solves
+  for the needed columns only (never a full inverse).
 * :class:`ModalModel` — natural frequencies, mass-normalised mode shapes at named
   coordinates and modal damping; receptance by modal superposition.
 
 Both return receptance blocks ``H[rows, cols]`` for an array of frequencies with shape
 ``(n_omega, len(rows), len(cols))`` and the derivative ``dH/dω`` needed by Newton and
-continuation solvers.
+continuation solvers; :class:`ReceptancePlan` evaluates one block at many frequencies.
+
+(Over 400 lines: the two model kinds and the receptance routes they share — modal sum,
+column solves, sparse factorisation — belong together.)
 """
 from __future__ import annotations
 
@@ -30,6 +35,11 @@ from nlupdate.fingerprints import fingerprint
 
 ComplexArray = NDArray[np.complex128]
 FloatArray = NDArray[np.float64]
+
+PROPORTIONAL_TOLERANCE = 1e-10
+"""Largest off-diagonal of ΦᵀCΦ and ΦᵀDΦ, relative to their diagonal, for which a dense
+lumped model's damping counts as proportional and its receptance is the modal superposition
+of all its modes (the undamped modes then diagonalise Z(ω) exactly, up to rounding)."""
 
 
 class LinearModel(Protocol):
@@ -149,7 +159,7 @@ class LumpedModel:
     def receptance(
         self, omega: ArrayLike, rows: Sequence[int], cols: Sequence[int], derivative: bool = False
     ) -> ComplexArray | tuple[ComplexArray, ComplexArray]:
-        """Receptance block ``H[rows, cols]`` (m/N) at each ω (rad/s) by direct solve.
+        """Receptance block ``H[rows, cols]`` (m/N) at each ω (rad/s) (see the module docstring).
 
         With ``derivative=True`` also returns ``dH/dω = −H (dZ/dω) H`` with
         ``dZ/dω = −2ωM + iC``. Shapes ``(n_omega, len(rows), len(cols))``.
@@ -171,21 +181,69 @@ class LumpedModel:
         return _harmonic_receptance(self, omega, harmonic, rows, cols, derivative)
 
     def _receptance(self, omega, rows, cols, derivative: bool, d_scale: float):
+        """Dense models: modal superposition when it is exact (:meth:`_proportional_modes`),
+        else a solve for the needed columns (and rows) only, a few frequencies at a time."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         rows, cols = list(rows), list(cols)
         if self.is_sparse:
             return self._receptance_sparse(omega, rows, cols, derivative, d_scale)
+        d_scale = np.broadcast_to(np.asarray(d_scale, dtype=float), omega.shape)
+        modes = self._proportional_modes()
+        if modes is not None:
+            omega_sq, phi, c_r, d_r = modes
+            return _modal_block(omega_sq, c_r, d_r, phi[rows], phi[cols].T, omega, d_scale, derivative)
+        return self._receptance_columns(omega, rows, cols, derivative, d_scale)
+
+    def _proportional_modes(self):
+        """(ω_r², Φ, diag ΦᵀCΦ, diag ΦᵀDΦ) of the undamped modes (ΦᵀMΦ = I) when they also
+        diagonalise C and D — proportional damping such as D = γK — so that modal
+        superposition over all modes is the exact receptance; else None. Computed once per
+        model (one symmetric eigenproblem, O(N³))."""
+        cached = self.__dict__.get("_modes_cache")
+        if cached is None:
+            cached = (self._modal_decomposition(),)
+            object.__setattr__(self, "_modes_cache", cached)
+        return cached[0]
+
+    def _modal_decomposition(self):
         m, k, c, d = self._dense_mkcd
-        w = omega[:, None, None]
-        d_scale = np.broadcast_to(np.asarray(d_scale, dtype=float), omega.shape)[:, None, None]
-        z = k[None] - w**2 * m[None] + 1j * (w * c[None] + d_scale * d[None])
-        h_full = np.linalg.inv(z)
-        h = h_full[:, rows][:, :, cols]
-        if not derivative:
-            return h
-        dz = -2.0 * w * m[None] + 1j * c[None]
-        dh = -h_full[:, rows, :] @ dz @ h_full[:, :, cols]
-        return h, dh
+        if not (np.allclose(m, m.T, rtol=0, atol=1e-14 * np.abs(m).max())
+                and np.allclose(k, k.T, rtol=0, atol=1e-14 * max(np.abs(k).max(), 1e-300))):
+            return None
+        try:
+            omega_sq, phi = scipy.linalg.eigh(k, m, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        diagonals = []
+        for matrix in (c, d):
+            projected = phi.T @ matrix @ phi
+            diagonal = np.diag(projected).copy()
+            off = projected - np.diag(diagonal)
+            scale = max(np.abs(diagonal).max(), 1e-300)
+            if np.abs(off).max() > PROPORTIONAL_TOLERANCE * scale:
+                return None
+            diagonals.append(diagonal)
+        return omega_sq, phi, diagonals[0], diagonals[1]
+
+    def _receptance_columns(self, omega, rows, cols, derivative: bool, d_scale: NDArray):
+        """``H[rows, cols]`` by LU solves for the columns (and, for the derivative, the rows) only."""
+        m, k, c, d = self._dense_mkcd
+        n = self.n_dof
+        unit = np.eye(n)
+        h = np.empty((omega.size, len(rows), len(cols)), dtype=complex)
+        dh = np.empty_like(h) if derivative else None
+        chunk = max(1, int(2**22 // (n * n)))  # ≤ 64 MB of complex matrices at a time
+        for start in range(0, omega.size, chunk):
+            w = omega[start : start + chunk, None, None]
+            z = k[None] - w**2 * m[None] + 1j * (w * c[None] + d_scale[start : start + chunk, None, None] * d[None])
+            columns = np.linalg.solve(z, np.broadcast_to(unit[:, cols], (z.shape[0], n, len(cols))))
+            h[start : start + chunk] = columns[:, rows]
+            if derivative:
+                # H[rows, :] = (Z⁻ᵀ e_rows)ᵀ; dH/dω = −H[rows, :] (dZ/dω) H[:, cols]
+                row_block = np.linalg.solve(np.swapaxes(z, 1, 2), np.broadcast_to(unit[:, rows], (z.shape[0], n, len(rows))))
+                dz = -2.0 * w * m[None] + 1j * c[None]
+                dh[start : start + chunk] = -np.swapaxes(row_block, 1, 2) @ (dz @ columns)
+        return (h, dh) if derivative else h
 
     def _receptance_sparse(
         self, omega: np.ndarray, rows: list[int], cols: list[int], derivative: bool, d_scale: float
@@ -341,18 +399,65 @@ class ModalModel:
 
     def _receptance(self, omega, rows, cols, derivative: bool, eta_scale: float):
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        eta_scale = np.broadcast_to(np.asarray(eta_scale, dtype=float), omega.shape)
+        omega_sq, c_r, d_r = self.modal_damping()
+        return _modal_block(omega_sq, c_r, d_r, self.mode_shapes[list(rows)], self.mode_shapes[list(cols)].T, omega,
+                            eta_scale, derivative)
+
+    def modal_damping(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(ω_r², c_r = 2ζ_r ω_r, d_r = η_r ω_r²): the receptance is
+        ``Σ_r φ_r φ_rᵀ / (ω_r² − ω² + i(ω c_r + d_r))``."""
         wr = self.omega_r
-        w = omega[:, None]
-        eta_scale = np.broadcast_to(np.asarray(eta_scale, dtype=float), omega.shape)[:, None]
-        denominator = wr**2 - w**2 + 1j * (2 * self.damping_ratios * wr * w + eta_scale * self.loss_factors * wr**2)
-        phi_rows = self.mode_shapes[list(rows)]
-        phi_cols = self.mode_shapes[list(cols)]
-        h = np.einsum("jr,wr,kr->wjk", phi_rows, 1.0 / denominator, phi_cols)
-        if not derivative:
-            return h
-        d_denominator = -2 * w + 2j * self.damping_ratios * wr
-        dh = np.einsum("jr,wr,kr->wjk", phi_rows, -d_denominator / denominator**2, phi_cols)
-        return h, dh
+        return wr**2, 2 * self.damping_ratios * wr, self.loss_factors * wr**2
+
+
+def _modal_block(omega_sq, c_r, d_r, phi_rows, phi_cols_t, omega, d_scale, derivative: bool):
+    """``Σ_r φ_jr φ_kr / (ω_r² − ω² + i(ω c_r + s d_r))`` (P, rows, cols) at ω (P,) rad/s with the
+    structural-damping factor s (P,) (1 at the fundamental, h at harmonic h), and its
+    ω-derivative."""
+    w = omega[:, None]
+    inverse = 1.0 / (omega_sq - w**2 + 1j * (w * c_r + d_scale[:, None] * d_r))
+    h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols_t
+    if not derivative:
+        return h
+    dh = (phi_rows[None] * ((2 * w - 1j * c_r) * inverse**2)[:, None, :]) @ phi_cols_t
+    return h, dh
+
+
+class ReceptancePlan:
+    """Receptance blocks ``H[rows, cols]`` of one model at many frequencies, the rows and
+    columns fixed: with exact modal data (a :class:`ModalModel`, or a dense
+    :class:`LumpedModel` with proportional damping) the mode-shape rows are sliced once and
+    every call is the modal sum; otherwise it is the model's own receptance."""
+
+    def __init__(self, model: LinearModel, rows: Sequence[int], cols: Sequence[int]) -> None:
+        self.model, self.rows, self.cols = model, list(rows), list(cols)
+        self._modal = None
+        if isinstance(model, ModalModel):
+            omega_sq, c_r, d_r = model.modal_damping()
+            phi = model.mode_shapes
+        elif isinstance(model, LumpedModel) and not model.is_sparse and model._proportional_modes() is not None:
+            omega_sq, phi, c_r, d_r = model._proportional_modes()
+        else:
+            return
+        self._modal = (omega_sq, c_r, d_r, phi[self.rows], phi[self.cols].T)
+
+    def harmonic(self, omega: NDArray, harmonic: NDArray, derivative: bool = False):
+        """``H`` at the harmonics ``harmonic`` (P,) of the fundamentals ``omega`` (P,) rad/s, and its
+        derivative with respect to the fundamental (as :meth:`LumpedModel.harmonic_receptance`)."""
+        omega = np.asarray(omega, dtype=float)
+        harmonic = np.asarray(harmonic, dtype=float)
+        if self._modal is None:
+            return self.model.harmonic_receptance(omega, harmonic, self.rows, self.cols, derivative)
+        result = _modal_block(*self._modal, harmonic * omega, harmonic, derivative)
+        return (result[0], harmonic[:, None, None] * result[1]) if derivative else result
+
+    def __call__(self, omega: NDArray, derivative: bool = False):
+        """``H`` at the frequencies ``omega`` (P,) rad/s (and dH/dω)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        if self._modal is None:
+            return self.model.receptance(omega, self.rows, self.cols, derivative)
+        return _modal_block(*self._modal, omega, np.ones(omega.shape), derivative)
 
 
 def _harmonic_receptance(model, omega, harmonic, rows, cols, derivative):

@@ -34,7 +34,9 @@ from nlupdate.adapters.base import ModalResult
 from nlupdate.measurement.frf_table import select_frf
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.harmonic_balance import HarmonicSettings
+from nlupdate.model.linear import dof_index
 from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.response.sweep import frequency_sweep
 
 LOSS_FACTOR_BOUNDS = (1e-4, 0.2)
 
@@ -79,8 +81,48 @@ def fit_loss_factor(
     harmonics is checked with the limit at 1); the prediction at the fitted η does."""
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h_measured, dtype=complex)
+    if harmonic_balance is None or not elements:
+        misfit = _describing_function_misfit(modes, elements, response_dof, input_dof, f, h, force_n, sweep)
+    else:
+        misfit = _harmonic_balance_misfit(modes, elements, response_dof, input_dof, f, h, force_n, sweep,
+                                          harmonic_balance)
+    low, high = np.log(LOSS_FACTOR_BOUNDS)
+    solution = scipy.optimize.minimize_scalar(misfit, bounds=(low, high), method="bounded", options={"xatol": 1e-3})
+    return float(np.exp(solution.x))
+
+
+def _describing_function_misfit(modes, elements, response_dof, input_dof, f, h, force_n, sweep):
+    """Misfit of log η by the describing function. What does not change between the trials
+    is set up once (coordinates, grid, measured points), and each trial's Newton starts from
+    the previous trial's responses (:func:`~nlupdate.response.sweep.frequency_sweep`)."""
+    grid = np.unique(f)
+    if grid.size < 2 or grid[0] <= 0:
+        raise ValueError("the frequency grid needs at least two frequencies, all > 0 Hz")
+    omega = 2 * np.pi * grid
+    probe = updated_model(modes, elements, LOSS_FACTOR_BOUNDS[0])
+    response, forcing = dof_index(probe.model, response_dof), {dof_index(probe.model, input_dof): float(force_n)}
+    measured = np.searchsorted(grid, f)
+    previous: list = []
+
+    def misfit(log_eta: float) -> float:
+        system = updated_model(modes, elements, float(np.exp(log_eta)))
+        start = previous[-1].x_nonlinear if previous and previous[-1].route == "fold-free" else None
+        result = frequency_sweep(system, forcing, omega, sweep, start=start)
+        previous[:] = [result]
+        h_model = result.response([response])[:, 0] / float(force_n)
+        valid = np.isfinite(h_model)[measured]
+        if not valid.any():
+            return np.inf
+        return float(np.mean(np.abs(h_model[measured][valid] - h[valid]) ** 2 / np.abs(h[valid]) ** 2))
+
+    return misfit
+
+
+def _harmonic_balance_misfit(modes, elements, response_dof, input_dof, f, h, force_n, sweep, harmonic_balance):
+    """Misfit of log η by the multi-harmonic balance (the trials do not warn about truncation:
+    a fixed number of harmonics is checked with the limit at 1)."""
     trials = harmonic_balance
-    if harmonic_balance is not None and harmonic_balance.harmonics != "auto":
+    if harmonic_balance.harmonics != "auto":
         trials = dataclasses.replace(harmonic_balance, share_limit=float(np.nextafter(1.0, 0.0)))
 
     def misfit(log_eta: float) -> float:
@@ -92,6 +134,4 @@ def fit_loss_factor(
             return np.inf
         return float(np.mean(np.abs(h_model[np.isin(f_model, f)] - h[measured]) ** 2 / np.abs(h[measured]) ** 2))
 
-    low, high = np.log(LOSS_FACTOR_BOUNDS)
-    solution = scipy.optimize.minimize_scalar(misfit, bounds=(low, high), method="bounded", options={"xatol": 1e-3})
-    return float(np.exp(solution.x))
+    return misfit

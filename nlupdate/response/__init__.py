@@ -1,7 +1,13 @@
-"""Nonlinear frequency responses of a model (METHODS §3).
+"""Nonlinear frequency responses of a model (docs/methods.md §3).
 
-* :mod:`~nlupdate.response.continuation` — Newton + pseudo-arclength continuation;
+* :mod:`~nlupdate.response.balance` — what the solvers need from a balance problem (the protocol);
+* :mod:`~nlupdate.response.continuation` — Newton + pseudo-arclength continuation, its options;
+* :mod:`~nlupdate.response.sweep` — a stepped-sine test on a grid by the fastest exact route;
+* :mod:`~nlupdate.response.closed_form` — every root at once where the elements allow (cubic springs);
 * :mod:`~nlupdate.response.stepped_sine` — a stepped-sine test read off a traced curve;
+* :mod:`~nlupdate.response.harmonic_balance` — the multi-harmonic balance, with
+  :mod:`~nlupdate.response.aft` (element forces over a period) and
+  :mod:`~nlupdate.response.hill` (Floquet multipliers);
 * :mod:`~nlupdate.response.fixed_point` — the source's relaxed fixed-point iteration;
 * :mod:`~nlupdate.response.time_integration` — the time-domain reference;
 * :mod:`~nlupdate.response.simulate` — responses at several force levels as a measured-FRF table.

@@ -89,14 +89,24 @@ class Fourier:
         spectrum[1 : self.harmonics + 1] = (c[1::2] + 1j * c[2::2]) * (self.samples / 2)
         return np.fft.irfft(spectrum, n=self.samples, axis=0)
 
-    def motion(self, c: NDArray) -> tuple[NDArray, NDArray]:
-        """Samples of ``u`` and ``du/dθ`` for coefficients ``c`` (2H+1,), by one inverse transform."""
-        k = np.arange(1, self.harmonics + 1)
-        both = np.empty((self.size, 2))
-        both[:, 0] = c
-        both[0, 1], both[1::2, 1], both[2::2, 1] = 0.0, -k * c[2::2], k * c[1::2]
-        samples = self.to_time(both)
+    def motions(self, c: NDArray) -> tuple[NDArray, NDArray]:
+        """Samples (P, N) of ``u`` and ``du/dθ`` for P coefficient vectors ``c`` (P, 2H+1)."""
+        h = self.harmonics
+        spectrum = np.zeros((c.shape[0], 2, self.samples // 2 + 1), dtype=complex)
+        spectrum[:, 0, 0] = c[:, 0] * self.samples
+        first = (c[:, 1::2] + 1j * c[:, 2::2]) * (self.samples / 2)
+        spectrum[:, 0, 1 : h + 1] = first
+        spectrum[:, 1, 1 : h + 1] = 1j * np.arange(1, h + 1) * first  # d/dθ: ik per harmonic
+        samples = np.fft.irfft(spectrum, n=self.samples, axis=-1)
         return samples[:, 0], samples[:, 1]
+
+    def harmonics_of(self, f: NDArray) -> NDArray:
+        """Coefficients (…, 2H+1) of samples ``f`` (…, N) (the transform along the last axis)."""
+        spectrum = np.fft.rfft(f, axis=-1)[..., : self.harmonics + 1] * (2.0 / self.samples)
+        out = np.empty(f.shape[:-1] + (self.size,))
+        out[..., 0] = spectrum[..., 0].real / 2
+        out[..., 1::2], out[..., 2::2] = spectrum[..., 1:].real, spectrum[..., 1:].imag
+        return out
 
     def to_harmonics(self, f: NDArray) -> NDArray:
         """Coefficients (2H+1, …) of samples ``f`` (N, …)."""
@@ -105,12 +115,6 @@ class Fourier:
         out[0] = spectrum[0].real / 2
         out[1::2], out[2::2] = spectrum[1:].real, spectrum[1:].imag
         return out
-
-    def exponential(self, samples: NDArray) -> NDArray:
-        """Complex Fourier coefficients ``(1/N)Σ s e^{−imθ_j}`` for m = −2H … 2H."""
-        spectrum = np.fft.fft(samples) / self.samples
-        m = np.arange(-2 * self.harmonics, 2 * self.harmonics + 1)
-        return spectrum[m % self.samples]
 
 
 @dataclass(frozen=True)
@@ -165,13 +169,16 @@ _POINTWISE: dict[type, Callable] = {
 
 
 def _pointwise_forces(law, element, c, omega, fourier: Fourier) -> PeriodForces:
-    u, up = fourier.motion(c)
-    f, f_u, f_up, f_w = law(element, u, up, omega)
-    signals = np.empty((fourier.samples, fourier.size + 2))  # one transform for all columns
+    """Pointwise laws for P motions at once: ``c`` (P, 2H+1), ``omega`` (P,); results (P, …)."""
+    u, up = fourier.motions(c)
+    w = np.asarray(omega, dtype=float)[:, None]
+    f, f_u, f_up, f_w = law(element, u, up, w)
+    points = c.shape[0]
+    signals = np.empty((points, fourier.size + 2, fourier.samples))  # one transform for all columns
     signals[:, 0], signals[:, 1] = f, f_w
-    signals[:, 2:] = f_u[:, None] * fourier.E + f_up[:, None] * fourier.dE
-    harmonics = fourier.to_harmonics(signals)
-    return PeriodForces(harmonics[:, 0], harmonics[:, 2:], harmonics[:, 1])
+    signals[:, 2:] = f_u[:, None, :] * fourier.E.T + f_up[:, None, :] * fourier.dE.T
+    harmonics = fourier.harmonics_of(signals)  # (P, size+2, 2H+1)
+    return PeriodForces(harmonics[:, 0], np.swapaxes(harmonics[:, 2:], 1, 2), harmonics[:, 1])
 
 
 # -- Jenkins: steady hysteresis cycle ---------------------------------------------------------
@@ -331,33 +338,53 @@ def _coulomb_forces(element: CoulombFriction, c, omega, fourier: Fourier) -> Per
 
 def period_forces(element, c: NDArray, omega: float, fourier: Fourier) -> PeriodForces:
     """Harmonics of one element's force for relative-motion coefficients ``c`` (m) at ω (rad/s)."""
-    if isinstance(element, JenkinsFriction):
-        return _jenkins_forces(element, c, omega, fourier)
-    if isinstance(element, IwanJoint):
-        return _iwan_forces(element, c, omega, fourier)
-    if isinstance(element, CoulombFriction):
-        return _coulomb_forces(element, c, omega, fourier)
+    result = period_forces_batch(element, np.asarray(c, dtype=float)[None], np.array([omega], dtype=float), fourier)
+    return PeriodForces(result.g[0], result.dg_dc[0], result.dg_domega[0])
+
+
+_HYSTERETIC: dict[type, Callable] = {}  # filled below: laws evaluated one motion at a time
+
+
+def period_forces_batch(element, c: NDArray, omega: NDArray, fourier: Fourier) -> PeriodForces:
+    """:func:`period_forces` for P motions at once: ``c`` (P, 2H+1) (m), ``omega`` (P,) (rad/s);
+    G (P, 2H+1), ∂G/∂c (P, 2H+1, 2H+1), ∂G/∂ω (P, 2H+1). Pointwise laws share every transform;
+    the hysteresis cycles (Jenkins, Iwan) and Coulomb's crossings are followed motion by motion."""
+    single = _HYSTERETIC.get(type(element))
+    if single is not None:
+        parts = [single(element, ci, wi, fourier) for ci, wi in zip(c, omega)]
+        if not parts:
+            empty = np.zeros((0, fourier.size))
+            return PeriodForces(empty, np.zeros((0, fourier.size, fourier.size)), empty)
+        return PeriodForces(np.array([p.g for p in parts]), np.array([p.dg_dc for p in parts]),
+                            np.array([p.dg_domega for p in parts]))
     law = _POINTWISE.get(type(element))
     if law is None:
         raise TypeError(f"{type(element).__name__}: no time-domain law for harmonic balance")
     return _pointwise_forces(law, element, c, omega, fourier)
 
 
-def damping_coefficients(element, c: NDArray, omega: float, fourier: Fourier) -> NDArray[np.complex128]:
-    """Fourier coefficients (m = −2H … 2H) of an element's tangent damping ``∂f/∂u̇`` (N·s/m)
-    along the motion ``c``, for Hill's method. Coulomb: ``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``, whose
-    coefficients in θ are ``(1/2π) Σ_c 2Fs e^{−imθ_c} / |u̇'(θ_c)|``; Jenkins and Iwan: none (rate-independent)."""
+def damping_coefficients_batch(element, c: NDArray, omega: NDArray, fourier: Fourier) -> NDArray[np.complex128]:
+    """Fourier coefficients (P, 4H+1; m = −2H … 2H) of an element's tangent damping ``∂f/∂u̇``
+    (N·s/m) along P motions ``c`` (P, 2H+1), for Hill's method. Coulomb: ``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``,
+    whose coefficients in θ are ``(1/2π) Σ_c 2Fs e^{−imθ_c} / |u̇'(θ_c)|``; Jenkins and Iwan: none
+    (rate-independent)."""
+    omega = np.asarray(omega, dtype=float)
+    m = np.arange(-2 * fourier.harmonics, 2 * fourier.harmonics + 1)
     if isinstance(element, (JenkinsFriction, IwanJoint)):
-        return np.zeros(4 * fourier.harmonics + 1, complex)
+        return np.zeros((omega.size, m.size), complex)
     if isinstance(element, CoulombFriction):
-        theta, _, slope = _velocity_crossings(c, fourier)
-        m = np.arange(-2 * fourier.harmonics, 2 * fourier.harmonics + 1)
-        weights = 2 * element.slip_force / (np.abs(slope) * omega)
-        return np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi)
+        out = np.empty((omega.size, m.size), complex)
+        for index, (ci, wi) in enumerate(zip(c, omega)):
+            theta, _, slope = _velocity_crossings(ci, fourier)
+            weights = 2 * element.slip_force / (np.abs(slope) * wi)
+            out[index] = np.exp(-1j * np.outer(m, theta)) @ weights / (2 * np.pi)
+        return out
     law = _POINTWISE[type(element)]
-    u, up = fourier.motion(c)
-    _, _, f_up, _ = law(element, u, up, omega)
-    return fourier.exponential(f_up / omega)
+    u, up = fourier.motions(c)
+    w = omega[:, None]
+    _, _, f_up, _ = law(element, u, up, w)
+    spectrum = np.fft.fft(np.broadcast_to(f_up / w, u.shape), axis=-1) / fourier.samples
+    return spectrum[:, m % fourier.samples]
 
 
 def aliasing_change(element, c: NDArray, omega: float, fourier: Fourier, factor: int = 8) -> float:
@@ -367,3 +394,6 @@ def aliasing_change(element, c: NDArray, omega: float, fourier: Fourier, factor:
     fine_g = period_forces(element, c, omega, fine).g
     scale = np.linalg.norm(fine_g)
     return float(np.linalg.norm(coarse_g - fine_g) / scale) if scale > 0 else 0.0
+
+
+_HYSTERETIC.update({JenkinsFriction: _jenkins_forces, IwanJoint: _iwan_forces, CoulombFriction: _coulomb_forces})

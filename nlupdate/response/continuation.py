@@ -16,9 +16,13 @@ underlying linear system (which is +1 in receptance form). The determinant chang
 sign exactly at turning points (saddle-node bifurcations), so this flags the middle
 branches between folds — the branches a stepped-sine test jumps over. It does not
 detect Neimark–Sacker or symmetry-breaking bifurcations of multi-harmonic motion.
+
+(Over 400 lines because the continuation, its options, the curve it returns and its two
+drivers — one problem, or several force levels in lockstep — are one algorithm.)
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
 from typing import Mapping, Sequence
@@ -26,11 +30,86 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
+from nlupdate.model.system import CondensedProblem, LinearTerms, NonlinearSystem, newton_fixed_frequency
+from nlupdate.response.balance import BalanceProblem, MultiHarmonicProblem
 
 
 class ContinuationError(RuntimeError):
     """The continuation could not start or stalled; the message says where."""
+
+
+@dataclass(frozen=True)
+class ContinuationOptions:
+    """Every setting of :func:`trace_curve`, with its default, in one place.
+
+    Lengths are in the scaled space of the continuation (frequency band = 1, amplitude
+    scale = 1); residuals are scaled residuals ‖R‖∞.
+
+    Steps: ``step`` the first arc-length step, later ones at most ``max_step``; after a corrector that
+    converged within ``fast_iterations`` iterations the next step is ``grow`` × longer, after
+    ``slow_iterations`` or more ``shrink`` × shorter; a corrector that fails, or a tangent that
+    turns by more than ``max_angle_deg`` (except below ``kink_step``, where the turn is
+    accepted as a kink such as a stick–slip onset), halves the step; below ``min_step`` the
+    trace stops with a warning. At most ``max_points`` points.
+
+    Corrector: at most ``corrector_iterations`` Newton iterations on the pseudo-arclength
+    system; converged when the correction is below ``correction_tolerance`` and the residual
+    below 10 × ``tolerance``, or when a residual below ``stagnation_residual`` no longer halves
+    (receptances from a sparse factorisation near resonance are accurate to ~1e-7 only).
+    ``tolerance`` is also the start's and the band edge's Newton tolerance.
+
+    Folds: located between two points whose tangents' ω-components differ in sign by at
+    most ``fold_iterations`` secant steps on that component, each corrected by at most
+    ``fold_corrector_iterations`` Newton iterations (to corrections below 1e-12), until
+    |t_ω| < ``fold_tolerance``.
+    """
+
+    step: float = 0.02
+    max_step: float = 0.05
+    min_step: float = 1e-7
+    max_points: int = 20000
+    grow: float = 1.6
+    shrink: float = 0.6
+    fast_iterations: int = 3
+    slow_iterations: int = 6
+    max_angle_deg: float = 15.0
+    kink_step: float = 1e-4
+    tolerance: float = 1e-10
+    corrector_iterations: int = 8
+    correction_tolerance: float = 1e-9
+    stagnation_residual: float = 1e-6
+    fold_iterations: int = 12
+    fold_corrector_iterations: int = 10
+    fold_tolerance: float = 1e-10
+
+    def __post_init__(self) -> None:
+        for name in ("step", "max_step", "min_step", "tolerance", "correction_tolerance", "stagnation_residual",
+                     "kink_step", "fold_tolerance", "grow", "shrink", "max_angle_deg"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+                raise ValueError(f"continuation option {name}: expected a positive number, got {value!r}")
+        for name in ("max_points", "fast_iterations", "slow_iterations", "corrector_iterations",
+                     "fold_iterations", "fold_corrector_iterations"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, np.integer)) and value >= 1):
+                raise ValueError(f"continuation option {name}: expected an integer ≥ 1, got {value!r}")
+        if not self.min_step <= min(self.step, self.max_step):
+            raise ValueError(
+                f"continuation options: need min_step ≤ step and min_step ≤ max_step, got {self.min_step}, {self.step}, "
+                f"{self.max_step}"
+            )
+        if not (self.grow >= 1 and self.shrink <= 1 and self.max_angle_deg < 90):
+            raise ValueError("continuation options: need grow ≥ 1, shrink ≤ 1 and max_angle_deg < 90")
+
+    def updated(self, **overrides) -> "ContinuationOptions":
+        """A copy with some options changed; unknown names are an error that lists the known ones."""
+        if not overrides:
+            return self
+        known = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            raise TypeError(f"unknown continuation option(s) {unknown}; known: {sorted(known)}")
+        return dataclasses.replace(self, **overrides)
 
 
 @dataclass(frozen=True)
@@ -68,7 +147,7 @@ class FrequencyResponse:
     harmonic_share: largest share of the two highest harmonics over the curve (0 for one harmonic).
     """
 
-    problem: object
+    problem: BalanceProblem
     omega: NDArray[np.float64]
     x_nonlinear: NDArray[np.complex128]
     stable: NDArray[np.bool_]
@@ -91,12 +170,12 @@ class FrequencyResponse:
 
     def harmonics(self, dofs: Sequence[int]) -> NDArray[np.complex128]:
         """Harmonics X₀ … X_H (m) at any coordinates, (n_points, H+1, len(dofs)); needs harmonic balance."""
-        if not hasattr(self.problem, "harmonics_at"):
+        if not isinstance(self.problem, MultiHarmonicProblem):
             raise ValueError("a single-harmonic (describing-function) curve has no higher harmonics")
         return self.problem.harmonics_at(self.omega, self.x_nonlinear, dofs)
 
 
-def default_x_scale(problem: CondensedProblem, omega_start: float, omega_end: float) -> float:
+def default_x_scale(problem: BalanceProblem, omega_start: float, omega_end: float) -> float:
     """Amplitude scale: the largest linear response at the nonlinear dofs over the band."""
     grid = np.linspace(omega_start, omega_end, 201)
     linear = problem.linear_response(grid, problem.a)
@@ -124,12 +203,14 @@ def trace_frequency_response(
     omega_end: float,
     *,
     x_scale: float | None = None,
-    **options,
+    options: ContinuationOptions | None = None,
+    **overrides,
 ) -> FrequencyResponse:
     """Trace the single-harmonic frequency response from ``omega_start`` to ``omega_end`` (rad/s).
 
-    ``options`` are those of :func:`trace_curve`. Returns every point of the curve in
-    order, including the branches between folds, with the determinant stability flag.
+    ``options`` (:class:`ContinuationOptions`, with single ``overrides`` by name) steer the
+    continuation. Returns every point of the curve in order, including the branches between
+    folds, with the determinant stability flag.
     """
     check_band(omega_start, omega_end)
     problem = CondensedProblem(system, forcing)
@@ -138,11 +219,55 @@ def trace_frequency_response(
         empty = np.zeros((grid.size, 0), dtype=complex)
         return FrequencyResponse(problem, grid, empty, np.ones(grid.size, bool), np.zeros(grid.size, bool))
     problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
-    curve = trace_curve(problem, omega_start, omega_end, **options)
+    curve = trace_curve(problem, omega_start, omega_end, options, **overrides)
     stable = curve.jacobian_determinant > 0
     stable[curve.turning_point] = False
-    x = np.array([problem.to_complex(y) for y in curve.y])
+    x = problem.to_complex(curve.y)
     return FrequencyResponse(problem, curve.omega, x, stable, curve.turning_point)
+
+
+def trace_frequency_responses(
+    system: NonlinearSystem,
+    forcings: Sequence[Mapping[int | str, complex]],
+    omega_start: float,
+    omega_end: float,
+    options: ContinuationOptions | None = None,
+) -> list[FrequencyResponse]:
+    """:func:`trace_frequency_response` for several force vectors that differ by a factor only
+    (force levels of one excitation), all traced in lockstep (:func:`trace_curves`): every step's
+    receptances and element forces of all levels come from one batched evaluation. The curves
+    are the ones traced one by one."""
+    check_band(omega_start, omega_end)
+    problems = [CondensedProblem(system, forcing) for forcing in forcings]
+    base = problems[0]
+    factors = []
+    for problem in problems:
+        if problem.forced != base.forced:
+            raise ValueError("force levels traced together need the same forced coordinates")
+        ratio = problem.force / base.force
+        if not np.allclose(ratio, ratio[0], rtol=1e-12, atol=0):
+            raise ValueError("force levels traced together need force vectors that differ by a factor")
+        factors.append(ratio[0])
+    if base.n == 0:
+        return [trace_frequency_response(system, forcing, omega_start, omega_end) for forcing in forcings]
+    unit_scale = default_x_scale(base, omega_start, omega_end)
+    factors = np.array(factors)
+    for problem, factor in zip(problems, factors):
+        problem.x_scale = unit_scale * abs(factor)  # the linear response, hence its maximum, scales with F
+
+    def evaluate_batch(indices, y, omega):
+        linear = base.linear_batch(omega)
+        linear = LinearTerms(omega, linear.h_aa, linear.x_lin * factors[indices, None], linear.dh_aa,
+                             linear.dx_lin * factors[indices, None])
+        return base.residual_batch(y, linear, scale=np.array([problems[i].x_scale for i in indices]))
+
+    curves = trace_curves(problems, evaluate_batch, omega_start, omega_end, options)
+    out = []
+    for problem, curve in zip(problems, curves):
+        stable = curve.jacobian_determinant > 0
+        stable[curve.turning_point] = False
+        out.append(FrequencyResponse(problem, curve.omega, problem.to_complex(curve.y), stable, curve.turning_point))
+    return out
 
 
 def check_band(omega_start: float, omega_end: float) -> None:
@@ -162,36 +287,71 @@ class Curve:
 
 
 def trace_curve(
-    problem,
+    problem: BalanceProblem,
     omega_start: float,
     omega_end: float,
-    *,
-    step: float = 0.02,
-    max_step: float = 0.05,
-    min_step: float = 1e-7,
-    tolerance: float = 1e-10,
-    max_points: int = 20000,
-    max_angle_deg: float = 15.0,
-    kink_step: float = 1e-4,
-    stagnation_residual: float = 1e-6,
+    options: ContinuationOptions | None = None,
+    **overrides,
 ) -> Curve:
     """Pseudo-arclength continuation of ``problem`` over ``[omega_start, omega_end]`` (rad/s).
 
-    ``problem`` provides ``residual_and_jacobians(y, ω)`` (scaled residual, ∂R/∂y, ∂R/∂ω),
-    ``initial_guesses(ω)`` and ``size`` — :class:`~nlupdate.model.system.CondensedProblem`
-    (one harmonic) and :class:`~nlupdate.response.harmonic_balance.HarmonicBalanceProblem`.
-    Step lengths are in the scaled space (frequency band = 1, amplitude scale = 1);
-    below ``kink_step`` a turn sharper than ``max_angle_deg`` is accepted as a kink.
-    ``tolerance`` is the target scaled residual; a corrector that stagnates below
-    ``stagnation_residual`` (noisy receptances) is accepted too.
+    ``problem`` is a :class:`~nlupdate.response.balance.BalanceProblem` — the single-harmonic
+    :class:`~nlupdate.model.system.CondensedProblem` or the multi-harmonic
+    :class:`~nlupdate.response.harmonic_balance.HarmonicBalanceProblem`. ``options``
+    (:class:`ContinuationOptions`; single ``overrides`` by name, e.g. ``max_step=0.01``) hold
+    every step, tolerance and iteration count.
     """
+    o = (options or ContinuationOptions()).updated(**overrides)
     check_band(omega_start, omega_end)
     band = omega_end - omega_start
     size = problem.size
+    steps = _continuation(problem, omega_start, omega_end, o)
+    request = next(steps)
+    while True:
+        r, jac, jac_w = problem.residual_and_jacobians(request[:size], omega_start + band * request[size])
+        try:
+            request = steps.send((r, jac, jac_w * band))
+        except StopIteration as done:
+            return done.value
 
-    def evaluate(z: NDArray):
-        r, jac, jac_w = problem.residual_and_jacobians(z[:size], omega_start + band * z[size])
-        return r, jac, jac_w * band
+
+def trace_curves(
+    problems: Sequence[BalanceProblem],
+    evaluate_batch,
+    omega_start: float,
+    omega_end: float,
+    options: ContinuationOptions | None = None,
+) -> list[Curve]:
+    """:func:`trace_curve` of several problems in lockstep: each follows exactly its own
+    continuation, and at every step the evaluations all of them ask for are made together by
+    ``evaluate_batch(indices, y, omega)`` → (R, ∂R/∂y, ∂R/∂ω) stacked (indices: which problem
+    each row belongs to). The curves are those :func:`trace_curve` would give one by one."""
+    o = options or ContinuationOptions()
+    check_band(omega_start, omega_end)
+    band = omega_end - omega_start
+    steps = [_continuation(problem, omega_start, omega_end, o) for problem in problems]
+    requests = {index: next(step) for index, step in enumerate(steps)}
+    curves: list[Curve | None] = [None] * len(problems)
+    while requests:
+        indices = np.array(sorted(requests))
+        z = np.array([requests[index] for index in indices])
+        r, jac, jac_w = evaluate_batch(indices, z[:, :-1], omega_start + band * z[:, -1])
+        for row, index in enumerate(indices):
+            try:
+                requests[index] = steps[index].send((r[row], jac[row], jac_w[row] * band))
+            except StopIteration as done:
+                curves[index] = done.value
+                del requests[index]
+    return curves
+
+
+def _continuation(problem, omega_start: float, omega_end: float, o: ContinuationOptions):
+    """The continuation as a generator: it yields each point z = (y, ω̃) it needs evaluated and
+    receives (R, ∂R/∂y, ∂R/∂ω̃); its return value is the :class:`Curve`. Newton at the start and
+    at the band edge evaluates ``problem`` directly."""
+    step, max_step, min_step, tolerance = o.step, o.max_step, o.min_step, o.tolerance
+    band = omega_end - omega_start
+    size = problem.size
 
     for guess in problem.initial_guesses(omega_start):
         y, converged, _ = newton_fixed_frequency(problem, omega_start, guess, tol=tolerance)
@@ -203,7 +363,7 @@ def trace_curve(
             "start the band where the response is closer to linear"
         )
     z = np.append(y, 0.0)
-    r, jac, jac_w = evaluate(z)
+    r, jac, jac_w = yield z
     direction = np.zeros(size + 1)
     direction[size] = 1.0
     t = _tangent(jac, jac_w, direction)
@@ -212,16 +372,16 @@ def trace_curve(
     dets = [np.linalg.det(jac)]
     turning = [False]
     ds = step
-    cos_max = np.cos(np.radians(max_angle_deg))
+    cos_max = np.cos(np.radians(o.max_angle_deg))
     augmented = np.zeros((size + 1, size + 1))
 
-    while len(points) < max_points:
+    while len(points) < o.max_points:
         z_pred = z + ds * t
         z_new = z_pred.copy()
         converged = False
         previous_residual = np.inf
-        for iteration in range(1, 9):
-            r, jac, jac_w = evaluate(z_new)
+        for iteration in range(1, o.corrector_iterations + 1):
+            r, jac, jac_w = yield z_new
             augmented[:size, :size] = jac
             augmented[:size, size] = jac_w
             augmented[size] = t
@@ -235,17 +395,17 @@ def trace_curve(
             # that Newton no longer reduces (a receptance from a sparse factorisation near
             # resonance is accurate to ~1e-7 only: that is the floor it stagnates at).
             residual = np.max(np.abs(r))
-            if (np.max(np.abs(dz)) < 1e-9 and residual < 10 * tolerance) or (
-                residual < stagnation_residual and residual > 0.5 * previous_residual
+            if (np.max(np.abs(dz)) < o.correction_tolerance and residual < 10 * tolerance) or (
+                residual < o.stagnation_residual and residual > 0.5 * previous_residual
             ):
                 converged = True
                 break
             previous_residual = residual
-        if converged:  # the last Jacobian was taken within 1e-9 of z_new: reuse it
+        if converged:  # the last Jacobian was taken within correction_tolerance of z_new: reuse it
             t_new = _tangent(jac, jac_w, t)
         # A sharp turn is refined by smaller steps, except at a kink (e.g. stick–slip onset
         # of a Jenkins element, where the DF slope jumps) which no step size smooths.
-        if not converged or (t_new @ t < cos_max and ds > kink_step):
+        if not converged or (t_new @ t < cos_max and ds > o.kink_step):
             ds *= 0.5
             if ds < min_step:
                 warnings.warn(
@@ -257,7 +417,7 @@ def trace_curve(
                 break
             continue
         if t_new[size] * t[size] < 0:
-            z_fold, jac_fold = _refine_fold(evaluate, z, t, z_new, t_new, augmented)
+            z_fold, jac_fold = yield from _refine_fold(z, t, z_new, t_new, augmented, o)
             points.append(z_fold)
             dets.append(np.linalg.det(jac_fold))
             turning.append(True)
@@ -265,7 +425,10 @@ def trace_curve(
         dets.append(np.linalg.det(jac))
         turning.append(False)
         z, t = z_new, t_new
-        ds = min(ds * 1.6, max_step) if iteration <= 3 else ds * 0.6 if iteration >= 6 else ds
+        if iteration <= o.fast_iterations:
+            ds = min(ds * o.grow, max_step)
+        elif iteration >= o.slow_iterations:
+            ds *= o.shrink
         if z[size] >= 1.0 or z[size] <= 0.0:
             break
 
@@ -279,25 +442,26 @@ def trace_curve(
         y_edge, ok, _ = newton_fixed_frequency(problem, omega_start + band * edge, guess, tol=tolerance)
         if ok:
             points_arr[-1] = np.append(y_edge, edge)
-            dets[-1] = np.linalg.det(evaluate(points_arr[-1])[1])
+            dets[-1] = np.linalg.det((yield points_arr[-1])[1])
     omega = omega_start + band * points_arr[:, size]
     return Curve(omega, points_arr[:, :size], np.array(turning), np.array(dets))
 
 
-def _refine_fold(evaluate, z0, t0, z1, t1, augmented, iterations: int = 12):
-    """Locate the turning point between two curve points (secant on t_ω along the chord)."""
+def _refine_fold(z0, t0, z1, t1, augmented, o: ContinuationOptions):
+    """Locate the turning point between two curve points (secant on t_ω along the chord); a
+    generator like :func:`_continuation`."""
     size = z0.size - 1
     s_low, s_high = 0.0, float(np.linalg.norm(z1 - z0))
     f_low, f_high = t0[size], t1[size]
     direction = (z1 - z0) / s_high
-    z_best, jac_best = z1, evaluate(z1)[1]
-    for _ in range(iterations):
+    z_best, jac_best = z1, (yield z1)[1]
+    for _ in range(o.fold_iterations):
         s = s_low - f_low * (s_high - s_low) / (f_high - f_low)
         s = min(max(s, s_low + 0.05 * (s_high - s_low)), s_high - 0.05 * (s_high - s_low))
         z_pred = z0 + s * direction
         z_try = z_pred.copy()
-        for _ in range(10):
-            r, jac, jac_w = evaluate(z_try)
+        for _ in range(o.fold_corrector_iterations):
+            r, jac, jac_w = yield z_try
             augmented[:size, :size] = jac
             augmented[:size, size] = jac_w
             augmented[size] = direction
@@ -305,10 +469,10 @@ def _refine_fold(evaluate, z0, t0, z1, t1, augmented, iterations: int = 12):
             z_try = z_try + dz
             if np.max(np.abs(dz)) < 1e-12:
                 break
-        r, jac, jac_w = evaluate(z_try)
+        r, jac, jac_w = yield z_try
         t_try = _tangent(jac, jac_w, t0)
         z_best, jac_best = z_try, jac
-        if abs(t_try[size]) < 1e-10:
+        if abs(t_try[size]) < o.fold_tolerance:
             break
         if t_try[size] * f_low > 0:
             s_low, f_low = s, t_try[size]

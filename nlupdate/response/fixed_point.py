@@ -42,7 +42,7 @@ def delta_batch(problem: CondensedProblem, x: NDArray, omega: NDArray) -> NDArra
     """Nonlinearity matrices Δ_aa for many states at once, shape (n_omega, n, n)."""
     n = problem.n
     delta = np.zeros((omega.size, n, n), dtype=complex)
-    for element, r, j in problem._element_index:
+    for element, r, j in problem.element_index:
         u = x[:, r] - x[:, j] if j >= 0 else x[:, r]
         nu = element.describing_function(np.abs(u), omega)
         delta[:, r, r] += nu

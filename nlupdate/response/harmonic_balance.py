@@ -36,8 +36,9 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.model.system import NonlinearSystem, forcing_vector
-from nlupdate.response.aft import Fourier, aliasing_change, period_forces
+from nlupdate.model.linear import ReceptancePlan
+from nlupdate.model.system import LinearTerms, NonlinearSystem, forcing_vector
+from nlupdate.response.aft import Fourier, aliasing_change, period_forces_batch
 from nlupdate.response.continuation import (
     Bifurcation,
     FrequencyResponse,
@@ -45,7 +46,7 @@ from nlupdate.response.continuation import (
     default_x_scale,
     trace_curve,
 )
-from nlupdate.response.hill import HillModel, classify, floquet
+from nlupdate.response.hill import HillModel, classify, floquet_batch
 
 DEFAULT_SHARE_LIMIT = 1e-3
 AUTO_HARMONICS = (3, 5, 7, 9, 11, 15, 19, 25, 31)
@@ -62,7 +63,8 @@ def default_samples(harmonics: int) -> int:
 
 
 class HarmonicBalanceProblem:
-    """Residual and Jacobians of the condensed multi-harmonic balance at one force vector.
+    """Residual and Jacobians of the condensed multi-harmonic balance at one force vector
+    (a :class:`~nlupdate.response.balance.MultiHarmonicProblem`).
 
     Unknowns ``y`` (scaled by ``x_scale``, m): the coefficients ``[X₀, Re X₁, Im X₁, …]`` of
     every nonlinear coordinate, stored coefficient-major, ``y[c·n_a + i]``.
@@ -99,6 +101,15 @@ class HarmonicBalanceProblem:
         ]
         self._cols = list(self.a) + list(self.forced)
         self._orders = np.arange(1, self.harmonics + 1)
+        self._plan = ReceptancePlan(self.model, self.a, self._cols)
+        # flat positions in the size × size matrix of the blocks [[Re h, −Im h], [Im h, Re h]]
+        # of harmonics 1 … H, in the order (harmonic, block, row, col) that _real_blocks fills
+        n, k = self.n, np.arange(self.harmonics)[:, None, None, None]
+        row0 = n + 2 * n * k + np.array([0, 0, n, n])[None, :, None, None]
+        col0 = n + 2 * n * k + np.array([0, n, 0, n])[None, :, None, None]
+        rows = row0 + np.arange(n)[None, None, :, None]
+        cols = col0 + np.arange(n)[None, None, None, :]
+        self._block_index = (rows * self.size + cols).reshape(-1)
         try:
             static = self.model.harmonic_receptance(0.0, 0, self.a, self.a)[0]
         except (np.linalg.LinAlgError, RuntimeError):
@@ -108,35 +119,37 @@ class HarmonicBalanceProblem:
         self._static = static.real
 
     # -- linear part -------------------------------------------------------------------
-    def _blocks(self, omega: float, derivative: bool):
-        """Real block-diagonal receptance (size × size), ``X_lin`` at harmonic 1, and ω-derivatives."""
-        n = self.n
-        result = self.model.harmonic_receptance(omega, self._orders, self.a, self._cols, derivative)
+    def linear_batch(self, omega: ArrayLike, derivative: bool = True) -> LinearTerms:
+        """The linear part at every ω of ``omega`` (rad/s): the real block-diagonal receptance
+        (P, size, size) as ``h_aa``, ``X_lin`` (P, size) and their ω-derivatives."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        n, count, points = self.n, self.harmonics, omega.size
+        fundamental = np.repeat(omega, count)
+        result = self._plan.harmonic(fundamental, np.tile(self._orders, points), derivative)
         h_all, dh_all = result if derivative else (result, None)
-        big = self._real_blocks(h_all[:, :, :n], self._static)
-        dbig = self._real_blocks(dh_all[:, :, :n], 0.0) if derivative else None
-        x_lin = np.zeros(self.size)
-        lin = h_all[0, :, n:] @ self.force
-        x_lin[n : 2 * n], x_lin[2 * n : 3 * n] = lin.real, lin.imag
-        dx_lin = None
+        h_all = h_all.reshape(points, count, n, -1)
+        big = self._real_blocks(h_all[..., :n], self._static)
+        x_lin = np.zeros((points, self.size))
+        lin = h_all[:, 0, :, n:] @ self.force
+        x_lin[:, n : 2 * n], x_lin[:, 2 * n : 3 * n] = lin.real, lin.imag
+        dbig = dx_lin = None
         if derivative:
-            dx_lin = np.zeros(self.size)
-            dlin = dh_all[0, :, n:] @ self.force
-            dx_lin[n : 2 * n], dx_lin[2 * n : 3 * n] = dlin.real, dlin.imag
-        return big, x_lin, dbig, dx_lin
+            dh_all = dh_all.reshape(points, count, n, -1)
+            dbig = self._real_blocks(dh_all[..., :n], 0.0)
+            dx_lin = np.zeros((points, self.size))
+            dlin = dh_all[:, 0, :, n:] @ self.force
+            dx_lin[:, n : 2 * n], dx_lin[:, 2 * n : 3 * n] = dlin.real, dlin.imag
+        return LinearTerms(omega, big, x_lin, dbig, dx_lin)
 
     def _real_blocks(self, h: NDArray, static) -> NDArray:
-        """Block-diagonal real form: ``static`` for X₀, ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic."""
-        n, count = self.n, self.harmonics
-        blocks = np.zeros((count, 2 * n, count, 2 * n))
-        index = np.arange(count)
-        blocks[index, :n, index, :n] = h.real
-        blocks[index, :n, index, n:] = -h.imag
-        blocks[index, n:, index, :n] = h.imag
-        blocks[index, n:, index, n:] = h.real
-        big = np.zeros((self.size, self.size))
-        big[:n, :n] = static
-        big[n:, n:] = blocks.reshape(2 * n * count, 2 * n * count)
+        """Block-diagonal real forms (P, size, size) of receptances h (P, H, n, n): ``static`` for
+        X₀, ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic."""
+        points = h.shape[0]
+        big = np.zeros((points, self.size * self.size))
+        parts = np.stack([h.real, -h.imag, h.imag, h.real], axis=2)  # (P, H, 4, n, n)
+        big[:, self._block_index] = parts.reshape(points, -1)
+        big = big.reshape(points, self.size, self.size)
+        big[:, : self.n, : self.n] = static
         return big
 
     def linear_response(self, omega: ArrayLike, dofs: Sequence[int]) -> NDArray[np.complex128]:
@@ -145,67 +158,87 @@ class HarmonicBalanceProblem:
         return h @ self.force
 
     # -- nonlinear forces ---------------------------------------------------------------
-    def forces(self, coefficients: NDArray, omega: float, jacobian: bool = False):
-        """Element force coefficients G (2H+1, n_a) (N) for motion coefficients (2H+1, n_a) (m);
-        with ``jacobian=True`` G, ∂G/∂X and ∂G/∂ω flattened like ``y``."""
-        n, m = self.n, self.fourier.size
-        g = np.zeros((m, n))
-        dg = np.zeros((m, n, m, n)) if jacobian else None
-        dg_dw = np.zeros((m, n)) if jacobian else None
+    def forces_batch(self, coefficients: NDArray, omega: NDArray, jacobian: bool = False):
+        """Element force coefficients G (P, 2H+1, n_a) (N) for motion coefficients (P, 2H+1, n_a)
+        (m) at ω (P,) (rad/s); with ``jacobian=True`` G, ∂G/∂X and ∂G/∂ω flattened like ``y``:
+        (P, size), (P, size, size), (P, size)."""
+        coefficients = np.asarray(coefficients, dtype=float)
+        points, (n, m) = coefficients.shape[0], (self.n, self.fourier.size)
+        g = np.zeros((points, m, n))
+        dg = np.zeros((points, m, n, m, n)) if jacobian else None
+        dg_dw = np.zeros((points, m, n)) if jacobian else None
         for element, r, j in self.element_index:
-            u = coefficients[:, r] - (coefficients[:, j] if j >= 0 else 0.0)
-            period = period_forces(element, u, omega, self.fourier)
+            u = coefficients[:, :, r] - (coefficients[:, :, j] if j >= 0 else 0.0)
+            period = period_forces_batch(element, u, omega, self.fourier)
             pairs = ((r, 1.0), (j, -1.0)) if j >= 0 else ((r, 1.0),)
             for row, row_sign in pairs:
-                g[:, row] += row_sign * period.g
+                g[:, :, row] += row_sign * period.g
                 if jacobian:
-                    dg_dw[:, row] += row_sign * period.dg_domega
+                    dg_dw[:, :, row] += row_sign * period.dg_domega
                     for col, col_sign in pairs:
-                        dg[:, row, :, col] += row_sign * col_sign * period.dg_dc
+                        dg[:, :, row, :, col] += row_sign * col_sign * period.dg_dc
         if jacobian:
-            return g.reshape(-1), dg.reshape(self.size, self.size), dg_dw.reshape(-1)
+            return g.reshape(points, -1), dg.reshape(points, self.size, self.size), dg_dw.reshape(points, -1)
         return g
+
+    def forces(self, coefficients: NDArray, omega: float, jacobian: bool = False):
+        """:meth:`forces_batch` at one point: G (2H+1, n_a), or with ``jacobian`` G, ∂G/∂X and
+        ∂G/∂ω flattened like ``y``."""
+        result = self.forces_batch(np.asarray(coefficients, dtype=float)[None], np.array([omega], dtype=float), jacobian)
+        return tuple(part[0] for part in result) if jacobian else result[0]
 
     # -- residual -----------------------------------------------------------------------
     def initial_guesses(self, omega: float) -> tuple[NDArray, NDArray]:
         """Starting guesses at ω: the linear response in the first harmonic, then zero."""
-        _, x_lin, _, _ = self._blocks(omega, derivative=False)
+        x_lin = self.linear_batch(omega, derivative=False).x_lin[0]
         return x_lin / self.x_scale, np.zeros(self.size)
 
     def to_complex(self, y: NDArray) -> NDArray[np.complex128]:
-        """State ``(H+1, n_a)`` complex (m) from scaled unknowns."""
-        c = np.asarray(y).reshape(self.fourier.size, self.n) * self.x_scale
-        state = np.empty((self.harmonics + 1, self.n), complex)
-        state[0] = c[0]
-        state[1:] = c[1::2] + 1j * c[2::2]
+        """States ``(…, H+1, n_a)`` complex (m) from scaled unknowns (…, size)."""
+        y = np.asarray(y)
+        c = y.reshape(y.shape[:-1] + (self.fourier.size, self.n)) * self.x_scale
+        state = np.empty(y.shape[:-1] + (self.harmonics + 1, self.n), complex)
+        state[..., 0, :] = c[..., 0, :]
+        state[..., 1:, :] = c[..., 1::2, :] + 1j * c[..., 2::2, :]
         return state
 
     def to_real(self, state: NDArray) -> NDArray[np.float64]:
-        return self.coefficients(state).reshape(-1) / self.x_scale
+        """Scaled unknowns (…, size) of states (…, H+1, n_a) (m)."""
+        c = self.coefficients(state)
+        return c.reshape(c.shape[:-2] + (self.size,)) / self.x_scale
 
     def coefficients(self, state: NDArray) -> NDArray[np.float64]:
-        """Real coefficient array (2H+1, n_a) (m) of a state."""
+        """Real coefficient arrays (…, 2H+1, n_a) (m) of states (…, H+1, n_a)."""
         state = np.asarray(state, complex)
-        c = np.empty((self.fourier.size, self.n))
-        c[0] = state[0].real
-        c[1::2], c[2::2] = state[1:].real, state[1:].imag
+        c = np.empty(state.shape[:-2] + (self.fourier.size, self.n))
+        c[..., 0, :] = state[..., 0, :].real
+        c[..., 1::2, :], c[..., 2::2, :] = state[..., 1:, :].real, state[..., 1:, :].imag
         return c
 
+    def residual_batch(self, y: NDArray, linear: LinearTerms, jacobian: bool = True):
+        """Scaled residuals (P, size) at states ``y`` (P, size) and the frequencies of ``linear``;
+        with ``jacobian`` also ``∂R/∂y`` (P, size, size) and ``∂R/∂ω`` (P, size; None when
+        ``linear`` has no derivatives)."""
+        x = np.asarray(y, dtype=float) * self.x_scale
+        coefficients = x.reshape(x.shape[0], self.fourier.size, self.n)
+        if not jacobian:
+            g = self.forces_batch(coefficients, linear.omega).reshape(x.shape[0], -1)
+            return (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
+        g, dg, dg_dw = self.forces_batch(coefficients, linear.omega, jacobian=True)
+        r = (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
+        jac = np.eye(self.size) + linear.h_aa @ dg
+        jac_w = None
+        if linear.dh_aa is not None:
+            jac_w = (-linear.dx_lin + (linear.dh_aa @ g[..., None] + linear.h_aa @ dg_dw[..., None])[..., 0]) / self.x_scale
+        return r, jac, jac_w
+
     def residual(self, y: NDArray, omega: float) -> NDArray[np.float64]:
-        big, x_lin, _, _ = self._blocks(omega, derivative=False)
-        x = np.asarray(y) * self.x_scale
-        g = self.forces(x.reshape(self.fourier.size, self.n), omega).reshape(-1)
-        return (x - x_lin + big @ g) / self.x_scale
+        return self.residual_batch(np.asarray(y, dtype=float)[None], self.linear_batch(omega, False), jacobian=False)[0]
 
     def residual_and_jacobians(self, y: NDArray, omega: float):
-        """Scaled residual, ``∂R/∂y`` and ``∂R/∂ω`` (per rad/s)."""
-        big, x_lin, dbig, dx_lin = self._blocks(omega, derivative=True)
-        x = np.asarray(y) * self.x_scale
-        g, dg, dg_dw = self.forces(x.reshape(self.fourier.size, self.n), omega, jacobian=True)
-        r = (x - x_lin + big @ g) / self.x_scale
-        jac = np.eye(self.size) + big @ dg
-        jac_w = (-dx_lin + dbig @ g + big @ dg_dw) / self.x_scale
-        return r, jac, jac_w
+        """Scaled residual, ``∂R/∂y`` and ``∂R/∂ω`` (per rad/s) at one point."""
+        r, jac, jac_w = self.residual_batch(np.asarray(y, dtype=float)[None], self.linear_batch(omega))
+        return r[0], jac[0], jac_w[0]
 
     # -- response anywhere --------------------------------------------------------------
     def harmonics_at(self, omega: ArrayLike, states: NDArray, dofs: Sequence[int]) -> NDArray[np.complex128]:
@@ -217,7 +250,7 @@ class HarmonicBalanceProblem:
         out[:, 1] = self.model.receptance(omega, dofs, list(self.forced)) @ self.force
         if not self.n:
             return out
-        g = np.array([self.forces(self.coefficients(s), w) for s, w in zip(states, omega)])  # (n_ω, 2H+1, n_a)
+        g = self.forces_batch(self.coefficients(states), omega)  # (n_ω, 2H+1, n_a)
         g_complex = np.concatenate([g[:, :1] + 0j, g[:, 1::2] + 1j * g[:, 2::2]], axis=1)
         for k in range(self.harmonics + 1):
             h_ba = self.model.harmonic_receptance(omega if k else np.zeros(1), k, dofs, list(self.a))
@@ -239,14 +272,10 @@ def harmonic_shares(states: NDArray) -> NDArray[np.float64]:
 
 def _stability(problem: HarmonicBalanceProblem, omega, states, turning):
     hill = HillModel.of(problem.model, problem.a)
-    multipliers, stable = [], []
-    for w, state in zip(omega, states):
-        coefficients = problem.coefficients(state)
-        _, force_jacobian, _ = problem.forces(coefficients, w, jacobian=True)
-        result = floquet(hill, problem.element_index, coefficients, w, problem.fourier, force_jacobian)
-        multipliers.append(result.multipliers)
-        stable.append(np.max(np.abs(result.multipliers)) < 1.0 + 1e-7)
-    multipliers, stable = np.array(multipliers), np.array(stable)
+    coefficients = problem.coefficients(states)
+    _, force_jacobians, _ = problem.forces_batch(coefficients, omega, jacobian=True)
+    _, multipliers = floquet_batch(hill, problem.element_index, coefficients, omega, problem.fourier, force_jacobians)
+    stable = np.max(np.abs(multipliers), axis=1) < 1.0 + 1e-7
     bifurcations = []
     points = np.flatnonzero(~turning)
     for p, q in zip(points[:-1], points[1:]):
@@ -346,7 +375,7 @@ def trace_harmonic_balance(
         raise ValueError("harmonic balance needs at least one nonlinear element; the linear response is H(ω)·F")
     problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
     curve = trace_curve(problem, omega_start, omega_end, **options)
-    states = np.array([problem.to_complex(y) for y in curve.y])
+    states = problem.to_complex(curve.y)
     if stability and problem.harmonics > 1:
         stable, multipliers, bifurcations = _stability(problem, curve.omega, states, curve.turning_point)
     else:

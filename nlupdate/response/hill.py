@@ -34,11 +34,10 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.response.aft import Fourier, damping_coefficients
+from nlupdate.response.aft import Fourier, damping_coefficients_batch
 
 SPARSE_MODES = 20
 
@@ -105,50 +104,94 @@ def floquet(
     depends on the last slip, not on the instantaneous motion) the only form in which a
     fold of the curve is a multiplier +1. ``L₁`` takes the tangent damping ``Ĉ``.
     """
+    exponents, multipliers = floquet_batch(
+        hill, element_index, np.asarray(x_coefficients)[None], np.array([omega], dtype=float), fourier,
+        np.asarray(force_jacobian)[None],
+    )
+    return Floquet(exponents[0], multipliers[0])
+
+
+def floquet_batch(
+    hill: HillModel,
+    element_index: Sequence[tuple],
+    x_coefficients: NDArray,
+    omega: NDArray,
+    fourier: Fourier,
+    force_jacobians: NDArray,
+    max_bytes: int = 2**26,
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """:func:`floquet` for P orbits at once: ``x_coefficients`` (P, 2H+1, n_a), ``omega`` (P,),
+    ``force_jacobians`` (P, size, size); returns exponents and multipliers, (P, 2·n_q) each.
+    Hill's matrices of all orbits are assembled as arrays and their eigenvalues computed by one
+    batched LAPACK call, ``max_bytes`` of companion matrices at a time."""
+    omega = np.asarray(omega, dtype=float)
     harmonics = fourier.harmonics
-    n_a = hill.phi_a.shape[0]
-    n_q = hill.mass.shape[0]
+    n_a, n_q = hill.phi_a.shape
     n_h = 2 * harmonics + 1
-    c_hat = np.zeros((4 * harmonics + 1, n_a, n_a), complex)
+    size = n_q * n_h
+    chunk = max(1, int(max_bytes // (16 * (2 * size) ** 2)))
+    exponents = np.empty((omega.size, 2 * n_q), complex)
+    for start in range(0, omega.size, chunk):
+        part = slice(start, start + chunk)
+        exponents[part] = _floquet_exponents(hill, element_index, x_coefficients[part], omega[part], fourier,
+                                             force_jacobians[part])
+    return exponents, np.exp(exponents * (2 * np.pi / omega)[:, None])
+
+
+def _floquet_exponents(hill, element_index, x_coefficients, omega, fourier, force_jacobians):
+    """Hill's quadratic eigenproblem in the real Fourier basis of the balance (coefficient-major
+    ``[X₀, Re X₁, Im X₁, …]``), where every matrix is real: the perturbation's time derivative is
+    λ + D with D = kω[[0, −1], [1, 0]] on harmonic k, the element part of ``L₀`` is the balance's
+    own Jacobian and that of ``L₁`` the tangent damping's multiplication operator. Its eigenvalues
+    are those of the exponential form (a similarity), at the cost of a real eigenproblem; the
+    eigenvectors are mapped to the exponential basis for the centring."""
+    harmonics = fourier.harmonics
+    points = omega.size
+    n_a, n_q = hill.phi_a.shape
+    n_h = 2 * harmonics + 1
+    size = n_q * n_h
+    phi = hill.phi_a
+    c_hat = np.zeros((points, 4 * harmonics + 1, n_a, n_a), complex)
     for element, r, j in element_index:
-        u = x_coefficients[:, r] - (x_coefficients[:, j] if j >= 0 else 0.0)
+        u = x_coefficients[:, :, r] - (x_coefficients[:, :, j] if j >= 0 else 0.0)
         s = np.zeros(n_a)
         s[r] = 1.0
         if j >= 0:
             s[j] = -1.0
-        c_hat += damping_coefficients(element, u, omega, fourier)[:, None, None] * np.outer(s, s)
+        c_hat += damping_coefficients_batch(element, u, omega, fourier)[:, :, None, None] * np.outer(s, s)
+    orders = np.arange(-harmonics, harmonics + 1)
     to_exp, from_exp = _exponential_maps(harmonics)
-    jac = np.asarray(force_jacobian).reshape(n_h, n_a, n_h, n_a)
-    k_exp = np.einsum("mc,cadb,dn->manb", to_exp, jac, from_exp)
-    phi = hill.phi_a
-    k_q = np.einsum("ai,manb,bj->minj", phi, k_exp, phi)
-    c_q = np.einsum("ai,mab,bj->mij", phi, c_hat, phi)
-    c_eq = hill.damping + hill.structural / omega
-    size = n_q * (2 * harmonics + 1)
-    l0 = np.zeros((size, size), complex)
-    l1 = np.zeros((size, size), complex)
-    orders = range(-harmonics, harmonics + 1)
-    for row, k in enumerate(orders):
-        rk = slice(row * n_q, (row + 1) * n_q)
-        for col, j in enumerate(orders):
-            cj = slice(col * n_q, (col + 1) * n_q)
-            l0[rk, cj] = k_q[row, :, col, :]
-            l1[rk, cj] = c_q[k - j + 2 * harmonics]
-        l0[rk, rk] += hill.stiffness + 1j * k * omega * c_eq - (k * omega) ** 2 * hill.mass
-        l1[rk, rk] += c_eq + 2j * k * omega * hill.mass
+    toeplitz = c_hat[:, orders[:, None] - orders[None, :] + 2 * harmonics]  # (P, n_h, n_h, n_a, n_a), exponential
+    c_real = np.einsum("cm,pmnab,nd->pcadb", from_exp, toeplitz, to_exp, optimize=True).real  # real basis
+    jac = np.asarray(force_jacobians).reshape(points, n_h, n_a, n_h, n_a)
+    l0 = np.einsum("ai,pcadb,bj->pcidj", phi, jac, phi, optimize=True)  # (P, n_h, n_q, n_h, n_q)
+    l1 = np.einsum("ai,pcadb,bj->pcidj", phi, c_real, phi, optimize=True)
+    w = omega[:, None, None]
+    c_eq = hill.damping[None] + hill.structural[None] / w  # (P, n_q, n_q)
+    l0[:, 0, :, 0, :] += hill.stiffness
+    l1[:, 0, :, 0, :] += c_eq
+    for k in range(1, harmonics + 1):  # harmonic k: coefficients 2k − 1 (Re), 2k (Im); D = kω[[0, −1], [1, 0]]
+        re, im = 2 * k - 1, 2 * k
+        kw = k * w
+        l0[:, re, :, re, :] += hill.stiffness - kw**2 * hill.mass
+        l0[:, im, :, im, :] += hill.stiffness - kw**2 * hill.mass
+        l0[:, re, :, im, :] -= kw * c_eq
+        l0[:, im, :, re, :] += kw * c_eq
+        l1[:, re, :, re, :] += c_eq
+        l1[:, im, :, im, :] += c_eq
+        l1[:, re, :, im, :] -= 2 * kw * hill.mass
+        l1[:, im, :, re, :] += 2 * kw * hill.mass
     mass_inv = np.linalg.inv(hill.mass)
-    companion = np.zeros((2 * size, 2 * size), complex)
-    companion[:size, size:] = np.eye(size)
-    block_inv = np.kron(np.eye(2 * harmonics + 1), mass_inv)
-    companion[size:, :size] = -block_inv @ l0
-    companion[size:, size:] = -block_inv @ l1
-    values, vectors = scipy.linalg.eig(companion, check_finite=False)
-    power = np.abs(vectors[:size].reshape(2 * harmonics + 1, n_q, -1)) ** 2
-    power = power.sum(axis=1)
-    centroid = np.arange(-harmonics, harmonics + 1) @ power / np.maximum(power.sum(axis=0), 1e-300)
-    chosen = np.argsort(np.abs(centroid), kind="stable")[: 2 * n_q]
-    exponents = values[chosen]
-    return Floquet(exponents, np.exp(exponents * 2 * np.pi / omega))
+    companion = np.zeros((points, 2 * size, 2 * size))
+    companion[:, :size, size:] = np.eye(size)
+    companion[:, size:, :size] = -np.einsum("ij,pcjdk->pcidk", mass_inv, l0).reshape(points, size, size)
+    companion[:, size:, size:] = -np.einsum("ij,pcjdk->pcidk", mass_inv, l1).reshape(points, size, size)
+    values, vectors = np.linalg.eig(companion)
+    exponential = np.einsum("mc,pcqv->pmqv", to_exp, vectors[:, :size].reshape(points, n_h, n_q, -1))
+    power = (np.abs(exponential) ** 2).sum(axis=2)  # (P, n_h over m = −H … H, 2·size)
+    centroid = np.einsum("m,pmv->pv", orders.astype(float), power) / np.maximum(power.sum(axis=1), 1e-300)
+    chosen = np.argsort(np.abs(centroid), axis=1, kind="stable")[:, : 2 * n_q]
+    return np.take_along_axis(values, chosen, axis=1)
 
 
 def _exponential_maps(harmonics: int) -> tuple[NDArray, NDArray]:

@@ -4,8 +4,10 @@ A harmonic force of amplitude F (N) acts at one input coordinate; for each level
 receptance ``H = X/F`` (m/N) is computed at every coordinate of the model on a
 frequency grid (Hz) with one of three methods:
 
-* ``continuation`` — trace the curve (:mod:`nlupdate.response.continuation`) and read it like a
-  stepped-sine test sweeping ``up`` or ``down`` (:mod:`nlupdate.response.stepped_sine`);
+* ``continuation`` — the describing-function balance read like a stepped-sine test sweeping
+  ``up`` or ``down`` (:mod:`nlupdate.response.sweep`: closed-form roots, one batched solve of a
+  fold-free branch, or the traced curve (:mod:`nlupdate.response.continuation`) read by
+  :mod:`nlupdate.response.stepped_sine`);
 * ``hb`` — the same with H harmonics and the constant term, stability by Hill's method
   (:mod:`nlupdate.response.harmonic_balance`); the table holds the first harmonic;
 * ``fixed-point`` — the source's relaxed iteration from the linear response; points
@@ -24,13 +26,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.fixed_point import fixed_point_response
 from nlupdate.response.harmonic_balance import HarmonicSettings, trace_harmonic_balance
 from nlupdate.model.linear import dof_index
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.measurement.noise import add_table_noise
 from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.response.sweep import frequency_sweeps
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.time_integration import time_sweep
 from nlupdate.progress import ProgressCallback, no_progress
@@ -40,13 +42,15 @@ METHODS = ("continuation", "hb", "fixed-point", "time")
 
 @dataclass
 class SimulationReport:
-    """What happened per force level: dropped (non-converged) points and jumps (Hz)."""
+    """What happened per force level: dropped (non-converged) points, jumps (Hz) and, for the
+    describing function, the route that solved it (:attr:`~nlupdate.response.stepped_sine.SweepResult.route`)."""
 
     dropped_points: dict[float, int] = field(default_factory=dict)
     jumps_hz: dict[float, tuple[float, ...]] = field(default_factory=dict)
     harmonics: dict[float, int] = field(default_factory=dict)
     harmonic_share: dict[float, float] = field(default_factory=dict)
     bifurcations: dict[float, tuple] = field(default_factory=dict)
+    routes: dict[float, str] = field(default_factory=dict)
 
 
 def _read_curve(curve, system, omega, sweep):
@@ -55,9 +59,9 @@ def _read_curve(curve, system, omega, sweep):
     return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
 
-def _responses_continuation(system, forcing, omega, sweep, progress, settings, report):
-    curve = trace_frequency_response(system, forcing, float(omega.min()), float(omega.max()))
-    return _read_curve(curve, system, omega, sweep)
+def _read_sweep(result, system, omega):
+    valid = np.isfinite(result.x_nonlinear.reshape(omega.size, -1)).all(axis=1)
+    return result.response(range(system.model.n_dof)), valid, result.jumps_hz
 
 
 def _responses_hb(system, forcing, omega, sweep, progress, settings, report):
@@ -83,7 +87,6 @@ def _responses_time(system, forcing, omega, sweep, progress, settings, report):
 
 
 _SOLVERS: dict[str, Callable] = {
-    "continuation": _responses_continuation,
     "hb": _responses_hb,
     "fixed-point": _responses_fixed_point,
     "time": _responses_time,
@@ -128,13 +131,22 @@ def simulate_frf_table(
     names = list(system.model.dof_names)
     omega = 2 * np.pi * frequency_hz
     report = SimulationReport()
+    solved = {}
+    if method == "continuation":  # every level at once: the traced ones in lockstep
+        order = sorted(set(levels))
+        sweeps = frequency_sweeps(system, [{input_index: level} for level in order], omega, sweep)
+        solved = dict(zip(order, sweeps))
+        report.routes = {level: result.route for level, result in solved.items()}
     tables = []
     progress(f"force levels ({method})", 0, len(levels))
     for done, level in enumerate(levels, start=1):
         level_progress = lambda task, i, n, level=level: progress(f"{level:g} N: {task}", i, n)  # noqa: E731
-        x, valid, jumps = _SOLVERS[method](
-            system, {input_index: level}, omega, sweep, level_progress, harmonic_balance, report
-        )
+        if method == "continuation":
+            x, valid, jumps = _read_sweep(solved[level], system, omega)
+        else:
+            x, valid, jumps = _SOLVERS[method](
+                system, {input_index: level}, omega, sweep, level_progress, harmonic_balance, report
+            )
         report.dropped_points[level] = int((~valid).sum())
         report.jumps_hz[level] = tuple(jumps)
         h = x[valid] / level

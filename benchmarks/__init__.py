@@ -1,0 +1,1 @@
+"""Benchmark scripts (importable as ``benchmarks`` from the repository root, for their tests)."""
