@@ -12,7 +12,8 @@ import pytest
 import scipy.sparse
 
 from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap, assemble_delta
+from delta_reference import assemble_delta
+from nlupdate.model.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
 from nlupdate.response.fixed_point import fixed_point_response
 from nlupdate.model.linear import LumpedModel
 from nlupdate.response.stepped_sine import stepped_sine

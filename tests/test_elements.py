@@ -9,8 +9,9 @@ from nlupdate.model.elements import (
     PolynomialDF,
     QuadraticDamping,
     SymmetricGap,
-    assemble_delta,
 )
+
+from delta_reference import assemble_delta
 
 N_SAMPLES = 400_000
 
@@ -117,3 +118,22 @@ def test_bad_element_input_is_rejected_with_a_clear_message():
         CubicStiffness((1, 1), 1.0)
     with pytest.raises(ValueError, match="one dof to ground or two dofs"):
         CubicStiffness((0, 1, 2), 1.0)
+
+
+def test_each_element_declares_its_parameters_as_its_constructor_takes_them():
+    """The one declaration model files, identification and discovery read: an element's
+    ``parameters`` are its dataclass fields (after ``dofs``) in order, and it is listed
+    under its own ``type_name``."""
+    import dataclasses
+
+    from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS
+    from nlupdate.model.elements import ELEMENT_TYPES
+
+    for name, cls in ELEMENT_TYPES.items():
+        assert cls.type_name == name
+        fields = [f.name for f in dataclasses.fields(cls) if f.name != "dofs"]
+        assert [p.name for p in cls.parameters] == fields, name
+        optional = {f.name for f in dataclasses.fields(cls) if f.default is not dataclasses.MISSING}
+        assert {p.name for p in cls.parameters if p.optional} == optional, name
+    assert set(ELEMENT_PARAMETERS) == set(ELEMENT_TYPES) - {"polynomial"}
+    assert ELEMENT_PARAMETERS["iwan"] == (("slip_force", True), ("kt", True), ("chi", False), ("beta", True))

@@ -15,12 +15,12 @@ to simpler effects), ``linear_edits``, ``simulation`` (nearest stable solution p
 ``benchmarks/discovery_cases.py``.
 """
 from nlupdate.discovery.candidates import CandidateFit, FoundEffect
-from nlupdate.discovery.effects import EFFECT_NAMES, LIBRARY, DFSamples, Effect, ElementEffect, LinearEffect, Parameter
+from nlupdate.discovery.effects import EFFECT_NAMES, LIBRARY, DFSamples, Effect, ElementEffect, LinearEffect, EffectParameter
 from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError
 from nlupdate.discovery.workflow import DiscoveryOptions, DiscoveryResult, discover, fit_candidate
 
 __all__ = [
     "CandidateFit", "DFSamples", "DiscoveryError", "DiscoveryOptions", "DiscoveryResult", "EFFECT_NAMES", "Effect",
-    "ElementEffect", "FoundEffect", "LIBRARY", "LinearEffect", "MeasuredDataError", "ModelSolveError", "Parameter",
+    "ElementEffect", "FoundEffect", "LIBRARY", "LinearEffect", "MeasuredDataError", "ModelSolveError", "EffectParameter",
     "discover", "fit_candidate",
 ]

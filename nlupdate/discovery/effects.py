@@ -47,12 +47,19 @@ SHAPE_POINTS = 24
 
 
 @dataclass(frozen=True)
-class Parameter:
+class EffectParameter:
     """One parameter of an effect: name, SI unit and sign (POSITIVE, NEGATIVE or SIGNED)."""
 
     name: str
     unit: str
     sign: int = POSITIVE
+
+
+def _element_parameter(element: type, name: str, sign: int = POSITIVE) -> EffectParameter:
+    """Parameter ``name`` of an element class, its unit as the element declares it; the sign
+    is the effect's (a softening cubic is an element with k3 < 0)."""
+    unit = next(p.unit for p in element.parameters if p.name == name)
+    return EffectParameter(name, unit, sign)
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,7 +85,7 @@ class Effect:
     """Base class of candidate effects (see module docstring)."""
 
     name: ClassVar[str]
-    parameters: ClassVar[tuple[Parameter, ...]]
+    parameters: ClassVar[tuple[EffectParameter, ...]]
     scale_sign: ClassVar[int] = POSITIVE
     to_ground_only: ClassVar[bool] = False
 
@@ -131,7 +138,7 @@ class CubicHardening(ElementEffect):
     """Cubic spring ``k3·x³``, k3 > 0 (N/m³): ``ν = ¾k3A²``."""
 
     name: ClassVar[str] = "cubic_stiffness"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("k3", "N/m^3", POSITIVE),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CubicStiffness, "k3"),)
 
     def element(self, dofs, values):
         return CubicStiffness(tuple(dofs), float(values[0]))
@@ -142,7 +149,7 @@ class CubicSoftening(CubicHardening):
     """Softening cubic spring ``k3·x³``, k3 < 0 (N/m³): ``ν = ¾k3A²``."""
 
     name: ClassVar[str] = "softening_stiffness"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("k3", "N/m^3", NEGATIVE),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CubicStiffness, "k3", NEGATIVE),)
     scale_sign: ClassVar[int] = NEGATIVE
 
 
@@ -158,8 +165,8 @@ class DryFriction(ElementEffect):
     """
 
     name: ClassVar[str] = "dry_friction"
-    parameters: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("kf", "N/m", POSITIVE), Parameter("slip_force", "N", POSITIVE),
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (
+        _element_parameter(JenkinsFriction, "kf"), _element_parameter(JenkinsFriction, "slip_force"),
     )
     stuck_in_model: bool = False
 
@@ -200,9 +207,9 @@ class Microslip(ElementEffect):
     """
 
     name: ClassVar[str] = "microslip"
-    parameters: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("kt", "N/m", POSITIVE), Parameter("slip_force", "N", POSITIVE), Parameter("chi", "1", NEGATIVE),
-        Parameter("beta", "1", POSITIVE),
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (
+        _element_parameter(IwanJoint, "kt"), _element_parameter(IwanJoint, "slip_force"),
+        _element_parameter(IwanJoint, "chi", NEGATIVE), _element_parameter(IwanJoint, "beta"),
     )
     stuck_in_model: bool = False
     start_chi: ClassVar[float] = -0.5
@@ -247,7 +254,7 @@ class CoulombSlider(ElementEffect):
     """Coulomb friction ``Fs·sign(ẋ)`` (Fs in N): ``ν = i·4Fs/(πA)``."""
 
     name: ClassVar[str] = "coulomb_friction"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("slip_force", "N", POSITIVE),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CoulombFriction, "slip_force"),)
 
     def element(self, dofs, values):
         return CoulombFriction(tuple(dofs), float(values[0]))
@@ -258,7 +265,7 @@ class QuadraticDamper(ElementEffect):
     """Quadratic damper ``cq·ẋ|ẋ|`` (cq in N·s²/m²): ``ν = i·8cqω²A/(3π)``."""
 
     name: ClassVar[str] = "quadratic_damping"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("cq", "N s^2/m^2", POSITIVE),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(QuadraticDamping, "cq"),)
 
     def element(self, dofs, values):
         return QuadraticDamping(tuple(dofs), float(values[0]))
@@ -269,7 +276,7 @@ class Clearance(ElementEffect):
     """Symmetric gap: contact stiffness kc (N/m, the scale) beyond a clearance ±g (m, the shape)."""
 
     name: ClassVar[str] = "gap"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("gap", "m", POSITIVE), Parameter("kc", "N/m", POSITIVE))
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(SymmetricGap, "gap"), _element_parameter(SymmetricGap, "kc"))
 
     def element(self, dofs, values):
         return SymmetricGap(tuple(dofs), gap=float(values[0]), kc=float(values[1]))
@@ -307,7 +314,7 @@ class StiffnessError(LinearEffect):
     """Missing or excess linear stiffness Δk (N/m): ``ν = Δk``."""
 
     name: ClassVar[str] = "stiffness_error"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("delta_k", "N/m", SIGNED),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (EffectParameter("delta_k", "N/m", SIGNED),)
     correction: ClassVar[str] = "stiffness"
 
     def omega_shape(self, omega):
@@ -319,7 +326,7 @@ class MassError(LinearEffect):
     """Missing or excess mass Δm (kg) at a coordinate: ``ν = −ω²Δm``."""
 
     name: ClassVar[str] = "mass_error"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("delta_m", "kg", SIGNED),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (EffectParameter("delta_m", "kg", SIGNED),)
     correction: ClassVar[str] = "mass"
     to_ground_only: ClassVar[bool] = True
 
@@ -332,7 +339,7 @@ class DampingError(LinearEffect):
     """Missing or excess viscous damping Δc (N·s/m): ``ν = iωΔc``."""
 
     name: ClassVar[str] = "damping_error"
-    parameters: ClassVar[tuple[Parameter, ...]] = (Parameter("delta_c", "N s/m", SIGNED),)
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (EffectParameter("delta_c", "N s/m", SIGNED),)
     correction: ClassVar[str] = "damping"
 
     def omega_shape(self, omega):

@@ -61,18 +61,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.model.elements import ELEMENT_TYPES, PolynomialDF
 
-# parameter names of each physical element (constructor keyword order) and whether they
-# are positive (fitted as log) or not; those in INTERVAL_PARAMETERS are fitted through a
-# logistic map onto their open interval
+#: Fitted parameter names of each physical element (constructor keyword order) and whether
+#: they are positive (fitted as log) or signed; those in INTERVAL_PARAMETERS are fitted
+#: through a logistic map onto their open interval. Read from the element classes.
 ELEMENT_PARAMETERS: dict[str, tuple[tuple[str, bool], ...]] = {
-    "cubic": (("k3", False),),
-    "jenkins": (("kf", True), ("slip_force", True)),
-    "coulomb": (("slip_force", True),),
-    "quadratic_damping": (("cq", True),),
-    "gap": (("gap", True), ("kc", True)),
-    "iwan": (("slip_force", True), ("kt", True), ("chi", False), ("beta", True)),
+    name: tuple((p.name, p.positive) for p in cls.parameters if p.fitted)
+    for name, cls in ELEMENT_TYPES.items() if any(p.fitted for p in cls.parameters)
 }
-INTERVAL_PARAMETERS: dict[str, tuple[float, float]] = {"chi": (-1.0, 0.0)}
+INTERVAL_PARAMETERS: dict[str, tuple[float, float]] = {
+    p.name: p.interval for cls in ELEMENT_TYPES.values() for p in cls.parameters if p.interval is not None
+}
 _INTERVAL_MARGIN = 1e-9  # interval values are kept this far (relative) inside their ends
 
 

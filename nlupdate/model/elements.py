@@ -16,20 +16,42 @@ Each element provides
 * ``stiffness_bound(A)``: an upper bound of the tangent stiffness up to amplitude A,
   used to choose stable time steps.
 
-Elements are frozen dataclasses of plain floats and tuples, hence hashable.
+Elements are frozen dataclasses of plain floats and tuples, hence hashable. Each class
+also states what it is called and what its parameters are (``type_name``, ``parameters``:
+:class:`ElementParameter`); model files, identification and discovery read that one
+declaration, collected in :data:`ELEMENT_TYPES`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
 from math import gamma, pi, sqrt
-from typing import Protocol, Sequence, Union
+from typing import ClassVar, Protocol, Sequence, Union
 
 import numpy as np
 import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 _TINY_AMPLITUDE = 1e-300
+
+
+@dataclass(frozen=True)
+class ElementParameter:
+    """One parameter of an element type, as model files write it.
+
+    ``name``: the constructor keyword and model-file key; ``unit``: its SI unit;
+    ``positive``: it must be > 0 (identification fits its logarithm), otherwise signed;
+    ``interval``: the open interval it lies in (identification maps it there), if any;
+    ``fitted``: False for a setting of the realisation rather than a physical parameter
+    (Iwan's slider count, a polynomial's coefficients); ``optional``: a model file may omit it.
+    """
+
+    name: str
+    unit: str
+    positive: bool = True
+    interval: tuple[float, float] | None = None
+    fitted: bool = True
+    optional: bool = False
 
 
 class NonlinearElement(Protocol):
@@ -82,6 +104,8 @@ class CubicStiffness(_Stateless):
     """Cubic spring ``f = k3·x³`` (k3 in N/m³); ``ν = ¾ k3 A²``."""
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "cubic"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("k3", "N/m^3", positive=False),)
     k3: float
 
     def __post_init__(self) -> None:
@@ -114,6 +138,8 @@ class JenkinsFriction:
     """
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "jenkins"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("kf", "N/m"), ElementParameter("slip_force", "N"))
     kf: float
     slip_force: float
 
@@ -172,6 +198,8 @@ class CoulombFriction(_Stateless):
     """Coulomb friction ``f = Fs·sign(ẋ)``; ``ν = i·4Fs/(πA)``."""
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "coulomb"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("slip_force", "N"),)
     slip_force: float
 
     def __post_init__(self) -> None:
@@ -199,6 +227,8 @@ class QuadraticDamping(_Stateless):
     """Quadratic damper ``f = cq·ẋ·|ẋ|`` (cq in N·s²/m²); ``ν = i·8 cq ω² A/(3π)``."""
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "quadratic_damping"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("cq", "N s^2/m^2"),)
     cq: float
 
     def __post_init__(self) -> None:
@@ -231,6 +261,8 @@ class SymmetricGap(_Stateless):
     """
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "gap"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("gap", "m"), ElementParameter("kc", "N/m"))
     gap: float
     kc: float
 
@@ -331,6 +363,12 @@ class IwanJoint:
     """
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "iwan"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("slip_force", "N"), ElementParameter("kt", "N/m"),
+        ElementParameter("chi", "1", positive=False, interval=(-1.0, 0.0)), ElementParameter("beta", "1"),
+        ElementParameter("sliders", "1", fitted=False, optional=True),
+    )
     slip_force: float
     kt: float
     chi: float
@@ -458,6 +496,11 @@ class PolynomialDF(_Stateless):
     """
 
     dofs: tuple[int, ...]
+    type_name: ClassVar[str] = "polynomial"
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("real", "N/m^(k+1)", positive=False, fitted=False),
+        ElementParameter("imag", "N/m^(k+1)", positive=False, fitted=False, optional=True),
+    )
     real: tuple[float, ...]
     imag: tuple[float, ...] = (0.0,)
 
@@ -502,42 +545,15 @@ Element = Union[
     CubicStiffness, JenkinsFriction, CoulombFriction, QuadraticDamping, SymmetricGap, IwanJoint, PolynomialDF
 ]
 
+#: Every element class by its ``type_name``: the one list model files, identification and
+#: discovery read.
 ELEMENT_TYPES: dict[str, type] = {
-    "cubic": CubicStiffness,
-    "jenkins": JenkinsFriction,
-    "coulomb": CoulombFriction,
-    "quadratic_damping": QuadraticDamping,
-    "gap": SymmetricGap,
-    "iwan": IwanJoint,
-    "polynomial": PolynomialDF,
+    cls.type_name: cls
+    for cls in (CubicStiffness, JenkinsFriction, CoulombFriction, QuadraticDamping, SymmetricGap, IwanJoint,
+                PolynomialDF)
 }
 
 
 def nonlinear_dofs(elements: Sequence[NonlinearElement]) -> tuple[int, ...]:
     """Sorted coordinates touched by any element (the ``a`` set of METHODS §3)."""
     return tuple(sorted({d for element in elements for d in element.dofs}))
-
-
-def assemble_delta(
-    elements: Sequence[NonlinearElement], displacement: ArrayLike, omega: float, dofs: Sequence[int] | None = None
-) -> NDArray[np.complex128]:
-    """Nonlinearity matrix Δ (METHODS §1) at complex amplitudes ``displacement``.
-
-    ``displacement`` holds the complex amplitudes at ``dofs`` (default: the element
-    coordinates :func:`nonlinear_dofs`); Δ is returned on the same coordinates.
-    """
-    dofs = tuple(dofs) if dofs is not None else nonlinear_dofs(elements)
-    x = np.asarray(displacement, dtype=complex)
-    position = {d: i for i, d in enumerate(dofs)}
-    delta = np.zeros((len(dofs), len(dofs)), dtype=complex)
-    for element in elements:
-        r = position[element.dofs[0]]
-        relative = x[r] - (x[position[element.dofs[1]]] if len(element.dofs) == 2 else 0.0)
-        nu = complex(element.describing_function(abs(relative), omega))
-        delta[r, r] += nu
-        if len(element.dofs) == 2:
-            j = position[element.dofs[1]]
-            delta[j, j] += nu
-            delta[r, j] -= nu
-            delta[j, r] -= nu
-    return delta

@@ -58,16 +58,6 @@ from nlupdate.model.system import NonlinearSystem
 from nlupdate.files import atomic_file
 from nlupdate.input_files import read_input_text
 
-ELEMENT_KEYS: dict[str, tuple[str, ...]] = {
-    "cubic": ("k3",),
-    "jenkins": ("kf", "slip_force"),
-    "coulomb": ("slip_force",),
-    "quadratic_damping": ("cq",),
-    "gap": ("gap", "kc"),
-    "iwan": ("slip_force", "kt", "chi", "beta", "sliders"),
-    "polynomial": ("real", "imag"),
-}
-OPTIONAL_ELEMENT_KEYS = {"polynomial": ("imag",), "iwan": ("sliders",)}
 LUMPED_KEYS = {"kind", "mass", "stiffness", "damping", "loss_factor", "structural_damping", "dof_names"}
 MODAL_KEYS = {"kind", "natural_frequencies_hz", "mode_shapes", "damping_ratios", "loss_factors", "dof_names"}
 
@@ -206,7 +196,8 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
     kind = _require(table, "type", where)
     if kind not in ELEMENT_TYPES:
         raise ModelFileError(f"{where}: unknown type {kind!r}; expected one of {sorted(ELEMENT_TYPES)}")
-    allowed = set(ELEMENT_KEYS[kind]) | {"type", "dofs"}
+    parameters = ELEMENT_TYPES[kind].parameters
+    allowed = {p.name for p in parameters} | {"type", "dofs"}
     unknown = set(table) - allowed
     if unknown:
         raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)} for a {kind} element; expected {sorted(allowed)}")
@@ -218,7 +209,8 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
     except ValueError as error:
         raise ModelFileError(f"{where}: {error}") from None
     values = {}
-    for key in ELEMENT_KEYS[kind]:
+    for parameter in parameters:
+        key = parameter.name
         if key in table:
             if kind == "polynomial":
                 values[key] = tuple(_numbers(table[key], key, where, "a list of numbers (highest order first)"))
@@ -227,7 +219,7 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
                                      f"({type(table[key]).__name__}) — write numbers without quotes, e.g. 1e10")
             else:
                 values[key] = table[key]
-        elif key not in OPTIONAL_ELEMENT_KEYS.get(kind, ()):
+        elif not parameter.optional:
             raise ModelFileError(f"{where}: missing key '{key}' for a {kind} element")
     try:
         return ELEMENT_TYPES[kind](indices, **values)
@@ -297,13 +289,12 @@ def system_to_toml(system: NonlinearSystem) -> str:
     else:
         raise ModelFileError(f"cannot write a {type(model).__name__} as a model file (lumped or modal only)")
     lines.append(f"dof_names = {_names(model.dof_names)}")
-    kinds = {cls: name for name, cls in ELEMENT_TYPES.items()}
     for element in system.elements:
-        kind = kinds.get(type(element))
-        if kind is None:
+        kind = getattr(type(element), "type_name", None)
+        if ELEMENT_TYPES.get(kind) is not type(element):
             raise ModelFileError(f"cannot write a {type(element).__name__} element: no model-file type")
         lines += ["", "[[nonlinear]]", f'type = "{kind}"', f"dofs = {list(element.dofs)}"]
-        for key in ELEMENT_KEYS[kind]:
+        for key in (p.name for p in element.parameters):
             value = getattr(element, key)
             text = _row(value) if kind == "polynomial" else str(value) if isinstance(value, int) else _number(value)
             lines.append(f"{key} = {text}")

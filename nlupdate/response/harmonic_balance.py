@@ -103,7 +103,7 @@ class HarmonicBalanceProblem:
         self._orders = np.arange(1, self.harmonics + 1)
         self._plan = ReceptancePlan(self.model, self.a, self._cols)
         # flat positions in the size × size matrix of the blocks [[Re h, −Im h], [Im h, Re h]]
-        # of harmonics 1 … H, in the order (harmonic, block, row, col) that _real_blocks fills
+        # of harmonics 1 … H, in the order (harmonic, block, row, col) that _real_block_receptance fills
         n, k = self.n, np.arange(self.harmonics)[:, None, None, None]
         row0 = n + 2 * n * k + np.array([0, 0, n, n])[None, :, None, None]
         col0 = n + 2 * n * k + np.array([0, n, 0, n])[None, :, None, None]
@@ -128,29 +128,29 @@ class HarmonicBalanceProblem:
         result = self._plan.harmonic(fundamental, np.tile(self._orders, points), derivative)
         h_all, dh_all = result if derivative else (result, None)
         h_all = h_all.reshape(points, count, n, -1)
-        big = self._real_blocks(h_all[..., :n], self._static)
+        h_aa = self._real_block_receptance(h_all[..., :n], self._static)
         x_lin = np.zeros((points, self.size))
         lin = h_all[:, 0, :, n:] @ self.force
         x_lin[:, n : 2 * n], x_lin[:, 2 * n : 3 * n] = lin.real, lin.imag
-        dbig = dx_lin = None
+        dh_aa = dx_lin = None
         if derivative:
             dh_all = dh_all.reshape(points, count, n, -1)
-            dbig = self._real_blocks(dh_all[..., :n], 0.0)
+            dh_aa = self._real_block_receptance(dh_all[..., :n], 0.0)
             dx_lin = np.zeros((points, self.size))
             dlin = dh_all[:, 0, :, n:] @ self.force
             dx_lin[:, n : 2 * n], dx_lin[:, 2 * n : 3 * n] = dlin.real, dlin.imag
-        return LinearTerms(omega, big, x_lin, dbig, dx_lin)
+        return LinearTerms(omega, h_aa, x_lin, dh_aa, dx_lin)
 
-    def _real_blocks(self, h: NDArray, static) -> NDArray:
+    def _real_block_receptance(self, h: NDArray, static) -> NDArray:
         """Block-diagonal real forms (P, size, size) of receptances h (P, H, n, n): ``static`` for
         X₀, ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic."""
         points = h.shape[0]
-        big = np.zeros((points, self.size * self.size))
+        h_aa = np.zeros((points, self.size * self.size))
         parts = np.stack([h.real, -h.imag, h.imag, h.real], axis=2)  # (P, H, 4, n, n)
-        big[:, self._block_index] = parts.reshape(points, -1)
-        big = big.reshape(points, self.size, self.size)
-        big[:, : self.n, : self.n] = static
-        return big
+        h_aa[:, self._block_index] = parts.reshape(points, -1)
+        h_aa = h_aa.reshape(points, self.size, self.size)
+        h_aa[:, : self.n, : self.n] = static
+        return h_aa
 
     def linear_response(self, omega: ArrayLike, dofs: Sequence[int]) -> NDArray[np.complex128]:
         """First harmonic of the underlying linear system (m) at ``dofs``, (n_omega, len(dofs))."""
