@@ -47,6 +47,15 @@ def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterat
         yield recorded, runner, description, store
 
 
+def _started_now(what: str):
+    """A flow run name: ``what`` and the time the run starts (called by Prefect then)."""
+    import datetime as dt
+
+    from nlupdate.tasks.names import study_run_name
+
+    return lambda: study_run_name(what, dt.datetime.now(dt.timezone.utc))
+
+
 def run_study_flow(
     study: Study,
     results_root: str | os.PathLike = "results",
@@ -71,7 +80,7 @@ def run_study_flow(
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, {recorded}"
-        archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
+        archive = study_flow.with_options(task_runner=runner, flow_run_name=_started_now(study.name))(
             study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration, annotations)
     return Path(archive)
 
@@ -102,7 +111,8 @@ def run_discovery_flow(
     progress = progress or Progress()
     with _flow_session(execution, cache_dir, progress) as (recorded, runner, description, store):
         progress.say(f"discovery: tasks on {description}; cache {store}")
-        archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
+        archive = discovery_flow.with_options(task_runner=runner,
+                                              flow_run_name=_started_now(f"discovery {Path(model_file).stem}"))(
             inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
             f"Prefect flow `discovery` on {description}, {recorded}")
     return Path(archive)

@@ -25,6 +25,7 @@ from prefect.futures import PrefectFuture
 from nlupdate.adapters.base import FEAdapter, ModalResult
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.tasks.keys import point_key
+from nlupdate.tasks.names import fe_point_name
 
 
 _ADAPTERS: dict[str, FEAdapter] = {}
@@ -42,7 +43,7 @@ def adapter_for(spec: AdapterSpec) -> FEAdapter:
 
 class PointRegistry:
     """The FE-point futures of one flow run, by point key (thread-safe). ``evaluate_point``
-    gives the FE-point task for a task-run name (``FE point E=1.97e+11 h2=0.00142``)."""
+    gives the FE-point task for a task-run name (:func:`~nlupdate.tasks.names.fe_point_name`)."""
 
     def __init__(self, evaluate_point: Callable[[str], Task]) -> None:
         self.evaluate_point = evaluate_point
@@ -55,8 +56,7 @@ class PointRegistry:
         with self._lock:
             if key in self._futures:
                 return self._futures[key], False
-            label = " ".join(f"{name}={float(value):.4g}" for name, value in sorted(point.items()))
-            future = self.evaluate_point(f"FE point {label}").submit(key, spec, dict(point))
+            future = self.evaluate_point(fe_point_name(point)).submit(key, spec, dict(point))
             self._futures[key] = future
             return future, True
 
