@@ -43,11 +43,13 @@ def adapter_for(spec: AdapterSpec) -> FEAdapter:
 
 class PointRegistry:
     """The FE-point futures of one flow run, by point key (thread-safe). ``evaluate_point``
-    gives the FE-point task for a task-run name (:func:`~nlupdate.tasks.names.fe_point_name`)."""
+    gives the FE-point task for a task-run name (:func:`~nlupdate.tasks.names.fe_point_name`,
+    distinct for distinct points of the run)."""
 
     def __init__(self, evaluate_point: Callable[[str], Task]) -> None:
         self.evaluate_point = evaluate_point
         self._futures: dict[str, PrefectFuture] = {}
+        self._names: set[str] = set()
         self._lock = threading.Lock()
 
     def future(self, spec: AdapterSpec, point: Mapping[str, float]) -> tuple[PrefectFuture, bool]:
@@ -56,7 +58,9 @@ class PointRegistry:
         with self._lock:
             if key in self._futures:
                 return self._futures[key], False
-            future = self.evaluate_point(fe_point_name(point)).submit(key, spec, dict(point))
+            name = fe_point_name(point, self._names)
+            self._names.add(name)
+            future = self.evaluate_point(name).submit(key, spec, dict(point))
             self._futures[key] = future
             return future, True
 

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from typing import Mapping
+from typing import Collection, Mapping
 
 #: What one job of a fan-out step is called (the step's name is plural).
 JOB_NOUNS = {"updating": "updating", "predictions": "prediction"}
 
-#: Significant digits of a parameter value in an FE point's name: enough to tell apart the
-#: points a finite-difference formula needs at the default relative step 1e-3.
+#: Significant digits of a parameter value in an FE point's name, at least: enough to tell
+#: apart the points a finite-difference formula needs at the default relative step 1e-3.
 POINT_DIGITS = 4
 
 
@@ -58,9 +58,15 @@ def job_run_name(step: str, job: str) -> str:
     return f"{JOB_NOUNS.get(step, step)}: {job}"
 
 
-def fe_point_name(point: Mapping[str, float]) -> str:
-    """An FE evaluation by its parameter values: ``FE point E=1.97e11 h2=1.42e-3``."""
-    return "FE point " + " ".join(f"{name}={short_number(value)}" for name, value in sorted(point.items()))
+def fe_point_name(point: Mapping[str, float], taken: Collection[str] = ()) -> str:
+    """An FE evaluation by its parameter values, ``FE point E=1.97e11 h2=1.42e-3``, with
+    as many more digits as it takes to differ from the names ``taken`` by other points of
+    the run (iterates close to convergence: ``k1=7.446e5``, ``k1=7.4462e5``)."""
+    for digits in range(POINT_DIGITS, 18):
+        name = "FE point " + " ".join(f"{key}={short_number(value, digits)}" for key, value in sorted(point.items()))
+        if name not in taken:
+            break
+    return name
 
 
 def candidate_fit_name(round_number: int, effect: str, dofs) -> str:
