@@ -14,7 +14,7 @@ from typing import Iterator
 
 from nlupdate.flows.environment import prepare_environment
 from nlupdate.flows.progress import Progress, using
-from nlupdate.flows.runners import Execution, task_runner
+from nlupdate.flows.runners import Execution, check_scheduler_address, task_runner
 from nlupdate.flows.server import prefect_api
 from nlupdate.study.spec import Study
 
@@ -29,11 +29,14 @@ def cache_directory(given: str | os.PathLike | None = None) -> Path:
 
 @contextlib.contextmanager
 def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterator[tuple[str, object, str, Path]]:
-    """What every run needs around its flow: the environment, the result store, one
+    """What every run needs around its flow: a reachable Dask scheduler when one is named
+    (checked first), the environment, the result store, one
     Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
     end of every (sub)flow run). Yields (where the run is recorded — the API's URL when the
     user gave it, a note for a server started for the run, whose URL is gone after it —,
     task runner, its description, store)."""
+    if execution.dask_address is not None:  # before the server, which takes seconds to start
+        check_scheduler_address(execution.dask_address)
     prepare_environment()
     store = cache_directory(cache_dir)
     store.mkdir(parents=True, exist_ok=True)

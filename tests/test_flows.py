@@ -303,3 +303,34 @@ def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_
     run_discovery_flow(model, measured, DiscoveryOptions(), tmp_path / "results", cache_dir=tmp_path / "cache",
                        progress=again)
     assert again.summary()["candidate fit"]["computed"] == 0 and again.summary()["candidate fit"]["cached"] > 0
+
+
+def closed_port() -> int:
+    """A port on 127.0.0.1 nothing listens on (bound for a moment, then released)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_dask_address_is_refused_before_any_server_starts(tmp_path, two_dof_study_file):
+    """``--dask-address`` is checked first (it took 17.6 s when a Prefect server started
+    before the 10-second Dask connection timeout): one line, exit 2, nothing started."""
+    import os
+    import subprocess
+    import sys
+
+    address = f"tcp://127.0.0.1:{closed_port()}"
+    env = {key: value for key, value in os.environ.items() if key != "PREFECT_API_URL"}  # it would start a server
+    started = time.perf_counter()
+    result = subprocess.run([sys.executable, "-m", "nlupdate", "run", str(two_dof_study_file), "--dask-address", address,
+                             "--out", str(tmp_path / "results")], cwd=tmp_path, env=env, capture_output=True, text=True,
+                            timeout=120)
+    seconds = time.perf_counter() - started
+    assert result.returncode == 2, (result.returncode, result.stdout, result.stderr)
+    assert result.stderr.splitlines() == [f"nlupdate run: error: --dask-address: no Dask scheduler answers at {address} "
+                                          f"(connection refused); start one with `dask scheduler` and `dask worker "
+                                          f"ADDRESS`"]
+    assert "Prefect" not in result.stdout and not (tmp_path / "results").exists(), result.stdout
+    assert seconds < 8, seconds  # the CLI's start and the study's loading; no timeout waited out
