@@ -186,12 +186,13 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
 
     # the killed process's flow runs: crashed by the second run as it started, none left running
     runs = flow_runs_of(killed.process.pid, prefect_server)
-    assert any(run.name.startswith("two-dof 20") for run in runs), "the study flow does not call claim_flow_run()"
+    study_runs = [run for run in runs if run.name.startswith("two-dof 20")]  # the study and its start time
+    assert len(study_runs) == 1, "the study flow does not call claim_flow_run()"
     marked = [line for line in again.lines if line.startswith("marked ")]
     assert marked and f"{HOST}:{killed.process.pid}" in marked[0], again.lines
     # subflows that had finished stay Completed; none is left Running or Pending
     assert {run.state_name for run in runs} <= {"Crashed", "Completed"}, [(r.name, r.state_name) for r in runs]
-    study_run = next(run for run in runs if run.name == "two-dof")
+    study_run = study_runs[0]
     assert study_run.state_name == "Crashed" and "killed" in study_run.state.message
 
 
