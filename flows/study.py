@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextvars
 import datetime as dt
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -70,7 +71,11 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
     spec = step.model(study)
     model = keys.model_identity(spec, adapter_for(spec).model_fingerprint())
     jobs = step.jobs(study, *values)
-    count, finished = len(jobs), iter(range(1, len(jobs) + 1))
+    count, finished, in_order = len(jobs), iter(range(1, len(jobs) + 1)), threading.Lock()
+
+    def report(name: str, state: str, detail: str, seconds: float | None = None) -> None:
+        with in_order:  # lines in the order of their i/N
+            progress.finished(name, state, detail, seconds, f"{next(finished)}/{count}")
 
     def one(job: Any) -> tuple[Any, str | None]:
         key = keys.job_key(step, study, job, model, input_keys)
@@ -79,13 +84,12 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
         started = time.perf_counter()
         with evaluating_with(TaskPointEvaluator(spec, registry)):
             state = task(key, step.name, study, job, tuple(values), return_state=True)
-        position = f"{next(finished)}/{count}"
         if state.is_completed():
             outcome = state.result()
             # a job read from the cache ran no FE points here: its result's own counts are
             # those of the run that computed it, so they are not shown as this run's
-            detail = "" if state.name == "Cached" else step.label(job, outcome)
-            progress.finished(name, state.name, detail, time.perf_counter() - started, position)
+            report(name, state.name, "" if state.name == "Cached" else step.label(job, outcome),
+                   time.perf_counter() - started)
             return outcome, key
         try:
             state.result()
@@ -95,7 +99,7 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
                 raise
             error = f"{type(raised).__name__}: {raised}"
         failure = RunFailure(_named(job), error)
-        progress.finished(name, state.name, step.label(job, failure), position=position)
+        report(name, state.name, step.label(job, failure))
         return failure, None
 
     with ThreadPoolExecutor(max_workers=max(count, 1), thread_name_prefix=f"{step.name}-job") as pool:
