@@ -29,6 +29,7 @@ from nlupdate.fingerprints import file_hash, fingerprint, table_hash
 from nlupdate.reporting.manifest import environment
 from nlupdate.tasks import keys
 from nlupdate.tasks import cached as tasks
+from nlupdate.tasks.names import candidate_fit_name
 
 
 @flow(name="discovery")
@@ -41,19 +42,20 @@ def discovery_flow(inputs: Handle, cache: Cache, results_root: str, orchestratio
     started = dt.datetime.now(dt.timezone.utc)
     clock = time.perf_counter()
     progress = current_progress()
-    fit = cache.task(tasks.candidate_fit)
     rounds = iter(range(1, 1000))
 
     def map_candidates(function, jobs):
         jobs = list(jobs)
+        round_number = next(rounds)
         round_started = time.perf_counter()
-        futures = [fit.submit(keys.candidate_key(job), job) for job in jobs]
+        futures = [cache.task(tasks.candidate_fit, run_name=candidate_fit_name(round_number, effect.name, context.dofs))
+                   .submit(keys.candidate_key((context, effect)), (context, effect)) for context, effect in jobs]
         results = [future.result() for future in futures]
         states = [future.state.name for future in futures]
         for state in states:
             progress.record("candidate fit", state)
         computed = sum(state == "Completed" for state in states)
-        progress.say(f"[bold]candidates, round {next(rounds)}[/bold]: {len(jobs)} fits ({computed} computed, "
+        progress.say(f"[bold]candidates, round {round_number}[/bold]: {len(jobs)} fits ({computed} computed, "
                      f"{len(jobs) - computed} cached) in {time.perf_counter() - round_started:.1f} s")
         return results
 

@@ -1,8 +1,11 @@
-"""What the person running a study sees: which step, i/N in sweeps, computed or cached.
+"""What the person running a study sees: which step or job, i/N in sweeps, computed or cached.
 
-:class:`Progress` prints one line per finished step (``rich``, which comes with Prefect)
-and keeps the tally of task states per step — computed (``Completed``), ``Cached``,
-``Failed`` — for the run's manifest. Inside a flow run the same lines go to the run's
+:class:`Progress` prints one line per finished step or job (``rich``, which comes with
+Prefect) and keeps the tally of task states per step and per job — computed
+(``Completed``), ``Cached``, ``Failed`` — for the run's manifest. A job is named as its
+task run is in the Prefect UI (``updating: central O(h²) {E, h2}``,
+:mod:`nlupdate.tasks.names`), so a manifest entry maps to one run; its place in the sweep
+(``3/10``, the order of finishing) is shown but is not part of the name. Inside a flow run the same lines go to the run's
 log in the Prefect UI (through Prefect's API log handler on a logger of our own, so
 Prefect's console logging stays quiet). Flows reach it through :func:`current_progress`
 (a context variable, so the coordinator threads of a sweep see it too).
@@ -43,14 +46,17 @@ class Progress:
         with self._lock:
             self.tally[step][state] += count
 
-    def finished(self, step: str, state: str, detail: str = "", seconds: float | None = None) -> None:
-        """Record one task run of ``step`` and print it."""
+    def finished(self, step: str, state: str, detail: str = "", seconds: float | None = None,
+                 position: str = "") -> None:
+        """Record one task run of ``step`` (a step, or a job's name) and print it;
+        ``position``: its place in a sweep (``3/10``), shown, not recorded."""
         self.record(step, state)
         word = STATE_WORDS.get(state, state)
         style = {"computed": "green", "cached": "cyan"}.get(word, "bold red")
         timing = f" in {seconds:.1f} s" if seconds is not None else ""
+        place = f" ({position})" if position else ""
         detail = f": {escape(detail)}" if detail else ""  # a "[prediction]" in a message is text, not markup
-        self.say(f"[bold]{escape(step)}[/bold]{detail} — [{style}]{word}[/{style}]{timing}")
+        self.say(f"[bold]{escape(step)}[/bold]{place}{detail} — [{style}]{word}[/{style}]{timing}")
 
     def summary(self) -> dict[str, dict[str, int]]:
         """``{step: {"computed": n, "cached": n, "failed": n}}`` for the manifest."""

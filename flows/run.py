@@ -14,7 +14,7 @@ from typing import Iterator
 
 from nlupdate.flows.environment import prepare_environment
 from nlupdate.flows.progress import Progress, using
-from nlupdate.flows.runners import Execution, task_runner
+from nlupdate.flows.runners import Execution, check_scheduler_address, task_runner
 from nlupdate.flows.server import prefect_api
 from nlupdate.study.spec import Study
 
@@ -29,11 +29,14 @@ def cache_directory(given: str | os.PathLike | None = None) -> Path:
 
 @contextlib.contextmanager
 def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterator[tuple[str, object, str, Path]]:
-    """What every run needs around its flow: the environment, the result store, one
+    """What every run needs around its flow: a reachable Dask scheduler when one is named
+    (checked first), the environment, the result store, one
     Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
     end of every (sub)flow run). Yields (where the run is recorded — the API's URL when the
     user gave it, a note for a server started for the run, whose URL is gone after it —,
     task runner, its description, store)."""
+    if execution.dask_address is not None:  # before the server, which takes seconds to start
+        check_scheduler_address(execution.dask_address)
     prepare_environment()
     store = cache_directory(cache_dir)
     store.mkdir(parents=True, exist_ok=True)
@@ -45,6 +48,15 @@ def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterat
         recorded = f"API {url}" if users_api else ("a Prefect server started for the run (the run stays in "
                                                    "Prefect's local database)")
         yield recorded, runner, description, store
+
+
+def _started_now(what: str):
+    """A flow run name: ``what`` and the time the run starts (called by Prefect then)."""
+    import datetime as dt
+
+    from nlupdate.tasks.names import study_run_name
+
+    return lambda: study_run_name(what, dt.datetime.now(dt.timezone.utc))
 
 
 def run_study_flow(
@@ -71,7 +83,7 @@ def run_study_flow(
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"
                      + (" (refreshing)" if refresh else ""))
         orchestration = f"Prefect flow `study` on {description}, {recorded}"
-        archive = study_flow.with_options(task_runner=runner, flow_run_name=study.name)(
+        archive = study_flow.with_options(task_runner=runner, flow_run_name=_started_now(study.name))(
             study_handle(study), Cache(str(store), refresh), str(Path(results_root).resolve()), orchestration, annotations)
     return Path(archive)
 
@@ -102,7 +114,8 @@ def run_discovery_flow(
     progress = progress or Progress()
     with _flow_session(execution, cache_dir, progress) as (recorded, runner, description, store):
         progress.say(f"discovery: tasks on {description}; cache {store}")
-        archive = discovery_flow.with_options(task_runner=runner, flow_run_name=f"discovery {Path(model_file).stem}")(
+        archive = discovery_flow.with_options(task_runner=runner,
+                                              flow_run_name=_started_now(f"discovery {Path(model_file).stem}"))(
             inputs, Cache(str(store), refresh), str(Path(results_root).resolve()),
             f"Prefect flow `discovery` on {description}, {recorded}")
     return Path(archive)

@@ -3,6 +3,7 @@ run, or an existing cluster at a scheduler address (prefect-dask)."""
 from __future__ import annotations
 
 import contextlib
+import socket
 from dataclasses import dataclass
 from typing import Iterator
 
@@ -27,6 +28,26 @@ class Execution:
             raise ExecutionError("choose a local Dask cluster (--dask) or an existing one (--dask-address), not both")
 
 
+def check_scheduler_address(address: str, timeout_s: float = 2.0) -> None:
+    """Fail in one line, before a run starts anything (a Prefect server takes seconds),
+    when ``address`` is not ``[tcp://]HOST:PORT`` (or ``tls://``) or nothing accepts a TCP
+    connection there within ``timeout_s``. Whether it is a Dask scheduler with workers is
+    checked when the task runner connects (:func:`task_runner`)."""
+    scheme, separator, rest = address.rpartition("://")
+    host, colon, port = rest.rpartition(":")
+    host = host.strip("[]")  # an IPv6 literal, [::1]
+    if (separator and scheme not in ("tcp", "tls")) or not colon or not host or not port.isdigit():
+        raise ExecutionError(f"the Dask scheduler address {address!r} is not of the form tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
+            pass
+    except OSError as error:
+        reason = f"no answer within {timeout_s:g} s" if isinstance(error, TimeoutError) else \
+            (error.strerror or str(error)).lower()
+        raise ExecutionError(f"no Dask scheduler answers at {address} ({reason}); start one with `dask scheduler` "
+                             f"and `dask worker ADDRESS`") from None
+
+
 @contextlib.contextmanager
 def task_runner(execution: Execution, connect_timeout_s: float = 10.0) -> Iterator[tuple[object, str]]:
     """Yield (a Prefect task runner, a description of it) for ``execution``; a local Dask
@@ -36,6 +57,8 @@ def task_runner(execution: Execution, connect_timeout_s: float = 10.0) -> Iterat
 
         yield ThreadPoolTaskRunner(max_workers=execution.workers), f"{execution.workers} threads"
         return
+    if execution.dask_address is not None:
+        check_scheduler_address(execution.dask_address, connect_timeout_s)
     from distributed import Client, LocalCluster
     from prefect_dask import DaskTaskRunner
 

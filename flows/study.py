@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextvars
 import datetime as dt
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -32,6 +33,7 @@ from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import RunFailure
 from nlupdate.tasks import cached, keys
+from nlupdate.tasks.names import job_run_name, step_run_name
 from nlupdate.tasks.evaluation import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
 
 __all__ = ["Cache", "study_flow", "study_handle"]
@@ -47,7 +49,7 @@ def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: 
     """One step as a cached task; its result and key."""
     key = keys.step_key(step, study, input_keys)
     started = time.perf_counter()
-    task = cache.task(cached.chain_step, step.name, f"{step.name}: {study.name}")
+    task = cache.task(cached.chain_step, step.name, step_run_name(step.name, study.name))
     future = task.submit(key, step.name, study, tuple(inputs))
     future.wait()
     result = future.result()
@@ -60,26 +62,34 @@ def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: 
 def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, cache: Cache) -> tuple[Any, str]:
     """Every job of the fan-out step ``step_name``, started together, their FE points in
     the run's registry ``points``; their outcomes gathered by the step. Returns the result
-    and its key."""
+    and its key. Each job's task run, progress line and manifest entry carry the job's
+    name (:func:`~nlupdate.tasks.names.job_run_name`)."""
     claim_flow_run()
     step, study, (values, input_keys), registry = STEPS[step_name], study.value, inputs.value, points.value
+    _name_the_subflow_task_run(step_run_name(step.name, study.name))
     progress = current_progress()
     spec = step.model(study)
     model = keys.model_identity(spec, adapter_for(spec).model_fingerprint())
     jobs = step.jobs(study, *values)
-    count, finished = len(jobs), iter(range(1, len(jobs) + 1))
+    count, finished, in_order = len(jobs), iter(range(1, len(jobs) + 1)), threading.Lock()
+
+    def report(name: str, state: str, detail: str, seconds: float | None = None) -> None:
+        with in_order:  # lines in the order of their i/N
+            progress.finished(name, state, detail, seconds, f"{next(finished)}/{count}")
 
     def one(job: Any) -> tuple[Any, str | None]:
         key = keys.job_key(step, study, job, model, input_keys)
-        task = cache.task(cached.chain_job, step.name, f"{step.name}: {_named(job)}")
+        name = job_run_name(step.name, _named(job))
+        task = cache.task(cached.chain_job, step.name, name)
         started = time.perf_counter()
         with evaluating_with(TaskPointEvaluator(spec, registry)):
             state = task(key, step.name, study, job, tuple(values), return_state=True)
-        number = next(finished)
         if state.is_completed():
             outcome = state.result()
-            progress.finished(f"{step.name} {number}/{count}", state.name, step.label(job, outcome),
-                              time.perf_counter() - started)
+            # a job read from the cache ran no FE points here: its result's own counts are
+            # those of the run that computed it, so they are not shown as this run's
+            report(name, state.name, "" if state.name == "Cached" else step.label(job, outcome),
+                   time.perf_counter() - started)
             return outcome, key
         try:
             state.result()
@@ -89,7 +99,7 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
                 raise
             error = f"{type(raised).__name__}: {raised}"
         failure = RunFailure(_named(job), error)
-        progress.finished(f"{step.name} {number}/{count}", state.name, step.label(job, failure))
+        report(name, state.name, step.label(job, failure))
         return failure, None
 
     with ThreadPoolExecutor(max_workers=max(count, 1), thread_name_prefix=f"{step.name}-job") as pool:
@@ -98,6 +108,14 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
         outcomes = [future.result() for future in futures]
     return (step.compute(study, [outcome for outcome, _ in outcomes], *values),
             keys.gathered_key(step, [key for _, key in outcomes if key is not None]))
+
+
+def _name_the_subflow_task_run(name: str) -> None:
+    """Give the task run Prefect adds to the parent flow run for this subflow (``updating-0``)
+    the subflow's name."""
+    context = FlowRunContext.get()
+    if context.flow_run.parent_task_run_id is not None:
+        context.client.set_task_run_name(context.flow_run.parent_task_run_id, name)
 
 
 def _as_written(text: str):
@@ -119,15 +137,30 @@ def run_chain(study: Study, cache: Cache) -> StudyResult:
         input_keys = [result_keys.get(name) for name in step.inputs]
         if step.fans_out:
             subflow = fan_out_flow.with_options(name=step.name, task_runner=subflow_runner.duplicate(),
-                                                flow_run_name=_as_written(f"{step.name}: {study.name}"))
+                                                flow_run_name=_as_written(step_run_name(step.name, study.name)))
             results[step.name], result_keys[step.name] = subflow(
                 step.name, study_handle(study), handle((inputs, input_keys), f"inputs: {', '.join(step.inputs)}"),
                 points, cache)
         else:
             results[step.name], result_keys[step.name] = _step_task(step, study, inputs, input_keys, cache)
-    for state in registry.states():
-        current_progress().record("FE point", state)
+    if any(step.fans_out and step.name in results for step in CHAIN):
+        _tally_points(registry.states())
     return study_result(study, results)
+
+
+def _tally_points(states: list[str]) -> None:
+    """Record the run's FE points and say how many were computed here and how many read
+    from the cache (none at all when every job came from the cache)."""
+    progress = current_progress()
+    for state in states:
+        progress.record("FE point", state)
+    if not states:
+        progress.say("[bold]FE points[/bold]: none needed, every job came from the cache")
+        return
+    computed, from_cache = states.count("Completed"), states.count("Cached")
+    failed = len(states) - computed - from_cache
+    progress.say(f"[bold]FE points[/bold]: {computed} computed, {from_cache} from the cache"
+                 + (f", {failed} failed" if failed else ""))
 
 
 @flow(name="study")

@@ -25,6 +25,7 @@ from prefect.futures import PrefectFuture
 from nlupdate.adapters.base import FEAdapter, ModalResult
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.tasks.keys import point_key
+from nlupdate.tasks.names import fe_point_name
 
 
 _ADAPTERS: dict[str, FEAdapter] = {}
@@ -42,11 +43,13 @@ def adapter_for(spec: AdapterSpec) -> FEAdapter:
 
 class PointRegistry:
     """The FE-point futures of one flow run, by point key (thread-safe). ``evaluate_point``
-    gives the FE-point task for a task-run name (``FE point E=1.97e+11 h2=0.00142``)."""
+    gives the FE-point task for a task-run name (:func:`~nlupdate.tasks.names.fe_point_name`,
+    distinct for distinct points of the run)."""
 
     def __init__(self, evaluate_point: Callable[[str], Task]) -> None:
         self.evaluate_point = evaluate_point
         self._futures: dict[str, PrefectFuture] = {}
+        self._names: set[str] = set()
         self._lock = threading.Lock()
 
     def future(self, spec: AdapterSpec, point: Mapping[str, float]) -> tuple[PrefectFuture, bool]:
@@ -55,8 +58,9 @@ class PointRegistry:
         with self._lock:
             if key in self._futures:
                 return self._futures[key], False
-            label = " ".join(f"{name}={float(value):.4g}" for name, value in sorted(point.items()))
-            future = self.evaluate_point(f"FE point {label}").submit(key, spec, dict(point))
+            name = fe_point_name(point, self._names)
+            self._names.add(name)
+            future = self.evaluate_point(name).submit(key, spec, dict(point))
             self._futures[key] = future
             return future, True
 

@@ -102,21 +102,19 @@ class Run:
                 self.lines.append(line)
 
 
-STEP_LINE = re.compile(r"^(?P<step>measured data|identification|targets|comparison|updating \d+/\d+|predictions \d+/\d+)"
-                       r"(?:: (?P<detail>.*?))? — (?P<state>computed|cached|FAILED|CRASHED)")
+STEP_LINE = re.compile(r"^(?P<step>measured data|identification|targets|comparison|(?:updating|prediction): .+?)"
+                       r"(?: \(\d+/\d+\))?(?:: (?P<detail>.*?))? — (?P<state>computed|cached|FAILED|CRASHED)")
 
 
 def outcomes(lines: list[str]) -> dict[str, str]:
-    """``{step or updating-run name: computed|cached|…}`` from a run's progress lines."""
+    """``{step or job (``updating: <run>``): computed|cached|…}`` from a run's progress lines
+    (a job's i/N, the order of finishing, left out)."""
     found = {}
     for line in lines:
         match = STEP_LINE.match(line)
         if match is None:
             continue
-        step = match["step"]
-        if step.startswith(("updating", "predictions")):  # by the run's name: i/N is the order of finishing
-            step = f"{step.split()[0]} {match['detail'].split(':')[0]}"
-        found[step] = match["state"]
+        found[match["step"]] = match["state"]
     return found
 
 
@@ -158,7 +156,7 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     study, results, cache = study_file(tmp_path), tmp_path / "results", tmp_path / "cache"
     killed = Run(study, results, cache, prefect_server, tmp_path)
     # two updating runs finished (their i/N is the order they finished, not of their lines)
-    killed.wait_for(r"^updating \d+/\d+: .* — computed", timeout_s=90, count=2)
+    killed.wait_for(r"^updating: .* \(\d+/\d+\): .* — computed", timeout_s=90, count=2)
     killed.kill()
     finished_before = {step for step, state in outcomes(killed.lines).items() if state == "computed"}
     assert {"measured data", "identification", "targets"} <= finished_before and len(finished_before) >= 5, killed.lines
@@ -174,7 +172,7 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     assert code == 0, (stderr, again.lines)
     resumed = outcomes(again.lines)
     assert {step: resumed[step] for step in finished_before} == {step: "cached" for step in finished_before}, again.lines
-    assert [resumed["predictions initial"], resumed["predictions optimisation {k1}"]] == ["computed"] * 2
+    assert [resumed["prediction: initial"], resumed["prediction: optimisation {k1}"]] == ["computed"] * 2
 
     archives = complete_archives(results)
     assert len(archives) == 1 and not [p for p in (results / "two-dof").iterdir() if p.name.startswith(".")]
@@ -184,16 +182,17 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     assert tasks["measured data"] == {"computed": 0, "cached": 1, "failed": 0}
     assert tasks["identification"] == {"computed": 0, "cached": 1, "failed": 0}
     updating_cached = sum(c["cached"] for s, c in tasks.items() if s.startswith("updating"))
-    assert updating_cached >= len([s for s in finished_before if s.startswith("updating ")]) >= 2
+    assert updating_cached >= len([s for s in finished_before if s.startswith("updating: ")]) >= 2
 
     # the killed process's flow runs: crashed by the second run as it started, none left running
     runs = flow_runs_of(killed.process.pid, prefect_server)
-    assert "two-dof" in {run.name for run in runs}, "the study flow does not call claim_flow_run()"
+    study_runs = [run for run in runs if run.name.startswith("two-dof 20")]  # the study and its start time
+    assert len(study_runs) == 1, "the study flow does not call claim_flow_run()"
     marked = [line for line in again.lines if line.startswith("marked ")]
     assert marked and f"{HOST}:{killed.process.pid}" in marked[0], again.lines
     # subflows that had finished stay Completed; none is left Running or Pending
     assert {run.state_name for run in runs} <= {"Crashed", "Completed"}, [(r.name, r.state_name) for r in runs]
-    study_run = next(run for run in runs if run.name == "two-dof")
+    study_run = study_runs[0]
     assert study_run.state_name == "Crashed" and "killed" in study_run.state.message
 
 

@@ -22,6 +22,7 @@ from nlupdate.flows.runners import Execution, ExecutionError, task_runner
 from studies import two_dof_study, study_text
 from nlupdate.study import load_study, run_study, study_from_text
 from nlupdate.study.spec import TargetsSpec
+from nlupdate.tasks.names import JOB_NOUNS
 
 STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
 
@@ -33,10 +34,11 @@ def flow_run(study, tmp_path: Path, cache: str = "cache", **options) -> tuple[Pa
 
 
 def tally(manifest: dict, step: str) -> dict:
-    """Computed / cached / failed task runs of one step (steps with i/N summed)."""
+    """Computed / cached / failed task runs of one step (a fan-out step's jobs,
+    ``updating: <run>``, ``prediction: <model>``, summed)."""
     total = {"computed": 0, "cached": 0, "failed": 0}
     for name, counts in manifest["run"]["tasks"].items():
-        if name == step or name.startswith(step + " "):
+        if name == step or name.startswith(JOB_NOUNS.get(step, step) + ": "):
             for key in total:
                 total[key] += counts[key]
     return total
@@ -88,20 +90,95 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
             return parent, children
 
     parent, children = asyncio.run(flow_runs())
-    assert parent.state_name == "Completed" and parent.name == "two-dof"
+    assert parent.state_name == "Completed"
     assert sorted(run.state_name for run in children) == ["Completed"] * 2
     assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
 
 
+def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_server):
+    """Every run of the study read back from the API has a name that says what it is —
+    the study and its start time, the steps, each updating run and prediction by its name
+    in the archive's tables, each FE point by its parameter values — and none has a name
+    Prefect made up (``updating-0``, ``FE point-176``, ``stoic-marmoset``). The manifest's
+    entries are these names."""
+    import datetime as dt
+    import re
+
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentFlowRunId
+
+    _, archive, manifest = first_run
+
+    async def runs():
+        async with get_client() as client:
+            parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
+            children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
+                parent_flow_run_id=FlowRunFilterParentFlowRunId(any_=[parent.id])))
+            tasks = {}
+            for run in (parent, *children):
+                tasks[run.name] = await client.read_task_runs(
+                    flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[run.id])), limit=200)
+            return parent, children, tasks
+
+    parent, children, tasks = asyncio.run(runs())
+    match = re.fullmatch(r"two-dof (\d{4}-\d\d-\d\d \d\d:\d\d) UTC", parent.name)
+    assert match, parent.name
+    named_at = dt.datetime.strptime(match[1], "%Y-%m-%d %H:%M").replace(tzinfo=dt.timezone.utc)
+    started = dt.datetime.fromisoformat(manifest["run"]["started_utc"])
+    assert 0 <= (started - named_at).total_seconds() < 61, (parent.name, started)  # named as it started
+
+    assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
+    steps = {"measured data", "identification", "targets", "comparison", "candidate FRFs", "warnings"}
+    assert sorted(t.name for t in tasks[parent.name]) == sorted(
+        [f"{step}: two-dof" for step in steps] + ["predictions: two-dof", "updating: two-dof"])  # + the subflows'
+
+    candidates = set(pd.read_parquet(archive / "tables" / "runs.parquet")["candidate"])
+    assert len(candidates) == 9 and "optimisation {k1}" in candidates
+    updating = [t.name for t in tasks["updating: two-dof"]]
+    jobs = {name for name in updating if not name.startswith("FE point ")}
+    # in ASCII: the UI's run graph draws no other characters (O(h²) and O(h⁴) would both read O(h))
+    assert jobs == {f"updating: {candidate}".replace("²", "^2").replace("⁴", "^4") for candidate in candidates}
+    assert "updating: eigensensitivity central O(h^2) {k1}" in jobs and all(name.isascii() for name in updating)
+    points = sorted(name for name in updating if name.startswith("FE point "))
+    assert len(points) == len(set(points)) == tally(manifest, "FE point")["computed"], points  # one run per point
+    assert "FE point k1=8e5 k2=1.2e6" in points  # the study's start point
+    number = r"\d(?:\.\d+)?e\d+"  # short engineering form: 8e5, 8.008e5 (more digits only to tell points apart)
+    for name in points:
+        assert re.fullmatch(rf"FE point k1=({number}) k2=({number})", name), name
+
+    models = set(pd.read_parquet(archive / "tables" / "correlation.parquet")["model"])
+    assert models >= {"initial"} and len(models) == 2
+    assert {t.name for t in tasks["predictions: two-dof"]} == {f"prediction: {model}" for model in models}
+
+    everything = [run.name for run in children] + [t.name for ts in tasks.values() for t in ts]
+    made_up = [name for name in everything if not (": " in name or name.startswith("FE point ")) or re.search(r"-\d+$", name)]
+    assert not made_up, made_up
+    assert set(manifest["run"]["tasks"]) == steps | jobs | {f"prediction: {model}" for model in models} | {"FE point"}
+
+
 def test_an_unchanged_rerun_is_all_cached(first_run):
-    """Every task comes from the cache. (The time ratio is measured on the demo, whose
-    computing outweighs Prefect's per-flow overhead, in tests/test_demo.py; this study is
-    too small for a wall-time comparison on a shared machine.)"""
-    tmp_path, _, _ = first_run
-    _, again = flow_run(load_study(STUDY), tmp_path)
+    """Every task comes from the cache, and the run says so: no FE point computed, no job
+    line repeating the FE counts of the run that computed it; the manifest lists the same
+    runs under the same names. (The time ratio is measured on the demo, whose computing
+    outweighs Prefect's per-flow overhead, in tests/test_demo.py; this study is too small
+    for a wall-time comparison on a shared machine.)"""
+    import io
+
+    from rich.console import Console
+
+    tmp_path, _, first = first_run
+    printed = io.StringIO()
+    again = json.loads((run_study_flow(load_study(STUDY), tmp_path / "results", cache_dir=tmp_path / "cache",
+                                       progress=Progress(Console(file=printed, width=400))) / "manifest.json").read_text())
     for step, counts in again["run"]["tasks"].items():
         assert counts["computed"] == 0 and counts["failed"] == 0, (step, counts)
     assert tally(again, "updating")["cached"] == 9 and tally(again, "identification")["cached"] == 1
+    assert set(again["run"]["tasks"]) == set(first["run"]["tasks"]) - {"FE point"}  # stable names, no points run
+    lines = printed.getvalue().splitlines()
+    jobs = [line for line in lines if line.startswith(("updating: ", "prediction: "))]
+    assert len(jobs) == 11 and all(line.endswith("s") and " — cached in " in line and "FE runs" not in line
+                                   for line in jobs), jobs
+    assert "FE points: none needed, every job came from the cache" in lines, lines
 
 
 def test_changing_one_bound_reruns_only_the_runs_that_depend_on_it(first_run):
@@ -227,3 +304,34 @@ def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_
     run_discovery_flow(model, measured, DiscoveryOptions(), tmp_path / "results", cache_dir=tmp_path / "cache",
                        progress=again)
     assert again.summary()["candidate fit"]["computed"] == 0 and again.summary()["candidate fit"]["cached"] > 0
+
+
+def closed_port() -> int:
+    """A port on 127.0.0.1 nothing listens on (bound for a moment, then released)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_dask_address_is_refused_before_any_server_starts(tmp_path, two_dof_study_file):
+    """``--dask-address`` is checked first (it took 17.6 s when a Prefect server started
+    before the 10-second Dask connection timeout): one line, exit 2, nothing started."""
+    import os
+    import subprocess
+    import sys
+
+    address = f"tcp://127.0.0.1:{closed_port()}"
+    env = {key: value for key, value in os.environ.items() if key != "PREFECT_API_URL"}  # it would start a server
+    started = time.perf_counter()
+    result = subprocess.run([sys.executable, "-m", "nlupdate", "run", str(two_dof_study_file), "--dask-address", address,
+                             "--out", str(tmp_path / "results")], cwd=tmp_path, env=env, capture_output=True, text=True,
+                            timeout=120)
+    seconds = time.perf_counter() - started
+    assert result.returncode == 2, (result.returncode, result.stdout, result.stderr)
+    assert result.stderr.splitlines() == [f"nlupdate run: error: --dask-address: no Dask scheduler answers at {address} "
+                                          f"(connection refused); start one with `dask scheduler` and `dask worker "
+                                          f"ADDRESS`"]
+    assert "Prefect" not in result.stdout and not (tmp_path / "results").exists(), result.stdout
+    assert seconds < 8, seconds  # the CLI's start and the study's loading; no timeout waited out

@@ -305,7 +305,8 @@ def test_under_prefect_a_changed_harmonics_recomputes_only_the_predictions(prefe
         return archive, json.loads((archive / "manifest.json").read_text())
 
     def tally(manifest: dict, step: str) -> tuple[int, int]:
-        counts = [c for name, c in manifest["run"]["tasks"].items() if name == step or name.startswith(step + " ")]
+        job = {"predictions": "prediction"}.get(step, step)  # a job is recorded as "prediction: <model>"
+        counts = [c for name, c in manifest["run"]["tasks"].items() if name == step or name.startswith(job + ": ")]
         return sum(c["computed"] for c in counts), sum(c["cached"] for c in counts)
 
     given = STUDY + "loss_factor = 0.005\n"

@@ -5,7 +5,11 @@ system) would: SIGINT as Ctrl-C does, SIGKILL as an out-of-memory killer or ``ki
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import pty
+import re
+import select
 import signal
 import socket
 import subprocess
@@ -55,16 +59,71 @@ def interrupt(process: subprocess.Popen) -> tuple[int, str, float]:
     return process.returncode, stderr, time.monotonic() - sent
 
 
+class OnATerminal:
+    """A command whose stderr is a pseudo-terminal, so that it draws its progress bars: the
+    first bar says the work has started (a readiness line, not a guess how long imports
+    take under load). Started in its own session; :meth:`kill` ends the whole group, so no
+    orphan survives a failing test."""
+
+    def __init__(self, command: list, cwd: Path, sigint_ignored: bool = False) -> None:
+        leader, follower = pty.openpty()
+        self.leader, self.screen = leader, ""
+        self.process = subprocess.Popen(
+            command, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=follower, text=True,
+            env={**os.environ, "COLUMNS": "200"}, start_new_session=True,
+            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None)
+        os.close(follower)
+
+    def _read(self, timeout_s: float) -> bool:
+        """Read what the terminal shows within ``timeout_s``; False once it has closed."""
+        if not select.select([self.leader], [], [], timeout_s)[0]:
+            return True
+        try:
+            chunk = os.read(self.leader, 65536)
+        except OSError:  # the terminal closed with the process
+            return False
+        self.screen += chunk.decode(errors="replace")
+        return bool(chunk)
+
+    def wait_for(self, fragment: str, timeout_s: float) -> None:
+        deadline = time.monotonic() + timeout_s
+        while fragment not in self.screen:
+            assert time.monotonic() < deadline and self._read(0.2), (fragment, self.screen[-2000:])
+
+    def interrupt(self, timeout_s: float = 20) -> tuple[int, list[str], float]:
+        """SIGINT; (exit code, the lines it wrote besides its bars, seconds until it ended)."""
+        self.process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        code = self.process.wait(timeout=timeout_s)
+        seconds = time.monotonic() - sent
+        while self._read(0.5):
+            pass
+        text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", self.screen)
+        lines = [line.strip() for line in re.split(r"[\r\n]+", text) if line.strip().startswith("nlupdate ")]
+        return code, lines, seconds
+
+    def kill(self) -> None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.process.pid, signal.SIGKILL)  # an orphan would use a core for minutes
+        self.process.wait()
+        os.close(self.leader)
+
+
+TIME_DOMAIN = ["simulate", TWO_DOF, "--input-dof", "0", "--freqs", "600:850:400", "--forces", "0.01,100,200",
+               "--method", "time"]
+
+
 def test_ctrl_c_during_a_time_domain_simulation(tmp_path):
-    process = start("simulate", TWO_DOF, "--input-dof", "0", "--freqs", "600:850:400", "--forces", "0.01,100,200",
-                    "--method", "time", "--out", tmp_path / "out" / "frf.parquet", cwd=tmp_path)
-    time.sleep(4)  # imports done, integrating
-    assert process.poll() is None, process.communicate()
-    code, stderr, seconds = interrupt(process)
-    assert code == 130 and seconds < 5, (code, seconds, stderr)
-    assert stderr.strip().splitlines() == [f"nlupdate simulate: interrupted; nothing was written to "
-                                           f"{tmp_path / 'out' / 'frf.parquet'}"]
-    assert list((tmp_path / "out").iterdir()) == []
+    out = tmp_path / "out" / "frf.parquet"
+    run = OnATerminal([sys.executable, "-m", "nlupdate", *map(str, TIME_DOMAIN), "--out", str(out)], tmp_path)
+    try:
+        run.wait_for("time-domain stepped sine", timeout_s=120)  # integrating
+        code, lines, seconds = run.interrupt()
+    finally:
+        run.kill()
+    assert code == 130 and seconds < 5, (code, seconds, run.screen[-2000:])
+    assert lines == [f"nlupdate simulate: interrupted; nothing was written to {out}"], run.screen[-2000:]
+    assert "Traceback" not in run.screen and list((tmp_path / "out").iterdir()) == []
 
 
 def test_ctrl_c_during_a_prefect_run_stops_within_seconds(tmp_path, prefect_server):
@@ -148,22 +207,20 @@ def test_a_killed_run_leaves_no_server_running(tmp_path):
 
 def test_ctrl_c_stops_a_command_that_inherited_sigint_ignored(tmp_path):
     """A background job of a non-interactive shell starts with SIGINT ignored; Ctrl-C (or
-    kill -INT) must still stop it."""
-    process = subprocess.Popen(
-        [sys.executable, "-m", "nlupdate", "simulate", str(TWO_DOF), "--input-dof", "0", "--freqs", "600:850:400",
-         "--forces", "0.01,100,200", "--method", "time", "--out", str(tmp_path / "frf.parquet")],
-        cwd=tmp_path, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    kill -INT) must still stop it: the CLI installs its handler as it starts."""
+    premise = subprocess.run([sys.executable, "-c", "import signal; print(int(signal.getsignal(signal.SIGINT)))"],
+                             capture_output=True, text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    assert premise.stdout.strip() == str(int(signal.SIG_IGN))  # Python keeps an inherited "ignored" as it is
+    out = tmp_path / "frf.parquet"
+    run = OnATerminal([sys.executable, "-m", "nlupdate", *map(str, TIME_DOMAIN), "--out", str(out)], tmp_path,
+                      sigint_ignored=True)
     try:
-        time.sleep(4)  # imports done, integrating
-        assert process.poll() is None, process.communicate()
-        process.send_signal(signal.SIGINT)
-        sent = time.monotonic()
-        _, stderr = process.communicate(timeout=20)
+        run.wait_for("time-domain stepped sine", timeout_s=120)  # integrating
+        code, lines, seconds = run.interrupt()
     finally:
-        process.kill()  # an orphan would use a core for minutes
-        process.wait()
-    assert process.returncode == 130 and time.monotonic() - sent < 5, (process.returncode, stderr)
+        run.kill()
+    assert code == 130 and seconds < 5, (code, seconds, run.screen[-2000:])
+    assert lines == [f"nlupdate simulate: interrupted; nothing was written to {out}"] and not out.exists()
 
 
 KILLED_WRITER = textwrap.dedent("""

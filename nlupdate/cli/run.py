@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Iterator
 
-from nlupdate.cli import CliRuntimeError, add_command, one_line, positive_int
+from nlupdate.cli import CliError, CliRuntimeError, add_command, one_line, positive_int
 from nlupdate.cli.output import writable_folder
 
 
@@ -40,11 +40,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+def check_dask_address(args: argparse.Namespace) -> None:
+    """A ``--dask-address`` where nothing answers is a mistake in the input: one line, exit
+    2, in milliseconds — before any folder is made or server started."""
+    from nlupdate.flows.runners import ExecutionError, check_scheduler_address
+
+    if getattr(args, "dask_address", None):
+        try:
+            check_scheduler_address(args.dask_address)
+        except ExecutionError as error:
+            raise CliError(f"--dask-address: {error}") from None
+
+
 @contextlib.contextmanager
 def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
-    """Prepare the environment before Prefect is imported, turn set-up failures (server,
-    Dask) into one-line errors, and stop the Prefect server this run started even when an
-    interrupt must end the process before it has unwound (:mod:`nlupdate.cli.interrupts`)."""
+    """Check a ``--dask-address`` before anything starts (exit 2 when nothing answers
+    there), prepare the environment before Prefect is imported, turn set-up failures
+    (server, Dask) into one-line errors, and stop the Prefect server this run started even
+    when an interrupt must end the process before it has unwound
+    (:mod:`nlupdate.cli.interrupts`)."""
+    check_dask_address(args)
     from nlupdate.flows.environment import prepare_environment
 
     prepare_environment()
@@ -84,6 +99,7 @@ def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotat
     ``annotations`` go into the manifest's ``run`` record."""
     from nlupdate.flows.run import cache_directory
 
+    check_dask_address(args)
     writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
     writable_folder(cache_directory(args.cache_dir), "--cache-dir")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"

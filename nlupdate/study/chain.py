@@ -52,7 +52,8 @@ class Step:
     model: fan-out: the FE model (:class:`~nlupdate.adapters.registry.AdapterSpec`) its
         jobs evaluate points of; keep_going: a failing job is recorded as a
         :class:`~nlupdate.study.steps.RunFailure` and the others go on;
-    label: fan-out: ``(job, outcome) -> str``, a job's progress detail;
+    label: fan-out: ``(job, outcome) -> str``, a computed job's progress detail (the line
+        already names the job);
     jobs_describe_themselves: fan-out: a job holds everything its result depends on (an
         updating run: its parameters with their bounds, targets, method and options), so
         its cache key is the job and its model alone — changing one run's bound recomputes
@@ -104,8 +105,7 @@ CHAIN: tuple[Step, ...] = (
     Step("predictions", lambda study, outcomes, *inputs: tuple(outcomes),
          inputs=("updating", "comparison", "identification", "measured data"), sections=("prediction", "targets"),
          applies=lambda study, results: study.prediction is not None and _has_runs(study, results),
-         jobs=prediction_jobs, each=predict_job, model=prediction_adapter,
-         label=lambda job, prediction: job.name),
+         jobs=prediction_jobs, each=predict_job, model=prediction_adapter),
     Step("warnings", study_warnings, inputs=("identification", "updating", "comparison"), sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
 )

@@ -29,7 +29,8 @@ def _fan_out(step: Step, study: Study, inputs: list, say: Callable[[str], None])
             if not step.keep_going:
                 raise
             outcome = RunFailure(getattr(job, "name", str(job)), f"{type(error).__name__}: {error}")
-        say(f"{step.name} {i}/{len(jobs)}: {step.label(job, outcome)}")
+        label = step.label(job, outcome)
+        say(f"{step.name}: {getattr(job, 'name', job)} ({i}/{len(jobs)}){': ' + label if label else ''}")
         outcomes.append(outcome)
     return step.compute(study, outcomes, *inputs)
 

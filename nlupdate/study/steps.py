@@ -340,11 +340,12 @@ def run_update(study: Study, run: UpdatingRun, evaluator: PointEvaluator, target
 
 
 def run_verdict(run: UpdatingRun, outcome: UpdatingResult | RunFailure) -> str:
-    """A run's progress detail: converged or not, and its new and cached FE evaluations."""
+    """A computed run's progress detail (the line names the run): converged or not, and
+    the FE evaluations it made new and found already made."""
     if isinstance(outcome, RunFailure):
-        return f"{run.name}: FAILED: {outcome.error}"
+        return f"FAILED: {outcome.error}"
     verdict = "converged" if outcome.converged else f"not converged ({outcome.reason})"
-    return f"{run.name}: {verdict}, {outcome.counts['new']} new / {outcome.counts['cached']} cached FE runs"
+    return f"{verdict}, {outcome.counts['new']} new / {outcome.counts['cached']} cached FE runs"
 
 
 def compare_runs(study: Study, targets: TargetSet, updating: UpdatingOutcome) -> Comparison:
