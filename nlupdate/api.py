@@ -196,7 +196,7 @@ def identify(
     Returns an :class:`~nlupdate.identification.pipeline.Identification`: ``parameters()``
     (SI: k3 N/m³, kf N/m, slip_force N, …), ``uncertainty.parameters[name]`` (value, std,
     ci95), ``linear_frequency_hz``/``linear_frf`` (extracted receptance, m/N),
-    ``natural_frequencies_hz`` and ``loss_factors`` of its modes, ``warnings``,
+    ``natural_frequencies_hz`` (Hz) and ``loss_factors`` of its modes, ``warnings``,
     ``summary()`` (the content of identification.json)."""
     from nlupdate.identification.data import FRFLevels
     from nlupdate.identification.pipeline import IdentificationSettings
@@ -244,7 +244,7 @@ def update(
     e.g. the modes of the linear FRF :func:`identify` extracted), as one run of a study.
 
     ``parameters``: :class:`~nlupdate.adapters.base.Parameter` (name, unit, start, lower,
-    upper bound, relative finite-difference step), in the model's units.
+    upper bound, relative finite-difference step), in the model's units (SI: E in Pa, k in N/m).
     ``method``: ``"eigensensitivity"`` (inverse eigensensitivity, iterations of a
     finite-difference Jacobian: ``formula`` ``forward``, ``backward``, ``central2`` or
     ``central4``) or ``"optimisation"`` (bounded weighted least squares). ``weights``:

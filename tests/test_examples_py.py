@@ -132,17 +132,29 @@ def _study_archive_checks(archive: Path) -> pd.DataFrame:
     return runs
 
 
-def test_study_in_process(tmp_path, monkeypatch, capsys):
-    namespace, out = run_example("run_study.py", tmp_path, monkeypatch)
+@pytest.fixture(scope="module")
+def study_in_process(tmp_path_factory):
+    """``python examples/run_study.py OUT``: (its globals, OUT, what it printed)."""
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        import contextlib
+        import io
+
+        printed = io.StringIO()
+        with contextlib.redirect_stdout(printed):
+            namespace, out = run_example("run_study.py", tmp_path_factory.mktemp("study"), monkeypatch)
+    return namespace, out, printed.getvalue()
+
+
+def test_study_in_process(study_in_process):
+    namespace, out, printed = study_in_process
     _study_archive_checks(namespace["archive"])
     assert namespace["archive"].parent == out
-    assert "best ranked: " in capsys.readouterr().out
+    assert "best ranked: optimisation {k1}" in printed
 
 
-def test_study_as_prefect_flows_gives_the_same_numbers(tmp_path, monkeypatch, capsys, prefect_server):
-    sequential, _ = run_example("run_study.py", tmp_path / "sequential", monkeypatch)
-    flows, out = run_example("run_study.py", tmp_path / "prefect", monkeypatch, "--prefect")
+def test_study_as_prefect_flows_gives_the_same_numbers(tmp_path, monkeypatch, prefect_server, study_in_process):
+    flows, out = run_example("run_study.py", tmp_path, monkeypatch, "--prefect")
     assert flows["archive"].is_relative_to(out / "results")
-    in_process = _study_archive_checks(sequential["archive"])
+    in_process = _study_archive_checks(study_in_process[0]["archive"])
     as_flows = _study_archive_checks(flows["archive"])
     assert np.array_equal(in_process["p:k1"].to_numpy(), as_flows["p:k1"].to_numpy())
