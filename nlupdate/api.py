@@ -297,7 +297,8 @@ def predict(
     (default: the measured names; at a driving point the input defaults to the response). ``loss_factor``: the modal loss factor η of every mode,
     ``"low_force_fit"`` (default: fitted to the lowest level, where the joint sticks) or
     ``"identified"`` (the extracted linear FRF's modes). ``force_levels_n``: default every
-    measured level (N). Solver: describing function, or ``harmonic_balance``.
+    measured level (N), at every measured frequency (Hz). Solver: describing function, or
+    ``harmonic_balance``.
 
     Returns :class:`~nlupdate.prediction.predict.LevelPredictions`: ``loss_factor``,
     ``table`` (predicted receptances, m/N) and ``correlation`` (per level: ``frac``,
