@@ -248,23 +248,24 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
     """``nlupdate update`` on a study with ``method = "hb"``: the loss-factor fit and the
     prediction of both models are called with the file's settings, and the report names
     the method."""
+    from nlupdate.prediction import predict as prediction
     from nlupdate.study import steps
 
     calls = []
-    for name in ("predict", "fit_loss_factor"):
-        original = getattr(steps, name)
+    for module, name in ((steps, "predict_measured"), (prediction, "fit_loss_factor")):
+        original = getattr(module, name)
 
         def recording(*args, _original=original, _name=name, **kwargs):
-            calls.append((_name, args[-1]))
+            calls.append((_name, kwargs["harmonic_balance"] if "harmonic_balance" in kwargs else args[-1]))
             return _original(*args, **kwargs)
 
-        monkeypatch.setattr(steps, name, recording)
+        monkeypatch.setattr(module, name, recording)
     path = tmp_path / "study.toml"
     path.write_text(STUDY + 'method = "hb"\nharmonics = 3\nsamples = 32\n')
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HarmonicTruncationWarning)
         assert main(["update", str(path), "--out", str(tmp_path / "out")]) == 0
-    assert sorted(name for name, _ in calls) == ["fit_loss_factor"] * 2 + ["predict"] * 2
+    assert sorted(name for name, _ in calls) == ["fit_loss_factor"] * 2 + ["predict_measured"] * 2
     assert all(settings == HarmonicSettings(harmonics=3, samples=32) for _, settings in calls), calls
     report = (tmp_path / "out" / "report.md").read_text()
     assert "Response method ([prediction] `method`): harmonic balance (H = 3, 32 samples per period, " \

@@ -31,6 +31,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike
 
 from nlupdate.adapters.base import ModalResult
+from nlupdate.correlation.levels import correlate_levels
 from nlupdate.measurement.frf_table import select_frf
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.harmonic_balance import HarmonicSettings
@@ -135,3 +136,67 @@ def _harmonic_balance_misfit(modes, elements, response_dof, input_dof, f, h, for
         return float(np.mean(np.abs(h_model[np.isin(f_model, f)] - h[measured]) ** 2 / np.abs(h[measured]) ** 2))
 
     return misfit
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class LevelPredictions:
+    """The updated nonlinear model against one measured curve at every force level.
+
+    loss_factor: the modal loss factor η used, and loss_factor_source: where it came from;
+    table: the predicted measured-FRF table of that curve (receptance, m/N; the measured
+    coordinate names); correlation: one row per force level
+    (:func:`nlupdate.correlation.levels.correlate_levels`: FRAC, normalised FRF error,
+    peak frequency error in %, peak amplitude ratio).
+    """
+
+    loss_factor: float
+    loss_factor_source: str
+    table: pd.DataFrame
+    correlation: pd.DataFrame
+
+
+def predict_measured(
+    modes: ModalResult,
+    elements: Sequence,
+    measured: pd.DataFrame,
+    response_dof: str,
+    input_dof: str,
+    *,
+    model_response_dof: str | None = None,
+    model_input_dof: str | None = None,
+    loss_factor: float | str = "low_force_fit",
+    force_levels_n: Sequence[float] | None = None,
+    sweep: str = "up",
+    harmonic_balance: HarmonicSettings | None = None,
+) -> LevelPredictions:
+    """Predict one measured curve (``response_dof`` / ``input_dof`` of ``measured``) at every
+    force level (default: every level of that curve; N) and frequency (Hz) of the
+    measurement with the FE ``modes`` and the identified ``elements`` (whose dofs index
+    ``modes.coordinates``), then correlate it with the measurement level by level.
+
+    ``model_response_dof``/``model_input_dof`` name the same coordinates in the model
+    (default: the measured names). ``loss_factor``: a number (the modal η of every mode)
+    or ``"low_force_fit"`` (:func:`fit_loss_factor` on the lowest level; see the module
+    docstring). Solver: describing function, or harmonic balance with ``harmonic_balance``.
+    """
+    response, inp = str(response_dof), str(input_dof)
+    model_response = response if model_response_dof is None else str(model_response_dof)
+    model_input = inp if model_input_dof is None else str(model_input_dof)
+    curve = measured[(measured["response_dof"].astype(str) == response) & (measured["input_dof"].astype(str) == inp)]
+    levels = tuple(float(v) for v in (np.unique(curve["force_level_n"].to_numpy(dtype=float))
+                                      if force_levels_n is None else force_levels_n))
+    if loss_factor == "low_force_fit":
+        level = min(levels)
+        f_low, h_low = select_frf(measured, response, inp, level)
+        eta = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level, sweep,
+                              harmonic_balance)
+        source = f"fitted to the {level:g} N measurement"
+    elif isinstance(loss_factor, str):
+        raise ValueError(f"loss_factor must be a number or 'low_force_fit', got {loss_factor!r}")
+    else:
+        eta, source = float(loss_factor), "given"
+    frequency = np.unique(measured["frequency_hz"].to_numpy(dtype=float))
+    predicted = predict(updated_model(modes, elements, eta), model_input, frequency, levels, sweep, harmonic_balance)
+    predicted = predicted[(predicted["response_dof"] == model_response) & (predicted["input_dof"] == model_input)]
+    predicted = predicted.assign(response_dof=response, input_dof=inp).reset_index(drop=True)
+    return LevelPredictions(eta, source, predicted, correlate_levels(measured, predicted, response, inp))

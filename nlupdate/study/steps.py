@@ -22,20 +22,19 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.adapters.base import ModalResult
-from nlupdate.correlation.levels import correlate_levels
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import Identification, identify
 from nlupdate.identification.trust import TrustWarning
 from nlupdate.identification.uncertainty import CurveBand
-from nlupdate.measurement.frf_table import force_levels, select_frf
+from nlupdate.measurement.frf_table import force_levels
 from nlupdate.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.measurement.time_history import estimate_frf, read_time_record
 from nlupdate.measurement.units import calibrated
 from nlupdate.model.amplitude_modal import read_amplitude_model
 from nlupdate.model.model_file import element_from_table, load_system
 from nlupdate.model.system import NonlinearSystem
-from nlupdate.prediction.predict import fit_loss_factor, predict, updated_model
+from nlupdate.prediction.predict import predict_measured
 from nlupdate.response.simulate import simulate_frf_table
 from nlupdate.study.spec import SimulationSpec, Study, StudyError
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
@@ -446,23 +445,15 @@ def predict_model(
                              f"coordinates")
     elements = identification.elements((coordinates.index(model_response),))
     setting = study.prediction.loss_factor
-    if setting == "low_force_fit":
-        level = float(min(prediction_levels(study, table)))
-        f_low, h_low = select_frf(table, response, inp, level)
-        loss_factor = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level,
-                                      study.prediction.sweep, study.prediction.harmonic_balance)
-        source = f"fitted to the {level:g} N measurement"
-    elif setting == "identified":
-        loss_factor = float(np.mean(identification.loss_factors))
-        source = "the extracted linear FRF's modes (identification)"
-    else:
-        loss_factor, source = float(setting), "given"
-    frequency = np.unique(table["frequency_hz"].to_numpy(dtype=float))
-    predicted = predict(updated_model(modes, elements, loss_factor), model_input, frequency,
-                        prediction_levels(study, table), study.prediction.sweep, study.prediction.harmonic_balance)
-    predicted = predicted[(predicted["response_dof"] == model_response) & (predicted["input_dof"] == model_input)]
-    predicted = predicted.assign(response_dof=response, input_dof=inp).reset_index(drop=True)
-    return Prediction(name, dict(point), loss_factor, source, predicted, correlate_levels(table, predicted, response, inp))
+    if setting == "identified":
+        setting = float(np.mean(identification.loss_factors))
+    found = predict_measured(modes, elements, table, response, inp, model_response_dof=model_response,
+                             model_input_dof=model_input, loss_factor=setting,
+                             force_levels_n=prediction_levels(study, table), sweep=study.prediction.sweep,
+                             harmonic_balance=study.prediction.harmonic_balance)
+    source = ("the extracted linear FRF's modes (identification)" if study.prediction.loss_factor == "identified"
+              else found.loss_factor_source)
+    return Prediction(name, dict(point), found.loss_factor, source, found.table, found.correlation)
 
 
 # --------------------------------------------------------------------------- record

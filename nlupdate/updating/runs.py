@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.adapters.base import Parameter
+from nlupdate.adapters.base import FEAdapter, Parameter
 from nlupdate.correlation.metrics import frac
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
@@ -67,11 +67,27 @@ def update(task: UpdatingRun, evaluate_points: PointEvaluator | None = None) -> 
     adapter built from ``task.adapter``, in order).
     """
     evaluator = evaluate_points if evaluate_points is not None else MemoisedEvaluator(build_adapter(task.adapter))
-    if task.method == "eigensensitivity":
-        result = inverse_eigensensitivity(evaluator, task.parameters, task.targets, task.options, task.fixed)
+    return run_method(task.method, evaluator, task.parameters, task.targets, task.options, task.fixed, task.name)
+
+
+def run_method(
+    method: str,
+    model: FEAdapter | PointEvaluator,
+    parameters: Sequence[Parameter],
+    targets: UpdatingTargets,
+    options: EigensensitivityOptions | OptimisationOptions,
+    fixed: Mapping[str, float] | None = None,
+    name: str = "",
+) -> UpdatingResult:
+    """One updating run on an adapter (or point evaluator) ``model``: ``method``
+    (:data:`METHODS`) with its ``options``; the result carries ``name``."""
+    if method == "eigensensitivity":
+        result = inverse_eigensensitivity(model, parameters, targets, options, fixed)
+    elif method == "optimisation":
+        result = optimise_frequencies(model, parameters, targets, options, fixed)
     else:
-        result = optimise_frequencies(evaluator, task.parameters, task.targets, task.options, task.fixed)
-    return dataclasses.replace(result, name=task.name)
+        raise ValueError(f"updating method must be one of {list(METHODS)}, got {method!r}")
+    return dataclasses.replace(result, name=name)
 
 
 def _modal_damping(value: float | Sequence[float], result: UpdatingResult, what: str) -> float | NDArray[np.float64]:
