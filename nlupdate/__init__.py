@@ -33,12 +33,12 @@ _EXPORTS: dict[str, str] = {
 __all__ = ["__version__", *_EXPORTS]
 
 if TYPE_CHECKING:  # the same names for type checkers and the import graph (tests/test_layering.py)
-    from nlupdate.adapters.base import Parameter
-    from nlupdate.api import (
+    from nlupdate.adapters.base import Parameter  # noqa: F401 (exported through __getattr__)
+    from nlupdate.api import (  # noqa: F401
         discover, fe_model, identify, load_measurements, load_model, load_study, model_from_dict, predict, run_study,
         save_measurements, save_model, select_frf, simulate, update,
     )
-    from nlupdate.response.harmonic_balance import HarmonicSettings
+    from nlupdate.response.harmonic_balance import HarmonicSettings  # noqa: F401
 
 
 def __getattr__(name: str):
