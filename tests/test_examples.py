@@ -50,7 +50,13 @@ def absolute(argument: str) -> str:
 EXAMPLE_FILES = sorted(p.relative_to(EXAMPLES).as_posix() for p in EXAMPLES.rglob("*.toml"))
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in EXAMPLE_FILES])
+def needs(name: str) -> list:
+    """The marks of an example: slow ones, and those whose FE model is CalculiX (need ccx)."""
+    adapter = tomllib.loads((EXAMPLES / name).read_text()).get("adapter", {})
+    return ([pytest.mark.slow] if name in SLOW else []) + ([pytest.mark.calculix] if adapter.get("kind") == "calculix" else [])
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=needs(n)) for n in EXAMPLE_FILES])
 def test_the_example_runs_as_its_header_says(name, tmp_path, monkeypatch):
     commands = header_commands(EXAMPLES / name)
     assert commands, f"examples/{name} names no 'nlupdate …' command in its header"
