@@ -53,7 +53,9 @@ error. Every such failure names the run directory and the log (and quotes its en
 """
 from __future__ import annotations
 
+import dataclasses
 import re
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -277,8 +279,11 @@ class CalculixAdapter(FEAdapter):
     deck_generator: ``parameters -> (model_text, coordinates)`` (see module docstring).
     parameter_names: names the generator accepts (all SI).
     n_modes: number of eigenpairs requested from ``*FREQUENCY``.
-    work_root: directory for run directories ``<work_root>/<evaluation key>``
-        (default: one private temporary folder per process, made at the first run).
+    work_root: directory for run directories ``<work_root>/<evaluation key>``, all kept
+        (default: one private temporary folder per process, made at the first run; a run
+        that succeeds is deleted from it, a failed one is kept and named in the error, and
+        the folder goes when the process ends if it is empty — nothing lands in the
+        working folder).
     executable: ccx program (name on PATH or path).
     timeout_s: wall-clock limit per run (s).
     threads: OMP_NUM_THREADS / CCX_NPROC_EQUATION_SOLVER given to ccx.
@@ -364,7 +369,12 @@ class CalculixAdapter(FEAdapter):
             if first_error is None:
                 raise
             raise AdapterError(f"ccx error: {first_error}\n{error}") from error
-        return self._read_result(run, coordinates, deck)
+        result = self._read_result(run, coordinates, deck)
+        if self.runner.work_root is None:  # the private scratch folder: nothing to keep of a run that worked
+            shutil.rmtree(run_dir, ignore_errors=True)
+            result = dataclasses.replace(result, metadata={**result.metadata, "log_path": None, "run_dir": None,
+                                                           "dat_path": None, "files": "removed after the run (no work_root)"})
+        return result
 
     def _read_result(self, run: RunResult, coordinates: dict[str, tuple[str, str]], deck: str) -> ModalResult:
         first_error = _first_error_line(run.log_path)

@@ -24,6 +24,7 @@ the run directory, the log file and the last lines of the log.
 """
 from __future__ import annotations
 
+import atexit
 import os
 import shutil
 import signal
@@ -258,12 +259,21 @@ _SCRATCH_LOCK = threading.Lock()
 
 def scratch_folder(prefix: str) -> Path:
     """This process's private temporary folder for runs (``<tmp>/<prefix>XXXX``, 0700),
-    made on first use; one per process and prefix."""
+    made on first use; one per process and prefix. Removed when the process exits if it is
+    empty then (adapters that delete their successful runs leave only failed ones in it)."""
     key = (os.getpid(), prefix)
     with _SCRATCH_LOCK:
         if key not in _SCRATCH:
             _SCRATCH[key] = Path(tempfile.mkdtemp(prefix=prefix))
+            atexit.register(_remove_if_empty, _SCRATCH[key])
         return _SCRATCH[key]
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:  # not empty (a failed run's folder, named in its error) or already gone
+        pass
 
 
 @dataclass

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import re
 import shlex
+import tomllib
 import warnings
 from pathlib import Path
 
 import pytest
 
 from nlupdate.cli import main
+from nlupdate.reporting.catalogue import find_runs
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -48,7 +50,13 @@ def absolute(argument: str) -> str:
 EXAMPLE_FILES = sorted(p.relative_to(EXAMPLES).as_posix() for p in EXAMPLES.rglob("*.toml"))
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in EXAMPLE_FILES])
+def needs(name: str) -> list:
+    """The marks of an example: slow ones, and those whose FE model is CalculiX (need ccx)."""
+    adapter = tomllib.loads((EXAMPLES / name).read_text()).get("adapter", {})
+    return ([pytest.mark.slow] if name in SLOW else []) + ([pytest.mark.calculix] if adapter.get("kind") == "calculix" else [])
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=needs(n)) for n in EXAMPLE_FILES])
 def test_the_example_runs_as_its_header_says(name, tmp_path, monkeypatch):
     commands = header_commands(EXAMPLES / name)
     assert commands, f"examples/{name} names no 'nlupdate …' command in its header"
@@ -60,6 +68,30 @@ def test_the_example_runs_as_its_header_says(name, tmp_path, monkeypatch):
         assert code == 0, f"examples/{name}: nlupdate {' '.join(argv)} exited with {code}"
         out = argv[argv.index("--out") + 1] if "--out" in argv else None
         assert out is None or (tmp_path / out).exists(), f"examples/{name}: {out} was not written"
+        if argv[0] == "update" and out is not None and out.startswith("results/"):  # beside `nlupdate run`'s archives, listed with them
+            runs = {run.folder.resolve(): run for run in find_runs(tmp_path / "results")}
+            assert (tmp_path / out).resolve() in runs, f"examples/{name}: `nlupdate archive list` does not list {out}"
+            assert runs[(tmp_path / out).resolve()].status == "complete"
+
+
+def study_name(path: Path) -> str | None:
+    return tomllib.loads(path.read_text()).get("study", {}).get("name")
+
+
+def test_no_header_writes_where_nlupdate_run_keeps_a_study_s_archives():
+    """`nlupdate run` writes results/<study name>/<UTC time>-<hash>/: a header's `--out` must
+    not be such a study folder (nor sit directly in results/), and an `update` archive
+    under results/ goes into its own study's folder, where `archive list` finds it."""
+    studies = {n for n in (study_name(EXAMPLES / f) for f in EXAMPLE_FILES) if n}
+    assert {"tbeam_single_mode", "tbeam_three_modes", "bolted_beam"} <= studies
+    for name in EXAMPLE_FILES:
+        for argv in header_commands(EXAMPLES / name):
+            out = Path(argv[argv.index("--out") + 1]) if "--out" in argv else None
+            if out is None or out.parts[0] != "results":
+                continue
+            assert len(out.parts) > 2, f"examples/{name}: --out {out} is where `nlupdate run` keeps a study's archives"
+            if argv[0] == "update":
+                assert out.parts[1] == study_name(EXAMPLES / name), f"examples/{name}: --out {out} is not in its study's folder"
 
 
 def test_every_data_file_is_read_by_an_example_header():

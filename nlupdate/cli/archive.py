@@ -7,10 +7,14 @@ RUN is a run folder or an unambiguous prefix of its id (the folder name,
             incomplete / writing), best candidate, its updated parameters, lowest
             prediction FRAC over the force levels
   show      the report's summary and where the archive's files are
-  compare   what differs between two runs: inputs (study fields, data hashes, seeds,
-            package and solver versions) and results (identified and updated
-            parameters with uncertainty, candidates and ranking, FRAC per force
-            level), and a plot of both runs' predictions against the measurements
+  compare   what differs between two runs: what each run is (study, chain steps, FE
+            model, parameters, targets, measured curves and force levels), inputs
+            (study fields, data hashes, seeds, package and solver versions) and
+            results (identified and updated parameters with uncertainty, candidates
+            and ranking, FRAC per force level), and a plot of both runs' predictions
+            against the measurements at the force levels both runs have. Runs of
+            different studies: the fields only one run has are counted, listed
+            with --all
   rerun     run the study again from the archive alone (its study file and the copies
             of its input files), recomputing every task in a temporary cache unless
             --cache-dir is given; then say field by field whether the results match
@@ -96,14 +100,14 @@ def _list_entry(run) -> dict:
 
 
 def _list_line(entry: dict) -> str:
-    from nlupdate.reporting.compare import format_value
+    from nlupdate.reporting.compare import Estimate, format_value
 
     date = (entry["started_utc"] or "")[:16].replace("T", " ")
     parts = [f"{entry['study']:<14}", f"{entry['run_id']:<28}", f"{date or '–':<16}", f"{entry['status']:<10}"]
     if entry.get("reason"):
         parts.append(f"({entry['reason']})")
     if entry.get("best"):
-        updated = ", ".join(f"{name} {format_value(value)}" for name, value in entry["updated"].items())
+        updated = ", ".join(f"{name} {format_value(Estimate(*value))}" for name, value in entry["updated"].items())
         parts.append(f"best {entry['best']!r}: {updated}")
     if entry.get("min_frac") is not None:
         parts.append(f"min FRAC {entry['min_frac']:.3f}")
@@ -158,37 +162,65 @@ def show_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_rows(title: str, rows, show_same: bool) -> None:
-    from nlupdate.reporting.compare import change_table
+def _print_rows(title: str, rows, show_same: bool, show_one_sided: bool = True) -> None:
+    """The rows that differ (all with ``show_same``); fields only one run has are counted,
+    not listed, unless ``show_one_sided``."""
+    from nlupdate.reporting.compare import ONE_SIDED, change_table
 
-    shown = [r for r in rows if show_same or r.status != "same"]
-    print(f"{title}: {sum(r.status != 'same' for r in rows)} of {len(rows)} fields differ")
+    one_sided = [r for r in rows if r.status in ONE_SIDED]
+    both = [r for r in rows if r.status not in ONE_SIDED]
+    shown = [r for r in (rows if show_one_sided else both) if show_same or r.status != "same"]
+    if show_one_sided:
+        print(f"{title}: {sum(r.status != 'same' for r in rows)} of {len(rows)} fields differ")
+    else:
+        only_a = sum(r.status == "only A" for r in one_sided)
+        print(f"{title}: {sum(r.status != 'same' for r in both)} of the {len(both)} fields both runs have differ"
+              + (f"; {only_a} only in A, {len(one_sided) - only_a} only in B (--all lists them)" if one_sided else ""))
     if shown:
         print(change_table(shown).to_string(index=False))
     print()
 
 
+def _print_overview(rows, show_same: bool) -> None:
+    """What each run is: a field both runs share on one line, one that differs as A and B lines."""
+    from nlupdate.reporting.compare import format_value
+
+    print(f"overview: {sum(r.status != 'same' for r in rows)} of {len(rows)} fields differ")
+    for row in rows:
+        if row.status == "same" and show_same:
+            print(f"  {row.field}: {format_value(row.a, 200)} (both)")
+        elif row.status != "same":
+            print(f"  {row.field}:\n      A: {format_value(row.a, 200)}\n      B: {format_value(row.b, 200)}")
+    print()
+
+
 def compare_two(args: argparse.Namespace) -> int:
-    from nlupdate.reporting.compare import DEFAULT_RTOL, compare_inputs, compare_results, plot_comparison
+    from nlupdate.reporting.compare import (DEFAULT_RTOL, compare_inputs, compare_overview, compare_results,
+                                            plot_comparison, same_study)
 
     a, b = _resolve(args.run_a, args.root), _resolve(args.run_b, args.root)
     rtol = DEFAULT_RTOL if args.rtol is None else args.rtol
-    inputs, results = compare_inputs(a, b), compare_results(a, b, rtol)
+    overview, inputs, results = compare_overview(a, b), compare_inputs(a, b), compare_results(a, b, rtol)
     plot = Path(args.plot or Path(args.root) / "comparisons" / f"{a.run_id}-vs-{b.run_id}.png")
     plot.parent.mkdir(parents=True, exist_ok=True)
-    drawn = plot_comparison(a, b, plot)
+    drawn, plot_note = plot_comparison(a, b, plot)
+    one_study = same_study(a, b)
     if args.json:
         from nlupdate.reporting.jsonfile import json_safe
 
-        print(json.dumps(json_safe({"a": str(a.folder), "b": str(b.folder), "rtol": rtol,
+        print(json.dumps(json_safe({"a": str(a.folder), "b": str(b.folder), "same_study": one_study, "rtol": rtol,
+                                    "overview": [r.as_dict() for r in overview],
                                     "inputs": [r.as_dict() for r in inputs], "results": [r.as_dict() for r in results],
-                                    "plot": str(drawn) if drawn else None}), indent=2))
+                                    "plot": str(drawn) if drawn else None, "plot_note": plot_note}), indent=2))
         return 0
     print(f"A: {a.study} / {a.run_id} ({a.folder})\nB: {b.study} / {b.run_id} ({b.folder})\n")
-    _print_rows("inputs", inputs, args.all)
+    if not one_study:
+        print(f"different studies ({a.study}, {b.study}): what each run is, then the fields both runs have\n")
+    _print_overview(overview, show_same=not one_study or args.all)
+    _print_rows("inputs", inputs, args.all, show_one_sided=one_study or args.all)
     _print_rows(f"results (numbers equal within rtol {rtol:g}; Δ/σ: difference in the runs' standard deviations)",
-                results, args.all)
-    print(f"plot: {drawn}" if drawn else "plot: none (a run has no prediction)")
+                results, args.all, show_one_sided=one_study or args.all)
+    print(f"plot: {drawn} — {plot_note}" if drawn else f"plot: none — {plot_note}")
     return 0
 
 

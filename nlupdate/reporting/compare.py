@@ -1,6 +1,11 @@
-"""What changed between two archived runs: inputs (study fields, data hashes, versions,
-seeds) and results (identified and updated parameters with uncertainty, candidates and
-ranking, FRAC per force level), field by field.
+"""What changed between two archived runs: what the runs are (study, chain steps, FE model,
+parameters, targets, measured curves and force levels), inputs (study fields, data hashes,
+versions, seeds) and results (identified and updated parameters with uncertainty,
+candidates and ranking, FRAC per force level), field by field.
+
+Runs of different studies are compared too: the overview says how they differ, fields
+both runs have are compared, and the plot draws only the curves and force levels both
+runs measured and predicted (none when they share none, with the reason).
 
 Each field is a dotted name with a value per run. Inputs compare exactly. A result
 number matches when ``|a − b| ≤ rtol·max(|a|, |b|) + atol``; where the runs give a
@@ -15,8 +20,9 @@ import tomllib
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, Iterable
+from typing import Any, Iterable, NamedTuple
 
+import numpy as np
 import pandas as pd
 
 from nlupdate.reporting.catalogue import ArchivedRun
@@ -26,6 +32,18 @@ from nlupdate.reporting.prediction_plots import predictions_figure
 
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-12
+#: The chain's steps (nlupdate/study/chain.py) by what each leaves in an archive: a table or a plot.
+STEP_EVIDENCE = (("measured data", "table", "measured"), ("identification", "table", "identification"),
+                 ("targets", "table", "targets"), ("updating", "table", "runs"), ("comparison", "table", "ranking"),
+                 ("candidate FRFs", "plot", "frf_comparison"), ("predictions", "table", "predictions"))
+ONE_SIDED = ("only A", "only B")
+
+
+class Estimate(NamedTuple):
+    """A result number and its standard deviation (None where the run gives none)."""
+
+    value: float
+    std: float | None
 
 
 @dataclass(frozen=True)
@@ -84,8 +102,8 @@ def input_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
             "solvers": solvers}
 
 
-def _pair(value: float, std: float | None = None) -> tuple[float, float | None]:
-    return float(value), None if std is None or not math.isfinite(std) else float(std)
+def _pair(value: float, std: float | None = None) -> Estimate:
+    return Estimate(float(value), None if std is None or not math.isfinite(std) else float(std))
 
 
 def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
@@ -126,7 +144,7 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
     return {section: values for section, values in out.items() if values}
 
 
-def _numbers_match(a: tuple, b: tuple, rtol: float, atol: float) -> tuple[bool, float | None]:
+def _numbers_match(a: Estimate, b: Estimate, rtol: float, atol: float) -> tuple[bool, float | None]:
     (va, sa), (vb, sb) = a, b
     if math.isnan(va) and math.isnan(vb):
         return True, None
@@ -146,9 +164,9 @@ def _compare_section(section: str, a: dict, b: dict, rtol: float, atol: float) -
             rows.append(FieldChange(section, key, a[key], None, "only A"))
         elif key not in a:
             rows.append(FieldChange(section, key, None, b[key], "only B"))
-        elif isinstance(a[key], tuple) and isinstance(b[key], tuple):
+        elif isinstance(a[key], Estimate) and isinstance(b[key], Estimate):
             same, sigmas = _numbers_match(a[key], b[key], rtol, atol)
-            rows.append(FieldChange(section, key, list(a[key]), list(b[key]), "same" if same else "changed", sigmas))
+            rows.append(FieldChange(section, key, a[key], b[key], "same" if same else "changed", sigmas))
         else:
             rows.append(FieldChange(section, key, a[key], b[key], "same" if a[key] == b[key] else "changed"))
     return rows
@@ -168,15 +186,78 @@ def compare_results(a: ArchivedRun, b: ArchivedRun, rtol: float = DEFAULT_RTOL,
     return [row for s in sections for row in _compare_section(s, fa.get(s, {}), fb.get(s, {}), rtol, atol)]
 
 
+def _numbers(values: Iterable[float]) -> str:
+    return ", ".join(f"{v:g}" for v in values)
+
+
+def steps_present(run: ArchivedRun) -> list[str]:
+    """The chain's steps whose results the archive holds, in chain order."""
+    tables, plots = set(run.manifest.get("tables", [])), set(run.manifest.get("plots", {}))
+    return [step for step, kind, name in STEP_EVIDENCE if name in (tables if kind == "table" else plots)]
+
+
+def curves(table: pd.DataFrame | None) -> dict[tuple[str, str], list[float]]:
+    """(response dof, input dof) → ascending force levels (N) of an FRF table."""
+    if table is None:
+        return {}
+    out: dict[tuple[str, str], list[float]] = {}
+    for (response, inp), rows in table.groupby([table["response_dof"].astype(str), table["input_dof"].astype(str)],
+                                               sort=False):
+        out[(response, inp)] = sorted(float(level) for level in rows["force_level_n"].unique())
+    return out
+
+
+def overview_fields(run: ArchivedRun) -> dict[str, str]:
+    """What a run is, one line each: study, chain steps, FE model, parameters, targets,
+    measured curves and force levels, identified parameters, updating runs, predicted models."""
+    study_file = run.folder / "study.toml"
+    study = tomllib.loads(study_file.read_text()) if study_file.is_file() else {}
+    out = {"study": run.study, "chain steps": ", ".join(steps_present(run)) or "none"}
+    adapter = run.manifest.get("adapters", {}).get("updating")
+    if adapter:
+        out["FE model"] = " ".join(str(part) for part in (adapter.get("kind"), adapter.get("model")) if part)
+    parameters = study.get("parameters", [])
+    if isinstance(parameters, list) and parameters:
+        out["parameters"] = ", ".join(f"{p.get('name')} ({p.get('unit')})" if p.get("unit") else str(p.get("name"))
+                                      for p in parameters if isinstance(p, dict))
+    targets = run.table("targets")
+    if targets is not None and len(targets):
+        out["targets"] = ", ".join(f"{row.mode} {row.frequency_hz:.6g} Hz" for row in targets.itertuples())
+    measured = curves(run.table("measured"))
+    if measured:
+        out["measured curves (response/input)"] = ", ".join(f"{r}/{i}" for r, i in measured)
+        out["force levels (N)"] = _numbers(sorted({level for levels in measured.values() for level in levels}))
+    identified = run.table("identification")
+    if identified is not None and len(identified):
+        out["identified"] = ", ".join(map(str, identified["parameter"]))
+    runs, failures = run.table("runs"), run.table("failures")
+    if runs is not None or failures is not None:
+        n_failed = 0 if failures is None else len(failures)
+        out["updating runs"] = f"{0 if runs is None else len(runs)}" + (f" ({n_failed} failed)" if n_failed else "")
+    predictions = run.table("predictions")
+    if predictions is not None and len(predictions):
+        out["predicted models"] = ", ".join(map(str, predictions["model"].unique()))
+    return out
+
+
+def compare_overview(a: ArchivedRun, b: ArchivedRun) -> list[FieldChange]:
+    """What the two runs are, side by side (section ``overview``)."""
+    return _compare_section("overview", overview_fields(a), overview_fields(b), 0.0, 0.0)
+
+
+def same_study(a: ArchivedRun, b: ArchivedRun) -> bool:
+    return a.study == b.study
+
+
 def changed(rows: Iterable[FieldChange]) -> list[FieldChange]:
     return [row for row in rows if row.status != "same"]
 
 
-def format_value(value: Any) -> str:
-    """A field value as a short string: ``v ± s`` for (value, std) pairs."""
-    if isinstance(value, list) and len(value) == 2 and isinstance(value[0], float):
-        v, s = value
-        return f"{v:.6g}" + (f" ± {s:.2g}" if s is not None else "")
+def format_value(value: Any, limit: int = 60) -> str:
+    """A field value as a short string (at most ``limit`` characters): ``v ± s`` for an
+    :class:`Estimate`, a SHA-256 by its first 12 digits."""
+    if isinstance(value, Estimate):
+        return f"{value.value:.6g}" + (f" ± {value.std:.2g}" if value.std is not None else "")
     if isinstance(value, float):
         return f"{value:.6g}"
     if value is None:
@@ -184,12 +265,13 @@ def format_value(value: Any) -> str:
     text = str(value)
     if len(text) == 64 and all(c in "0123456789abcdef" for c in text):  # a SHA-256
         return text[:12] + "…"
-    return text if len(text) <= 60 else text[:57] + "…"
+    return text if len(text) <= limit else text[:limit - 1] + "…"
 
 
-def change_table(rows: Iterable[FieldChange]) -> pd.DataFrame:
-    """The rows as a table of strings (section, field, A, B, status, Δ/σ)."""
-    return pd.DataFrame([{"section": r.section, "field": r.field, "A": format_value(r.a), "B": format_value(r.b),
+def change_table(rows: Iterable[FieldChange], limit: int = 60) -> pd.DataFrame:
+    """The rows as a table of strings (section, field, A, B, status, Δ/σ); values cut at ``limit`` characters."""
+    return pd.DataFrame([{"section": r.section, "field": r.field, "A": format_value(r.a, limit),
+                          "B": format_value(r.b, limit),
                           "status": r.status, "Δ/σ": "" if r.sigmas is None else f"{r.sigmas:.2g}"} for r in rows],
                         columns=["section", "field", "A", "B", "status", "Δ/σ"])
 
@@ -208,18 +290,85 @@ def best_prediction(run: ArchivedRun) -> SimpleNamespace | None:
                            correlation=correlation[correlation["model"] == model])
 
 
-def plot_comparison(a: ArchivedRun, b: ArchivedRun, path: Path) -> Path | None:
-    """Both runs' best predictions against the measurements at every force level (B's
-    measurement drawn too when its data differ); None when a run has no prediction."""
+@dataclass(frozen=True)
+class PlotScope:
+    """What both runs' predictions can be drawn against: one (response, input) curve at
+    the force levels both runs measured and predicted; ``pair`` None when there is none,
+    ``note`` saying what is drawn or why nothing is."""
+
+    pair: tuple[str, str] | None
+    levels: tuple[float, ...]
+    note: str
+
+
+def _common_levels(*level_lists: Iterable[float]) -> tuple[float, ...]:
+    first, *others = [list(levels) for levels in level_lists]
+    return tuple(level for level in first
+                 if all(any(math.isclose(level, other, rel_tol=1e-9) for other in levels) for levels in others))
+
+
+def _curve_list(curves_of: dict[tuple[str, str], list[float]]) -> str:
+    return "; ".join(f"{r}/{i} at {_numbers(levels)} N" for (r, i), levels in curves_of.items()) or "none"
+
+
+def plot_scope(a: ArchivedRun, b: ArchivedRun, pa: SimpleNamespace | None,
+               pb: SimpleNamespace | None) -> PlotScope:
+    """The curve and force levels both runs' best predictions can be drawn at, against A's
+    measurement (and B's)."""
+    if pa is None or pb is None:
+        return PlotScope(None, (), "a run has no prediction")
+    measured_a, measured_b = curves(a.table("measured")), curves(b.table("measured"))
+    if not measured_a:
+        return PlotScope(None, (), "run A has no measured data")
+    predicted_a, predicted_b = curves(pa.table), curves(pb.table)
+    pairs = [pair for pair in predicted_a if pair in predicted_b and pair in measured_a
+             and (not measured_b or pair in measured_b)]
+    if not pairs:
+        return PlotScope(None, (), f"the runs measured and predicted no curve in common (A: {_curve_list(predicted_a)}; "
+                                   f"B: {_curve_list(predicted_b)})")
+    best = None
+    for pair in pairs:
+        sides = [predicted_a[pair], predicted_b[pair], measured_a[pair]] + ([measured_b[pair]] if measured_b else [])
+        levels = _common_levels(*sides)
+        if levels:
+            best = (pair, levels)
+            break
+    if best is None:
+        pair = pairs[0]
+        return PlotScope(None, (), f"the runs have no force level in common on {pair[0]}/{pair[1]} "
+                                   f"(A: {_numbers(predicted_a[pair])} N; B: {_numbers(predicted_b[pair])} N)")
+    pair, levels = best
+    left_out = sorted({level for level in predicted_a[pair] + predicted_b[pair]
+                       if not any(math.isclose(level, kept, rel_tol=1e-9) for kept in levels)})
+    note = f"response {pair[0]}, input {pair[1]} at {_numbers(levels)} N"
+    if left_out:
+        note += f" (the force levels both runs have; {_numbers(left_out)} N left out)"
+    return PlotScope(pair, levels, note)
+
+
+def _at_levels(table: pd.DataFrame, pair: tuple[str, str], levels: tuple[float, ...]) -> pd.DataFrame:
+    force = table["force_level_n"].to_numpy(dtype=float)
+    keep = np.zeros(len(table), dtype=bool)
+    for level in levels:
+        keep |= np.isclose(force, level, rtol=1e-9, atol=0.0)
+    keep &= (table["response_dof"].astype(str).to_numpy() == pair[0]) & (table["input_dof"].astype(str).to_numpy() == pair[1])
+    return table[keep]
+
+
+def plot_comparison(a: ArchivedRun, b: ArchivedRun, path: Path) -> tuple[Path | None, str]:
+    """Both runs' best predictions against the measurements (B's measurement drawn too when
+    its data differ), at the curve and force levels both runs have (:func:`plot_scope`).
+    Returns (the plot, or None when there is nothing to draw together; what is drawn or why not)."""
     pa, pb = best_prediction(a), best_prediction(b)
+    scope = plot_scope(a, b, pa, pb)
+    if scope.pair is None:
+        return None, scope.note
     measured_a, measured_b = a.table("measured"), b.table("measured")
-    if pa is None or pb is None or measured_a is None:
-        return None
-    first = pa.table.iloc[0]
-    pair = (str(first["response_dof"]), str(first["input_dof"]))
+    pa.table, pb.table = _at_levels(pa.table, scope.pair, scope.levels), _at_levels(pb.table, scope.pair, scope.levels)
     pa.name, pb.name = f"A {a.run_id}: {pa.name}", f"B {b.run_id}: {pb.name}"
     same_data = measured_b is not None and table_hash(measured_a) == table_hash(measured_b)
     other = None if same_data or measured_b is None else ("measured (B)", measured_b)
     styles = [dict(color="C0", lw=1.4), dict(color="C3", lw=1.1, ls="--")]
-    return save_figure(predictions_figure(measured_a, [pa, pb], *pair, f"{a.study}: run A vs run B", styles, other,
-                                          short_names=["A", "B"]), path, dpi=110)
+    title = f"{a.study}: run A vs run B" if same_study(a, b) else f"A {a.study} vs B {b.study}"
+    figure = predictions_figure(measured_a, [pa, pb], *scope.pair, title, styles, other, short_names=["A", "B"])
+    return save_figure(figure, path, dpi=110), scope.note

@@ -98,8 +98,10 @@ def predictions_figure(
             ax_phase.set_ylabel("phase (deg)", fontsize=8)
     handles, labels = first.get_legend_handles_labels()
     figure.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, markerscale=4)
+    separator = "; " if columns > 2 else "\n"  # two panels are too narrow for one line
     figure.suptitle(f"{title or 'predicted vs measured at every force level'}\nresponse {response_dof}, input "
-                    f"{input_dof}; FRAC = 1: the predicted FRF has the measured shape over the whole band", fontsize=10)
+                    f"{input_dof}{separator}FRAC = 1: the predicted FRF has the measured shape over the whole band",
+                    fontsize=10)
     return figure
 
 
