@@ -1,4 +1,4 @@
-"""Parametric solid (C3D20R) CalculiX deck of the T-beam test structure (METHODS §8).
+"""Parametric solid (C3D20R) CalculiX deck of the T-beam test structure (docs/methods.md §8).
 
 Geometry (SI units, global axes; the thesis' Figure 4.1 is not in the text, so the
 layout below is this module's reading of it):
@@ -14,7 +14,7 @@ layout below is this module's reading of it):
   x = L1 − w2/2, centred on beam 1's axis (y = 0).
 * bonding: the three beams are one mesh — the thin beams' faces and beam 1's faces in
   the overlap share nodes (perfect bond, no contact/friction: the linear underlying
-  structure of METHODS §8).
+  structure of docs/methods.md §8).
 * sensor masses (optional): ``transducer_mass + accelerometer_mass`` (kg) lumped at
   beam 1's tip, shared equally by the nodes of its x = L1 end face (CalculiX MASS
   elements; translational inertia only, rotary inertia neglected). Source values:

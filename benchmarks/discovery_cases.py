@@ -5,7 +5,7 @@ test scaffolding, not part of the package).
 
 The measurement is made by direct time integration of the truth
 (:func:`nlupdate.response.time_integration.steady_state_response`: no describing-function
-assumption) at every force level and frequency, plus METHODS §8 noise. Discovery is given
+assumption) at every force level and frequency, plus docs/methods.md §8 noise. Discovery is given
 only the model; the case knows which effects it should name and where. The truths are built
 here from the elements of :mod:`nlupdate.model.elements` (and one element outside the
 library, :class:`OneSidedStop`) and from explicit matrix edits — not through the library's
@@ -117,7 +117,7 @@ def sdof() -> Structure:
 
 
 def two_dof() -> Structure:
-    """METHODS §8 2-DOF (ground–m1–m2–ground), loss factor 0.04, force at m1, bands around both modes."""
+    """docs/methods.md §8 2-DOF (ground–m1–m2–ground), loss factor 0.04, force at m1, bands around both modes."""
     model = LumpedModel.with_loss_factor(np.diag([0.1, 0.5]), 1e6 * np.array([[2.0, -1.0], [-1.0, 2.0]]), LOSS_FACTOR)
     return Structure("two_dof", model, 0, _bands(model, 30, 0.14))
 
@@ -370,7 +370,7 @@ def hidden_case(
 
 
 def legacy_cases(seed_offset: int = 0) -> list[HiddenCase]:
-    """The first benchmark (22 cases): every effect twice (SDOF and the METHODS 2-DOF at a
+    """The first benchmark (22 cases): every effect twice (SDOF and the 2-DOF of docs/methods.md §8 at a
     varied place), friction + cubic twice, two negative controls; 1–2 % noise. ``seed_offset``
     shifts every seed (new truth parameters and noise); with an offset the 2-DOF places rotate."""
     one, two = sdof(), two_dof()

@@ -1,9 +1,9 @@
-"""Reproduce the source's simulated identification case studies (thesis ch. 3, METHODS §8).
+"""Reproduce the source's simulated identification case studies (thesis ch. 3, docs/methods.md §8).
 
     python benchmarks/reproduce_source.py [--seeds 100] [--quick] [--jobs 2] [--json FILE]
 
 Cases (data: describing-function responses by continuation + upward stepped sine on a
-1 Hz grid, like the source's harmonic-balance data; noise 5 % of |H| per METHODS §8):
+1 Hz grid, like the source's harmonic-balance data; noise 5 % of |H| per docs/methods.md §8):
 
 1. §3.1 SDOF, cubic + Jenkins, PRD at 710 Hz, 0.01 N + 11 levels 100…400 N (Table 3.1).
 2. §3.2 2-DOF, PRD at 725 Hz (Table 3.2) and the excitation-frequency table

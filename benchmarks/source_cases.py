@@ -1,9 +1,9 @@
-"""The source's simulated identification cases (thesis §3.1, §3.2, §3.5; METHODS §8).
+"""The source's simulated identification cases (thesis §3.1, §3.2, §3.5; docs/methods.md §8).
 
 Each case is a lumped linear model with local elements at dof 0, forced and measured at
 dof 0. Data are made like the source's: single-harmonic (describing-function) responses,
 here by continuation + an upward stepped-sine sweep (:func:`nlupdate.response.simulate.simulate_frf_table`)
-on a 1 Hz grid, noise-free; noise (METHODS §8, 5 % of |H|) is added per seed by the
+on a 1 Hz grid, noise-free; noise (docs/methods.md §8, 5 % of |H|) is added per seed by the
 benchmark scripts.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Tutorial 5 — discovery: which effect the model is missing, where, and the gap closing.
 
-examples/discovery/sdof_linear.toml is the analyst's linear model of the METHODS §8 SDOF
+examples/discovery/sdof_linear.toml is the analyst's linear model of the docs/methods.md §8 SDOF
 rig (0.1 kg, 2e6 N/m, loss factor 0.04); sdof_friction_cubic.csv was measured on the same
 rig by time integration, with 1 % noise, at 2, 8, 25 and 60 N — with a dry-friction joint
 and a cubic spring the model does not have (truth, examples/discovery/README.md:

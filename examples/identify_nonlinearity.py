@@ -1,6 +1,6 @@
 """Tutorial 2 — identify the nonlinearity and the linear FRF from tests at several levels.
 
-A simulated stepped-sine test of the METHODS §8 SDOF rig (examples/sdof.toml: 0.1 kg,
+A simulated stepped-sine test of the docs/methods.md §8 SDOF rig (examples/sdof.toml: 0.1 kg,
 2e6 N/m, loss factor 0.01, cubic spring k3 = 1e10 N/m³, Jenkins joint kf = 3e5 N/m with a
 slip force of 1 N) with 1 % noise, then PRD identification of a cubic spring plus a
 Jenkins joint, with Monte-Carlo uncertainty. The printed values stand next to the truth

@@ -1,6 +1,6 @@
 """Tutorial 4 — the chain step by step: identify, update the linear model, predict every level.
 
-The "real structure" is the METHODS §8 2-DOF rig (examples/two_dof.toml: springs
+The "real structure" is the docs/methods.md §8 2-DOF rig (examples/two_dof.toml: springs
 k1 = k2 = k3 = 1e6 N/m from ground to mass 1 (0.1 kg), between the masses, and from
 mass 2 (0.5 kg) to ground; cubic spring and Jenkins joint on mass 1). The analyst's FE
 model is the same spring chain with k1 = 0.8e6 N/m (the joint's support, not known well). A test at 0.01–100 N

@@ -1,7 +1,7 @@
 """Tutorial 6 — a whole study from Python: in this process, or as Prefect flows.
 
 A study file describes the chain once (docs/study-files.md): here a simulated test of the
-METHODS §8 2-DOF rig (examples/two_dof.toml) at 0.01–100 N, PRD identification of its
+docs/methods.md §8 2-DOF rig (examples/two_dof.toml) at 0.01–100 N, PRD identification of its
 joint, updating of the spring chain's k1 (started 20 % low; truth 1e6 N/m) against the
 extracted linear mode with two finite-difference formulas and an optimisation, and the
 best-ranked model's predictions at every level. The script writes the study file, runs it

@@ -1,6 +1,6 @@
 """Tutorial 1 — nonlinear FRFs of a model at several force levels (docs/python-api.md).
 
-The METHODS §8 two-degree-of-freedom rig (examples/two_dof.toml: masses 0.1 and 0.5 kg,
+The docs/methods.md §8 two-degree-of-freedom rig (examples/two_dof.toml: masses 0.1 and 0.5 kg,
 springs 1e6 N/m, a cubic spring k3 = 1e10 N/m³ and a Jenkins friction joint kf = 8e4 N/m,
 slip force 1 N on mass "0") is driven at mass "0" by 0.01 N … 100 N, 650–900 Hz. At
 0.01 N the joint sticks and the rig is linear (K + kf at dof 0, mode at 745 Hz); at 1–5 N

@@ -1,7 +1,7 @@
 """Study files for the tests, built as data: a study is the parsed TOML (a dict), edited
 as a dict and written back with tomli-w — never by editing TOML text.
 
-``two_dof_study()`` is ``tests/data/studies/two_dof.toml`` (the METHODS 2-DOF, the flow
+``two_dof_study()`` is ``tests/data/studies/two_dof.toml`` (the 2-DOF of docs/methods.md §8, the flow
 tests' whole-chain study) with its truth model's path made absolute, so the copy runs
 from any folder.
 """

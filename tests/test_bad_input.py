@@ -83,7 +83,7 @@ def assert_nothing_written(folder: Path, *keep: str) -> None:
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory) -> Path:
-    """A small measured-FRF table of the METHODS 2-DOF case (0.01 and 100 N)."""
+    """A small measured-FRF table of the 2-DOF of docs/methods.md §8 case (0.01 and 100 N)."""
     folder = tmp_path_factory.mktemp("measured")
     result = nlupdate("simulate", TWO_DOF, *SIMULATE, "--noise", "0.01", "--seed", "1", "--out", folder / "frf.parquet")
     assert result.returncode == 0, result.stderr

@@ -3,7 +3,7 @@
 References used here: the analytical single-harmonic frequency–amplitude relation of
 the Duffing oscillator (an implicit equation independent of the solver), finite
 differences for Jacobians, and the full (uncondensed) harmonic balance residual
-``(Z + Δ) X − F`` assembled directly from METHODS §1.
+``(Z + Δ) X − F`` assembled directly from docs/methods.md §1.
 """
 import warnings
 
@@ -167,7 +167,7 @@ METHODS_SDOF = NonlinearSystem(
 
 
 def test_methods_sdof_traced_at_eleven_force_levels_without_tuning():
-    """METHODS §8 SDOF, 100…400 N in 30 N steps, 600–1300 Hz: default settings only."""
+    """docs/methods.md §8 SDOF, 100…400 N in 30 N steps, 600–1300 Hz: default settings only."""
     for force in np.arange(100.0, 401.0, 30.0):
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # a stalled continuation warns: fail on it

@@ -1,6 +1,6 @@
 """Discovery building blocks against independent references.
 
-* every library DF against the METHODS §2 formulas written out here;
+* every library DF against the docs/methods.md §2 formulas written out here;
 * linear corrections against hand-assembled matrices, and the modal (Rayleigh–Ritz) form
   against the corrected lumped model;
 * variable-projection starts recover noise-free parameters;
@@ -35,7 +35,7 @@ W = np.full(A.size, 2 * np.pi * 700.0)
 
 
 def jenkins_formula(kf, fs, a):
-    """METHODS §2, written out independently of nlupdate.model.elements."""
+    """docs/methods.md §2, written out independently of nlupdate.model.elements."""
     a0 = fs / kf
     beta = np.arccos(np.clip(1 - 2 * a0 / a, -1, 1))
     slipping = (kf / np.pi) * (beta - 0.5 * np.sin(2 * beta)) + 1j * 4 * fs / (np.pi * a) * (1 - a0 / a)
@@ -202,7 +202,7 @@ def test_phase_resonance_closed_forms():
 
 
 def test_gap_of_a_perfect_model_is_the_noise_variance():
-    """METHODS §8 noise of relative std σ gives E[1 − FRAC] ≈ σ² (the gap's noise level)."""
+    """docs/methods.md §8 noise of relative std σ gives E[1 − FRAC] ≈ σ² (the gap's noise level)."""
     f = np.linspace(600, 830, 200)
     h = 1 / (2e6 * (1 + 0.04j) - 0.1 * (2 * np.pi * f) ** 2)
     gaps = [1 - frac(add_frf_noise(h, 0.02, seed), h) for seed in range(200)]

@@ -6,7 +6,7 @@ documented answer: microslip at the muzzle, then a damping correction δc ≈ �
 (the linear damping, set at the lowest level, already held the joint's dissipation
 there: ζ 0.955 → ~0.79 %), stopping at the noise level with the gap 0.248 → 0.011; in the
 first round the Iwan joint's χ² 34 beats the Jenkins slider's 128. The frequencies are
-checked against the published table (METHODS §8, source §5).
+checked against the published table (docs/methods.md §8, source §5).
 """
 from __future__ import annotations
 

@@ -61,7 +61,7 @@ def found_set(result):
 # --------------------------------------------------------------------------- 4. noise on banded grids
 def banded_frfs(noise: float, seed: int) -> pd.DataFrame:
     """Receptances of the 3-DOF chain at all coordinates, driven at dof 0, on its banded grid
-    (one band per mode; the two upper bands overlap), two force levels, METHODS §8 noise."""
+    (one band per mode; the two upper bands overlap), two force levels, docs/methods.md §8 noise."""
     f = np.sort(THREE.frequency_hz)
     h = THREE.model.receptance(2 * np.pi * f, [0, 1, 2], [0])[:, :, 0]
     tables = [frf_table(f[:, None], level, np.array(["0", "1", "2"])[None, :], "0", h) for level in (1.0, 5.0)]
@@ -144,7 +144,7 @@ SAMPLES = DFSamples(A, W, np.zeros(A.size, complex), np.full(A.size, 1e3))  # eq
     (DryFriction(stuck_in_model=True), [1e5, 1e-5], "stiffness_error", -1e5),  # the model's stuck spring, always slipping
 ])
 def test_degenerate_candidates_are_their_simpler_effects(effect, values, simpler, value):
-    """The DFs of METHODS §2 in their limits: a gap with g ≪ A is the spring kc, a Jenkins
+    """The DFs of docs/methods.md §2 in their limits: a gap with g ≪ A is the spring kc, a Jenkins
     joint with Fs/kf ≫ A the spring kf, one with Fs/kf ≪ A Coulomb friction of the same Fs."""
     from nlupdate.discovery.equivalence import simpler_equivalent
 

@@ -1,6 +1,6 @@
 """Discovery from a modal table: the gun barrel's measured mode 1 at six force levels.
 
-METHODS §8 (source §5, real random tests): the fundamental mode falls from 7.501 to 7.196 Hz
+docs/methods.md §8 (source §5, real random tests): the fundamental mode falls from 7.501 to 7.196 Hz
 and its damping rises from 0.955 to 2.368 % between 0.88 and 21.85 N rms. Given a linear
 single-mode equivalent (the lowest level's frequency and damping), the workflow must name a
 friction-type effect and the fitted model must follow both trends.

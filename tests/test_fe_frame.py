@@ -131,7 +131,7 @@ def test_tip_mass_on_massless_cantilever_with_spring(theory):
 
 
 def test_springs_and_point_masses_two_dof_system():
-    """METHODS §8 2-DOF: ground–k1–m1–k2–m2–k3–ground; plus a torsional oscillator."""
+    """docs/methods.md §8 2-DOF: ground–k1–m1–k2–m2–k3–ground; plus a torsional oscillator."""
     m1, m2, k = 0.1, 0.5, 1e6
     model = FrameModel()
     a = model.add_node((0, 0, 0), "m1")

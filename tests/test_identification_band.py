@@ -55,4 +55,4 @@ def test_prd_stays_inside_the_excited_band(broadband, with_coherence):
     low, high = result.band_hz
     assert 598 <= low and high <= 852
     assert low <= result.result.setup.frequency_hz <= high
-    assert abs(result.natural_frequencies_hz[0] / 732.2 - 1) < 0.01  # METHODS §8: the m1 mode near 732 Hz
+    assert abs(result.natural_frequencies_hz[0] / 732.2 - 1) < 0.01  # docs/methods.md §8: the m1 mode near 732 Hz

@@ -43,7 +43,7 @@ def _real_part(data: FRFLevels):
 
 
 def test_monte_carlo_reproduces_known_spread():
-    """Re H of one point has std fraction·|H|/√2 under the METHODS §8 noise model."""
+    """Re H of one point has std fraction·|H|/√2 under the docs/methods.md §8 noise model."""
     data = FRFLevels("0", "0", np.array([1.0]), (F,), (H,))
     stats = monte_carlo(_real_part, data, {"re": float(H[100].real)}, 0.05, n_samples=400, seed=3)
     expected = 0.05 * abs(H[100]) / np.sqrt(2)

@@ -1,7 +1,7 @@
 """PRD/DDF identification of an Iwan joint from time-integration data (no describing-function
-assumption; the joint's sliders in time), with METHODS §8 noise over several seeds.
+assumption; the joint's sliders in time), with docs/methods.md §8 noise over several seeds.
 
-Truth: the METHODS §3.1 SDOF (m = 0.1 kg, k = 2e6 N/m, loss factor 0.01) with an Iwan joint to
+Truth: the docs/methods.md §8 SDOF (m = 0.1 kg, k = 2e6 N/m, loss factor 0.01) with an Iwan joint to
 ground, F_S = 1 N, K_T = 3e5 N/m, χ = −0.5, β = 0.5 (φ_max = 6 µm); the high levels drive it
 from microslip (0.13 φ_max) into macroslip (20 φ_max).
 """

@@ -8,7 +8,7 @@ from nlupdate.measurement.modal_table import (
     write_modal_table,
 )
 
-GUN_BARREL = pd.DataFrame({  # METHODS §8, mode 1 at six rms force levels
+GUN_BARREL = pd.DataFrame({  # docs/methods.md §8, mode 1 at six rms force levels
     "force_level_n": [21.851, 0.88, 1.829, 2.809, 3.859, 7.888],
     "mode": [1] * 6,
     "natural_frequency_hz": [7.196, 7.501, 7.473, 7.449, 7.416, 7.341],

@@ -1,4 +1,4 @@
-"""FRF noise model (METHODS §8): statistics checked against the stated distribution."""
+"""FRF noise model (docs/methods.md §8): statistics checked against the stated distribution."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,6 +1,6 @@
 """The README's `identify` example (section "Commands") recovers the truth it simulates.
 
-The two commands are read from the README as written (simulate the METHODS 2-DOF of
+The two commands are read from the README as written (simulate the 2-DOF of docs/methods.md §8 of
 examples/two_dof.toml with 5 % noise, then identify cubic + Jenkins by PRD) and run in a
 fresh folder; the truth is read from the model file. Tolerances: k3 within 5 %, kf and the
 slip force within 2 % (seeds 1–6 give at most 2.7 %, 0.9 % and 0.5 %; the slow test

@@ -32,7 +32,7 @@ TWO_PI = 2 * np.pi
 DUFFING = NonlinearSystem(LumpedModel([[1.0]], [[1.0]], [[0.05]]), (CubicStiffness((0,), 1.0),))
 DUFFING_FORCE, DUFFING_BAND = 0.1, (0.5, 2.5)
 
-# (b) METHODS §8 2-DOF: ground–k1–m1–k2–m2–k3–ground, γ = 0.005 on K, cubic + Jenkins at m1.
+# (b) docs/methods.md §8 2-DOF: ground–k1–m1–k2–m2–k3–ground, γ = 0.005 on K, cubic + Jenkins at m1.
 TWO_DOF = NonlinearSystem(
     LumpedModel.with_loss_factor(np.diag([0.1, 0.5]), 1e6 * np.array([[2.0, -1.0], [-1.0, 2.0]]), 0.005),
     (CubicStiffness((0,), 1e10), JenkinsFriction((0,), kf=8e4, slip_force=1.0)),

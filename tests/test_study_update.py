@@ -232,7 +232,7 @@ def test_cli_reports_study_errors_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-#: the case data of METHODS §8 each example study must carry: targets (Hz), fixed values,
+#: the case data of docs/methods.md §8 each example study must carry: targets (Hz), fixed values,
 #: (start, lower, upper) per parameter, eigensensitivity formulas, candidate parameter
 #: sets, and the initial f1 (Hz) its header states for the surrogate
 EXAMPLE_CASES = {
@@ -252,7 +252,7 @@ EXAMPLE_CASES = {
 
 @pytest.mark.parametrize("name", list(EXAMPLE_CASES))
 def test_example_studies_are_valid(name):
-    """Each example encodes the source's case (METHODS §8), not just a loadable file."""
+    """Each example encodes the source's case (docs/methods.md §8), not just a loadable file."""
     case = EXAMPLE_CASES[name]
     study = load_study(EXAMPLES / name)
     assert study.adapter.kind == "surrogate"

@@ -1,4 +1,4 @@
-"""How well a model matches measurements (METHODS §7).
+"""How well a model matches measurements (docs/methods.md §7).
 
 * :mod:`~nlupdate.correlation.metrics` — FRAC, MAC, natural-frequency and peak errors.
 """

@@ -1,4 +1,4 @@
-"""Per-force-level correlation of a predicted FRF table with a measured one (METHODS §7).
+"""Per-force-level correlation of a predicted FRF table with a measured one (docs/methods.md §7).
 
 For every force level of one (response, input) curve, on the frequencies both tables
 hold: FRAC, the normalised FRF error ``‖H_p − H_m‖ / ‖H_m‖`` (0 = identical), and the

@@ -1,4 +1,4 @@
-"""Correlation metrics between measured and computed FRFs and modes (METHODS §7).
+"""Correlation metrics between measured and computed FRFs and modes (docs/methods.md §7).
 
 Shared by identification (regenerated vs measured FRFs) and updating (model vs test).
 Frequencies are in Hz, receptances in m/N; every function works on plain arrays.

@@ -1,6 +1,6 @@
 """Candidates as plain data, and the information criterion that ranks them.
 
-Misfit. Under the METHODS §8 noise model (relative std σ of every measured value) the
+Misfit. Under the docs/methods.md §8 noise model (relative std σ of every measured value) the
 misfit of a model is ``χ² = Σ |r|²`` over the ``n`` real residuals ``r`` scaled by their
 noise std (FRF data: real and imaginary parts of ``(X_model − X̃)/|X̃|`` divided by
 ``σ/√2``; modal data: relative frequency and damping errors over their uncertainties).

@@ -1,7 +1,7 @@
 """The library of candidate effects: what a model can be missing, as a describing function.
 
 An effect acts at a place — one coordinate (to ground) or two (between them) — on the
-relative displacement ``x = x_r − x_j`` (METHODS §1): its describing function (DF)
+relative displacement ``x = x_r − x_j`` (docs/methods.md §1): its describing function (DF)
 ``ν(A, ω; values)`` gives the first-harmonic force ``ν·X`` (N/m, ``Im ν > 0`` dissipates),
 A (m) is the amplitude of the relative displacement and ω (rad/s) the excitation
 frequency. Every DF of the library is a scale times a shape,
@@ -159,7 +159,7 @@ class DryFriction(ElementEffect):
 
     Shape: the slip amplitude ``a0 = Fs/kf``; scale: kf. ``stuck_in_model=True`` is the same
     joint when the model's linear stiffness already holds the stuck spring (a model tuned
-    to a low-force test, METHODS §2): the model's stiffness at the place is reduced by kf,
+    to a low-force test, docs/methods.md §2): the model's stiffness at the place is reduced by kf,
     so the DF added is ``ν_Jenkins(A) − kf`` (zero while stuck, softening and damping once
     it slips).
     """

@@ -89,7 +89,7 @@ class FRFData:
         return np.searchsorted(self.levels, self.force)
 
     def noise_fraction(self) -> float:
-        """Relative noise std of the measured values (METHODS §8 form): the table's noise
+        """Relative noise std of the measured values (docs/methods.md §8 form): the table's noise
         estimate (stated uncertainty, repeats, or the model-free smoothness estimate within
         contiguous stretches of every curve)."""
         return self.noise.fraction if self.noise is not None else 0.0

@@ -3,13 +3,13 @@
 Background. Everything of the current model that is not at the place u is the background:
 its linear model, and its nonlinear elements frozen at each point at their DF value for
 the amplitude the test measured (or, at unmeasured coordinates, the current model's
-amplitude) — the PRD idea of evaluating DFs at measured amplitudes (METHODS §4). The
+amplitude) — the PRD idea of evaluating DFs at measured amplitudes (docs/methods.md §4). The
 background receptance at a point is then ``H = (I + H^L Δ)⁻¹ H^L`` on the coordinates
 needed (measured, forced, the place).
 
 Place. The DF at u is the sum of the user's elements there (fixed), the effects found
 earlier there (refitted) and the candidate. Condensed on u the harmonic balance is scalar
-(METHODS §3): ``x_u (1 + H_uu ν(A)) = H_uf F`` with ``A = |x_u|``, i.e.
+(docs/methods.md §3): ``x_u (1 + H_uu ν(A)) = H_uf F`` with ``A = |x_u|``, i.e.
 ``A·|1/H_uu + ν(A)| = |H_uf/H_uu|·F``, solved for the root nearest the measured amplitude
 (:func:`nlupdate.identification.amplitude.nearest_amplitude`, as PRD's improved estimator
 does); then ``X_m = H_mf F − H_mu ν x_u``. The residuals ``(X_m − X̃_m)/|X̃_m|`` follow the

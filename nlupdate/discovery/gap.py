@@ -2,7 +2,7 @@
 
 Per level, over the measured band and all measured coordinates stacked into one vector:
 
-* ``frac`` — FRAC (METHODS §7) of measured and modelled receptances; ``gap = 1 − FRAC``;
+* ``frac`` — FRAC (docs/methods.md §7) of measured and modelled receptances; ``gap = 1 − FRAC``;
 * ``frf_error`` — normalised FRF error ``‖H_model − H_measured‖ / ‖H_measured‖``;
 * resonance shift — peak frequency of the model minus that of the measurement (%), on the
   reference coordinate (the driving point if it is measured);
@@ -16,7 +16,7 @@ the points where the model's solution nearest the measurement is not the one a s
 sweep in the stated direction would reach (see :mod:`nlupdate.discovery.simulation`).
 
 The discovery's headline figure is the mean gap over the force levels. With measurement
-noise of relative std σ (METHODS §8) a perfect model has ``gap ≈ σ²``. A linear model
+noise of relative std σ (docs/methods.md §8) a perfect model has ``gap ≈ σ²``. A linear model
 error gives a gap that does not depend on the force level; a missing nonlinearity gives a
 gap, a resonance shift or a peak ratio that changes with it: :attr:`GapReport.trends` are
 the least-squares slopes of each figure per decade of force.

@@ -8,7 +8,7 @@ together** against the measurement, with each point solved exactly for all of th
 
 FRFs. At each measured point (force level, frequency) the single-harmonic balance of the
 user's linear model with the user's elements and all effects is condensed on the
-coordinates ``a`` the elements and effects act on (METHODS §3, receptance form):
+coordinates ``a`` the elements and effects act on (docs/methods.md §3, receptance form):
 
     R(X_a) = X_a − H_af F + H_aa g(X_a) = 0,   g = Σ_e s_e ν_e(|s_eᵀX_a|, ω) s_eᵀX_a,
 

@@ -3,7 +3,7 @@
 Place. For one extra element at place u (relative coordinate ``x_u = x_r − x_j``, or
 ``x_r`` to ground) the responses at the measured coordinates m are exactly
 ``X_m = H_mf F − H_mu g`` at every point, with g the element's first-harmonic force and H
-the receptances of the model (METHODS §3, receptance form). Fitting one free complex g per
+the receptances of the model (docs/methods.md §3, receptance form). Fitting one free complex g per
 point by least squares (weights ``1/|X̃_m|``, the noise model) tells
 
 * ``explained`` — the fraction of the current model's misfit that *any* element at u removes
@@ -11,7 +11,7 @@ point by least squares (weights ``1/|X̃_m|``, the noise model) tells
   the current model already explains): the right place explains all of it up to noise, a
   wrong one leaves the part it cannot reach;
 * the apparent describing function ``ν̃ = g / X̃_u`` against the measured amplitude
-  ``|X̃_u|`` — the generalisation of PRD's ``1/H_measured − 1/H_model`` (METHODS §4) to any
+  ``|X̃_u|`` — the generalisation of PRD's ``1/H_measured − 1/H_model`` (docs/methods.md §4) to any
   place; a linear model error gives a ν̃ that does not change with the force level, a
   missing nonlinearity one that does (``force_dependence``).
 

@@ -1,4 +1,4 @@
-"""Frame model of the gun barrel of a battle tank (thesis §5.11; METHODS §8).
+"""Frame model of the gun barrel of a battle tank (thesis §5.11; docs/methods.md §8).
 
 What the source gives (thesis Tables 5.28, 5.29): gun tube of carbon steel,
 E = 207 GPa, length 6.6 m, inner diameter 120 mm; shielding-armor 650 kg with

@@ -1,4 +1,4 @@
-"""Frame model of the T-beam test structure (thesis §3.3 and §4; METHODS §8).
+"""Frame model of the T-beam test structure (thesis §3.3 and §4; docs/methods.md §8).
 
 Geometry and axes
 -----------------

@@ -1,4 +1,4 @@
-"""Identification of local nonlinearities and extraction of linear FRFs (METHODS §4–§5, §7).
+"""Identification of local nonlinearities and extraction of linear FRFs (docs/methods.md §4–§5, §7).
 
 Modules
 -------

@@ -175,5 +175,5 @@ class FRFLevels:
                                    achieved=pick(self.achieved))
 
     def with_noise(self, fraction: float, rng: np.random.Generator) -> "FRFLevels":
-        """A copy with METHODS §8 noise (std = fraction·|H|) added to every value."""
+        """A copy with docs/methods.md §8 noise (std = fraction·|H|) added to every value."""
         return dataclasses.replace(self, receptances=tuple(add_frf_noise(h, fraction, rng) for h in self.receptances))

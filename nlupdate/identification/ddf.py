@@ -1,4 +1,4 @@
-"""DDF method (Direct nonlinearity by Describing Functions, METHODS §5), for comparison.
+"""DDF method (Direct nonlinearity by Describing Functions, docs/methods.md §5), for comparison.
 
 Two force levels F1 < F2 measured over a frequency band. At every frequency ω_n,
 
@@ -12,7 +12,7 @@ real and imaginary parts of c. Named physical elements can be fitted instead
 ``H^L = 1/(1/H_j − Δ(x_j))`` at every frequency level j was measured.
 
 Estimators: ``"naive"`` (the source, unweighted; the default) and ``"weighted"`` — each
-row divided by the standard deviation of its right-hand side under the METHODS §8 noise
+row divided by the standard deviation of its right-hand side under the docs/methods.md §8 noise
 model, ``∝ sqrt(|1/H_1|² + |1/H_2|²)``. Weighting is not a consistent win
 (``benchmarks/reproduce_source.py``, 5 % noise, 100 seeds: k3 bias −8.5 % → −4.6 % for
 100/350 N at 700–950 Hz, but −11.9 % → −32.7 % for 150/450 N): the dominant error is
@@ -80,7 +80,7 @@ class DDFResult:
     amplitude / y: the DF values implied by the data at the higher level,
     ``y_n = 1/H_2 − 1/H_1 + Δ_fit(x_1)`` at amplitude ``x_2`` (for plots), and
     point_frequency_hz their frequencies. residual_noise_fraction: the relative noise
-    level implied by the fit's residuals (each row normalised by its METHODS §8 noise
+    level implied by the fit's residuals (each row normalised by its docs/methods.md §8 noise
     scale ``sqrt(|1/H_1|² + |1/H_2|²)``; None without spare degrees of freedom).
     at_bound: parameters of a physical fit that ended on its bounds.
     """

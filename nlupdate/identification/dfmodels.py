@@ -6,11 +6,11 @@ library.
 
 A model maps a real parameter vector ``p`` to two describing functions (DFs) of the
 response amplitude ``A`` (m) at the nonlinear coordinate (complex, N/m, first-harmonic
-force = ν·X, METHODS §1):
+force = ν·X, docs/methods.md §1):
 
 * ``nu_high(p, A, ω)`` — the DF acting at the high force levels;
 * ``nu_low(p, A, ω)`` — the DF acting at the low force level (``Δ_f1`` of the PRD
-  method, METHODS §4).
+  method, docs/methods.md §4).
 
 The PRD relation at one excitation frequency is then
 ``1/H_i = Z_L(ω) + nu_high(A_i)`` (i ≥ 2) and ``1/H_1 = Z_L(ω) + nu_low(A_1)``, so

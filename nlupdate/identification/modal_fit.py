@@ -14,7 +14,7 @@ mass term R_m/ω² for the modes below it. ω_r and η_r are found by nonlinear 
 squares (variable projection: A_r and the residuals by linear least squares inside),
 starting from :func:`nlupdate.correlation.metrics.natural_frequencies` (or given
 frequencies) and a loss factor from the peak height; residuals are relative,
-``(H_model − H)/|H|`` (METHODS §8 noise).
+``(H_model − H)/|H|`` (docs/methods.md §8 noise).
 
 A PRD-extracted linear FRF ``1/H^L = 1/H̃_1 − Δ_f1`` is noisiest exactly at its own
 resonance, where ``|1/H^L|`` is small while the noise of ``1/H̃_1`` is not: with friction

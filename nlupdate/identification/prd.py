@@ -1,4 +1,4 @@
-"""PRD method (Pseudo Receptance Difference, METHODS §4) for a nonlinearity at one coordinate.
+"""PRD method (Pseudo Receptance Difference, docs/methods.md §4) for a nonlinearity at one coordinate.
 
 Length: the result type, the setup and the two estimators share the PRD conventions
 stated below; the improved estimator's window is a third of it.
@@ -29,7 +29,7 @@ linear dynamic stiffness; the data are every low-force point and every high-forc
 in the window. For each point the model response is the scalar harmonic balance
 ``X = F/(Z_L(ω) + ν(A))`` with A the root of ``A|Z_L + ν(A)| = F`` nearest to the
 measured amplitude (:mod:`nlupdate.identification.amplitude`), and the residual is
-``(X_model − X̃)/|X̃|`` — the METHODS §8 noise model (std ∝ |H|), so the fit is the
+``(X_model − X̃)/|X̃|`` — the docs/methods.md §8 noise model (std ∝ |H|), so the fit is the
 maximum-likelihood estimate. This removes all three weaknesses: the force is exact so
 there are no errors in variables, ``Z_L`` is shared by all levels so the low-force noise
 averages over the window, and neighbouring frequencies add points. With a single
@@ -121,7 +121,7 @@ class PRDResult:
     the excitation frequency. covariance: linearised covariance of p (improved only).
     noise_fraction: relative noise level implied by the fit residuals (improved only).
     residual_noise_fraction: the same for every estimator — the RMS of the fit's
-    residuals normalised like the METHODS §8 noise (std / |H|) and corrected for the
+    residuals normalised like the docs/methods.md §8 noise (std / |H|) and corrected for the
     fitted degrees of freedom; it matches the noise fraction when the model fits (None
     when there are no spare degrees of freedom). amplitude_low_max: the largest
     low-force amplitude the fit used (m; a Jenkins slider slipping there would show).
@@ -487,7 +487,7 @@ def prd_naive(data: FRFLevels, setup: PRDSetup, model: Model) -> PRDResult:
     a_low = abs(h_low) * float(data.force_at(setup.low_force, f))
     omega = 2 * np.pi * f
     p, at_bound = fit_y_points(model, amplitude, y, a_low, omega)
-    # noise of y_i = 1/H_i − 1/H_1: fraction·|1/H| on each term (METHODS §8)
+    # noise of y_i = 1/H_i − 1/H_1: fraction·|1/H| on each term (docs/methods.md §8)
     misfit = y - model.nu_high(p, amplitude, omega) + model.nu_low(p, np.array([a_low]), omega)
     residual = residual_noise_fraction(misfit, np.sqrt(np.abs(1 / h_high) ** 2 + abs(1 / h_low) ** 2), model.n_params)
     return PRDResult("prd", "naive", model, p, setup, amplitude, y, np.full(amplitude.size, f), a_low,

@@ -1,6 +1,6 @@
 """Uncertainty of identified parameters by Monte Carlo over the noise model.
 
-The noise model is the one of METHODS §8: every measured receptance carries circular
+The noise model is the one of docs/methods.md §8: every measured receptance carries circular
 complex normal noise of standard deviation ``fraction·|H|``. Given an estimator (a
 function of the measured curves) and the noise fraction — known, or estimated from the
 low-force sweep by :func:`nlupdate.identification.data.estimate_noise_fraction` — the
@@ -105,7 +105,7 @@ class Uncertainty:
 
     def as_dict(self) -> dict[str, Any]:
         return {
-            "method": "Monte Carlo over the noise model (METHODS §8): data perturbed with circular complex "
+            "method": "Monte Carlo over the noise model (docs/methods.md §8): data perturbed with circular complex "
                       "normal noise of std noise_fraction·|H| and re-identified; ci95 = 2.5–97.5 % percentiles",
             "noise_fraction": self.noise_fraction,
             "n_samples": self.n_samples,

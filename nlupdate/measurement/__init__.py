@@ -9,5 +9,5 @@
 * :mod:`~nlupdate.measurement.band` — the excited band of a measured FRF;
 * :mod:`~nlupdate.measurement.coherence` — noise level of an H1 estimate from coherence;
 * :mod:`~nlupdate.measurement.modal_table` — natural frequency and damping per mode and level;
-* :mod:`~nlupdate.measurement.noise` — METHODS §8 noise on simulated FRFs.
+* :mod:`~nlupdate.measurement.noise` — docs/methods.md §8 noise on simulated FRFs.
 """

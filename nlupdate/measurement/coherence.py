@@ -4,7 +4,7 @@ For an H1 estimate from n_d independent averages with ordinary coherence γ², t
 normalised random errors of |H| and of its phase are both
 ``ε = √(1 − γ²) / (|γ| √(2 n_d))`` (Bendat & Piersol, *Random Data*, §9.2.4), so the
 complex error has ``E|δH|² = 2ε²|H|²``: a relative noise level (std / |H|, the
-convention of METHODS §8 and of :mod:`nlupdate.measurement.noise`)
+convention of docs/methods.md §8 and of :mod:`nlupdate.measurement.noise`)
 ``σ = √((1 − γ²)/(γ² n_d))``.
 
 This small function stands here until the project's noise estimator

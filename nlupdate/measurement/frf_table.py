@@ -11,7 +11,7 @@ frequency_hz    float  excitation frequency, Hz (≥ 0)
 force_level_n   float  amplitude of the harmonic force, N (≥ 0; 0 marks a linear FRF)
 response_dof    str    name of the response coordinate ("0", "1", ... or "tip:uz")
 input_dof       str    name of the forced coordinate
-h_real, h_imag  float  receptance H = X/F, m/N, with x(t) = Re(X e^{iωt}) (METHODS §1)
+h_real, h_imag  float  receptance H = X/F, m/N, with x(t) = Re(X e^{iωt}) (docs/methods.md §1)
 ==============  =====  ==============================================================
 
 Coordinates are identified by NAME (always str). Tables built or read here are sorted by

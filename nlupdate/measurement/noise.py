@@ -1,4 +1,4 @@
-"""Measurement noise: the METHODS §8 model on simulated FRFs, and estimates of it from data.
+"""Measurement noise: the docs/methods.md §8 model on simulated FRFs, and estimates of it from data.
 
 The source pollutes harmonic-balance responses with normal noise whose standard
 deviation is a fraction (5 %) of the response amplitude. Here each complex value H gets
@@ -156,7 +156,7 @@ def coherence_noise_fraction(coherence: ArrayLike, averages: ArrayLike) -> NDArr
     number of averages n_d (Bendat & Piersol, random errors of frequency-response estimates).
 
     The normalised random errors of the magnitude and of the phase (rad) are each
-    ``√(1 − γ²) / (|γ|·√(2 n_d))``, so the complex error ``δH`` of METHODS §8 form has
+    ``√(1 − γ²) / (|γ|·√(2 n_d))``, so the complex error ``δH`` of docs/methods.md §8 form has
     ``E|δH|²/|H|² = (1 − γ²)/(γ² n_d)``; returned is its square root per point. A coherence
     of 0 gives ``inf`` (the point carries no information).
     """
@@ -183,7 +183,7 @@ class NoiseEstimate:
     """The noise level of a measured-FRF table and where it came from.
 
     fraction: relative std of the complex FRF error, ``sqrt(mean σ_k²)/|H|`` over the points
-    (METHODS §8 form; σ² is what a perfect model's FRAC gap approaches); source: ``"h_std"``,
+    (docs/methods.md §8 form; σ² is what a perfect model's FRAC gap approaches); source: ``"h_std"``,
     ``"coherence"``, ``"repeats"`` or ``"smoothness"`` (the model-free estimate of
     :func:`estimate_noise_fraction`, windows of every measured curve pooled); per_point: relative std
     per table row when the data state it (h_std, coherence), else None; detail: one line
@@ -253,7 +253,7 @@ def smooth_inverse_receptance(frequency_hz: ArrayLike, h: ArrayLike, window: int
     """Noise-reduced ``1/H``: a weighted least-squares quadratic in ω over ``window``
     neighbouring points (odd, ≥ 5) evaluated at each frequency (a Savitzky–Golay filter
     on the dynamic stiffness, which is smooth even at resonances). Weights ``|H̃|``
-    match the relative noise of METHODS §8. Windows are shifted inwards at the ends."""
+    match the relative noise of docs/methods.md §8. Windows are shifted inwards at the ends."""
     f = np.asarray(frequency_hz, dtype=float)
     z = 1.0 / np.asarray(h, dtype=complex)
     window = int(window)

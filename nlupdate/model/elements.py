@@ -1,4 +1,4 @@
-"""Local nonlinear elements and their single-harmonic describing functions (METHODS §2).
+"""Local nonlinear elements and their single-harmonic describing functions (docs/methods.md §2).
 
 Every element acts on the relative displacement ``x = x_r − x_j`` of two coordinates, or
 ``x = x_r`` when it connects coordinate r to ground (``dofs=(r,)``).
@@ -555,5 +555,5 @@ ELEMENT_TYPES: dict[str, type] = {
 
 
 def nonlinear_dofs(elements: Sequence[NonlinearElement]) -> tuple[int, ...]:
-    """Sorted coordinates touched by any element (the ``a`` set of METHODS §3)."""
+    """Sorted coordinates touched by any element (the ``a`` set of docs/methods.md §3)."""
     return tuple(sorted({d for element in elements for d in element.dofs}))

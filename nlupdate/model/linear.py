@@ -1,6 +1,6 @@
 """Linear models of the underlying (linear) structure and their receptances.
 
-Conventions (METHODS §1): SI units, harmonic motion ``x(t) = Re(X e^{iωt})``,
+Conventions (docs/methods.md §1): SI units, harmonic motion ``x(t) = Re(X e^{iωt})``,
 dynamic stiffness ``Z(ω) = K − ω²M + iωC + iD`` and receptance ``H = Z⁻¹`` (m/N).
 Angular frequency ω is in rad/s everywhere in this module.
 

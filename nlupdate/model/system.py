@@ -1,7 +1,7 @@
 """A nonlinear system: linear model + local nonlinear elements + harmonic forcing.
 
 The single-harmonic balance ``(Z(ω) + Δ(X)) X = F`` is condensed to the nonlinear
-coordinates ``a`` (METHODS §3, receptance form)::
+coordinates ``a`` (docs/methods.md §3, receptance form)::
 
     R(X_a, ω) = X_a − H_af(ω) F_f + H_aa(ω) g(X_a, ω) = 0,
 

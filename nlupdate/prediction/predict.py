@@ -1,6 +1,6 @@
 """Predictions of the updated nonlinear model: updated linear model + identified elements.
 
-The source's last step (METHODS §6): the updated linear FE model (its modes at the
+The source's last step (docs/methods.md §6): the updated linear FE model (its modes at the
 measured coordinates, from an adapter evaluated at the updated parameters) and the
 identified nonlinear elements form the updated nonlinear model, which is simulated at
 every measured force level and frequency and compared with the measurements.

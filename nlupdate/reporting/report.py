@@ -89,7 +89,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
             lines += [f"Simulated stepped-sine test (sweep {sim.sweep}) of the hidden truth at "
                       f"{', '.join(f'{f:g}' for f in sim.forces_n)} N, {len(sim.frequencies_hz)} frequencies "
                       f"{min(sim.frequencies_hz):g}–{max(sim.frequencies_hz):g} Hz, noise {100 * sim.noise:g} % "
-                      f"(METHODS §8), seed {sim.seed}.", ""]
+                      f"(docs/methods.md §8), seed {sim.seed}.", ""]
         else:
             spec = study.measured
             sources = [spec.file] if spec.file else [p for p, _ in spec.files] or list(spec.time_histories)

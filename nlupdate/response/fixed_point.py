@@ -1,4 +1,4 @@
-"""The source's relaxed fixed-point iteration (METHODS §3), kept for comparison.
+"""The source's relaxed fixed-point iteration (docs/methods.md §3), kept for comparison.
 
 In condensed form the seed iteration ``X_{i+1} = (Z + Δ(X_i))⁻¹ F`` reads, at the
 nonlinear coordinates (Woodbury identity),

@@ -15,7 +15,7 @@ frequency grid (Hz) with one of three methods:
 * ``time`` — steady-state first harmonic from direct time integration (no
   describing-function assumption), sweeping like a test.
 
-Optional measurement noise follows METHODS §8 (:func:`nlupdate.measurement.noise.add_frf_noise`).
+Optional measurement noise follows docs/methods.md §8 (:func:`nlupdate.measurement.noise.add_frf_noise`).
 """
 from __future__ import annotations
 

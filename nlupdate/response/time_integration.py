@@ -3,7 +3,7 @@
 The describing-function solvers (:mod:`nlupdate.response.continuation`, :mod:`nlupdate.response.fixed_point`)
 balance the first harmonic only. This module integrates the *same* system in time, with
 the elements' time-domain force laws ``element.force(x, v, state, ω)``, until the motion
-is periodic, and returns the first harmonic of the last period (METHODS §3, "reference a
+is periodic, and returns the first harmonic of the last period (docs/methods.md §3, "reference a
 user can trust"). Conventions: SI units, ω in rad/s, ``x(t) = Re(X e^{iωt})`` so the first
 harmonic over a period is ``X = (2/T)∫ x(t) e^{−iωt} dt``; the force at dof f is
 ``Re(F_f e^{iωt})`` with t = 0 at the start of every integrated period.

@@ -39,7 +39,7 @@ class SimulationSpec:
 
     Either ``model_file`` (a model file with its elements) or ``adapter`` + ``parameters``
     (+ ``loss_factor``, ``elements``: element tables with coordinate-name dofs).
-    frequencies_hz: the test grid (Hz); forces_n: force amplitudes (N); noise: METHODS §8
+    frequencies_hz: the test grid (Hz); forces_n: force amplitudes (N); noise: docs/methods.md §8
     fraction (docs/methods.md §8); sweep: stepped-sine direction.
     """
 

@@ -165,7 +165,7 @@ def measured_description(study: Study) -> str:
 
 def measured_table(study: Study) -> pd.DataFrame:
     """The study's measured-FRF table: read from its file, or simulated (stepped sine read
-    off the continuation, METHODS §8 noise)."""
+    off the continuation, docs/methods.md §8 noise)."""
     if study.measured is None:
         raise StudyError(f"{study.path}: the study has no [measured] data")
     spec = study.measured

@@ -1,4 +1,4 @@
-"""Inverse eigensensitivity updating (METHODS §6).
+"""Inverse eigensensitivity updating (docs/methods.md §6).
 
 Linearising the paired response r (relative natural frequencies, optionally scaled
 mode shapes; :mod:`nlupdate.updating.residuals`) about the current parameters,

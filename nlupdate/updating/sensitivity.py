@@ -1,4 +1,4 @@
-"""Finite-difference sensitivities ``S_ij = ∂r_i/∂p_j`` (METHODS §6).
+"""Finite-difference sensitivities ``S_ij = ∂r_i/∂p_j`` (docs/methods.md §6).
 
 Four formulas, with step ``h`` per parameter:
 
