@@ -31,7 +31,7 @@ from nlupdate.flows.environment import prepare_environment
 prepare_environment()
 
 from nlupdate.cli.demo import demo_study_text  # noqa: E402
-from nlupdate.flows.progress import Progress  # noqa: E402
+from nlupdate.flows.status_lines import Progress  # noqa: E402
 from nlupdate.flows.run import run_study_flow  # noqa: E402
 from nlupdate.flows.runners import Execution  # noqa: E402
 from nlupdate.flows.server import prefect_api  # noqa: E402

@@ -2,7 +2,7 @@
 on the flow's task runner (threads or Dask), and the run leaves an archive like a study's.
 
 ``<results>/discovery-<model file stem>/<UTC time>-<hash>/`` holds the discovery output
-(:func:`nlupdate.discovery.report.write_discovery`), the inputs as run (``model.toml``,
+(:func:`nlupdate.discovery.outputs.write_discovery`), the inputs as run (``model.toml``,
 ``measured.parquet``), ``manifest.json`` and ``report.md``.
 """
 from __future__ import annotations
@@ -16,9 +16,9 @@ from prefect import flow
 from prefect.context import FlowRunContext
 
 from nlupdate.discovery import discover
-from nlupdate.discovery.report import write_discovery
+from nlupdate.discovery.outputs import write_discovery
 from nlupdate.flows.liveness import claim_flow_run
-from nlupdate.flows.progress import current_progress
+from nlupdate.flows.status_lines import current_progress
 from nlupdate.flows.cache import Cache
 from nlupdate.flows.handles import Handle
 from nlupdate.reporting.archive import run_folder

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Iterator
 
 from nlupdate.flows.environment import prepare_environment
-from nlupdate.flows.progress import Progress, using
+from nlupdate.flows.status_lines import Progress, using
 from nlupdate.flows.runners import Execution, check_scheduler_address, task_runner
 from nlupdate.flows.server import prefect_api
 from nlupdate.study.spec import Study

@@ -131,7 +131,7 @@ def scheduled_study(name: str, study_sha256: str):
     from prefect.runtime import flow_run
 
     from nlupdate.flows.liveness import claim_flow_run
-    from nlupdate.flows.progress import Progress
+    from nlupdate.flows.status_lines import Progress
     from nlupdate.flows.run import run_study_flow
     from nlupdate.flows.runners import Execution
     from nlupdate.study.loading import study_from_text

@@ -6,9 +6,9 @@ chain (:func:`nlupdate.tasks.keys.step_key`). A fan-out step — the updating ru
 predictions — is a subflow named after it in which every job starts at once, each on a
 coordinator thread that runs its job task; the job's FE evaluations are FE-point tasks
 submitted to the flow's task runner (threads or Dask workers) and shared between the jobs
-and the whole run (:class:`~nlupdate.tasks.evaluation.PointRegistry`), so the start point
+and the whole run (:class:`~nlupdate.tasks.fe_points.PointRegistry`), so the start point
 four difference formulas need — and the prediction of the initial model — is solved once. A failing updating run fails its own branch only; it is
-named in the report and the manifest. :func:`nlupdate.study.run.run_study` walks the same
+named in the report and the manifest. :func:`nlupdate.study.sequential.run_study` walks the same
 chain in one process and gives the same numbers.
 """
 from __future__ import annotations
@@ -27,14 +27,14 @@ from rich.markup import escape
 from nlupdate.flows.cache import Cache
 from nlupdate.flows.handles import Handle, handle, study_handle
 from nlupdate.flows.liveness import claim_flow_run
-from nlupdate.flows.progress import current_progress
+from nlupdate.flows.status_lines import current_progress
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
 from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import RunFailure
 from nlupdate.tasks import cached, keys
 from nlupdate.tasks.names import job_run_name, step_run_name
-from nlupdate.tasks.evaluation import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
+from nlupdate.tasks.fe_points import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
 
 __all__ = ["Cache", "study_flow", "study_handle"]
 

@@ -375,6 +375,6 @@ def run_study(study: Study | PathLike, say: Callable[[str], None] | None = None)
     ``ranking`` (tables), ``predictions`` (each with ``correlation`` per force level) and
     ``warnings``. ``nlupdate.reporting.archive.write_archive(result, folder, run_info)``
     writes it as an archive with report.md."""
-    from nlupdate.study.run import run_study as run
+    from nlupdate.study.sequential import run_study as run
 
     return run(load_study(study) if isinstance(study, (str, os.PathLike)) else study, say or (lambda message: None))

@@ -5,7 +5,7 @@ Every task takes its cache ``key`` first (:mod:`nlupdate.tasks.keys`) and is cac
 alone — never by the heavy or live arguments beside it (studies, tables, models), which
 Prefect could not hash reliably. A step's task runs the step's function from
 :data:`nlupdate.study.chain.STEPS`; a job's task runs the step's ``each`` with the FE
-evaluator of its context (:func:`nlupdate.tasks.evaluation.evaluating_with`). Both read the
+evaluator of its context (:func:`nlupdate.tasks.fe_points.evaluating_with`). Both read the
 run's inputs as it pinned them, also on a Dask worker. Newton steps and continuation
 points are not tasks: a task is a step a person would name.
 
@@ -30,7 +30,7 @@ from nlupdate.discovery.workflow import fit_candidate
 from nlupdate.input_files import pinned
 from nlupdate.study.chain import STEPS
 from nlupdate.study.spec import Study
-from nlupdate.tasks.evaluation import adapter_for, current_evaluator
+from nlupdate.tasks.fe_points import adapter_for, current_evaluator
 from nlupdate.tasks.store import DataSerializer, record_store
 
 

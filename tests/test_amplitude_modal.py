@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from nlupdate.identification.amplitude_modal import (
+from nlupdate.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, amplitude_model_from_modal_table, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels
@@ -191,7 +191,7 @@ def test_files_round_trip_and_bad_input_is_named(tmp_path):
 def test_linear_limit_of_an_amplitude_model_is_an_updating_target(tmp_path):
     """[targets] amplitude_models: the FE model (the joint tied: one spring) is updated to the
     model's linear limit, here the stuck SDOF's √((k + K_T)/m)."""
-    from nlupdate.study.run import run_study
+    from nlupdate.study.sequential import run_study
     from nlupdate.study import StudyError, study_from_text
 
     joint = IwanJoint((0,), slip_force=JOINT.slip_force * PHI, kt=JOINT.kt * PHI**2, chi=-0.5, beta=0.5)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.identification.amplitude_modal import amplitude_model_from_frfs
+from nlupdate.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.identification.data import FRFLevels
 from nlupdate.study import load_study
 from nlupdate.measurement.noise import add_table_noise
@@ -52,7 +52,7 @@ def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
 
 @pytest.mark.slow
 def test_the_example_identifies_updates_and_predicts(study, measured):
-    from nlupdate.study.run import run_study
+    from nlupdate.study.sequential import run_study
 
     result = run_study(study)
     p = result.identification.parameters()

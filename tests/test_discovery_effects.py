@@ -21,7 +21,7 @@ from nlupdate.discovery.effects import (
 from nlupdate.discovery.errors import DiscoveryError
 from nlupdate.discovery.frf_fit import background_receptance, frf_context
 from nlupdate.discovery.linear_edits import add_linear_correction
-from nlupdate.discovery.modal_fit import phase_resonance
+from nlupdate.discovery.backbone_fit import phase_resonance
 from nlupdate.discovery.starts import joint_starts
 from nlupdate.measurement.noise import add_frf_noise
 from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap

@@ -38,7 +38,7 @@ from nlupdate.discovery import DiscoveryOptions, discover
 from nlupdate.discovery.candidates import FoundEffect
 from nlupdate.discovery.effects import LIBRARY, Clearance, CubicHardening, DFSamples, DryFriction
 from nlupdate.discovery.frf_data import FRFData
-from nlupdate.identification.amplitude import all_amplitudes
+from nlupdate.identification.scalar_balance import all_amplitudes
 from nlupdate.measurement.frf_table import frf_table
 from nlupdate.measurement.noise import add_frf_noise, add_table_noise
 from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap

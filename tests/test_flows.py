@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.flows.progress import Progress
+from nlupdate.flows.status_lines import Progress
 from nlupdate.flows.run import run_study_flow
 from nlupdate.flows.runners import Execution, ExecutionError, task_runner
 from studies import two_dof_study, study_text

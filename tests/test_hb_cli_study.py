@@ -295,7 +295,7 @@ def test_the_prediction_cache_key_follows_the_method_and_its_settings():
 
 
 def test_under_prefect_a_changed_harmonics_recomputes_only_the_predictions(prefect_server, tmp_path):
-    from nlupdate.flows.progress import Progress
+    from nlupdate.flows.status_lines import Progress
     from nlupdate.flows.run import run_study_flow
 
     def flow_run(text: str) -> tuple[Path, dict]:

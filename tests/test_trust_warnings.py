@@ -34,7 +34,7 @@ from nlupdate.study import run_study, study_from_text
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
 from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
 from nlupdate.updating.targets import UpdatingTargets
-from nlupdate.updating.trust import updating_warnings
+from nlupdate.updating.parameter_warnings import updating_warnings
 
 LEVELS = (0.01,) + tuple(float(f) for f in np.arange(100.0, 401.0, 30.0))
 GRID = np.arange(680.0, 741.0)

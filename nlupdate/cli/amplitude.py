@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from nlupdate.cli import CliError, add_command, positive_int
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.files import atomic_directory
-from nlupdate.identification.amplitude_modal import (
+from nlupdate.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels

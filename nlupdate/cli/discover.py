@@ -4,7 +4,7 @@ Reads a model file and measurements at several force levels (a measured-FRF tabl
 .parquet, .csv, .uff or .mat; or a modal table: .csv with columns force_level_n, mode,
 natural_frequency_hz, damping_ratio), runs :func:`nlupdate.discovery.discover` and writes
 ``DIR/discovery.json``, ``DIR/augmented_model.toml`` and plots
-(:mod:`nlupdate.discovery.report`). The folder appears only when complete.
+(:mod:`nlupdate.discovery.outputs`). The folder appears only when complete.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from nlupdate.cli.output import add_overwrite_option, checked_output, writable_f
 from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
-from nlupdate.discovery.report import write_discovery
+from nlupdate.discovery.outputs import write_discovery
 from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
 from nlupdate.measurement.frf_files import read_frf_table
 from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table

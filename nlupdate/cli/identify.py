@@ -15,7 +15,7 @@ from pathlib import Path
 
 from nlupdate.cli import CliError, add_command, non_negative_float, non_negative_int, positive_int
 from nlupdate.cli.output import add_overwrite_option, checked_output
-from nlupdate.cli.progress import terminal_progress
+from nlupdate.cli.progress_bar import terminal_progress
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS

@@ -104,7 +104,7 @@ def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotat
     writable_folder(cache_directory(args.cache_dir), "--cache-dir")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
     with prefect_errors(args):
-        from nlupdate.flows.progress import Progress
+        from nlupdate.flows.status_lines import Progress
         from nlupdate.flows.run import run_study_flow
         from nlupdate.flows.runners import Execution
 

@@ -22,7 +22,7 @@ import numpy as np
 from nlupdate.cli import CliError, add_command, non_negative_float, non_negative_int
 from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
-from nlupdate.cli.progress import terminal_progress
+from nlupdate.cli.progress_bar import terminal_progress
 from nlupdate.measurement.frf_files import read_frf_table, table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning

@@ -11,7 +11,7 @@ Place. The DF at u is the sum of the user's elements there (fixed), the effects 
 earlier there (refitted) and the candidate. Condensed on u the harmonic balance is scalar
 (docs/methods.md §3): ``x_u (1 + H_uu ν(A)) = H_uf F`` with ``A = |x_u|``, i.e.
 ``A·|1/H_uu + ν(A)| = |H_uf/H_uu|·F``, solved for the root nearest the measured amplitude
-(:func:`nlupdate.identification.amplitude.nearest_amplitude`, as PRD's improved estimator
+(:func:`nlupdate.identification.scalar_balance.nearest_amplitude`, as PRD's improved estimator
 does); then ``X_m = H_mf F − H_mu ν x_u``. The residuals ``(X_m − X̃_m)/|X̃_m|`` follow the
 noise model, so the least-squares fit is the maximum-likelihood estimate without
 errors in variables (the force is exact, the amplitude is solved, not measured).
@@ -28,7 +28,7 @@ from nlupdate.discovery.candidates import CandidateFit, FoundEffect
 from nlupdate.discovery.effects import DFSamples, Effect
 from nlupdate.discovery.fitting import fit_at_place
 from nlupdate.discovery.localisation import Localisation, free_element_force, summarise
-from nlupdate.identification.amplitude import nearest_amplitude
+from nlupdate.identification.scalar_balance import nearest_amplitude
 from nlupdate.model.system import NonlinearSystem
 
 DF = Callable[[NDArray, NDArray], NDArray]

@@ -21,7 +21,7 @@ the measurement — the branch the test was on where the response is multi-value
 ``X_m = H_mf F − H_ma g(X_a)`` at the measured coordinates, and the residuals are those of
 :mod:`nlupdate.discovery.frf_evidence` (``Σ r² = χ²``).
 
-Modal tables. The single-mode phase-resonance model of :mod:`nlupdate.discovery.modal_fit`
+Modal tables. The single-mode phase-resonance model of :mod:`nlupdate.discovery.backbone_fit`
 already solves all elements on the one modal coordinate; the joint problem is that model
 with every effect's parameters free.
 """
@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from nlupdate.discovery.candidates import FoundEffect
 from nlupdate.discovery.fitting import fit_effects
-from nlupdate.discovery.modal_fit import _participation, element_terms, phase_resonance
+from nlupdate.discovery.backbone_fit import _participation, element_terms, phase_resonance
 from nlupdate.model.linear import ModalModel
 from nlupdate.model.system import NonlinearSystem
 
@@ -213,7 +213,7 @@ class FRFJoint(JointFit):
 @dataclass(frozen=True, eq=False)
 class ModalJoint(JointFit):
     """The joint problem against a modal table: the single-mode phase-resonance model with
-    the user's elements and every effect (residuals as in :class:`~nlupdate.discovery.modal_fit.ModalContext`)."""
+    the user's elements and every effect (residuals as in :class:`~nlupdate.discovery.backbone_fit.ModalContext`)."""
 
     modal: ModalModel
     mode: NDArray[np.int64]

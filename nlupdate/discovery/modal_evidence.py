@@ -1,7 +1,7 @@
 """A modal table as evidence: predict, measure the gap, set up candidate fits.
 
 The "simulation" of a model against a modal table is the single-mode phase-resonance
-solution of :mod:`nlupdate.discovery.modal_fit` at every (force level, mode). The gap uses
+solution of :mod:`nlupdate.discovery.backbone_fit` at every (force level, mode). The gap uses
 the same FRAC as for FRFs, on the single-mode receptances
 ``1/(ω_x² − ω² + 2iζ_x ω_x ω)`` that the measured and the modelled (f, ζ) describe, over
 ``f̃·(1 ± max(10ζ̃, 0.02))`` (201 points) per mode. Candidate places are the model's
@@ -19,7 +19,7 @@ from nlupdate.discovery.candidates import FoundEffect, augment
 from nlupdate.discovery.gap import GapReport, level_gap
 from nlupdate.discovery.joint import ModalJoint
 from nlupdate.discovery.modal_data import ModalData, as_modal
-from nlupdate.discovery.modal_fit import ModalContext, element_terms, modal_context, phase_resonance
+from nlupdate.discovery.backbone_fit import ModalContext, element_terms, modal_context, phase_resonance
 from nlupdate.model.system import NonlinearSystem
 
 _BAND_POINTS = 201

@@ -249,7 +249,7 @@ class DiscoveryResult:
         return f"fit: good — the residual is {self.misfit_ratio:.3g}× the noise level"
 
     def to_dict(self) -> dict:
-        """The ``discovery.json`` content (see :mod:`nlupdate.discovery.report`)."""
+        """The ``discovery.json`` content (see :mod:`nlupdate.discovery.outputs`)."""
         first = self.effects[0].to_dict() if self.effects else {"effect": "none", "dofs": [], "parameters": {}}
         return {
             "effect": first["effect"],

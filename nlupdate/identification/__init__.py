@@ -12,7 +12,7 @@ Modules
 * :mod:`~nlupdate.identification.uncertainty` — Monte-Carlo statistics over the noise model.
 * :mod:`~nlupdate.identification.trust` — warnings about results not to be trusted
   (parameters on a bound or not determined by the data, a residual far above the noise).
-* :mod:`~nlupdate.identification.amplitude` — scalar harmonic balance (amplitude roots).
+* :mod:`~nlupdate.identification.scalar_balance` — scalar harmonic balance (amplitude roots).
 * :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
 * :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.
 * :mod:`~nlupdate.identification.report` — JSON, plots and the atomic output folder of

@@ -28,7 +28,7 @@ local quadratic ``Z_L(ω) = z_0 + z_1 x + z_2 x²`` (``x = (f − f_e)/f_e``, co
 linear dynamic stiffness; the data are every low-force point and every high-force point
 in the window. For each point the model response is the scalar harmonic balance
 ``X = F/(Z_L(ω) + ν(A))`` with A the root of ``A|Z_L + ν(A)| = F`` nearest to the
-measured amplitude (:mod:`nlupdate.identification.amplitude`), and the residual is
+measured amplitude (:mod:`nlupdate.identification.scalar_balance`), and the residual is
 ``(X_model − X̃)/|X̃|`` — the docs/methods.md §8 noise model (std ∝ |H|), so the fit is the
 maximum-likelihood estimate. This removes all three weaknesses: the force is exact so
 there are no errors in variables, ``Z_L`` is shared by all levels so the low-force noise
@@ -54,7 +54,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.identification.amplitude import nearest_amplitude
+from nlupdate.identification.scalar_balance import nearest_amplitude
 from nlupdate.identification.data import FRFLevels
 from nlupdate.measurement.noise import smooth_inverse_receptance
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, polynomial_approximation, with_clipped_damping

@@ -2,7 +2,7 @@
 
 Single nonlinear coordinate (driving point): at every frequency of the extracted linear
 receptance ``H^L(ω)`` the scalar balance ``(1/H^L + ν(A, ω))·X = F`` is solved for all
-its amplitude roots (:func:`nlupdate.identification.amplitude.all_amplitudes`), and a
+its amplitude roots (:func:`nlupdate.identification.scalar_balance.all_amplitudes`), and a
 stepped-sine test is emulated: the sweep stays on the stable root nearest (in log A) to
 the previous frequency's amplitude and jumps to the nearest remaining stable root when
 its branch ends at a fold. This works directly on noisy samples (no interpolation).
@@ -22,7 +22,7 @@ import scipy.interpolate
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.fingerprints import fingerprint
-from nlupdate.identification.amplitude import all_amplitudes
+from nlupdate.identification.scalar_balance import all_amplitudes
 
 
 def regenerate_frf(

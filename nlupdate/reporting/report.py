@@ -62,7 +62,7 @@ def _with_truth(value: float, std: float, truth: float | None, scale: float = 1.
 
 
 def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str]) -> str:
-    """The report of a :class:`~nlupdate.study.run.StudyResult` with its manifest; ``plots``
+    """The report of a :class:`~nlupdate.study.sequential.StudyResult` with its manifest; ``plots``
     maps plot keys to their paths relative to the archive."""
     study = result.study
     truth = hidden_truth(study)

@@ -3,10 +3,10 @@
 * :mod:`~nlupdate.study.spec` — the study file (reading and validation);
 * :mod:`~nlupdate.study.chain` — the chain of steps, declared once;
 * :mod:`~nlupdate.study.steps` — each step on plain inputs;
-* :mod:`~nlupdate.study.run` — :func:`run_study`, every step in order, in one process.
+* :mod:`~nlupdate.study.sequential` — :func:`run_study`, every step in order, in one process.
 """
 from nlupdate.study.chain import CHAIN, StudyResult
-from nlupdate.study.run import run_study
+from nlupdate.study.sequential import run_study
 from nlupdate.study.loading import load_study, study_from_text
 from nlupdate.study.spec import Study, StudyError, inputs_read_once
 

@@ -12,7 +12,7 @@ formula × parameter set and optimisation candidate; the predictions, one per mo
 one by one or concurrently, each evaluating FE points of ``model`` through the evaluator
 it is given, and ``compute`` gathers their outcomes.
 
-Two short interpreters run the chain: :func:`nlupdate.study.run.run_study` in order in one
+Two short interpreters run the chain: :func:`nlupdate.study.sequential.run_study` in order in one
 process, and the Prefect flow :func:`nlupdate.flows.study.study_flow` as cached tasks (FE
 points and jobs on the task runner). A new step is one function and one entry here.
 """
@@ -33,7 +33,7 @@ from nlupdate.study.steps import (
     updating_runs,
 )
 from nlupdate.updating.eigensensitivity import UpdatingResult
-from nlupdate.updating.uncertainty import ParameterUncertainty
+from nlupdate.updating.target_uncertainty import ParameterUncertainty
 
 Results = Mapping[str, Any]
 

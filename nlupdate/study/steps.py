@@ -1,7 +1,7 @@
 """The steps of a study, each a function of plain inputs (a :class:`~nlupdate.study.spec.Study`
 and what earlier steps returned); :mod:`nlupdate.study.chain` declares their order.
 
-Both interpreters of the chain — :func:`nlupdate.study.run.run_study` in one process and
+Both interpreters of the chain — :func:`nlupdate.study.sequential.run_study` in one process and
 the Prefect flows (:mod:`nlupdate.flows`) as cached tasks — call these very functions;
 nothing here knows which of the two is calling, nor where FE points are evaluated (the
 fan-out steps get an evaluator).
@@ -40,11 +40,11 @@ from nlupdate.study.spec import SimulationSpec, Study, StudyError
 from nlupdate.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.updating.runs import UpdatingRun, candidate_frf, compare_candidates, rank_candidates, update
 from nlupdate.updating.evaluation import PointEvaluator
-from nlupdate.updating.trust import updating_warnings
+from nlupdate.updating.parameter_warnings import updating_warnings
 from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
-from nlupdate.updating.uncertainty import ParameterUncertainty, propagate_target_uncertainty
+from nlupdate.updating.target_uncertainty import ParameterUncertainty, propagate_target_uncertainty
 
 
 @dataclass(frozen=True, eq=False)
@@ -483,7 +483,7 @@ def models_used(study: Study) -> dict[str, dict | None]:
 def study_warnings(study: Study, identification: Identification | None, updating: UpdatingOutcome | None,
                    comparison: Comparison | None) -> tuple[TrustWarning, ...]:
     """The identification's warnings (:mod:`nlupdate.identification.trust`), then each
-    updating run's (:mod:`nlupdate.updating.trust`: parameters that ended on a bound of
+    updating run's (:mod:`nlupdate.updating.parameter_warnings`: parameters that ended on a bound of
     the study, propagated uncertainty above the value), in run order."""
     out: list[TrustWarning] = []
     if identification is not None:

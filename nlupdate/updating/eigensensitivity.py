@@ -84,7 +84,7 @@ class UpdatingResult:
     sensitivity: the last Jacobian of the response vector (paired ``f/f_target``, then
     mode-shape terms) per parameter unit, at ``sensitivity_point`` (None if no iteration
     was needed); bounds: (lower, upper) of each updated parameter, to tell a result that
-    ended on a bound (:func:`nlupdate.updating.trust.updating_warnings`).
+    ended on a bound (:func:`nlupdate.updating.parameter_warnings.updating_warnings`).
     """
 
     method: str

@@ -12,7 +12,7 @@ optimisation candidate, :class:`~nlupdate.updating.eigensensitivity.UpdatingResu
   of the width: both methods land on the bound to round-off or to their step tolerance
   (≤ 1e-6 here), while a free optimum that close to a bound by chance is improbable.
 * ``uncertainty_exceeds_value`` — the standard deviation propagated from the targets'
-  uncertainty (:mod:`nlupdate.updating.uncertainty`) exceeds the value's magnitude.
+  uncertainty (:mod:`nlupdate.updating.target_uncertainty`) exceeds the value's magnitude.
 
 The warning type is :class:`~nlupdate.identification.trust.TrustWarning`.
 """
@@ -24,7 +24,7 @@ import numpy as np
 
 from nlupdate.identification.trust import TrustWarning, uncertainty_warnings
 from nlupdate.updating.eigensensitivity import UpdatingResult
-from nlupdate.updating.uncertainty import ParameterUncertainty
+from nlupdate.updating.target_uncertainty import ParameterUncertainty
 
 BOUND_TOLERANCE = 1e-3
 
