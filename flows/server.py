@@ -14,9 +14,13 @@ possible the run says so in one line and goes on.
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import os
+import socket
 import subprocess
 import sys
+import time
+from pathlib import Path
 from typing import Callable, Iterator
 
 import httpx
@@ -26,11 +30,13 @@ class ServerError(RuntimeError):
     """The Prefect API cannot be reached or started; the message says what to do."""
 
 
-_STARTED: list = []  # servers prefect_api started and has not stopped yet
+_STARTED: list = []  # servers started for a run and not stopped yet
+_EARLY: list = []  # of those, the one start_server_early started for the next prefect_api
 
 
 def stop_started_servers() -> None:
     """Stop the servers :func:`prefect_api` started (for an exit that cannot unwind)."""
+    _EARLY.clear()
     while _STARTED:
         _STARTED.pop().stop()
 
@@ -70,27 +76,86 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
         worker.drain_all(timeout=timeout_s)
 
 
-def _parent_bound_server():
-    """Prefect's temporary server (``SubprocessASGIServer``), its uvicorn process started
-    through :mod:`nlupdate.flows.server_process` so that it ends when this process does,
-    even when this process is killed. The command line is Prefect 3.8's own."""
-    import prefect
-    from prefect.server.api.server import SubprocessASGIServer
-    from prefect.settings import get_current_settings
+class RunServer:
+    """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
+    3.8's own command line), started through :mod:`nlupdate.flows.server_process` so that
+    it ends when this process does, even when this process is killed.
 
-    class ParentBoundServer(SubprocessASGIServer):
-        _instances: dict = {}
+    Started without importing Prefect here (the server process imports it itself, at the
+    same time as this process imports what the run needs); :meth:`wait` returns once the
+    API answers."""
 
-        def _run_uvicorn_command(self) -> subprocess.Popen:
-            return subprocess.Popen(
-                args=[sys.executable, "-m", "nlupdate.flows.server_process", str(os.getpid()),
-                      "--app-dir", str(prefect.__module_path__.parent), "--factory",
-                      "prefect.server.api.server:create_app", "--host", "127.0.0.1", "--port", str(self.port),
-                      "--log-level", "error", "--lifespan", "on"],
-                env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
-                     "PREFECT__SERVER_FINAL": "1", **get_current_settings().to_environment_variables(exclude_unset=True)})
+    def __init__(self) -> None:
+        self.port = _free_port()
+        self.process: subprocess.Popen | None = self._spawn()
 
-    return ParentBoundServer()
+    @property
+    def api_url(self) -> str:
+        return f"http://127.0.0.1:{self.port}/api"
+
+    def _spawn(self) -> subprocess.Popen:
+        spec = importlib.util.find_spec("prefect")
+        if spec is None or not spec.submodule_search_locations:
+            raise RuntimeError("Prefect is not installed")
+        app_dir = Path(list(spec.submodule_search_locations)[0]).parent
+        settings = {}
+        if "prefect.settings" in sys.modules:  # settings this process changed are the server's too
+            from prefect.settings import get_current_settings
+
+            settings = get_current_settings().to_environment_variables(exclude_unset=True)
+        return subprocess.Popen(
+            args=[sys.executable, "-m", "nlupdate.flows.server_process", str(os.getpid()),
+                  "--app-dir", str(app_dir), "--factory", "prefect.server.api.server:create_app",
+                  "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
+            env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
+                 "PREFECT__SERVER_FINAL": "1", **settings})
+
+    def wait(self, timeout_s: float) -> None:
+        """Return once ``/api/health`` answers 200; RuntimeError when the process ends first
+        or ``timeout_s`` passes (a port taken meanwhile — uvicorn's exit code 3 — is retried
+        on another)."""
+        deadline = time.monotonic() + timeout_s
+        with httpx.Client(timeout=5.0) as client:
+            while time.monotonic() < deadline:
+                code = self.process.poll()
+                if code == 3:
+                    self.port = _free_port()
+                    self.process = self._spawn()
+                elif code is not None:
+                    raise RuntimeError(f"the server process exited with code {code}")
+                with contextlib.suppress(httpx.TransportError):
+                    if client.get(f"{self.api_url}/health").status_code == 200:
+                        return
+                time.sleep(0.05)
+        raise RuntimeError(f"the server did not answer within {timeout_s:g} s")
+
+    def stop(self) -> None:
+        if self.process is not None:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+            self.process = None
+
+
+def _free_port() -> int:
+    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_STREAM)) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def start_server_early() -> None:
+    """Start the run's server now, unless ``PREFECT_API_URL`` names one, so that it boots
+    while this process imports and prepares the run; :func:`prefect_api` then waits for it
+    (and :func:`stop_started_servers` stops it when the run ends before that)."""
+    if not os.environ.get("PREFECT_API_URL") and not _EARLY:
+        try:
+            _EARLY.append(RunServer())
+            _STARTED.append(_EARLY[-1])
+        except Exception:  # noqa: BLE001 - prefect_api starts one and reports the error in one line
+            pass
 
 
 @contextlib.contextmanager
@@ -106,14 +171,19 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
         finally:
             flush_run_history()
         return
-    server = _parent_bound_server()
     say("starting a Prefect server for this run …")
+    server = _EARLY.pop() if _EARLY else None
     try:
-        server.start(timeout=startup_timeout_s)
+        if server is None:
+            server = RunServer()
+            _STARTED.append(server)
+        server.wait(startup_timeout_s)
     except Exception as error:  # whatever uvicorn or the database raised
+        if server in _STARTED:
+            _STARTED.remove(server)
+            server.stop()
         raise ServerError(f"could not start a Prefect server ({type(error).__name__}: {error}); {HELP}") from None
     os.environ["PREFECT_API_URL"] = server.api_url
-    _STARTED.append(server)
     say(f"Prefect server: {server.api_url} (stops with the run)")
     try:
         _crash_dead_runs(server.api_url, say)

@@ -258,22 +258,42 @@ def test_an_unreachable_dask_address_fails_clearly_within_ten_seconds():
 
 
 def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch):
-    from prefect.server.api import server
-
+    from nlupdate.flows import server
     from nlupdate.flows.server import ServerError, prefect_api
 
-    def broken(self, timeout=None):
-        raise RuntimeError("Timed out while attempting to connect to ephemeral Prefect API server")
+    def broken(self, timeout_s):
+        raise RuntimeError("the server did not answer within 120 s")
 
     monkeypatch.delenv("PREFECT_API_URL", raising=False)
-    monkeypatch.setattr(server.SubprocessASGIServer, "start", broken)
+    monkeypatch.setattr(server.RunServer, "wait", broken)
+    before = list(server._STARTED)  # the session's server, when a test before started it
     with pytest.raises(ServerError, match="could not start a Prefect server .*prefect server start"):
         with prefect_api(lambda message: None):
             pass
+    assert server._STARTED == before  # the process that did not answer is stopped
     monkeypatch.setenv("PREFECT_API_URL", "http://127.0.0.1:9/api")
     with pytest.raises(ServerError, match="PREFECT_API_URL=http://127.0.0.1:9/api does not answer"):
         with prefect_api(lambda message: None):
             pass
+
+
+def test_a_server_started_early_is_the_one_the_run_uses_and_stops_with_it(monkeypatch):
+    """The CLI starts the run's server before it imports Prefect (so that it boots
+    meanwhile); prefect_api waits for that one instead of starting a second, and stops it."""
+    import httpx
+
+    from nlupdate.flows import server
+
+    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    before = list(server._STARTED)  # the session's server, when a test before started it
+    server.start_server_early()
+    early = server._EARLY[0]
+    process = early.process
+    with server.prefect_api(lambda message: None) as url:
+        assert url == early.api_url
+        assert httpx.get(f"{url}/health").status_code == 200
+        assert server._STARTED == [*before, early] and not server._EARLY
+    assert process.poll() is not None and server._STARTED == before
 
 
 def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_server, tmp_path):

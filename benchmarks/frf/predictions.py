@@ -14,9 +14,9 @@ import time
 from pathlib import Path
 
 from nlupdate.cli.demo import demo_study_text
-from nlupdate.study.spec import study_from_text
+from nlupdate.study.loading import study_from_text
 from nlupdate.study.steps import identification_step, measured_table, predict_model, prediction_adapter
-from nlupdate.updating.adapter_factory import build_adapter
+from nlupdate.adapters.registry import build_adapter
 from nlupdate.updating.evaluation import MemoisedEvaluator
 
 from benchmarks.frf.common import fmt_time, interleaved, print_table, timed

@@ -15,7 +15,8 @@ from importlib import resources
 from pathlib import Path
 
 from nlupdate.cli import add_command, non_negative_int
-from nlupdate.cli.run import add_execution_options, exit_code_for_failures, print_summary, run_with_prefect
+from nlupdate.cli.run import (add_execution_options, exit_code_for_failures, prefect_errors, print_summary,
+                              run_with_prefect)
 
 DEMO_STUDY = "data/demo.toml"
 
@@ -35,10 +36,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nlupdate.study import study_from_text
+    with prefect_errors(args, start_server=True):  # the server boots while the study is read
+        from nlupdate.study import study_from_text
 
-    study = study_from_text(demo_study_text(args.seed), Path("demo.toml"))
-    archive = run_with_prefect(study, args.results, args)
+        study = study_from_text(demo_study_text(args.seed), Path("demo.toml"))
+        archive = run_with_prefect(study, args.results, args)
     if not args.quiet:
         print_summary(archive)
     else:

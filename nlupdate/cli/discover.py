@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             from nlupdate.flows.run import run_discovery_flow
             from nlupdate.flows.runners import Execution
 
-            with prefect_errors(args):
+            with prefect_errors(args, start_server=True):
                 folder = run_discovery_flow(args.model, args.measured, options, args.archive,
                                             Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
                                             args.no_cache)

@@ -53,26 +53,31 @@ def check_dask_address(args: argparse.Namespace) -> None:
 
 
 @contextlib.contextmanager
-def prefect_errors(args: argparse.Namespace) -> Iterator[None]:
+def prefect_errors(args: argparse.Namespace, start_server: bool = False) -> Iterator[None]:
     """Check a ``--dask-address`` before anything starts (exit 2 when nothing answers
     there), prepare the environment before Prefect is imported, turn set-up failures
     (server, Dask) into one-line errors, and stop the Prefect server this run started even
     when an interrupt must end the process before it has unwound
-    (:mod:`nlupdate.cli.interrupts`)."""
+    (:mod:`nlupdate.cli.interrupts`). ``start_server``: start the run's server now (unless
+    ``PREFECT_API_URL`` names one), so that it boots while this process imports Prefect and
+    the flows."""
     check_dask_address(args)
     from nlupdate.flows.environment import prepare_environment
 
     prepare_environment()
     from nlupdate.cli import interrupts
     from nlupdate.flows.runners import ExecutionError
-    from nlupdate.flows.server import ServerError, stop_started_servers
+    from nlupdate.flows.server import ServerError, start_server_early, stop_started_servers
 
     stop = interrupts.on_deadline(stop_started_servers)
     try:
+        if start_server:
+            start_server_early()
         yield
     except (ExecutionError, ServerError) as error:
         raise CliRuntimeError(str(error)) from None
     finally:
+        stop_started_servers()  # one started early for a run that ended before using it
         interrupts.forget(stop)
 
 
@@ -103,7 +108,7 @@ def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotat
     writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
     writable_folder(cache_directory(args.cache_dir), "--cache-dir")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
-    with prefect_errors(args):
+    with prefect_errors(args, start_server=True):
         from nlupdate.flows.status_lines import Progress
         from nlupdate.flows.run import run_study_flow
         from nlupdate.flows.runners import Execution
