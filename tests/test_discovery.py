@@ -165,3 +165,32 @@ def test_negative_controls_over_seeds(seed):
     structure = SDOF if seed % 2 else TWO_DOF
     case = hidden_case(structure, (), seed=seed, noise=0.01 + 0.005 * (seed % 3))
     assert discover(case.model, case.measure()).effect == "none"
+
+
+def test_the_describing_function_plot_shows_the_final_model_against_the_truth(discovered, tmp_path):
+    """describing_function.png draws, besides the first round's candidates, the final model at
+    the place — every effect found there, refitted together — and that curve is the hidden
+    truth's describing function (Jenkins + cubic) over the measured amplitudes."""
+    from matplotlib.figure import Figure
+
+    from nlupdate.discovery import plots
+
+    result = discovered("friction_and_cubic")
+    drawn: list[Figure] = []
+    original = Figure.savefig
+    try:
+        Figure.savefig = lambda self, *a, **k: drawn.append(self)
+        plots.plot_describing_function(result, tmp_path / "df.png")
+    finally:
+        Figure.savefig = original
+    left, right = drawn[0].axes[:2]
+    final = [line for line in left.get_lines() if line.get_label().startswith("final model")]
+    assert len(final) == 1 and "dry_friction" in final[0].get_label() and "cubic_stiffness" in final[0].get_label()
+    assert any(line.get_label().startswith("round 1:") for line in left.get_lines())
+    amplitude = np.asarray(final[0].get_xdata())
+    omega = np.full(amplitude.size, 2 * np.pi * 700.0)  # rate-independent elements: ω does not matter
+    truth = sum(element.describing_function(amplitude, omega) for element in FAST_CASES["friction_and_cubic"].truth.elements)
+    drawn_nu = np.asarray(final[0].get_ydata()) + 1j * np.asarray(
+        next(line for line in right.get_lines() if line.get_label().startswith("final model")).get_ydata())
+    assert np.max(np.abs(drawn_nu - truth)) < 0.05 * np.max(np.abs(truth))
+    assert "negative is better" in " ".join(text.get_text() for text in drawn[0].texts)

@@ -124,11 +124,13 @@ def plot_frfs(result: DiscoveryResult, path: str | os.PathLike) -> Path:
 
 def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -> Path:
     """Apparent DF samples (real and imaginary part vs amplitude) at the place of the first
-    iteration's best candidate, and the DFs of the best candidates fitted there (with the
-    effects found earlier at that place)."""
+    iteration's best candidate, the DFs of the best candidates fitted there in that round
+    (with the effects found earlier at that place), and the final model's: the sum of every
+    effect found at that place, with its jointly refitted values. A candidate's score is its
+    change of the information criterion (χ² change + parameter penalty; negative is better)."""
     figure = Figure(figsize=(10, 4))
     left, right = figure.subplots(1, 2)
-    step = next((s for s in result.steps if s.samples is not None), None)
+    step_number, step = next(((i, s) for i, s in enumerate(result.steps, 1) if s.samples is not None), (0, None))
     if step is None:
         left.text(0.5, 0.5, "no candidate was fitted:\nthe model is at the noise level", ha="center", va="center")
         right.set_axis_off()
@@ -143,9 +145,16 @@ def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -
         nu = candidate.effect.nu(np.array(candidate.values), amplitude, omega)
         for companion in candidate.companions:
             nu = nu + companion.effect.nu(np.array(companion.values), amplitude, omega)
-        label = f"{candidate.name}{' (' + candidate.effect.variant + ')' if candidate.effect.variant else ''}, score {candidate.score:.3g}"
+        variant = f" ({candidate.effect.variant})" if candidate.effect.variant else ""
+        label = f"round {step_number}: {candidate.name}{variant}, score {candidate.score:+.3g}"
         for axis, part in ((left, np.real), (right, np.imag)):
             axis.semilogx(amplitude, part(nu), "-", color=f"C{k}", lw=1.2, label=label)
+    final = [found for found in result.effects if tuple(found.dofs) == tuple(place)]
+    if final:
+        nu = sum(found.effect.nu(np.array(found.values), amplitude, omega) for found in final)
+        label = "final model: " + " + ".join(found.name for found in final) + " (refitted together)"
+        for axis, part in ((left, np.real), (right, np.imag)):
+            axis.semilogx(amplitude, part(nu), "-", color="k", lw=2.2, alpha=0.8, label=label)
     left.set(xlabel="amplitude at the place (m)", ylabel="Re ν (N/m)", title=f"dofs {list(place)}: stiffness")
     right.set(xlabel="amplitude at the place (m)", ylabel="Im ν (N/m)", title="damping (Im ν > 0 dissipates)")
     for axis in (left, right):
@@ -153,7 +162,12 @@ def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -
         axis.legend(fontsize=7)
         axis.tick_params(labelsize=7)
         axis.xaxis.set_minor_formatter(NullFormatter())
-    return _save(figure, path)
+    figure.text(0.5, 0.005, f"score: change of the {result.options.criterion.upper()} when the candidate is added "
+                "(χ² change + a penalty per parameter); negative is better, the most negative is chosen",
+                ha="center", va="bottom", fontsize=7, color="0.3")
+    figure.tight_layout(rect=(0, 0.05, 1, 1))  # room for the note
+    figure.savefig(path, dpi=110)
+    return Path(path)
 
 
 def plot_gap(result: DiscoveryResult, path: str | os.PathLike) -> Path:
