@@ -2,8 +2,10 @@
 
 * Prefect keeps its database and settings in a temporary ``PREFECT_HOME`` for the
   session (set before anything imports Prefect), nlupdate its cache secret and schedule
-  registrations in a temporary ``NLUPDATE_CONFIG_DIR``, and :func:`prefect_server` starts one
-  server for all the tests that need it (each start costs 13–26 s here).
+  registrations in a temporary ``NLUPDATE_CONFIG_DIR`` (both removed at the end), and
+  :func:`prefect_server` starts one server for all the tests that need it (each start costs
+  13–26 s here). Under pytest-xdist (``-n 2`` in pyproject.toml) each worker process has
+  its own folders and its own server.
 * Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
   when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
   the skip into a failure so CI always runs them.
@@ -21,12 +23,21 @@ import pytest
 os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="nlupdate-test-prefect-")
 # the user's nlupdate folder (cache secret, schedule registrations) of the session, not the tester's
 os.environ["NLUPDATE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="nlupdate-test-config-")
+#: the two folders this process made (each pytest-xdist worker imports this file and makes its own)
+_SESSION_FOLDERS = (os.environ["PREFECT_HOME"], os.environ["NLUPDATE_CONFIG_DIR"])
 os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
 
 from nlupdate.flows.environment import prepare_environment  # noqa: E402
 
 prepare_environment()
+
+
+def pytest_unconfigure(config):
+    """Remove the session's Prefect home (its database: ~30 MB) and nlupdate folder; the
+    session server has stopped by now."""
+    for folder in _SESSION_FOLDERS:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def pytest_runtest_setup(item):

@@ -8,6 +8,7 @@ import pytest
 
 from nlupdate.cli import main
 from nlupdate.model.model_file import load_system
+from test_examples import header_commands
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "discovery"
 MODEL = EXAMPLES / "sdof_linear.toml"
@@ -16,6 +17,11 @@ MEASURED = EXAMPLES / "sdof_friction_cubic.csv"  # time integration of the SDOF 
 
 @pytest.fixture(scope="module")
 def run_output(tmp_path_factory):
+    """The command of examples/discovery/sdof_linear.toml's header (its own run in
+    tests/test_examples.py is in the slow suite: this is the same command)."""
+    (argv,) = header_commands(MODEL)
+    assert argv[:-1] == ["discover", "--model", "examples/discovery/sdof_linear.toml", "--measured",
+                         "examples/discovery/sdof_friction_cubic.csv", "--out"], argv
     out = tmp_path_factory.mktemp("cli") / "found"
     code = main(["discover", "--model", str(MODEL), "--measured", str(MEASURED), "--out", str(out)])
     return code, out

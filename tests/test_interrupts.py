@@ -277,7 +277,7 @@ def test_calculix_tests_skip_without_ccx_unless_ci_requires_them(tmp_path, requi
     python_only.mkdir()
     (python_only / "python").symlink_to(sys.executable)
     env = {**os.environ, "PATH": str(python_only), "NLUPDATE_REQUIRE_CCX": require}
-    result = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", "-rs",
+    result = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-n", "0", "-q", "-rs",
                              str(ROOT / "tests" / "test_calculix.py"), "-k", "test_single_c3d20_element_matches_quadratic_rod", "--no-header"],
                             capture_output=True, text=True, env=env, cwd=ROOT, timeout=300)
     summary = result.stdout.strip().splitlines()[-1]

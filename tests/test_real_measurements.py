@@ -38,6 +38,7 @@ import scipy.io
 import scipy.optimize
 
 from nlupdate.cli import main
+from test_examples import absolute, header_commands
 
 BRB = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
 BRB_MODEL = Path(__file__).parent.parent / "examples" / "discovery" / "brb_mode1.toml"
@@ -151,11 +152,16 @@ def test_brb_model_is_the_fit_of_the_lowest_force_controlled_run():
     assert model["mode_shapes"][0][0] == pytest.approx(np.sqrt(phi2), rel=0.01)
 
 
-def test_brb_discover_names_amplitude_dependent_damping(tmp_path):
-    code, err = _run("discover", "--model", BRB_MODEL, "--measured", BRB, "--coordinates", BRB_COORDINATES,
-                     "--workers", "1", "--out", tmp_path / "discover")
+def test_brb_discover_names_amplitude_dependent_damping(tmp_path, monkeypatch):
+    """The command of examples/discovery/brb_mode1.toml's header, as written there (that
+    example's own run in tests/test_examples.py is in the slow suite: this is the same run)."""
+    (argv,) = header_commands(BRB_MODEL)
+    assert argv[0] == "discover" and "tests/data/brb/ForcedFrequencyResponses.mat" in argv, argv
+    monkeypatch.chdir(tmp_path)
+    code, err = _run(*(absolute(a) for a in argv))
     assert code == 0, err
-    result = json.loads((tmp_path / "discover" / "discovery.json").read_text())
+    out = tmp_path / argv[argv.index("--out") + 1]
+    result = json.loads((out / "discovery.json").read_text())
     # the response-controlled runs show the damping growing 4x while the frequency moves
     # < 0.5 %: the effect named must dissipate more at larger amplitude
     assert result["effects"][0]["effect"] in ("quadratic_damping", "dry_friction", "coulomb_friction")

@@ -185,11 +185,13 @@ def stop_group(process: subprocess.Popen, sig: int = signal.SIGTERM, timeout_s: 
 @contextlib.contextmanager
 def prefect_server_process(tmp_path: Path, **extra_env: str):
     """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free
-    port; yields its API URL."""
+    port; yields its API URL. Its scheduler looks for new deployments every second
+    (Prefect's default: 5 s), so a test waits for runs, not for the scheduler's loop."""
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
     env.update(PREFECT_HOME=str(tmp_path / "server-home"), PREFECT_SERVER_ANALYTICS_ENABLED="false",
-               PREFECT_UI_ENABLED="false", **extra_env)
+               PREFECT_UI_ENABLED="false", PREFECT_SERVER_SERVICES_SCHEDULER_RECENT_DEPLOYMENTS_LOOP_SECONDS="1",
+               **extra_env)
     with open(tmp_path / "server.log", "w") as log:
         server = subprocess.Popen([sys.executable, "-m", "prefect", "server", "start", "--host", "127.0.0.1",
                                    "--port", str(port)], env=env, stdout=log, stderr=subprocess.STDOUT,
@@ -229,7 +231,7 @@ def complete_archives(root: Path) -> list[Path]:
 def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path, study, real_server):
     started = time.monotonic()
     results = tmp_path / "results"
-    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="2")
+    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="1")
     registered = nlupdate("schedule", study, "--interval", "5", "--workers", "2", "--out", results,
                           "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
     assert registered.returncode == 0, registered.stderr
@@ -241,7 +243,7 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
         while len(completed_runs(real_server)) < 2 or len(complete_archives(results)) < 2:
             assert serve.poll() is None, serve.communicate()
             assert time.monotonic() < deadline, (completed_runs(real_server), complete_archives(results))
-            time.sleep(1)
+            time.sleep(0.25)
         serve.send_signal(signal.SIGINT)
         interrupted = time.monotonic()
         stdout, stderr = serve.communicate(timeout=30)
@@ -298,7 +300,7 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
     evil = tmp_path / "evil.toml"
     evil.write_text((ROOT / "tests" / "data" / "studies" / "calculix_tbeam_E.toml").read_text().replace(
         'work_root = "ccx_runs"', f'work_root = "{tmp_path / "runs"}"\nexecutable = "{script}"'))
-    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="2")
+    env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="1")
     registered = nlupdate("schedule", study, "--cron", "0 2 1 1 *", "--out", tmp_path / "results",
                           "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
     assert registered.returncode == 0, registered.stderr
@@ -336,7 +338,7 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
         while any(flow_run_state(real_server, run) not in ("FAILED", "CRASHED", "COMPLETED") for run in created):
             assert serve.poll() is None, serve.communicate()
             assert time.monotonic() < deadline, [flow_run_state(real_server, run) for run in created]
-            time.sleep(1)
+            time.sleep(0.25)
         serve.send_signal(signal.SIGINT)
         stdout, stderr = serve.communicate(timeout=30)
     finally:
