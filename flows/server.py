@@ -41,6 +41,16 @@ def stop_started_servers() -> None:
         _STARTED.pop().stop()
 
 
+def stop_early_server() -> None:
+    """Stop the server :func:`start_server_early` started when no :func:`prefect_api` took
+    it (the run ended before it needed one); servers in use are left to their owners."""
+    while _EARLY:
+        server = _EARLY.pop()
+        if server in _STARTED:
+            _STARTED.remove(server)
+        server.stop()
+
+
 HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200) and set "
         "PREFECT_API_URL=http://127.0.0.1:4200/api, or unset PREFECT_API_URL to let nlupdate start its own")
 

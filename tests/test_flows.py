@@ -357,3 +357,25 @@ def test_an_unreachable_dask_address_is_refused_before_any_server_starts(tmp_pat
     # the CLI's start and the study's loading (about 2 s idle, up to 8 s on two loaded cores);
     # no 10-second Dask timeout and no server start waited out (17.6 s idle before the fix)
     assert seconds < 15, seconds
+
+
+def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(prefect_server):
+    """A run that fails before it needs Prefect stops the server it started early — and no
+    other: the session's server (started by prefect_api in this process) keeps answering,
+    as several in-process runs of one test module need."""
+    import httpx
+
+    from nlupdate.flows import server
+
+    import os
+
+    saved = os.environ.pop("PREFECT_API_URL")
+    try:
+        server.start_server_early()
+        early = server._EARLY[0]
+        process = early.process
+        server.stop_early_server()
+    finally:
+        os.environ["PREFECT_API_URL"] = saved
+    assert process.wait(30) is not None and not server._EARLY and early not in server._STARTED
+    assert httpx.get(f"{prefect_server}/health").status_code == 200

@@ -67,7 +67,7 @@ def prefect_errors(args: argparse.Namespace, start_server: bool = False) -> Iter
     prepare_environment()
     from nlupdate.cli import interrupts
     from nlupdate.flows.runners import ExecutionError
-    from nlupdate.flows.server import ServerError, start_server_early, stop_started_servers
+    from nlupdate.flows.server import ServerError, start_server_early, stop_early_server, stop_started_servers
 
     stop = interrupts.on_deadline(stop_started_servers)
     try:
@@ -77,7 +77,7 @@ def prefect_errors(args: argparse.Namespace, start_server: bool = False) -> Iter
     except (ExecutionError, ServerError) as error:
         raise CliRuntimeError(str(error)) from None
     finally:
-        stop_started_servers()  # one started early for a run that ended before using it
+        stop_early_server()  # one started early for a run that ended before using it
         interrupts.forget(stop)
 
 
