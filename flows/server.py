@@ -114,7 +114,9 @@ class RunServer:
 
             settings = get_current_settings().to_environment_variables(exclude_unset=True)
         return subprocess.Popen(
-            args=[sys.executable, "-m", "nlupdate.flows.server_process", str(os.getpid()),
+            # -P: the working folder is not put on sys.path, so a source checkout there (whose
+            # nlupdate/ lacks the installed nlupdate.flows) cannot shadow the installed package
+            args=[sys.executable, "-P", "-m", "nlupdate.flows.server_process", str(os.getpid()),
                   "--app-dir", str(app_dir), "--factory", "prefect.server.api.server:create_app",
                   "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
             env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
