@@ -154,34 +154,17 @@ class CubicSoftening(CubicHardening):
 
 
 @dataclass(frozen=True)
-class DryFriction(ElementEffect):
-    """Jenkins element: spring kf (N/m) in series with a slider of slip force Fs (N).
+class JointEffect(ElementEffect):
+    """A joint whose stuck stiffness is the first value. ``stuck_in_model=True``: the model's
+    linear stiffness at the place already holds it (a model tuned to a low-force test), so the
+    model's stiffness there is reduced by it and the DF added is ``ν_joint(A) − k_stuck``
+    (zero while stuck, softening and damping once it slips)."""
 
-    Shape: the slip amplitude ``a0 = Fs/kf``; scale: kf. ``stuck_in_model=True`` is the same
-    joint when the model's linear stiffness already holds the stuck spring (a model tuned
-    to a low-force test, docs/methods.md §2): the model's stiffness at the place is reduced by kf,
-    so the DF added is ``ν_Jenkins(A) − kf`` (zero while stuck, softening and damping once
-    it slips).
-    """
-
-    name: ClassVar[str] = "dry_friction"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (
-        _element_parameter(JenkinsFriction, "kf"), _element_parameter(JenkinsFriction, "slip_force"),
-    )
     stuck_in_model: bool = False
 
     @property
     def variant(self) -> str:
         return "stuck_in_model" if self.stuck_in_model else ""
-
-    def element(self, dofs, values):
-        return JenkinsFriction(tuple(dofs), kf=float(values[0]), slip_force=float(values[1]))
-
-    def shapes(self, amplitude):
-        return tuple(np.geomspace(amplitude.min() / 10, amplitude.max() * 3, SHAPE_POINTS))
-
-    def values(self, scale, shape):
-        return np.array([scale, scale * shape])
 
     def nu(self, values, amplitude, omega):
         return super().nu(values, amplitude, omega) - (float(values[0]) if self.stuck_in_model else 0.0)
@@ -194,16 +177,38 @@ class DryFriction(ElementEffect):
 
 
 @dataclass(frozen=True)
-class Microslip(ElementEffect):
+class DryFriction(JointEffect):
+    """Jenkins element: spring kf (N/m) in series with a slider of slip force Fs (N).
+
+    Shape: the slip amplitude ``a0 = Fs/kf``; scale: kf. ``stuck_in_model``: the model's
+    stiffness already holds kf (:class:`JointEffect`, docs/methods.md §2).
+    """
+
+    name: ClassVar[str] = "dry_friction"
+    parameters: ClassVar[tuple[EffectParameter, ...]] = (
+        _element_parameter(JenkinsFriction, "kf"), _element_parameter(JenkinsFriction, "slip_force"),
+    )
+
+    def element(self, dofs, values):
+        return JenkinsFriction(tuple(dofs), kf=float(values[0]), slip_force=float(values[1]))
+
+    def shapes(self, amplitude):
+        return tuple(np.geomspace(amplitude.min() / 10, amplitude.max() * 3, SHAPE_POINTS))
+
+    def values(self, scale, shape):
+        return np.array([scale, scale * shape])
+
+
+@dataclass(frozen=True)
+class Microslip(JointEffect):
     """Segalman's four-parameter Iwan joint (:class:`~nlupdate.model.elements.IwanJoint`):
     tangential stiffness K_T (N/m, the scale), macroslip force F_S (N), exponent χ ∈ (−1, 0)
     and share β ≥ 0 of its concentrated part.
 
     Shape: φ_max, the displacement of macroslip, with χ = −0.5 and β = 0.5 to start (the fit
-    refines all four; χ is held inside (−1, 0)). ``stuck_in_model=True`` is the same joint
-    when the model's linear stiffness already holds its K_T (a model tuned to a low-force
-    test): the DF added is ``ν_Iwan(A) − K_T`` (softening and damping that grow from zero
-    with the amplitude as more of the contact slips).
+    refines all four; χ is held inside (−1, 0)). ``stuck_in_model``: the model's stiffness
+    already holds K_T (:class:`JointEffect`): softening and damping then grow from zero with
+    the amplitude as more of the contact slips.
     """
 
     name: ClassVar[str] = "microslip"
@@ -211,13 +216,8 @@ class Microslip(ElementEffect):
         _element_parameter(IwanJoint, "kt"), _element_parameter(IwanJoint, "slip_force"),
         _element_parameter(IwanJoint, "chi", NEGATIVE), _element_parameter(IwanJoint, "beta"),
     )
-    stuck_in_model: bool = False
     start_chi: ClassVar[float] = -0.5
     start_beta: ClassVar[float] = 0.5
-
-    @property
-    def variant(self) -> str:
-        return "stuck_in_model" if self.stuck_in_model else ""
 
     @staticmethod
     def _chi(value: float) -> float:
@@ -238,15 +238,6 @@ class Microslip(ElementEffect):
     def values(self, scale, shape):
         chi, beta = self.start_chi, self.start_beta
         return np.array([scale, shape * scale * (beta + (chi + 1) / (chi + 2)) / (1 + beta), chi, beta])
-
-    def nu(self, values, amplitude, omega):
-        return super().nu(values, amplitude, omega) - (float(values[0]) if self.stuck_in_model else 0.0)
-
-    def apply(self, system, dofs, values):
-        with_joint = super().apply(system, dofs, values)
-        if not self.stuck_in_model:
-            return with_joint
-        return NonlinearSystem(add_linear_correction(with_joint.model, dofs, stiffness=-float(values[0])), with_joint.elements)
 
 
 @dataclass(frozen=True)
