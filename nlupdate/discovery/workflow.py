@@ -1,5 +1,10 @@
 """Discovery: which effect the model is missing, where, with which parameters — and proof.
 
+Length: one module because it is the loop below and nothing else — its options, its result
+and the steps that carry state from round to round (the joint refit and reconsideration,
+``_Settle``; the search path, ``_Path``); every numerical piece it calls (gap, localisation,
+candidate fits, joint fits, equivalence) lives in its own module.
+
 :func:`discover` runs the loop:
 
 1. **gap** — simulate the current model at every measured force level and frequency and
