@@ -92,11 +92,16 @@ def recommend_frequency(
         if crossings.size == 0:
             return FrequencyChoice(visited[-1], tuple(visited), None,
                                    "the extracted linear FRF has no resonance in the band; kept the low-force resonance")
-        # stuck friction stiffens the low-force test: the linear mode lies at or below its resonance
+        # stuck friction stiffens the low-force test: the linear mode lies at or below its
+        # resonance; a crossing only above it belongs to another mode, never to move to
         reference = low_resonance if natural is None else natural
         below = crossings[crossings <= reference * 1.01]
-        pool = below if below.size else crossings
-        near = float(pool[np.argmin(np.abs(pool - reference))])
+        if below.size == 0:
+            return FrequencyChoice(visited[-1], tuple(visited), natural,
+                                   f"the extracted linear FRF has no resonance at or below {reference:.2f} Hz "
+                                   f"(only at {', '.join(f'{c:.4g}' for c in crossings)} Hz, another mode); "
+                                   f"kept {visited[-1]:g} Hz")
+        near = float(below[np.argmin(np.abs(below - reference))])
         try:
             natural = float(fit_mode_near(f_low, h_linear, near, inverse_noise=np.abs(1.0 / h_low),
                                           band_fraction=0.1).natural_frequencies_hz[0])
