@@ -50,7 +50,7 @@ def test_exact_reference_agrees_with_the_trace(bench):
 
 def test_project_point_counts(bench):
     system, forcing = bench.duffing(), {0: bench.FORCE}
-    assert bench.trace_frequency_response(system, forcing, *bench.BAND).omega.size == 81
+    assert bench.trace_frequency_response(system, forcing, *bench.BAND).omega.size == 78
     fine = bench.trace_frequency_response(system, forcing, *bench.BAND, max_step=bench.PROJECT_MAX_STEP_283)
     assert abs(fine.omega.size - 283) <= 6
 
@@ -66,8 +66,8 @@ def test_newton_sweep_solves_the_common_grid(bench, grids):
 
 def test_pyharm_set_ups_give_equal_point_counts(bench, grids):
     pytest.importorskip("pyHarm")
-    _, coarse = bench.pyharm_run(bench.pyharm_constant_step(bench.PYHARM_STEP_81))
-    assert abs(coarse["accepted"] - 81) <= 2
+    _, coarse = bench.pyharm_run(bench.pyharm_constant_step(bench.PYHARM_STEP_78))
+    assert abs(coarse["accepted"] - 78) <= 2
     _, former = bench.pyharm_run(bench.pyharm_continuation(**bench.PYHARM_STEP_FORMER))
     assert abs(former["accepted"] - 283) <= 6
     for sweep in grids:

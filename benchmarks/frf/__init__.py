@@ -45,7 +45,7 @@ m = 1 kg, c = 0.05 N·s/m, k = 1 N/m, k3 = 1 N/m³, F = 0.5 N, ω ∈ [0.5, 3.5]
         prints where), so the timed sweeps stop at the last grid frequency before the fold
         (up: ω < 3.0290, down: ω > 1.4416; the folds are computed from the cubic).
     (b) continuation with equal point counts over the band: the project's default step
-        control (81 points) against pyHarm with a constant arc-length step chosen to give 81
+        control (78 points) against pyHarm with a constant arc-length step chosen to give 78
         points, and pyHarm's setting of earlier versions of this benchmark (ds0 = 0.01,
         ds_max = 0.05, step halved/doubled on acceptance: 283 points) against the project
         with ``max_step`` chosen to give about as many. pyHarm's time is its ``operate()``

@@ -23,16 +23,16 @@ BRANCH = 0.10  # relative amplitude difference beyond which two responses are on
 
 # Step controls chosen (and checked in every run: the point counts are printed) so that the
 # two tools put the same number of points on the curve; see design (b) in the docstring.
-PYHARM_STEP_81 = 0.175  # pyHarm constant arc-length step in (x, ω) → 81 points, as the project's default
+PYHARM_STEP_78 = 0.182  # pyHarm constant arc-length step in (x, ω) → 78 points, as the project's default
 PYHARM_STEP_FORMER = {"ds0": 0.01, "ds_max": 0.05}  # earlier setting → 283 points
-PROJECT_MAX_STEP_283 = 0.0092  # project's max_step (scaled arc length) → 281 points
+PROJECT_MAX_STEP_283 = 0.0092  # project's max_step (scaled arc length) → 285 points
 
 # Part 1c (multi-harmonic balance): both tools at constant step, chosen (and printed in every
 # run) to put 79–81 points on the curve at every H; both with 64 samples per period.
 HB_HARMONICS = (1, 3, 5, 7)
 HB_SAMPLES = 64  # the project's default_samples(H) for H ≤ 7; pyHarm's default nti is 128
-HB_STEP = 0.042  # project: step = max_step (scaled arc length) → 79 points at H = 1, 81 at H = 3, 5, 7
-PYHARM_HB_STEP = PYHARM_STEP_81  # pyHarm constant ds → 81 points at nh = 1, 80 at nh = 3, 5, 7
+HB_STEP = 0.046  # project: step = max_step (scaled arc length) → 79 points at H = 1, 80 at H = 3, 81 at H = 5, 7
+PYHARM_HB_STEP = 0.175  # pyHarm constant ds → 81 points at nh = 1, 80 at nh = 3, 5, 7
 HB_REFERENCE_HARMONICS = 7  # harmonics taken from the time-integration reference
 HB_RESOLVED = 1e-3  # higher harmonics compared where they carry at least this share of |X1|
 HB_GOAL = 5.0  # issue 13: ≥ 5× faster than pyHarm-os at every H

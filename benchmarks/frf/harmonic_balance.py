@@ -9,7 +9,7 @@ from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.stepped_sine import stepped_sine
 
 from benchmarks.frf.common import (
-    DAMPING, FORCE, K3, MASS, STIFFNESS, BAND, N_GRID, PROJECT_MAX_STEP_283, PYHARM_STEP_81, PYHARM_STEP_FORMER,
+    DAMPING, FORCE, K3, MASS, STIFFNESS, BAND, N_GRID, PROJECT_MAX_STEP_283, PYHARM_STEP_78, PYHARM_STEP_FORMER,
     duffing, exact_accuracy, exact_folds, fmt_list, fmt_ms, fmt_ratio, fmt_time, interleaved, newton_sweep,
     print_table, timed,
 )
@@ -149,7 +149,7 @@ def harmonic_balance_benchmark(quick: bool) -> dict:
         "trace_fine": timed(lambda: trace_frequency_response(system, forcing, *BAND, max_step=PROJECT_MAX_STEP_283)),
     }
     if ph_version:
-        tasks["pyharm_81"] = lambda: pyharm_run(pyharm_constant_step(PYHARM_STEP_81))
+        tasks["pyharm_78"] = lambda: pyharm_run(pyharm_constant_step(PYHARM_STEP_78))
         tasks["pyharm_former"] = lambda: pyharm_run(pyharm_continuation(**PYHARM_STEP_FORMER))
     for task in tasks.values():
         task()
@@ -159,16 +159,16 @@ def harmonic_balance_benchmark(quick: bool) -> dict:
     for key, curve in curves.items():
         info[key] = (curve.omega.size, exact_accuracy(curve.omega, curve.x_nonlinear[:, 0]), curve.omega[curve.turning_point])
     if ph_version:
-        for key in ("pyharm_81", "pyharm_former"):
+        for key in ("pyharm_78", "pyharm_former"):
             r = cont[key].result
             info[key] = (r["accepted"], exact_accuracy(r["omega"], r["x"]), r["folds"])
     labels = {
         "trace_default": "this project: trace, default steps (step 0.02, max_step 0.05)",
         "trace_fine": f"this project: trace, max_step {PROJECT_MAX_STEP_283}",
-        "pyharm_81": f"pyHarm-os {ph_version}: constant step ds = {PYHARM_STEP_81}",
+        "pyharm_78": f"pyHarm-os {ph_version}: constant step ds = {PYHARM_STEP_78}",
         "pyharm_former": f"pyHarm-os {ph_version}: ds0 {PYHARM_STEP_FORMER['ds0']}, ds_max {PYHARM_STEP_FORMER['ds_max']}, on acceptance",
     }
-    pairs = [("pyharm_81", "trace_default"), ("pyharm_former", "trace_fine")]
+    pairs = [("pyharm_78", "trace_default"), ("pyharm_former", "trace_fine")]
     rows, goal = [], []
     for ph_key, project_key in pairs:
         for key in ((ph_key,) if ph_version else ()) + (project_key,):
@@ -198,7 +198,7 @@ def harmonic_balance_benchmark(quick: bool) -> dict:
         "  where the project places a refined point); max distance: relative distance from the exact curve."
     )
     if ph_version:
-        builds = [cont[key].result["build"] for key in ("pyharm_81", "pyharm_former")]
+        builds = [cont[key].result["build"] for key in ("pyharm_78", "pyharm_former")]
         trace_curve = curves["trace_default"]
         problem = trace_curve.problem
         r = cont["pyharm_former"].result
@@ -211,7 +211,7 @@ def harmonic_balance_benchmark(quick: bool) -> dict:
             f" per curve (last run).\n"
             f"  Folds: exact {fmt_list(folds)}; project (refined) {fmt_list(info['trace_default'][2])};"
             f" pyHarm ({info['pyharm_former'][0]} points) {fmt_list(info['pyharm_former'][2])},"
-            f" ({info['pyharm_81'][0]} points) {fmt_list(info['pyharm_81'][2])} (its turning curve points, not refined).\n"
+            f" ({info['pyharm_78'][0]} points) {fmt_list(info['pyharm_78'][2])} (its turning curve points, not refined).\n"
             f"  pyHarm-os points satisfy this project's DF equation X − H·(F − ν(|X|)X) = 0 to a relative residual of"
             f" {ph_residual.max():.1e}\n  (max over {ph_residual.size} points): both solve the same single-harmonic balance."
         )

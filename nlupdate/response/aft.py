@@ -57,7 +57,15 @@ from nlupdate.model.elements import (
 
 
 class Fourier:
-    """Synthesis and analysis between ``2H + 1`` real coefficients and N time samples."""
+    """Synthesis and analysis between ``2H + 1`` real coefficients and N time samples.
+
+    Two equal routes: matrix products with the synthesis matrices ``E``, ``E'`` and the
+    analysis matrix ``A`` (``c = A^T f``: ``A = E·diag(1/N, 2/N, …, 2/N)``), used for up to
+    ``MATRIX_SIZE`` coefficients, where a few small products cost less than the FFT's
+    set-up; real FFTs for more.
+    """
+
+    MATRIX_SIZE = 16
 
     def __init__(self, harmonics: int, samples: int) -> None:
         harmonics, samples = int(harmonics), int(samples)
@@ -77,6 +85,9 @@ class Fourier:
         self.E[:, 1::2], self.E[:, 2::2] = np.cos(kt), -np.sin(kt)
         self.dE = np.zeros_like(self.E)  # ∂/∂θ
         self.dE[:, 1::2], self.dE[:, 2::2] = -k * np.sin(kt), -k * np.cos(kt)
+        self.A = self.E * np.r_[1.0, np.full(2 * harmonics, 2.0)] / samples
+        self._matrices = self.size <= self.MATRIX_SIZE
+        self._motion_synthesis = np.concatenate([self.E.T, self.dE.T], axis=1)  # (2H+1, 2N)
 
     @property
     def size(self) -> int:
@@ -84,6 +95,8 @@ class Fourier:
 
     def to_time(self, c: NDArray) -> NDArray:
         """Samples (N, …) of the motion with coefficients ``c`` (2H+1, …)."""
+        if self._matrices:
+            return np.tensordot(self.E, c, axes=1)
         spectrum = np.zeros((self.samples // 2 + 1,) + c.shape[1:], dtype=complex)
         spectrum[0] = c[0] * self.samples
         spectrum[1 : self.harmonics + 1] = (c[1::2] + 1j * c[2::2]) * (self.samples / 2)
@@ -91,6 +104,9 @@ class Fourier:
 
     def motions(self, c: NDArray) -> tuple[NDArray, NDArray]:
         """Samples (P, N) of ``u`` and ``du/dθ`` for P coefficient vectors ``c`` (P, 2H+1)."""
+        if self._matrices:
+            both = c @ self._motion_synthesis
+            return both[:, : self.samples], both[:, self.samples :]
         h = self.harmonics
         spectrum = np.zeros((c.shape[0], 2, self.samples // 2 + 1), dtype=complex)
         spectrum[:, 0, 0] = c[:, 0] * self.samples
@@ -102,6 +118,8 @@ class Fourier:
 
     def harmonics_of(self, f: NDArray) -> NDArray:
         """Coefficients (…, 2H+1) of samples ``f`` (…, N) (the transform along the last axis)."""
+        if self._matrices:
+            return f @ self.A
         spectrum = np.fft.rfft(f, axis=-1)[..., : self.harmonics + 1] * (2.0 / self.samples)
         out = np.empty(f.shape[:-1] + (self.size,))
         out[..., 0] = spectrum[..., 0].real / 2
@@ -110,6 +128,8 @@ class Fourier:
 
     def to_harmonics(self, f: NDArray) -> NDArray:
         """Coefficients (2H+1, …) of samples ``f`` (N, …)."""
+        if self._matrices:
+            return np.tensordot(self.A.T, f, axes=1)
         spectrum = np.fft.rfft(f, axis=0)[: self.harmonics + 1] * (2.0 / self.samples)
         out = np.empty((self.size,) + f.shape[1:])
         out[0] = spectrum[0].real / 2
@@ -127,19 +147,20 @@ class PeriodForces:
     dg_domega: NDArray
 
 
-# -- pointwise laws: (u, u', ω) → (f, ∂f/∂u, ∂f/∂u', ∂f/∂ω) ----------------------------------
+# -- pointwise laws: (u, u', ω) → (f, ∂f/∂u, ∂f/∂u', ∂f/∂ω); None for a part that is zero ----
 def _cubic(e: CubicStiffness, u, up, w):
-    return e.k3 * u**3, 3 * e.k3 * u**2, 0.0 * u, 0.0 * u
+    u_sq = u * u
+    return e.k3 * u_sq * u, 3 * e.k3 * u_sq, None, None
 
 
 def _gap(e: SymmetricGap, u, up, w):
     engaged = np.abs(u) > e.gap
-    return np.where(engaged, e.kc * (u - e.gap * np.sign(u)), 0.0), np.where(engaged, e.kc, 0.0), 0.0 * u, 0.0 * u
+    return np.where(engaged, e.kc * (u - e.gap * np.sign(u)), 0.0), np.where(engaged, e.kc, 0.0), None, None
 
 
 def _quadratic_damping(e: QuadraticDamping, u, up, w):
     law = up * np.abs(up)
-    return e.cq * w**2 * law, 0.0 * u, 2 * e.cq * w**2 * np.abs(up), 2 * e.cq * w * law
+    return e.cq * w**2 * law, None, 2 * e.cq * w**2 * np.abs(up), 2 * e.cq * w * law
 
 
 def _polynomial_law(coefficients: tuple[float, ...], x: NDArray) -> tuple[NDArray, NDArray]:
@@ -157,7 +178,7 @@ def _polynomial_law(coefficients: tuple[float, ...], x: NDArray) -> tuple[NDArra
 def _polynomial(e: PolynomialDF, u, up, w):
     f_real, k_real = _polynomial_law(e.real, u)
     f_imag, k_imag = _polynomial_law(e.imag, up)
-    return f_real + f_imag, k_real, k_imag, 0.0 * u
+    return f_real + f_imag, k_real, k_imag, None
 
 
 _POINTWISE: dict[type, Callable] = {
@@ -174,9 +195,14 @@ def _pointwise_forces(law, element, c, omega, fourier: Fourier) -> PeriodForces:
     w = np.asarray(omega, dtype=float)[:, None]
     f, f_u, f_up, f_w = law(element, u, up, w)
     points = c.shape[0]
-    signals = np.empty((points, fourier.size + 2, fourier.samples))  # one transform for all columns
-    signals[:, 0], signals[:, 1] = f, f_w
-    signals[:, 2:] = f_u[:, None, :] * fourier.E.T + f_up[:, None, :] * fourier.dE.T
+    signals = np.zeros((points, fourier.size + 2, fourier.samples))  # one transform for all columns
+    signals[:, 0] = f
+    if f_w is not None:
+        signals[:, 1] = f_w
+    if f_u is not None:
+        signals[:, 2:] = f_u[:, None, :] * fourier.E.T
+    if f_up is not None:
+        signals[:, 2:] += f_up[:, None, :] * fourier.dE.T
     harmonics = fourier.harmonics_of(signals)  # (P, size+2, 2H+1)
     return PeriodForces(harmonics[:, 0], np.swapaxes(harmonics[:, 2:], 1, 2), harmonics[:, 1])
 
@@ -383,6 +409,8 @@ def damping_coefficients_batch(element, c: NDArray, omega: NDArray, fourier: Fou
     u, up = fourier.motions(c)
     w = omega[:, None]
     _, _, f_up, _ = law(element, u, up, w)
+    if f_up is None:
+        return np.zeros((omega.size, m.size), complex)
     spectrum = np.fft.fft(np.broadcast_to(f_up / w, u.shape), axis=-1) / fourier.samples
     return spectrum[:, m % fourier.samples]
 

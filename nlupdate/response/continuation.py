@@ -7,8 +7,11 @@ tangent and corrects with Newton on the pseudo-arclength system (Keller)::
 
     R(y, ω) = 0,   tᵀ (z − z_pred) = 0.
 
-The step length adapts to the number of corrector iterations and to the turning angle
-of the tangent, so folds are passed without manual tuning.
+The step length adapts to how fast the corrector contracts and to the turning angle of
+the tangent, so folds are passed without manual tuning; the folds are located afterwards,
+all at once (:mod:`nlupdate.response.folds`). With ``ContinuationOptions.fill`` the
+continuation takes long steps and the points in between are corrected all at once
+(:mod:`nlupdate.response.curve_fill`).
 
 Stability criterion (documented simplification): a point is *unstable* when the
 determinant of the real Jacobian ``∂R/∂y`` has the opposite sign to that of the
@@ -32,6 +35,9 @@ from numpy.typing import NDArray
 
 from nlupdate.model.system import CondensedProblem, LinearTerms, NonlinearSystem, newton_fixed_frequency
 from nlupdate.response.balance import BalanceProblem, MultiHarmonicProblem
+from nlupdate.response.arclength import unit_tangents
+from nlupdate.response.curve_fill import fill_curve
+from nlupdate.response.folds import insert_folds
 
 
 class ContinuationError(RuntimeError):
@@ -45,23 +51,37 @@ class ContinuationOptions:
     Lengths are in the scaled space of the continuation (frequency band = 1, amplitude
     scale = 1); residuals are scaled residuals ‖R‖∞.
 
-    Steps: ``step`` the first arc-length step, later ones at most ``max_step``; after a corrector that
-    converged within ``fast_iterations`` iterations the next step is ``grow`` × longer, after
-    ``slow_iterations`` or more ``shrink`` × shorter; a corrector that fails, or a tangent that
-    turns by more than ``max_angle_deg`` (except below ``kink_step``, where the turn is
-    accepted as a kink such as a stick–slip onset), halves the step; below ``min_step`` the
-    trace stops with a warning. At most ``max_points`` points.
+    Steps: ``step`` the first arc-length step, later ones at most ``max_step``. After each
+    accepted step the next is ds × f with f = min(``grow``, √(``target_contraction`` / θ),
+    ½ ``max_angle_deg`` / α), at least ``shrink``: θ is the corrector's first contraction
+    (‖Δz₂‖ / ‖Δz₁‖, which grows as ds², so the step that gives the target is predicted) and α
+    the tangent's turn (∝ ds); a corrector that needed ``slow_iterations`` or more shrinks the
+    step by ``shrink``. A corrector that fails, or a tangent that turns by more than
+    ``max_angle_deg`` (except below ``kink_step``, where the turn is accepted as a kink such as a
+    stick–slip onset), halves the step; below ``min_step`` the trace stops with a warning. At
+    most ``max_points`` points. The predictor is of second order, z + ds·t + ½ds²·κ with κ
+    the change of the unit tangent over the last step per unit length (first order after a
+    turn of more than ½ ``max_angle_deg``, such as a kink).
 
     Corrector: at most ``corrector_iterations`` Newton iterations on the pseudo-arclength
     system; converged when the correction is below ``correction_tolerance`` and the residual
     below 10 × ``tolerance``, or when a residual below ``stagnation_residual`` no longer halves
     (receptances from a sparse factorisation near resonance are accurate to ~1e-7 only).
-    ``tolerance`` is also the start's and the band edge's Newton tolerance.
+    A corrector whose correction does not shrink to at most ``contraction`` × the one before
+    is abandoned at once (the step was too long for Newton; it halves) instead of running its
+    iterations out. ``tolerance`` is also the start's and the band edge's Newton tolerance.
 
     Folds: located between two points whose tangents' ω-components differ in sign by at
     most ``fold_iterations`` secant steps on that component, each corrected by at most
-    ``fold_corrector_iterations`` Newton iterations (to corrections below 1e-12), until
-    |t_ω| < ``fold_tolerance``.
+    ``fold_corrector_iterations`` Newton iterations (to corrections below
+    ``fold_correction_tolerance``), until |t_ω| < ``fold_tolerance``.
+
+    Filling: with ``fill`` = k > 1 the continuation takes steps up to k × ``max_step`` (and a
+    first step k × ``step``) — it only connects the branches and locates the folds — and the
+    points in between, at most ``max_step`` apart, are corrected all at once by one batched
+    Newton (:mod:`nlupdate.response.curve_fill`), with the same corrector settings and
+    tolerances. A point that fails the branch checks there sends the whole curve back to
+    ``fill`` = 1, every point by continuation.
     """
 
     step: float = 0.02
@@ -70,7 +90,7 @@ class ContinuationOptions:
     max_points: int = 20000
     grow: float = 1.6
     shrink: float = 0.6
-    fast_iterations: int = 3
+    target_contraction: float = 0.2
     slow_iterations: int = 6
     max_angle_deg: float = 15.0
     kink_step: float = 1e-4
@@ -78,18 +98,22 @@ class ContinuationOptions:
     corrector_iterations: int = 8
     correction_tolerance: float = 1e-9
     stagnation_residual: float = 1e-6
+    contraction: float = 1.0
     fold_iterations: int = 12
     fold_corrector_iterations: int = 10
     fold_tolerance: float = 1e-10
+    fold_correction_tolerance: float = 1e-12
+    fill: int = 1
 
     def __post_init__(self) -> None:
         for name in ("step", "max_step", "min_step", "tolerance", "correction_tolerance", "stagnation_residual",
-                     "kink_step", "fold_tolerance", "grow", "shrink", "max_angle_deg"):
+                     "kink_step", "fold_tolerance", "fold_correction_tolerance", "grow", "shrink", "max_angle_deg",
+                     "contraction", "target_contraction"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise ValueError(f"continuation option {name}: expected a positive number, got {value!r}")
-        for name in ("max_points", "fast_iterations", "slow_iterations", "corrector_iterations",
-                     "fold_iterations", "fold_corrector_iterations"):
+        for name in ("max_points", "slow_iterations", "corrector_iterations",
+                     "fold_iterations", "fold_corrector_iterations", "fill"):
             value = getattr(self, name)
             if not (isinstance(value, (int, np.integer)) and value >= 1):
                 raise ValueError(f"continuation option {name}: expected an integer ≥ 1, got {value!r}")
@@ -185,15 +209,7 @@ def default_x_scale(problem: BalanceProblem, omega_start: float, omega_end: floa
 
 def _tangent(jac: NDArray, jac_w: NDArray, previous: NDArray) -> NDArray:
     """Unit null vector of [J, J_ω̃] oriented like ``previous``."""
-    size = jac.shape[0]
-    augmented = np.zeros((size + 1, size + 1))
-    augmented[:size, :size] = jac
-    augmented[:size, size] = jac_w
-    augmented[size] = previous
-    rhs = np.zeros(size + 1)
-    rhs[size] = 1.0
-    t = np.linalg.solve(augmented, rhs)
-    return t / np.linalg.norm(t)
+    return unit_tangents(jac[None], jac_w[None], previous[None])[0]
 
 
 def trace_frequency_response(
@@ -277,13 +293,17 @@ def check_band(omega_start: float, omega_end: float) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Curve:
-    """Points of a traced solution curve: ω (rad/s), scaled unknowns y, fold flags and
-    the determinant of ∂R/∂y at each point."""
+    """Points of a traced solution curve: ω (rad/s), scaled unknowns y, fold flags, the
+    determinant of ∂R/∂y and the unit tangent in the continuation's scaled space (y, ω̃),
+    oriented along the curve, at each point."""
 
     omega: NDArray[np.float64]
     y: NDArray[np.float64]
     turning_point: NDArray[np.bool_]
     jacobian_determinant: NDArray[np.float64]
+    tangent: NDArray[np.float64]
+    stalled_at: float | None = None
+    """ω (rad/s) where the step fell below its minimum and the trace stopped, else None."""
 
 
 def trace_curve(
@@ -303,6 +323,36 @@ def trace_curve(
     """
     o = (options or ContinuationOptions()).updated(**overrides)
     check_band(omega_start, omega_end)
+    if o.fill > 1:
+        # the continuation only connects the branches: long steps, a loose corrector (every
+        # point is corrected again to the full tolerance with the new ones), wider turns
+        coarse_options = o.updated(
+            step=o.step * o.fill, max_step=o.max_step * o.fill, fill=1, max_angle_deg=max(o.max_angle_deg, 30.0),
+            tolerance=max(o.tolerance, 1e-4), correction_tolerance=max(o.correction_tolerance, 1e-3),
+            contraction=min(o.contraction, 0.7), target_contraction=max(o.target_contraction, 0.3),
+        )
+        coarse = _trace(problem, omega_start, omega_end, coarse_options)
+        # a stalled coarse trace, or a point that fails the fill's checks: every point by continuation
+        filled = fill_curve(problem, coarse, omega_start, omega_end, o) if coarse.stalled_at is None else None
+        if filled is not None:
+            return insert_folds(problem, filled, omega_start, omega_end, o)
+    curve = _trace(problem, omega_start, omega_end, o.updated(fill=1))
+    _warn_if_stalled(curve)
+    return insert_folds(problem, curve, omega_start, omega_end, o)
+
+
+def _warn_if_stalled(curve: Curve) -> None:
+    if curve.stalled_at is not None:
+        warnings.warn(
+            f"continuation stalled at {curve.stalled_at / (2 * np.pi):.6g} Hz (step below minimum); the curve is "
+            "returned up to there",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+def _trace(problem: BalanceProblem, omega_start: float, omega_end: float, o: ContinuationOptions) -> Curve:
+    """Every point of the curve by the continuation (:func:`_continuation`)."""
     band = omega_end - omega_start
     size = problem.size
     steps = _continuation(problem, omega_start, omega_end, o)
@@ -340,7 +390,8 @@ def trace_curves(
             try:
                 requests[index] = steps[index].send((r[row], jac[row], jac_w[row] * band))
             except StopIteration as done:
-                curves[index] = done.value
+                _warn_if_stalled(done.value)
+                curves[index] = insert_folds(problems[index], done.value, omega_start, omega_end, o)
                 del requests[index]
     return curves
 
@@ -370,16 +421,20 @@ def _continuation(problem, omega_start: float, omega_end: float, o: Continuation
 
     points = [z]
     dets = [np.linalg.det(jac)]
-    turning = [False]
+    tangents = [t]
     ds = step
+    stalled_at = None
     cos_max = np.cos(np.radians(o.max_angle_deg))
+    cos_half = np.cos(np.radians(0.5 * o.max_angle_deg))
     augmented = np.zeros((size + 1, size + 1))
 
+    curvature = np.zeros(size + 1)  # dt/ds from the last step, for a second-order predictor
     while len(points) < o.max_points:
-        z_pred = z + ds * t
+        z_pred = z + ds * t + (0.5 * ds * ds) * curvature
         z_new = z_pred.copy()
         converged = False
-        previous_residual = np.inf
+        previous_residual = previous_correction = np.inf
+        first_contraction = 0.0
         for iteration in range(1, o.corrector_iterations + 1):
             r, jac, jac_w = yield z_new
             augmented[:size, :size] = jac
@@ -391,16 +446,20 @@ def _continuation(problem, omega_start: float, omega_end: float, o: Continuation
             except np.linalg.LinAlgError:
                 break
             z_new = z_new + dz
+            residual, correction = np.max(np.abs(r)), np.max(np.abs(dz))
+            if iteration == 2:
+                first_contraction = correction / previous_correction
             # Converged: a negligible correction with a small residual, or a small residual
             # that Newton no longer reduces (a receptance from a sparse factorisation near
             # resonance is accurate to ~1e-7 only: that is the floor it stagnates at).
-            residual = np.max(np.abs(r))
-            if (np.max(np.abs(dz)) < o.correction_tolerance and residual < 10 * tolerance) or (
+            if (correction < o.correction_tolerance and residual < 10 * tolerance) or (
                 residual < o.stagnation_residual and residual > 0.5 * previous_residual
             ):
                 converged = True
                 break
-            previous_residual = residual
+            if correction > o.contraction * previous_correction:
+                break
+            previous_residual, previous_correction = residual, correction
         if converged:  # the last Jacobian was taken within correction_tolerance of z_new: reuse it
             t_new = _tangent(jac, jac_w, t)
         # A sharp turn is refined by smaller steps, except at a kink (e.g. stick–slip onset
@@ -408,27 +467,24 @@ def _continuation(problem, omega_start: float, omega_end: float, o: Continuation
         if not converged or (t_new @ t < cos_max and ds > o.kink_step):
             ds *= 0.5
             if ds < min_step:
-                warnings.warn(
-                    f"continuation stalled at {(omega_start + band * z[size]) / (2 * np.pi):.6g} Hz "
-                    "(step below minimum); the curve is returned up to there",
-                    RuntimeWarning,
-                    stacklevel=3,
-                )
+                stalled_at = omega_start + band * z[size]
                 break
             continue
-        if t_new[size] * t[size] < 0:
-            z_fold, jac_fold = yield from _refine_fold(z, t, z_new, t_new, augmented, o)
-            points.append(z_fold)
-            dets.append(np.linalg.det(jac_fold))
-            turning.append(True)
         points.append(z_new)
         dets.append(np.linalg.det(jac))
-        turning.append(False)
-        z, t = z_new, t_new
-        if iteration <= o.fast_iterations:
-            ds = min(ds * o.grow, max_step)
-        elif iteration >= o.slow_iterations:
+        tangents.append(t_new)
+        if t_new @ t > cos_half:  # no kink: the next prediction bends as the last step did
+            curvature = (t_new - t) / np.linalg.norm(z_new - z)
+        else:
+            curvature = np.zeros(size + 1)
+        z, t, t_old = z_new, t_new, t
+        if iteration >= o.slow_iterations:
             ds *= o.shrink
+        else:
+            turn = np.degrees(np.arccos(np.clip(t_new @ t_old, -1.0, 1.0)))
+            factor = min(o.grow, np.sqrt(o.target_contraction / max(first_contraction, 1e-12)),
+                         0.5 * o.max_angle_deg / max(turn, 1e-12))
+            ds = min(ds * max(factor, o.shrink), max_step)
         if z[size] >= 1.0 or z[size] <= 0.0:
             break
 
@@ -442,42 +498,9 @@ def _continuation(problem, omega_start: float, omega_end: float, o: Continuation
         y_edge, ok, _ = newton_fixed_frequency(problem, omega_start + band * edge, guess, tol=tolerance)
         if ok:
             points_arr[-1] = np.append(y_edge, edge)
-            dets[-1] = np.linalg.det((yield points_arr[-1])[1])
+            _, jac, jac_w = yield points_arr[-1]
+            dets[-1] = np.linalg.det(jac)
+            tangents[-1] = _tangent(jac, jac_w, tangents[-1])
     omega = omega_start + band * points_arr[:, size]
-    return Curve(omega, points_arr[:, :size], np.array(turning), np.array(dets))
-
-
-def _refine_fold(z0, t0, z1, t1, augmented, o: ContinuationOptions):
-    """Locate the turning point between two curve points (secant on t_ω along the chord); a
-    generator like :func:`_continuation`."""
-    size = z0.size - 1
-    s_low, s_high = 0.0, float(np.linalg.norm(z1 - z0))
-    f_low, f_high = t0[size], t1[size]
-    direction = (z1 - z0) / s_high
-    z_best, jac_best = z1, (yield z1)[1]
-    for _ in range(o.fold_iterations):
-        s = s_low - f_low * (s_high - s_low) / (f_high - f_low)
-        s = min(max(s, s_low + 0.05 * (s_high - s_low)), s_high - 0.05 * (s_high - s_low))
-        z_pred = z0 + s * direction
-        z_try = z_pred.copy()
-        for _ in range(o.fold_corrector_iterations):
-            r, jac, jac_w = yield z_try
-            augmented[:size, :size] = jac
-            augmented[:size, size] = jac_w
-            augmented[size] = direction
-            dz = np.linalg.solve(augmented, np.append(-r, -direction @ (z_try - z_pred)))
-            z_try = z_try + dz
-            if np.max(np.abs(dz)) < 1e-12:
-                break
-        r, jac, jac_w = yield z_try
-        t_try = _tangent(jac, jac_w, t0)
-        z_best, jac_best = z_try, jac
-        if abs(t_try[size]) < o.fold_tolerance:
-            break
-        if t_try[size] * f_low > 0:
-            s_low, f_low = s, t_try[size]
-        else:
-            s_high, f_high = s, t_try[size]
-        if s_high - s_low < 1e-12:
-            break
-    return z_best, jac_best
+    return Curve(omega, points_arr[:, :size], np.zeros(len(dets), bool), np.array(dets), np.array(tangents),
+                 stalled_at)

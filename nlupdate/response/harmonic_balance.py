@@ -50,6 +50,10 @@ from nlupdate.response.hill import HillModel, classify, floquet_batch
 
 DEFAULT_SHARE_LIMIT = 1e-3
 AUTO_HARMONICS = (3, 5, 7, 9, 11, 15, 19, 25, 31)
+DEFAULT_FILL = 4
+"""The continuation takes steps up to 4 × ``max_step`` and the points between are corrected
+all at once (:mod:`nlupdate.response.curve_fill`): every residual evaluation of this balance
+costs numpy's fixed overhead, which a batch shares."""
 
 
 class HarmonicTruncationWarning(RuntimeWarning):
@@ -101,6 +105,7 @@ class HarmonicBalanceProblem:
         ]
         self._cols = list(self.a) + list(self.forced)
         self._orders = np.arange(1, self.harmonics + 1)
+        self._zero_orders = np.zeros((1, self.harmonics))
         self._plan = ReceptancePlan(self.model, self.a, self._cols)
         # flat positions in the size × size matrix of the blocks [[Re h, −Im h], [Im h, Re h]]
         # of harmonics 1 … H, in the order (harmonic, block, row, col) that _real_block_receptance fills
@@ -110,6 +115,7 @@ class HarmonicBalanceProblem:
         rows = row0 + np.arange(n)[None, None, :, None]
         cols = col0 + np.arange(n)[None, None, None, :]
         self._block_index = (rows * self.size + cols).reshape(-1)
+        self._diagonal = np.arange(self.size)
         try:
             static = self.model.harmonic_receptance(0.0, 0, self.a, self.a)[0]
         except (np.linalg.LinAlgError, RuntimeError):
@@ -124,33 +130,31 @@ class HarmonicBalanceProblem:
         (P, size, size) as ``h_aa``, ``X_lin`` (P, size) and their ω-derivatives."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         n, count, points = self.n, self.harmonics, omega.size
-        fundamental = np.repeat(omega, count)
-        result = self._plan.harmonic(fundamental, np.tile(self._orders, points), derivative)
-        h_all, dh_all = result if derivative else (result, None)
-        h_all = h_all.reshape(points, count, n, -1)
-        h_aa = self._real_block_receptance(h_all[..., :n], self._static)
-        x_lin = np.zeros((points, self.size))
-        lin = h_all[:, 0, :, n:] @ self.force
-        x_lin[:, n : 2 * n], x_lin[:, 2 * n : 3 * n] = lin.real, lin.imag
-        dh_aa = dx_lin = None
+        fundamental = (omega[:, None] + self._zero_orders).reshape(-1)
+        orders = (self._zero_orders[0] + self._orders + np.zeros((points, 1))).reshape(-1)
+        result = self._plan.harmonic(fundamental, orders, derivative)
+        # H and dH/dω together: (1 or 2, P, H, n, n + forced)
+        both = np.stack(result) if derivative else result[None]
+        both = both.reshape(both.shape[0], points, count, n, -1)
+        blocks = self._real_block_receptance(both[..., :n].reshape((-1, count, n, n)))
+        blocks = blocks.reshape(both.shape[0], points, self.size, self.size)
+        blocks[0, :, :n, :n] = self._static
+        lin = both[:, :, 0, :, n:] @ self.force  # (1 or 2, P, n)
+        x = np.zeros((both.shape[0], points, self.size))
+        x[:, :, n : 2 * n], x[:, :, 2 * n : 3 * n] = lin.real, lin.imag
         if derivative:
-            dh_all = dh_all.reshape(points, count, n, -1)
-            dh_aa = self._real_block_receptance(dh_all[..., :n], 0.0)
-            dx_lin = np.zeros((points, self.size))
-            dlin = dh_all[:, 0, :, n:] @ self.force
-            dx_lin[:, n : 2 * n], dx_lin[:, 2 * n : 3 * n] = dlin.real, dlin.imag
-        return LinearTerms(omega, h_aa, x_lin, dh_aa, dx_lin)
+            return LinearTerms(omega, blocks[0], x[0], blocks[1], x[1])
+        return LinearTerms(omega, blocks[0], x[0])
 
-    def _real_block_receptance(self, h: NDArray, static) -> NDArray:
-        """Block-diagonal real forms (P, size, size) of receptances h (P, H, n, n): ``static`` for
-        X₀, ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic."""
+    def _real_block_receptance(self, h: NDArray) -> NDArray:
+        """Block-diagonal real forms (P, size, size) of receptances h (P, H, n, n):
+        ``[[Re h, −Im h], [Im h, Re h]]`` per harmonic, zero for X₀."""
         points = h.shape[0]
         h_aa = np.zeros((points, self.size * self.size))
-        parts = np.stack([h.real, -h.imag, h.imag, h.real], axis=2)  # (P, H, 4, n, n)
+        real, imag = h.real, h.imag
+        parts = np.concatenate([real, -imag, imag, real], axis=2)  # (P, H, 4n, n): the blocks in _block_index order
         h_aa[:, self._block_index] = parts.reshape(points, -1)
-        h_aa = h_aa.reshape(points, self.size, self.size)
-        h_aa[:, : self.n, : self.n] = static
-        return h_aa
+        return h_aa.reshape(points, self.size, self.size)
 
     def linear_response(self, omega: ArrayLike, dofs: Sequence[int]) -> NDArray[np.complex128]:
         """First harmonic of the underlying linear system (m) at ``dofs``, (n_omega, len(dofs))."""
@@ -226,7 +230,8 @@ class HarmonicBalanceProblem:
             return (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
         g, dg, dg_dw = self.forces_batch(coefficients, linear.omega, jacobian=True)
         r = (x - linear.x_lin + (linear.h_aa @ g[..., None])[..., 0]) / self.x_scale
-        jac = np.eye(self.size) + linear.h_aa @ dg
+        jac = linear.h_aa @ dg
+        jac[:, self._diagonal, self._diagonal] += 1.0
         jac_w = None
         if linear.dh_aa is not None:
             jac_w = (-linear.dx_lin + (linear.dh_aa @ g[..., None] + linear.h_aa @ dg_dw[..., None])[..., 0]) / self.x_scale
@@ -351,7 +356,8 @@ def trace_harmonic_balance(
     method at every point for H ≥ 2 (otherwise, and always for H = 1 — a single-harmonic
     orbit is too coarse for Hill's method, whose odd perturbations then stop at their first
     copy — the determinant sign of the describing-function solver, saddle-node only); ``options``
-    those of :func:`~nlupdate.response.continuation.trace_curve`. The returned curve's
+    those of :func:`~nlupdate.response.continuation.trace_curve` (``fill`` defaults to
+    :data:`DEFAULT_FILL`). The returned curve's
     ``x_nonlinear`` holds the states (n_points, H+1, n_a).
     """
     check_band(omega_start, omega_end)
@@ -374,7 +380,7 @@ def trace_harmonic_balance(
     if problem.n == 0:
         raise ValueError("harmonic balance needs at least one nonlinear element; the linear response is H(ω)·F")
     problem.x_scale = x_scale or default_x_scale(problem, omega_start, omega_end)
-    curve = trace_curve(problem, omega_start, omega_end, **options)
+    curve = trace_curve(problem, omega_start, omega_end, **{"fill": DEFAULT_FILL, **options})
     states = problem.to_complex(curve.y)
     if stability and problem.harmonics > 1:
         stable, multipliers, bifurcations = _stability(problem, curve.omega, states, curve.turning_point)
