@@ -88,7 +88,7 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
 
 class RunServer:
     """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
-    3.8's own command line), started through :mod:`nlupdate.flows.server_process` so that
+    3.8's own command line; the app wrapped by :mod:`nlupdate.flows.server_app`), started through :mod:`nlupdate.flows.server_process` so that
     it ends when this process does, even when this process is killed.
 
     Started without importing Prefect here (the server process imports it itself, at the
@@ -117,7 +117,7 @@ class RunServer:
             # -P: the working folder is not put on sys.path, so a source checkout there (whose
             # nlupdate/ lacks the installed nlupdate.flows) cannot shadow the installed package
             args=[sys.executable, "-P", "-m", "nlupdate.flows.server_process", str(os.getpid()),
-                  "--app-dir", str(app_dir), "--factory", "prefect.server.api.server:create_app",
+                  "--app-dir", str(app_dir), "--factory", "nlupdate.flows.server_app:create_app",
                   "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
             env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
                  "PREFECT__SERVER_FINAL": "1", **settings})

@@ -324,19 +324,36 @@ def trace_curve(
     o = (options or ContinuationOptions()).updated(**overrides)
     check_band(omega_start, omega_end)
     if o.fill > 1:
-        # the continuation only connects the branches: long steps, a loose corrector (every
-        # point is corrected again to the full tolerance with the new ones), wider turns
-        coarse_options = o.updated(
-            step=o.step * o.fill, max_step=o.max_step * o.fill, fill=1, max_angle_deg=max(o.max_angle_deg, 30.0),
-            tolerance=max(o.tolerance, 1e-4), correction_tolerance=max(o.correction_tolerance, 1e-3),
-            contraction=min(o.contraction, 0.7), target_contraction=max(o.target_contraction, 0.3),
-        )
-        coarse = _trace(problem, omega_start, omega_end, coarse_options)
-        # a stalled coarse trace, or a point that fails the fill's checks: every point by continuation
-        filled = fill_curve(problem, coarse, omega_start, omega_end, o) if coarse.stalled_at is None else None
-        if filled is not None:
-            return insert_folds(problem, filled, omega_start, omega_end, o)
-    curve = _trace(problem, omega_start, omega_end, o.updated(fill=1))
+        coarse = _trace(problem, omega_start, omega_end, _coarse(o))
+        return _filled(problem, coarse, omega_start, omega_end, o)
+    return _finished(problem, _trace(problem, omega_start, omega_end, o), omega_start, omega_end, o)
+
+
+def _coarse(o: ContinuationOptions) -> ContinuationOptions:
+    """The options of the continuation that only connects the branches when it fills: long
+    steps, a loose corrector (every point is corrected again to the full tolerance with the
+    new ones), wider turns."""
+    return o.updated(
+        step=o.step * o.fill, max_step=o.max_step * o.fill, fill=1, max_angle_deg=max(o.max_angle_deg, 30.0),
+        tolerance=max(o.tolerance, 1e-4), correction_tolerance=max(o.correction_tolerance, 1e-3),
+        contraction=min(o.contraction, 0.7), target_contraction=max(o.target_contraction, 0.3),
+    )
+
+
+def _filled(problem: BalanceProblem, coarse: Curve, omega_start: float, omega_end: float,
+            o: ContinuationOptions) -> Curve:
+    """``coarse`` filled (:func:`~nlupdate.response.curve_fill.fill_curve`) with its folds
+    located; a stalled coarse trace, or a point that fails the fill's checks: every point by
+    continuation."""
+    filled = fill_curve(problem, coarse, omega_start, omega_end, o) if coarse.stalled_at is None else None
+    if filled is None:
+        return _finished(problem, _trace(problem, omega_start, omega_end, o.updated(fill=1)), omega_start,
+                         omega_end, o)
+    return insert_folds(problem, filled, omega_start, omega_end, o)
+
+
+def _finished(problem: BalanceProblem, curve: Curve, omega_start: float, omega_end: float,
+              o: ContinuationOptions) -> Curve:
     _warn_if_stalled(curve)
     return insert_folds(problem, curve, omega_start, omega_end, o)
 
@@ -378,6 +395,15 @@ def trace_curves(
     each row belongs to). The curves are those :func:`trace_curve` would give one by one."""
     o = options or ContinuationOptions()
     check_band(omega_start, omega_end)
+    if o.fill > 1:
+        coarse = _lockstep(problems, evaluate_batch, omega_start, omega_end, _coarse(o))
+        return [_filled(problem, curve, omega_start, omega_end, o) for problem, curve in zip(problems, coarse)]
+    curves = _lockstep(problems, evaluate_batch, omega_start, omega_end, o)
+    return [_finished(problem, curve, omega_start, omega_end, o) for problem, curve in zip(problems, curves)]
+
+
+def _lockstep(problems, evaluate_batch, omega_start: float, omega_end: float, o: ContinuationOptions) -> list[Curve]:
+    """Every problem's :func:`_continuation`, their evaluations made together."""
     band = omega_end - omega_start
     steps = [_continuation(problem, omega_start, omega_end, o) for problem in problems]
     requests = {index: next(step) for index, step in enumerate(steps)}
@@ -390,8 +416,7 @@ def trace_curves(
             try:
                 requests[index] = steps[index].send((r[row], jac[row], jac_w[row] * band))
             except StopIteration as done:
-                _warn_if_stalled(done.value)
-                curves[index] = insert_folds(problems[index], done.value, omega_start, omega_end, o)
+                curves[index] = done.value
                 del requests[index]
     return curves
 
