@@ -33,6 +33,7 @@ from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
 from nlupdate.study.steps import RunFailure
 from nlupdate.tasks import cached, keys
+from nlupdate.tasks.figures import FigureStore
 from nlupdate.tasks.names import job_run_name, step_run_name
 from nlupdate.tasks.fe_points import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
 
@@ -123,8 +124,9 @@ def _as_written(text: str):
     return lambda: text
 
 
-def run_chain(study: Study, cache: Cache) -> StudyResult:
-    """Every step the study asks for, as cached tasks and subflows."""
+def run_chain(study: Study, cache: Cache) -> tuple[StudyResult, dict[str, str]]:
+    """Every step the study asks for, as cached tasks and subflows; the result and every
+    step's key (step name → key)."""
     results: dict[str, Any] = {}
     result_keys: dict[str, str] = {}
     subflow_runner = FlowRunContext.get().task_runner
@@ -145,7 +147,7 @@ def run_chain(study: Study, cache: Cache) -> StudyResult:
             results[step.name], result_keys[step.name] = _step_task(step, study, inputs, input_keys, cache)
     if any(step.fans_out and step.name in results for step in CHAIN):
         _tally_points(registry.states())
-    return study_result(study, results)
+    return study_result(study, results), result_keys
 
 
 def _tally_points(states: list[str]) -> None:
@@ -185,7 +187,7 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
         }
 
     try:
-        result = run_chain(study, cache)
+        result, step_keys = run_chain(study, cache)
     except Exception as error:
         folder = write_failed_archive(study, run_folder(results_root, study.name, started, study.sha256), run_record(),
                                       f"{type(error).__name__}: {error}")
@@ -193,5 +195,7 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
                      f"archive {escape(str(folder))}")
         raise
     progress.say(f"steps done in {time.perf_counter() - clock:.1f} s; writing the archive …")
-    folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run_record())
+    figures = FigureStore(cache.store, keys.figures_key(study, step_keys), refresh=cache.refresh)
+    folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run_record(),
+                           figures=figures)
     return str(folder)

@@ -7,6 +7,8 @@ A key is :func:`nlupdate.fingerprints.fingerprint` of everything the result depe
   cached identification and updating run) for the chain's steps and jobs,
   :func:`fe_code` (adapters, built-in FE, linear models) for FE points, so editing a
   report does not throw away hours of FE runs, :func:`discovery_code` for candidate fits;
+* for the archive's figures (:mod:`nlupdate.tasks.figures`) :func:`reporting_code` and
+  matplotlib's version, the whole study file and every step's key;
 * the inputs: the study sections the step's entry in :data:`nlupdate.study.chain.CHAIN`
   names, the content of every input file of the study (as the run read it), the keys of
   the step's inputs; for a job, the job itself and the FE model's identity; for an FE
@@ -69,6 +71,21 @@ def discovery_code() -> str:
 def fe_code() -> str:
     """Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models)."""
     return source_hash([_ADAPTERS, _PACKAGE / "fe", _PACKAGE / "model", _PACKAGE / "fingerprints.py"])
+
+
+@functools.cache
+def reporting_code() -> str:
+    """Hash of the code that draws and writes an archive (:mod:`nlupdate.reporting`)."""
+    return source_hash([_PACKAGE / "reporting"])
+
+
+def figures_key(study: Study, step_keys: dict[str, str]) -> str:
+    """The archive figures of one run's results: the study file, every step's key (step
+    name → key), the reporting code and matplotlib's version."""
+    from importlib.metadata import version
+
+    return fingerprint("figures", reporting_code(), version("matplotlib"), study.sha256, input_files(study),
+                       sorted(step_keys.items()))
 
 
 def input_files(study: Study) -> dict[str, str]:

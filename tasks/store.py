@@ -67,14 +67,21 @@ def sign(key: str, payload: bytes, secret: bytes | None = None) -> bytes:
     return MAGIC + _signature(secret or cache_secret(), key, payload) + b"\n" + payload
 
 
-def verified(key: str, content: bytes, secret: bytes | None = None) -> bytes:
-    """The payload of a stored record, or ``ValueError`` saying why it cannot be trusted."""
+def signed_payload(key: str, content: bytes, secret: bytes | None = None) -> bytes:
+    """The payload of what :func:`sign` stored under ``key``, or ``ValueError`` saying why it
+    cannot be trusted (whatever the payload holds)."""
     if not content.startswith(MAGIC):
         raise ValueError("not a signed nlupdate record (written by an older version or by something else)")
     signature, _, payload = content[len(MAGIC):].partition(b"\n")
     if not hmac.compare_digest(signature, _signature(secret or cache_secret(), key, payload)):
         raise ValueError("its signature does not match (edited, copied from another key, or signed with another "
                          "cache secret)")
+    return payload
+
+
+def verified(key: str, content: bytes, secret: bytes | None = None) -> bytes:
+    """The payload of a stored task record, or ``ValueError`` saying why it cannot be trusted."""
+    payload = signed_payload(key, content, secret)
     try:
         serializer = json.loads(payload)["metadata"]["serializer"]["type"]
     except (ValueError, KeyError, TypeError):

@@ -181,6 +181,36 @@ def test_an_unchanged_rerun_is_all_cached(first_run):
     assert "FE points: none needed, every job came from the cache" in lines, lines
 
 
+def test_a_rerun_of_the_same_results_keeps_its_figures_and_a_tampered_one_is_drawn_again(first_run, monkeypatch):
+    """The archive's figures of unchanged results are the kept PNGs (none drawn, the same
+    bytes); a kept figure edited on disk fails its signature, is named in one line and drawn
+    again; with ``refresh`` none is read."""
+    import nlupdate.reporting.archive as archive_module
+    from nlupdate.notices import NlupdateWarning
+    from nlupdate.tasks.figures import FOLDER
+
+    tmp_path, first, _ = first_run
+    drawn: list[int] = []
+    real = archive_module.png_bytes
+    monkeypatch.setattr(archive_module, "png_bytes", lambda *a, **k: drawn.append(1) or real(*a, **k))
+    again, _ = flow_run(load_study(STUDY), tmp_path)
+    plots = sorted(p.name for p in (first / "plots").glob("*.png"))
+    assert len(plots) >= 6 and not drawn
+    assert all((again / "plots" / name).read_bytes() == (first / "plots" / name).read_bytes() for name in plots)
+    kept = sorted((tmp_path / "cache" / FOLDER).glob("*-candidate_frfs.png"))
+    assert len(kept) == 1
+    kept[0].write_bytes(kept[0].read_bytes()[:-1] + b"x")  # one byte of the picture changed
+    with pytest.warns(NlupdateWarning, match=r"kept figure .*candidate_frfs\.png: its signature does not match"):
+        tampered, _ = flow_run(load_study(STUDY), tmp_path)
+    assert len(drawn) == 1
+    assert (tampered / "plots" / "candidate_frfs.png").read_bytes() == (first / "plots" / "candidate_frfs.png").read_bytes()
+    from nlupdate.tasks.figures import FigureStore
+
+    key = kept[0].name.removesuffix("-candidate_frfs.png")
+    assert FigureStore(tmp_path / "cache", key).get("candidate_frfs.png") is not None  # kept again, signed
+    assert FigureStore(tmp_path / "cache", key, refresh=True).get("candidate_frfs.png") is None
+
+
 def test_changing_one_bound_reruns_only_the_runs_that_depend_on_it(first_run):
     tmp_path, _, _ = first_run
     study = two_dof_study(model="../../../examples/two_dof.toml")

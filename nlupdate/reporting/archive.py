@@ -31,15 +31,15 @@ import os
 import stat
 import warnings
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Protocol
 
 from matplotlib.figure import Figure
 
-from nlupdate.files import atomic_directory, copy_private, inside, name_problem
+from nlupdate.files import atomic_directory, copy_private, inside, name_problem, write_bytes_atomic
 from nlupdate.fingerprints import file_hash, table_hash, tree_hash
 from nlupdate.identification.trust import POOR_FIT_FACTOR
 from nlupdate.notices import NlupdateWarning
-from nlupdate.reporting.figures import frf_curve, save_figure
+from nlupdate.reporting.figures import frf_curve, png_bytes
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
 from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
@@ -226,21 +226,39 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
     return plots
 
 
-def _plots(result, folder: Path) -> dict[str, str]:
-    """Write every plot of :func:`archive_figures` into ``folder``; returns key → file name."""
+def _plots(result, folder: Path, figures: FigureKeeper | None = None) -> dict[str, str]:
+    """Write every plot of :func:`archive_figures` into ``folder`` — as ``figures`` kept it
+    from an earlier run of the same results, else drawn (and given to ``figures`` to keep);
+    returns key → file name."""
     written: dict[str, str] = {}
     for key, name, draw in archive_figures(result):
-        save_figure(draw(), folder / name, dpi=110 if key == "predictions" else 120)
+        png = figures.get(name) if figures is not None else None
+        if png is None:
+            png = png_bytes(draw(), dpi=110 if key == "predictions" else 120)
+            if figures is not None:
+                figures.put(name, png)
+        write_bytes_atomic(folder / name, png)
         written[key] = f"plots/{name}"
     return written
 
 
-def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: str = "suffix") -> Path:
+class FigureKeeper(Protocol):
+    """Where an archive's figures are kept between runs of the same results (the flows
+    give :class:`nlupdate.tasks.figures.FigureStore`): PNG bytes by file name."""
+
+    def get(self, name: str) -> bytes | None: ...
+
+    def put(self, name: str, png: bytes) -> None: ...
+
+
+def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: str = "suffix",
+                  figures: FigureKeeper | None = None) -> Path:
     """Write the archive of ``result`` to ``final`` (atomically); returns the folder.
 
     ``run``: how the run went (``started_utc``, ``finished_utc``, ``wall_time_s``,
     ``orchestration``, flow-run id, tasks computed vs cached, …) for the manifest.
-    ``on_exists`` as for :func:`~nlupdate.files.atomic_directory`.
+    ``on_exists`` as for :func:`~nlupdate.files.atomic_directory`; ``figures``: the figures
+    an earlier run of the same results drew (:class:`FigureKeeper`), else every one is drawn.
     """
     final = Path(final)
     with atomic_directory(final, on_exists=on_exists, kind=ARCHIVE_KIND) as archive:
@@ -250,7 +268,7 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
         tables = study_tables(result)
         for name, table in tables.items():
             table.to_parquet(folder / "tables" / f"{name}.parquet", index=False)
-        plots = _plots(result, folder / "plots")
+        plots = _plots(result, folder / "plots", figures)
         (folder / "study.toml").write_text(result.study.text)
         inputs = archive_inputs(result.study, folder)
         if result.identification is not None:

@@ -12,6 +12,7 @@ and a grey region marks where a curve is extrapolated beyond its data.
 """
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -40,6 +41,13 @@ def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path
     with atomic_file(path) as temporary:
         figure.savefig(temporary, dpi=dpi, format="png")
     return path
+
+
+def png_bytes(figure: Figure, dpi: int = 120) -> bytes:
+    """``figure`` as PNG."""
+    buffer = io.BytesIO()
+    figure.savefig(buffer, dpi=dpi, format="png")
+    return buffer.getvalue()
 
 
 def level_colours(count: int, low: float = 0.0, high: float = 0.9) -> np.ndarray:

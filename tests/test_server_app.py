@@ -1,0 +1,79 @@
+"""The run's Prefect server retries writes SQLite refused as busy (flows/server_app.py).
+
+The middleware is driven here with a small ASGI app that answers 503 a given number of
+times, the way Prefect's app does on ``SQLITE_BUSY_SNAPSHOT`` (Starlette's error middleware
+sends the handler's answer and then raises the error again). The fix's effect on a real
+server — the first subflow after a burst of task runs — is measured in docs/performance.md.
+"""
+from __future__ import annotations
+
+import asyncio
+import json
+
+import pytest
+
+from nlupdate.flows.server_app import RetryBusyWrites
+
+
+class BusyApp:
+    """Answers 503 (and raises, as Starlette does) ``busy`` times, then 201 with the body it read."""
+
+    def __init__(self, busy: int) -> None:
+        self.busy, self.calls, self.bodies = busy, 0, []
+
+    async def __call__(self, scope, receive, send):
+        self.calls += 1
+        message = await receive()
+        self.bodies.append(message["body"])
+        if self.calls <= self.busy:
+            await send({"type": "http.response.start", "status": 503, "headers": []})
+            await send({"type": "http.response.body", "body": b'{"exception_message": "Service Unavailable"}'})
+            raise RuntimeError("database is locked")
+        await send({"type": "http.response.start", "status": 201, "headers": []})
+        await send({"type": "http.response.body", "body": json.dumps({"got": message["body"].decode()}).encode()})
+
+
+def call(app, method: str, body: bytes = b'{"name": "x"}'):
+    """One request, its body in two parts, through ``RetryBusyWrites(app)``; the messages the client got."""
+    pieces = [body[: len(body) // 2], body[len(body) // 2:]]
+    incoming = [{"type": "http.request", "body": piece, "more_body": i < len(pieces) - 1} for i, piece in enumerate(pieces)]
+    sent = []
+
+    async def receive():
+        return incoming.pop(0) if incoming else {"type": "http.disconnect"}
+
+    async def send(message):
+        sent.append(message)
+
+    asyncio.run(RetryBusyWrites(app, pause_s=0.001)({"type": "http", "method": method, "path": "/"}, receive, send))
+    return sent
+
+
+def test_a_write_answered_busy_is_run_again_with_the_same_body_and_the_client_sees_the_answer():
+    app = BusyApp(busy=3)
+    sent = call(app, "POST")
+    assert app.calls == 4 and app.bodies == [b'{"name": "x"}'] * 4  # the body read whole each time
+    assert [m["status"] for m in sent if m["type"] == "http.response.start"] == [201]
+    assert json.loads(sent[-1]["body"]) == {"got": '{"name": "x"}'}
+
+
+def test_a_write_that_stays_busy_gets_the_last_answer_after_the_attempts():
+    app = BusyApp(busy=100)
+    sent = call(app, "PATCH")
+    assert app.calls == 12 and [m["status"] for m in sent if m["type"] == "http.response.start"] == [503]
+
+
+def test_reads_pass_through_untouched():
+    app = BusyApp(busy=1)
+    with pytest.raises(RuntimeError, match="database is locked"):  # no retry: the error is the server's to log
+        call(app, "GET")
+    assert app.calls == 1
+
+
+def test_an_error_without_an_answer_is_raised():
+    async def broken(scope, receive, send):
+        await receive()
+        raise ValueError("boom")
+
+    with pytest.raises(ValueError, match="boom"):
+        call(broken, "POST")
