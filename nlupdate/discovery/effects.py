@@ -29,6 +29,8 @@ A new effect is one subclass of :class:`ElementEffect` or :class:`LinearEffect` 
 """
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 from typing import ClassVar, Sequence
 
@@ -116,6 +118,13 @@ class Effect:
         raise NotImplementedError
 
 
+@functools.lru_cache(maxsize=256)
+def _element_at_origin(effect: "ElementEffect", values: tuple[float, ...]):
+    """The effect's element at coordinate 0 with these values (a fit asks for the same one
+    thousands of times: building it checks every parameter)."""
+    return effect.element((0,), np.array(values))
+
+
 @dataclass(frozen=True)
 class ElementEffect(Effect):
     """An effect that is one element of :mod:`nlupdate.model.elements`."""
@@ -124,7 +133,8 @@ class ElementEffect(Effect):
         raise NotImplementedError
 
     def nu(self, values, amplitude, omega):
-        return _broadcast(self.element((0,), values).describing_function(amplitude, omega), amplitude, omega)
+        element = _element_at_origin(self, tuple(np.atleast_1d(np.asarray(values, dtype=float)).tolist()))
+        return _broadcast(element.describing_function(amplitude, omega), amplitude, omega)
 
     def basis(self, shape, amplitude, omega):
         return self.nu(self.values(1.0, shape), amplitude, omega)

@@ -30,19 +30,34 @@ def _g(w: NDArray, nu: DF, force: NDArray, omega: NDArray, a: NDArray) -> NDArra
     return a * np.abs(w + nu(a, omega)) - force
 
 
-def _bisect(w, nu, force, omega, low, high, iterations=80):
-    """Bisection on brackets [low, high] with g(low) < 0 < g(high) or the reverse."""
-    g_low = _g(w, nu, force, omega, low)
+def _bracketed_root(w, nu, force, omega, low, high, iterations=100):
+    """The root of g in each bracket [low, high] (g(low), g(high) of opposite signs) by the
+    Illinois variant of regula falsi on log A (the end kept twice in a row has its g halved,
+    so the bracket closes from both sides), to |g| ≤ 1e-13·F or a bracket of 1e-12
+    relative (where g jumps across zero, e.g. at a gap's contact, the bracket is all that
+    closes); every point iterates only until it is done."""
+    x_low, x_high = np.log(np.asarray(low, dtype=float)).copy(), np.log(np.asarray(high, dtype=float)).copy()
+    g_low, g_high = _g(w, nu, force, omega, np.exp(x_low)), _g(w, nu, force, omega, np.exp(x_high))
+    root = np.where(np.abs(g_low) <= np.abs(g_high), x_low, x_high)
+    kept = np.zeros(x_low.shape, np.int8)  # +1: the low end was kept last time, −1: the high end
+    active = np.flatnonzero(np.minimum(np.abs(g_low), np.abs(g_high)) > 1e-13 * force)
     for _ in range(iterations):
-        mid = np.sqrt(low * high)
-        g_mid = _g(w, nu, force, omega, mid)
-        same = np.sign(g_mid) == np.sign(g_low)
-        low = np.where(same, mid, low)
-        g_low = np.where(same, g_mid, g_low)
-        high = np.where(same, high, mid)
-        if np.all(high / low - 1 < 1e-14):
+        if active.size == 0:
             break
-    return np.sqrt(low * high)
+        lo, hi, f_lo, f_hi = x_low[active], x_high[active], g_low[active], g_high[active]
+        x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        x = np.where(np.isfinite(x) & (x > lo) & (x < hi), x, 0.5 * (lo + hi))
+        g = _g(w[active], nu, force[active], omega[active], np.exp(x))
+        root[active] = x
+        low_side = np.sign(g) == np.sign(f_lo)  # the new point replaces the low end
+        replace_low, replace_high = active[low_side], active[~low_side]
+        g_high[replace_low[kept[replace_low] == -1]] *= 0.5
+        g_low[replace_high[kept[replace_high] == 1]] *= 0.5
+        x_low[replace_low], g_low[replace_low], kept[replace_low] = x[low_side], g[low_side], -1
+        x_high[replace_high], g_high[replace_high], kept[replace_high] = x[~low_side], g[~low_side], 1
+        done = (np.abs(g) <= 1e-13 * force[active]) | (x_high[active] - x_low[active] < 1e-12)
+        active = active[~done]
+    return np.exp(root)
 
 
 def nearest_amplitude(
@@ -53,38 +68,47 @@ def nearest_amplitude(
     guess: ArrayLike,
     span: float = 10.0,
     grid_points: int = 121,
+    newton_iterations: int = 12,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Root of ``g(A)`` nearest (in log A) to ``guess`` for every point.
 
-    Damped Newton from the guess (finite-difference slope); points where it fails are
-    solved by scanning ``guess·[1/span, span]`` on a log grid and bisecting the sign
-    change nearest to the guess. Where there is no root in that range, the amplitude of
-    smallest ``|g|`` is returned and flagged ``False`` (so a fit sees a large but finite
-    residual there).
+    Damped Newton from the guess (finite-difference slope), each point until
+    |g| ≤ 1e-11·F, at most ``newton_iterations`` times; points where it fails (a kink of ν
+    it circles, a root far off) are solved by scanning ``guess·[1/span, span]`` on a log grid
+    and closing in on the sign change nearest to the guess (:func:`_bracketed_root`). Where there is
+    no root in that range, the amplitude of smallest ``|g|`` is returned and flagged
+    ``False`` (so a fit sees a large but finite residual there).
     """
     w = np.asarray(w, dtype=complex)
-    force = np.asarray(force, dtype=float)
-    omega = np.broadcast_to(np.asarray(omega, dtype=float), w.shape)
-    a = np.asarray(guess, dtype=float).copy()
+    shape = w.shape
+    w = w.ravel()
+    force = np.broadcast_to(np.asarray(force, dtype=float), shape).ravel()
+    omega = np.broadcast_to(np.asarray(omega, dtype=float), shape).ravel()
+    guess = np.broadcast_to(np.asarray(guess, dtype=float), shape).ravel()
+    a = guess.copy()
     g = _g(w, nu, force, omega, a)
-    for _ in range(30):
-        h = a * 1e-7
-        slope = (_g(w, nu, force, omega, a + h) - g) / h
-        step = np.where(slope != 0, -g / np.where(slope != 0, slope, 1.0), 0.0)
-        a_new = np.clip(a + step, 0.5 * a, 2.0 * a)
-        g_new = _g(w, nu, force, omega, a_new)
-        worse = np.abs(g_new) > np.abs(g)
-        a_new = np.where(worse, 0.5 * (a + a_new), a_new)
-        g_new = np.where(worse, _g(w, nu, force, omega, a_new), g_new)
-        a, g = a_new, g_new
-        if np.all(np.abs(g) <= 1e-11 * force):
+    active = np.flatnonzero(np.abs(g) > 1e-11 * force)
+    for _ in range(newton_iterations):
+        if active.size == 0:
             break
-    ok = (np.abs(g) <= 1e-9 * force) & (np.abs(np.log(a / np.asarray(guess, dtype=float))) < np.log(span))
+        args = (w[active], nu, force[active], omega[active])
+        a_now, g_now = a[active], g[active]
+        h = a_now * 1e-7
+        slope = (_g(*args, a_now + h) - g_now) / h
+        step = np.where(slope != 0, -g_now / np.where(slope != 0, slope, 1.0), 0.0)
+        a_new = np.clip(a_now + step, 0.5 * a_now, 2.0 * a_now)
+        g_new = _g(*args, a_new)
+        worse = np.flatnonzero(np.abs(g_new) > np.abs(g_now))
+        if worse.size:
+            a_new[worse] = 0.5 * (a_now[worse] + a_new[worse])
+            g_new[worse] = _g(w[active[worse]], nu, force[active[worse]], omega[active[worse]], a_new[worse])
+        a[active], g[active] = a_new, g_new
+        active = active[np.abs(g_new) > 1e-11 * force[active]]
+    ok = (np.abs(g) <= 1e-9 * force) & (np.abs(np.log(a / guess)) < np.log(span))
     if np.all(ok):
-        return a, ok
-    bad = np.flatnonzero(~ok.ravel())
-    flat_w, flat_f, flat_o = w.ravel()[bad], force.ravel()[bad], omega.ravel()[bad]
-    flat_guess = np.asarray(guess, dtype=float).ravel()[bad]
+        return a.reshape(shape), ok.reshape(shape)
+    bad = np.flatnonzero(~ok)
+    flat_w, flat_f, flat_o, flat_guess = w[bad], force[bad], omega[bad], guess[bad]
     ratios = np.exp(np.linspace(-np.log(span), np.log(span), grid_points))
     grid = flat_guess[:, None] * ratios[None, :]
     values = _g(flat_w[:, None], nu, flat_f[:, None], flat_o[:, None], grid)
@@ -92,13 +116,16 @@ def nearest_amplitude(
     distance = np.abs(np.log(ratios[:-1] * np.sqrt(ratios[1] / ratios[0])))
     score = np.where(change, distance[None, :], np.inf)
     k = np.argmin(score, axis=1)
-    has_root = np.isfinite(score[np.arange(bad.size), k])
     rows = np.arange(bad.size)
-    root = _bisect(flat_w, nu, flat_f, flat_o, grid[rows, k], grid[rows, k + 1])
+    has_root = np.isfinite(score[rows, k])
     closest = grid[rows, np.argmin(np.abs(values), axis=1)]
-    a.ravel()[bad] = np.where(has_root, root, closest)
-    ok.ravel()[bad] = has_root
-    return a, ok
+    root = closest.copy()
+    if has_root.any():
+        found = rows[has_root]
+        root[found] = _bracketed_root(flat_w[found], nu, flat_f[found], flat_o[found], grid[found, k[found]],
+                              grid[found, k[found] + 1])
+    a[bad], ok[bad] = root, has_root
+    return a.reshape(shape), ok.reshape(shape)
 
 
 def all_amplitudes(
@@ -127,7 +154,7 @@ def all_amplitudes(
     grid, values = _refine_extrema(w, nu, force, omega, grid, values)
     change = np.sign(values[:, :-1]) != np.sign(values[:, 1:])
     point, index = np.nonzero(change)
-    roots = _bisect(w[point], nu, force[point], omega[point], grid[point, index], grid[point, index + 1])
+    roots = _bracketed_root(w[point], nu, force[point], omega[point], grid[point, index], grid[point, index + 1])
     stable = values[point, index + 1] > values[point, index]
     out: list[list[tuple[float, bool]]] = [[] for _ in range(w.size)]
     for p, r, s in zip(point, roots, stable):
