@@ -747,7 +747,8 @@ def time_sweep(
     and is not a jump.
     ``forcing`` values may be scalars or one per grid frequency (increasing order).
     Cost: one case at a time, so about the cost of a whole vectorised batch per frequency;
-    ``progress("time-domain stepped sine", done, total)`` is called after each frequency.
+    ``progress("time-domain stepped sine", done, total)`` is called before the first
+    frequency (done = 0: the first dwell can take seconds) and after each one.
     """
     if direction not in ("up", "down"):
         raise TimeIntegrationError(f"direction: expected 'up' or 'down', got {direction!r}")
@@ -798,6 +799,7 @@ def time_sweep(
         return bool(scale > 0 and np.linalg.norm(a - b) > jump_threshold * scale)
 
     final = None
+    progress("time-domain stepped sine", 0, grid.size)
     for step, index in enumerate(order):
         out, final = dwell(index, final)
         x[index], converged[index] = out["x"][0], out["converged"][0]
