@@ -197,6 +197,34 @@ def test_sigterm_stops_a_run_like_ctrl_c_and_its_server_with_it(tmp_path):
     assert ends_soon(server, port), "the temporary Prefect server outlived its run"
 
 
+WRAPPED_INTERRUPT = textwrap.dedent("""
+    import os, signal, sys, time
+    import nlupdate.cli as cli
+    import nlupdate.cli.simulate as simulate
+    from nlupdate.cli.interrupts import Interrupted
+
+    def run(args):  # SIGTERM arrives inside a library that wraps what it raises in its own error
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(10)
+        except Interrupted as error:
+            raise RuntimeError(f"Error building validator: Interrupted: {error}") from None
+
+    simulate.run = run
+    sys.exit(cli.main(["simulate", sys.argv[1], "--input-dof", "0", "--freqs", "600:850:5", "--forces", "1",
+                       "--out", "frf.parquet"]))
+""")
+
+
+def test_an_interrupt_a_library_wrapped_in_its_own_error_is_still_an_interrupt(tmp_path):
+    """pydantic building a schema when SIGTERM came reported a SchemaError, and the command
+    ended as an internal error (exit 1) instead of 143 (seen in test_schedule's serve restart)."""
+    done = subprocess.run([sys.executable, "-c", WRAPPED_INTERRUPT, str(TWO_DOF)], capture_output=True, text=True,
+                          timeout=60, cwd=tmp_path)
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.strip().splitlines() == ["nlupdate simulate: interrupted (SIGTERM); nothing was written"]
+
+
 def test_a_killed_run_leaves_no_server_running(tmp_path):
     """SIGKILL gives the run no chance to clean up: its server notices its parent is gone."""
     process, server, port = started_run(tmp_path)

@@ -183,25 +183,33 @@ def _run_command(argv: Sequence[str] | None) -> int:
         code = interrupts.exit_code(error)
         say_interrupted(getattr(error, "signum", signal.SIGINT))
         return code
-    except _input_errors() as error:
-        if args.debug:
-            raise
+    except Exception as error:
+        signum = interrupts.signal_received()
+        if signum is None or args.debug:
+            return _failed(args, error)
+        # the interrupt surfaced inside a library that wrapped it in its own error (pydantic
+        # building a schema reports it as a SchemaError): still the user's interrupt
+        say_interrupted(signum)
+        return interrupts.EXIT_CODES[signum]
+    finally:
+        interrupts.forget(last_words)
+
+
+def _failed(args: argparse.Namespace, error: Exception) -> int:
+    """One line for a command that failed with ``error`` (raised as it is with --debug); the exit code."""
+    if args.debug:
+        raise error
+    if isinstance(error, _input_errors()):
         message = error.args[0] if isinstance(error, KeyError) and error.args else error
         print(f"nlupdate {args.command}: error: {message}", file=sys.stderr)
         return EXIT_INPUT
-    except _runtime_errors() as error:
-        if args.debug:
-            raise
+    if isinstance(error, _runtime_errors()):
         print(f"nlupdate {args.command}: error: {_runtime_message(error)}", file=sys.stderr)
         return EXIT_RUNTIME
-    except Exception as error:  # a bug: say so in one line; --debug shows where
-        if args.debug:
-            raise
-        print(f"nlupdate {args.command}: internal error: {type(error).__name__}: {error} "
-              f"(rerun with --debug for the traceback)", file=sys.stderr)
-        return EXIT_RUNTIME
-    finally:
-        interrupts.forget(last_words)
+    # a bug: say so in one line; --debug shows where
+    print(f"nlupdate {args.command}: internal error: {type(error).__name__}: {error} "
+          f"(rerun with --debug for the traceback)", file=sys.stderr)
+    return EXIT_RUNTIME
 
 
 if __name__ == "__main__":

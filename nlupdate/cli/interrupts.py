@@ -92,6 +92,7 @@ def install() -> dict:
     handlers they had, for :func:`restore`."""
     if threading.current_thread() is not threading.main_thread():
         return {}
+    _received.clear()  # a command run in-process after an interrupted one starts afresh
     return {signum: signal.signal(signum, _interrupted) for signum in EXIT_CODES}
 
 
