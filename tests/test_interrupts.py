@@ -225,6 +225,34 @@ def test_an_interrupt_a_library_wrapped_in_its_own_error_is_still_an_interrupt(t
     assert done.stderr.strip().splitlines() == ["nlupdate simulate: interrupted (SIGTERM); nothing was written"]
 
 
+SWALLOWED_INTERRUPT = textwrap.dedent("""
+    import gc, os, signal, sys, time
+    from nlupdate.cli import interrupts
+
+    interrupts.install()
+
+    class Resource:
+        def __del__(self):  # SIGTERM arrives here, where Python only reports an exception
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.3)
+
+    try:
+        Resource()
+        time.sleep(5)
+        print("not interrupted")
+    except interrupts.Interrupted as error:
+        print(f"interrupted: {error}")
+""")
+
+
+def test_an_interrupt_python_swallowed_in_a_finaliser_is_delivered_again():
+    """A SIGTERM that landed in a weakref callback printed "Exception ignored … Interrupted" and
+    a traceback during ``nlupdate serve``'s shutdown (test_schedule); now it is raised again."""
+    done = subprocess.run([sys.executable, "-c", SWALLOWED_INTERRUPT], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "interrupted: SIGTERM", (done.stdout, done.stderr)
+    assert "Exception ignored" not in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
 def test_a_killed_run_leaves_no_server_running(tmp_path):
     """SIGKILL gives the run no chance to clean up: its server notices its parent is gone."""
     process, server, port = started_run(tmp_path)

@@ -15,12 +15,19 @@ starts a deadline: after ``grace_s`` seconds the callbacks registered with
 :func:`on_deadline` run (say what was kept, stop servers) and the process exits with the
 signal's code. Further signals are ignored while it unwinds; Prefect's "Crash detected"
 console lines are silenced once the user has interrupted.
+
+A signal that lands in code whose exceptions Python only reports — a weakref callback,
+a ``__del__``, a garbage-collector callback — raises :class:`Interrupted` where it is
+swallowed ("Exception ignored in …"); the unraisable hook :func:`install` sets catches it
+there and delivers the signal once more, so the command still unwinds (and prints no
+traceback).
 """
 from __future__ import annotations
 
 import logging
 import os
 import signal
+import sys
 import threading
 import time
 from typing import Callable
@@ -87,17 +94,40 @@ def _interrupted(signum: int, frame) -> None:
     raise Interrupted(signum)
 
 
+def _raise_again(signum: int, frame) -> None:
+    signal.signal(signum, signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+def _unraisable(report) -> None:
+    """An :class:`Interrupted` that Python swallowed (raised in a callback or ``__del__``):
+    deliver the signal again, to be raised in ordinary code; anything else as before."""
+    if isinstance(report.exc_value, Interrupted):
+        signum = report.exc_value.signum
+        signal.signal(signum, _raise_again)
+        threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
+        return
+    _previous_unraisable[-1](report)
+
+
+_previous_unraisable: list = []
+
+
 def install() -> dict:
-    """Make SIGINT and SIGTERM raise :class:`Interrupted` (main thread only); returns the
-    handlers they had, for :func:`restore`."""
+    """Make SIGINT and SIGTERM raise :class:`Interrupted` (main thread only) and catch one
+    Python swallowed; returns the handlers they had, for :func:`restore`."""
     if threading.current_thread() is not threading.main_thread():
         return {}
     _received.clear()  # a command run in-process after an interrupted one starts afresh
+    _previous_unraisable.append(sys.unraisablehook)
+    sys.unraisablehook = _unraisable
     return {signum: signal.signal(signum, _interrupted) for signum in EXIT_CODES}
 
 
 def restore(previous: dict) -> None:
     """Give the signals the handlers :func:`install` replaced (a command run in-process
     leaves its host as it found it)."""
+    if previous and _previous_unraisable:
+        sys.unraisablehook = _previous_unraisable.pop()
     for signum, handler in previous.items():
         signal.signal(signum, handler)
