@@ -1,7 +1,7 @@
 """``nlupdate demo``: ``nlupdate run`` on the embedded T-beam study (``nlupdate/data/demo.toml``).
 
 The built-in T-beam with a hidden truth (E = 195 GPa, h2 = 1.45 mm, cubic spring and
-Jenkins friction at the tip), a simulated stepped-sine test at 0.01 N and 10…50 N with
+Jenkins friction at the tip), a simulated stepped-sine test at 0.01 N and 0.5…50 N with
 5 % noise, PRD identification with Monte-Carlo uncertainty, updating with all four
 difference formulas on two parameter sets plus optimisation candidates, and the
 prediction at every force level. ``--seed`` changes the noise (and Monte-Carlo) seed.

@@ -68,7 +68,7 @@ def nearest_amplitude(
     guess: ArrayLike,
     span: float = 10.0,
     grid_points: int = 121,
-    newton_iterations: int = 12,
+    newton_iterations: int = 30,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Root of ``g(A)`` nearest (in log A) to ``guess`` for every point.
 
