@@ -37,4 +37,8 @@ def test_both_linear_modes_found_and_the_frequency_search_stays_on_mode_one(seed
     assert found.size == 2, found
     np.testing.assert_allclose(found, truth_hz, rtol=0.03)
     assert identification.frequency_choice.frequency_hz < 1.1 * truth_hz[0], identification.frequency_choice
-    assert abs(identification.result.parameters()["k3"] / 3e9 - 1) < 0.05
+    found = identification.result.parameters()
+    # with levels through the stick-slip transition every parameter is determined (within
+    # 1.5 % for seeds 1-8; the source's 10...50 N alone gave slip forces of 0.01-0.8 N)
+    assert abs(found["k3"] / 3e9 - 1) < 0.05 and abs(found["kf"] / 3e4 - 1) < 0.05
+    assert abs(found["slip_force"] / 0.5 - 1) < 0.1, found
