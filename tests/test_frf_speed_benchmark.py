@@ -48,6 +48,23 @@ def test_exact_reference_agrees_with_the_trace(bench):
     assert shifted[0] == pytest.approx(1e-4, rel=0.01)
 
 
+def test_traced_route_on_a_grid_is_exact_to_1e_8_away_from_folds(bench):
+    """Issue 24: the traced describing-function route (continuation, then every grid point
+    polished at once) within 1e-8 of the exact curve; its polish once stopped at Newton's
+    residual tolerance, 1.4e-8 off."""
+    from nlupdate.response.sweep import frequency_sweep
+
+    grid = np.linspace(*bench.BAND, 2000)
+    folds = bench.exact_folds()
+    away = np.all(np.abs(grid[:, None] - folds[None, :]) > 0.01, axis=1)
+    for direction in ("up", "down"):
+        sweep = frequency_sweep(bench.duffing(), {0: bench.FORCE}, grid, direction, closed_form_roots=False,
+                                fold_free=False)
+        assert sweep.route == "traced"
+        amplitude_error, _ = bench.exact_accuracy(grid[away], sweep.x_nonlinear[away, 0])
+        assert amplitude_error < 1e-8, (direction, amplitude_error)
+
+
 def test_project_point_counts(bench):
     system, forcing = bench.duffing(), {0: bench.FORCE}
     assert bench.trace_frequency_response(system, forcing, *bench.BAND).omega.size == 78
