@@ -417,11 +417,12 @@ def _modal_block(omega_sq, c_r, d_r, phi_rows, phi_cols_t, omega, d_scale, deriv
     ω-derivative."""
     w = omega[:, None]
     inverse = 1.0 / (omega_sq - w**2 + 1j * (w * c_r + d_scale[:, None] * d_r))
-    h = (phi_rows[None] * inverse[:, None, :]) @ phi_cols_t
     if not derivative:
-        return h
-    dh = (phi_rows[None] * ((2 * w - 1j * c_r) * inverse**2)[:, None, :]) @ phi_cols_t
-    return h, dh
+        return (phi_rows[None] * inverse[:, None, :]) @ phi_cols_t
+    # H and dH/dω as one stack: one product with the mode shapes for both
+    weights = np.stack([inverse, (2 * w - 1j * c_r) * inverse**2])  # (2, P, modes)
+    both = (phi_rows * weights[:, :, None, :]) @ phi_cols_t
+    return both[0], both[1]
 
 
 class ReceptancePlan:
