@@ -92,8 +92,9 @@ def multi_harmonic_benchmark(quick: bool) -> None:
         f"\nPart 1c: multi-harmonic balance like for like — the same Duffing, H ∈ {set(HB_HARMONICS)}, "
         f"{HB_SAMPLES} time samples per period for both tools\n"
         f"  (pyHarm nti = the project's samples); constant-step continuation over the band: the project step = max_step ="
-        f" {HB_STEP}\n  (scaled arc length; halved only at a sharp turn or a failed corrector), pyHarm stepsizer"
-        f" 'constant', ds = {PYHARM_HB_STEP} (its default\n  tangent predictor, arc-length corrector, scipy root hybr);"
+        f" {HB_STEP}\n  (scaled arc length; continuation steps up to 4× that, the points between corrected together —"
+        f" docs/harmonic-balance.md), pyHarm stepsizer\n  'constant', ds = {PYHARM_HB_STEP} (its default"
+        f" tangent predictor, arc-length corrector, scipy root hybr);"
         f" every time is the best of {repeats} interleaved repeats (median in brackets)"
     )
     tasks: dict[str, Callable[[], tuple[float, object]]] = {}
