@@ -275,7 +275,7 @@ def newton_batch(
         if active.size == 0:
             break
         iterations[active] = iteration
-        step = _solve_batch(jac[active], -r[active])
+        step = solve_batch(jac[active], -r[active])
         singular = ~np.all(np.isfinite(step), axis=1)
         failed[active[singular]] = True
         active, step = active[~singular], step[~singular]
@@ -295,7 +295,7 @@ def newton_batch(
     return y, (norm < tol) & ~failed, iterations
 
 
-def _solve_batch(matrices: NDArray, rhs: NDArray) -> NDArray:
+def solve_batch(matrices: NDArray, rhs: NDArray) -> NDArray:
     """Solutions of P small systems; rows whose matrix is singular come back as NaN."""
     try:
         return np.linalg.solve(matrices, rhs[..., None])[..., 0]

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from nlupdate.model.system import solve_batch
 from nlupdate.response.balance import BalanceProblem
 
 
@@ -70,7 +71,7 @@ def correct(
         rhs = np.empty((active.size, size + 1))
         rhs[:, :size] = -r
         rhs[:, size] = -np.sum(normal[active] * (z[active] - z_pred[active]), axis=1)
-        dz = _solve(system, rhs)
+        dz = solve_batch(system, rhs)
         usable = np.all(np.isfinite(dz), axis=1)
         z[active[usable]] += dz[usable]
         residual = np.max(np.abs(r), axis=1)
@@ -93,7 +94,7 @@ def unit_tangents(jac: NDArray, jac_w: NDArray, previous: NDArray) -> NDArray[np
     augmented[:, size] = previous
     rhs = np.zeros((points, size + 1))
     rhs[:, size] = 1.0
-    t = _solve(augmented, rhs)
+    t = solve_batch(augmented, rhs)
     return t / np.linalg.norm(t, axis=1, keepdims=True)
 
 
@@ -108,17 +109,3 @@ def hermite(z_a: NDArray, t_a: NDArray, z_b: NDArray, t_b: NDArray, length: NDAr
     point = h00 * z_a + h10 * length * t_a + h01 * z_b + h11 * length * t_b
     direction = d00 * z_a + d10 * length * t_a + d01 * z_b + d11 * length * t_b
     return point, direction / np.linalg.norm(direction, axis=1, keepdims=True)
-
-
-def _solve(matrices: NDArray, rhs: NDArray) -> NDArray:
-    """Solutions of P small systems; rows whose matrix is singular come back as NaN."""
-    try:
-        return np.linalg.solve(matrices, rhs[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        out = np.full(rhs.shape, np.nan)
-        for index, (matrix, b) in enumerate(zip(matrices, rhs)):
-            try:
-                out[index] = np.linalg.solve(matrix, b)
-            except np.linalg.LinAlgError:
-                pass
-        return out
