@@ -1,7 +1,10 @@
 """Nonlinear frequency responses of a model (docs/methods.md §3).
 
 * :mod:`~nlupdate.response.balance` — what the solvers need from a balance problem (the protocol);
-* :mod:`~nlupdate.response.continuation` — Newton + pseudo-arclength continuation, its options;
+* :mod:`~nlupdate.response.continuation` — Newton + pseudo-arclength continuation, its options,
+  with :mod:`~nlupdate.response.arclength` (corrections and tangents of many points at once),
+  :mod:`~nlupdate.response.curve_fill` (the points between long continuation steps, all at
+  once) and :mod:`~nlupdate.response.folds` (turning points located all at once);
 * :mod:`~nlupdate.response.sweep` — a stepped-sine test on a grid by the fastest exact route;
 * :mod:`~nlupdate.response.closed_form` — every root at once where the elements allow (cubic springs);
 * :mod:`~nlupdate.response.stepped_sine` — a stepped-sine test read off a traced curve;
