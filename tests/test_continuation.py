@@ -240,3 +240,28 @@ def test_continuation_options_in_one_place():
         ContinuationOptions(corrector_iterations=0)
     with pytest.raises(TypeError, match="unknown continuation option"):
         trace_frequency_response(system, {0: 0.5}, 0.5, 3.5, max_stepp=0.01)
+
+
+def test_a_large_step_never_carries_the_trace_over_a_fold_onto_the_other_branch():
+    """The demo's T-beam at 40 N (stiffening cubic + Jenkins at the tip) has two folds. The
+    second-order predictor once landed past the lower fold on the lower stable branch, whose
+    tangent is nearly parallel there, and the trace walked down it out of the band: the
+    stepped sine then had no response above the upper fold (733 of 1801 points). A chord that
+    turns from either tangent by more than the angle limit is now refused."""
+    from pathlib import Path
+
+    from nlupdate.cli.demo import demo_study_text
+    from nlupdate.model.linear import dof_index
+    from nlupdate.study import study_from_text
+    from nlupdate.study.steps import truth_system
+
+    study = study_from_text(demo_study_text(1), Path("demo.toml"))
+    system = truth_system(study, study.measured.simulate)
+    tip = dof_index(system.model, "tip:uz")
+    band = (2 * np.pi * 30.0, 2 * np.pi * 210.0)
+    curve = trace_frequency_response(system, {tip: 40.0}, *band)
+    fine = trace_frequency_response(system, {tip: 40.0}, *band, max_step=0.005)
+    assert curve.omega[-1] == pytest.approx(band[1])  # it leaves through the far edge
+    np.testing.assert_allclose(curve.omega[curve.turning_point], fine.omega[fine.turning_point], rtol=1e-6)
+    grid = np.linspace(*band, 1801)
+    assert np.isfinite(stepped_sine(curve, grid, "up").x_nonlinear).all()

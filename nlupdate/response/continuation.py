@@ -58,7 +58,8 @@ class ContinuationOptions:
     the tangent's turn (∝ ds); a corrector that needed ``slow_iterations`` or more shrinks the
     step by ``shrink``. A corrector that fails, or a tangent that turns by more than
     ``max_angle_deg`` (except below ``kink_step``, where the turn is accepted as a kink such as a
-    stick–slip onset), halves the step; below ``min_step`` the trace stops with a warning. At
+    stick–slip onset), or a chord between the two points that turns more than that from
+    either tangent (the corrector crossed a fold onto the other branch), halves the step; below ``min_step`` the trace stops with a warning. At
     most ``max_points`` points. The predictor is of second order, z + ds·t + ½ds²·κ with κ
     the change of the unit tangent over the last step per unit length (first order after a
     turn of more than ½ ``max_angle_deg``, such as a kink).
@@ -487,9 +488,12 @@ def _continuation(problem, omega_start: float, omega_end: float, o: Continuation
             previous_residual, previous_correction = residual, correction
         if converged:  # the last Jacobian was taken within correction_tolerance of z_new: reuse it
             t_new = _tangent(jac, jac_w, t)
+            chord = z_new - z
+            chord /= np.linalg.norm(chord)
         # A sharp turn is refined by smaller steps, except at a kink (e.g. stick–slip onset
-        # of a Jenkins element, where the DF slope jumps) which no step size smooths.
-        if not converged or (t_new @ t < cos_max and ds > o.kink_step):
+        # of a Jenkins element, where the DF slope jumps) which no step size smooths; so is a
+        # chord that leaves both tangents (the corrector crossed a fold onto the other branch).
+        if not converged or (ds > o.kink_step and min(t_new @ t, chord @ t, chord @ t_new) < cos_max):
             ds *= 0.5
             if ds < min_step:
                 stalled_at = omega_start + band * z[size]
