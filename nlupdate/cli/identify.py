@@ -19,6 +19,7 @@ from nlupdate.cli.progress_bar import terminal_progress
 from nlupdate.correlation.metrics import frac
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS
+from nlupdate.identification.linear_frf import LINEAR_FROM
 from nlupdate.identification.pipeline import (
     MAX_MONTE_CARLO_SAMPLES, Identification, IdentificationSettings, identify,
 )
@@ -55,6 +56,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                             f"{'|'.join(DDF_ESTIMATORS)} (default naive)")
     parser.add_argument("--half-window", type=non_negative_float, default=None,
                         help="PRD improved estimator: relative half-width of the frequency window (default 0.01)")
+    parser.add_argument("--linear-from", choices=LINEAR_FROM, default=None,
+                        help="PRD: extract the linear FRF from every level, each line weighted by its noise (default "
+                             "with --elements), or from the low force alone (the source's eq. 2.55; default for a "
+                             "polynomial DF)")
     parser.add_argument("--smooth-linear", type=non_negative_int, default=0, metavar="N",
                         help="PRD: smooth 1/H of the low-force sweep over N points (odd ≥ 5) before extracting the "
                              "linear FRF (default 0: no smoothing, as the source)")
@@ -94,8 +99,9 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
     if args.coherence_threshold is not None and args.coherence_threshold > 1:
         raise CliError(f"--coherence-threshold {args.coherence_threshold:g}: expected a coherence between 0 and 1")
     if args.method == "ddf" and (args.frequency is not None or args.low_force is not None or args.high_forces is not None
-                                 or args.smooth_linear or args.amplitude_dependent_delta or args.half_window is not None):
-        raise CliError("--frequency, --low-force, --high-forces, --half-window, --smooth-linear and "
+                                 or args.smooth_linear or args.amplitude_dependent_delta or args.half_window is not None
+                                 or args.linear_from is not None):
+        raise CliError("--frequency, --low-force, --high-forces, --half-window, --linear-from, --smooth-linear and "
                        "--amplitude-dependent-delta apply to --method prd")
     if args.estimator is not None:
         allowed = ESTIMATORS if args.method == "prd" else DDF_ESTIMATORS
@@ -134,7 +140,7 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
         force_pair_n=None if args.force_pair is None else tuple(_floats(args.force_pair, "--force-pair", 2)),
         band_hz=parse_band(args.band), coherence_threshold=args.coherence_threshold,
         smoothing_window=args.smooth_linear, amplitude_dependent_delta=args.amplitude_dependent_delta,
-        noise_fraction=args.noise_fraction, samples=args.samples, seed=args.seed,
+        linear_from=args.linear_from, noise_fraction=args.noise_fraction, samples=args.samples, seed=args.seed,
     )
     return settings, defaults
 

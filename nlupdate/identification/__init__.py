@@ -14,9 +14,13 @@ Modules
   (parameters on a bound or not determined by the data, a residual far above the noise).
 * :mod:`~nlupdate.identification.scalar_balance` — scalar harmonic balance (amplitude roots).
 * :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
+* :mod:`~nlupdate.identification.linear_frf` — the linear FRF from every level (or the low one).
 * :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.
-* :mod:`~nlupdate.identification.report` — JSON, plots and the atomic output folder of
-  ``nlupdate identify``.
+* :mod:`~nlupdate.identification.methods` — PRD and DDF behind one interface.
+* :mod:`~nlupdate.identification.pipeline` — the identification step: fit, linear FRF, modes,
+  Monte Carlo; :mod:`~nlupdate.identification.summary` — its JSON summary and tables.
+* :mod:`~nlupdate.identification.amplitude_modal_fit` — amplitude-dependent modal models
+  from a modal table or FRFs at several levels.
 """
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import identify_ddf

@@ -117,7 +117,7 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre) <= 2.5 * band_fraction * centre
         fb = f[band]
-        hb = np.abs(h[band] - fit.residual + fit.lower_residual / (2 * np.pi * fb) ** 2)
+        hb = np.abs(h[band] - fit.residual_receptance(fb))
         if fb.size < 3:
             continue
         i = int(np.clip(np.argmax(hb), 1, fb.size - 2))

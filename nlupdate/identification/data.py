@@ -20,7 +20,7 @@ from nlupdate.measurement.noise import add_frf_noise
 _RTOL = 1e-9
 
 
-def _match(available: NDArray, wanted: NDArray) -> NDArray[np.int64]:
+def match_frequencies(available: NDArray, wanted: NDArray) -> NDArray[np.int64]:
     """Index into ``available`` of each ``wanted`` frequency, −1 where absent."""
     position = np.clip(np.searchsorted(available, wanted), 0, max(available.size - 1, 0))
     out = np.full(wanted.shape, -1, dtype=np.int64)
@@ -133,14 +133,14 @@ class FRFLevels:
         indices = [self.level_index(level) for level in np.atleast_1d(levels)]
         common = self.frequencies[indices[0]]
         for k in indices[1:]:
-            common = common[_match(self.frequencies[k], common) >= 0]
+            common = common[match_frequencies(self.frequencies[k], common) >= 0]
         return common
 
     def values(self, force_n: float, frequency_hz: ArrayLike) -> NDArray[np.complex128]:
         """H at given frequencies of one level; ValueError naming a missing frequency."""
         f, h = self.curve(force_n)
         wanted = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
-        index = _match(f, wanted)
+        index = match_frequencies(f, wanted)
         if np.any(index < 0):
             missing = wanted[index < 0][0]
             raise ValueError(
@@ -162,7 +162,7 @@ class FRFLevels:
 
     def has_frequency(self, force_n: float, frequency_hz: float) -> bool:
         f, _ = self.curve(force_n)
-        return bool(_match(f, np.array([float(frequency_hz)]))[0] >= 0)
+        return bool(match_frequencies(f, np.array([float(frequency_hz)]))[0] >= 0)
 
     def subset(self, levels: ArrayLike) -> "FRFLevels":
         indices = [self.level_index(level) for level in np.atleast_1d(levels)]

@@ -12,6 +12,7 @@ from typing import Any, Protocol
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
 from nlupdate.identification.dfmodels import PhysicalModel
+from nlupdate.identification.linear_frf import LinearExtraction, from_all_levels, from_low_force
 from nlupdate.identification.prd import DEFAULT_HALF_WINDOW, ESTIMATORS, PRDResult, identify_prd
 
 
@@ -27,8 +28,8 @@ class Method(Protocol):
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult | DDFResult:
         """The nonlinearity fit."""
 
-    def linear_frf(self, data: FRFLevels, settings: Any, result: Any):
-        """(level, frequencies Hz, extracted linear receptance, the level's measured receptance)."""
+    def linear_frf(self, data: FRFLevels, settings: Any, result: Any) -> LinearExtraction:
+        """The extracted linear receptance."""
 
     def summary(self, result: Any, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
         """Its own part of ``identification.json``."""
@@ -51,6 +52,15 @@ class PRD:
             changes["low_force_n"] = listed["low_force_n"] = float(data.levels[0])
         if settings.high_forces_n is None:
             listed["high_forces_n"] = "all levels above the low force"
+        if settings.linear_from is None:
+            low_force_options = settings.smoothing_window or settings.amplitude_dependent_delta
+            physical = bool(settings.elements)
+            changes["linear_from"] = "all levels" if physical and not low_force_options else "low force"
+            listed["linear_from"] = (
+                "all levels (each line weighted by its noise; physical elements give the DF everywhere)"
+                if changes["linear_from"] == "all levels" else
+                "low force (the source's eq. 2.55" + ("; a polynomial DF is known only over its fitted amplitudes)"
+                                                      if not physical else "; smoothing or Δ(A) options given)"))
         return changes, listed
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult:
@@ -58,12 +68,14 @@ class PRD:
                             high_forces=settings.high_forces_n, estimator=settings.estimator,
                             half_window=settings.half_window)
 
-    def linear_frf(self, data: FRFLevels, settings: Any, result: PRDResult):
+    def linear_frf(self, data: FRFLevels, settings: Any, result: PRDResult) -> LinearExtraction:
+        if settings.linear_from == "all levels":
+            return from_all_levels(data, result.df_for_force)
         level = result.setup.low_force
         f, h = data.curve(level)
-        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f),
-                                                    amplitude_dependent=settings.amplitude_dependent_delta,
-                                                    smoothing_window=settings.smoothing_window), h
+        return from_low_force(data, level, result.extract_linear_frf(
+            f, h, data.force_at(level, f), amplitude_dependent=settings.amplitude_dependent_delta,
+            smoothing_window=settings.smoothing_window))
 
     def summary(self, result: PRDResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
         prd_real, prd_imag = result.prd_polynomial(order)
@@ -82,8 +94,12 @@ class PRD:
             "delta_f1": {"real": delta.real, "imag": delta.imag,
                          "definition": "DF at the low-force amplitude (stuck friction: kf); "
                                        "1/H_linear = 1/H_1 - delta_f1"},
-            "linear_extraction": {"delta_f1": "amplitude dependent" if settings.amplitude_dependent_delta else "constant",
-                                  "smoothing_window_points": settings.smoothing_window},
+            "linear_extraction": (
+                {"from": "all levels", "definition": "1/H_linear = weighted mean over the levels of 1/H_L - nu(|X_L|), "
+                 "weights the inverse noise variance of each term"}
+                if settings.linear_from == "all levels" else
+                {"from": "low force", "delta_f1": "amplitude dependent" if settings.amplitude_dependent_delta else "constant",
+                 "smoothing_window_points": settings.smoothing_window}),
         }
         if result.extras:
             out["estimator_details"] = dict(result.extras, noise_fraction_from_fit=result.noise_fraction)
@@ -103,10 +119,10 @@ class DDF:
         return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
                             physical=model if isinstance(model, PhysicalModel) else None, estimator=settings.estimator)
 
-    def linear_frf(self, data: FRFLevels, settings: Any, result: DDFResult):
+    def linear_frf(self, data: FRFLevels, settings: Any, result: DDFResult) -> LinearExtraction:
         level = result.setup.linear_level
         f, h = data.curve(level)
-        return level, f, result.extract_linear_frf(f, h, data.force_at(level, f)), h
+        return from_low_force(data, level, result.extract_linear_frf(f, h, data.force_at(level, f)))
 
     def summary(self, result: DDFResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
         return {

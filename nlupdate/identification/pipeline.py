@@ -36,6 +36,7 @@ from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDFResult
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
+from nlupdate.identification.linear_frf import LINEAR_FROM, LinearExtraction
 from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.identification.methods import METHODS
 from nlupdate.identification.prd import IdentificationError, PRDResult
@@ -46,7 +47,7 @@ from nlupdate.identification.trust import (
 from nlupdate.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
-from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.measurement.noise import estimate_noise_fraction
 from nlupdate.measurement.units import parameter_unit
 from nlupdate.progress import ProgressCallback, no_progress
 
@@ -76,7 +77,11 @@ class IdentificationSettings:
         coherence is at least ``coherence_threshold``, or, without coherence, where the
         FRF is smooth). coherence_threshold: lines with a lower coherence are left out
         (default 0.8 when the data carry coherence).
-    smoothing_window, amplitude_dependent_delta: PRD linear-FRF extraction options.
+    linear_from: PRD, where the linear FRF comes from: ``all levels`` (every level, line
+        by line, weighted by its noise: :mod:`nlupdate.identification.linear_frf`;
+        default for physical elements) or ``low force`` (the source's eq. 2.55; default
+        for a polynomial DF). smoothing_window, amplitude_dependent_delta: options of
+        the ``low force`` route.
     noise_fraction: noise std / |H| (default: estimated from the lowest-force sweep).
     samples, seed: Monte-Carlo samples and seed.
     linear_modes_hz: approximate natural frequencies (Hz) of the linear modes to fit in
@@ -98,6 +103,7 @@ class IdentificationSettings:
     high_forces_n: tuple[float, ...] | None = None
     force_pair_n: tuple[float, float] | None = None
     band_hz: tuple[float, float] | None = None
+    linear_from: str | None = None
     smoothing_window: int = 0
     amplitude_dependent_delta: bool = False
     noise_fraction: float | None = None
@@ -124,13 +130,21 @@ class IdentificationSettings:
                 raise ValueError(f"band_hz {list(self.band_hz)}: expected LOW < HIGH, both ≥ 0 Hz")
         if self.coherence_threshold is not None and not 0 <= self.coherence_threshold <= 1:
             raise ValueError(f"coherence_threshold must be between 0 and 1, got {self.coherence_threshold}")
+        if self.linear_from is not None and self.linear_from not in LINEAR_FROM:
+            raise ValueError(f"linear_from must be one of {list(LINEAR_FROM)}, got {self.linear_from!r}")
         if self.method == "prd":
             if self.force_pair_n is not None:
                 raise ValueError("force_pair_n applies to the DDF method")
+            if self.linear_from == "all levels" and not self.elements:
+                raise ValueError("linear_from = 'all levels' needs physical elements (a polynomial DF is known only "
+                                 "over the amplitudes it was fitted to); use 'low force'")
+            if self.linear_from == "all levels" and (self.smoothing_window or self.amplitude_dependent_delta):
+                raise ValueError("smoothing_window and amplitude_dependent_delta apply to linear_from = 'low force'")
         else:
             prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
                         "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
                         "amplitude_dependent_delta": self.amplitude_dependent_delta or None,
+                        "linear_from": self.linear_from,
                         "half_window": self.half_window}
             given = [name for name, value in prd_only.items() if value is not None]
             if given:
@@ -148,8 +162,9 @@ class Identification:
     result: the PRD/DDF fit (:class:`~nlupdate.identification.prd.PRDResult` or
     :class:`~nlupdate.identification.ddf.DDFResult`). frequency_choice: how the PRD
     frequency was chosen (None when given, and for DDF). linear_frequency_hz,
-    linear_frf: the extracted linear receptance (m/N) on the grid of the level it came
-    from (``linear_from_level_n``). modes: one-mode fits of the extracted FRF, ascending.
+    linear_frf: the extracted linear receptance (m/N) on the grid of the lowest level it
+    came from (``linear_from_level_n``, the measured curve drawn beside it);
+    linear_from_levels_n: every level it came from. modes: one-mode fits of the extracted FRF, ascending.
     uncertainty: Monte-Carlo statistics of the parameters and of ``linear_f<i>_hz``
     (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
     noise_fraction, noise_source: the noise level used and where it came from.
@@ -173,6 +188,17 @@ class Identification:
     reference_unit: str = "N"
     excitation: str = "unknown"
     lines_below_coherence: int = 0
+    linear_from_levels_n: tuple[float, ...] = ()
+
+    @property
+    def linear_source(self) -> str:
+        """Where the extracted linear FRF came from, in words."""
+        unit = self.reference_unit
+        levels = self.linear_from_levels_n or (self.linear_from_level_n,)
+        if len(levels) == 1:
+            return f"the {levels[0]:g} {unit} sweep"
+        return (f"all {len(levels)} levels ({min(levels):g}–{max(levels):g} {unit}), each line weighted by the noise "
+                f"of 1/H − ν(|X|) at that level")
 
     @property
     def fit_band(self) -> CurveBand | None:
@@ -283,29 +309,26 @@ def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float 
     return result if refit is None else fit(refit)
 
 
-def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult):
-    """(level, frequencies, extracted linear receptance, the level's measured receptance)."""
+def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult) -> LinearExtraction:
     return METHODS[settings.method].linear_frf(data, settings, result)
 
 
 def locate_linear_modes(
-    frequency_hz: NDArray, h_linear: NDArray, h_measured: NDArray, near_hz: tuple[float, ...] | None,
+    frequency_hz: NDArray, h_linear: NDArray, inverse_noise: NDArray, near_hz: tuple[float, ...] | None,
     band_fraction: float,
 ) -> tuple[ModalFit, ...]:
     """One-mode fits of an extracted linear FRF near ``near_hz`` (default: at each of its
-    resonance crossings; none when it has no resonance in the band), weighted by the
-    noise of the measured ``1/H`` it came from; fits that land on an already found mode
-    (within 1 %) are dropped. Ascending."""
+    resonance crossings; none when it has no resonance in the band), weighted by
+    ``inverse_noise``, the noise of its ``1/H`` at each frequency (up to a common factor);
+    fits that land on an already found mode (within 1 %) are dropped. Ascending."""
     starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
-    # the noise scale of 1/H̃ from a smoothed copy: weights taken from the noisy values
-    # themselves would favour the points whose noise happens to shrink |1/H̃| (a bias)
-    noise_scale = np.abs(smooth_inverse_receptance(frequency_hz, h_measured, 9)) if frequency_hz.size >= 9 else \
-        np.abs(1.0 / h_measured)
+    finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)
+    frequency_hz, h_linear, noise_scale = frequency_hz[finite], h_linear[finite], inverse_noise[finite]
     modes: list[ModalFit] = []
     for start in starts:
         try:
             fit = fit_mode_near(frequency_hz, h_linear, float(start), inverse_noise=noise_scale,
-                                band_fraction=band_fraction)
+                                band_fraction=band_fraction, residual_slope=True)
         except (ValueError, np.linalg.LinAlgError):
             if near_hz is not None:
                 raise
@@ -339,11 +362,12 @@ def _sample_values(
     over it (``fit``)."""
     result = _fit(data, settings, frequency_hz)
     values: dict[str, Any] = dict(result.parameters())
-    _, f, h_linear, h_measured = _linear_frf(data, settings, result)
-    values["linear_frf"] = h_linear
+    linear = _linear_frf(data, settings, result)
+    values["linear_frf"] = linear.receptance
     if amplitude_grid is not None:
         values["fit"] = result.fitted_y(amplitude_grid)
-    for i, fit in enumerate(locate_linear_modes(f, h_linear, h_measured, modes_hz, settings.modal_band_fraction)):
+    for i, fit in enumerate(locate_linear_modes(linear.frequency_hz, linear.receptance, linear.inverse_noise, modes_hz,
+                                                settings.modal_band_fraction)):
         values[f"linear_f{i + 1}_hz"] = float(fit.natural_frequencies_hz[0])
         values[f"linear_eta{i + 1}"] = float(fit.loss_factors[0])
     return values
@@ -378,8 +402,10 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
             defaults["force_pair_n"] = list(result.setup.force_pair)
         if settings.band_hz is None:
             defaults["band_hz"] = list(result.setup.band_hz)
-    level, f_linear, h_linear, h_measured = _linear_frf(data, settings, result)
-    modes = locate_linear_modes(f_linear, h_linear, h_measured, settings.linear_modes_hz, settings.modal_band_fraction)
+    linear = _linear_frf(data, settings, result)
+    f_linear, h_linear = linear.frequency_hz, linear.receptance
+    modes = locate_linear_modes(f_linear, h_linear, linear.inverse_noise, settings.linear_modes_hz,
+                                settings.modal_band_fraction)
 
     if settings.noise_fraction is not None:
         noise, source = float(settings.noise_fraction), "given"
@@ -417,7 +443,8 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     description = model.description() if model is not None else (
         f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")
     return Identification(
-        settings=settings, defaults_used=defaults, result=result, frequency_choice=choice, linear_from_level_n=level,
+        settings=settings, defaults_used=defaults, result=result, frequency_choice=choice,
+        linear_from_level_n=linear.reference_level_n, linear_from_levels_n=linear.levels_n,
         linear_frequency_hz=f_linear, linear_frf=h_linear, modes=modes, uncertainty=uncertainty,
         noise_fraction=noise, noise_source=source, model_description=description,
         band_hz=band.hz, band_reason=band.reason, reference_unit=data.reference_unit, excitation=data.excitation,

@@ -101,6 +101,7 @@ def identification_summary(identification: Any) -> dict[str, Any]:
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     out.update({
         "linear_from_level_n": identification.linear_from_level_n,
+        "linear_from_levels_n": list(identification.linear_from_levels_n),
         "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, identification.reference_unit))
                        for name in r.parameters()},
         "uncertainty": dict(identification.uncertainty.as_dict(),
@@ -122,6 +123,8 @@ def identification_summary(identification: Any) -> dict[str, Any]:
         "linear_frf": {
             "file": "linear_frf.parquet",
             "from_force_level_n": identification.linear_from_level_n,
+            "from_force_levels_n": list(identification.linear_from_levels_n),
+            "from": identification.linear_source,
             "modes": [
                 {"natural_frequency_hz": stats[f"linear_f{i + 1}_hz"].as_dict(),
                  "loss_factor": stats[f"linear_eta{i + 1}"].as_dict(),

@@ -123,7 +123,7 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
 def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, ArrayLike] | None, title: str,
                       max_zooms: int = 3) -> Figure:
     """The extracted linear FRF with its 95 % Monte-Carlo band, the one-mode fits of its
-    modes, and the measured curve it was extracted from (``measured``: label, Hz, H):
+    modes, and the (lowest-level) measured curve it was extracted from (``measured``: label, Hz, H):
     |H| (log; m/N, or m/V for a voltage reference) and unwrapped phase over the whole band
     (left), and around each of the first ``max_zooms`` modes (right)."""
     f = np.asarray(identification.linear_frequency_hz)
@@ -143,7 +143,9 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
         panels.append((ax_mag, ax_phase))
         if measured is not None:
             label, f_m, h_m = measured
-            label = f"measured at {label} (extracted from it)"
+            label = (f"measured at {label} (lowest of the {len(identification.linear_from_levels_n)} levels "
+                     f"it is extracted from)" if len(identification.linear_from_levels_n) > 1 else
+                     f"measured at {label} (extracted from it)")
             ax_mag.semilogy(f_m, np.abs(h_m), ".", ms=2, color="0.55", label=label)
             ax_phase.plot(f_m, unwrapped_phase_deg(h_m), ".", ms=2, color="0.55", label=label)
         if band is not None:

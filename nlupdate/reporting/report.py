@@ -198,17 +198,23 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
         rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
                  "std (Hz)": stats[f"linear_f{i + 1}_hz"].std, "loss factor": stats[f"linear_eta{i + 1}"].value,
                  "std": stats[f"linear_eta{i + 1}"].std} for i in range(len(ident.modes))]
-        lines += [f"The extracted linear FRF (from the {ident.linear_from_level_n:g} N sweep) has these modes "
+        lines += [f"The extracted linear FRF (from {ident.linear_source}) has these modes "
                   f"(one-mode fits over ±{100 * s.modal_band_fraction:g} % around each resonance):", "",
                   _table(pd.DataFrame(rows)), ""]
     if "linear_frf" in plots:
+        combined = len(ident.linear_from_levels_n) > 1
         lines += [f"![extracted linear FRF]({plots['linear_frf']})", "",
-                  f"The extracted linear FRF (red) with the band holding 95 % of the Monte-Carlo extractions, the "
-                  f"one-mode fits (dashed) and the {ident.linear_from_level_n:g} {ident.reference_unit} measurement "
-                  f"it comes from (grey); right, each mode's fit band. Near a resonance of the linear structure the "
-                  f"extraction subtracts two nearly equal dynamic stiffnesses (1/H_L = 1/H_1 − Δ_f1), so the noise "
-                  f"grows there: where the band is wide, the modes' values and every FRF comparison against this "
-                  f"curve carry that uncertainty.", ""]
+                  f"The extracted linear FRF (red, from {ident.linear_source}) with the band holding 95 % of the "
+                  f"Monte-Carlo extractions, the one-mode fits (dashed) and the {ident.linear_from_level_n:g} "
+                  f"{ident.reference_unit} measurement (grey); right, each mode's fit band. "
+                  + ("Each level gives 1/H_L = 1/H − ν(|X|); near a linear resonance a level that the nonlinearity "
+                     "stiffens (a stuck joint) subtracts two nearly equal dynamic stiffnesses and carries much more "
+                     "noise than one near its own resonance, so the levels are weighted by their noise line by line. "
+                     "Where" if combined else
+                     "Near a resonance of the linear structure the extraction subtracts two nearly equal dynamic "
+                     "stiffnesses (1/H_L = 1/H_1 − Δ_f1), so the noise grows there: where")
+                  + " the band is wide, the modes' values and every FRF comparison against this curve carry that "
+                    "uncertainty.", ""]
     return lines
 
 

@@ -241,7 +241,7 @@ def read_identification(read: Reader, data: Mapping[str, Any]) -> Identification
         "response_dof": read.string(table, where, "response_dof", required=True),
         "input_dof": read.string(table, where, "input_dof", required=True),
     }
-    for key in ("method", "estimator"):
+    for key in ("method", "estimator", "linear_from"):
         if key in table:
             values[key] = read.string(table, where, key)
     if "elements" in table:

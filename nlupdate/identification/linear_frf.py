@@ -1,0 +1,110 @@
+"""The linear receptance extracted from the measured curves and the identified nonlinearity.
+
+At every force level L the first-harmonic balance at the response coordinate reads
+(docs/methods.md §4)
+
+    1/H^L(ω) = 1/H_L(ω) − ν(A_L(ω), ω),     A_L = |H_L|·F_L,
+
+so each level gives the linear receptance H^L once the describing function ν is known.
+The source extracts it from the lowest level alone, with the constant Δ_f1 found at the
+excitation frequency (its eq. 2.55; :func:`from_low_force`). That level is often the
+worst one: a stuck joint adds its full stiffness there, 1/H_1 ≈ 1/H^L + k_f, and near a
+linear resonance the noise of 1/H_1 (a fraction of |1/H_1| ≈ k_f) swamps the small
+1/H^L. On the demo's T-beam the 0.01 N level carries 12× the noise of the 1 N level at
+the first linear mode, which the extraction then misplaces by up to 1 Hz.
+
+:func:`from_all_levels` combines every level line by line, each weighted by the inverse
+variance of its 1/H_L − ν: the noise of 1/H_L (relative noise of H: a fraction of
+|1/H_L|, or the stated h_std/|H_L|²) and the noise ν picks up through the measured
+amplitude (A·|∂ν/∂A| times the same fraction). It needs ν at every amplitude and
+frequency, so it serves physical elements; a polynomial DF is only known over the
+amplitudes it was fitted to and keeps the low-force route.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlupdate.identification.data import FRFLevels, match_frequencies
+from nlupdate.measurement.noise import smooth_inverse_receptance
+
+#: Relative amplitude step (central difference) for ∂ν/∂A in the noise of each level.
+AMPLITUDE_STEP = 1e-4
+
+#: The linear-FRF routes by name (study files: ``[identification] linear_from``).
+LINEAR_FROM = ("all levels", "low force")
+
+DescribingFunctionAt = Callable[[float], Callable[[NDArray, NDArray], NDArray]]
+
+
+@dataclass(frozen=True, eq=False)
+class LinearExtraction:
+    """An extracted linear receptance on the reference level's frequencies.
+
+    levels_n: the force levels it was taken from; frequency_hz (Hz), receptance (m/N);
+    inverse_noise: the standard deviation of 1/H^L at each frequency, up to one common
+    factor (N/m; the weights of a modal fit); reference_level_n, reference_receptance:
+    the measured curve it is drawn beside (the lowest level used).
+    """
+
+    levels_n: tuple[float, ...]
+    frequency_hz: NDArray[np.float64]
+    receptance: NDArray[np.complex128]
+    inverse_noise: NDArray[np.float64]
+    reference_level_n: float
+    reference_receptance: NDArray[np.complex128]
+
+
+def from_low_force(data: FRFLevels, level: float, receptance: NDArray) -> LinearExtraction:
+    """The source's route: ``receptance`` extracted from the ``level`` curve alone; its
+    noise scale is |1/H_1| smoothed over 9 points (weights taken from the noisy values
+    themselves would favour the points whose noise happens to shrink |1/H_1|: a bias)."""
+    f, h = data.curve(level)
+    noise = np.abs(smooth_inverse_receptance(f, h, 9)) if f.size >= 9 else np.abs(1.0 / h)
+    return LinearExtraction((float(level),), f, np.asarray(receptance, dtype=complex), noise, float(level), h)
+
+
+def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LinearExtraction:
+    """The linear receptance from every level (module docstring), on the lowest level's
+    frequencies. ``describing_function_at(level)`` is ν(A [m], ω [rad/s]) → N/m for that
+    level. A line no level gives a finite value for is NaN."""
+    reference = float(data.levels[0])
+    f, h_reference = data.curve(reference)
+    omega = 2 * np.pi * f
+    weighted = np.zeros(f.size, dtype=complex)
+    total_weight = np.zeros(f.size)
+    for index, level in enumerate(data.levels):
+        f_level, h_level = data.curve(float(level))
+        at = match_frequencies(f_level, f)
+        present = at >= 0
+        h = np.full(f.size, np.nan, dtype=complex)
+        h[present] = h_level[at[present]]
+        force = np.full(f.size, np.nan)
+        force[present] = data.force_at(float(level), f_level)[at[present]]
+        relative = np.ones(f.size)
+        if data.h_stds is not None:
+            stds = np.full(f.size, np.nan)
+            stds[present] = data.h_stds[index][at[present]]
+            relative = stds / np.abs(h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            amplitude = np.abs(h) * force
+            nu_of = describing_function_at(float(level))
+            usable = present & np.isfinite(amplitude) & (amplitude > 0)
+            nu = np.full(f.size, np.nan, dtype=complex)
+            slope = np.full(f.size, np.nan)
+            a, w = amplitude[usable], omega[usable]
+            nu[usable] = nu_of(a, w)
+            slope[usable] = np.abs(nu_of(a * (1 + AMPLITUDE_STEP), w) - nu_of(a * (1 - AMPLITUDE_STEP), w)) \
+                / (2 * AMPLITUDE_STEP)
+            variance = relative ** 2 * (np.abs(1.0 / h) ** 2 + slope ** 2)
+            term = 1.0 / h - nu
+        good = usable & np.isfinite(term) & np.isfinite(variance) & (variance > 0)
+        weighted[good] += term[good] / variance[good]
+        total_weight[good] += 1.0 / variance[good]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse = np.where(total_weight > 0, weighted / total_weight, np.nan)
+        return LinearExtraction(tuple(float(level) for level in data.levels), f, 1.0 / inverse,
+                                np.sqrt(1.0 / total_weight), reference, h_reference)
