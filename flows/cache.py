@@ -5,8 +5,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from prefect import Task
+from prefect.results import ResultStore
 
 from nlupdate.tasks.cached import configured
+from nlupdate.tasks.store import DataSerializer, record_store
 
 
 @dataclass(frozen=True)
@@ -24,3 +26,10 @@ class Cache:
         if run_name is not None:
             options["task_run_name"] = lambda: run_name
         return configured(step.with_options(**options) if options else step, Path(self.store), self.refresh)
+
+    def will_compute(self, key: str) -> bool:
+        """Whether a task keyed ``key`` would compute (refresh, or no valid record in the
+        store; a record that fails its signature is not valid)."""
+        if self.refresh:
+            return True
+        return not ResultStore(result_storage=record_store(Path(self.store)), serializer=DataSerializer()).exists(key)

@@ -3,12 +3,15 @@ tasks, then the run's archive.
 
 Each step is a task named after it (:mod:`nlupdate.tasks.cached`), keyed by its entry in the
 chain (:func:`nlupdate.tasks.keys.step_key`). A fan-out step — the updating runs, the
-predictions — is a subflow named after it in which every job starts at once, each on a
-coordinator thread that runs its job task; the job's FE evaluations are FE-point tasks
-submitted to the flow's task runner (threads or Dask workers) and shared between the jobs
-and the whole run (:class:`~nlupdate.tasks.fe_points.PointRegistry`), so the start point
-four difference formulas need — and the prediction of the initial model — is solved once. A failing updating run fails its own branch only; it is
-named in the report and the manifest. :func:`nlupdate.study.sequential.run_study` walks the same
+predictions — is a subflow named after it. Its jobs start at once, each on a coordinator
+thread that runs its job task; jobs whose FE points are known beforehand (the
+predictions: :attr:`~nlupdate.study.chain.Step.points`) submit those at once and then run
+in turn. The FE evaluations are FE-point tasks submitted to the flow's task runner
+(threads or Dask workers) and shared between the jobs and the whole run
+(:class:`~nlupdate.tasks.fe_points.PointRegistry`), so the start point four difference
+formulas need — and the prediction of the initial model — is solved once. A failing
+updating run fails its own branch only; it is named in the report and the manifest.
+:func:`nlupdate.study.sequential.run_study` walks the same
 chain in one process and gives the same numbers.
 """
 from __future__ import annotations
@@ -103,10 +106,17 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
         report(name, state.name, step.label(job, failure))
         return failure, None
 
-    with ThreadPoolExecutor(max_workers=max(count, 1), thread_name_prefix=f"{step.name}-job") as pool:
-        # each coordinator runs in a copy of this thread's context: the flow run and the progress
-        futures = [pool.submit(contextvars.copy_context().run, one, job) for job in jobs]
-        outcomes = [future.result() for future in futures]
+    if step.points is not None:  # the FE points of every job to compute at once, then the jobs in turn
+        for job in jobs:
+            if cache.will_compute(keys.job_key(step, study, job, model, input_keys)):
+                for point in step.points(job):
+                    registry.future(spec, point)
+        outcomes = [one(job) for job in jobs]
+    else:
+        with ThreadPoolExecutor(max_workers=max(count, 1), thread_name_prefix=f"{step.name}-job") as pool:
+            # each coordinator runs in a copy of this thread's context: the flow run and the progress
+            futures = [pool.submit(contextvars.copy_context().run, one, job) for job in jobs]
+            outcomes = [future.result() for future in futures]
     return (step.compute(study, [outcome for outcome, _ in outcomes], *values),
             keys.gathered_key(step, [key for _, key in outcomes if key is not None]))
 

@@ -58,6 +58,13 @@ class Step:
         updating run: its parameters with their bounds, targets, method and options), so
         its cache key is the job and its model alone — changing one run's bound recomputes
         that run only.
+    points: fan-out: ``job -> FE points`` when a job's points are known before it runs
+        (a prediction: its model's one point). The flow then submits every job's points
+        at once and runs the jobs one after another: their own work is numerics in this
+        process, which jobs on threads would only share (two demo predictions on threads
+        took 1.3–1.4 s each, one after the other 0.4 and 0.6 s). Without it the jobs run
+        at once, each submitting points as it goes (an updating run's points depend on
+        its iterations).
     """
 
     name: str
@@ -72,6 +79,7 @@ class Step:
     keep_going: bool = False
     label: Callable[[Any, Any], str] = lambda job, outcome: ""
     jobs_describe_themselves: bool = False
+    points: Callable[[Any], Sequence[Mapping[str, float]]] | None = None
 
     @property
     def fans_out(self) -> bool:
@@ -105,7 +113,7 @@ CHAIN: tuple[Step, ...] = (
     Step("predictions", lambda study, outcomes, *inputs: tuple(outcomes),
          inputs=("updating", "comparison", "identification", "measured data"), sections=("prediction", "targets"),
          applies=lambda study, results: study.prediction is not None and _has_runs(study, results),
-         jobs=prediction_jobs, each=predict_job, model=prediction_adapter),
+         jobs=prediction_jobs, each=predict_job, model=prediction_adapter, points=lambda job: [job.point]),
     Step("warnings", study_warnings, inputs=("identification", "updating", "comparison"), sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
 )
