@@ -41,12 +41,12 @@ def test_identified_and_updated_values_are_within_three_sigma_of_the_truth(seed)
     assert ranking.loc["eigensensitivity central O(h²) {E}", "weighted_abs_error_pct"] > 10 * ranking.loc[best, "weighted_abs_error_pct"]
     prediction = next(p for p in result.predictions if p.name == best).correlation.set_index("force_level_n")
     initial = next(p for p in result.predictions if p.name == "initial").correlation.set_index("force_level_n")
-    # FRAC per level, with margin below the minima measured over seeds 1-8 (2026-11-28):
-    # 0.849 at 0.01 N; 0.696 at 1 N and 0.833 at 2 N, the stick-slip transition, where the
-    # response is most sensitive to every parameter; 0.890 from 5 N up, in gross slip. A
-    # broken chain lands far below (a slip force that let the 0.01 N level slip: 0.04)
+    # FRAC at every level above 0.9: the minimum over seeds 1-8 was 0.926 (2026-11-28, seed 5
+    # at 1 N, in the stick-slip transition, where the response is most sensitive to every
+    # parameter). A broken chain lands far below: with the linear FRF from the 0.01 N level
+    # alone the minima were 0.70 at 1 N; a slip force that let the 0.01 N level slip gave 0.04
     frac = prediction["frac"]
-    assert frac.loc[0.01] > 0.6 and frac.loc[[0.5, 1.0, 2.0]].min() > 0.65 and frac.loc[5.0:].min() > 0.85, frac
+    assert frac.min() > 0.9, frac
     assert (prediction["frac"] > initial["frac"]).all()  # updating improves every level, 0.01 N included
 
 
