@@ -164,7 +164,8 @@ class Identification:
     frequency was chosen (None when given, and for DDF). linear_frequency_hz,
     linear_frf: the extracted linear receptance (m/N) on the grid of the lowest level it
     came from (``linear_from_level_n``, the measured curve drawn beside it);
-    linear_from_levels_n: every level it came from. modes: one-mode fits of the extracted FRF, ascending.
+    linear_from_levels_n: every level it came from. modes: one-mode fits of the
+    extracted FRF, ascending.
     uncertainty: Monte-Carlo statistics of the parameters and of ``linear_f<i>_hz``
     (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
     noise_fraction, noise_source: the noise level used and where it came from.
@@ -321,9 +322,9 @@ def locate_linear_modes(
     resonance crossings; none when it has no resonance in the band), weighted by
     ``inverse_noise``, the noise of its ``1/H`` at each frequency (up to a common factor);
     fits that land on an already found mode (within 1 %) are dropped. Ascending."""
-    starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
-    finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)
+    finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)  # lines no level gave
     frequency_hz, h_linear, noise_scale = frequency_hz[finite], h_linear[finite], inverse_noise[finite]
+    starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
     modes: list[ModalFit] = []
     for start in starts:
         try:
