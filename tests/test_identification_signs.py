@@ -13,7 +13,8 @@ import pytest
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.modal_fit import resonance_crossings
-from nlupdate.identification.pipeline import IdentificationSettings, identify, sign_warnings
+from nlupdate.identification.pipeline import IdentificationSettings, identify
+from nlupdate.identification.trust import sign_warnings
 from nlupdate.model.model_file import system_from_dict
 from nlupdate.response.simulate import simulate_frf_table
 

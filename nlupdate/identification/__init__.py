@@ -14,7 +14,7 @@ Modules
   (parameters on a bound or not determined by the data, a residual far above the noise).
 * :mod:`~nlupdate.identification.scalar_balance` — scalar harmonic balance (amplitude roots).
 * :mod:`~nlupdate.identification.regenerate` — nonlinear FRFs on extracted linear FRFs.
-* :mod:`~nlupdate.identification.linear_frf` — the linear FRF from every level (or the low one).
+* :mod:`~nlupdate.identification.linear_frf` — the linear FRF from every level (or the low one) and its modes.
 * :mod:`~nlupdate.identification.modal_fit` — modal model of an extracted linear FRF.
 * :mod:`~nlupdate.identification.methods` — PRD and DDF behind one interface.
 * :mod:`~nlupdate.identification.pipeline` — the identification step: fit, linear FRF, modes,

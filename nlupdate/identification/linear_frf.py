@@ -19,6 +19,8 @@ variance of its 1/H_L − ν: the noise of 1/H_L (relative noise of H: a fractio
 amplitude (A·|∂ν/∂A| times the same fraction). It needs ν at every amplitude and
 frequency, so it serves physical elements; a polynomial DF is only known over the
 amplitudes it was fitted to and keeps the low-force route.
+
+:func:`locate_linear_modes` fits the modes of either extraction, weighted by its noise.
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels, match_frequencies
+from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
 from nlupdate.measurement.noise import smooth_inverse_receptance
 
 #: Relative amplitude step (central difference) for ∂ν/∂A in the noise of each level.
@@ -108,3 +111,29 @@ def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionA
         inverse = np.where(total_weight > 0, weighted / total_weight, np.nan)
         return LinearExtraction(tuple(float(level) for level in data.levels), f, 1.0 / inverse,
                                 np.sqrt(1.0 / total_weight), reference, h_reference)
+
+
+def locate_linear_modes(
+    frequency_hz: NDArray, h_linear: NDArray, inverse_noise: NDArray, near_hz: tuple[float, ...] | None,
+    band_fraction: float,
+) -> tuple[ModalFit, ...]:
+    """One-mode fits of an extracted linear FRF near ``near_hz`` (default: at each of its
+    resonance crossings; none when it has no resonance in the band), weighted by
+    ``inverse_noise``, the noise of its ``1/H`` at each frequency (up to a common factor);
+    fits that land on an already found mode (within 1 %) are dropped. Ascending."""
+    finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)  # lines no level gave
+    frequency_hz, h_linear, noise_scale = frequency_hz[finite], h_linear[finite], inverse_noise[finite]
+    starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
+    modes: list[ModalFit] = []
+    for start in starts:
+        try:
+            fit = fit_mode_near(frequency_hz, h_linear, float(start), inverse_noise=noise_scale,
+                                band_fraction=band_fraction, residual_slope=True)
+        except (ValueError, np.linalg.LinAlgError):
+            if near_hz is not None:
+                raise
+            continue
+        found = float(fit.natural_frequencies_hz[0])
+        if all(abs(found / float(m.natural_frequencies_hz[0]) - 1) > 0.01 for m in modes):
+            modes.append(fit)
+    return tuple(sorted(modes, key=lambda m: float(m.natural_frequencies_hz[0])))

@@ -5,17 +5,19 @@ From the measured curves of one (response, input) pair at several force levels
 
 1. chooses the PRD excitation frequency (given, or :func:`recommend_frequency`);
 2. fits the nonlinearity (PRD or DDF; physical elements or a polynomial DF);
-3. extracts the linear FRF from the low-force sweep (PRD) or the lower DDF level;
+3. extracts the linear FRF (:mod:`nlupdate.identification.linear_frf`): with physical
+   elements from every level, each line weighted by its noise; with a polynomial DF from
+   the low-force sweep (PRD) or the lower DDF level;
 4. locates the linear modes of the extracted FRF (one-mode fits around each resonance,
-   :func:`~nlupdate.identification.modal_fit.fit_mode_near`): their natural frequencies
-   are the updating targets, their loss factors the linear damping;
+   :func:`~nlupdate.identification.linear_frf.locate_linear_modes`): their natural
+   frequencies are the updating targets, their loss factors the linear damping;
 5. estimates the uncertainty of everything above by Monte Carlo over the noise model
    (:mod:`nlupdate.identification.uncertainty`): each sample re-identifies at the chosen
-   frequency, re-extracts the linear FRF from its own perturbed low-force sweep and
-   re-fits the modes, so the natural frequencies carry the uncertainty of Δ_f1 (kf)
-   *and* of the low-force noise, ready to be propagated into updated parameters; the
-   fitted curve (over :func:`fit_amplitude_grid`) and the extracted linear FRF get a 95 %
-   band from the same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`).
+   frequency, re-extracts the linear FRF from its own perturbed curves and re-fits the
+   modes, so the natural frequencies carry the uncertainty of the fitted DF *and* of the
+   measurement noise, ready to be propagated into updated parameters; the fitted curve
+   (over :func:`fit_amplitude_grid`) and the extracted linear FRF get a 95 % band from the
+   same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`).
 
 Every option left out is filled by a default, listed in ``defaults_used``. The result,
 :class:`Identification`, is plain data (picklable) and :meth:`Identification.summary`
@@ -36,19 +38,16 @@ from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.ddf import DDFResult
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
-from nlupdate.identification.linear_frf import LINEAR_FROM, LinearExtraction
-from nlupdate.identification.modal_fit import ModalFit, fit_mode_near, resonance_crossings
+from nlupdate.identification.linear_frf import LINEAR_FROM, LinearExtraction, locate_linear_modes
+from nlupdate.identification.modal_fit import ModalFit
 from nlupdate.identification.methods import METHODS
 from nlupdate.identification.prd import IdentificationError, PRDResult
 from nlupdate.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
-from nlupdate.identification.trust import (
-    TrustWarning, identification_warnings,
-)
+from nlupdate.identification.trust import TrustWarning, excitation_warnings, identification_warnings, sign_warnings
 from nlupdate.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
 from nlupdate.measurement.noise import estimate_noise_fraction
-from nlupdate.measurement.units import parameter_unit
 from nlupdate.progress import ProgressCallback, no_progress
 
 
@@ -314,32 +313,6 @@ def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDRe
     return METHODS[settings.method].linear_frf(data, settings, result)
 
 
-def locate_linear_modes(
-    frequency_hz: NDArray, h_linear: NDArray, inverse_noise: NDArray, near_hz: tuple[float, ...] | None,
-    band_fraction: float,
-) -> tuple[ModalFit, ...]:
-    """One-mode fits of an extracted linear FRF near ``near_hz`` (default: at each of its
-    resonance crossings; none when it has no resonance in the band), weighted by
-    ``inverse_noise``, the noise of its ``1/H`` at each frequency (up to a common factor);
-    fits that land on an already found mode (within 1 %) are dropped. Ascending."""
-    finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)  # lines no level gave
-    frequency_hz, h_linear, noise_scale = frequency_hz[finite], h_linear[finite], inverse_noise[finite]
-    starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
-    modes: list[ModalFit] = []
-    for start in starts:
-        try:
-            fit = fit_mode_near(frequency_hz, h_linear, float(start), inverse_noise=noise_scale,
-                                band_fraction=band_fraction, residual_slope=True)
-        except (ValueError, np.linalg.LinAlgError):
-            if near_hz is not None:
-                raise
-            continue
-        found = float(fit.natural_frequencies_hz[0])
-        if all(abs(found / float(m.natural_frequencies_hz[0]) - 1) > 0.01 for m in modes):
-            modes.append(fit)
-    return tuple(sorted(modes, key=lambda m: float(m.natural_frequencies_hz[0])))
-
-
 def fit_amplitude_grid(result: PRDResult | DDFResult) -> NDArray[np.float64]:
     """Amplitudes (m) to draw a fitted curve and its band over: from 0 (PRD: y(0) = −Δ_f1)
     or half the smallest fitted amplitude (DDF) to 1.1 × the largest, denser towards 0
@@ -489,31 +462,3 @@ def _check_levels(data: FRFLevels) -> None:
             raise IdentificationError(
                 f"level {level:g} {unit}: {f.size} frequencies in the band (and above the coherence threshold); "
                 f"need at least 3 per level")
-
-
-def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tuple[TrustWarning, ...]:
-    """A warning for each parameter that must be positive and is not (``kf``: a stuck
-    friction stiffness, from a polynomial's constant term)."""
-    out = []
-    for name, value in parameters.items():
-        if name.split("_")[0] == "kf" and value < 0:
-            out.append(TrustWarning(
-                name, "negative",
-                f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction "
-                f"stiffness is > 0: the describing function has the wrong sign (a transfer FRF, a negative modal "
-                f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
-                f"low level is not stuck", "identification"))
-    return tuple(out)
-
-
-def excitation_warnings(excitation: str, method: str) -> tuple[TrustWarning, ...]:
-    """A warning when the FRFs are not stepped-sine FRFs, which PRD and DDF assume."""
-    kinds = set(excitation.split("+")) - {"stepped_sine", "unknown"}
-    if not kinds:
-        return ()
-    return (TrustWarning(
-        "data", "not_stepped_sine",
-        f"{method.upper()} assumes stepped-sine FRFs at a constant force amplitude; these are {excitation} FRFs "
-        f"(an estimate averaged over the amplitudes the excitation passed through), so the describing function is an "
-        f"equivalent linearisation at an ill-defined amplitude and the fit residual includes that distortion",
-        "identification"),)

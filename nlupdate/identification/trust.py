@@ -46,6 +46,10 @@ A fit always returns numbers; these checks say when the numbers are not measurem
   drawn at that noise level, are then too small. 3 is also the factor the improved PRD
   estimator uses to detect a poor start. The floor keeps noise-free simulated data from
   warning about round-off.
+
+Two more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
+stuck friction stiffness below zero) and :func:`excitation_warnings` (``not_stepped_sine``
+— FRFs from sweeps or random excitation, which PRD and DDF do not assume).
 """
 from __future__ import annotations
 
@@ -56,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
+from nlupdate.measurement.units import parameter_unit
 
 RESIDUAL_FACTOR = 3.0
 POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
@@ -228,3 +233,31 @@ def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str) -> 
             f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} N/m and slip force {slip:.4g} N; "
             f"kt and beta are not determined separately (fit a jenkins element instead)", source))
     return out
+
+
+def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tuple[TrustWarning, ...]:
+    """A warning for each parameter that must be positive and is not (``kf``: a stuck
+    friction stiffness, from a polynomial's constant term)."""
+    out = []
+    for name, value in parameters.items():
+        if name.split("_")[0] == "kf" and value < 0:
+            out.append(TrustWarning(
+                name, "negative",
+                f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction "
+                f"stiffness is > 0: the describing function has the wrong sign (a transfer FRF, a negative modal "
+                f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
+                f"low level is not stuck", "identification"))
+    return tuple(out)
+
+
+def excitation_warnings(excitation: str, method: str) -> tuple[TrustWarning, ...]:
+    """A warning when the FRFs are not stepped-sine FRFs, which PRD and DDF assume."""
+    kinds = set(excitation.split("+")) - {"stepped_sine", "unknown"}
+    if not kinds:
+        return ()
+    return (TrustWarning(
+        "data", "not_stepped_sine",
+        f"{method.upper()} assumes stepped-sine FRFs at a constant force amplitude; these are {excitation} FRFs "
+        f"(an estimate averaged over the amplitudes the excitation passed through), so the describing function is an "
+        f"equivalent linearisation at an ill-defined amplitude and the fit residual includes that distortion",
+        "identification"),)
