@@ -88,8 +88,9 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
 
 class RunServer:
     """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
-    3.8's own command line; the app wrapped by :mod:`nlupdate.flows.server_app`), started through :mod:`nlupdate.flows.server_process` so that
-    it ends when this process does, even when this process is killed.
+    3.8's own command line; the app wrapped by :mod:`nlupdate.flows.server_app`), started
+    through :mod:`nlupdate.flows.server_process` so that it ends when this process does,
+    even when this process is killed.
 
     Started without importing Prefect here (the server process imports it itself, at the
     same time as this process imports what the run needs); :meth:`wait` returns once the

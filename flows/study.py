@@ -11,8 +11,8 @@ in turn. The FE evaluations are FE-point tasks submitted to the flow's task runn
 (:class:`~nlupdate.tasks.fe_points.PointRegistry`), so the start point four difference
 formulas need — and the prediction of the initial model — is solved once. A failing
 updating run fails its own branch only; it is named in the report and the manifest.
-:func:`nlupdate.study.sequential.run_study` walks the same
-chain in one process and gives the same numbers.
+:func:`nlupdate.study.sequential.run_study` walks the same chain in one process and gives
+the same numbers.
 """
 from __future__ import annotations
 
@@ -45,8 +45,6 @@ __all__ = ["Cache", "study_flow", "study_handle"]
 
 def _named(job: Any) -> str:
     return str(getattr(job, "name", job))
-
-
 
 
 def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: Cache) -> tuple[Any, str]:

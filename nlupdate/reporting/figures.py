@@ -38,8 +38,9 @@ BAND_LABEL = "95 % Monte-Carlo band"
 def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     """Write ``figure`` as PNG to ``path`` (atomically) and return the path."""
     path = Path(path)
+    png = png_bytes(figure, dpi)
     with atomic_file(path) as temporary:
-        figure.savefig(temporary, dpi=dpi, format="png")
+        Path(temporary).write_bytes(png)
     return path
 
 

@@ -59,7 +59,8 @@ class ContinuationOptions:
     step by ``shrink``. A corrector that fails, or a tangent that turns by more than
     ``max_angle_deg`` (except below ``kink_step``, where the turn is accepted as a kink such as a
     stick–slip onset), or a chord between the two points that turns more than that from
-    either tangent (the corrector crossed a fold onto the other branch), halves the step; below ``min_step`` the trace stops with a warning. At
+    either tangent (the corrector crossed a fold onto the other branch), halves the step;
+    below ``min_step`` the trace stops with a warning. At
     most ``max_points`` points. The predictor is of second order, z + ds·t + ½ds²·κ with κ
     the change of the unit tangent over the last step per unit length (first order after a
     turn of more than ½ ``max_angle_deg``, such as a kink).
