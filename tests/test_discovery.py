@@ -179,7 +179,7 @@ def test_the_describing_function_plot_shows_the_final_model_against_the_truth(di
     drawn: list[Figure] = []
     original = Figure.savefig
     try:
-        Figure.savefig = lambda self, *a, **k: drawn.append(self)
+        Figure.savefig = lambda self, *a, **k: (drawn.append(self), original(self, *a, **k))
         plots.plot_describing_function(result, tmp_path / "df.png")
     finally:
         Figure.savefig = original

@@ -23,6 +23,7 @@ from matplotlib.ticker import NullFormatter
 
 from nlupdate.discovery.effects import DFSamples
 from nlupdate.discovery.workflow import DiscoveryResult
+from nlupdate.files import atomic_file
 
 _MAX_COLUMNS = 3
 _CANDIDATES_SHOWN = 3
@@ -30,9 +31,11 @@ _GAP_FLOOR = 1e-6  # gaps below are drawn at this height (log axis)
 _SAME_FREQUENCY = 0.35  # relative spread of ω below which DFs are drawn on a dense amplitude grid
 
 
-def _save(figure: Figure, path: str | os.PathLike) -> Path:
-    figure.tight_layout()
-    figure.savefig(path, dpi=110)
+def _save(figure: Figure, path: str | os.PathLike, rect: tuple[float, float, float, float] = (0, 0, 1, 1)) -> Path:
+    """Lay ``figure`` out inside ``rect`` (figure fraction) and write it as PNG, atomically."""
+    figure.tight_layout(rect=rect)
+    with atomic_file(path) as temporary:
+        figure.savefig(temporary, dpi=110)
     return Path(path)
 
 
@@ -165,9 +168,7 @@ def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -
     figure.text(0.5, 0.005, f"score: change of the {result.options.criterion.upper()} when the candidate is added "
                 "(χ² change + a penalty per parameter); negative is better, the most negative is chosen",
                 ha="center", va="bottom", fontsize=7, color="0.3")
-    figure.tight_layout(rect=(0, 0.05, 1, 1))  # room for the note
-    figure.savefig(path, dpi=110)
-    return Path(path)
+    return _save(figure, path, rect=(0, 0.05, 1, 1))  # room for the note
 
 
 def plot_gap(result: DiscoveryResult, path: str | os.PathLike) -> Path:

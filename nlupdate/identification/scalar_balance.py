@@ -69,15 +69,19 @@ def nearest_amplitude(
     span: float = 10.0,
     grid_points: int = 121,
     newton_iterations: int = 30,
+    stall_iterations: int = 4,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Root of ``g(A)`` nearest (in log A) to ``guess`` for every point.
 
     Damped Newton from the guess (finite-difference slope), each point until
-    |g| ≤ 1e-11·F, at most ``newton_iterations`` times; points where it fails (a kink of ν
-    it circles, a root far off) are solved by scanning ``guess·[1/span, span]`` on a log grid
-    and closing in on the sign change nearest to the guess (:func:`_bracketed_root`). Where there is
-    no root in that range, the amplitude of smallest ``|g|`` is returned and flagged
-    ``False`` (so a fit sees a large but finite residual there).
+    |g| ≤ 1e-11·F, at most ``newton_iterations`` times; a point leaves Newton as soon as an
+    iterate falls outside ``guess·[1/span, span]`` (its answer must lie inside). Points where
+    Newton fails (a kink of ν it circles, a root far off or none: |g| not halved in
+    ``stall_iterations`` iterations in a row) are solved by scanning
+    ``guess·[1/span, span]`` on a log grid and closing in on the sign change nearest to the
+    guess (:func:`_bracketed_root`). Where there is no root in that range, the amplitude of
+    smallest ``|g|`` is returned and flagged ``False`` (so a fit sees a large but finite
+    residual there).
     """
     w = np.asarray(w, dtype=complex)
     shape = w.shape
@@ -88,6 +92,7 @@ def nearest_amplitude(
     a = guess.copy()
     g = _g(w, nu, force, omega, a)
     active = np.flatnonzero(np.abs(g) > 1e-11 * force)
+    stalled = np.zeros(a.shape, np.int8)  # iterations in a row that did not halve |g|
     for _ in range(newton_iterations):
         if active.size == 0:
             break
@@ -103,7 +108,10 @@ def nearest_amplitude(
             a_new[worse] = 0.5 * (a_now[worse] + a_new[worse])
             g_new[worse] = _g(w[active[worse]], nu, force[active[worse]], omega[active[worse]], a_new[worse])
         a[active], g[active] = a_new, g_new
-        active = active[np.abs(g_new) > 1e-11 * force[active]]
+        stalled[active] = np.where(np.abs(g_new) > 0.5 * np.abs(g_now), stalled[active] + 1, 0)
+        inside = np.abs(np.log(a_new / guess[active])) < np.log(span)
+        going = (np.abs(g_new) > 1e-11 * force[active]) & inside & (stalled[active] < stall_iterations)
+        active = active[going]
     ok = (np.abs(g) <= 1e-9 * force) & (np.abs(np.log(a / guess)) < np.log(span))
     if np.all(ok):
         return a.reshape(shape), ok.reshape(shape)

@@ -45,7 +45,16 @@ def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path
 
 
 def png_bytes(figure: Figure, dpi: int = 120) -> bytes:
-    """``figure`` as PNG."""
+    """``figure`` as PNG.
+
+    A figure with a layout engine (constrained layout) is laid out once at ``dpi`` and
+    then frozen: ``savefig`` would otherwise draw it twice (a hidden draw to lay it out,
+    then the real one). The pixels are the same; ``figure`` is left without its engine."""
+    engine = figure.get_layout_engine()
+    if engine is not None:
+        figure.set_dpi(dpi)
+        engine.execute(figure)
+        figure.set_layout_engine(None)
     buffer = io.BytesIO()
     figure.savefig(buffer, dpi=dpi, format="png")
     return buffer.getvalue()
