@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-import scipy.stats
+import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.measurement.frf_table import validate_frf_table
@@ -103,14 +103,14 @@ def _robust_variance(mean_squares: NDArray, dof: int) -> float:
     """σ² from per-window mean squares, each ``σ²·χ²_dof/dof`` unless spoilt by model error
     (then larger): start from the median, drop windows above the 99 % quantile and take the
     mean of the rest, corrected for the truncation (``E[χ²_d | χ²_d < c] = d·F_{d+2}(c)/F_d(c)``)."""
-    variance = float(np.median(mean_squares)) / (scipy.stats.chi2.median(dof) / dof)
+    variance = float(np.median(mean_squares)) / (scipy.special.chdtri(dof, 0.5) / dof)
     if variance <= 0:
         return 0.0
     for _ in range(3):
-        limit = scipy.stats.chi2.ppf(_TRIM_PROBABILITY, dof) * variance / dof
+        limit = scipy.special.chdtri(dof, 1.0 - _TRIM_PROBABILITY) * variance / dof
         kept = mean_squares[mean_squares <= limit]
         cut = limit * dof / variance
-        variance = float(kept.mean()) / (scipy.stats.chi2.cdf(cut, dof + 2) / scipy.stats.chi2.cdf(cut, dof))
+        variance = float(kept.mean()) / (scipy.special.chdtr(dof + 2, cut) / scipy.special.chdtr(dof, cut))
     return variance
 
 

@@ -62,7 +62,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import scipy.optimize
-import scipy.signal
 from numpy.typing import NDArray
 
 from nlupdate.input_files import decode_text, read_input_bytes, sniff
@@ -353,6 +352,8 @@ def stepped_sine_frf(record: TimeRecord, power: int) -> tuple[list[dict], list[s
 
 
 def _instantaneous_phase(t: NDArray, reference: NDArray) -> NDArray:
+    import scipy.signal  # imported where used: it costs 0.3 s (it imports scipy.stats)
+
     analytic = scipy.signal.hilbert(reference - reference.mean())
     return np.unwrap(np.angle(analytic))
 
@@ -408,6 +409,8 @@ def random_frf(record: TimeRecord, power: int, resolution_hz: float | None = Non
     if nperseg < 16 or nperseg > n:
         raise TimeHistoryError(f"{record.source}: {n} samples are too few for an H1 estimate at that resolution "
                                f"(segments of {nperseg} samples)")
+    import scipy.signal  # imported where used: it costs 0.3 s
+
     f, g_ff = scipy.signal.welch(record.reference, fs=fs, window="hann", nperseg=nperseg)
     segments = 1 + (n - nperseg) // (nperseg // 2)
     keep = f > 0
@@ -431,6 +434,8 @@ def detect_excitation(record: TimeRecord) -> str:
     otherwise."""
     if record.frequency_hz is not None:
         return "stepped_sine"
+    import scipy.signal  # imported where used: it costs 0.3 s
+
     envelope = np.abs(scipy.signal.hilbert(record.reference - record.reference.mean()))
     trimmed = envelope[envelope.size // 20: -envelope.size // 20 or None]
     return "sine_sweep" if trimmed.std() < 0.25 * trimmed.mean() else "random"
