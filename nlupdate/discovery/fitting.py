@@ -20,9 +20,17 @@ from nlupdate.discovery.effects import NEGATIVE, POSITIVE, DFSamples, Effect
 from nlupdate.discovery.starts import joint_starts
 
 Residual = Callable[[list[NDArray[np.float64]]], NDArray[np.float64]]
-#: ``jacobian(values, perturbed, steps)`` → ∂r/∂θ (n_residuals, n_unknowns): ``perturbed[j]``
-#: are the values with unknown θ_j stepped by ``steps[j]``.
-Jacobian = Callable[[list[NDArray], list[list[NDArray]], NDArray], NDArray[np.float64]]
+
+
+class Linearised(Protocol):
+    """A model solved at one set of values: its residual, and ∂r/∂θ (n_residuals,
+    n_unknowns) where ``perturbed[j]`` are the values with unknown θ_j stepped by ``steps[j]``."""
+
+    def residual(self) -> NDArray[np.float64]: ...
+
+    def jacobian(self, perturbed: list[list[NDArray]], steps: NDArray) -> NDArray[np.float64]: ...
+
+
 _LOG_LIMIT = 60.0  # unknowns of log-parameters stay within e^±60 of their start
 _DIFF_STEP = 1e-7  # relative step of the unknowns in finite differences
 
@@ -62,15 +70,15 @@ class _Unknowns:
 
 def fit_effects(
     residual: Residual, effects: Sequence[Effect], starts: Sequence[Sequence[NDArray]], max_nfev: int = 40, refine: int = 2,
-    jacobian: Jacobian | None = None,
+    linearise: Callable[[list[NDArray]], Linearised] | None = None,
 ) -> tuple[list[NDArray[np.float64]], float, bool]:
     """Best SI values (one array per effect), χ² and success.
 
     Each start set holds one value array per effect; the ``refine`` starts of smallest χ²
     are refined by trust-region least squares. Non-finite residuals count as a large misfit
-    so the search backs off from them. ``jacobian(values, perturbed, steps)``: ∂r/∂θ of the
-    fitted unknowns θ (see :meth:`nlupdate.discovery.frf_fit.FRFContext.jacobian`); without
-    it every column is a forward difference of the whole residual.
+    so the search backs off from them. ``linearise(values)``: the model solved once at
+    ``values``, giving the residual and its Jacobian (:class:`Linearised`); without it every
+    Jacobian column is a forward difference of the whole residual.
     """
 
     def guarded(values: Sequence[NDArray]) -> NDArray[np.float64]:
@@ -78,29 +86,19 @@ def fit_effects(
             r = residual(list(values))
         return np.where(np.isfinite(r), r, 1e6)
 
-    def guarded_jacobian(unknowns: _Unknowns) -> Callable[[NDArray], NDArray[np.float64]] | str:
-        if jacobian is None:
-            return "2-point"
-
-        def columns(u: NDArray) -> NDArray[np.float64]:
-            steps = _DIFF_STEP * np.maximum(1.0, np.abs(u))
-            perturbed = [unknowns.decode(u + step * unit) for step, unit in zip(steps, np.eye(u.size))]
-            values = unknowns.decode(u)
-            with np.errstate(all="ignore"):
-                j = jacobian(values, perturbed, steps)
-            return np.where(np.isfinite(j), j, 0.0)
-
-        return columns
-
     ranked = sorted(starts, key=lambda start: float(np.sum(guarded(start) ** 2)))
     best: tuple[float, list[NDArray], bool] | None = None
     for start in ranked[:refine]:
         unknowns = _Unknowns(effects, start)
         x0 = unknowns.encode(start)
         low, high = unknowns.bounds(x0)
+        if linearise is None:
+            fun, jac = (lambda u: guarded(unknowns.decode(u))), "2-point"
+        else:
+            fun, jac = _solved_once(linearise, unknowns)
         result = scipy.optimize.least_squares(
-            lambda u: guarded(unknowns.decode(u)), x0, jac=guarded_jacobian(unknowns), bounds=(low, high),
-            method="trf", max_nfev=max_nfev * (len(x0) + 1), diff_step=_DIFF_STEP, ftol=1e-6, xtol=1e-7,
+            fun, x0, jac=jac, bounds=(low, high), method="trf", max_nfev=max_nfev * (len(x0) + 1),
+            diff_step=_DIFF_STEP, ftol=1e-6, xtol=1e-7,
         )
         values = unknowns.decode(result.x)
         chi2 = float(np.sum(guarded(values) ** 2))
@@ -109,6 +107,34 @@ def fit_effects(
             best = (chi2, values, ok)
     assert best is not None, "fit_effects needs at least one start"
     return best[1], best[0], best[2]
+
+
+def _solved_once(linearise: Callable[[list[NDArray]], Linearised], unknowns: _Unknowns):
+    """Residual and Jacobian functions of the unknowns for least squares, sharing the solve
+    at the last point asked for (least squares asks for the Jacobian where it has just
+    evaluated the residual). Non-finite residuals are held at 1e6, their derivatives at 0."""
+    last: list = [None, None]
+
+    def solved(u: NDArray) -> Linearised:
+        if last[0] is None or not np.array_equal(last[0], u):
+            with np.errstate(all="ignore"):
+                last[:] = [np.array(u), linearise(unknowns.decode(u))]
+        return last[1]
+
+    def fun(u: NDArray) -> NDArray[np.float64]:
+        with np.errstate(all="ignore"):
+            r = solved(u).residual()
+        return np.where(np.isfinite(r), r, 1e6)
+
+    def jac(u: NDArray) -> NDArray[np.float64]:
+        steps = _DIFF_STEP * np.maximum(1.0, np.abs(u))
+        perturbed = [unknowns.decode(u + step * unit) for step, unit in zip(steps, np.eye(u.size))]
+        with np.errstate(all="ignore"):
+            j = solved(u).jacobian(perturbed, steps)
+            flat = ~np.isfinite(solved(u).residual())
+        return np.where(np.isfinite(j) & ~flat[:, None], j, 0.0)
+
+    return fun, jac
 
 
 class Place(Protocol):
@@ -146,10 +172,10 @@ def fit_at_place(place: Place, effect: Effect) -> CandidateFit:
     starts = joint_starts(effects, place.samples)
     if companions:
         starts += [own + current for own in joint_starts([effect], _without(place.samples, companions, current))]
-    # a place that knows how its residual moves with the DF (FRFContext) gives the Jacobian
-    sensitivities = getattr(place, "jacobian", None)
-    jacobian = None if sensitivities is None else (lambda v, perturbed, steps: sensitivities(effects, v, perturbed, steps))
-    values, chi2, success = fit_effects(lambda v: place.residual(effects, v), effects, starts, jacobian=jacobian)
+    # a place that solves once for residual and Jacobian (FRFContext) says so by linearise
+    solve = getattr(place, "linearise", None)
+    linearise = None if solve is None else (lambda v: solve(effects, v))
+    values, chi2, success = fit_effects(lambda v: place.residual(effects, v), effects, starts, linearise=linearise)
     refitted = tuple(
         FoundEffect(c.effect, c.dofs, tuple(float(x) for x in v)) for c, v in zip(place.companions, values[1:])
     )

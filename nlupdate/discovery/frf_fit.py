@@ -18,7 +18,7 @@ errors in variables (the force is exact, the amplitude is solved, not measured).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
@@ -103,9 +103,6 @@ class FRFContext:
     penalty: float
     samples: DFSamples
     localisation: Localisation
-    #: the last amplitude solve, (key, result): least squares asks for the Jacobian where it
-    #: has just evaluated the residual
-    _last_solve: list = field(default_factory=lambda: [None], repr=False, compare=False)
 
     @property
     def n_data(self) -> int:
@@ -116,68 +113,83 @@ class FRFContext:
             (effect.nu, v) for effect, v in zip(effects, values)
         ]
 
-    def _solve(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> tuple[DF, NDArray, NDArray]:
-        """(ν, amplitude A at the place, solved?) per point with these effects at the place."""
+    def linearise(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> "PlaceSolution":
+        """The amplitude at the place solved with these effects (at ``values``): gives the
+        residual and its Jacobian from one solve."""
         nu = _sum_df(self._terms(effects, values))
-        key = (tuple(effects), tuple(np.asarray(v, dtype=float).tobytes() for v in values))
-        last = self._last_solve[0]  # one read: another thread may replace it meanwhile
-        if last is not None and last[0] == key:
-            return nu, *last[1]
         w = 1.0 / self.h_uu
         amplitude, solved = nearest_amplitude(
             w, nu, self.force * np.abs(self.h_uf * w), self.omega, np.abs(self.u_measured)
         )
-        self._last_solve[0] = (key, (amplitude, solved))
-        return nu, amplitude, solved
+        return PlaceSolution(self, tuple(effects), nu, amplitude, solved)
 
     def predict(self, effects: Sequence[Effect] = (), values: Sequence[NDArray] = ()) -> NDArray[np.complex128]:
         """Amplitudes (n, m) at the measured coordinates with these effects at the place."""
         if not self._terms(effects, values):
             return self.h_mf * self.force[:, None]
-        nu, amplitude, _ = self._solve(effects, values)
-        value = nu(amplitude, self.omega)
-        u = self.h_uf * self.force / (1.0 + self.h_uu * value)
-        return self.h_mf * self.force[:, None] - self.h_mu * (value * u)[:, None]
+        return self.linearise(effects, values).predict()
 
     def residual(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> NDArray[np.float64]:
         """Residuals scaled to unit noise std: ``Σ r² = χ²``."""
-        r = np.sqrt(self.chi2_scale) * (self.predict(effects, values) - self.x_measured) / np.abs(self.x_measured)
+        return self._scaled(self.predict(effects, values) - self.x_measured)
+
+    def _scaled(self, difference: NDArray[np.complex128]) -> NDArray[np.float64]:
+        r = np.sqrt(self.chi2_scale) * difference / np.abs(self.x_measured)
         return np.concatenate([r.real.ravel(), r.imag.ravel()])
-
-    def jacobian(self, effects: Sequence[Effect], values: Sequence[NDArray],
-                 perturbed: Sequence[Sequence[NDArray]], steps: NDArray) -> NDArray[np.float64]:
-        """∂r/∂θ_j of :meth:`residual` (rows as there) for unknowns θ_j whose step ``steps[j]``
-        turns ``values`` into ``perturbed[j]``; one amplitude solve for all j.
-
-        The amplitude follows θ implicitly: with ``z = 1/H_uu + ν(A, θ)`` and
-        ``g = A|z| − |H_uf/H_uu| F = 0``, ``dA/dθ = −g_θ/g_A`` where
-        ``g_A = |z| + A Re(z̄ ν_A)/|z|`` and ``g_θ = A Re(z̄ ν_θ)/|z|``; then
-        ``dν/dθ = ν_θ + ν_A dA/dθ`` and ``X_m = H_mf F − H_mu ν u`` with
-        ``u = H_uf F/(1 + H_uu ν)`` gives ``dX_m = −H_mu H_uf F/(1 + H_uu ν)² dν``. ν_θ and
-        ν_A are forward differences of the DF alone, at the solved amplitude. Where no root
-        was found, or at a fold (g_A = 0), A is held fixed."""
-        nu, amplitude, solved = self._solve(effects, values)
-        value = nu(amplitude, self.omega)
-        z = 1.0 / self.h_uu + value
-        da = amplitude * 1e-7
-        nu_a = (nu(amplitude + da, self.omega) - value) / da
-        g_a = np.abs(z) + amplitude * np.real(np.conj(z) * nu_a) / np.abs(z)
-        follows = solved & (np.abs(g_a) > 1e-12 * np.abs(z))
-        d_value = self.h_uf * self.force / (1.0 + self.h_uu * value) ** 2
-        scale = np.sqrt(self.chi2_scale) / np.abs(self.x_measured)
-        columns = []
-        for stepped, step in zip(perturbed, steps):
-            nu_theta = (_sum_df(self._terms(effects, stepped))(amplitude, self.omega) - value) / step
-            g_theta = amplitude * np.real(np.conj(z) * nu_theta) / np.abs(z)
-            d_amplitude = np.where(follows, -g_theta / np.where(follows, g_a, 1.0), 0.0)
-            d_x = -self.h_mu * (d_value * (nu_theta + nu_a * d_amplitude))[:, None]
-            d_r = scale * d_x
-            columns.append(np.concatenate([d_r.real.ravel(), d_r.imag.ravel()]))
-        return np.stack(columns, axis=1)
 
     def fit(self, effect: Effect) -> CandidateFit:
         """Fit ``effect`` here (see :func:`nlupdate.discovery.fitting.fit_at_place`)."""
         return fit_at_place(self, effect)
+
+
+
+@dataclass(frozen=True, eq=False)
+class PlaceSolution:
+    """One amplitude solve of an :class:`FRFContext`: ν (the DF at the place), A (m) and
+    whether each point has a root (:func:`~nlupdate.identification.scalar_balance.nearest_amplitude`)."""
+
+    context: FRFContext
+    effects: tuple[Effect, ...]
+    nu: DF
+    amplitude: NDArray[np.float64]
+    solved: NDArray[np.bool_]
+
+    def predict(self) -> NDArray[np.complex128]:
+        """``X_m = H_mf F − H_mu ν u`` (n, m) with ``u = H_uf F/(1 + H_uu ν)``."""
+        c = self.context
+        value = self.nu(self.amplitude, c.omega)
+        u = c.h_uf * c.force / (1.0 + c.h_uu * value)
+        return c.h_mf * c.force[:, None] - c.h_mu * (value * u)[:, None]
+
+    def residual(self) -> NDArray[np.float64]:
+        """As :meth:`FRFContext.residual`."""
+        return self.context._scaled(self.predict() - self.context.x_measured)
+
+    def jacobian(self, perturbed: Sequence[Sequence[NDArray]], steps: NDArray) -> NDArray[np.float64]:
+        """∂r/∂θ_j of :meth:`residual` for unknowns θ_j whose step ``steps[j]`` turns the
+        values into ``perturbed[j]``, without another amplitude solve.
+
+        The amplitude follows θ implicitly: with ``z = 1/H_uu + ν(A, θ)`` and
+        ``g = A|z| − |H_uf/H_uu| F = 0``, ``dA/dθ = −g_θ/g_A`` where
+        ``g_A = |z| + A Re(z̄ ν_A)/|z|`` and ``g_θ = A Re(z̄ ν_θ)/|z|``; then
+        ``dν/dθ = ν_θ + ν_A dA/dθ`` and ``dX_m = −H_mu H_uf F/(1 + H_uu ν)² dν``. ν_θ and
+        ν_A are forward differences of the DF alone, at the solved amplitude. Where no root
+        was found, or at a fold (g_A = 0), A is held fixed."""
+        c, amplitude = self.context, self.amplitude
+        value = self.nu(amplitude, c.omega)
+        z = 1.0 / c.h_uu + value
+        da = amplitude * 1e-7
+        nu_a = (self.nu(amplitude + da, c.omega) - value) / da
+        g_a = np.abs(z) + amplitude * np.real(np.conj(z) * nu_a) / np.abs(z)
+        follows = self.solved & (np.abs(g_a) > 1e-12 * np.abs(z))
+        d_value = c.h_uf * c.force / (1.0 + c.h_uu * value) ** 2
+        columns = []
+        for stepped, step in zip(perturbed, steps):
+            nu_theta = (_sum_df(c._terms(self.effects, stepped))(amplitude, c.omega) - value) / step
+            g_theta = amplitude * np.real(np.conj(z) * nu_theta) / np.abs(z)
+            d_amplitude = np.where(follows, -g_theta / np.where(follows, g_a, 1.0), 0.0)
+            columns.append(c._scaled(-c.h_mu * (d_value * (nu_theta + nu_a * d_amplitude))[:, None]))
+        return np.stack(columns, axis=1)
 
 
 def frf_context(

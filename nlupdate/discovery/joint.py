@@ -73,8 +73,10 @@ class JointFit:
         if not effects:
             return (), self.chi2(()), True
         start = [np.array(f.values, dtype=float) for f in effects]
+        solve = getattr(self, "linearise", None)  # FRFJoint solves once for residual and Jacobian
+        linearise = None if solve is None else (lambda v: solve(effects, v))
         values, chi2, ok = fit_effects(lambda v: self.residual(effects, v), [f.effect for f in effects], [start],
-                                       max_nfev=max_nfev, refine=1)
+                                       max_nfev=max_nfev, refine=1, linearise=linearise)
         refitted = tuple(FoundEffect(f.effect, f.dofs, tuple(float(x) for x in v)) for f, v in zip(effects, values))
         return refitted, chi2, ok
 
@@ -125,73 +127,39 @@ class FRFJoint(JointFit):
             x_measured, start, np.sqrt(chi2_scale) / np.abs(x_measured), tuple(system.elements), penalty,
         )
 
-    def solve(self, terms: Sequence[tuple[tuple[int, ...], DF]]) -> NDArray[np.complex128]:
-        """Amplitudes (m) at the measured coordinates (n, m) with these element terms."""
-        m = list(self.measured_columns)
-        f = self.input_column
-        x_linear = self.h[:, :, f] * self.force[:, None]
-        if not terms:
-            return x_linear[:, m]
+    def _converged(self, terms: Sequence[tuple[tuple[int, ...], DF]]) -> tuple[_Condensed, NDArray[np.complex128]]:
+        """The condensed problem of these terms and its solution X_a (n, k) by damped Newton."""
         dofs = sorted({d for term_dofs, _ in terms for d in term_dofs})
         a = [self.coords.index(d) for d in dofs]
-        k = len(a)
-        h_aa = self.h[:, a][:, :, a]
-        s = np.zeros((len(terms), k))
+        s = np.zeros((len(terms), len(a)))
         for t, (term_dofs, _) in enumerate(terms):
             s[t, dofs.index(term_dofs[0])] = 1.0
             if len(term_dofs) == 2:
                 s[t, dofs.index(term_dofs[1])] = -1.0
+        problem = _Condensed(a, s, self.h[:, a][:, :, a], self.h[:, :, self.input_column][:, a] * self.force[:, None],
+                             self.omega)
         functions = [nu for _, nu in terms]
-        omega = self.omega
-
-        def forces(x: NDArray, jacobian: bool):
-            g = np.zeros_like(x)
-            d_re = np.zeros(x.shape + (k,), complex) if jacobian else None
-            d_im = np.zeros(x.shape + (k,), complex) if jacobian else None
-            for t, nu in enumerate(functions):
-                u = x @ s[t]
-                amplitude = np.maximum(np.abs(u), 1e-300)
-                value = nu(amplitude, omega)
-                g += (value * u)[:, None] * s[t][None, :]
-                if jacobian:
-                    step = _DERIVATIVE_STEP * amplitude
-                    slope = (nu(amplitude + step, omega) - nu(amplitude - step, omega)) / (2 * step)
-                    outer = np.outer(s[t], s[t])[None]
-                    d_re += (value + u * slope * u.real / amplitude)[:, None, None] * outer
-                    d_im += (1j * value + u * slope * u.imag / amplitude)[:, None, None] * outer
-            return g, d_re, d_im
-
-        def residual(x: NDArray) -> NDArray:
-            g, _, _ = forces(x, False)
-            return x - x_linear[:, a] + np.einsum("nij,nj->ni", h_aa, g)
-
         x = self.x_start[:, a].copy()
-        r = residual(x)
+        r = problem.residual(x, functions)
         size = np.linalg.norm(x, axis=1) + 1e-300
-        eye = np.eye(k)
         with np.errstate(all="ignore"):
             for _ in range(_NEWTON_ITERATIONS):
                 norm = np.linalg.norm(r, axis=1)
                 active = np.isfinite(norm) & (norm > _TOLERANCE * size)
                 if not active.any():
                     break
-                g, d_re, d_im = forces(x, True)
-                j_re = eye[None] + h_aa @ d_re
-                j_im = 1j * eye[None] + h_aa @ d_im
-                jac = np.block([[j_re.real, j_im.real], [j_re.imag, j_im.imag]])
+                _, d_re, d_im = problem.forces(x, functions, True)
+                jac = problem.real_jacobian(d_re, d_im)
                 rhs = -np.concatenate([r.real, r.imag], axis=1)
                 singular = ~np.isfinite(jac).all(axis=(1, 2))
-                jac[singular] = np.eye(2 * k)
+                jac[singular] = np.eye(jac.shape[-1])
                 rhs[singular] = 0.0
-                try:
-                    step = np.linalg.solve(jac, rhs[..., None])[..., 0]
-                except np.linalg.LinAlgError:
-                    step = np.stack([np.linalg.lstsq(j, b, rcond=None)[0] for j, b in zip(jac, rhs)])
-                step = step[:, :k] + 1j * step[:, k:]
+                step = _solve_each(jac, rhs)
+                step = step[:, : len(a)] + 1j * step[:, len(a):]
                 factor = np.where(active, 1.0, 0.0)
                 for _ in range(8):
                     trial = x + factor[:, None] * step
-                    r_trial = residual(trial)
+                    r_trial = problem.residual(trial, functions)
                     better = np.linalg.norm(r_trial, axis=1) < norm
                     if np.all(better | (factor == 0)):
                         break
@@ -200,14 +168,124 @@ class FRFJoint(JointFit):
                 x = np.where(accepted[:, None], trial, x)
                 r = np.where(accepted[:, None], r_trial, r)
                 size = np.linalg.norm(x, axis=1) + 1e-300
-        g, _, _ = forces(x, False)
-        h_ma = self.h[:, m][:, :, a]
-        return x_linear[:, m] - np.einsum("nij,nj->ni", h_ma, g)
+        with np.errstate(all="ignore"):
+            problem.converged = np.linalg.norm(r, axis=1) <= _TOLERANCE * size
+        return problem, x
+
+    def _at_measured(self, terms, problem: _Condensed | None, x: NDArray | None) -> NDArray[np.complex128]:
+        """``X_m = H_mf F − H_ma g(X_a)`` (n, m); the linear response without terms."""
+        m = list(self.measured_columns)
+        x_linear = self.h[:, m, self.input_column] * self.force[:, None]
+        if problem is None:
+            return x_linear
+        g, _, _ = problem.forces(x, [nu for _, nu in terms], False)
+        return x_linear - np.einsum("nij,nj->ni", self.h[:, m][:, :, problem.a], g)
+
+    def solve(self, terms: Sequence[tuple[tuple[int, ...], DF]]) -> NDArray[np.complex128]:
+        """Amplitudes (m) at the measured coordinates (n, m) with these element terms."""
+        return self._at_measured(terms, *(self._converged(terms) if terms else (None, None)))
+
+    def linearise(self, effects, values=None) -> "JointSolution":
+        """These effects (at ``values``, else their own) solved at every point: gives the
+        residual and its Jacobian from one solve."""
+        terms = _terms(self.fixed, effects, values)
+        problem, x = self._converged(terms) if terms else (None, None)
+        return JointSolution(self, tuple(effects), terms, problem, x)
 
     def residual(self, effects, values=None):
-        x = self.solve(_terms(self.fixed, effects, values))
-        r = (x - self.x_measured) * self.scale
+        return self.linearise(effects, values).residual()
+
+
+@dataclass(frozen=True, eq=False)
+class JointSolution:
+    """One solve of an :class:`FRFJoint` (problem and X_a None without any element term)."""
+
+    joint: FRFJoint
+    effects: tuple[FoundEffect, ...]
+    terms: list
+    problem: _Condensed | None
+    x: NDArray[np.complex128] | None
+
+    def residual(self) -> NDArray[np.float64]:
+        r = (self.joint._at_measured(self.terms, self.problem, self.x) - self.joint.x_measured) * self.joint.scale
         return np.concatenate([r.real.ravel(), r.imag.ravel()])
+
+    def jacobian(self, perturbed, steps) -> NDArray[np.float64]:
+        """∂r/∂θ_j of :meth:`residual` (see :class:`nlupdate.discovery.fitting.Linearised`)
+        by the implicit function theorem: at the solution, ``R(X_a, θ) = 0`` gives
+        ``dX_a/dθ = −(∂R/∂X_a)⁻¹ H_aa ∂g/∂θ`` (∂R/∂X_a: Newton's own Jacobian), and
+        ``dX_m = −H_ma (∂g/∂X_a dX_a + ∂g/∂θ)``; ∂g/∂θ is a forward difference of the DFs
+        at the solved amplitudes. Where Newton did not converge, X_a is held fixed."""
+        joint, problem, x = self.joint, self.problem, self.x
+        functions = [nu for _, nu in self.terms]
+        g, d_re, d_im = problem.forces(x, functions, True)
+        jac = problem.real_jacobian(d_re, d_im)
+        h_ma = joint.h[:, list(joint.measured_columns)][:, :, problem.a]
+        k = len(problem.a)
+        columns = []
+        with np.errstate(all="ignore"):
+            for stepped, step in zip(perturbed, steps):
+                g_stepped, _, _ = problem.forces(x, [nu for _, nu in _terms(joint.fixed, self.effects, stepped)], False)
+                g_theta = (g_stepped - g) / step
+                moved = np.einsum("nij,nj->ni", problem.h_aa, g_theta)
+                dx = -_solve_each(jac, np.concatenate([moved.real, moved.imag], axis=1))
+                dx[~problem.converged] = 0.0  # an unconverged point is no solution to follow
+                dg = (np.einsum("nij,nj->ni", d_re, dx[:, :k]) + np.einsum("nij,nj->ni", d_im, dx[:, k:]) + g_theta)
+                d_r = -np.einsum("nij,nj->ni", h_ma, dg) * joint.scale
+                columns.append(np.concatenate([d_r.real.ravel(), d_r.imag.ravel()]))
+        return np.stack(columns, axis=1)
+
+
+@dataclass
+class _Condensed:
+    """The FRF problem condensed on the coordinates ``a`` (indices into the joint's coords):
+    connectivities s (terms, k), H_aa (n, k, k), the linear response X_a^L (n, k), ω (n,)."""
+
+    a: list[int]
+    s: NDArray[np.float64]
+    h_aa: NDArray[np.complex128]
+    x_linear: NDArray[np.complex128]
+    omega: NDArray[np.float64]
+    #: per point: Newton met its tolerance (set by :meth:`FRFJoint._converged`)
+    converged: NDArray[np.bool_] | None = None
+
+    def forces(self, x: NDArray, functions: Sequence[DF], jacobian: bool):
+        """g(X_a) (n, k) and, with ``jacobian``, ∂g/∂Re X_a and ∂g/∂Im X_a (n, k, k)."""
+        k = self.s.shape[1]
+        g = np.zeros_like(x)
+        d_re = np.zeros(x.shape + (k,), complex) if jacobian else None
+        d_im = np.zeros(x.shape + (k,), complex) if jacobian else None
+        for s_t, nu in zip(self.s, functions):
+            u = x @ s_t
+            amplitude = np.maximum(np.abs(u), 1e-300)
+            value = nu(amplitude, self.omega)
+            g += (value * u)[:, None] * s_t[None, :]
+            if jacobian:
+                step = _DERIVATIVE_STEP * amplitude
+                slope = (nu(amplitude + step, self.omega) - nu(amplitude - step, self.omega)) / (2 * step)
+                outer = np.outer(s_t, s_t)[None]
+                d_re += (value + u * slope * u.real / amplitude)[:, None, None] * outer
+                d_im += (1j * value + u * slope * u.imag / amplitude)[:, None, None] * outer
+        return g, d_re, d_im
+
+    def residual(self, x: NDArray, functions: Sequence[DF]) -> NDArray[np.complex128]:
+        g, _, _ = self.forces(x, functions, False)
+        return x - self.x_linear + np.einsum("nij,nj->ni", self.h_aa, g)
+
+    def real_jacobian(self, d_re: NDArray, d_im: NDArray) -> NDArray[np.float64]:
+        """∂R/∂(Re X_a, Im X_a) as a real (n, 2k, 2k) matrix acting on (Re, Im) stacked."""
+        eye = np.eye(self.s.shape[1])
+        j_re = eye[None] + self.h_aa @ d_re
+        j_im = 1j * eye[None] + self.h_aa @ d_im
+        return np.block([[j_re.real, j_im.real], [j_re.imag, j_im.imag]])
+
+
+def _solve_each(matrices: NDArray, rhs: NDArray) -> NDArray:
+    """``matrices[n]⁻¹ rhs[n]`` for every n (least squares where one is singular)."""
+    try:
+        return np.linalg.solve(matrices, rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return np.stack([np.linalg.lstsq(j, b, rcond=None)[0] for j, b in zip(matrices, rhs)])
 
 
 @dataclass(frozen=True, eq=False)
