@@ -77,3 +77,38 @@ def test_an_error_without_an_answer_is_raised():
 
     with pytest.raises(ValueError, match="boom"):
         call(broken, "POST")
+
+
+def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypatch):
+    """The server's SQLite connections get a 2 s busy timeout (Prefect's: 60 s): a write
+    meeting a lock another connection holds fails after ~2 s as a busy error, which
+    Prefect answers 503 and RetryBusyWrites runs again."""
+    import sqlite3
+    import time
+
+    import sqlalchemy.exc
+    from prefect.server.api.server import is_client_retryable_exception
+    from prefect.server.database.configurations import AioSqliteConfiguration
+
+    from nlupdate.flows.server_app import BUSY_TIMEOUT_MS, shorten_busy_timeout
+
+    monkeypatch.setattr(AioSqliteConfiguration, "setup_sqlite", AioSqliteConfiguration.setup_sqlite)  # restored after
+    shorten_busy_timeout()
+    shorten_busy_timeout()  # twice is once
+    database = tmp_path / "prefect.db"
+    configuration = AioSqliteConfiguration(connection_url=f"sqlite+aiosqlite:///{database}")
+    holder, writer = (sqlite3.connect(database, isolation_level=None) for _ in range(2))
+    for connection in (holder, writer):
+        configuration.setup_sqlite(connection, None)
+    assert writer.execute("PRAGMA busy_timeout").fetchone()[0] == BUSY_TIMEOUT_MS == 2000
+    holder.execute("CREATE TABLE runs (state TEXT)")
+    holder.execute("BEGIN IMMEDIATE")
+    holder.execute("INSERT INTO runs VALUES ('RUNNING')")
+    started = time.monotonic()
+    with pytest.raises(sqlite3.OperationalError, match="database is locked") as refused:
+        writer.execute("INSERT INTO runs VALUES ('COMPLETED')")
+    assert 1.5 < time.monotonic() - started < 10
+    assert is_client_retryable_exception(sqlalchemy.exc.OperationalError("INSERT", {}, refused.value))
+    holder.execute("COMMIT")
+    writer.execute("INSERT INTO runs VALUES ('COMPLETED')")  # the retry gets through
+    assert [row[0] for row in writer.execute("SELECT state FROM runs")] == ["RUNNING", "COMPLETED"]
