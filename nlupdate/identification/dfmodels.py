@@ -364,6 +364,10 @@ class PhysicalModel:
         return [self.vector(s) for s in starts]
 
 
+#: A describing-function model PRD fits: polynomial coefficients or physical elements.
+Model = PolynomialModel | PhysicalModel
+
+
 def _iwan_guesses(amplitude: NDArray, y: NDArray, scale: float) -> dict[str, list[float]]:
     """Starts of an Iwan joint from PRD (or DDF) points: K_T from the stiffness lost at the
     largest amplitude; F_S from the damping there (``Im ν ≈ 4F_S/(πA)`` in macroslip) and,
