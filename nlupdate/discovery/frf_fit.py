@@ -28,7 +28,7 @@ from nlupdate.discovery.candidates import CandidateFit, FoundEffect
 from nlupdate.discovery.effects import DFSamples, Effect
 from nlupdate.discovery.fitting import fit_at_place
 from nlupdate.discovery.localisation import Localisation, free_element_force, summarise
-from nlupdate.identification.scalar_balance import nearest_amplitude
+from nlupdate.identification.scalar_balance import RootSensitivity, nearest_amplitude
 from nlupdate.model.system import NonlinearSystem
 
 DF = Callable[[NDArray, NDArray], NDArray]
@@ -169,26 +169,19 @@ class PlaceSolution:
         """∂r/∂θ_j of :meth:`residual` for unknowns θ_j whose step ``steps[j]`` turns the
         values into ``perturbed[j]``, without another amplitude solve.
 
-        The amplitude follows θ implicitly: with ``z = 1/H_uu + ν(A, θ)`` and
-        ``g = A|z| − |H_uf/H_uu| F = 0``, ``dA/dθ = −g_θ/g_A`` where
-        ``g_A = |z| + A Re(z̄ ν_A)/|z|`` and ``g_θ = A Re(z̄ ν_θ)/|z|``; then
-        ``dν/dθ = ν_θ + ν_A dA/dθ`` and ``dX_m = −H_mu H_uf F/(1 + H_uu ν)² dν``. ν_θ and
-        ν_A are forward differences of the DF alone, at the solved amplitude. Where no root
-        was found, or at a fold (g_A = 0), A is held fixed."""
+        The amplitude at the place follows θ implicitly
+        (:class:`~nlupdate.identification.scalar_balance.RootSensitivity`, with
+        ``s = 1/H_uu + ν(A, θ)``): ``dν = ν_θ + ν_A dA``, then
+        ``dX_m = −H_mu H_uf F/(1 + H_uu ν)² dν``. ν_θ is a forward difference of the DF
+        alone, at the solved amplitude."""
         c, amplitude = self.context, self.amplitude
         value = self.nu(amplitude, c.omega)
-        z = 1.0 / c.h_uu + value
-        da = amplitude * 1e-7
-        nu_a = (self.nu(amplitude + da, c.omega) - value) / da
-        g_a = np.abs(z) + amplitude * np.real(np.conj(z) * nu_a) / np.abs(z)
-        follows = self.solved & (np.abs(g_a) > 1e-12 * np.abs(z))
+        root = RootSensitivity.at(1.0 / c.h_uu, self.nu, amplitude, c.omega, self.solved)
         d_value = c.h_uf * c.force / (1.0 + c.h_uu * value) ** 2
         columns = []
         for stepped, step in zip(perturbed, steps):
             nu_theta = (_sum_df(c._terms(self.effects, stepped))(amplitude, c.omega) - value) / step
-            g_theta = amplitude * np.real(np.conj(z) * nu_theta) / np.abs(z)
-            d_amplitude = np.where(follows, -g_theta / np.where(follows, g_a, 1.0), 0.0)
-            columns.append(c._scaled(-c.h_mu * (d_value * (nu_theta + nu_a * d_amplitude))[:, None]))
+            columns.append(c._scaled(-c.h_mu * (d_value * root.d_s(nu_theta))[:, None]))
         return np.stack(columns, axis=1)
 
 

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import Model, PolynomialModel
-from nlupdate.identification.scalar_balance import nearest_amplitude
+from nlupdate.identification.scalar_balance import RootSensitivity, nearest_amplitude
 
 
 def window_design(x: NDArray, degree: int) -> NDArray:
@@ -165,13 +165,10 @@ class OutputError:
         return np.concatenate([r.real, r.imag])
 
     def jacobian(self, theta: NDArray) -> NDArray[np.float64]:
-        """∂r/∂θ from the solved amplitudes (no solve per parameter).
-
-        With ``s = Z_L + ν(A, p)`` and ``g = A|s| − F = 0`` the amplitude follows θ as
-        ``dA = −A Re(s̄ ∂s)/|s| / g_A``, ``g_A = |s| + A Re(s̄ ν_A)/|s|``, where ∂s is the
-        change of s at fixed A (``design·dz`` for z, a forward difference of the DF for p);
-        then ``dX = −F/s² (∂s + ν_A dA)``. Where no root was found, or at a fold
-        (g_A = 0), A is held fixed."""
+        """∂r/∂θ from the solved amplitudes (no solve per parameter): a change ∂s of
+        ``s = Z_L + ν(A, p)`` at fixed A (``design·dz`` for z, a forward difference of the DF
+        for p) moves the root as :class:`~nlupdate.identification.scalar_balance.RootSensitivity`
+        says, and ``dX = −F/s² ds``."""
         w = self.window
         z, p = self.split(theta)
         steps = 1e-7 * np.where(p != 0, np.abs(p), 1.0)
@@ -182,7 +179,7 @@ class OutputError:
             changes += [1j * part.design[:, j] for j in range(self.n_z)]
             changes += [(functions[k](part.amplitude, part.omega) - part.value) / step
                         for functions, step in zip(stepped, steps)]
-            blocks.append(np.stack([part.d_response(change) for change in changes], axis=1) / np.abs(measured)[:, None])
+            blocks.append(part.d_responses(changes) / np.abs(measured)[:, None])
         d_r = np.concatenate(blocks)
         return np.concatenate([d_r.real, d_r.imag])
 
@@ -207,13 +204,7 @@ class SolvedPoints:
     def response(self) -> NDArray[np.complex128]:
         return self.force / (self.z_l + self.value)
 
-    def d_response(self, change: NDArray[np.complex128]) -> NDArray[np.complex128]:
-        """dX for a change ``change`` of s at fixed amplitude (see :meth:`OutputError.jacobian`)."""
-        value, a = self.value, self.amplitude
-        s = self.z_l + value
-        da = 1e-7 * a
-        nu_a = (self.nu(a + da, self.omega) - value) / da
-        g_a = np.abs(s) + a * np.real(np.conj(s) * nu_a) / np.abs(s)
-        follows = self.solved & (np.abs(g_a) > 1e-12 * np.abs(s))
-        d_amplitude = np.where(follows, -a * np.real(np.conj(s) * change) / np.abs(s) / np.where(follows, g_a, 1.0), 0.0)
-        return -self.force / s**2 * (change + nu_a * d_amplitude)
+    def d_responses(self, changes: list[NDArray[np.complex128]]) -> NDArray[np.complex128]:
+        """dX (points, changes) for each change of s at fixed amplitude (see :meth:`OutputError.jacobian`)."""
+        root = RootSensitivity.at(self.z_l, self.nu, self.amplitude, self.omega, self.solved)
+        return np.stack([-self.force / root.s**2 * root.d_s(change) for change in changes], axis=1)

@@ -18,6 +18,7 @@ grid axis, omega is passed with a matching trailing axis of length 1).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -134,6 +135,42 @@ def nearest_amplitude(
                               grid[found, k[found] + 1])
     a[bad], ok[bad] = root, has_root
     return a.reshape(shape), ok.reshape(shape)
+
+
+@dataclass(frozen=True, eq=False)
+class RootSensitivity:
+    """How the roots A of ``g(A) = A|s| − F`` with ``s = W + ν(A, ω)`` move when s changes.
+
+    A change ∂s of s at fixed A (of W or of the DF's parameters) moves the root by
+    ``dA = −A Re(s̄ ∂s)/|s| / g_A`` with ``g_A = |s| + A Re(s̄ ν_A)/|s|`` (implicit function
+    theorem; ν_A a forward difference of the DF), and s in all by ``∂s + ν_A dA``. Where no
+    root was found (``solved`` False), or at a fold (g_A = 0), A is held fixed.
+    """
+
+    s: NDArray[np.complex128]
+    nu_a: NDArray[np.complex128]
+    amplitude: NDArray[np.float64]
+    follows: NDArray[np.bool_]
+    g_a: NDArray[np.float64]
+
+    @classmethod
+    def at(cls, w: NDArray, nu: DF, amplitude: NDArray, omega: NDArray, solved: NDArray) -> "RootSensitivity":
+        """At the roots ``amplitude`` (m) of ``g`` for dynamic stiffness ``w`` (N/m)."""
+        value = nu(amplitude, omega)
+        s = w + value
+        step = 1e-7 * amplitude
+        nu_a = (nu(amplitude + step, omega) - value) / step
+        g_a = np.abs(s) + amplitude * np.real(np.conj(s) * nu_a) / np.abs(s)
+        return cls(s, nu_a, amplitude, solved & (np.abs(g_a) > 1e-12 * np.abs(s)), g_a)
+
+    def d_amplitude(self, change: NDArray[np.complex128]) -> NDArray[np.float64]:
+        """dA (m) for the change ``change`` of s at fixed A."""
+        g_change = self.amplitude * np.real(np.conj(self.s) * change) / np.abs(self.s)
+        return np.where(self.follows, -g_change / np.where(self.follows, self.g_a, 1.0), 0.0)
+
+    def d_s(self, change: NDArray[np.complex128]) -> NDArray[np.complex128]:
+        """The whole change of s: ``change`` and what the root's move adds through ν."""
+        return change + self.nu_a * self.d_amplitude(change)
 
 
 def all_amplitudes(
