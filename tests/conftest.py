@@ -5,7 +5,9 @@
   registrations in a temporary ``NLUPDATE_CONFIG_DIR`` (both removed at the end), and
   :func:`prefect_server` starts one server for all the tests that need it (each start costs
   13–26 s here). Under pytest-xdist (``-n 2`` in pyproject.toml) each worker process has
-  its own folders and its own server.
+  its own folders and its own server. The Prefect database migrations run once per session,
+  while the workers collect the tests (:mod:`prefect_home`), and each worker's home starts
+  from that database.
 * Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
   when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
   the skip into a failure so CI always runs them.
@@ -28,9 +30,20 @@ _SESSION_FOLDERS = (os.environ["PREFECT_HOME"], os.environ["NLUPDATE_CONFIG_DIR"
 os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
 
+import prefect_home  # noqa: E402
 from nlupdate.flows.environment import prepare_environment  # noqa: E402
 
 prepare_environment()
+
+_TEMPLATE: list = []  # the migration this process started (the xdist controller's, or a lone session's)
+
+
+def pytest_configure(config):
+    """In the xdist controller of a session with workers: start migrating the template Prefect
+    database (a session without workers, such as one test file run alone, migrates its one
+    home itself rather than wait for a template)."""
+    if not hasattr(config, "workerinput") and (config.getoption("numprocesses", default=None) or 0):
+        _TEMPLATE.append(prefect_home.start_template())
 
 
 def pytest_unconfigure(config):
@@ -38,9 +51,12 @@ def pytest_unconfigure(config):
     session server has stopped by now."""
     for folder in _SESSION_FOLDERS:
         shutil.rmtree(folder, ignore_errors=True)
+    while _TEMPLATE:
+        prefect_home.remove_template(_TEMPLATE.pop())
 
 
 def pytest_runtest_setup(item):
+    prefect_home.seed(_SESSION_FOLDERS[0])  # the session's Prefect home; a no-op once it has its database
     if "calculix" in item.keywords and not shutil.which("ccx"):
         if os.environ.get("NLUPDATE_REQUIRE_CCX") == "1":
             pytest.fail("ccx is required here (NLUPDATE_REQUIRE_CCX=1) but not on PATH: apt-get install -y calculix-ccx")
