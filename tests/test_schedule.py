@@ -3,9 +3,9 @@
 
 * Mistakes in the command line or the study are one line and exit code 2, before any
   server is asked (in this process, through :func:`nlupdate.cli.main`).
-* A cron schedule is registered on the session's Prefect server and read back from the
-  API as the server stores it; ``list`` shows it, ``delete`` removes it.
-* A real ``prefect server start`` (its scheduler creates the runs) with a 5-second
+* A cron schedule is registered on the session's Prefect server (in this process) and read
+  back from the API as the server stores it; ``list`` shows it, ``delete`` removes it.
+* A real ``prefect server start`` (its scheduler creates the runs) with a 2-second
   interval and ``nlupdate serve``: at least two scheduled runs complete, each with its own
   archive (manifest.json, report.md); SIGINT stops serve at once with exit code 130.
 """
@@ -27,6 +27,9 @@ import pytest
 
 from nlupdate.cli import main
 
+import prefect_home
+from studies import small_two_dof_study, write_study
+
 ROOT = Path(__file__).resolve().parents[1]
 FLOW = "scheduled study"
 
@@ -38,6 +41,18 @@ def nlupdate(*args: object, cwd: Path, env: dict, timeout: float = 120) -> subpr
 
 def api_env(url: str, **extra: str) -> dict:
     return {**os.environ, "PREFECT_API_URL": url, **extra}
+
+
+def in_process(capsys, url: str, *args: object) -> tuple[int, str, str]:
+    """``nlupdate ARGS`` in this process with Prefect talking to ``url``; (exit code, stdout,
+    stderr). Prefect read its settings when it was imported, maybe before that server
+    started: the URL is named explicitly."""
+    from prefect.settings import PREFECT_API_URL, temporary_settings
+
+    with temporary_settings(updates={PREFECT_API_URL: url}):
+        code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
 
 
 @pytest.fixture(autouse=True)
@@ -121,12 +136,17 @@ def read_deployment(url: str, name: str) -> httpx.Response:
     return httpx.get(f"{url}/deployments/name/{FLOW}/{name}", timeout=30)
 
 
-def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect_server):
-    env = api_env(prefect_server)
-    registered = nlupdate("schedule", study, "--cron", "0 2 * * *", "--workers", "1", "--out", "results",
-                          "--cache-dir", "cache", cwd=tmp_path, env=env)
-    assert registered.returncode == 0, registered.stderr
-    assert registered.stdout.startswith("registered scheduled study 'two-dof': cron \"0 2 * * *\" (UTC)"), registered.stdout
+def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect_server, capsys, monkeypatch):
+    """In this process, against the session's server."""
+    monkeypatch.chdir(tmp_path)
+
+    def cli(*args: object) -> tuple[int, str, str]:
+        return in_process(capsys, prefect_server, *args)
+
+    code, out, err = cli("schedule", study, "--cron", "0 2 * * *", "--workers", "1", "--out", "results",
+                         "--cache-dir", "cache")
+    assert code == 0, err
+    assert out.startswith("registered scheduled study 'two-dof': cron \"0 2 * * *\" (UTC)"), out
 
     deployment = read_deployment(prefect_server, "two-dof")
     assert deployment.status_code == 200, deployment.text
@@ -138,26 +158,26 @@ def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect
     assert deployment["parameters"] == {"name": "two-dof", "study_sha256": sha}
     assert deployment["entrypoint"] == "nlupdate.flows.schedule.scheduled_study"
 
-    again = nlupdate("schedule", study, "--interval", "60", cwd=tmp_path, env=env)
-    assert again.returncode == 2 and "a scheduled study named 'two-dof' exists" in again.stderr, again.stderr
-    assert "--replace" in again.stderr
+    code, _, err = cli("schedule", study, "--interval", "60")
+    assert code == 2 and "a scheduled study named 'two-dof' exists" in err, err
+    assert "--replace" in err
 
-    listed = nlupdate("schedule", "list", cwd=tmp_path, env=env)
-    assert listed.returncode == 0, listed.stderr
-    line = next(line for line in listed.stdout.splitlines() if line.startswith("two-dof:"))
+    code, out, err = cli("schedule", "list")
+    assert code == 0, err
+    line = next(line for line in out.splitlines() if line.startswith("two-dof:"))
     assert line.startswith('two-dof: cron "0 2 * * *" (UTC); next run ')
     assert f"study {study.resolve()} (sha256 {sha[:12]}) → " in line
-    as_json = json.loads(nlupdate("schedule", "list", "--json", cwd=tmp_path, env=env).stdout)
+    as_json = json.loads(cli("schedule", "list", "--json")[1])
     entry = next(e for e in as_json if e["name"] == "two-dof")
     assert entry["schedule"] == 'cron "0 2 * * *" (UTC)' and entry["results_root"] == str(tmp_path / "results")
     assert entry["workers"] == 1 and entry["cache_dir"] == str(tmp_path / "cache") and entry["server_drift"] is None
 
-    deleted = nlupdate("schedule", "delete", "two-dof", cwd=tmp_path, env=env)
-    assert deleted.returncode == 0 and "deleted scheduled study 'two-dof'" in deleted.stdout, deleted.stderr
+    code, out, err = cli("schedule", "delete", "two-dof")
+    assert code == 0 and "deleted scheduled study 'two-dof'" in out, err
     assert read_deployment(prefect_server, "two-dof").status_code == 404
-    unknown = nlupdate("schedule", "delete", "two-dof", cwd=tmp_path, env=env)
-    assert unknown.returncode == 2 and len(unknown.stderr.strip().splitlines()) == 1, unknown.stderr
-    assert "no scheduled study named 'two-dof'" in unknown.stderr
+    code, _, err = cli("schedule", "delete", "two-dof")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "no scheduled study named 'two-dof'" in err
 
 
 # ------------------------------------------------------------------ a real server: runs fire, serve runs them
@@ -186,7 +206,9 @@ def stop_group(process: subprocess.Popen, sig: int = signal.SIGTERM, timeout_s: 
 def prefect_server_process(tmp_path: Path, **extra_env: str):
     """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free
     port; yields its API URL. Its scheduler looks for new deployments every second
-    (Prefect's default: 5 s), so a test waits for runs, not for the scheduler's loop."""
+    (Prefect's default: 5 s), so a test waits for runs, not for the scheduler's loop. The
+    home starts from the session's migrated database (:mod:`prefect_home`)."""
+    prefect_home.seed(tmp_path / "server-home")
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
     env.update(PREFECT_HOME=str(tmp_path / "server-home"), PREFECT_SERVER_ANALYTICS_ENABLED="false",
@@ -228,13 +250,16 @@ def complete_archives(root: Path) -> list[Path]:
     return sorted(p.parent for p in root.glob("two-dof/*/manifest.json") if (p.parent / "report.md").is_file())
 
 
-def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path, study, real_server):
+def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path, real_server, capsys):
+    """The small two-dof study (what it computes does not matter here), every 2 s,
+    registered in this process and served by ``nlupdate serve`` in its own."""
     started = time.monotonic()
+    study = write_study(tmp_path / "study.toml", small_two_dof_study())
     results = tmp_path / "results"
     env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="1")
-    registered = nlupdate("schedule", study, "--interval", "5", "--workers", "2", "--out", results,
-                          "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
-    assert registered.returncode == 0, registered.stderr
+    code, _, err = in_process(capsys, real_server, "schedule", study, "--interval", "2", "--workers", "2", "--out",
+                              results, "--cache-dir", tmp_path / "cache")
+    assert code == 0, err
 
     serve = subprocess.Popen([sys.executable, "-m", "nlupdate", "serve"], cwd=tmp_path, env=env, text=True,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
@@ -256,7 +281,7 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
                                                "registered (nlupdate schedule list); a run in progress, if any, was stopped")
     assert "Traceback" not in stderr, stderr
     lines = stdout.splitlines()
-    assert "serving 1 scheduled study: two-dof (every 5 s); Ctrl-C stops" in lines[0], stdout
+    assert "serving 1 scheduled study: two-dof (every 2 s); Ctrl-C stops" in lines[0], stdout
     finished = [line for line in lines if " finished in " in line]
     assert len(finished) >= 2 and all(line.split("UTC  ")[1].startswith("two-dof: run '") for line in finished), stdout
 
@@ -269,7 +294,7 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
     # serving changed nothing that was registered, and Ctrl-C left the schedule active
     deployment = read_deployment(real_server, "two-dof").json()
     assert not deployment["paused"] and all(s["active"] for s in deployment["schedules"])
-    assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [5.0]
+    assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [2.0]
     print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
 
 
@@ -287,7 +312,7 @@ def flow_run_state(url: str, run_id: str) -> str:
     return api_call("GET", f"{url}/flow_runs/{run_id}").json()["state"]["type"]
 
 
-def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, study, real_server):
+def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, study, real_server, capsys):
     """The attacks of the issue: any local process can use the Prefect API. A flow run
     created with its own study file (a CalculiX study whose "solver" is a script), one
     naming the registered study with another hash, and a deployment PATCHed to other
@@ -301,9 +326,9 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
     evil.write_text((ROOT / "tests" / "data" / "studies" / "calculix_tbeam_E.toml").read_text().replace(
         'work_root = "ccx_runs"', f'work_root = "{tmp_path / "runs"}"\nexecutable = "{script}"'))
     env = api_env(real_server, PREFECT_RUNNER_POLL_FREQUENCY="1")
-    registered = nlupdate("schedule", study, "--cron", "0 2 1 1 *", "--out", tmp_path / "results",
-                          "--cache-dir", tmp_path / "cache", cwd=tmp_path, env=env)
-    assert registered.returncode == 0, registered.stderr
+    code, _, err = in_process(capsys, real_server, "schedule", study, "--cron", "0 2 1 1 *", "--out",
+                              tmp_path / "results", "--cache-dir", tmp_path / "cache")
+    assert code == 0, err
     deployment = read_deployment(real_server, "two-dof").json()
     sha = deployment["parameters"]["study_sha256"]
 
@@ -330,9 +355,9 @@ def test_serve_runs_only_the_registered_study_whatever_the_api_asks(tmp_path, st
         created.append(response.json()["id"])
         assert len(created) >= 3
 
-        listed = nlupdate("schedule", "list", cwd=tmp_path, env=api_env(real_server))
-        assert f"study {study.resolve()} (sha256 {sha[:12]})" in listed.stdout
-        assert "warning: the server's deployment was changed: parameters" in listed.stderr, listed.stderr
+        _, listed, warned = in_process(capsys, real_server, "schedule", "list")
+        assert f"study {study.resolve()} (sha256 {sha[:12]})" in listed
+        assert "warning: the server's deployment was changed: parameters" in warned, warned
 
         deadline = time.monotonic() + 120
         while any(flow_run_state(real_server, run) not in ("FAILED", "CRASHED", "COMPLETED") for run in created):
