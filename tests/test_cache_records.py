@@ -123,9 +123,11 @@ class _Exploit:
 
 
 def _api(url: str):
-    from prefect.settings import PREFECT_API_URL, temporary_settings
+    """Prefect talks to ``url``; flow runs send no heartbeats (as the project's own runs: the
+    heartbeat thread makes each flow run wait up to a second as it ends)."""
+    from prefect.settings import PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    return temporary_settings(updates={PREFECT_API_URL: url})
+    return temporary_settings(updates={PREFECT_API_URL: url, PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None})
 
 
 def _run_twice_with(tmp_path, prefect_server, tamper):

@@ -134,9 +134,11 @@ def assert_no_record_is_truncated(cache: Path) -> None:
 
 
 def api(url: str):
-    from prefect.settings import PREFECT_API_URL, temporary_settings
+    """Prefect talks to ``url``; flow runs send no heartbeats (as the project's own runs: the
+    heartbeat thread makes each flow run wait up to a second as it ends)."""
+    from prefect.settings import PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    return temporary_settings(updates={PREFECT_API_URL: url})
+    return temporary_settings(updates={PREFECT_API_URL: url, PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None})
 
 
 def flow_runs_of(pid: int, url: str) -> list:

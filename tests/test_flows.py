@@ -76,17 +76,18 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
     """Flow runs are read back from the API: the study flow and its two fan-out subflows,
     completed, named after their step and the study."""
     from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentTaskRunId
 
     _, _, manifest = first_run
 
     async def flow_runs():
+        """The study's flow run and the flow runs started by its task runs."""
         async with get_client() as client:
             parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
-            children = []
-            for run in await client.read_flow_runs():
-                if run.parent_task_run_id is not None:
-                    if (await client.read_task_run(run.parent_task_run_id)).flow_run_id == parent.id:
-                        children.append(run)
+            task_runs = await client.read_task_runs(flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[parent.id])),
+                                                    limit=200)
+            children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
+                parent_task_run_id=FlowRunFilterParentTaskRunId(any_=[run.id for run in task_runs])))
             return parent, children
 
     parent, children = asyncio.run(flow_runs())
