@@ -20,6 +20,7 @@ from nlupdate.adapters.base import ModalResult
 from nlupdate.notices import NlupdateWarning
 from nlupdate.tasks import records
 from nlupdate.tasks.store import RECORDS_FOLDER, sign, verified
+from prefect_settings import talking_to
 
 
 # ----------------------------------------------------------------------------- the codec
@@ -122,14 +123,6 @@ class _Exploit:
         return (Path(self.marker).write_text, ("code from the cache ran",))
 
 
-def _api(url: str):
-    """Prefect talks to ``url``; flow runs send no heartbeats (as the project's own runs: the
-    heartbeat thread makes each flow run wait up to a second as it ends)."""
-    from prefect.settings import PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
-
-    return temporary_settings(updates={PREFECT_API_URL: url, PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None})
-
-
 def _run_twice_with(tmp_path, prefect_server, tamper):
     """A cached task (returning a ModalResult), run once; ``tamper(record_path)``; run
     again. Returns (state names, results, computations, warnings of the second run)."""
@@ -149,7 +142,7 @@ def _run_twice_with(tmp_path, prefect_server, tamper):
         state = configured(step, tmp_path)(k1, return_state=True)
         return state.name, state.result()
 
-    with _api(prefect_server):
+    with talking_to(prefect_server):
         first = run(4.0)
         run(9.0)
         tamper(tmp_path / RECORDS_FOLDER)

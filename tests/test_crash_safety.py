@@ -30,6 +30,7 @@ import pytest
 
 from nlupdate.files import HOST, atomic_directory
 from nlupdate.reporting.catalogue import find_runs
+from prefect_settings import talking_to
 from studies import two_dof_study, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -133,20 +134,12 @@ def assert_no_record_is_truncated(cache: Path) -> None:
         ResultRecord.deserialize(verified(path.name, path.read_bytes()))
 
 
-def api(url: str):
-    """Prefect talks to ``url``; flow runs send no heartbeats (as the project's own runs: the
-    heartbeat thread makes each flow run wait up to a second as it ends)."""
-    from prefect.settings import PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
-
-    return temporary_settings(updates={PREFECT_API_URL: url, PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None})
-
-
 def flow_runs_of(pid: int, url: str) -> list:
     from prefect.client.orchestration import get_client
 
     from prefect.client.schemas.sorting import FlowRunSort
 
-    with api(url), get_client(sync_client=True) as client:
+    with talking_to(url), get_client(sync_client=True) as client:
         recent = client.read_flow_runs(sort=FlowRunSort.EXPECTED_START_TIME_DESC, limit=200)
     return [run for run in recent if run.infrastructure_pid == f"{HOST}:{pid}"]
 
@@ -419,7 +412,7 @@ def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server
         state = configured(step, tmp_path)(21, return_state=True)
         return state.name, state.result()
 
-    with api(prefect_server):
+    with talking_to(prefect_server):
         assert run() == ("Completed", 42)
         record = tmp_path / "records-v1" / "fixed-key"
         record.write_bytes(record.read_bytes()[: record.stat().st_size // 2])
@@ -492,7 +485,7 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
     dead, live = dead_pid(), subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     said: list[str] = []
     try:
-        with api(prefect_server), get_client(sync_client=True) as client:
+        with talking_to(prefect_server), get_client(sync_client=True) as client:
             def run(owner: str | None, parent_task_run_id=None):
                 created = client.create_flow_run(a_flow, state=Running(), parent_task_run_id=parent_task_run_id)
                 if owner is not None:
@@ -539,7 +532,7 @@ def test_a_flow_claims_its_run_and_a_claim_never_fails_the_run(prefect_server, m
         return str(FlowRunContext.get().flow_run.id)
 
     assert not liveness.claim_flow_run()  # outside a flow run: nothing to claim
-    with api(prefect_server):
+    with talking_to(prefect_server):
         ids = [claimed_in_body(), claimed_by_hook()]
         with get_client(sync_client=True) as client:
             owners = [client.read_flow_run(i).infrastructure_pid for i in ids]

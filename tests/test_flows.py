@@ -19,7 +19,8 @@ import pytest
 from nlupdate.flows.status_lines import Progress
 from nlupdate.flows.run import run_study_flow
 from nlupdate.flows.runners import Execution, ExecutionError, task_runner
-from studies import two_dof_study, study_text
+from prefect_settings import talking_to
+from studies import small_two_dof_study, two_dof_study, study_text, write_study
 from nlupdate.study import load_study, run_study, study_from_text
 from nlupdate.study.spec import TargetsSpec
 from nlupdate.tasks.names import JOB_NOUNS
@@ -90,10 +91,39 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
                 parent_task_run_id=FlowRunFilterParentTaskRunId(any_=[run.id for run in task_runs])))
             return parent, children
 
-    parent, children = asyncio.run(flow_runs())
+    with talking_to(prefect_server):
+        parent, children = asyncio.run(flow_runs())
     assert parent.state_name == "Completed"
     assert sorted(run.state_name for run in children) == ["Completed"] * 2
     assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
+
+
+def test_a_run_talks_to_its_server_whatever_prefect_read_when_imported(prefect_server, tmp_path, monkeypatch):
+    """Prefect reads its settings when it is imported: a process that imported it before the
+    run's server existed (a notebook, this test session) has no API in them. The run must
+    still talk to the server it was given (PREFECT_API_URL here), not start Prefect's own
+    server in this process and record the run there."""
+    from prefect.server.api.server import SubprocessASGIServer
+    from prefect.settings import PREFECT_API_URL, temporary_settings
+
+    def refuse(self, *args, **kwargs):
+        raise AssertionError("Prefect started a server of its own in this process")
+
+    monkeypatch.setattr(SubprocessASGIServer, "start", refuse)
+    study = write_study(tmp_path / "study.toml", small_two_dof_study())
+    with temporary_settings(restore_defaults={PREFECT_API_URL}):  # as imported before the server started
+        _, manifest = flow_run(load_study(study), tmp_path)
+    assert f"API {prefect_server}" in manifest["run"]["orchestration"]
+    with talking_to(prefect_server):
+        recorded = asyncio.run(_read_flow_run(manifest["run"]["flow_run_id"]))
+    assert recorded.state_name == "Completed"
+
+
+async def _read_flow_run(flow_run_id: str):
+    from prefect.client.orchestration import get_client
+
+    async with get_client() as client:
+        return await client.read_flow_run(flow_run_id)
 
 
 def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_server):
@@ -121,7 +151,8 @@ def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, pr
                     flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[run.id])), limit=200)
             return parent, children, tasks
 
-    parent, children, tasks = asyncio.run(runs())
+    with talking_to(prefect_server):
+        parent, children, tasks = asyncio.run(runs())
     match = re.fullmatch(r"two-dof (\d{4}-\d\d-\d\d \d\d:\d\d) UTC", parent.name)
     assert match, parent.name
     named_at = dt.datetime.strptime(match[1], "%Y-%m-%d %H:%M").replace(tzinfo=dt.timezone.utc)

@@ -28,6 +28,7 @@ import pytest
 from nlupdate.cli import main
 
 import prefect_home
+from prefect_settings import talking_to
 from studies import small_two_dof_study, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,11 +46,8 @@ def api_env(url: str, **extra: str) -> dict:
 
 def in_process(capsys, url: str, *args: object) -> tuple[int, str, str]:
     """``nlupdate ARGS`` in this process with Prefect talking to ``url``; (exit code, stdout,
-    stderr). Prefect read its settings when it was imported, maybe before that server
-    started: the URL is named explicitly."""
-    from prefect.settings import PREFECT_API_URL, temporary_settings
-
-    with temporary_settings(updates={PREFECT_API_URL: url}):
+    stderr)."""
+    with talking_to(url):
         code = main([str(a) for a in args])
     out, err = capsys.readouterr()
     return code, out, err
