@@ -27,7 +27,7 @@ from pathlib import Path
 VARIABLE = "NLUPDATE_TEST_PREFECT_TEMPLATE"
 
 _MIGRATE = """
-import asyncio, os, sys
+import asyncio, os
 from pathlib import Path
 home = Path(os.environ["PREFECT_HOME"])
 try:
