@@ -34,25 +34,17 @@ def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterat
     Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
     end of every (sub)flow run). Yields (where the run is recorded — the API's URL when the
     user gave it, a note for a server started for the run, whose URL is gone after it —,
-    task runner, its description, store).
-
-    Prefect reads its settings when it is imported: in a process that imported it before
-    the run's server existed (a notebook, a test session) they name no API, and Prefect
-    would start a server of its own in this process (6 s here) and record the run there.
-    So the API is named in Prefect's settings for the block, and Prefect's own
-    ephemeral server is ruled out."""
+    task runner, its description, store)."""
     if execution.dask_address is not None:  # before the server, which takes seconds to start
         check_scheduler_address(execution.dask_address)
     prepare_environment()
     store = cache_directory(cache_dir)
     store.mkdir(parents=True, exist_ok=True)
-    from prefect.settings import (PREFECT_API_URL, PREFECT_FLOWS_HEARTBEAT_FREQUENCY, PREFECT_SERVER_EPHEMERAL_ENABLED,
-                                  temporary_settings)
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
     users_api = bool(os.environ.get("PREFECT_API_URL"))
     with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
-            temporary_settings(updates={PREFECT_API_URL: url, PREFECT_SERVER_EPHEMERAL_ENABLED: False,
-                                        PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}), using(progress):
+            temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}), using(progress):
         recorded = f"API {url}" if users_api else ("a Prefect server started for the run (the run stays in "
                                                    "Prefect's local database)")
         yield recorded, runner, description, store

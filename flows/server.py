@@ -2,8 +2,8 @@
 
 Without ``PREFECT_API_URL`` every process — and every Dask worker — would start its own
 temporary server (13–26 s each here). :func:`prefect_api` starts exactly one for the run,
-in a subprocess, points this process and every worker started afterwards at it (through
-the environment), and stops it at the end, after Prefect's background writers have sent
+in a subprocess, points this process (Prefect's settings, for the block) and every worker
+started afterwards (the environment) at it, and stops it at the end, after Prefect's background writers have sent
 the run's history (otherwise most of it is lost). Runs are kept in Prefect's database
 (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start`` shows them later.
 
@@ -66,15 +66,23 @@ def _check(url: str, timeout_s: float = 10.0) -> None:
 def _crash_dead_runs(url: str, say: Callable[[str], None]) -> None:
     """Mark the runs of killed processes crashed on the API at ``url``; never fails the run."""
     try:
-        from prefect.settings import PREFECT_API_URL, temporary_settings
-
         from nlupdate.flows.liveness import mark_dead_runs_crashed
 
-        # Prefect's settings were read when it was imported: name the API explicitly
-        with temporary_settings(updates={PREFECT_API_URL: url}):
-            mark_dead_runs_crashed(say)
+        mark_dead_runs_crashed(say)
     except Exception as error:  # the API may be older, read-only, or busy: not worth failing a run
         say(f"note: could not check for runs left running by killed processes ({type(error).__name__}: {error})")
+
+
+@contextlib.contextmanager
+def _named_in_prefects_settings(url: str) -> Iterator[None]:
+    """Within the block, Prefect in this process talks to ``url`` and never starts a server of
+    its own. Prefect reads its settings when it is imported: in a process that imported it
+    before the run's server existed (a notebook, a test session) they name no API, and
+    Prefect would start its own server in the process (6 s here) and record the run there."""
+    from prefect.settings import PREFECT_API_URL, PREFECT_SERVER_EPHEMERAL_ENABLED, temporary_settings
+
+    with temporary_settings(updates={PREFECT_API_URL: url, PREFECT_SERVER_EPHEMERAL_ENABLED: False}):
+        yield
 
 
 def flush_run_history(timeout_s: float = 30.0) -> None:
@@ -178,11 +186,12 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
     if url:
         _check(url)
         say(f"Prefect API: {url} (PREFECT_API_URL)")
-        _crash_dead_runs(url, say)
-        try:
-            yield url
-        finally:
-            flush_run_history()
+        with _named_in_prefects_settings(url):
+            _crash_dead_runs(url, say)
+            try:
+                yield url
+            finally:
+                flush_run_history()
         return
     say("starting a Prefect server for this run …")
     server = _EARLY.pop() if _EARLY else None
@@ -199,13 +208,14 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
     os.environ["PREFECT_API_URL"] = server.api_url
     say(f"Prefect server: {server.api_url} (stops with the run)")
     try:
-        _crash_dead_runs(server.api_url, say)
-        yield server.api_url
+        with _named_in_prefects_settings(server.api_url):
+            _crash_dead_runs(server.api_url, say)
+            try:
+                yield server.api_url
+            finally:
+                flush_run_history()
     finally:
-        try:
-            flush_run_history()
-        finally:
-            os.environ.pop("PREFECT_API_URL", None)
-            if server in _STARTED:
-                _STARTED.remove(server)
-                server.stop()
+        os.environ.pop("PREFECT_API_URL", None)
+        if server in _STARTED:
+            _STARTED.remove(server)
+            server.stop()
