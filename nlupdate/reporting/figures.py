@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib import colormaps
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
@@ -49,7 +50,10 @@ def png_bytes(figure: Figure, dpi: int = 120) -> bytes:
 
     A figure with a layout engine (constrained layout) is laid out once at ``dpi`` and
     then frozen: ``savefig`` would otherwise draw it twice (a hidden draw to lay it out,
-    then the real one). The pixels are the same; ``figure`` is left without its engine."""
+    then the real one). Layout and drawing share one Agg renderer, so every text is
+    measured once, not once per renderer. The pixels are the same; ``figure`` is left
+    without its engine."""
+    FigureCanvasAgg(figure)
     engine = figure.get_layout_engine()
     if engine is not None:
         figure.set_dpi(dpi)
