@@ -57,6 +57,25 @@ def pytest_unconfigure(config):
         prefect_home.remove_template(_TEMPLATE.pop())
 
 
+#: The modules that take longest (10 s or more summed over their tests on two workers),
+#: longest first. They are handed to the workers first (``--no-loadscope-reorder`` in
+#: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
+#: leave a long one-test module for the end), so the two workers finish together.
+LONGEST_MODULES = (
+    "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
+    "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
+    "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
+    "test_demo_identification.py", "test_time_history.py", "test_bolted_beam_example.py", "test_runner.py",
+    "test_amplitude_modal.py",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    """The longest modules first (:data:`LONGEST_MODULES`); the rest in collection order."""
+    rank = {name: k for k, name in enumerate(LONGEST_MODULES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 def pytest_runtest_setup(item):
     prefect_home.seed(_SESSION_FOLDERS[0])  # the session's Prefect home; a no-op once it has its database
     if "calculix" in item.keywords and not shutil.which("ccx"):
