@@ -13,6 +13,7 @@
 * Tests marked ``calculix`` need the ``ccx`` program: they are skipped, with the reason,
   when it is absent — unless ``NLUPDATE_REQUIRE_CCX=1`` (set by ``.ci/run``), which turns
   the skip into a failure so CI always runs them.
+* The longest modules run first (:data:`LONGEST_MODULES`), so the two workers end together.
 * Studies for the tests are built as data (:mod:`studies`); ``two_dof_study`` and
   ``two_dof_study_file`` hand out the whole-chain 2-DOF study.
 """
@@ -21,6 +22,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -57,21 +59,28 @@ def pytest_unconfigure(config):
         prefect_home.remove_template(_TEMPLATE.pop())
 
 
-#: The modules that take longest (10 s or more summed over their tests on two workers),
+#: The modules that take longest (4 s or more summed over their tests on two workers),
 #: longest first. They are handed to the workers first (``--no-loadscope-reorder`` in
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
-#: leave a long one-test module for the end), so the two workers finish together.
+#: leave long modules of few tests for the end), so the two workers finish together.
 LONGEST_MODULES = (
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
     "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
     "test_demo_identification.py", "test_time_history.py", "test_bolted_beam_example.py", "test_runner.py",
-    "test_amplitude_modal.py",
+    "test_amplitude_modal.py", "test_discovery_cli.py", "test_archive_compare_studies.py", "test_readme_identify.py",
+    "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_progress.py",
+    "test_calculix.py", "test_identification_cli.py", "test_solver_vs_time_integration.py",
+    "test_reporting_plots.py", "test_frf_speed_benchmark.py", "test_identification_prd.py",
+    "test_reporting_archive.py", "test_time_integration.py", "test_server_app.py",
 )
 
 
 def pytest_collection_modifyitems(config, items):
     """The longest modules first (:data:`LONGEST_MODULES`); the rest in collection order."""
+    missing = [name for name in LONGEST_MODULES if not (Path(__file__).parent / name).is_file()]
+    if missing:
+        raise pytest.UsageError(f"tests/conftest.py LONGEST_MODULES names modules that do not exist: {missing}")
     rank = {name: k for k, name in enumerate(LONGEST_MODULES)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
 
