@@ -181,8 +181,8 @@ class JenkinsFriction:
         """Return mapping: trial stick force, slider moves when it exceeds Fs."""
         slider = np.zeros_like(displacement) if state is None else state
         trial = self.kf * (displacement - slider)
-        slipping = np.abs(trial) > self.slip_force
-        force = np.where(slipping, np.sign(trial) * self.slip_force, trial)
+        force = np.minimum(np.maximum(trial, -self.slip_force), self.slip_force)
+        slipping = force != trial
         new_slider = np.where(slipping, displacement - force / self.kf, slider)
         return force, new_slider
 
