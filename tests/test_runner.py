@@ -206,6 +206,7 @@ def test_a_process_that_cannot_be_stopped_is_named(tmp_path: Path, monkeypatch: 
         real_kill(pid, sig)
 
     monkeypatch.setattr(runner_module.os, "kill", refuses_for_the_helper)
+    monkeypatch.setattr(runner_module, "KILL_GRACE_S", 0.2)  # how long it waits for the helper to die
     try:
         time_out(exe, tmp_path, r"could not be stopped \(pid \d+\): stop them yourself")
     finally:
@@ -292,6 +293,7 @@ def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path,
 def test_timeout_on_windows_without_taskkill_kills_the_program(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """No taskkill on PATH (or it fails): Popen.kill() still ends the program itself."""
     monkeypatch.setattr(runner_module, "PROCESS_GROUPS", False)
+    monkeypatch.setattr(runner_module, "KILL_GRACE_S", 0.2)  # the wait before Popen.kill()
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     exe = make_script(
         tmp_path / "sleeper",
