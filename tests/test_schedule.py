@@ -19,6 +19,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -261,16 +262,21 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
 
     serve = subprocess.Popen([sys.executable, "-m", "nlupdate", "serve"], cwd=tmp_path, env=env, text=True,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    out, err = LineReader(serve.stdout), LineReader(serve.stderr)
     try:
+        # serve prints a run's line as it relays the run's output, which can come after the
+        # server has the run completed: wait for the lines too before interrupting
         deadline = time.monotonic() + 100
-        while len(completed_runs(real_server)) < 2 or len(complete_archives(results)) < 2:
-            assert serve.poll() is None, serve.communicate()
-            assert time.monotonic() < deadline, (completed_runs(real_server), complete_archives(results))
+        while (len(completed_runs(real_server)) < 2 or len(complete_archives(results)) < 2
+               or sum(" finished in " in line for line in out.lines) < 2):
+            assert serve.poll() is None, (out.lines, err.lines)
+            assert time.monotonic() < deadline, (completed_runs(real_server), complete_archives(results), out.lines)
             time.sleep(0.25)
         serve.send_signal(signal.SIGINT)
         interrupted = time.monotonic()
-        stdout, stderr = serve.communicate(timeout=30)
+        serve.wait(timeout=30)
         stopped_s = time.monotonic() - interrupted
+        stdout, stderr = out.text(), err.text()
     finally:
         stop_group(serve)
 
@@ -294,6 +300,24 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
     assert not deployment["paused"] and all(s["active"] for s in deployment["schedules"])
     assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [2.0]
     print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
+
+
+class LineReader:
+    """The lines of a text stream, read on a thread as they come (``lines``); ``text()`` all
+    of them once the stream has ended."""
+
+    def __init__(self, stream) -> None:
+        self.lines: list[str] = []
+        self._thread = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            self.lines.append(line.rstrip("\n"))
+
+    def text(self, timeout_s: float = 10) -> str:
+        self._thread.join(timeout_s)
+        return "\n".join(self.lines) + "\n"
 
 
 def api_call(method: str, url: str, **kwargs) -> httpx.Response:
