@@ -3,9 +3,10 @@
 Without ``PREFECT_API_URL`` every process — and every Dask worker — would start its own
 temporary server (13–26 s each here). :func:`prefect_api` starts exactly one for the run,
 in a subprocess, points this process (Prefect's settings, for the block) and every worker
-started afterwards (the environment) at it, and stops it at the end, after Prefect's background writers have sent
-the run's history (otherwise most of it is lost). Runs are kept in Prefect's database
-(``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start`` shows them later.
+started afterwards (the environment) at it, and stops it at the end, after Prefect's
+background writers have sent the run's history (otherwise most of it is lost). Runs are
+kept in Prefect's database (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server
+start`` shows them later.
 
 Once the API answers, flow runs that killed processes of this host left "Running" are
 marked Crashed (:func:`nlupdate.flows.liveness.mark_dead_runs_crashed`); when that is not

@@ -23,6 +23,8 @@ from nlupdate.files import HOST
 from nlupdate.study import load_study
 from nlupdate.study.steps import measured_table
 
+from cli_runs import run_cli
+
 ROOT = Path(__file__).resolve().parents[1]
 SIMULATED = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
 
@@ -34,12 +36,6 @@ def study_text(monte_carlo_seed: int) -> str:
                           SIMULATED.read_text())
     assert count == 1
     return text.replace("samples = 8\nseed = 1", f"samples = 8\nseed = {monte_carlo_seed}")
-
-
-def run_cli(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")

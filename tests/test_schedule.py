@@ -29,6 +29,7 @@ import pytest
 from nlupdate.cli import main
 
 import prefect_home
+from cli_runs import run_cli
 from prefect_settings import talking_to
 from studies import small_two_dof_study, write_study
 
@@ -49,9 +50,7 @@ def in_process(capsys, url: str, *args: object) -> tuple[int, str, str]:
     """``nlupdate ARGS`` in this process with Prefect talking to ``url``; (exit code, stdout,
     stderr)."""
     with talking_to(url):
-        code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
+        return run_cli(capsys, *args)
 
 
 @pytest.fixture(autouse=True)
