@@ -39,7 +39,7 @@ def run_demo(python: str, folder: Path) -> dict:
                 marks.setdefault(mark, now)
         if line.startswith("*"):
             results.append(line.rstrip())
-        if line.startswith("predictions "):
+        if line.startswith("prediction: "):  # "prediction: <model> (k/n) — computed in X s"
             predictions.append(line.strip())
     process.wait()
     return {"load": load, "total": time.perf_counter() - started, "marks": marks, "results": results,
