@@ -9,8 +9,9 @@ created private (0700). It holds
 * ``schedules/`` — the studies registered with ``nlupdate schedule`` (what ``nlupdate
   serve`` is allowed to run).
 
-A secret file must belong to the user and be readable by nobody else (0600 or stricter);
-otherwise it is refused in one line, because anyone who can read it can forge records.
+A secret file must be a regular file (a FIFO or device is refused without waiting on it),
+belong to the user and be readable by nobody else (0600 or stricter); otherwise it is
+refused in one line, because anyone who can read it can forge records.
 """
 from __future__ import annotations
 
@@ -84,8 +85,9 @@ def cache_secret() -> bytes:
     path = secret_file()
     if not path.exists():
         _create_secret(path)
-    try:
-        with open(path, "rb") as stream:
+    try:  # O_NONBLOCK: opening a FIFO must not wait for a writer before the check below refuses it
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+        with os.fdopen(descriptor, "rb") as stream:
             _check_private(path, os.fstat(stream.fileno()))
             key = stream.read(4096).strip()
     except OSError as error:

@@ -110,6 +110,35 @@ def test_the_cache_secret_is_private_and_refused_when_others_can_read_it(tmp_pat
     assert cache_secret() == b"s" * 64
 
 
+def test_a_fifo_as_the_cache_secret_is_refused_without_blocking(tmp_path, monkeypatch):
+    """Opening a FIFO for reading waits for a writer: the secret was opened before the
+    regular-file check, and the run hung for good."""
+    import threading
+
+    from nlupdate.user_config import UserConfigError, cache_secret
+
+    fifo = tmp_path / "secret-fifo"
+    os.mkfifo(fifo, 0o600)
+    monkeypatch.setenv("NLUPDATE_CACHE_SECRET_FILE", str(fifo))
+    outcome: list = []
+
+    def read_secret():
+        try:
+            outcome.append(cache_secret())
+        except UserConfigError as error:
+            outcome.append(error)
+
+    reader = threading.Thread(target=read_secret, daemon=True)
+    reader.start()
+    reader.join(timeout=20)
+    if reader.is_alive():  # release the blocked open: a writer arrives, and closes at once
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        reader.join(timeout=20)
+        pytest.fail("reading a FIFO as the cache secret blocked")
+    assert len(outcome) == 1 and isinstance(outcome[0], UserConfigError), outcome
+    assert str(outcome[0]) == f"{fifo}: the cache secret must be a regular file"
+
+
 # ----------------------------------------------------------------------------- attacks on a run's cache
 
 
