@@ -131,6 +131,25 @@ def test_one_damaged_archive_hides_no_other(tmp_path, capsys):
     assert " damaged " in status["d-table"] and "ranking.parquet: cannot be read" in status["d-table"]
 
 
+def test_a_manifest_nested_too_deep_to_read_is_one_damaged_archive(tmp_path, capsys):
+    """A manifest nested 10⁵ deep made the JSON reader exceed Python's recursion limit, and
+    `archive list` failed for the whole root (exit 1); now that archive alone is damaged."""
+    root = tmp_path / "results"
+    make_run(root, "s", "a-good", good_manifest("a-good"))
+    deep = make_run(root, "s", "b-deep", {})
+    depth = 100_000
+    (deep / "manifest.json").write_text('{"run_id": "b-deep", "x": ' + "[" * depth + "]" * depth + "}")
+    assert main(["archive", "list", "--root", str(root)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    status = {line.split()[1]: line for line in lines}
+    assert sorted(status) == ["a-good", "b-deep"], lines
+    assert "complete" in status["a-good"].split()
+    assert " damaged " in status["b-deep"] and "nested too deep" in status["b-deep"], lines
+    assert main(["archive", "show", "b-deep", "--root", str(root)]) == 2
+    err = capsys.readouterr().err
+    assert "b-deep" in err and "nested too deep" in err and len(err.strip().splitlines()) == 1, err
+
+
 @pytest.mark.parametrize("edit, fragment", [
     (lambda m: m["inputs"]["files"].append({"as_written": "data.csv", "archived": "/etc/passwd", "sha256": "0"}),
      "archived input '/etc/passwd' points outside the archive"),

@@ -72,6 +72,9 @@ def read_manifest(folder: Path) -> dict[str, Any]:
         raise ArchiveError(f"{folder} is not a run archive (no {MANIFEST})") from None
     except (OSError, ValueError) as error:
         raise ArchiveError(f"{path}: cannot read the manifest ({error})") from None
+    except RecursionError:  # json's decoder recurses once per level of nesting
+        raise ArchiveError(f"{path}: cannot read the manifest (nested too deep: not a manifest nlupdate "
+                           f"wrote)") from None
     check_manifest(folder, manifest)
     return manifest
 
