@@ -246,6 +246,27 @@ def kill_process_tree(process: subprocess.Popen[bytes]) -> list[int]:
     return []
 
 
+#: The version probe reads at most this much of the program's output …
+VERSION_READ_BYTES = 4_096
+#: … and keeps at most this many characters of its first non-empty line.
+VERSION_LINE_CHARS = 200
+
+
+def _read_first_line(stream, head: bytearray) -> None:
+    """Append ``stream``'s bytes to ``head`` until a non-empty line is complete, the output
+    ends or :data:`VERSION_READ_BYTES` are read; the rest is never read."""
+    while len(head) < VERSION_READ_BYTES:
+        try:
+            chunk = stream.read1(VERSION_READ_BYTES - len(head))
+        except (OSError, ValueError):  # closed meanwhile
+            return
+        if not chunk:
+            return
+        head += chunk
+        if any(line.strip() for line in bytes(head).split(b"\n")[:-1]):
+            return
+
+
 def _killed(escaped: list[int]) -> str:
     if not escaped:
         return "it was killed with the processes it started"
@@ -310,17 +331,44 @@ class ProcessRunner:
         return resolve_executable(self.executable, self.install_hint)
 
     def version(self, arguments: Sequence[str] = ("-v",), timeout_s: float = 10.0) -> str:
-        """``<path>: <first non-empty line the program prints for arguments>``, or why not."""
+        """``<path>: <first non-empty line the program prints for arguments>``, or why not.
+
+        The line is read from the first :data:`VERSION_READ_BYTES` of the program's output
+        (stdout and stderr together) and cut to :data:`VERSION_LINE_CHARS` characters. The
+        program runs in a group of its own, as :meth:`run` does; when it has not ended
+        within ``timeout_s`` it is killed with everything it started
+        (:func:`kill_process_tree`), and the answer says whether that succeeded."""
         try:
             executable = self.resolve()
         except ExecutableNotFoundError as error:
             return f"not available ({error})"
         try:
-            done = subprocess.run([executable, *arguments], capture_output=True, text=True, timeout=timeout_s)
-        except (OSError, subprocess.TimeoutExpired) as error:
-            return f"{executable}: version unknown ({error})"
-        lines = [line.strip() for line in (done.stdout + done.stderr).splitlines() if line.strip()]
-        return f"{executable}: {lines[0] if lines else 'version unknown'}"
+            process = subprocess.Popen([executable, *arguments], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                       stdin=subprocess.DEVNULL, **_spawn_options())  # type: ignore[arg-type]
+        except OSError as error:
+            return f"{executable}: version unknown ({error.strerror or error})"
+        deadline = time.monotonic() + timeout_s
+        head = bytearray()
+        reader = threading.Thread(target=_read_first_line, args=(process.stdout, head), daemon=True)
+        reader.start()
+        reader.join(timeout_s)
+        if not reader.is_alive():
+            process.stdout.close()  # a program still writing ends on the broken pipe
+        escaped: list[int] | None = None
+        try:
+            process.wait(timeout=max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            escaped = kill_process_tree(process)
+        reader.join(KILL_GRACE_S)
+        if not process.stdout.closed and not reader.is_alive():
+            process.stdout.close()
+        lines = [line.strip() for line in bytes(head).decode("utf-8", errors="replace").splitlines() if line.strip()]
+        if lines:
+            return f"{executable}: {_cut(lines[0], VERSION_LINE_CHARS)}"
+        if escaped is not None:
+            return (f"{executable}: version unknown (no answer to {' '.join(arguments)} within {timeout_s:g} s; "
+                    f"{_killed(escaped)})")
+        return f"{executable}: version unknown"
 
     def new_run_dir(self, name: str) -> Path:
         """Create and return a directory ``work_root/name`` that no other run uses."""

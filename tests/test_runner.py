@@ -387,3 +387,40 @@ def test_an_adapter_only_built_leaves_no_folder_and_runs_share_one(tmp_path: Pat
     assert [p for p in tmp_path.iterdir() if p.name.startswith("nlupdate-test-")] == []
     folders = {runner.new_run_dir(f"run{i}").parent for i, runner in enumerate(runners)}
     assert len(folders) == 1 and next(iter(folders)).name.startswith("nlupdate-test-")
+
+
+def test_the_version_probe_keeps_a_bounded_first_line(tmp_path: Path) -> None:
+    """A program whose ``-v`` printed 1.5 GB on one line put all of it into manifest.json
+    (4.6 GB RSS); here 20 MB stand for it: the probe keeps the line's start only."""
+    from nlupdate.adapters.runner import VERSION_LINE_CHARS
+
+    exe = make_script(tmp_path / "loud_solver", """
+        import sys
+        sys.stdout.write("Version 2.21 " + "x" * 20_000_000 + "\\nsecond line\\n")
+        """)
+    version = ProcessRunner(str(exe), tmp_path / "runs").version()
+    assert version.startswith(f"{exe}: Version 2.21 xxx") and version.endswith("…"), version[:300]
+    assert len(version) == len(f"{exe}: ") + VERSION_LINE_CHARS, len(version)
+
+
+def test_a_version_probe_that_times_out_kills_what_it_started(tmp_path: Path) -> None:
+    """``-v`` that starts a child and a ``setsid`` grandchild and sleeps: on timeout all
+    three are stopped, and the message says so only because it is true."""
+    exe = make_script(tmp_path / "hanging_solver", f"""
+        import subprocess, sys, time
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
+        helper = subprocess.Popen(["setsid", {sys.executable!r}, "-c", "import time; time.sleep(60)"],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        open({str(tmp_path / "pids")!r}, "w").write(f"{{child.pid}} {{helper.pid}}")
+        time.sleep(60)
+        """)
+    start = time.monotonic()
+    version = ProcessRunner(str(exe), tmp_path / "runs").version(timeout_s=2.0)
+    assert time.monotonic() - start < 30
+    pids = [int(pid) for pid in (tmp_path / "pids").read_text().split()]
+    deadline = time.time() + 5
+    while any(_alive(pid) for pid in pids) and time.time() < deadline:
+        time.sleep(0.05)
+    assert not [pid for pid in pids if _alive(pid)], "a process the version probe started outlived its timeout"
+    assert version == (f"{exe}: version unknown (no answer to -v within 2 s; it was killed with the processes it "
+                       f"started)"), version
