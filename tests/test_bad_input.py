@@ -399,7 +399,7 @@ def _csv_variant(measured: Path, tmp_path: Path, transform) -> Path:
     (lambda t: t.assign(h_real=t["h_real"] * 1e300, h_imag=t["h_imag"] * 1e300).to_csv(index=False),
      ("frf.csv: row 0 (line 2), columns 'h_real', 'h_imag'", "is no receptance")),
     (lambda t: t[t["frequency_hz"] <= 660].to_csv(index=False),
-     ("frf.csv: level 0.01 N: 2 frequencies in the band", "need at least 3 per level")),
+     ("frf.csv: no level is a sweep: the most lines a level has is 2, a sweep has at least 3",)),
 ])
 def test_measured_table_mistakes_name_the_file(measured, tmp_path, transform, fragments):
     path = _csv_variant(measured, tmp_path, transform)

@@ -19,6 +19,13 @@ from nlupdate.measurement.noise import add_frf_noise
 
 _RTOL = 1e-9
 
+#: A level measured at fewer lines than this is a single- (or few-) frequency level, not a
+#: sweep. The source's own PRD experiment (docs/methods.md §4) measures its high forces so:
+#: one pure sine near resonance per level. The band and the coherence threshold choose the
+#: lines of a sweep; a single-frequency level keeps its lines (it has no others to choose
+#: from), and each method names the levels it needs as sweeps.
+MIN_SWEEP_LINES = 3
+
 
 def match_frequencies(available: NDArray, wanted: NDArray) -> NDArray[np.int64]:
     """Index into ``available`` of each ``wanted`` frequency, −1 where absent."""
@@ -95,7 +102,15 @@ class FRFLevels:
                    column("coherence"), unit, "+".join(excitation), column("averages"), column("h_std"),
                    column("level_achieved"))
 
+    def sweep_levels(self) -> tuple[float, ...]:
+        """The levels measured as sweeps (at least :data:`MIN_SWEEP_LINES` lines)."""
+        return tuple(float(level) for level, f in zip(self.levels, self.frequencies) if f.size >= MIN_SWEEP_LINES)
+
     def _masked(self, keep: list[NDArray[np.bool_]]) -> "FRFLevels":
+        """The sweeps' lines where ``keep``; a single-frequency level keeps its lines (it has
+        no others to choose from: :data:`MIN_SWEEP_LINES`)."""
+        keep = [k | (f.size < MIN_SWEEP_LINES) for k, f in zip(keep, self.frequencies)]
+
         def pick(arrays):
             return None if arrays is None else tuple(a[k] for a, k in zip(arrays, keep))
 
@@ -104,12 +119,12 @@ class FRFLevels:
                                    h_stds=pick(self.h_stds), achieved=pick(self.achieved))
 
     def within(self, band_hz: tuple[float, float]) -> "FRFLevels":
-        """The curves restricted to ``band_hz`` = (low, high) Hz, ends included."""
+        """The sweeps restricted to ``band_hz`` = (low, high) Hz, ends included."""
         low, high = band_hz
         return self._masked([(f >= low * (1 - _RTOL)) & (f <= high * (1 + _RTOL)) for f in self.frequencies])
 
     def coherent(self, threshold: float) -> "FRFLevels":
-        """The curves without the lines whose coherence is below ``threshold`` (unchanged
+        """The sweeps without the lines whose coherence is below ``threshold`` (unchanged
         without coherence)."""
         if self.coherences is None:
             return self

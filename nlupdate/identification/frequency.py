@@ -75,6 +75,9 @@ def recommend_frequency(
     first = prd_setup(data, _any_common(data, low_force, high_forces), low_force, high_forces)
     levels = (first.low_force,) + first.high_forces
     candidates = data.common_frequencies(levels)
+    if candidates.size == 1:  # the source's protocol: one sine per high level
+        only = float(candidates[0])
+        return FrequencyChoice(only, (only,), None, "the only frequency measured at every level")
     f_low, h_low = data.curve(first.low_force)
     low_resonance = peak(f_low, h_low)[0]
     start = float(candidates[np.argmin(np.abs(candidates - low_resonance))])

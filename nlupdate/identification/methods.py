@@ -53,15 +53,31 @@ class PRD:
         if settings.high_forces_n is None:
             listed["high_forces_n"] = "all levels above the low force"
         if settings.linear_from is None:
-            low_force_options = settings.smoothing_window or settings.amplitude_dependent_delta
-            physical = bool(settings.elements)
-            changes["linear_from"] = "all levels" if physical and not low_force_options else "low force"
-            listed["linear_from"] = (
-                "all levels (each line weighted by its noise; physical elements give the DF everywhere)"
-                if changes["linear_from"] == "all levels" else
-                "low force (the source's eq. 2.55" + ("; a polynomial DF is known only over its fitted amplitudes)"
-                                                      if not physical else "; smoothing or Δ(A) options given)"))
+            changes["linear_from"], listed["linear_from"] = self._linear_from(settings, data,
+                                                                              changes.get("low_force_n"))
         return changes, listed
+
+    @staticmethod
+    def _linear_from(settings: Any, data: FRFLevels, default_low: float | None) -> tuple[str, str]:
+        """The default linear-FRF route and why: every level where physical elements give
+        the DF everywhere and the high levels are sweeps; else the low-force sweep (the
+        source's eq. 2.55). Single-frequency high levels (the source's own protocol) add a
+        line each, and the slip force they leave undetermined would decide how the
+        low-force sweep is corrected near its resonance."""
+        if settings.smoothing_window or settings.amplitude_dependent_delta:
+            return "low force", "low force (the source's eq. 2.55; smoothing or Δ(A) options given)"
+        if not settings.elements:
+            return "low force", "low force (the source's eq. 2.55; a polynomial DF is known only over its fitted " \
+                                "amplitudes)"
+        low = settings.low_force_n if settings.low_force_n is not None else default_low
+        highs = settings.high_forces_n if settings.high_forces_n is not None else \
+            tuple(float(level) for level in data.levels if low is not None and level > low)
+        sweeps = data.sweep_levels()
+        single = [level for level in highs if float(data.levels[data.level_index(level)]) not in sweeps]
+        if single:
+            return "low force", (f"low force (the source's eq. 2.55; {len(single)} high level(s) measured at single "
+                                 f"frequencies)")
+        return "all levels", "all levels (each line weighted by its noise; physical elements give the DF everywhere)"
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult:
         return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
@@ -113,7 +129,11 @@ class DDF:
     default_estimator = "naive"
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
-        return {}, {}
+        sweeps = data.sweep_levels()  # default pair: the lowest and the highest sweep
+        if settings.force_pair_n is not None or len(sweeps) < 2:
+            return {}, {}
+        pair = (sweeps[0], sweeps[-1])
+        return {"force_pair_n": pair}, {"force_pair_n": list(pair)}
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> DDFResult:
         return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,

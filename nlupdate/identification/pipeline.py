@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.data import MIN_SWEEP_LINES, FRFLevels
 from nlupdate.identification.ddf import DDFResult
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
@@ -359,9 +359,9 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     lines_masked = int(sum(f.size for f in data.frequencies))
     data = data.coherent(settings.coherence_threshold) if settings.coherence_threshold is not None else data
     lines_masked -= int(sum(f.size for f in data.frequencies))
-    _check_levels(data)
     resolved, more = _resolved(settings, data)
     settings, defaults = resolved, {**defaults, **more}
+    _check_levels(data, settings)
     choice = None
     frequency = settings.frequency_hz
     if settings.method == "prd" and frequency is None:
@@ -371,32 +371,30 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         frequency = choice.frequency_hz
         defaults["frequency_hz"] = f"{frequency:g} ({choice.reason}; visited {list(choice.visited_hz)} Hz)"
     result = _fit(data, settings, frequency)
-    if settings.method == "ddf":
-        if settings.force_pair_n is None:
-            defaults["force_pair_n"] = list(result.setup.force_pair)
-        if settings.band_hz is None:
-            defaults["band_hz"] = list(result.setup.band_hz)
+    if settings.method == "ddf" and settings.band_hz is None:
+        defaults["band_hz"] = list(result.setup.band_hz)
     linear = _linear_frf(data, settings, result)
     f_linear, h_linear = linear.frequency_hz, linear.receptance
     modes = locate_linear_modes(f_linear, h_linear, linear.inverse_noise, settings.linear_modes_hz,
                                 settings.modal_band_fraction)
 
+    k = data.level_index(data.sweep_levels()[0])  # the noise of the lowest sweep
     if settings.noise_fraction is not None:
         noise, source = float(settings.noise_fraction), "given"
     elif data.h_stds is not None:
-        noise = noise_fraction_from_std(data.receptances[0], data.h_stds[0])
-        source = f"the stated standard deviations (h_std) of the {data.levels[0]:g} {data.reference_unit} curve"
+        noise = noise_fraction_from_std(data.receptances[k], data.h_stds[k])
+        source = f"the stated standard deviations (h_std) of the {data.levels[k]:g} {data.reference_unit} curve"
         defaults["noise_fraction"] = f"{noise:.4g} ({source})"
     elif data.coherences is not None and data.averages is not None:
-        noise = noise_fraction_from_coherence(data.coherences[0], data.averages[0])
-        source = (f"coherence and averages of the {data.levels[0]:g} {data.reference_unit} curve "
+        noise = noise_fraction_from_coherence(data.coherences[k], data.averages[k])
+        source = (f"coherence and averages of the {data.levels[k]:g} {data.reference_unit} curve "
                   f"(H1 random error, Bendat & Piersol)")
         defaults["noise_fraction"] = f"{noise:.4g} ({source})"
     else:
-        f_low, h_low = data.curve(data.levels[0])
+        f_low, h_low = data.curve(data.levels[k])
         try:
             noise = estimate_noise_fraction(f_low, h_low)
-            source = f"estimated from the {data.levels[0]:g} {data.reference_unit} sweep (local quadratic fits of 1/H)"
+            source = f"estimated from the {data.levels[k]:g} {data.reference_unit} sweep (local quadratic fits of 1/H)"
         except ValueError as error:
             if getattr(result, "noise_fraction", None) is None:
                 raise IdentificationError(f"cannot estimate the noise level ({error}); give noise_fraction") from None
@@ -429,7 +427,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
 def prepared_data(data: FRFLevels, settings: IdentificationSettings):
     """(data within the band, settings with the band and coherence threshold filled in,
     the defaults chosen, the :class:`~nlupdate.measurement.band.Band`). The band comes
-    from the settings or from the lowest level's excited band; every later step (the
+    from the settings or from the lowest swept level's excited band; every later step (the
     excitation frequency, the fits, the linear FRF and its modes) sees only it."""
     defaults: dict[str, Any] = {}
     changes: dict[str, Any] = {}
@@ -439,26 +437,52 @@ def prepared_data(data: FRFLevels, settings: IdentificationSettings):
     if settings.band_hz is not None:
         band = Band(float(settings.band_hz[0]), float(settings.band_hz[1]), "given")
     else:
-        f, h = data.frequencies[0], data.receptances[0]
-        coherence = None if data.coherences is None else data.coherences[0]
+        sweeps = data.sweep_levels()
+        if not sweeps:
+            most = max(f.size for f in data.frequencies)
+            raise IdentificationError(f"no level is a sweep: the most lines a level has is {most}, a sweep has at "
+                                      f"least {MIN_SWEEP_LINES}; identification needs at least the low force "
+                                      f"measured over a band")
+        k = data.level_index(sweeps[0])
+        f, h = data.frequencies[k], data.receptances[k]
+        coherence = None if data.coherences is None else data.coherences[k]
         band = excited_band(f, h, coherence, threshold if threshold is not None else COHERENCE_THRESHOLD)
         changes["band_hz"] = band.hz
-        defaults["band_hz"] = f"{band.low_hz:g}:{band.high_hz:g} Hz ({band.reason}, {data.levels[0]:g} " \
+        defaults["band_hz"] = f"{band.low_hz:g}:{band.high_hz:g} Hz ({band.reason}, {sweeps[0]:g} " \
                               f"{data.reference_unit} curve)"
     inside = data.within(band.hz)
     return inside, dataclasses.replace(settings, **changes), defaults, band
 
 
-def _check_levels(data: FRFLevels) -> None:
-    """Levels > 0, and at least 3 frequencies per level: what every method needs."""
+
+def _check_levels(data: FRFLevels, settings: IdentificationSettings) -> None:
+    """Levels > 0, each with a line left in the band; the levels the method reads as sweeps
+    (PRD's low force, from which the linear FRF comes; DDF's pair) with at least
+    :data:`MIN_SWEEP_LINES` lines. Single-frequency high levels are PRD's own protocol."""
     unit = data.reference_unit
     zero = [float(level) for level in data.levels if not level > 0]
     if zero:
         raise IdentificationError(
             f"level {zero[0]:g} {unit}: identification needs measured levels > 0 (force_level_n = 0 marks an "
             f"extracted linear FRF); leave that curve out")
+    where = f"the band {settings.band_hz[0]:g}–{settings.band_hz[1]:g} Hz" if settings.band_hz else "the data"
+    if settings.coherence_threshold is not None and data.coherences is not None:
+        where += f" with coherence ≥ {settings.coherence_threshold:g}"
     for level, f in zip(data.levels, data.frequencies):
-        if f.size < 3:
+        if f.size == 0:
+            raise IdentificationError(f"level {level:g} {unit}: no line in {where}; widen the band, lower the "
+                                      f"coherence threshold or leave the level out")
+    if settings.method == "prd":
+        needed = {float(settings.low_force_n): "the PRD low force: the linear FRF comes from its sweep"}
+    elif settings.force_pair_n is None:
+        raise IdentificationError(f"DDF compares two sweeps; the swept levels are {list(data.sweep_levels())} {unit} "
+                                  f"(a sweep has at least {MIN_SWEEP_LINES} lines in {where})")
+    else:
+        needed = {float(level): "a DDF level: DDF compares two sweeps" for level in settings.force_pair_n}
+    sweeps = data.sweep_levels()
+    for level, role in needed.items():
+        if level not in sweeps:
+            lines = data.frequencies[data.level_index(level)].size
             raise IdentificationError(
-                f"level {level:g} {unit}: {f.size} frequencies in the band (and above the coherence threshold); "
-                f"need at least 3 per level")
+                f"level {level:g} {unit} is {role}, but it has {lines} line(s) in {where}; "
+                f"need a sweep of at least {MIN_SWEEP_LINES} lines")
