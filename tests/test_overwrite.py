@@ -108,6 +108,36 @@ def test_simulate_never_replaces_its_model_or_a_file_that_is_not_a_table(users_f
     assert snapshot(users_folder) == before
 
 
+def steady_dwells(path: Path) -> Path:
+    """Two steady stepped-sine dwells (40 periods each) of x = 1e-6·cos(ωt − 0.3) per N."""
+    import numpy as np
+    import pandas as pd
+
+    t = np.arange(2000) / 1000.0
+    parts = [pd.DataFrame({"force": np.cos(2 * np.pi * f * t), "tip": 1e-6 * np.cos(2 * np.pi * f * t - 0.3),
+                           "frequency_hz": f}) for f in (20.0, 21.0)]
+    frame = pd.concat(parts, ignore_index=True)
+    frame.insert(0, "time_s", np.arange(len(frame)) / 1000.0)
+    frame.to_csv(path, index=False)
+    return path
+
+
+def test_frf_never_replaces_its_input_or_a_file_that_is_not_a_table(users_folder, capsys):
+    """``frf dwells.csv --out dwells.csv --overwrite`` replaced the raw time history with a
+    small FRF table; now frf follows simulate's rule: only a measured-FRF table is replaced."""
+    steady_dwells(users_folder / "dwells.csv")
+    (users_folder / "notes.csv").write_text("my,own\nnotes,here\n")
+    before = snapshot(users_folder)
+    result = main(["frf", "dwells.csv", "--out", "dwells.csv", "--overwrite"])
+    one_line_error(capsys, 2, result, "--out dwells.csv: is the input dwells.csv")
+    result = main(["frf", "dwells.csv", "--out", "notes.csv", "--overwrite"])
+    one_line_error(capsys, 2, result, "--out notes.csv: is not a file this command writes")
+    assert snapshot(users_folder) == before
+    assert main(["frf", "dwells.csv", "--out", "frf.csv"]) == 0
+    assert main(["frf", "dwells.csv", "--out", "frf.csv", "--overwrite"]) == 0  # its own output: replaced
+    assert snapshot(users_folder)["dwells.csv"] == before["dwells.csv"]
+
+
 def test_an_identification_output_is_replaced_but_not_with_a_file_of_the_user_in_it(users_folder, measured, capsys):
     assert main(["identify", "--measured", str(measured), "--out", "ident", "--samples", "4"]) == 0
     first = snapshot(users_folder / "ident")

@@ -16,7 +16,7 @@ import argparse
 
 from nlupdate.cli import CliError, add_command, non_negative_float
 from nlupdate.cli.output import add_overwrite_option, checked_output
-from nlupdate.measurement.frf_files import table_suffix, write_frf_table
+from nlupdate.measurement.frf_files import is_frf_table, table_suffix, write_frf_table
 from nlupdate.measurement.time_history import (
     EXCITATION_CHOICES, RESPONSE_QUANTITIES, TimeHistoryError, estimate_frf, read_time_record,
 )
@@ -48,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = checked_output(args.out, args.overwrite, folder=False)
+    out = checked_output(args.out, args.overwrite, folder=False, inputs=args.records, replaceable_file=is_frf_table)
     table_suffix(out)
     if args.window_cycles < 2:
         raise CliError(f"--window-cycles {args.window_cycles:g}: expected at least 2 cycles")

@@ -98,7 +98,7 @@ def checked_output(path: str | Path, overwrite: bool, *, folder: bool, kind: str
     nlupdate wrote, :func:`nlupdate.files.check_replaceable`); ``inputs``: the files the
     command reads (an output is never one of them, nor a folder holding them);
     ``replaceable_file``: for a file output, whether an existing file is one the command
-    may replace."""
+    writes (without it, no existing file is replaced: a command says what it writes)."""
     path = Path(path)
     resolved = path.resolve()
     inputs = list(inputs)
@@ -123,7 +123,7 @@ def checked_output(path: str | Path, overwrite: bool, *, folder: bool, kind: str
                 check_replaceable(path, kind)
             except NotAnOutputError as error:
                 raise CliError(f"{option} {error}") from None
-        elif replaceable_file is not None and not replaceable_file(path):
+        elif not folder and (replaceable_file is None or not replaceable_file(path)):
             raise CliError(f"{option} {path}: is not a file this command writes; --overwrite replaces only such a "
                            f"file; choose another output file")
     writable_folder(path.parent if str(path.parent) else Path("."), option)

@@ -23,7 +23,7 @@ from nlupdate.cli import CliError, add_command, non_negative_float, non_negative
 from nlupdate.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.progress_bar import terminal_progress
-from nlupdate.measurement.frf_files import read_frf_table, table_suffix, write_frf_table
+from nlupdate.measurement.frf_files import is_frf_table, table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
 from nlupdate.response.simulate import (
@@ -99,22 +99,13 @@ def force_levels(text: str) -> list[float]:
     return values
 
 
-def _is_frf_table(path: Path) -> bool:
-    """Whether ``path`` reads as a measured-FRF table (what this command writes)."""
-    try:
-        read_frf_table(path)
-    except (ValueError, OSError):
-        return False
-    return True
-
-
 def run(args: argparse.Namespace) -> int:
     settings = harmonic_settings(args)
     frequencies, forces = frequency_grid(args.freqs), force_levels(args.forces)
     table_suffix(Path(args.out))
     system = load_system(args.model)
     input_dof = int(args.input_dof) if args.input_dof.isdigit() else args.input_dof
-    out = checked_output(args.out, args.overwrite, folder=False, inputs=[args.model], replaceable_file=_is_frf_table)
+    out = checked_output(args.out, args.overwrite, folder=False, inputs=[args.model], replaceable_file=is_frf_table)
     args.interrupt_note = f"nothing was written to {out}"
     started = time.perf_counter()
     level_starts: dict[int, int] = {}  # force level index → warnings recorded before it started

@@ -161,6 +161,16 @@ def read_frf_table(
     return frf_table_from_bytes(data, path, known_dofs, options)
 
 
+def is_frf_table(path: str | os.PathLike) -> bool:
+    """Whether ``path`` reads as a measured-FRF table: the only kind of existing file that
+    ``simulate`` and ``frf`` (which write such tables) replace with ``--overwrite``."""
+    try:
+        read_frf_table(path)
+    except (ValueError, OSError):
+        return False
+    return True
+
+
 def read_frf_tables(
     paths: Iterable[str | os.PathLike], known_dofs: Iterable[str] | None = None, options: ReadOptions | None = None,
 ) -> pd.DataFrame:
