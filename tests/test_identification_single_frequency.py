@@ -227,3 +227,49 @@ def test_ddf_pairs_the_swept_levels_by_default():
     with pytest.raises(IdentificationError, match=r"DDF compares two sweeps; the swept levels are \[100.0\] N"):
         identify(levels(table[only_one]), IdentificationSettings("0", "0", method="ddf", elements=("cubic",),
                                                                  samples=2))
+
+
+# ------------------------------------------------------------------------ the whole chain
+def test_correlation_of_a_single_frequency_level_is_its_relative_error_alone():
+    """FRAC of one line is 1 whatever the model (|a*b|²/(|a|²|b|²)): it is not reported."""
+    from nlupdate.correlation.levels import correlate_levels
+
+    f = np.array([700.0, 710.0, 720.0, 730.0])
+    h = 1.0 / (1e6 - 0.1 * (2 * np.pi * f) ** 2 + 1e4j)
+    measured = pd.concat([frf_table(f, np.full(4, 0.01), "0", "0", h),
+                          frf_table(f[1:2], np.array([50.0]), "0", "0", h[1:2])])
+    predicted = pd.concat([frf_table(f, np.full(4, 0.01), "0", "0", h * 1.1),
+                           frf_table(f, np.full(4, 50.0), "0", "0", h * (1 + 0.2j))])
+    rows = correlate_levels(measured, predicted, "0", "0").set_index("force_level_n")
+    assert rows.loc[0.01, "frac"] == pytest.approx(1.0) and rows.loc[0.01, "normalised_error"] == pytest.approx(0.1)
+    assert np.isnan(rows.loc[50.0, "frac"]) and np.isnan(rows.loc[50.0, "peak_frequency_error_pct"])
+    assert rows.loc[50.0, "normalised_error"] == pytest.approx(0.2) and rows.loc[50.0, "points"] == 1
+
+
+def test_a_study_on_single_frequency_data_runs_the_chain_and_reports_each_level(tmp_path, capsys):
+    """identify → update → predict on the 2-DOF measured as the source did; the summary
+    counts FRAC over the sweep and gives the single-frequency levels' errors."""
+    import tomllib
+
+    import tomli_w
+
+    from nlupdate.model.model_file import load_system
+    from studies import TWO_DOF_MODEL, TWO_DOF_STUDY
+
+    system = load_system(TWO_DOF_MODEL)
+    table, _ = simulate_frf_table(system, 0, np.linspace(690.0, 770.0, 161), (0.01, 20.0, 40.0, 60.0, 80.0, 100.0))
+    table = single_frequency(table, 0.01, 725.0)
+    table.to_parquet(tmp_path / "single.parquet")
+    study = tomllib.loads(TWO_DOF_STUDY.read_text())
+    study["measured"] = {"file": str(tmp_path / "single.parquet")}
+    study["identification"]["samples"] = 2
+    study["eigensensitivity"] = {"formulas": ["forward"], "parameter_sets": [["k1", "k2"]]}
+    del study["optimisation"]
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    code, out, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
+    assert code == 0, err
+    report = (tmp_path / "run" / "report.md").read_text()
+    assert "over 1 level; 5 single-frequency levels (no FRAC): relative FRF error up to" in report
+    identified = report.split("**Identified**")[1].splitlines()[0]
+    k3 = float(identified.split("k3 = ")[1].split()[0])
+    assert k3 == pytest.approx(1e10, rel=0.01), identified

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from nlupdate.correlation.levels import SHAPE_POINTS
 from nlupdate.reporting.figures import INITIAL_STYLE, MEASURED_STYLE, frf_curve, level_colours, unwrapped_phase_deg
 
 #: Styles of the predicted models after the initial one.
@@ -73,8 +74,10 @@ def predictions_figure(
         first = first or ax_mag
         ax_phase = figure.add_subplot(grid[2 * row + 1, column], sharex=first)
         f_m, h_m = frf_curve(measured, response_dof, input_dof, level)
-        ax_mag.semilogy(f_m, np.abs(h_m), **{**MEASURED_STYLE, "ms": 1.5}, label="measured")
-        ax_phase.plot(f_m, unwrapped_phase_deg(h_m), **{**MEASURED_STYLE, "ms": 1.5}, label="measured")
+        single = f_m.size < SHAPE_POINTS  # a single-frequency level: its points drawn large, on top
+        marker = {**MEASURED_STYLE, "ms": 6 if single else 1.5, "zorder": 5 if single else None}
+        ax_mag.semilogy(f_m, np.abs(h_m), **marker, label="measured")
+        ax_phase.plot(f_m, unwrapped_phase_deg(h_m), **marker, label="measured")
         if other_measured is not None:
             f_o, h_o = frf_curve(other_measured[1], response_dof, input_dof, level)
             ax_mag.semilogy(f_o, np.abs(h_o), "x", ms=2, color="0.6", label=other_measured[0])
@@ -86,8 +89,10 @@ def predictions_figure(
                             else prediction.name, **style)
             ax_phase.plot(f_p, unwrapped_phase_deg(h_p), label=prediction.name, **style)
             row_ = prediction.correlation[np.isclose(prediction.correlation["force_level_n"], level)]
-            fracs.append(f"{short} {row_['frac'].iloc[0]:.2f}" if len(row_) else f"{short} –")
-        ax_mag.set_title(f"{level:g} N — FRAC " + ", ".join(fracs), fontsize=7.5)
+            column_ = "normalised_error" if single else "frac"
+            fracs.append(f"{short} {row_[column_].iloc[0]:.2f}" if len(row_) else f"{short} –")
+        what = f"rel. error at {f_m.size} line{'s' if f_m.size > 1 else ''}: " if single else "FRAC "
+        ax_mag.set_title(f"{level:g} N — {what}" + ", ".join(fracs), fontsize=7.5)
         for ax in (ax_mag, ax_phase):
             ax.grid(True, which="both", alpha=0.3)
             ax.tick_params(which="both", labelsize=7)
