@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -225,6 +226,42 @@ def test_a_dwell_too_short_to_settle_is_warned_about():
                         {"tip": frame["tip"].to_numpy()}, frame["frequency_hz"].to_numpy())
     with pytest.warns(NlupdateWarning, match="short: the dwell at 20 Hz had not settled"):
         estimate_frf([record], "drive")
+
+
+def test_dwells_too_short_for_the_transient_rule_are_warned_about():
+    """Dwells of 10 periods at ζ = 1 % (0.5 s, a fifth of one time constant 1/(ζω_r) =
+    0.8 s): the estimate is far from the steady state (analytic), and the settling check
+    used to call such a dwell settled because it had too few blocks to tell."""
+    from nlupdate.notices import NlupdateWarning
+
+    frequencies = [18.0, 19.0, 20.0, 21.0, 22.0]
+    frame = stepped_record(frequencies, levels=[1.0], dwell_s=0.5, noise=0.0, distortion=0.0)
+    record = TimeRecord("short", frame["time_s"].to_numpy(), frame["force"].to_numpy(), "N",
+                        {"tip": frame["tip"].to_numpy()}, frame["frequency_hz"].to_numpy())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = estimate_frf([record], "drive").table
+    f, h = select_frf(table, "tip", "drive", table["force_level_n"].iloc[0])
+    assert np.max(np.abs(h / sdof_receptance(f) - 1)) > 0.2  # the premise: these FRFs hold the transient
+    notes = [str(w.message) for w in caught if issubclass(w.category, NlupdateWarning)]
+    for frequency in frequencies:
+        assert any(note.startswith(f"short: the dwell at {frequency:g} Hz lasts ") and "fewer than the 16 periods"
+                   in note for note in notes), notes
+
+
+def test_a_time_column_in_milliseconds_is_refused():
+    """Times in ms make the sample rate look 1000 × lower: 2 Hz for dwells at 18–22 Hz, far
+    above its Nyquist frequency. The fit aliased and gave levels of 1e5–1e6 N for a 1 N test."""
+    from nlupdate.measurement.time_history import TimeHistoryError
+
+    frame = stepped_record([18.0, 20.0, 22.0], levels=[1.0], dwell_s=2.0)
+    record = TimeRecord("ms.csv", 1000 * frame["time_s"].to_numpy(), frame["force"].to_numpy(), "N",
+                        {"tip": frame["tip"].to_numpy()}, frame["frequency_hz"].to_numpy())
+    with pytest.raises(TimeHistoryError) as error:
+        estimate_frf([record], "drive")
+    message = str(error.value)
+    assert message.startswith("ms.csv: the dwell at 18 Hz needs a sample rate above 108 Hz") and \
+        "'time_s' gives 2 Hz" in message and "in seconds?" in message and "\n" not in message, message
 
 
 def test_a_benchmark_style_sweep_file(tmp_path):

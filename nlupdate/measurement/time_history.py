@@ -25,7 +25,11 @@ value, and a ``level`` column when several levels share a file)
     ``h_std`` from the fit residuals (``|δX|² = 4σ²/N`` for N samples of residual
     variance σ², added relatively for X and F); ``level_achieved = |F₁|``. A dwell whose
     transient had not settled before its last quarter, or whose third quarter differs from
-    its last by more than ``max(3 s, 1 %)`` (still moving), is warned about.
+    its last by more than ``max(3 s, 1 %)`` (still moving), is warned about, and so is a
+    dwell shorter than 16 periods (:data:`MIN_SETTLE_PERIODS`: too few blocks for the rule
+    to tell; nothing is discarded). A record whose sample rate puts harmonic 3 of a dwell
+    at or above the Nyquist frequency is refused (the fit would alias; a time column in ms
+    instead of s does that).
 Sine sweep (no ``frequency_hz`` column, a reference of constant envelope)
     The reference's instantaneous phase φ(t) is the unwrapped phase of its analytic signal
     (Hilbert transform), smoothed by a quadratic in t over each window; in windows of
@@ -72,6 +76,8 @@ EXCITATION_CHOICES = ("auto", "stepped_sine", "sine_sweep", "random", "burst")
 RESPONSE_QUANTITIES = {"displacement": 0, "velocity": 1, "acceleration": 2}
 #: sweep rates r ≤ SWEEP_RATE_LIMIT·(ζ f_r)² Hz/s keep the swept FRF within 2 % of the steady state
 SWEEP_RATE_LIMIT = 0.1
+#: a dwell shorter than this (4 blocks of at least 4 periods) is too short for the transient rule
+MIN_SETTLE_PERIODS = 16
 _SETTLE_TOLERANCE = 2e-3
 _MOVING_TOLERANCE = 1e-2
 _HARMONICS = 3
@@ -281,15 +287,16 @@ def _refined_frequency(t: NDArray, reference: NDArray, logged_hz: float) -> floa
     return float(result.x) if result.fun <= misfit(logged_hz) else logged_hz
 
 
-def _settled_start(t: NDArray, x: NDArray, frequency_hz: float) -> tuple[int, bool]:
+def _settled_start(t: NDArray, x: NDArray, frequency_hz: float) -> tuple[int, bool | None]:
     """Index where the transient rule (module docstring) says the dwell is settled, and
-    whether it settled before the last quarter."""
+    whether it settled before the last quarter (None: the dwell is shorter than
+    :data:`MIN_SETTLE_PERIODS`, too short for the rule to tell; nothing is discarded)."""
     period_samples = max(int(round(1.0 / (frequency_hz * (t[1] - t[0])))), 1)
     periods = int(t.size // period_samples)
     per_block = max(4, int(math.ceil(periods / 16)))
     n_blocks = periods // per_block
     if n_blocks < 4:
-        return 0, True
+        return 0, None
     size = per_block * period_samples
     values = []
     for b in range(n_blocks):
@@ -321,15 +328,34 @@ def _dwells(record: TimeRecord) -> list[tuple[slice, float, float | None]]:
             for a, b in zip(edges[:-1], edges[1:]) if b - a >= 16 and f[a] > 0]
 
 
+def _check_sample_rate(record: TimeRecord, logged_hz: float) -> None:
+    """:class:`TimeHistoryError` unless harmonics 1 to :data:`_HARMONICS` of a dwell lie
+    below the Nyquist frequency (above it the fit aliases; a time column in ms instead of s
+    puts every dwell there)."""
+    rate = 1.0 / float(record.time_s[1] - record.time_s[0])
+    if _HARMONICS * logged_hz >= rate / 2:
+        raise TimeHistoryError(f"{record.source}: the dwell at {logged_hz:g} Hz needs a sample rate above "
+                               f"{2 * _HARMONICS * logged_hz:g} Hz (harmonics 1–{_HARMONICS} below the Nyquist "
+                               f"frequency); 'time_s' gives {rate:.6g} Hz — are the times in seconds?")
+
+
 def stepped_sine_frf(record: TimeRecord, power: int) -> tuple[list[dict], list[str]]:
     """Rows (one per dwell and response) of the stepped-sine estimate; notes."""
     rows, notes = [], []
-    for span, logged, level in _dwells(record):
+    dwells = _dwells(record)
+    for _, logged, _ in dwells:
+        _check_sample_rate(record, logged)
+    for span, logged, level in dwells:
         t, force = record.time_s[span], record.reference[span]
         frequency = _refined_frequency(t, force, logged)
         starts = [_settled_start(t, x[span], frequency) for x in record.responses.values()]
         start = max(s for s, _ in starts)
-        if not all(ok for _, ok in starts):
+        if any(ok is None for _, ok in starts):
+            periods = frequency * t.size * (t[1] - t[0])
+            notes.append(f"{record.source}: the dwell at {logged:g} Hz lasts {periods:.3g} periods, fewer than the "
+                         f"{MIN_SETTLE_PERIODS} periods the transient rule needs to tell whether it settled; its FRF "
+                         f"may hold the transient (dwell several time constants 1/(ζω_r))")
+        elif not all(ok for _, ok in starts):
             notes.append(f"{record.source}: the dwell at {logged:g} Hz had not settled before its last quarter; its "
                          f"FRF may hold the transient")
         t, force = t[start:], force[start:]
