@@ -19,9 +19,7 @@ from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
 from nlupdate.discovery.outputs import write_discovery
-from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
-from nlupdate.measurement.frf_files import read_frf_table
-from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
+from nlupdate.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.model.model_file import load_system
 from nlupdate.files import atomic_directory
 from nlupdate.response_method import RESPONSE_METHODS
@@ -30,8 +28,10 @@ from nlupdate.response_method import RESPONSE_METHODS
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "discover", __doc__)
     parser.add_argument("--model", required=True, metavar="MODEL.toml", help="model file ([model] + [[nonlinear]])")
-    parser.add_argument("--measured", required=True, metavar="FILE",
-                        help="measured FRFs at several force levels (.parquet/.csv/.uff/.mat) or a modal table (.csv)")
+    add_measured_options(parser, "to compare model and test in: measured lines outside it are left out before any step, "
+                                 "a modal table keeps the modes inside it (default: the excited band of the lowest "
+                                 "level: where the coherence is ≥ 0.8, or, without coherence, where the FRF is smooth)",
+                         modal=True)
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument("--out", metavar="DIR", help="output directory, in this process (appears when complete)")
     where.add_argument("--archive", metavar="ROOT",
@@ -53,9 +53,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="modal table: relative std of the natural frequencies (default 0.002)")
     parser.add_argument("--damping-uncertainty", type=non_negative_float, default=0.05,
                         help="modal table: relative std of the damping ratios (default 0.05)")
-    add_band_option(parser, "to compare model and test in (measured lines outside it are left out; a modal table keeps "
-                            "the modes inside it)")
-    add_reference_options(parser)
     add_overwrite_option(parser)
     add_harmonic_options(parser)
     add_execution_options(parser)
@@ -67,26 +64,20 @@ def run(args: argparse.Namespace) -> int:
     settings = harmonic_settings(args)
     if args.out is not None:
         out = checked_output(args.out, args.overwrite, folder=True, kind="discovery",
-                             inputs=[args.model, args.measured])
+                             inputs=[args.model, *args.measured])
         args.interrupt_note = f"nothing was written to {out}"
     else:
         writable_folder(Path(args.archive), "--archive")
     system = load_system(args.model)
-    band = parse_band(args.band)
-    if args.archive is not None and (band is not None or args.reference_unit or args.reference_calibration or args.level):
-        raise CliError("--band, --reference-unit, --reference-calibration and --level apply to --out runs; the archived "
-                       "flow reads the measured file as it is")
-    if is_modal_table_file(args.measured):
-        table = read_modal_table(args.measured)
-        column = "natural_frequency_hz"
+    if args.archive is not None:
+        if args.band is not None or args.reference_unit or args.reference_calibration or args.level \
+                or args.coordinates or len(args.measured) != 1:
+            raise CliError("--band, --reference-unit, --reference-calibration, --level, --coordinates and several "
+                           "--measured files apply to --out runs; the archived flow reads one measured file as it is")
+        table = None
     else:
-        table = read_frf_table(args.measured, options=read_options(args))
-        column = "frequency_hz"
-    if band is not None:
-        table = table[(table[column] >= band[0]) & (table[column] <= band[1])].reset_index(drop=True)
-        if table.empty:
-            raise CliError(f"--band {args.band}: {args.measured} has no {'mode' if column != 'frequency_hz' else 'line'} "
-                           f"between {band[0]:g} and {band[1]:g} Hz")
+        table, notes = measured_table(args, modal=True, find_band=True)
+        print_notes(notes)
     try:
         options = DiscoveryOptions(
             effects=None if not args.effects else tuple(n.strip() for n in args.effects.split(",") if n.strip()),
@@ -99,12 +90,12 @@ def run(args: argparse.Namespace) -> int:
             from nlupdate.flows.runners import Execution
 
             with prefect_errors(args, start_server=True):
-                folder = run_discovery_flow(args.model, args.measured, options, args.archive,
+                folder = run_discovery_flow(args.model, args.measured[0], options, args.archive,
                                             Execution(args.workers, args.dask, args.dask_address), args.cache_dir,
                                             args.no_cache)
             print(f"archive: {folder}\nreport:  {folder / 'report.md'}")
             return 0
-        result = discover(system, table, options, source=str(args.measured))
+        result = discover(system, table, options, source=sources(args))
     except ModelSolveError as error:
         raise CliError(f"{args.model}: {error}") from None
     with atomic_directory(args.out, on_exists="replace" if args.overwrite else "error", kind="discovery") as archive:

@@ -30,17 +30,17 @@ from nlupdate.identification.summary import JSON_NAME
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.cli.measured import add_band_option, add_reference_options, parse_band, read_options
+from nlupdate.cli.measured import add_measured_options, measured_table, parse_band, print_notes
 from nlupdate.identification.prd import IdentificationError
-from nlupdate.measurement.frf_files import read_frf_tables, write_frf_table
+from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.measurement.units import parameter_unit
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "identify", __doc__)
-    parser.add_argument("--measured", required=True, nargs="+", metavar="FILE",
-                        help="measured-FRF table(s) (.parquet, .csv, .uff, .mat): one, or one per level/run")
-    add_reference_options(parser)
+    add_measured_options(parser, "that every method uses; lines outside it are left out before any step (default: "
+                                 "the excited band: where the coherence is ≥ the threshold, or, without coherence, "
+                                 "where the FRF is smooth)")
     parser.add_argument("--method", choices=("prd", "ddf"), default="prd", help="identification method (default prd)")
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
     parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving point)")
@@ -67,8 +67,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="PRD: Δ_f1 = ν_low(|H_1(ω)|F_1) at every frequency (default: the constant Δ_f1 "
                              "identified at the excitation frequency, the source's eq. 2.55)")
     parser.add_argument("--force-pair", help="DDF levels F1,F2 in N (default: lowest and highest)")
-    add_band_option(parser, "that every method uses (default: the excited band: where the coherence is ≥ the "
-                            "threshold, or, without coherence, where the FRF is smooth)")
     parser.add_argument("--coherence-threshold", type=non_negative_float, metavar="GAMMA2",
                         help="leave out lines whose coherence is below it (default 0.8 when the data carry coherence)")
     parser.add_argument("--noise-fraction", type=non_negative_float,
@@ -151,8 +149,13 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     s = identification.settings
     h = identification.linear_frf
     f_ref, h_ref = data.curve(identification.linear_from_level_n)
+    if identification.band_hz is not None:  # the measured curve over the band the identification saw
+        inside = (f_ref >= identification.band_hz[0]) & (f_ref <= identification.band_hz[1])
+        f_ref, h_ref = f_ref[inside], h_ref[inside]
     summary = identification.summary()
-    summary["linear_frf"]["frac_vs_measured_at_that_level"] = frac(h_ref, h)
+    # FRAC on the extracted FRF's own grid (the band, coherent lines): the measured values at its lines
+    summary["linear_frf"]["frac_vs_measured_at_that_level"] = frac(
+        data.values(identification.linear_from_level_n, identification.linear_frequency_hz), h)
     files = [JSON_NAME, "linear_frf.parquet", "fit.png", "linear_frf.png"]
     summary["files"] = files
     title = f"{s.method.upper()} ({identification.result.estimator}), response {s.response_dof} / input {s.input_dof}"
@@ -171,7 +174,8 @@ def write_identification(identification: Identification, data: FRFLevels, folder
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True, kind="identification", inputs=args.measured)
     args.interrupt_note = f"nothing was written to {out}"
-    table = read_frf_tables(args.measured, options=read_options(args))
+    table, notes = measured_table(args)
+    print_notes(notes)
     settings, cli_defaults = settings_from_args(args, table)
     measured = ", ".join(args.measured)
     try:
@@ -181,8 +185,6 @@ def run(args: argparse.Namespace) -> int:
     except (IdentificationError, ValueError) as error:
         raise CliError(f"{measured}: {error}") from None
     unit = identification.reference_unit
-    if unit == "V":
-        print("reference: excitation voltage — levels in V, FRFs in m/V, parameters per volt (V where N would stand)")
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
     with atomic_directory(out, on_exists="replace" if args.overwrite else "error", kind="identification") as folder:
