@@ -6,8 +6,8 @@
   start to slip (the review's "0.0199 against a true 1.0") — is warned about by name;
   a well-identified case at 1 % noise gets no warning at all. A noise level given far
   below the real one is warned about (the fit's residual is far above it).
-* Updating: a target out of reach within the bounds ends the run on the bound
-  ("converged: parameter change") and is warned about; a reachable one is not; the
+* Updating: a target out of reach within the bounds ends the run on the bound (stopped
+  there, "parameter at bound", not converged) and is warned about; a reachable one is not; the
   same through a study into ``manifest.json``, ``report.md``'s summary and
   ``identification.json``.
 """
@@ -121,8 +121,9 @@ def targets() -> UpdatingTargets:
 
 @pytest.mark.parametrize("method", ["eigensensitivity", "optimisation"])
 def test_a_run_that_ends_on_a_bound_is_warned_about_and_a_reachable_one_is_not(method):
-    """k1's truth (1.25e6 N/m) lies above its bound 1.1e6: the run ends on the bound and
-    reports convergence; with bounds that hold the truth it ends inside, unwarned."""
+    """k1's truth (1.25e6 N/m) lies above its bound 1.1e6: the run comes to rest on the
+    bound and reports that as its stop, not as convergence; with bounds that hold the
+    truth it ends inside, converged and unwarned."""
     def run(k1_upper: float):
         parameters = [Parameter("k1", "N/m", 1e6, 0.9e6, k1_upper, 1e-4), Parameter("k2", "N/m", 1e6, 0.4e6, 2.5e6, 1e-4)]
         if method == "eigensensitivity":
@@ -132,13 +133,14 @@ def test_a_run_that_ends_on_a_bound_is_warned_about_and_a_reachable_one_is_not(m
                                     OptimisationOptions(formula="central2"), fixed={"k3": TRUTH_K["k3"]})
 
     out_of_reach = run(1.1e6)
-    assert out_of_reach.converged and out_of_reach.parameters["k1"] == pytest.approx(1.1e6, rel=1e-4)
+    assert out_of_reach.parameters["k1"] == pytest.approx(1.1e6, rel=1e-4)
+    assert not out_of_reach.converged and out_of_reach.stop == "parameter at bound"
     warnings = updating_warnings(out_of_reach)
     assert [(w.subject, w.kind) for w in warnings] == [("k1", "at_bound")]
     assert "upper bound" in warnings[0].message and "converged" in warnings[0].message
     reachable = run(2.5e6)
     assert reachable.parameters["k1"] == pytest.approx(TRUTH_K["k1"], rel=1e-3)
-    assert updating_warnings(reachable) == ()
+    assert reachable.converged and updating_warnings(reachable) == ()
 
 
 STUDY = """
@@ -196,7 +198,11 @@ def test_a_study_carries_the_warnings_into_manifest_report_and_identification_js
     manifest = json.loads((folder / "manifest.json").read_text())
     assert [w["subject"] for w in manifest["warnings"]] == ["k1"]
     summary = summary_section((folder / "report.md").read_text())
-    assert summary.startswith("Warnings") and "k1 = 700000 ended on its upper bound" in summary
+    first, rest = summary.split("\n", 1)  # the one run stopped on the bound: none converged, the first line says so
+    assert first.startswith("The updating run did not converge") and "k1 on its upper bound 700000" in first
+    assert rest.strip().startswith("Warnings") and "k1 = 700000 ended on its upper bound" in summary
+    updated = next(line for line in summary.splitlines() if "No converged updated model" in line)
+    assert "k1 = 7e+05 (not converged" in updated and "±" not in updated
     assert "on the bound of k1" in (folder / "report.md").read_text()
     assert json.loads((folder / "identification.json").read_text())["warnings"] == []
 

@@ -9,10 +9,13 @@ import argparse
 import datetime as dt
 import time
 
+import numpy as np
+
 from nlupdate.cli import add_command
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.cli.run import check_solver, exit_code_for_failures
 from nlupdate.reporting.archive import ARCHIVE_KIND, write_archive
+from nlupdate.reporting.report import none_converged_line
 from nlupdate.study import inputs_read_once, load_study, run_study
 
 
@@ -39,6 +42,12 @@ def run(args: argparse.Namespace) -> int:
                     "wall_time_s": time.perf_counter() - clock,
                     "orchestration": "sequential, in one process (nlupdate update)"}
         folder = write_archive(result, out, run_info, on_exists="replace" if args.overwrite else "error")
+    headline = none_converged_line(result.runs)
+    if headline is not None:
+        print("".join(headline))
+    first = [w for w in result.warnings if w.kind == "prediction_worse"]
+    for warning in first:
+        print(f"warning: {warning}")
     if result.targets is not None:
         targets = result.targets.targets
         print(f"study {study.name!r}: targets " + ", ".join(
@@ -53,8 +62,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {failure.name}: FAILED: {failure.error}")
     if result.ranking is not None:
         best = result.ranking.iloc[0]
-        print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %)")
+        converged = best.get("converged")
+        state = ", NOT converged" if isinstance(converged, (bool, np.bool_)) and not converged else ""
+        print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %"
+              f"{state})")
     for warning in result.warnings:
-        print(f"warning: {warning}")
+        if warning not in first:
+            print(f"warning: {warning}")
     print(f"wrote {folder} (report.md)")
     return exit_code_for_failures([{"run": f.name, "error": f.error} for f in result.failures])

@@ -1,8 +1,10 @@
 """``report.md``: a run archive's report, written to be read top to bottom.
 
-It opens with the warnings about results that should not be trusted as they stand
-(:func:`nlupdate.study.steps.study_warnings`; the CLI prints the summary, so they reach
-the terminal too) and the answer (identified nonlinearity, updated parameters with their
+It opens with a line saying so when no updating run converged (and why each stopped),
+then the warnings about results that should not be trusted as they stand
+(:func:`nlupdate.study.steps.study_warnings`, a best model that predicts worse than the
+initial one first; the CLI prints the summary, so they reach the terminal too) and the
+answer (identified nonlinearity, updated parameters with their
 uncertainty, how well the updated nonlinear model predicts every force level), then
 shows how each step got there, with the plots linked beside the numbers. For a
 simulated study the hidden truth is printed beside every estimate.
@@ -74,6 +76,8 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
               f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
 
     lines += ["## Summary", ""]
+    headline = none_converged_line(result.runs)
+    lines += [f"**{headline[0]}**{headline[1]}", ""] if headline else []
     lines += _warning_lines(result)
     summary = _summary_lines(result, truth)
     lines += summary or ["(nothing was computed)"]
@@ -119,6 +123,21 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
     return "\n".join(lines)
 
 
+def none_converged_line(runs) -> tuple[str, str] | None:
+    """(headline, detail) when there are updating runs and none converged: how each stopped."""
+    if not runs or any(run.converged for run in runs):
+        return None
+    how = "; ".join(f"{run.name}: {run.reason}" for run in runs)
+    what = "The updating run did not converge" if len(runs) == 1 else f"None of the {len(runs)} updating runs converged"
+    return what, (f" ({how}). The values below are where {'it' if len(runs) == 1 else 'each'} stopped, not updated "
+                  f"parameters.")
+
+
+def _not_converged(value: float, truth: float | None) -> str:
+    """A value where a run stopped: no ±, since it is no result."""
+    return f"{_number(value)} (not converged{f'; truth {_number(truth)}' if truth is not None else ''})"
+
+
 def _warning_lines(result) -> list[str]:
     """The **Warnings** block that opens the summary (nothing when there are none)."""
     warnings = result.warnings
@@ -141,10 +160,16 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         best = result.ranking[result.ranking["candidate"] != "initial"].iloc[0]["candidate"]
         run = next(r for r in result.runs if r.name == best)
         u = result.uncertainties.get(best)
-        values = "; ".join(
-            f"{name} = {_with_truth(value, u.std[name] if u else float('nan'), truth.get(name))}"
-            for name, value in run.parameters.items())
-        out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
+        if run.converged:
+            values = "; ".join(
+                f"{name} = {_with_truth(value, u.std[name] if u else float('nan'), truth.get(name))}"
+                for name, value in run.parameters.items())
+            out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
+        else:
+            values = "; ".join(f"{name} = {_not_converged(value, truth.get(name))}"
+                               for name, value in run.parameters.items())
+            out.append(f"* **No converged updated model**; the best-ranked run `{best}` did not converge "
+                       f"({run.stop}): {values}")
         if u is not None and u.note:
             out.append(f"  ({u.note})")
     for prediction in result.predictions:
@@ -252,13 +277,14 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
     for run in result.runs:
         u = result.uncertainties.get(run.name)
         on_bound = [w.subject for w in result.warnings if w.source == run.name and w.kind == "at_bound"]
-        converged = "yes" if run.converged else f"no ({run.reason})"
+        converged = "yes" if run.converged else f"no ({run.stop if on_bound else run.reason})"
         if on_bound:
             converged += f", on the bound of {', '.join(on_bound)}"
         rows.append({
             "run": run.name, "converged": converged, "iterations": run.iterations,
             "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
-            **{name: f"{_number(v)} ± {_number(u.std[name], 2) if u else '–'}" for name, v in run.parameters.items()},
+            **{name: (f"{_number(v)} ± {_number(u.std[name], 2) if u else '–'}" if run.converged
+                      else _not_converged(v, None)) for name, v in run.parameters.items()},
         })
     frame = pd.DataFrame(rows).fillna("–")
     lines += [_table(frame), ""]
@@ -300,8 +326,11 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
     if has_frac:
         columns["weighted_frac"] = "weighted FRAC"
     ranking = result.ranking[list(columns)].rename(columns=columns)
+    if "converged" in result.ranking:
+        ranking.insert(2, "converged", ["–" if v is pd.NA else ("yes" if v else "no") for v in result.ranking["converged"]])
     lines += ["Ranking for the user weights, by the weighted mean |frequency error| (Σ w·|error| / Σ w over the target "
-              "modes; lower is better): the first is the best updated model"
+              "modes; lower is better), the runs that converged before those that did not, whatever their errors "
+              "where they stopped: the first is the best updated model"
               + (". Weighted FRAC (Σ w·FRAC / Σ w, higher is better) is shown beside it; read it against what the "
                  "extracted FRF's own fits reach (above)." if has_frac else "."), "",
               _table(ranking), ""]

@@ -6,11 +6,12 @@ identification       per identified parameter: value, Monte-Carlo mean, std, ci9
 linear_frf           the extracted linear FRF (force_level_n = 0 marks "linear")
 linear_modes         per mode of the extracted FRF: natural frequency and loss factor ± std
 targets              per target mode: label, frequency (Hz), std (Hz), weight
-runs                 per updating run: method, formula, parameter set, convergence, FE runs
-                     (new / cached), updated values ``p:<name>`` and their std ``std:<name>``
+runs                 per updating run: method, formula, parameter set, convergence and why it
+                     stopped (``stop``, ``reason``), FE runs (new / cached), updated values
+                     ``p:<name>`` and their std ``std:<name>`` (NaN for a run that did not converge)
 histories            per iteration of every run (column ``run``)
 comparison           run × mode: target, frequency, error %, MAC, FRAC vs the linear FRF
-ranking              runs scored for the user's mode weights
+ranking              runs scored for the user's mode weights (``converged``: converged runs rank first)
 failures             updating runs that failed, with the error
 predictions          predicted FRFs of every predicted model (column ``model``)
 correlation          per model and force level: FRAC, normalised error, peak errors
@@ -39,6 +40,7 @@ def runs_table(results: Sequence[UpdatingResult]) -> pd.DataFrame:
         row.update({f"p:{k}": v for k, v in result.parameters.items()})
         row.update({
             "converged": result.converged,
+            "stop": result.stop,
             "reason": result.reason,
             "iterations": result.iterations,
             "new_evaluations": result.counts["new"],

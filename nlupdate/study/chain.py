@@ -114,7 +114,8 @@ CHAIN: tuple[Step, ...] = (
          inputs=("updating", "comparison", "identification", "measured data"), sections=("prediction", "targets"),
          applies=lambda study, results: study.prediction is not None and _has_runs(study, results),
          jobs=prediction_jobs, each=predict_job, model=prediction_adapter, points=lambda job: [job.point]),
-    Step("warnings", study_warnings, inputs=("identification", "updating", "comparison"), sections=("parameters",),
+    Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions"),
+         sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
 )
 STEPS: dict[str, Step] = {step.name: step for step in CHAIN}

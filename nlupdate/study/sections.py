@@ -23,7 +23,7 @@ from nlupdate.study.spec import (
     LOSS_FACTOR_SOURCES, CandidateEntry, ComparisonSpec, EigensensitivitySpec, MeasuredSpec, PredictionSpec,
     SimulationSpec, TargetsSpec,
 )
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions
+from nlupdate.updating.eigensensitivity import STEP_CONTROLS, EigensensitivityOptions
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS, OptimisationOptions
 from nlupdate.updating.pairing import PAIRING_METHODS
 from nlupdate.updating.residuals import ResponseOptions
@@ -52,7 +52,7 @@ ALLOWED: dict[str, set[str]] = {
     "updating": {"pairing", "min_mac", "use_mode_shapes", "mode_shape_weight"},
     "eigensensitivity": {
         "formulas", "parameters", "parameter_sets", "max_iterations", "frequency_tolerance", "parameter_tolerance",
-        "regularisation", "max_step",
+        "regularisation", "max_step", "step_control",
     },
     "optimisation": {"method", "formula", "max_evaluations", "ftol", "xtol", "gtol", "candidates"},
     "optimisation.candidates": {"name", "parameters", "weights", "start"},
@@ -481,7 +481,9 @@ def read_eigensensitivity(read: Reader, data: Mapping[str, Any], names: list[str
         frequency_tolerance=read.number(table, where, "frequency_tolerance", defaults.frequency_tolerance, positive=True),
         parameter_tolerance=read.number(table, where, "parameter_tolerance", defaults.parameter_tolerance, positive=True),
         regularisation=read.number(table, where, "regularisation", defaults.regularisation, nonnegative=True),
-        max_step=read.number(table, where, "max_step", defaults.max_step, positive=True), **_shared(updating),
+        max_step=read.number(table, where, "max_step", defaults.max_step, positive=True),
+        step_control=read.string(table, where, "step_control", defaults.step_control, choices=STEP_CONTROLS),
+        **_shared(updating),
     )
     return EigensensitivitySpec(tuple(formulas), tuple(tuple(s) for s in sets), options)
 

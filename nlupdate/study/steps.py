@@ -349,14 +349,15 @@ def run_verdict(run: UpdatingRun, outcome: UpdatingResult | RunFailure) -> str:
 
 def compare_runs(study: Study, targets: TargetSet, updating: UpdatingOutcome) -> Comparison:
     """Mode-by-mode comparison (with FRAC against the reference FRF when there is one), the
-    ranking for the study's user weights (default: the target weights) and each run's
-    parameter uncertainty."""
+    ranking for the study's user weights (default: the target weights; runs that converged
+    first) and each converged run's parameter uncertainty."""
     runs = updating.runs
     response, inp = model_pair(study) if targets.reference is not None else (None, None)
     comparison = compare_candidates(runs, targets.reference, response, inp, *comparison_damping(study, targets),
                                     study.comparison.band_fraction)
     weights = study.comparison.user_weights
-    ranking = rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights))
+    ranking = rank_candidates(comparison, weights if weights is not None else list(targets.targets.weights),
+                              {run.name: run.converged for run in runs})
     return Comparison(comparison, ranking, parameter_uncertainties(study, targets, runs))
 
 
@@ -373,13 +374,14 @@ def candidate_frfs(study: Study, targets: TargetSet, updating: UpdatingOutcome) 
 
 
 def parameter_uncertainties(study: Study, targets: TargetSet, runs: Sequence[UpdatingResult]) -> dict[str, ParameterUncertainty]:
-    """Each run's parameter standard deviations from the target uncertainty (none when
-    the targets carry none)."""
+    """Each converged run's parameter standard deviations from the target uncertainty (none
+    when the targets carry none): where a run stopped without converging, the linearised
+    spread describes no result."""
     if targets.std_hz is None:
         return {}
     lower = {p.name: p.lower for p in study.parameters}
     upper = {p.name: p.upper for p in study.parameters}
-    return {run.name: propagate_target_uncertainty(run, targets.std_hz, lower, upper) for run in runs}
+    return {run.name: propagate_target_uncertainty(run, targets.std_hz, lower, upper) for run in runs if run.converged}
 
 
 # --------------------------------------------------------------------------- prediction
@@ -480,12 +482,56 @@ def models_used(study: Study) -> dict[str, dict | None]:
 
 
 # --------------------------------------------------------------------------- trust
+def best_run(updating: UpdatingOutcome | None, comparison: Comparison | None) -> UpdatingResult | None:
+    """The best-ranked updating run (converged ones rank first), None without runs."""
+    if updating is None or not updating.runs or comparison is None:
+        return None
+    by_name = {run.name: run for run in updating.runs}
+    name = next((n for n in comparison.ranking["candidate"] if n in by_name), None)
+    return by_name.get(name)
+
+
+def prediction_warning(predictions: Sequence[Prediction], best: str) -> TrustWarning | None:
+    """``prediction_worse`` when the prediction of the run ``best`` matches the measurements
+    worse than the initial model's: a lower mean FRAC over the force levels, or a larger
+    mean relative FRF error ‖H_model − H_measured‖ / ‖H_measured‖. None when either
+    prediction is missing or the best is no worse by both."""
+    by_name = {p.name: p for p in predictions}
+    if "initial" not in by_name or best not in by_name:
+        return None
+    initial, updated = by_name["initial"].correlation, by_name[best].correlation
+    worse = []
+    if updated["frac"].mean() < initial["frac"].mean():
+        worse.append(f"FRAC per level {_spread(updated['frac'])} against {_spread(initial['frac'])}")
+    if updated["normalised_error"].mean() > initial["normalised_error"].mean():
+        worse.append(f"relative FRF error per level {_spread(updated['normalised_error'])} against "
+                     f"{_spread(initial['normalised_error'])}")
+    if not worse:
+        return None
+    return TrustWarning("prediction", "prediction_worse",
+                        f"the best updated model `{best}` predicts the measurements worse than the initial model: "
+                        + "; ".join(worse) + " (initial): the updating made the model worse where it matters",
+                        "prediction")
+
+
+def _spread(values: pd.Series) -> str:
+    low, high = float(values.min()), float(values.max())
+    return f"{low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"{low:.2g}–{high:.2g}"
+
+
 def study_warnings(study: Study, identification: Identification | None, updating: UpdatingOutcome | None,
-                   comparison: Comparison | None) -> tuple[TrustWarning, ...]:
-    """The identification's warnings (:mod:`nlupdate.identification.trust`), then each
-    updating run's (:mod:`nlupdate.updating.parameter_warnings`: parameters that ended on a bound of
-    the study, propagated uncertainty above the value), in run order."""
+                   comparison: Comparison | None, predictions: Sequence[Prediction] | None = None,
+                   ) -> tuple[TrustWarning, ...]:
+    """The warning that the best model predicts worse than the initial one
+    (:func:`prediction_warning`) first, then the identification's warnings
+    (:mod:`nlupdate.identification.trust`), then each updating run's
+    (:mod:`nlupdate.updating.parameter_warnings`: not converged, parameters that ended on
+    a bound of the study, propagated uncertainty above the value), in run order."""
     out: list[TrustWarning] = []
+    best = best_run(updating, comparison)
+    worse = prediction_warning(predictions or (), best.name) if best is not None else None
+    if worse is not None:
+        out.append(worse)
     if identification is not None:
         out += identification.warnings
     bounds = {p.name: (p.lower, p.upper) for p in study.parameters}

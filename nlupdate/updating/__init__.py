@@ -8,7 +8,9 @@
 * :mod:`~nlupdate.updating.evaluation` — point evaluators: who runs the FE evaluations
 * :mod:`~nlupdate.updating.runs` — one run (:func:`update`), the candidates' comparison and ranking
 * :mod:`~nlupdate.updating.target_uncertainty` — parameter uncertainty from target uncertainty
-* :mod:`~nlupdate.updating.parameter_warnings` — warnings: runs that ended on a bound, spread above the value
+* :mod:`~nlupdate.updating.stopping` — why a run stopped (converged, iteration limit, cycle, bound)
+* :mod:`~nlupdate.updating.parameter_warnings` — warnings: runs that did not converge or ended on a bound, spread
+  above the value
 """
 from nlupdate.updating.eigensensitivity import EigensensitivityOptions, UpdatingResult, inverse_eigensensitivity
 from nlupdate.updating.evaluation import MemoisedEvaluator, PointEvaluator

@@ -6,7 +6,7 @@ mode shapes; :mod:`nlupdate.updating.residuals`) about the current parameters,
 bounded least-squares problem
 
     min ‖W (S_x Δx − Δr)‖² + λ² ‖Δx‖²   subject to   lower ≤ p + Δp ≤ upper,
-                                                        |Δx_j| ≤ max_step
+                                                        |Δx_j| ≤ Δ
 
 in normalised parameters ``x_j = p_j / s_j`` (``s_j = |start_j|``, or the bound width
 when the start is 0), so ``S_x = S · diag(s)`` is well scaled whatever the units. The
@@ -14,20 +14,36 @@ sensitivity S comes from one of the finite-difference formulas of
 :mod:`nlupdate.updating.sensitivity`; the step is solved with
 ``scipy.optimize.lsq_linear`` on the stacked system ``[W S_x; λ I] Δx = [W Δr; 0]``.
 
+Step control (``step_control``). Undamped (``"none"``, the classic iteration), Δ is
+``max_step`` and every step is taken. Far from the solution, or when the targets cannot
+all be met (a residual that stays large), such Gauss–Newton steps can overshoot and
+come back: the iterates jump between two points for ever (a 2-cycle). With
+``"trust_region"`` (the default) Δ is a trust radius (Levenberg–Marquardt in the
+∞-norm): a step is taken only when the weighted residual ``½‖W(r_target − r)‖²`` falls
+by at least 1e-4 of what the linearisation predicts (ratio ρ); otherwise Δ becomes a
+quarter of the rejected step and the step is solved again with the same sensitivity (one
+new evaluation per rejected step, no new Jacobian). Δ is also quartered after a step
+with ρ < 0.25 and doubled (up to ``max_step``) after one with ρ > 0.75 that reached it.
+While every step is good (ρ > 0.25) the two controls take the same steps.
+
 Iteration k (k = 1, 2, …) computes S at p_k−1, the step, and evaluates the model at the
-new point p_k. It stops when the largest relative frequency error of the paired modes
-is within ``frequency_tolerance`` (converged: ``"frequency"``), when the largest
-normalised parameter change of the last step is within ``parameter_tolerance``
-(converged: ``"parameter change"`` — the usual end when the targets cannot all be met),
-or after ``max_iterations`` steps (not converged).
+new point p_k. It stops (``UpdatingResult.stop``, :mod:`nlupdate.updating.stopping`)
+when the largest relative frequency error of the paired modes is within
+``frequency_tolerance`` (converged: ``"frequency"``); when the largest normalised
+parameter change of the last step is within ``parameter_tolerance`` — converged:
+``"parameter change"``, the usual end when the targets cannot all be met, unless a
+parameter then lies on a bound (``"parameter at bound"``, not converged) or the trust
+radius had shrunk to that size without finding a better point (``"no decrease"``); when
+the iterates return to a point visited 2–4 iterations before (``"cycle detected"``); or
+after ``max_iterations`` steps (``"iteration limit"``).
 
 Evaluation counts: the initial point costs one new evaluation; each iteration costs
 ``n_parameters × new_points(formula)`` new evaluations for the stencil (forward and
-backward 1, central O(h²) 2, central O(h⁴) 4 per parameter) plus one for the new point.
-The one-sided formulas also request the base point once per parameter; the point
-evaluator (:mod:`nlupdate.updating.evaluation`) returns it from memory (counted as
-cached), never recomputed. All stencil points of an iteration go to the evaluator in one
-request, so it may run them concurrently.
+backward 1, central O(h²) 2, central O(h⁴) 4 per parameter) plus one for the new point,
+plus one per rejected step. The one-sided formulas also request the base point once per
+parameter; the point evaluator (:mod:`nlupdate.updating.evaluation`) returns it from
+memory (counted as cached), never recomputed. All stencil points of an iteration go to
+the evaluator in one request, so it may run them concurrently.
 """
 from __future__ import annotations
 
@@ -43,7 +59,13 @@ from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
 from nlupdate.updating.pairing import ModePairing
 from nlupdate.updating.residuals import ModalResponse, ResponseOptions
 from nlupdate.updating.evaluation import PointEvaluator, as_evaluator
+from nlupdate.updating.stopping import bound_reason, cycle_period
 from nlupdate.updating.targets import UpdatingTargets
+
+#: ``step_control`` settings (module docstring).
+STEP_CONTROLS = ("trust_region", "none")
+#: A step is taken when the residual falls by this fraction of the predicted fall.
+ACCEPT_RATIO = 1e-4
 
 
 @dataclass(frozen=True)
@@ -55,6 +77,8 @@ class EigensensitivityOptions(ResponseOptions):
     parameter_tolerance: on the largest normalised parameter change of a step.
     regularisation: Tikhonov weight λ on the normalised step (0 = none).
     max_step: largest normalised change of any parameter per iteration.
+    step_control: ``"trust_region"`` (steps that do not lower the residual are shortened)
+        or ``"none"`` (every Gauss–Newton step is taken).
     """
 
     max_iterations: int = 20
@@ -62,6 +86,7 @@ class EigensensitivityOptions(ResponseOptions):
     parameter_tolerance: float = 1e-6
     regularisation: float = 0.0
     max_step: float = 0.5
+    step_control: str = "trust_region"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -72,13 +97,17 @@ class EigensensitivityOptions(ResponseOptions):
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.regularisation < 0:
             raise ValueError(f"regularisation must be ≥ 0, got {self.regularisation}")
+        if self.step_control not in STEP_CONTROLS:
+            raise ValueError(f"step_control must be one of {list(STEP_CONTROLS)}, got {self.step_control!r}")
 
 
 @dataclass(frozen=True, eq=False)
 class UpdatingResult:
     """Outcome of one updating run.
 
-    name: label of the run (task or candidate name); parameters: updated values (parameter units); history: one row per iteration
+    name: label of the run (task or candidate name); parameters: updated values (parameter units); converged: whether
+    they are a result (``stop == "converged"``); stop: why the run stopped, one of
+    :data:`~nlupdate.updating.stopping.STOPS`; reason: the detail in words; history: one row per iteration
     (see :func:`history_columns`); initial/final: model results at the start and the
     updated point; counts: point evaluations (``new``, ``cached``) of the run;
     sensitivity: the last Jacobian of the response vector (paired ``f/f_target``, then
@@ -104,6 +133,7 @@ class UpdatingResult:
     sensitivity: np.ndarray | None = field(default=None, repr=False)
     sensitivity_point: dict[str, float] | None = None
     bounds: dict[str, tuple[float, float]] | None = None
+    stop: str = "converged"
 
     def frequencies_hz(self, which: str = "final") -> np.ndarray:
         """Paired model frequencies (Hz) of the ``initial`` or ``final`` model."""
@@ -152,7 +182,8 @@ def history_columns(parameter_names: Sequence[str], labels: Sequence[str]) -> li
     columns += [f"p:{n}" for n in parameter_names]
     for label in labels:
         columns += [f"f_hz:{label}", f"error_pct:{label}", f"mac:{label}"]
-    return columns + ["model_modes", "max_abs_error_pct", "step_norm", "new_evaluations", "cached_evaluations", "wall_time_s"]
+    return columns + ["model_modes", "max_abs_error_pct", "step_norm", "rejected_steps", "new_evaluations",
+                      "cached_evaluations", "wall_time_s"]
 
 
 def inverse_eigensensitivity(
@@ -197,28 +228,41 @@ def inverse_eigensensitivity(
         last_counts.update(now)
         return delta
 
+    def cost_of(result: ModalResult, pairing: ModePairing) -> float:
+        return 0.5 * float(np.sum((weights * (target - response.vector(result, pairing))) ** 2))
+
     values = values_of(x)
     result = response.evaluate(values)
     pairing = response.pair(result)
     initial, initial_pairing = result, pairing
+    cost = cost_of(result, pairing)
     rows = []
+    visited = [x.copy()]
     sensitivity, sensitivity_point = None, None
-    step_norm = float("nan")
-    converged, reason, iteration = False, "maximum iterations reached", 0
+    step_norm, limited, rejected = float("nan"), False, 0
+    radius = options.max_step
+    damped = options.step_control == "trust_region"
+    tolerance = options.parameter_tolerance
+    stop, reason, iteration = "iteration limit", "maximum iterations reached", 0
     while True:
         new, cached = counts_since()
         row = history_row(
             response, result, pairing, values,
             method="eigensensitivity", formula=options.formula, iteration=iteration,
-            step_norm=step_norm, new_evaluations=new, cached_evaluations=cached,
+            step_norm=step_norm, rejected_steps=rejected, new_evaluations=new, cached_evaluations=cached,
             wall_time_s=time.perf_counter() - start_time,
         )
         rows.append(row)
         if row["max_abs_error_pct"] <= 100.0 * options.frequency_tolerance:
-            converged, reason = True, "frequency"
+            stop, reason = "converged", "frequency"
             break
-        if iteration > 0 and step_norm <= options.parameter_tolerance:
-            converged, reason = True, "parameter change"
+        if iteration > 0 and step_norm <= tolerance and not limited:
+            stop, reason = "converged", "parameter change"
+            break
+        period = cycle_period(visited, tolerance)
+        if period is not None:
+            stop, reason = "cycle detected", (f"cycle detected: iteration {iteration} returned to the point of iteration "
+                                              f"{iteration - period} (period {period})")
             break
         if iteration == options.max_iterations:
             break
@@ -227,20 +271,46 @@ def inverse_eigensensitivity(
         sensitivity, sensitivity_point = s_p, dict(values)
         s_x = s_p * scale[None, :]
         residual = target - response.vector(result, pairing)
-        step = _bounded_step(s_x, residual, weights, options.regularisation,
-                             np.maximum(lower - x, -options.max_step), np.minimum(upper - x, options.max_step))
-        x = np.clip(x + step, lower, upper)
-        step_norm = float(np.max(np.abs(step)))
-        values = values_of(x)
-        result = response.evaluate(values)
-        pairing = response.pair(result)
+        rejected = 0
+        while True:
+            step = _bounded_step(s_x, residual, weights, options.regularisation,
+                                 np.maximum(lower - x, -radius), np.minimum(upper - x, radius))
+            step_norm = float(np.max(np.abs(step)))
+            limited = damped and step_norm >= radius * (1 - 1e-9)
+            trial_x = np.clip(x + step, lower, upper)
+            trial_values = values_of(trial_x)
+            trial = response.evaluate(trial_values)
+            trial_pairing = response.pair(trial)
+            trial_cost = cost_of(trial, trial_pairing)
+            predicted = cost - 0.5 * float(np.sum((weights * (residual - s_x @ step)) ** 2))
+            ratio = (cost - trial_cost) / predicted if predicted > 0 else -np.inf
+            if not damped or (step_norm <= tolerance and not limited) or ratio > ACCEPT_RATIO:
+                break
+            rejected += 1
+            radius = 0.25 * step_norm
+            if radius < tolerance:
+                break
+        if damped and radius < tolerance:  # no step longer than the tolerance lowers the residual
+            stop, reason = _at_rest(s_x, residual, weights, options.regularisation, lower - x, upper - x, cost)
+            step_norm, limited = 0.0, False
+            break
+        if damped and ratio < 0.25:
+            radius = max(0.25 * step_norm, tolerance)
+        elif damped and ratio > 0.75 and limited:
+            radius = min(2 * radius, options.max_step)
+        x, values, result, pairing, cost = trial_x, trial_values, trial, trial_pairing, trial_cost
+        visited.append(x.copy())
+    if stop == "converged" and reason != "frequency":
+        on_bound = bound_reason(values, {p.name: (float(p.lower), float(p.upper)) for p in parameters})
+        if on_bound is not None:
+            stop, reason = "parameter at bound", on_bound
 
     counts_after = evaluate_points.counts()
     history = pd.DataFrame(rows, columns=history_columns(names, targets.labels))
     return UpdatingResult(
         method="eigensensitivity",
         parameters=values,
-        converged=converged,
+        converged=stop == "converged",
         reason=reason,
         iterations=iteration,
         history=history,
@@ -254,7 +324,34 @@ def inverse_eigensensitivity(
         sensitivity=sensitivity,
         sensitivity_point=sensitivity_point,
         bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
+        stop=stop,
     )
+
+
+#: At rest when the full step would remove less than this fraction of the residual.
+STATIONARY_FRACTION = 1e-2
+
+
+def _at_rest(
+    sensitivity: np.ndarray,
+    residual: np.ndarray,
+    weights: np.ndarray,
+    regularisation: float,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    cost: float,
+) -> tuple[str, str]:
+    """Stop and reason when the trust radius fell below ``parameter_tolerance``: converged
+    (``"parameter change"``) when the undamped step within the bounds would remove less than
+    :data:`STATIONARY_FRACTION` of the residual ``cost`` — a minimum, where the
+    finite-difference sensitivity's own error points the last steps the wrong way — else
+    ``"no decrease"``: the sensitivities promise a fall the model does not give."""
+    step = _bounded_step(sensitivity, residual, weights, regularisation, lower, upper)
+    predicted = cost - 0.5 * float(np.sum((weights * (residual - sensitivity @ step)) ** 2))
+    if predicted <= STATIONARY_FRACTION * cost:
+        return "converged", "parameter change"
+    return "no decrease", (f"no decrease: no step longer than the parameter tolerance lowers the residual, though the "
+                           f"sensitivities predict a {100 * predicted / cost:.3g} % fall")
 
 
 def _bounded_step(

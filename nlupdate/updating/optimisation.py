@@ -27,6 +27,7 @@ from nlupdate.adapters.base import FEAdapter, Parameter
 from nlupdate.updating.eigensensitivity import UpdatingResult, history_columns, history_row, normalisation
 from nlupdate.updating.residuals import ModalResponse, ResponseOptions
 from nlupdate.updating.evaluation import PointEvaluator, as_evaluator
+from nlupdate.updating.stopping import bound_reason
 from nlupdate.updating.targets import UpdatingTargets
 
 OPTIMISATION_METHODS = ("trf", "dogbox")
@@ -68,7 +69,10 @@ def optimise_frequencies(
 
     Returns an :class:`~nlupdate.updating.eigensensitivity.UpdatingResult` with
     ``method="optimisation"``; ``iterations`` is the number of objective calls and
-    ``reason`` the optimiser's message. ``model``: an adapter or a point evaluator, as
+    ``reason`` the optimiser's message. It converged when the optimiser's own tests were
+    met with every parameter inside its bounds (``stop``: ``"converged"``); one that met
+    them on a bound stopped there (``"parameter at bound"``); ``max_evaluations`` is its
+    ``"iteration limit"``. ``model``: an adapter or a point evaluator, as
     for :func:`~nlupdate.updating.eigensensitivity.inverse_eigensensitivity`.
     """
     parameters = tuple(parameters)
@@ -101,7 +105,7 @@ def optimise_frequencies(
         previous_x.append(np.array(x))
         rows.append(history_row(
             response, result, pairing, values,
-            method="optimisation", formula=options.formula, iteration=len(rows), step_norm=step,
+            method="optimisation", formula=options.formula, iteration=len(rows), step_norm=step, rejected_steps=0,
             new_evaluations=now["new"] - last_counts["new"], cached_evaluations=now["cached"] - last_counts["cached"],
             wall_time_s=time.perf_counter() - start_time,
         ))
@@ -127,11 +131,19 @@ def optimise_frequencies(
     values = values_of(solution.x)
     final = response.evaluate(values)
     counts_after = evaluate_points.counts()
+    reason = str(solution.message)
+    if solution.status == 0:
+        stop = "iteration limit"
+    elif solution.status < 0:
+        stop = "no decrease"
+    else:
+        on_bound = bound_reason(values, {p.name: (float(p.lower), float(p.upper)) for p in parameters})
+        stop, reason = ("converged", reason) if on_bound is None else ("parameter at bound", f"{on_bound}; {reason}")
     return UpdatingResult(
         method="optimisation",
         parameters=values,
-        converged=bool(solution.status > 0),
-        reason=str(solution.message),
+        converged=stop == "converged",
+        reason=reason,
         iterations=int(solution.nfev),
         history=pd.DataFrame(rows, columns=history_columns(names, targets.labels)),
         initial=initial,
@@ -144,4 +156,5 @@ def optimise_frequencies(
         sensitivity=last_jacobian["sensitivity"],
         sensitivity_point=last_jacobian["point"],
         bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
+        stop=stop,
     )

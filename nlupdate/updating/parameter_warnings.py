@@ -3,11 +3,14 @@
 :func:`updating_warnings` looks at one updating run (an eigensensitivity run or an
 optimisation candidate, :class:`~nlupdate.updating.eigensensitivity.UpdatingResult`):
 
+* ``not_converged`` — the run did not converge: it reached its iteration limit, its
+  iterates cycled, it came to rest on a bound or found no step that lowers the residual
+  (:mod:`nlupdate.updating.stopping`). Its values are where it stopped, not a result.
 * ``at_bound`` — a parameter that ended within ``BOUND_TOLERANCE`` (1e-3) of the bound
-  width of its lower or upper bound. Both methods stop there happily — the
-  eigensensitivity iteration because its step is clipped to zero ("converged: parameter
-  change"), the optimiser because the projected gradient vanishes — so "converged" then
-  means "converged on the bound": the targets are probably not reachable within the
+  width of its lower or upper bound. Both methods come to rest there — the
+  eigensensitivity iteration because its step is clipped to zero, the optimiser because
+  the projected gradient vanishes — and report it as their stop (``"parameter at
+  bound"``), not as convergence: the targets are probably not reachable within the
   bounds (a wrong parameter set, wrong bounds, or a target the model cannot meet). 0.1 %
   of the width: both methods land on the bound to round-off or to their step tolerance
   (≤ 1e-6 here), while a free optimum that close to a bound by chance is improbable.
@@ -24,20 +27,8 @@ import numpy as np
 
 from nlupdate.identification.trust import TrustWarning, uncertainty_warnings
 from nlupdate.updating.eigensensitivity import UpdatingResult
+from nlupdate.updating.stopping import BOUND_TOLERANCE, at_bound
 from nlupdate.updating.target_uncertainty import ParameterUncertainty
-
-BOUND_TOLERANCE = 1e-3
-
-
-def at_bound(value: float, lower: float, upper: float, tolerance: float = BOUND_TOLERANCE) -> str | None:
-    """``"lower"``/``"upper"`` when ``value`` lies within ``tolerance`` × (upper − lower)
-    of that bound (or beyond it), else None."""
-    width = upper - lower
-    if value <= lower + tolerance * width:
-        return "lower"
-    if value >= upper - tolerance * width:
-        return "upper"
-    return None
 
 
 def updating_warnings(
@@ -53,8 +44,14 @@ def updating_warnings(
     """
     bounds = result.bounds if bounds is None else bounds
     source = result.name or result.method
-    state = f"reported converged ({result.reason})" if result.converged else f"not converged ({result.reason})"
+    state = f"converged ({result.reason})" if result.converged else f"not converged: {result.reason}"
     out = []
+    if not result.converged and result.stop != "parameter at bound":  # that one: the at_bound warning below
+        steps = "iterations" if result.method == "eigensensitivity" else "objective calls"
+        out.append(TrustWarning(
+            "run", "not_converged",
+            f"did not converge ({result.reason}, after {result.iterations} {steps}): its values are where it stopped, "
+            f"not updated parameters", source))
     for name, value in result.parameters.items():
         if not bounds or name not in bounds:
             continue
@@ -64,8 +61,8 @@ def updating_warnings(
             bound = lower if side == "lower" else upper
             out.append(TrustWarning(
                 name, "at_bound",
-                f"{name} = {value:.6g} ended on its {side} bound {bound:.6g} ({state}): the run converged on the "
-                f"bound, so the targets may not be reachable within the bounds [{lower:.6g}, {upper:.6g}]", source))
+                f"{name} = {value:.6g} ended on its {side} bound {bound:.6g} ({state}): the targets may not be "
+                f"reachable within the bounds [{lower:.6g}, {upper:.6g}]", source))
     std = uncertainty.std if isinstance(uncertainty, ParameterUncertainty) else uncertainty
     if std:
         flagged = {w.subject for w in out}

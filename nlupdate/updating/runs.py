@@ -13,7 +13,8 @@ against the targets (frequency error in %) and, when the extracted linear FRF of
 identification is given, against that FRF: the candidate's receptance by modal
 superposition with the given modal damping, correlated by FRAC over a band
 ``f_target·(1 ± band_fraction)`` around each target mode. :func:`rank_candidates`
-scores them for the modes a user weights.
+scores them for the modes a user weights, the runs that converged first: a run that did
+not converge is never ranked above one that did, however small its errors where it stopped.
 """
 from __future__ import annotations
 
@@ -176,14 +177,21 @@ def compare_candidates(
     return pd.DataFrame(rows)
 
 
-def rank_candidates(comparison: pd.DataFrame, user_weights: Mapping[str, float] | Sequence[float]) -> pd.DataFrame:
+def rank_candidates(
+    comparison: pd.DataFrame,
+    user_weights: Mapping[str, float] | Sequence[float],
+    converged: Mapping[str, bool] | None = None,
+) -> pd.DataFrame:
     """Score and rank the candidates of a :func:`compare_candidates` table.
 
     ``user_weights``: per mode label (mapping) or per mode in table order (sequence);
     modes not listed in a mapping weigh 0. Scores: ``weighted_abs_error_pct`` =
     Σ w|error| / Σ w (lower is better) and ``weighted_frac`` = Σ w·FRAC / Σ w (higher is
-    better; NaN when a weighted mode has no FRAC). ``rank`` orders by the error score, ``rank_frac`` by FRAC.
-    Sorted by ``rank``; the initial model is ranked like any candidate.
+    better; NaN when a weighted mode has no FRAC). ``converged``: per run name whether it
+    converged (runs not named, and the initial model, count as converged). ``rank`` orders
+    the converged candidates by the error score, then those that did not converge by
+    theirs; ``rank_frac`` likewise by FRAC. Column ``converged`` (the initial model: NA).
+    Sorted by ``rank``; the initial model is ranked like any converged candidate.
     """
     labels = list(dict.fromkeys(comparison["mode"]))
     if isinstance(user_weights, Mapping):
@@ -211,6 +219,13 @@ def rank_candidates(comparison: pd.DataFrame, user_weights: Mapping[str, float] 
             **{f"error_pct:{m}": float(e) for m, e in zip(group["mode"], group["error_pct"])},
         })
     ranking = pd.DataFrame(rows)
-    ranking["rank"] = ranking["weighted_abs_error_pct"].rank(method="min").astype(int)
-    ranking["rank_frac"] = ranking["weighted_frac"].rank(method="min", ascending=False).astype("Int64")
+    converged = dict(converged or {})
+    ranking["converged"] = pd.array([pd.NA if name == "initial" else bool(converged.get(name, True))
+                                     for name in ranking["candidate"]], dtype="boolean")
+    behind = (ranking["converged"] == False).fillna(False).to_numpy()  # noqa: E712 (NA: the initial model)
+    offset = len(ranking)  # the not converged rank after every converged one
+    ranking["rank"] = (ranking["weighted_abs_error_pct"].rank(method="min") + offset * behind)
+    ranking["rank"] = ranking["rank"].rank(method="min").astype(int)
+    frac_rank = ranking["weighted_frac"].rank(method="min", ascending=False) + offset * behind
+    ranking["rank_frac"] = frac_rank.rank(method="min").astype("Int64")
     return ranking.sort_values(["rank", "candidate"], kind="mergesort").reset_index(drop=True)
