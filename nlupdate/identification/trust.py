@@ -75,8 +75,10 @@ _RAW_COEFFICIENT = re.compile(r"^(re|im)_c\d+$")
 class TrustWarning:
     """One reason not to trust a result as it stands.
 
-    subject: what it is about (a parameter name, or ``fit``); kind: ``at_bound``,
-    ``uncertainty_exceeds_value``, ``uncertainty_unknown`` or ``residual_above_noise``;
+    subject: what it is about (a parameter name, ``fit``, ``run`` or ``prediction``); kind:
+    ``at_bound``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
+    ``residual_above_noise``, ``not_converged`` (an updating run) or ``prediction_worse``
+    (the best model predicts worse than the initial one);
     message: one plain sentence with the numbers; source: where the result came from
     (``identification``, or an updating run's name).
     """
