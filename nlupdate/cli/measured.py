@@ -12,15 +12,13 @@ of a file that does not (MATLAB stepped-sine runs); ``--band LOW:HIGH`` limits t
 a band (Hz): the measured lines outside it are left out *before* any step.
 
 Commands call :func:`add_measured_options` and :func:`measured_table`; the notes it
-returns (what was read, the reference unit, levels taken with a unit the reference
-contradicts, the band) are printed with :func:`print_notes` so every output says volts
-when the reference is a voltage. docs/measured-data.md describes the files and levels.
+returns (what was read, the reference unit, the band) are printed with
+:func:`print_notes`, so every output says volts when the reference is a voltage. docs/measured-data.md describes the files and levels.
 """
 from __future__ import annotations
 
 import argparse
 import math
-import warnings
 from pathlib import Path
 from typing import Iterable
 
@@ -123,15 +121,15 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
 
     The table is a measured-FRF table (all files as one, :func:`read_frf_tables`), or —
     with ``modal`` and a single modal-table file — a modal table (modes outside the band
-    left out). ``find_band``: without ``--band``, an FRF table is cut to its excited band
+    left out). What the reader notices (a z-axis level typed in the unit the reference
+    contradicts, mobility converted …) goes out as warnings (the CLI prints them on stderr)
+    as it is found. ``find_band``: without ``--band``, an FRF table is cut to its excited band
     (:func:`excited_band_of_table`) when that is narrower than what was measured (a
-    full-band export). Notes: what the reader said (a level taken with a unit the reference
-    contradicts, mobility converted …), the files/runs/levels read and the reference
-    (volts stated), the band. Errors are one line (:class:`CliError` or ``ValueError``).
+    full-band export). Notes: the files and levels read with the reference (volts stated),
+    the band. Errors are one line (:class:`CliError` or ``ValueError``).
     """
     from nlupdate.measurement.frf_files import read_frf_tables
     from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
-    from nlupdate.notices import NlupdateWarning
 
     paths = list(args.measured)
     band = parse_band(getattr(args, "band", None))
@@ -146,14 +144,7 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
         column = "natural_frequency_hz"
     else:
         options = read_options(args)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", NlupdateWarning)
-            table = read_frf_tables(paths, known_dofs, options)
-        for warning in caught:
-            if issubclass(warning.category, NlupdateWarning):
-                notes.append(str(warning.message))
-            else:
-                warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+        table = read_frf_tables(paths, known_dofs, options)  # its notices go out as warnings, as they come
         notes.append(describe_frf_table(table, paths, options.reference_calibration))
         column = "frequency_hz"
     if band is not None:

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.files import atomic_file
-from nlupdate.input_files import decode_text, read_input_bytes, sniff
+from nlupdate.input_files import check_parquet_size, decode_text, read_input_bytes, sniff
 from nlupdate.measurement.frf_table import (
     _DOF_COLUMNS, _KEY_COLUMNS, FRF_COLUMNS, OPTIONAL_COLUMNS, MeasurementTableError, _canonical, validate_frf_table,
 )
@@ -88,6 +88,7 @@ def _read_csv(data: bytes, path: Path) -> pd.DataFrame:
 
 
 def _read_parquet(data: bytes, path: Path) -> pd.DataFrame:
+    check_parquet_size(data, path, "measured-FRF file")
     try:
         return pd.read_parquet(io.BytesIO(data))
     except Exception as error:  # pyarrow raises its own errors on corrupt files
@@ -115,11 +116,14 @@ def frf_table_from_bytes(
     if len(raw) == 0:
         raise MeasurementTableError(f"{path}: holds no measurement (no data rows); a measured-FRF table has one row "
                                     f"per frequency, level, response and input")
+    runs = tuple(raw.attrs.get("runs", ()))
     raw = _with_user_statements(raw, path, suffix, options)
     table = validate_frf_table(raw, source=str(path), known_dofs=known_dofs)
     if options.reference_calibration is not None:
         table = calibrated(table, options.reference_calibration, str(path))
-    return _canonical(table)
+    table = _canonical(table)
+    table.attrs["runs"] = runs  # the run names of a UFF export (for levels keyed FILE#RUN or RUN)
+    return table
 
 
 def _with_user_statements(raw: pd.DataFrame, path: Path, suffix: str, options: ReadOptions) -> pd.DataFrame:
@@ -184,6 +188,7 @@ def read_frf_tables(
     if not paths:
         raise MeasurementTableError("no measured-FRF file given")
     tables = [read_frf_table(p, known_dofs, options) for p in paths]
+    _check_level_keys(options, paths, tables)
     if len(tables) == 1:
         return tables[0]
     units = {p: table_reference_unit(t) for p, t in zip(paths, tables)}
@@ -204,6 +209,20 @@ def read_frf_tables(
             f"{key['force_level_n']:g}, response {key['response_dof']!r}, input {key['input_dof']!r}); give each level "
             f"once (a file's level: --level FILE=VALUE)")
     return _canonical(validate_frf_table(combined, source=", ".join(str(p) for p in paths), known_dofs=known_dofs))
+
+
+def _check_level_keys(options: ReadOptions | None, paths: list[Path], tables: list[pd.DataFrame]) -> None:
+    """Every level the user gave names a file or a run that was read."""
+    if options is None or not options.levels:
+        return
+    runs = {str(p): tuple(t.attrs.get("runs", ())) for p, t in zip(paths, tables)}
+    unmatched = options.unmatched_levels(runs)
+    if unmatched:
+        named = [f"{Path(p).name}#{r}" for p, rs in runs.items() for r in rs]
+        raise MeasurementTableError(
+            f"level given for {unmatched[0]!r} (--level, study [measured] levels): no file read and no run of them has "
+            f"that name; expected FILE, FILE#RUN or RUN among the files {', '.join(Path(p).name for p in runs)}"
+            + (f" and the runs {', '.join(named)}" if named else " (which name no runs)"))
 
 
 def write_frf_table(table: pd.DataFrame, path: str | os.PathLike) -> Path:

@@ -76,6 +76,7 @@ import pyuff
 
 from nlupdate.files import atomic_file
 from nlupdate.measurement.frf_table import MeasurementTableError, validate_frf_table
+from nlupdate.measurement.run_levels import levels_in_text, run_names
 from nlupdate.measurement.units import (
     REFERENCE_UNIT_LABELS, RESPONSE_QUANTITY, RESPONSE_UNIT_LABELS, ReadOptions, table_reference_unit,
 )
@@ -98,7 +99,6 @@ _ORDINATE_LABELS = RESPONSE_UNIT_LABELS
 _ORDINATE_TYPES = {_DISPLACEMENT: 0, _VELOCITY: 1, _ACCELERATION: 2}
 _QUANTITY = RESPONSE_QUANTITY
 _REFERENCE_LABELS = REFERENCE_UNIT_LABELS
-_LEVEL_IN_ID = re.compile(r"(?<![\w.])(\d+(?:\.\d*)?|\.\d+)(?:[eE]([-+]?\d+))?\s*(mV|kN|V|N)(?![A-Za-z])")
 _EXCITATION_WORDS = (
     (re.compile(r"step(?:ped)?[\s_-]*sine", re.I), "stepped_sine"),
     (re.compile(r"chirp", re.I), "chirp"),
@@ -203,49 +203,66 @@ def _reference(dataset: dict, where: str, stated: str | None) -> tuple[str, floa
     return unit, 1.0 / factor  # H per label unit → per table unit: (m/mV) → m/V is ×1000
 
 
-def _level_in_id_lines(dataset: dict, where: str) -> tuple[float, str] | None:
-    found = []
+def _level_in_id_lines(dataset: dict, where: str, unit: str) -> tuple[float, str] | None:
+    """(value, unit) of the level the ID lines name (run name included), in the styles of
+    :mod:`nlupdate.measurement.run_levels`; a number without a unit is in ``unit``."""
+    found = set()
     for line in _id_lines(dataset):
-        for match in _LEVEL_IN_ID.finditer(line):
-            mantissa, exponent, unit = match.groups()
-            value = float(mantissa) * 10.0 ** int(exponent or 0)
-            unit_name, factor = _REFERENCE_LABELS[unit.lower()]
-            found.append((value * factor, unit_name))
-    distinct = sorted(set(found))
+        if not line.strip().startswith(("response_dof=", "input_dof=", "abscissa_hz=")):
+            found |= {(value, named or unit) for value, named in levels_in_text(line)}
+    distinct = sorted(found)
     if len(distinct) > 1:
         raise MeasurementTableError(
-            f"{where}: the ID lines name several levels {[f'{v:g} {u}' for v, u in distinct]}; give the file's level "
-            f"with --level FILE=VALUE")
+            f"{where}: the ID lines name several levels {[f'{v:g} {u}' for v, u in distinct]}; give the level with "
+            f"--level FILE=VALUE or FILE#RUN=VALUE (study: [measured] levels)")
     return distinct[0] if distinct else None
 
 
-def _level(dataset: dict, where: str, unit: str, given: float | None) -> float:
+def _z_axis_level(dataset: dict) -> tuple[float, str, str] | None:
+    """(value, unit, how it is typed) of a z-axis value typed as a force (specific data
+    type 13/9) or labelled with a reference unit (N, kN, V, mV); None otherwise."""
+    z_type = dataset.get("z_axis_spec_data_type")
+    label = _label(dataset, "z_axis_axis_units_lab")
+    value = float(dataset.get("z_axis_value", 0.0) or 0.0)
+    if not value > 0:
+        return None
+    if label.lower() in _REFERENCE_LABELS:
+        unit, factor = _REFERENCE_LABELS[label.lower()]
+        return value * factor, unit, f"labelled {label!r} (specific data type {z_type})"
+    if z_type in (_FORCE, _REACTION):
+        return value, "N", f"typed as force (specific data type {z_type})"
+    return None
+
+
+def _level(dataset: dict, where: str, unit: str, given: float | None, runs: str,
+           contradictions: list | None = None) -> float:
+    """The level of a dataset (module docstring, **Level**); a z-axis level whose unit
+    contradicts the reference ``unit`` is used in ``unit`` and recorded in ``contradictions``."""
     if given is not None:
         return given
     keys = _id_keys(dataset)
     if "force_level_n" in keys:
         return _id_floats(keys, "force_level_n", 1, where)[0]
-    z_type = dataset.get("z_axis_spec_data_type")
-    z_label = _label(dataset, "z_axis_axis_units_lab")
-    z_value = float(dataset.get("z_axis_value", 0.0) or 0.0)
-    if z_value > 0 and (z_type in (_FORCE, _REACTION) or (z_type in (_UNKNOWN, _GENERAL) and
-                                                         z_label.lower() in _REFERENCE_LABELS)):
-        z_unit, factor = ("N", 1.0) if z_type in (_FORCE, _REACTION) and z_label.lower() not in _REFERENCE_LABELS \
-            else _REFERENCE_LABELS[z_label.lower()]
-        if z_unit == unit:
-            return z_value * factor
-    in_id = _level_in_id_lines(dataset, where)
+    z_axis = _z_axis_level(dataset)
+    if z_axis is not None and z_axis[1] == unit:
+        return z_axis[0]
+    in_id = _level_in_id_lines(dataset, where, unit)
     if in_id is not None:
         value, id_unit = in_id
         if id_unit != unit:
             raise MeasurementTableError(f"{where}: the ID lines give the level {value:g} {id_unit}, but the reference "
-                                        f"is in {unit}")
+                                        f"is in {unit}; give the level with --level FILE=VALUE or FILE#RUN=VALUE")
         return value
+    if z_axis is not None:  # typed in the other unit: used as the reference unit, and said so
+        if contradictions is not None:
+            contradictions.append((z_axis[0], z_axis[2]))
+        return z_axis[0]
     raise MeasurementTableError(
-        f"{where}: no level: expected an ID line 'force_level_n=<amplitude>', a z-axis value with specific data type 13 "
-        f"(force) or the label 'V', a level such as '0.10 V' or '2.5 N' in an ID line, or the file's level given with "
-        f"--level FILE=VALUE (study: [measured] files); found ID lines {_id_lines(dataset)} and z-axis specific data "
-        f"type {z_type} (value {z_value:g})")
+        f"{where}: no level: expected an ID line 'force_level_n=<amplitude>', a z-axis value typed as force (specific "
+        f"data type 13) or labelled N or V, a level in an ID line or run name ('0.10 V', '0p10V', 'F=2.5N', "
+        f"'Chirp0p05'), or the level given with --level FILE=VALUE, FILE#RUN=VALUE or RUN=VALUE (study: [measured] "
+        f"levels); found ID lines {_id_lines(dataset)} and z-axis specific data type "
+        f"{dataset.get('z_axis_spec_data_type')} (value {float(dataset.get('z_axis_value', 0.0) or 0.0):g}){runs}")
 
 
 def _excitation(dataset: dict) -> str:
@@ -298,7 +315,8 @@ def _coordinates(dataset: dict) -> tuple[str, str, int]:
     return response, inp, sign
 
 
-def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None) -> pd.DataFrame:
+def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None, runs: str,
+               contradictions: list) -> pd.DataFrame:
     if dataset.get("ord_data_type") not in (5, 6):
         raise MeasurementTableError(f"{where}: ordinate data type {dataset.get('ord_data_type')} is real; an FRF needs "
                                     f"complex data (5 or 6)")
@@ -306,7 +324,7 @@ def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: flo
     frequency = _abscissa_hz(dataset, where)
     power, to_si = _ordinate(dataset, where)
     unit, per_unit = _reference(dataset, where, options.reference_unit)
-    level = _level(dataset, where, unit, given_level)
+    level = _level(dataset, where, unit, given_level, runs, contradictions)
     response, inp, sign = _coordinates(dataset)
     h = np.asarray(dataset["data"], dtype=complex) * (sign * to_si * per_unit)
     if power:
@@ -331,14 +349,14 @@ def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: flo
     return curve
 
 
-def _coherence_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None):
+def _coherence_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None, unit: str):
     """(response, input, level or None, frequencies, coherence) of a coherence dataset."""
     _check_count(dataset, where)
     frequency = _abscissa_hz(dataset, where)
     values = np.real(np.asarray(dataset["data"]))
     response, inp, _ = _coordinates(dataset)
     try:
-        level = _level(dataset, where, options.reference_unit or "N", given_level)
+        level = _level(dataset, where, unit, given_level, "")
     except MeasurementTableError:
         level = None
     return response, inp, level, frequency, values
@@ -381,21 +399,37 @@ def read_uff_frf(data: bytes, path: Path, options: ReadOptions) -> pd.DataFrame:
     indices, datasets = uff_datasets(data, path)
     if not datasets:
         raise MeasurementTableError(f"{path}: no dataset 58 (function at nodal DOF) found")
-    given = options.level_of(str(path))
-    curves, seen, coherences, skipped = [], {}, [], {}
-    for index, dataset in zip(indices, datasets):
-        where = f"{path}, dataset {index}"
+    runs = run_names([_id_lines(d) for d in datasets], [(d.get("func_type"), *_coordinates(d)[:2]) for d in datasets])
+    distinct_runs = list(dict.fromkeys(r for r, d in zip(runs, datasets) if d.get("func_type") == _FRF))
+    several = len(distinct_runs) > 1
+    listing = f"; the file's runs: {', '.join(repr(r) for r in distinct_runs)} — give a run's level with --level " \
+              f"{Path(path).name}#RUN=VALUE" if several else ""
+    file_level = options.level_of(str(path))
+    if file_level is not None and several:
+        raise MeasurementTableError(
+            f"{path}: holds {len(distinct_runs)} runs ({', '.join(repr(r) for r in distinct_runs)}); a level given for "
+            f"the file ({file_level:g}) fits a file of one run: give each run's level with --level "
+            f"{Path(path).name}#RUN=VALUE (study: [measured] levels = {{\"{Path(path).name}#RUN\" = VALUE}})")
+    curves, seen, coherences, skipped, contradictions = [], {}, [], {}, {}
+    for index, dataset, run in zip(indices, datasets, runs):
+        where = f"{path}, dataset {index}" + (f" (run {run!r})" if several else "")
+        given = options.level_of_run(str(path), run) if run else None
+        given = file_level if given is None else given
         function = dataset.get("func_type")
         if function == _FRF:
-            curve = validate_frf_table(_frf_curve(dataset, where, options, given), source=where)
+            found: list = []
+            curve = validate_frf_table(_frf_curve(dataset, where, options, given, listing, found), source=where)
+            if found:
+                contradictions.setdefault((run, found[0][1]), set()).add(found[0][0])
             key = tuple(curve.loc[0, ["force_level_n", "response_dof", "input_dof"]]) if len(curve) else None
             if key in seen:
-                raise MeasurementTableError(f"{path}: datasets {seen[key]} and {index} hold the same curve (level, "
-                                            f"response_dof, input_dof) = {key}")
+                raise MeasurementTableError(
+                    f"{path}: datasets {seen[key]} and {index} hold the same curve (level, response_dof, input_dof) = "
+                    f"{key}{listing or ''}")
             seen[key] = index
             curves.append(curve)
         elif function == _COHERENCE:
-            coherences.append((index, _coherence_curve(dataset, where, options, given)))
+            coherences.append((index, _coherence_curve(dataset, where, options, given, options.reference_unit or "N")))
         elif function == _TRANSMISSIBILITY:
             raise MeasurementTableError(f"{where}: function type 5 (transmissibility); expected 4 (frequency response "
                                         f"function) or 6 (coherence)")
@@ -413,6 +447,12 @@ def read_uff_frf(data: bytes, path: Path, options: ReadOptions) -> pd.DataFrame:
         _attach_coherence(curves, f"{path}, dataset {index}", response, inp, level, frequency, values)
     if len({table_reference_unit(c) for c in curves}) > 1:
         raise MeasurementTableError(f"{path}: the datasets mix force (N) and voltage (V) references")
+    unit = table_reference_unit(curves[0])
+    for (run, typed), values in contradictions.items():
+        levels = ", ".join(f"{v:g}" for v in sorted(values))
+        warnings.warn(f"{path}{f' run {run!r}' if run else ''}: the z-axis level {levels} is {typed}, while the "
+                      f"reference is {unit}; used as {levels} {unit} (state another with --level "
+                      f"{Path(path).name}{f'#{run}' if run else ''}=VALUE)", NlupdateWarning, stacklevel=4)
     for column, missing in (("coherence", np.nan), ("excitation", "unknown")):
         if any(column in c.columns for c in curves):
             for curve in curves:
@@ -425,6 +465,7 @@ def read_uff_frf(data: bytes, path: Path, options: ReadOptions) -> pd.DataFrame:
                       f"level {missing['force_level_n']:g}: the coherence column is left out", NlupdateWarning,
                       stacklevel=4)
         table = table.drop(columns="coherence")
+    table.attrs["runs"] = tuple(r for r in distinct_runs if r)  # the run names, for --level FILE#RUN / RUN
     return table
 
 

@@ -49,8 +49,10 @@ class ReadOptions:
         and of its levels; None: as the file says (a file that says nothing is in N,
         except a UFF dataset, whose denominator must say it).
     reference_calibration: newtons per volt; converts per-volt data to per-newton on reading.
-    levels: the level of each file (in the reference unit), by the file name as given,
-        its resolved path or its base name; it takes precedence over what the file holds.
+    levels: the level (in the reference unit) of a file, keyed by the file name as given,
+        its resolved path or its base name; of one run of a file, keyed ``FILE#RUN``; or of
+        a run wherever it is, keyed by the run name (RUN as the reader names runs,
+        :mod:`nlupdate.measurement.run_levels`). It takes precedence over what the file holds.
     coordinates: the (response, input) coordinate names of each file that does not name
         them (keyed like ``levels``); a name ``NODE:-DIR`` states a sensor or force along
         the negative direction: the FRF is negated and the coordinate named ``NODE:DIR``.
@@ -82,6 +84,21 @@ class ReadOptions:
         value = _statement_for(self.levels, path)
         return None if value is None else float(value)
 
+    def level_of_run(self, path: str, run: str) -> float | None:
+        """The level the user gave for the run ``run`` of the file ``path``: keyed
+        ``FILE#RUN``, else by the run name alone (None when neither)."""
+        for key, value in self.levels.items():
+            if _names_run(key, path, run):
+                return float(value)
+        return None
+
+    def unmatched_levels(self, runs: Mapping[str, tuple[str, ...]]) -> list[str]:
+        """The keys of ``levels`` that name none of the files ``runs`` holds (file → its
+        run names) nor any of their runs."""
+        return [key for key in self.levels
+                if not any(_statement_for({key: True}, path) or any(_names_run(key, path, r) for r in names)
+                           for path, names in runs.items())]
+
     def coordinates_of(self, path: str) -> tuple[str, str] | None:
         """The (response, input) names the user gave for the file ``path`` (None when none)."""
         return _statement_for(self.coordinates, path)
@@ -106,6 +123,21 @@ def _statement_for(statements: Mapping[str, object], path: str) -> object | None
         except OSError:
             continue
     return None
+
+
+def _names_run(key: str, path: str, run: str) -> bool:
+    """Whether the level key ``key`` names the run ``run`` of the file ``path``: ``FILE#RUN``
+    (any ``#`` may split the file from the run) or the run name alone."""
+    if not run:
+        return False
+    if key == run:
+        return True
+    position = key.find("#")
+    while position > 0:
+        if key[position + 1:] == run and _statement_for({key[:position]: True}, path):
+            return True
+        position = key.find("#", position + 1)
+    return False
 
 
 def checked_reference_unit(value: object, where: str) -> str:
