@@ -25,8 +25,9 @@ from nlupdate.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels
-from nlupdate.measurement.frf_files import read_frf_table, write_frf_table
-from nlupdate.measurement.modal_table import is_modal_table_file, read_modal_table
+from nlupdate.cli.measured import add_measured_options, measured_table, print_notes, sources
+from nlupdate.measurement.frf_files import write_frf_table
+from nlupdate.measurement.units import table_reference_unit
 from nlupdate.model.amplitude_modal import BACKBONES, write_amplitude_model
 from nlupdate.reporting.figures import level_colours, save_figure
 from nlupdate.cli.simulate import force_levels, frequency_grid
@@ -34,14 +35,16 @@ from nlupdate.cli.simulate import force_levels, frequency_grid
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "amplitude", __doc__)
-    parser.add_argument("--measured", required=True, metavar="FILE", help="modal table (.csv) or measured-FRF table")
+    add_measured_options(parser, "of the FRFs (lines outside it are left out before the fit) or of a modal table's "
+                                 "modes (default: all)", modal=True)
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="mass-normalised mode shape (1/√kg) at a coordinate; needed at the input for a modal table")
     parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
     parser.add_argument("--backbone", choices=BACKBONES, default="iwan", help="backbone model (default iwan)")
     parser.add_argument("--order", type=positive_int, default=2, help="polynomial order (default 2)")
-    parser.add_argument("--forces", help="force levels (N) to predict FRFs at, comma-separated")
+    parser.add_argument("--forces", help="levels to predict FRFs at, comma-separated (in the reference unit: N, or V "
+                                         "for FRFs per volt)")
     parser.add_argument("--freqs", help="frequency grid (Hz) of the predictions: START:STOP:COUNT or F1,F2,…")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
@@ -81,7 +84,7 @@ def _plot_backbone(model, samples, path: Path) -> Path:
     return save_figure(fig, path)
 
 
-def _plot_prediction(predicted, data: FRFLevels, path: Path) -> Path:
+def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") -> Path:
     """|H| the model predicts (lines) against the measured curves (dots) over the predicted
     band; a level measured and predicted shares its colour."""
     f_low, f_high = float(predicted["frequency_hz"].min()), float(predicted["frequency_hz"].max())
@@ -90,15 +93,15 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path) -> Path:
     colours = dict(zip(data.levels, level_colours(len(data.levels), 0.1, 0.9)))
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = (f >= f_low) & (f <= f_high)
-        ax.semilogy(f[band], np.abs(h[band]), ".", ms=3, color=colours[level], label=f"measured {level:g} N")
+        ax.semilogy(f[band], np.abs(h[band]), ".", ms=3, color=colours[level], label=f"measured {level:g} {unit}")
     for level, curve in predicted.groupby("force_level_n"):
         h = curve["h_real"].to_numpy() + 1j * curve["h_imag"].to_numpy()
         match = [c for lv, c in colours.items() if np.isclose(lv, level, rtol=1e-9)]
         ax.semilogy(curve["frequency_hz"], np.abs(h), "-", lw=1.4, color=match[0] if match else "black",
-                    label=f"model {level:g} N")
+                    label=f"model {level:g} {unit}")
     ax.set_xlim(f_low, f_high)
     ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("|H| (m/N)")
+    ax.set_ylabel(f"|H| (m/{unit})")
     ax.set_title("amplitude-dependent modal model (lines) against the measurement (dots)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
@@ -112,23 +115,24 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    if is_modal_table_file(args.measured):
-        table = read_modal_table(args.measured)
+    table, notes = measured_table(args, modal=True)
+    print_notes(notes)
+    unit = "N" if "natural_frequency_hz" in table.columns else table_reference_unit(table)
+    if "natural_frequency_hz" in table.columns:
         inputs = sorted(set(table["input_dof"])) if "input_dof" in table.columns else []
         input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
         if input_dof is None:
-            raise CliError(f"{args.measured}: name the excited coordinate with --input-dof")
+            raise CliError(f"{sources(args)}: name the excited coordinate with --input-dof")
         if input_dof not in shapes:
             raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the excited "
                            f"coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
-        samples = samples_from_modal_table(table, shapes[input_dof], args.mode, str(args.measured))
+        samples = samples_from_modal_table(table, shapes[input_dof], args.mode, sources(args))
         model = fit_amplitude_model(samples, tuple(shapes.items()), args.backbone, args.order, mode=args.mode)
     else:
-        table = read_frf_table(args.measured)
         inputs = sorted(set(table["input_dof"].astype(str)))
         input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
         if input_dof is None:
-            raise CliError(f"{args.measured}: the table has input dofs {inputs}; choose one with --input-dof")
+            raise CliError(f"{sources(args)}: the table has input dofs {inputs}; choose one with --input-dof")
         data = FRFLevels.from_table(table, input_dof, input_dof)
         samples = samples_from_frfs(data, shapes.get(input_dof))
         model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
@@ -137,6 +141,8 @@ def run(args: argparse.Namespace) -> int:
     predicted = None
     if args.forces is not None:
         predicted = model.frf_table(frequency_grid(args.freqs), force_levels(args.forces), input_dof)
+        if unit != "N":
+            predicted["reference_unit"] = unit  # FRFs per volt, as the measurement
     with atomic_directory(out, on_exists="replace") as archive:
         folder = archive.path
         write_amplitude_model(model, folder / "amplitude_model.json")
@@ -144,13 +150,13 @@ def run(args: argparse.Namespace) -> int:
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")
             if data is not None:
-                _plot_prediction(predicted, data, folder / "predicted_frf.png")
+                _plot_prediction(predicted, data, folder / "predicted_frf.png", unit)
     print(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
           f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, modal "
           f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)")
     if model.joint is not None:
         j = model.joint
-        print(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} N/√kg, chi = {j.chi:.4g}, "
+        print(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {unit}/√kg, chi = {j.chi:.4g}, "
               f"beta = {j.beta:.4g}")
     if model.note:
         print(f"note: {model.note}")
