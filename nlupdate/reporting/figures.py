@@ -15,11 +15,14 @@ from __future__ import annotations
 import io
 import os
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.axes import Axes
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
@@ -34,6 +37,74 @@ FIT_COLOUR = "C1"
 #: Fill of a region where a curve is extrapolated (no data there).
 EXTRAPOLATION_FILL = {"color": "0.5", "alpha": 0.13, "lw": 0}
 BAND_LABEL = "95 % Monte-Carlo band"
+#: What a band's legend entry adds where the band does not show beside its curve (:func:`band_shows`).
+THIN_BAND_NOTE = "narrower than the line"
+#: Line width (points) of a fitted curve.
+FIT_WIDTH = 1.6
+
+
+def band_fill(ax: Axes, x: ArrayLike, low: ArrayLike, high: ArrayLike, label: str, covered_by: float = FIT_WIDTH,
+              judged_over: Sequence[tuple[float, float]] | None = None, **style) -> PolyCollection:
+    """A 95 % band between ``low`` and ``high`` over ``x`` (a ``fill_between``, no edge),
+    remembering what it spans, the width (points) of the curve drawn over it
+    (``covered_by``) and the x intervals where it matters (``judged_over``, e.g. where
+    the data lie; None: everywhere), so :func:`label_thin_bands` can tell whether it shows."""
+    fill = ax.fill_between(x, low, high, lw=0, label=label, **style)
+    fill.nlupdate_band = (np.asarray(x, float), np.asarray(low, float), np.asarray(high, float), float(covered_by),
+                          None if judged_over is None else [tuple(map(float, i)) for i in judged_over])
+    return fill
+
+
+def band_thickness_pt(fill: PolyCollection) -> float:
+    """Largest thickness (points) of a :func:`band_fill` band across its middle line
+    (the vertical thickness times the cosine of the middle line's slope on the page),
+    within its axes' current x limits and its ``judged_over`` intervals; 0 when none of
+    it shows."""
+    x, low, high, _, intervals = fill.nlupdate_band
+    ax = fill.axes
+    lo, hi = sorted(ax.get_xlim())
+    keep = (x >= lo) & (x <= hi) & np.isfinite(low) & np.isfinite(high)
+    if intervals is not None:
+        keep &= np.any([(x >= a) & (x <= b) for a, b in intervals], axis=0) if intervals else False
+    if ax.get_yscale() == "log":
+        keep &= (low > 0) & (high > 0)
+    if np.count_nonzero(keep) < 2:
+        return 0.0
+    bottom = ax.transData.transform(np.column_stack([x[keep], low[keep]]))
+    top = ax.transData.transform(np.column_stack([x[keep], high[keep]]))
+    middle = (bottom + top) / 2
+    slope = np.gradient(middle[:, 1], middle[:, 0]) if np.all(np.diff(middle[:, 0]) > 0) else 0.0
+    across = np.abs(top[:, 1] - bottom[:, 1]) / np.sqrt(1 + np.square(slope))
+    return float(np.max(across)) * 72 / fill.figure.dpi
+
+
+#: How far (points) a band must reach beyond each side of its curve to show.
+BAND_MARGIN_PT = 2.0
+
+
+def band_shows(fill: PolyCollection) -> bool:
+    """Whether a :func:`band_fill` band reaches :data:`BAND_MARGIN_PT` beyond each side
+    of the curve over it somewhere it is judged, at the figure's current layout."""
+    return band_thickness_pt(fill) > fill.nlupdate_band[3] + 2 * BAND_MARGIN_PT
+
+
+def label_thin_bands(figure: Figure) -> None:
+    """Lay ``figure`` out and add :data:`THIN_BAND_NOTE` (with "over the data" when the
+    band is judged there only) to the label of every :func:`band_fill` band that does not
+    show beside its curve (:func:`band_shows`), so no legend claims a band a reader cannot
+    see. Call it once the axes limits are final and before the legends are made."""
+    FigureCanvasAgg(figure)
+    engine = figure.get_layout_engine()
+    if engine is not None:
+        engine.execute(figure)
+    for ax in figure.axes:
+        for fill in ax.collections:
+            spec = getattr(fill, "nlupdate_band", None)
+            if spec is None or fill.get_label().startswith("_") or THIN_BAND_NOTE in fill.get_label():
+                continue
+            if not band_shows(fill):
+                where = " over the data" if spec[4] is not None else ""
+                fill.set_label(f"{fill.get_label()}: {THIN_BAND_NOTE}{where}")
 
 
 def save_figure(figure: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:

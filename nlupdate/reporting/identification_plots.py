@@ -11,8 +11,10 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, NullFormatter
 from numpy.typing import ArrayLike
 
+from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.reporting.figures import (
-    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, level_colours, unwrapped_phase_deg,
+    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, band_fill, label_thin_bands, level_colours,
+    unwrapped_phase_deg,
 )
 
 
@@ -45,10 +47,20 @@ def _level_colouring(result: Any, unit: str):
     return np.asarray(levels_of_points), colours, BoundaryNorm(edges, colours.N), levels
 
 
+def _minor_label(value: float, _position=None) -> str:
+    """A minor tick's label on a log axis spanning a factor 3 to 10: only 2, 3 and 5 × 10ⁿ,
+    so neighbouring labels (0.8, 0.9) never run into each other."""
+    mantissa = value / 10 ** np.floor(np.log10(value)) if value > 0 else 0.0
+    return f"{value:g}" if np.any(np.isclose(mantissa, (2.0, 3.0, 5.0))) else ""
+
+
 def fit_figure(identification: Any, title: str, poor_factor: float | None = None) -> Figure:
     """The PRD/DDF points (coloured by force level), the fitted curve with its 95 %
-    Monte-Carlo band — solid over the amplitudes the data cover, dotted in the shaded
-    extrapolation beyond them — real and imaginary parts against amplitude (y in N/m, or
+    Monte-Carlo band — solid over the stretches of amplitude the data cover, dashed across
+    the gaps between them (consecutive points more than
+    :data:`~nlupdate.reporting.coverage.AMPLITUDE_GAP_RATIO` times apart), dotted in the
+    extrapolation beyond them; gaps and extrapolation shaded grey — real and imaginary
+    parts against amplitude (y in N/m, or
     V/m for a voltage reference), and each point's misfit in units of its noise
     (:meth:`~nlupdate.identification.pipeline.Identification.misfit_in_noise_units`;
     ``poor_factor`` draws the "poor fit" line)."""
@@ -58,9 +70,14 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
     y = np.asarray(result.y)
     low, high = result.amplitude_range
     band = identification.fit_band
-    grid = band.x if band is not None else np.linspace(low, high, 200)
+    covered = covered_intervals(amplitude)
+    edges = [x for interval in covered for x in interval]
+    grid = np.union1d(band.x if band is not None else np.linspace(low, high, 200), edges)
     curve = result.fitted_y(grid)
-    inside = (grid >= low) & (grid <= high)
+    gaps = list(zip([b for _, b in covered[:-1]], [a for a, _ in covered[1:]]))
+    solid = np.any([(grid >= a) & (grid <= b) for a, b in covered], axis=0)
+    dashed = np.any([(grid >= a) & (grid <= b) for a, b in gaps], axis=0) if gaps else np.zeros(grid.shape, bool)
+    dotted = (grid <= low) | (grid >= high)
     colouring = _level_colouring(result, unit)
     point_style = dict(s=7, alpha=0.75, lw=0)
     if colouring is not None:
@@ -70,18 +87,21 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
     figure = Figure(figsize=(15, 4.6), layout="constrained")
     axes = figure.subplots(1, 3)
     for ax, part, band_part, name in ((axes[0], np.real, "real", "Re"), (axes[1], np.imag, "imag", "Im")):
-        if grid[0] < low:
-            ax.axvspan(grid[0] * 1e3, low * 1e3, **EXTRAPOLATION_FILL, label="extrapolation: no data")
-        if grid[-1] > high:
-            ax.axvspan(high * 1e3, grid[-1] * 1e3, **EXTRAPOLATION_FILL,
-                       label="_" if grid[0] < low else "extrapolation: no data")
+        empty = [(grid[0], low)] if grid[0] < low else []
+        empty += gaps + ([(high, grid[-1])] if grid[-1] > high else [])
+        for k, (a, b) in enumerate(empty):
+            ax.axvspan(a * 1e3, b * 1e3, **EXTRAPOLATION_FILL, label="_" if k else "no data")
         if band is not None:
-            ax.fill_between(grid * 1e3, *getattr(band, band_part), color=FIT_COLOUR, alpha=0.25, lw=0,
-                            label=f"{BAND_LABEL} ({band.n_samples} fits)")
+            band_fill(ax, band.x * 1e3, *getattr(band, band_part), f"{BAND_LABEL} ({band.n_samples} fits)",
+                      judged_over=[(a * 1e3, b * 1e3) for a, b in covered], color=FIT_COLOUR, alpha=0.25)
         ax.scatter(amplitude * 1e3, part(y), **point_style, label="data (colour: force level)" if colouring else "data")
-        ax.plot(grid[inside] * 1e3, part(curve[inside]), "-", color=FIT_COLOUR, lw=1.6, label="fit over the data")
-        if not inside.all():
-            ax.plot(grid * 1e3, np.where(inside, np.nan, part(curve)), ":", color=FIT_COLOUR, lw=1.6,
+        ax.plot(grid * 1e3, np.where(solid, part(curve), np.nan), "-", color=FIT_COLOUR, lw=FIT_WIDTH,
+                label="fit where the data lie")
+        if gaps:
+            ax.plot(grid * 1e3, np.where(dashed, part(curve), np.nan), "--", color=FIT_COLOUR, lw=FIT_WIDTH,
+                    label="fit across a gap in the data")
+        if dotted.any() and (grid[0] < low or grid[-1] > high):
+            ax.plot(grid * 1e3, np.where(dotted, part(curve), np.nan), ":", color=FIT_COLOUR, lw=FIT_WIDTH,
                     label="fit, extrapolated")
         ax.set_xlabel("response amplitude |X| (mm)")
         ax.set_ylabel(f"{name} y ({unit}/m)")
@@ -92,14 +112,13 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
         else:
             ax.set_xlim(grid[0] * 1e3, grid[-1] * 1e3)
         ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=7, loc="best")
     ax = axes[2]
     ax.scatter(amplitude * 1e3, np.asarray(identification.misfit_in_noise_units()), **point_style, label="points")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # mm, not 2×10⁰
-    if high < 10 * low:  # less than a decade: label the minor ticks too, there may be no major one
-        ax.xaxis.set_minor_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    if high < 10 * low:  # less than a decade: label minor ticks too, there may be no major one
+        ax.xaxis.set_minor_formatter(FuncFormatter(_minor_label if high > 3 * low else lambda value, _: f"{value:g}"))
     else:
         ax.xaxis.set_minor_formatter(NullFormatter())
     ax.axhline(1.0, color="grey", lw=1, label="noise level")
@@ -114,9 +133,15 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
         bar = figure.colorbar(axes[2].collections[0], ax=axes[2], ticks=colouring[3], pad=0.01)
         bar.set_label(f"force level ({unit})", fontsize=8)
         bar.ax.tick_params(labelsize=7)
+    label_thin_bands(figure)
+    handles, labels = axes[0].get_legend_handles_labels()  # beside the panels: inside it would hide points
+    figure.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=7)
     what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
-    figure.suptitle(f"{title}: {what}\n{_points_caption(result, unit)}; the fit is drawn solid over the amplitudes "
-                    f"the data cover ({low * 1e3:.3g}–{high * 1e3:.3g} mm)", fontsize=9)
+    where = f"the fit is solid where the data lie ({describe_intervals(covered)})"
+    if gaps:
+        where += (f", dashed across the gap{'s' if len(gaps) > 1 else ''} between them (no point within a factor "
+                  f"{AMPLITUDE_GAP_RATIO:g})")
+    figure.suptitle(f"{title}: {what}\n{_points_caption(result, unit)}; {where}", fontsize=9)
     return figure
 
 
@@ -125,7 +150,8 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
     """The extracted linear FRF with its 95 % Monte-Carlo band, the one-mode fits of its
     modes, and the (lowest-level) measured curve it was extracted from (``measured``: label, Hz, H):
     |H| (log; m/N, or m/V for a voltage reference) and unwrapped phase over the whole band
-    (left), and around each of the first ``max_zooms`` modes (right)."""
+    (left), and around each of the first ``max_zooms`` modes (right, over :func:`zoom_window`).
+    A band no wider than its curve says so in the legend (:func:`~nlupdate.reporting.figures.label_thin_bands`)."""
     f = np.asarray(identification.linear_frequency_hz)
     h = np.asarray(identification.linear_frf)
     band = identification.linear_frf_band
@@ -150,9 +176,9 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
             ax_phase.plot(f_m, unwrapped_phase_deg(h_m), ".", ms=2, color="0.55", label=label)
         if band is not None:
             label = f"{BAND_LABEL} ({band.n_samples} extractions)"
-            ax_mag.fill_between(f, *band.magnitude, color=EXTRACTED_COLOUR, alpha=0.22, lw=0, label=label)
-            ax_phase.fill_between(f, phase + band.phase_offset_deg[0], phase + band.phase_offset_deg[1],
-                                  color=EXTRACTED_COLOUR, alpha=0.22, lw=0, label=label)
+            band_fill(ax_mag, f, *band.magnitude, label, covered_by=1.2, color=EXTRACTED_COLOUR, alpha=0.22)
+            band_fill(ax_phase, f, phase + band.phase_offset_deg[0], phase + band.phase_offset_deg[1], label,
+                      covered_by=1.2, color=EXTRACTED_COLOUR, alpha=0.22)
         ax_mag.semilogy(f, np.abs(h), "-", color=EXTRACTED_COLOUR, lw=1.0, label="extracted linear FRF")
         ax_phase.plot(f, phase, "-", color=EXTRACTED_COLOUR, lw=1.0, label="extracted linear FRF")
         ax_mag.semilogy(f, np.abs(model), "--", color="black", lw=1.2, label="one-mode fit of each mode")
@@ -162,14 +188,14 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
         ax_phase.set_xlabel("frequency (Hz)")
     panels[0][0].set_ylabel(f"|H| (m/{unit})")
     panels[0][1].set_ylabel("phase (deg, unwrapped)")
-    panels[0][0].legend(fontsize=7)
     panels[0][0].set_title(title, fontsize=9)
     fraction = identification.settings.modal_band_fraction
     stats = identification.uncertainty.parameters
     for i, (mode, (ax_mag, ax_phase)) in enumerate(zip(modes, panels[1:])):
         natural = float(mode.natural_frequencies_hz[0])
-        ax_mag.set_xlim(natural * (1 - fraction), natural * (1 + fraction))
-        near = np.abs(f - natural) <= fraction * natural
+        window = zoom_window(f, natural, float(mode.loss_factors[0]), fraction)
+        ax_mag.set_xlim(*window)
+        near = (f >= window[0]) & (f <= window[1])
         shown = [np.abs(h[near])] + ([band.magnitude[0][near], band.magnitude[1][near]] if band is not None else [])
         values = np.concatenate([v[np.isfinite(v) & (v > 0)] for v in shown])
         if values.size:
@@ -186,5 +212,27 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
         if eta_stats is not None and np.isfinite(eta_stats.std):
             detail += f" ± {eta_stats.std:.2g}"
         ax_mag.set_title(detail, fontsize=8)
+    label_thin_bands(figure)
+    panels[0][0].legend(fontsize=7)
     return figure
+
+
+#: A mode's zoom spans this many half-power bandwidths (η·f) either side of its resonance.
+ZOOM_BANDWIDTHS = 4.0
+
+
+def zoom_window(frequency_hz: ArrayLike, natural_hz: float, loss_factor: float, fraction: float) -> tuple[float, float]:
+    """(low, high) Hz of the panel around a mode at ``natural_hz``: :data:`ZOOM_BANDWIDTHS`
+    half-power bandwidths (``loss_factor``·f) either side, at most ``fraction`` of f (the
+    modal fit's band; all of it when the loss factor is unknown), never narrower than
+    five frequency steps either side, and clipped to the frequencies the data cover."""
+    f = np.sort(np.asarray(frequency_hz, dtype=float))
+    f = f[np.isfinite(f)]
+    half = fraction * natural_hz
+    if np.isfinite(loss_factor) and loss_factor > 0:
+        half = min(half, ZOOM_BANDWIDTHS * loss_factor * natural_hz)
+    if f.size > 1:
+        half = max(half, 5 * float(np.median(np.diff(f))))
+        return max(natural_hz - half, float(f[0])), min(natural_hz + half, float(f[-1]))
+    return natural_hz - half, natural_hz + half
 

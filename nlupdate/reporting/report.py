@@ -17,6 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.response_method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
@@ -212,12 +213,16 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
             for name, st in stats.items() if name in ident.parameters()]
     lines += [_table(pd.DataFrame(rows)), ""]
     if "fit" in plots:
-        low, high = r.amplitude_range
+        covered = covered_intervals(r.amplitude)
+        gaps = (f", dashed across the gap{'s' if len(covered) > 2 else ''} between them (no point within a factor "
+                f"{AMPLITUDE_GAP_RATIO:g} in amplitude: an interpolation no measurement checks)" if len(covered) > 1
+                else "")
         lines += [f"![{s.method.upper()} fit]({plots['fit']})", "",
                   f"The points are the data ({len(r.amplitude)} of them, coloured by force level), the line the fitted "
-                  f"model, solid over the amplitudes the data cover ({1e3 * low:.3g}–{1e3 * high:.3g} mm) and dotted "
-                  f"in the grey regions beyond them: an extrapolation no measurement supports, though predictions at "
-                  f"other levels and frequencies use it. The shaded band holds 95 % of the Monte-Carlo fits. Right: "
+                  f"model, solid where the data lie ({describe_intervals(covered)}){gaps} and dotted beyond them: an "
+                  f"extrapolation no measurement supports, though predictions at other levels and frequencies use it. "
+                  f"Grey regions hold no data. The shaded band holds 95 % of the Monte-Carlo fits; where the legend "
+                  f"calls it narrower than the line, the fits agree within the line's width there. Right: "
                   f"each point's misfit in units of its noise (about 1 where the model fits).", ""]
     if ident.modes:
         rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
@@ -231,7 +236,9 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
         lines += [f"![extracted linear FRF]({plots['linear_frf']})", "",
                   f"The extracted linear FRF (red, from {ident.linear_source}) with the band holding 95 % of the "
                   f"Monte-Carlo extractions, the one-mode fits (dashed) and the {ident.linear_from_level_n:g} "
-                  f"{ident.reference_unit} measurement (grey); right, each mode's fit band. "
+                  f"{ident.reference_unit} measurement (grey); right, around each mode (a few half-power bandwidths, within "
+                  f"the frequencies the FRF covers). Where the legend calls the band narrower than the line, the "
+                  f"extractions agree within the line's width. "
                   + ("Each level gives 1/H_L = 1/H − ν(|X|); near a linear resonance a level that the nonlinearity "
                      "stiffens (a stuck joint) subtracts two nearly equal dynamic stiffnesses and carries much more "
                      "noise than one near its own resonance, so the levels are weighted by their noise line by line. "

@@ -10,11 +10,59 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator, NullLocator
 
-from nlupdate.reporting.figures import BAND_LABEL, MEASURED_STYLE, prefixed_unit
+from nlupdate.reporting.figures import BAND_LABEL, MEASURED_STYLE, band_fill, label_thin_bands, prefixed_unit
 from nlupdate.reporting.styles import bar_style
 
 #: Fill of a target's ±1σ and ±2σ interval.
 TARGET_BAND = ({"color": "tab:green", "alpha": 0.22, "lw": 0}, {"color": "tab:green", "alpha": 0.1, "lw": 0})
+
+
+#: Markers of the convergence plot, one per run (a run's own marker first, if it has one).
+CONVERGENCE_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*", "h", "p")
+#: Runs whose values coincide within this fraction of a panel's span are drawn side by side.
+COINCIDE_FRACTION = 0.01
+#: Largest horizontal shift (iterations) between neighbours of a group of coinciding runs.
+SIDE_BY_SIDE_STEP = 0.12
+#: Looks of the hidden truth and of each target's σ line (green, one line style each).
+TRUTH_STYLE = {"color": "k", "lw": 0.9, "ls": (0, (6, 2, 1, 2))}
+SIGMA_LINE_STYLES = (":", "--", "-.", (0, (1, 4)), (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1)))
+
+
+def side_by_side_offsets(curves: Mapping[str, tuple[np.ndarray, np.ndarray]], log: bool = False) -> dict[str, float]:
+    """Run → horizontal shift (iterations) so that runs whose curves coincide stay
+    visible. Two runs coincide when at every iteration both have (at least two, or
+    their only one) their values differ by less than :data:`COINCIDE_FRACTION` of the
+    panel's span (of log10 values when ``log``); runs linked that way form a group,
+    spread symmetrically in run order by at most :data:`SIDE_BY_SIDE_STEP` (the whole
+    group within ±0.3 iteration). A run that coincides with none keeps 0."""
+    def scaled(v):
+        v = np.asarray(v, float)
+        return np.log10(np.maximum(v, 1e-300)) if log else v
+    values = np.concatenate([scaled(v) for _, v in curves.values()]) if curves else np.zeros(0)
+    values = values[np.isfinite(values)]
+    tolerance = COINCIDE_FRACTION * (float(np.ptp(values)) if values.size else 0.0)
+    runs = list(curves)
+
+    def coincide(a: str, b: str) -> bool:
+        (xa, va), (xb, vb) = curves[a], curves[b]
+        shared, ia, ib = np.intersect1d(xa, xb, return_indices=True)
+        if shared.size < min(2, len(xa), len(xb)) or not shared.size:
+            return False
+        gap = np.abs(scaled(va)[ia] - scaled(vb)[ib])
+        return bool(np.all(np.nan_to_num(gap, nan=0.0) <= tolerance))
+
+    group_of = {run: k for k, run in enumerate(runs)}
+    for i, a in enumerate(runs):
+        for b in runs[i + 1:]:
+            if group_of[a] != group_of[b] and coincide(a, b):
+                old, new = group_of[b], group_of[a]
+                group_of.update({run: new for run, g in group_of.items() if g == old})
+    offsets = {}
+    for g in dict.fromkeys(group_of.values()):
+        group = [run for run in runs if group_of[run] == g]
+        step = min(SIDE_BY_SIDE_STEP, 0.6 / len(group))
+        offsets.update({run: (j - (len(group) - 1) / 2) * step for j, run in enumerate(group)})
+    return offsets
 
 
 def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parameters: Sequence[Any],
@@ -24,7 +72,11 @@ def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parame
     error| over the target modes (%) per iteration of every run (``history``: the
     runs' histories with a ``run`` column); ``parameters``: the study's parameters
     (name, unit); ``truth``: hidden values drawn as lines; ``target_sigma_pct``: each
-    target's standard deviation in % of its frequency, drawn on the error panel."""
+    target's standard deviation in % of its frequency, drawn on the error panel.
+
+    Every run has its own marker; runs that coincide in a panel are drawn side by side
+    (:func:`side_by_side_offsets`), so none hides another. No text sits on the axes: the
+    truth values are in the panel titles, the σ values in the legend."""
     names = [p.name for p in parameters if f"p:{p.name}" in history.columns]
     units = {p.name: p.unit for p in parameters}
     count = len(names) + 1
@@ -33,41 +85,58 @@ def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parame
     figure = Figure(figsize=(4.4 * columns, 3.3 * rows + 1.6), layout="constrained")
     axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
     runs = list(dict.fromkeys(history["run"]))
-    for ax, name in zip(axes, names):
-        values = history[f"p:{name}"].to_numpy(dtype=float)
-        known = [truth[name]] if truth and name in truth else []
-        scale, unit = prefixed_unit(np.concatenate([values, known]), units.get(name, ""))
+    looks = {}
+    for k, run in enumerate(runs):
+        marker = styles[run].get("marker") or CONVERGENCE_MARKERS[k % len(CONVERGENCE_MARKERS)]
+        looks[run] = {"ms": 4.5, "lw": 1.4, **styles[run], "marker": marker, "mfc": "none" if k % 2 else None}
+    panels = [(ax, f"p:{name}", name) for ax, name in zip(axes, names)]
+    panels.append((axes[len(names)], "max_abs_error_pct", None))  # the frequency error: log scale
+    truth_handle = None
+    for ax, column, name in panels:
+        log = name is None
+        scale, unit = 1.0, ""
+        if name is not None:
+            known = [truth[name]] if truth and name in truth else []
+            scale, unit = prefixed_unit(np.concatenate([history[column].to_numpy(dtype=float), known]),
+                                        units.get(name, ""))
+        curves = {}
         for run in runs:
             group = history[history["run"] == run]
-            v = group[f"p:{name}"].to_numpy(dtype=float)
+            v = group[column].to_numpy(dtype=float)
             if np.isnan(v).all():
                 continue
-            ax.plot(group["iteration"], v / scale, label=run, **{"ms": 4, "lw": 1.4, **styles[run]})
+            curves[run] = (group["iteration"].to_numpy(dtype=float), np.maximum(v, 1e-12) if log else v / scale)
+        offsets = side_by_side_offsets(curves, log)
+        for run, (x, v) in curves.items():
+            ax.plot(x + offsets[run], v, label=run, **looks[run])
+        if log:
+            ax.set_yscale("log")
+            ax.set(xlabel="iteration", ylabel="max over target modes of\n|f_model − f_target| / f_target (%)",
+                   title="frequency error")
+            continue
+        title = f"parameter {name}"
         if known:
-            ax.axhline(known[0] / scale, color="k", lw=0.9, ls=(0, (6, 2, 1, 2)), label="_")
-            ax.annotate(f"hidden truth {known[0] / scale:.4g}", (1.0, known[0] / scale), xycoords=("axes fraction", "data"),
-                        xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7)
-        ax.set(xlabel="iteration", ylabel=f"{name} ({unit})" if unit else name, title=f"parameter {name}")
+            truth_handle = ax.axhline(known[0] / scale, **TRUTH_STYLE, label="hidden truth")
+            title += f" (hidden truth {known[0] / scale:.4g})"
+        ax.set(xlabel="iteration", ylabel=f"{name} ({unit})" if unit else name, title=title)
     error_ax = axes[len(names)]
-    for run in runs:
-        group = history[history["run"] == run]
-        error_ax.semilogy(group["iteration"], np.maximum(group["max_abs_error_pct"].to_numpy(dtype=float), 1e-12),
-                          label=run, **{"ms": 4, "lw": 1.4, **styles[run]})
-    for label, sigma in (target_sigma_pct or {}).items():
+    sigma_handles = []
+    for k, (label, sigma) in enumerate((target_sigma_pct or {}).items()):
         if np.isfinite(sigma) and sigma > 0:
-            error_ax.axhline(sigma, color="tab:green", lw=0.9, ls=":", label="_")
-            error_ax.annotate(f"σ of target {label}: {sigma:.2g} %", (1.0, sigma), xycoords=("axes fraction", "data"),
-                              xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7, color="tab:green")
-    error_ax.set(xlabel="iteration", ylabel="max over target modes of\n|f_model − f_target| / f_target (%)",
-                 title="frequency error")
+            sigma_handles.append(error_ax.axhline(sigma, color="tab:green", lw=1.0,
+                                                  ls=SIGMA_LINE_STYLES[k % len(SIGMA_LINE_STYLES)],
+                                                  label=f"σ of target {label}: {sigma:.2g} %"))
     for ax in axes[:count]:
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.grid(True, which="both", alpha=0.3)
     for ax in axes[count:]:
         ax.axis("off")
-    handles, labels = error_ax.get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside lower center", ncol=min(3, len(labels)), fontsize=7,
-                  title="run (colour: parameter set or candidate; line style: difference formula)", title_fontsize=7)
+    drawn = {line.get_label(): line for ax in axes[:count][::-1] for line in ax.get_lines()}
+    handles = [drawn[run] for run in runs if run in drawn]
+    handles += ([truth_handle] if truth_handle is not None else []) + sigma_handles
+    figure.legend(handles, [h.get_label() for h in handles], loc="outside lower center", ncol=min(3, len(handles)),
+                  fontsize=7, title="run (colour: parameter set or candidate; line style: difference formula); runs "
+                  "that coincide are drawn side by side, within ±0.3 iteration", title_fontsize=7)
     figure.suptitle("convergence of every updating run", fontsize=10)
     return figure
 
@@ -137,12 +206,13 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
     side.axis("off")
     band = frfs.reference_band
     if band is not None:
-        ax.fill_between(f, *band.magnitude, color="0.3", alpha=0.2, lw=0, label=f"its {BAND_LABEL}")
+        band_fill(ax, f, *band.magnitude, f"its {BAND_LABEL}", covered_by=2.5, color="0.3", alpha=0.2)
     ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label=reference_label)
     for name, h in frfs.curves.items():
         ax.semilogy(f, np.abs(np.asarray(h)), label=name, **{"lw": 1.2, **styles[name], "marker": ""})
     ax.set(xlabel="frequency (Hz)", ylabel=f"|H| {frfs.response_dof}/{frfs.input_dof} (m/N)", title=title)
     ax.grid(True, which="both", alpha=0.3)
+    label_thin_bands(figure)
     side.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="upper left", borderaxespad=0)
     side.text(0.0, 0.0, truncation_note(frfs), fontsize=7.5, ha="left", va="bottom", transform=side.transAxes,
               bbox={"boxstyle": "round", "facecolor": "lightyellow", "edgecolor": "0.6"})
