@@ -181,3 +181,35 @@ def test_aft_jacobian_matches_central_differences_with_inner_loops(scale):
     numeric = np.array(columns).T
     assert np.abs(numeric - period.dg_dc).max() <= 1e-6 * np.abs(numeric).max()
     assert not period.dg_domega.any()
+
+
+@pytest.mark.parametrize("chi, beta", [(-0.5, 0.5), (-0.05, 0.0), (-0.95, 3.0)])
+def test_a_joint_whose_phi_max_underflows_is_a_coulomb_slider_not_a_division_by_zero(chi, beta):
+    """F_S/K_T ≈ 1e-330 (a fit's log-parameters at their extremes): φ_max underflows to 0 and
+    every amplitude is macroslip, whose exact limit φ_max/A → 0 is a Coulomb slider of force
+    F_S: ν = i·4F_S/(πA), dν/dA = −i·4F_S/(πA²). The old R' = K_T/((1+β)φ_max^(χ+1))
+    divided by zero."""
+    joint = IwanJoint((0,), slip_force=1e-300, kt=1e30, chi=chi, beta=beta)
+    assert joint.phi_max == 0.0
+    assert joint.r_prime > 0
+    amplitude = np.array([1e-9, 1e-6, 1e-3])
+    coulomb = 4 * joint.slip_force / (np.pi * amplitude)
+    nu = joint.describing_function(amplitude)
+    assert np.all(np.isfinite(nu))
+    np.testing.assert_allclose(nu.imag, coulomb, rtol=1e-12)
+    assert np.all(np.abs(nu.real) <= 1e-12 * coulomb)
+    d_da, _ = joint.describing_function_derivatives(amplitude)
+    np.testing.assert_allclose(d_da.imag, -coulomb / amplitude, rtol=1e-12)
+    stiffness, slip = joint.realisation()
+    assert np.all(np.isfinite(stiffness)) and np.all(slip == 0.0)
+
+
+def test_the_describing_function_near_the_underflow_tends_to_its_coulomb_limit():
+    """Just above the underflow (φ_max ~ 1e-300 m) the closed form, written with ratios in
+    [0, 1], still gives ν → i·4F_S/(πA) with Re ν of order K_T(φ_max/A)^1.5 (both exact
+    leading terms of the macroslip DF as φ_max/A → 0)."""
+    joint = IwanJoint((0,), slip_force=1e-290, kt=1e10, chi=-0.5, beta=0.5)
+    amplitude = np.array([1e-6, 1e-3])
+    nu = joint.describing_function(amplitude)
+    np.testing.assert_allclose(nu.imag, 4 * joint.slip_force / (np.pi * amplitude), rtol=1e-9)
+    assert np.all(np.abs(nu.real) <= 10 * joint.kt * (joint.phi_max / amplitude) ** 1.5)

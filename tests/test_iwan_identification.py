@@ -166,3 +166,20 @@ def test_a_model_that_cannot_describe_the_data_is_called_a_poor_fit(iwan_table, 
     written = json.loads((tmp_path / "ident" / "identification.json").read_text())
     assert written["fit"] == "poor" and written["fit_ratio_to_noise"] > 5
     assert (tmp_path / "ident" / "fit.png").stat().st_size > 0
+
+
+def test_frequency_recommendation_with_an_iwan_joint_at_extreme_parameters_finds_the_linear_resonance():
+    """K_T = 1e30 N/m and F_S = 1e-300 N (log-parameters at the ends of their range) make
+    φ_max underflow to 0: the joint is a Coulomb slider of 1e-300 N, so the data (a linear
+    SDOF, 1 % noise) and the extracted linear FRF are those of m = 0.1 kg, k = 2e6 N/m, and the
+    recommendation is the measured frequency nearest √(k/m)/2π = 711.76 Hz. It used to die
+    with a ZeroDivisionError in IwanJoint.r_prime."""
+    from nlupdate.identification.frequency import recommend_frequency
+
+    system = NonlinearSystem(LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01), ())
+    table, _ = simulate_frf_table(system, 0, np.arange(690.0, 731.0, 1.0), [0.01, 0.5, 1.0, 2.0])
+    data = FRFLevels.from_table(add_table_noise(table, 0.01, 1), "0", "0")
+    model = PhysicalModel(("iwan",), fixed=(("kt", 1e30), ("slip_force", 1e-300)))
+    choice = recommend_frequency(data, model)
+    assert choice.frequency_hz == 712.0, choice
+    assert choice.linear_natural_frequency_hz == pytest.approx(np.sqrt(2e7) / (2 * np.pi), abs=0.5)

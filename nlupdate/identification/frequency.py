@@ -87,7 +87,7 @@ def recommend_frequency(
         try:
             result = identify_prd(data, visited[-1], model, low_force=first.low_force, high_forces=first.high_forces,
                                   estimator=estimator, half_window=half_window)
-        except (IdentificationError, ValueError, np.linalg.LinAlgError) as error:
+        except (IdentificationError, ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             return FrequencyChoice(visited[-1], tuple(visited), natural,
                                    f"stopped: identification failed at {visited[-1]:g} Hz ({error})")
         h_linear = result.extract_linear_frf(f_low, h_low)

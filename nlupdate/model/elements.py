@@ -308,12 +308,13 @@ def _unit_jenkins_df(amplitude: NDArray, slip: NDArray) -> NDArray[np.complex128
 
 
 @lru_cache(maxsize=64)
-def _iwan_sliders(phi_max: float, r_prime: float, chi: float, concentrated: float, count: int):
-    """Stiffnesses (N/m) and slip displacements (m) of the parallel-Jenkins realisation."""
-    edges = np.concatenate([[0.0], phi_max * np.logspace(-IWAN_DECADES, 0.0, count)])
-    stiffness = r_prime * np.diff(edges ** (chi + 1))
-    slip_force = (chi + 1) * r_prime * np.diff(edges ** (chi + 2)) / (chi + 2)
-    slip = slip_force / stiffness
+def _iwan_sliders(phi_max: float, continuous: float, chi: float, concentrated: float, count: int):
+    """Stiffnesses (N/m) and slip displacements (m) of the parallel-Jenkins realisation;
+    ``continuous`` = R'φ_max^(χ+1) = K_T/(1+β) (N/m), the stiffness of the continuous part
+    (the bins are written relative to φ_max, so nothing overflows when φ_max is tiny)."""
+    edges = np.concatenate([[0.0], np.logspace(-IWAN_DECADES, 0.0, count)])  # φ/φ_max
+    stiffness = continuous * np.diff(edges ** (chi + 1))
+    slip = phi_max * (chi + 1) / (chi + 2) * np.diff(edges ** (chi + 2)) / np.diff(edges ** (chi + 1))
     if concentrated > 0:
         stiffness, slip = np.append(stiffness, concentrated), np.append(slip, phi_max)
     stiffness.setflags(write=False)
@@ -399,8 +400,18 @@ class IwanJoint:
 
     @property
     def r_prime(self) -> float:
-        """``R' = R/(χ+1)`` (N/m^(χ+2)), with ``R' φ_max^(χ+1) = K_T/(1+β)``."""
-        return self.kt / ((1 + self.beta) * self.phi_max ** (self.chi + 1))
+        """``R' = R/(χ+1)`` (N/m^(χ+2)), with ``R' φ_max^(χ+1) = K_T/(1+β)``; from the
+        logarithms of the parameters, so a φ_max that underflows (F_S/K_T below ~1e-308)
+        gives a large or infinite R' rather than a division by zero."""
+        chi, beta = self.chi, self.beta
+        log_phi = np.log(self.slip_force) + np.log1p(beta) - np.log(self.kt) - np.log(beta + (chi + 1) / (chi + 2))
+        with np.errstate(over="ignore"):
+            return float(np.exp(np.log(self._continuous) - (chi + 1) * log_phi))
+
+    @property
+    def _continuous(self) -> float:
+        """``K_T/(1+β)`` (N/m): the stiffness of the continuous part, ``R' φ_max^(χ+1)``."""
+        return self.kt / (1 + self.beta)
 
     @property
     def concentrated_stiffness(self) -> float:
@@ -410,51 +421,58 @@ class IwanJoint:
     def backbone(self, displacement: ArrayLike) -> tuple[NDArray, NDArray]:
         """Virgin-loading force ``F_bb(u)`` (N, odd in u) and its slope (N/m)."""
         u = np.asarray(displacement, dtype=float)
-        s = np.minimum(np.abs(u), self.phi_max)
-        force = self.kt * s - self.r_prime * s ** (self.chi + 2) / (self.chi + 2)
-        slope = np.where(np.abs(u) < self.phi_max, self.kt - self.r_prime * s ** (self.chi + 1), 0.0)
-        return np.sign(u) * np.where(np.abs(u) < self.phi_max, force, self.slip_force), slope
+        phi, stuck = self.phi_max, np.abs(u) < self.phi_max
+        q = np.where(stuck, np.abs(u) / np.where(stuck, phi, 1.0), 1.0)  # |u|/φ_max while it holds
+        force = self.kt * np.abs(u) - self._continuous * phi * q ** (self.chi + 2) / (self.chi + 2)
+        slope = np.where(stuck, self.kt - self._continuous * q ** (self.chi + 1), 0.0)
+        return np.sign(u) * np.where(stuck, force, self.slip_force), slope
 
     # -- describing function ------------------------------------------------------------
     def _parts(self, a: NDArray):
-        """φ_max, χ, r = min(1, φ_max/A), b = arccos(1 − 2r) and B(r; χ+5/2, 3/2) (the
-        incomplete beta function, complete where r = 1: microslip)."""
-        phi, chi = self.phi_max, self.chi
-        r = np.minimum(1.0, phi / a)
+        """The DF's pieces at amplitudes ``a`` (m), written with ratios in [0, 1] only so that
+        they stay finite for any valid parameters (a φ_max that underflows included):
+        χ; r = min(1, φ_max/A); s = min(1, A/φ_max); b = arccos(1 − 2r);
+        ``g = K_T r/(1+β)`` (N/m; in macroslip ``F_S/((β + (χ+1)/(χ+2)) A)``, exact however
+        small φ_max is); and ``J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2)`` (B the incomplete
+        beta function, complete where r = 1: microslip; ``r^1.5/(χ+5/2)`` to O(r) for
+        r < 1e-12)."""
+        phi, chi, beta = self.phi_max, self.chi, self.beta
+        macro = a > phi
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            r = np.where(macro, phi / a, 1.0)
+            s = np.where(macro, 1.0, a / np.where(macro, 1.0, phi))
+            g = np.where(macro, self.slip_force / ((beta + (chi + 1) / (chi + 2)) * a), self._continuous)
         complete = scipy.special.beta(chi + 2.5, 1.5)
-        if np.all(r == 1.0):
-            return phi, chi, r, np.full(r.shape, pi), np.full(r.shape, complete)
-        return phi, chi, r, np.arccos(1.0 - 2.0 * r), scipy.special.betainc(chi + 2.5, 1.5, r) * complete
+        if not np.any(macro):
+            return chi, r, s, np.full(r.shape, pi), g, s ** (chi + 1) * complete
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            scaled = np.where(r > 1e-12, scipy.special.betainc(chi + 2.5, 1.5, r) * complete * r ** -(chi + 1),
+                              r**1.5 / (chi + 2.5))
+        return chi, r, s, np.arccos(1.0 - 2.0 * r), g, np.where(macro, scaled, s ** (chi + 1) * complete)
 
     def describing_function(self, amplitude, omega=0.0):
         a = _amplitude(amplitude)
-        phi, chi, r, b, incomplete = self._parts(a)
-        rp, s = self.r_prime, self.concentrated_stiffness
-        power = a ** (chi + 1)
-        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * rp / pi * power * incomplete
-        m = np.minimum(a, phi)
-        imag = 4 * (chi + 1) * rp / (pi * a) * (m ** (chi + 2) / (chi + 2) - m ** (chi + 3) / ((chi + 3) * a))
-        imag = imag + np.where(a > phi, 4 * s * phi / (pi * a) * (1 - phi / a), 0.0)
+        chi, r, s, b, g, j = self._parts(a)
+        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * self._continuous / pi * j
+        imag = 4 * g / pi * ((chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3)) + self.beta * (1 - r))
         return real + 1j * imag
 
     def describing_function_derivatives(self, amplitude, omega=0.0):
         a = _amplitude(amplitude)
-        phi, chi, r, b, incomplete = self._parts(a)
-        rp, s = self.r_prime, self.concentrated_stiffness
-        slip = a > phi
-        root = np.sqrt(np.maximum(r * (1 - r), 0.0))
-        d_real = (-8 / pi * self.kt * r * root / a
-                  - 8 * rp / pi * ((chi + 1) * a**chi * incomplete - a**chi * r ** (chi + 2.5) * np.sqrt(1 - r)))
-        micro_imag = 4 * (chi + 1) ** 2 * rp * a**chi / (pi * (chi + 2) * (chi + 3))
-        macro_imag = (4 * (chi + 1) * rp / pi * (-phi ** (chi + 2) / ((chi + 2) * a**2) + 2 * phi ** (chi + 3) / ((chi + 3) * a**3))
-                      + 4 * s * phi / pi * (-1 / a**2 + 2 * phi / a**3))
-        d_da = d_real + 1j * np.where(slip, macro_imag, micro_imag)
+        chi, r, s, b, g, j = self._parts(a)
+        beta, k0 = self.beta, self._continuous
+        root = np.sqrt(np.maximum(1 - r, 0.0))
+        d_real = (-8 / pi * (1 + beta) * g * np.sqrt(np.maximum(r * (1 - r), 0.0)) / a
+                  - 8 * k0 / (pi * a) * ((chi + 1) * j - s ** (chi + 1) * r**1.5 * root))
+        micro_imag = 4 * (chi + 1) ** 2 * k0 * s ** (chi + 1) / (pi * a * (chi + 2) * (chi + 3))
+        macro_imag = 4 * g / (pi * a) * ((chi + 1) * (-1 / (chi + 2) + 2 * r / (chi + 3)) + beta * (2 * r - 1))
+        d_da = d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
         return d_da, np.zeros_like(d_da)
 
     # -- time domain --------------------------------------------------------------------
     def realisation(self) -> tuple[NDArray, NDArray]:
         """(stiffness N/m, slip displacement m) of the time-domain sliders (read-only)."""
-        return _iwan_sliders(self.phi_max, self.r_prime, float(self.chi), self.concentrated_stiffness, self.sliders)
+        return _iwan_sliders(self.phi_max, self._continuous, float(self.chi), self.concentrated_stiffness, self.sliders)
 
     def realisation_describing_function(self, amplitude: ArrayLike) -> NDArray[np.complex128]:
         """Exact DF of the time-domain realisation: Σ k_i ν_Jenkins(A; φ_i) (N/m)."""
