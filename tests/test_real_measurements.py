@@ -170,6 +170,23 @@ def test_brb_discover_names_amplitude_dependent_damping(tmp_path, monkeypatch):
     assert abs(after) < 0.5 * abs(before)  # the model now loses its peak with the force as the test does
 
 
+def test_brb_discover_rejects_a_microslip_joint_the_modal_model_cannot_hold_and_says_why(tmp_path):
+    """Microslip alone on the BRB: the best joint fits a stuck stiffness K_T above the mode's
+    own stiffness at acc3 (ω_r²/φ² = (2π·80.316)²/0.6566² ≈ 5.9e5 N/m, the model file's
+    numbers), and its stuck-in-model variant removes K_T from that stiffness. That is a finding
+    about the candidate — rejected, with the reason — not bad input: discover used to stop
+    with exit 2 ("leaves a mode with zero or negative stiffness")."""
+    out = tmp_path / "discover"
+    code, err = _run("discover", "--model", BRB_MODEL, "--measured", BRB, "--coordinates", BRB_COORDINATES,
+                     "--effects", "microslip", "--max-effects", "1", "--out", out)
+    assert code == 0, err
+    result = json.loads((out / "discovery.json").read_text())
+    notes = " ".join(step["note"] for step in result["steps"])
+    assert "rejected microslip on dofs [0]" in notes and "zero or negative stiffness" in notes, notes
+    delta_k = float(notes.split("Δk = ")[1].split(" N/m")[0])
+    assert -delta_k > (2 * np.pi * 80.316) ** 2 / 0.6566**2
+
+
 def _folder(variable: str, what: str) -> Path:
     value = os.environ.get(variable)
     if not value or not Path(value).is_dir():

@@ -107,6 +107,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"effects found: {found}")
     print(f"gap (mean 1 − FRAC): before {result.gap_before.gap:.4g}, after {result.gap_after.gap:.4g}; "
           f"stopped: {result.stop_reason}")
+    for step in result.steps:
+        if step.note and step.note != result.stop_reason:
+            print(f"note: iteration {step.iteration}: {step.note}")
     for note in result.restarts:
         print(f"note: {note}")
     print(result.summary())

@@ -16,3 +16,9 @@ class MeasuredDataError(DiscoveryError):
 
 class ModelSolveError(DiscoveryError):
     """The model cannot be solved at a measured force level and frequency."""
+
+
+class UnphysicalModelError(DiscoveryError):
+    """A candidate's linear correction leaves the model without a positive stiffness in some
+    mode: a finding about that candidate, which the search rejects (with this message as the
+    reason) rather than a fault of the inputs."""

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse
 
+from nlupdate.discovery.errors import UnphysicalModelError
 from nlupdate.model.linear import LinearModel, LumpedModel, ModalModel
 
 
@@ -65,7 +66,7 @@ def _modal(model: ModalModel, dofs: Sequence[int], stiffness: float, mass: float
     m_q = np.eye(wr.size) + mass * np.outer(psi, psi)
     values, vectors = scipy.linalg.eigh(k_q, m_q)
     if np.any(values <= 0):
-        raise ValueError(
+        raise UnphysicalModelError(
             f"the correction (Δk = {stiffness:g} N/m, Δm = {mass:g} kg on dofs {list(dofs)}) leaves a mode with "
             "zero or negative stiffness"
         )
@@ -80,7 +81,10 @@ def _modal(model: ModalModel, dofs: Sequence[int], stiffness: float, mass: float
 def add_linear_correction(
     model: LinearModel, dofs: Sequence[int], stiffness: float = 0.0, mass: float = 0.0, damping: float = 0.0
 ) -> LinearModel:
-    """The model with a spring (N/m), mass (kg, ``dofs`` of length 1) and damper (N·s/m) added."""
+    """The model with a spring (N/m), mass (kg, ``dofs`` of length 1) and damper (N·s/m) added.
+
+    Raises :class:`~nlupdate.discovery.errors.UnphysicalModelError` when a modal model's
+    correction leaves a mode with zero or negative stiffness."""
     dofs = tuple(int(d) for d in dofs)
     if mass and len(dofs) != 1:
         raise ValueError(f"a mass correction acts on one coordinate, got dofs {list(dofs)}")

@@ -68,7 +68,7 @@ from nlupdate.discovery.candidates import (
 from nlupdate.discovery.effects import DFSamples, Effect, library
 from nlupdate.discovery.equivalence import Equivalence, simpler_equivalent
 from nlupdate.discovery.starts import joint_starts
-from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError
+from nlupdate.discovery.errors import DiscoveryError, MeasuredDataError, ModelSolveError, UnphysicalModelError
 from nlupdate.discovery.frf_data import SWEEP_DIRECTIONS, FRFData
 from nlupdate.discovery.frf_evidence import FRFEvidence
 from nlupdate.discovery.gap import GapReport
@@ -523,7 +523,7 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
         )
         settle = _Settle(evidence, system, prediction, evidence.joint(system, prediction), effects, samples, options,
                          ranked, [c.dofs for c in contexts])
-        accepted, why, changes = None, "no candidates", []
+        accepted, why, changes, rejected = None, "no candidates", [], []
         for candidate in ranked[:_TRIALS]:
             significant, reason = is_significant(candidate, options.min_evidence, options.min_explained)
             if not significant:
@@ -534,7 +534,12 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
             changes, added = [], trial[-1]
             if options.joint_refit:
                 trial, added, _, changes = settle(trial)
-            trial_system = augment(system, trial)
+            try:
+                trial_system = augment(system, trial)
+            except UnphysicalModelError as error:  # a finding about this candidate: try the next one
+                why = f"rejected {candidate.name} on dofs {list(candidate.dofs)}: {error}"
+                rejected.append(why)
+                continue
             try:
                 trial_prediction = evidence.predict(trial_system)
             except ModelSolveError as error:
@@ -550,11 +555,12 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
             break
         if accepted is None:
             stop = why
-            steps.append(DiscoveryStep(**common, accepted=None, gap_after=None, note=why))
+            steps.append(DiscoveryStep(**common, accepted=None, gap_after=None,
+                                       note="; ".join(dict.fromkeys(rejected + [why]))))
             break
         found = trial
         current, prediction = trial_system, trial_prediction
-        steps.append(DiscoveryStep(**common, accepted=added, gap_after=gap_trial,
+        steps.append(DiscoveryStep(**common, accepted=added, gap_after=gap_trial, note="; ".join(rejected),
                                    changes=tuple(changes), refitted=tuple(found)))
     chi2 = evidence.chi2(prediction)
     return _Path(tuple(found), tuple(steps), stop, prediction, chi2, chi2 + evidence.penalty * _parameters(found))
