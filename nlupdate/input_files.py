@@ -9,7 +9,11 @@ Every reader of a user's file (study, model, measured data, decks) goes through
   :data:`DEFAULT_MAX_INPUT_MB` megabytes, ``NLUPDATE_MAX_INPUT_MB`` changes it (``0``
   lifts it);
 * text is decoded as UTF-8 (a byte-order mark is skipped) and refused when it holds NUL
-  bytes or is not UTF-8, before any parser sees it.
+  bytes or is not UTF-8, before any parser sees it;
+* binary formats that declare their sizes (parquet, MATLAB) are held to the same limit
+  for what they would decode to, checked from the declarations before anything is
+  decoded (:func:`check_decoded_size`, :func:`check_parquet_size`): a file of a few
+  kilobytes can declare gigabytes of zeros.
 
 :func:`sniff` names the kind of content from its first bytes (parquet, HDF5/MAT v7.3,
 MAT v5, universal file, text, binary), so readers can say "this is a parquet file, not a
@@ -82,6 +86,52 @@ def checked_input(path: str | os.PathLike, what: str = "input file") -> Path:
         raise InputFileError(f"{path}: {info.st_size / 1e6:.0f} MB is more than the input limit of {limit / 1e6:g} MB "
                              f"({what}); set {MAX_INPUT_ENV} to raise it")
     return path
+
+
+def megabytes(nbytes: float) -> str:
+    """``nbytes`` in MB for a message: whole numbers from 10 MB, two digits below."""
+    return f"{nbytes / 1e6:.0f}" if nbytes >= 10e6 else f"{nbytes / 1e6:.2g}"
+
+
+def check_decoded_size(nbytes: int, path: str | os.PathLike, field: str, what: str = "input file") -> None:
+    """:class:`InputFileError` when ``field`` (e.g. ``column 'x' declares 10 rows, …``) of
+    ``path`` would decode to ``nbytes`` bytes, more than the input limit."""
+    limit = max_input_bytes()
+    if limit is not None and nbytes > limit:
+        raise InputFileError(f"{path}: {field}, more than the input limit of {limit / 1e6:g} MB ({what}); set "
+                             f"{MAX_INPUT_ENV} to raise it")
+
+
+#: Bytes per value of parquet's physical types once decoded (a byte array: at least a pointer).
+_PARQUET_WIDTHS = {"BOOLEAN": 1, "INT32": 4, "INT64": 8, "INT96": 12, "FLOAT": 4, "DOUBLE": 8, "BYTE_ARRAY": 8}
+
+
+def check_parquet_size(data: bytes, path: str | os.PathLike, what: str = "input file") -> None:
+    """Hold a parquet file's declared rows × column widths (its footer, read alone) to the
+    input limit (:func:`check_decoded_size`), naming its widest column; a footer that
+    cannot be read is left to the reader to report."""
+    import io
+
+    import pyarrow.parquet as pq
+
+    try:
+        metadata = pq.ParquetFile(io.BytesIO(data)).metadata
+    except Exception:  # noqa: BLE001 - pyarrow's many errors for a damaged file: the reader reports it
+        return
+    rows, schema = metadata.num_rows, metadata.schema
+    sizes = {}
+    for index in range(metadata.num_columns):
+        column = schema.column(index)
+        width = column.length if column.physical_type == "FIXED_LEN_BYTE_ARRAY" else \
+            _PARQUET_WIDTHS.get(column.physical_type, 8)
+        sizes[column.path] = rows * max(width or 0, 1)
+    if not sizes:
+        return
+    widest = max(sizes, key=sizes.get)
+    total = sum(sizes.values())
+    whole = f" ({megabytes(total)} MB for the {len(sizes)} columns)" if len(sizes) > 1 else ""
+    check_decoded_size(total, path, f"column '{widest}' declares {rows} rows, {megabytes(sizes[widest])} MB once "
+                                    f"decoded{whole}", what)
 
 
 _PINNED: dict[Path, bytes] = {}

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from nlupdate.input_files import InputFileError, check_decoded_size, max_input_bytes, megabytes
 from nlupdate.measurement.frf_table import FRF_COLUMNS, OPTIONAL_COLUMNS, MeasurementTableError
 from nlupdate.measurement.units import (
     REFERENCE_UNIT_LABELS, RESPONSE_UNIT_LABELS, ReadOptions, checked_reference_unit,
@@ -57,23 +58,62 @@ _PHASE_UNITS = {"rad": 1.0, "deg": np.pi / 180, "°": np.pi / 180, "degree": np.
 _HELD_FORCE_SPREAD = 0.10  # a run whose force strays more than this from its mean is warned about
 
 
-def _raw_variables(data: bytes, path: Path, kind: str) -> dict[str, Any]:
+def _raw_variables(data: bytes, path: Path, kind: str, what: str = "measured-FRF file") -> dict[str, Any]:
+    """The variables of the file; what they declare is held to the input limit before any
+    is decoded (:func:`nlupdate.input_files.check_decoded_size`; ``what``: the file's role)."""
     try:
-        return _v73_variables(data) if kind == "hdf5" else _v5_variables(data)
-    except MeasurementTableError:
+        if kind == "hdf5":
+            return _v73_variables(data, path, what)
+        _check_v5_sizes(data, path, what)
+        return _v5_variables(data)
+    except (MeasurementTableError, InputFileError):
         raise
     except Exception as error:  # scipy / h5py raise many kinds on a corrupt file
         raise MeasurementTableError(f"{path}: not a readable MATLAB file ({type(error).__name__}: {error})") from None
 
 
-def mat_variables(data: bytes, path: Path, kind: str) -> dict[str, Any]:
+def mat_variables(data: bytes, path: Path, kind: str, what: str = "measured-FRF file") -> dict[str, Any]:
     """The variables of a MATLAB file's bytes: numpy arrays (MATLAB orientation kept:
-    rows × columns) and str / list[str] for text. ``kind``: ``"mat5"`` or ``"hdf5"``."""
-    variables = _raw_variables(data, path, kind)
+    rows × columns) and str / list[str] for text. ``kind``: ``"mat5"`` or ``"hdf5"``;
+    ``what``: the file's role, for messages."""
+    variables = _raw_variables(data, path, kind, what)
     structs = [name for name, value in variables.items() if isinstance(value, dict)]
     if len(variables) == 1 and structs:
         variables = variables[structs[0]]
     return {name: value for name, value in variables.items() if not isinstance(value, dict)}
+
+
+#: Bytes per element of MATLAB's numeric classes once loaded (char: numpy's 4-byte code points).
+_V5_WIDTHS = {"double": 8, "single": 4, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2, "int32": 4, "uint32": 4,
+              "int64": 8, "uint64": 8, "logical": 1, "char": 4}
+
+
+def _declared(name: str, elements: int, width: int, total: int) -> str:
+    own = elements * width
+    limit = max_input_bytes()
+    with_others = "" if total == own or (limit is not None and own > limit) else \
+        f", {megabytes(total)} MB with the variables before it"
+    return f"variable '{name}' declares {elements} elements of {width} bytes, {megabytes(own)} MB once decoded" \
+           f"{with_others}"
+
+
+def _check_v5_sizes(data: bytes, path: Path, what: str) -> None:
+    """Hold the sizes a v5 file declares (its variable headers, read without decompressing
+    the data) to the input limit; cells and structs are counted when they are loaded."""
+    import scipy.io
+
+    try:
+        declared = scipy.io.whosmat(io.BytesIO(data))
+    except Exception:  # noqa: BLE001 - a damaged file: loadmat reports it
+        return
+    total = 0
+    for name, shape, matlab_class in declared:
+        width = _V5_WIDTHS.get(matlab_class)
+        if width is None:
+            continue
+        elements = int(np.prod(shape, dtype=object))
+        total += elements * width
+        check_decoded_size(total, path, _declared(name, elements, width, total), what)
 
 
 def _v5_variables(data: bytes) -> dict[str, Any]:
@@ -96,27 +136,32 @@ def _plain(value: Any) -> Any:
     return np.asarray(value)
 
 
-def _v73_variables(data: bytes) -> dict[str, Any]:
+def _v73_variables(data: bytes, path: Path, what: str) -> dict[str, Any]:
     import h5py
 
+    decoded = [0]  # bytes the datasets read so far declare
     with h5py.File(io.BytesIO(data), "r") as handle:
-        return {name: _v73_value(handle, item) for name, item in handle.items() if not name.startswith("#")}
+        return {name: _v73_value(handle, item, decoded, path, what) for name, item in handle.items()
+                if not name.startswith("#")}
 
 
-def _v73_value(handle, item) -> Any:
+def _v73_value(handle, item, decoded: list[int], path: Path, what: str) -> Any:
     import h5py
 
     if isinstance(item, h5py.Group):
-        return {name: _v73_value(handle, child) for name, child in item.items()}
+        return {name: _v73_value(handle, child, decoded, path, what) for name, child in item.items()}
     matlab_class = item.attrs.get("MATLAB_class", b"")
     matlab_class = matlab_class.decode() if isinstance(matlab_class, bytes) else str(matlab_class)
+    elements, width = int(np.prod(item.shape, dtype=object)) if item.shape else 1, item.dtype.itemsize
+    decoded[0] += elements * width  # checked from the declared shape, before it is read
+    check_decoded_size(decoded[0], path, _declared(item.name.lstrip("/"), elements, width, decoded[0]), what)
     value = item[()]
     if matlab_class == "char":
         codes = np.asarray(value, dtype=np.uint16)
         return "".join(map(chr, codes.T.ravel())) if codes.ndim < 2 or min(codes.shape) == 1 else \
             ["".join(map(chr, row)).rstrip() for row in codes.T]
     if matlab_class == "cell":
-        items = [_v73_value(handle, handle[ref]) for ref in np.asarray(value).T.ravel()]
+        items = [_v73_value(handle, handle[ref], decoded, path, what) for ref in np.asarray(value).T.ravel()]
         return [str(v) for v in items] if all(isinstance(v, str) for v in items) else np.asarray(items)
     array = np.asarray(value)
     if array.dtype.names and {"real", "imag"} <= set(array.dtype.names):

@@ -68,7 +68,7 @@ import pandas as pd
 import scipy.optimize
 from numpy.typing import NDArray
 
-from nlupdate.input_files import decode_text, read_input_bytes, sniff
+from nlupdate.input_files import check_parquet_size, decode_text, read_input_bytes, sniff
 from nlupdate.measurement.frf_table import MeasurementTableError, validate_frf_table
 from nlupdate.notices import NlupdateWarning
 
@@ -234,6 +234,7 @@ def read_time_record(path: str | Path, sample_rate_hz: float | None = None, refe
         return _record_from_columns({c: frame[c].to_numpy() for c in frame.columns}, str(path), sample_rate_hz,
                                     reference)
     if suffix == ".parquet" and kind == "parquet":
+        check_parquet_size(data, path, "time-history file")
         try:
             frame = pd.read_parquet(io.BytesIO(data))
         except Exception as error:
@@ -245,7 +246,7 @@ def read_time_record(path: str | Path, sample_rate_hz: float | None = None, refe
     if suffix == ".mat" and kind in ("mat5", "hdf5"):
         from nlupdate.measurement.matfile import mat_variables
 
-        variables = mat_variables(data, path, kind)
+        variables = mat_variables(data, path, kind, "time-history file")
         columns = {name: value for name, value in variables.items()
                    if isinstance(value, np.ndarray) and value.size > 1 and value.squeeze().ndim == 1}
         return _record_from_columns(columns, str(path), sample_rate_hz, reference)
