@@ -112,3 +112,4 @@ def test_discover_finds_the_cubic_spring_in_the_full_band_export(export, tmp_pat
     data = json.loads((tmp_path / "d" / "discovery.json").read_text())
     assert data["effect"] == "cubic_stiffness"
     assert data["effects"][0]["parameters"]["k3"] == pytest.approx(K3, rel=0.05)
+    assert data["units"]["force_level"] == "V" and "V/m³" in out  # volts stated in the JSON and the lines

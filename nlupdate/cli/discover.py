@@ -9,6 +9,7 @@ natural_frequency_hz, damping_ratio), runs :func:`nlupdate.discovery.discover` a
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -18,7 +19,9 @@ from nlupdate.cli.output import add_overwrite_option, checked_output, writable_f
 from nlupdate.cli.run import add_execution_options, prefect_errors
 from nlupdate.discovery import DiscoveryOptions, ModelSolveError, discover
 from nlupdate.discovery.effects import EFFECT_NAMES
-from nlupdate.discovery.outputs import write_discovery
+from nlupdate.discovery.outputs import JSON_NAME as DISCOVERY_JSON, write_discovery
+from nlupdate.measurement.units import parameter_unit, table_reference_unit, units_block
+from nlupdate.reporting.jsonfile import write_json
 from nlupdate.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.model.model_file import load_system
 from nlupdate.files import atomic_directory
@@ -100,8 +103,13 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"{args.model}: {error}") from None
     with atomic_directory(args.out, on_exists="replace" if args.overwrite else "error", kind="discovery") as archive:
         write_discovery(result, archive.path)
+        unit = "N" if "natural_frequency_hz" in table.columns else table_reference_unit(table)
+        if unit != "N":  # the JSON says what its levels and parameters are measured in
+            summary = json.loads((archive.path / DISCOVERY_JSON).read_text())
+            write_json({**summary, "units": units_block(unit)}, archive.path / DISCOVERY_JSON)
     found = ", ".join(
-        f"{e.name} on dofs {list(e.dofs)} ({', '.join(f'{k} = {v:.4g}' for k, v in e.parameters.items())})"
+        f"{e.name} on dofs {list(e.dofs)} "
+        f"({', '.join(f'{k} = {v:.4g} {parameter_unit(k, unit)}'.rstrip() for k, v in e.parameters.items())})"
         for e in result.effects
     ) or "none"
     print(f"effects found: {found}")

@@ -13,7 +13,8 @@ a band (Hz): the measured lines outside it are left out *before* any step.
 
 Commands call :func:`add_measured_options` and :func:`measured_table`; the notes it
 returns (what was read, the reference unit, the band) are printed with
-:func:`print_notes`, so every output says volts when the reference is a voltage. docs/measured-data.md describes the files and levels.
+:func:`print_notes`, so every output says volts when the reference is a voltage.
+docs/measured-data.md describes the files, runs and levels.
 """
 from __future__ import annotations
 
@@ -151,7 +152,8 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
         inside = (table[column] >= band[0]) & (table[column] <= band[1])
         if not inside.any():
             lo, hi = float(table[column].min()), float(table[column].max())
-            raise CliError(f"--band {args.band}: {', '.join(paths)} has no {'mode' if modal and column != 'frequency_hz' else 'line'} "
+            what = "mode" if column != "frequency_hz" else "line"
+            raise CliError(f"--band {args.band}: {', '.join(paths)} has no {what} "
                            f"between {band[0]:g} and {band[1]:g} Hz (measured {lo:g}–{hi:g} Hz)")
         if not inside.all():
             notes.append(f"band {band[0]:g}–{band[1]:g} Hz (--band): {int((~inside).sum())} of {len(table)} measured "
