@@ -18,10 +18,12 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
+from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
 from nlupdate.cli import main
 from nlupdate.reporting.archive import write_archive
 from nlupdate.reporting.report import summary_section
 from nlupdate.study import load_study, run_study
+from nlupdate.updating import EigensensitivityOptions, UpdatingTargets, inverse_eigensensitivity
 from studies import CHAIN_MASSES, CHAIN_MODEL_K1, CHAIN_TRUTH, small_two_dof_study, three_dof_chain_study, write_study
 
 BOTH = "eigensensitivity central O(h²) {k2, k3}"
@@ -135,3 +137,30 @@ def test_a_best_model_that_predicts_worse_than_the_initial_one_is_the_first_warn
 
     good = run_study(load_study(write_study(tmp_path / "good" / "study.toml", small_two_dof_study())))
     assert good.runs[0].converged and not [w for w in good.warnings if w.kind == "prediction_worse"]
+
+
+class KinkAdapter(FEAdapter):
+    """One mode at f = 10 Hz + |k − 1| Hz·m/N: its lowest frequency, 10 Hz at k = 1 N/m, is a kink."""
+
+    name = "kink"
+
+    def __init__(self) -> None:
+        super().__init__(("k",))
+
+    def model_fingerprint(self) -> str:
+        return "kink"
+
+    def _solve(self, parameters):
+        return ModalResult(np.array([10.0 + abs(parameters["k"] - 1.0)]), np.ones((1, 1)), ("x",))
+
+
+def test_a_trust_region_that_finds_no_lower_residual_stops_as_such():
+    """A 5 Hz target is out of reach; the closest point, k = 1, is a kink where the forward
+    difference promises a fall to 5 Hz that no step gives: the trust radius shrinks onto
+    the kink and the run stops there, not converged, without ever raising the error."""
+    result = inverse_eigensensitivity(KinkAdapter(), [Parameter("k", "N/m", 3.0, 0.0, 5.0, 1e-6)], UpdatingTargets([5.0]),
+                                      EigensensitivityOptions(formula="forward"))
+    assert not result.converged and result.stop == "no decrease" and "no step" in result.reason
+    assert result.parameters["k"] == pytest.approx(1.0, abs=1e-4)
+    assert np.all(np.diff(result.history["max_abs_error_pct"]) <= 0)
+    assert result.iterations < 20

@@ -16,15 +16,17 @@ sensitivity S comes from one of the finite-difference formulas of
 
 Step control (``step_control``). Undamped (``"none"``, the classic iteration), Δ is
 ``max_step`` and every step is taken. Far from the solution, or when the targets cannot
-all be met (a residual that stays large), such Gauss–Newton steps can overshoot and
-come back: the iterates jump between two points for ever (a 2-cycle). With
+all be met (a residual that stays large, whose curvature Gauss–Newton neglects), such
+steps overshoot and come back: the iterates jump between two points for ever (a 2-cycle;
+on the 3-DOF chain of ``tests/test_updating_stops.py`` every full step is longer than
+``max_step``, and the clipped steps take k2 from 1.08e5 to 1.33e5 N/m and back). With
 ``"trust_region"`` (the default) Δ is a trust radius (Levenberg–Marquardt in the
 ∞-norm): a step is taken only when the weighted residual ``½‖W(r_target − r)‖²`` falls
 by at least 1e-4 of what the linearisation predicts (ratio ρ); otherwise Δ becomes a
 quarter of the rejected step and the step is solved again with the same sensitivity (one
-new evaluation per rejected step, no new Jacobian). Δ is also quartered after a step
-with ρ < 0.25 and doubled (up to ``max_step``) after one with ρ > 0.75 that reached it.
-While every step is good (ρ > 0.25) the two controls take the same steps.
+new evaluation per rejected step, no new Jacobian). Δ also becomes a quarter of a taken
+step with ρ < 0.25, and doubles (up to ``max_step``) after one with ρ > 0.75 that reached
+it. While every step is good (ρ > 0.25) the two controls take the same steps.
 
 Iteration k (k = 1, 2, …) computes S at p_k−1, the step, and evaluates the model at the
 new point p_k. It stops (``UpdatingResult.stop``, :mod:`nlupdate.updating.stopping`)
@@ -32,8 +34,11 @@ when the largest relative frequency error of the paired modes is within
 ``frequency_tolerance`` (converged: ``"frequency"``); when the largest normalised
 parameter change of the last step is within ``parameter_tolerance`` — converged:
 ``"parameter change"``, the usual end when the targets cannot all be met, unless a
-parameter then lies on a bound (``"parameter at bound"``, not converged) or the trust
-radius had shrunk to that size without finding a better point (``"no decrease"``); when
+parameter then lies on a bound (``"parameter at bound"``, not converged); when the trust
+radius shrank below ``parameter_tolerance`` without finding a better point (converged,
+``"parameter change"``, when the full step would remove less than 1 % of the residual — a
+minimum that the finite-difference sensitivity's own error points slightly past — else
+``"no decrease"``); when
 the iterates return to a point visited 2–4 iterations before (``"cycle detected"``); or
 after ``max_iterations`` steps (``"iteration limit"``).
 
@@ -292,7 +297,6 @@ def inverse_eigensensitivity(
                 break
         if damped and radius < tolerance:  # no step longer than the tolerance lowers the residual
             stop, reason = _at_rest(s_x, residual, weights, options.regularisation, lower - x, upper - x, cost)
-            step_norm, limited = 0.0, False
             break
         if damped and ratio < 0.25:
             radius = max(0.25 * step_norm, tolerance)
