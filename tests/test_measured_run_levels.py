@@ -170,3 +170,22 @@ def test_z_axis_level_typed_as_force_with_a_voltage_reference_is_used_with_a_not
     assert len(notes) == len(LEVELS)
     assert any("z.uff run 'Run 1': the z-axis level 0.05 is labelled 'N' (specific data type 13), while the "
                "reference is V; used as 0.05 V" in note for note in notes), notes
+
+
+# ---------------------------------------------------------------- the study takes the same mapping
+def test_study_levels_per_run_and_per_file(tmp_path):
+    from nlupdate.study.loading import load_study
+    from nlupdate.study.steps import measured_table
+
+    names = [f"Run {chr(65 + k)}" for k in range(len(LEVELS))]
+    multi_run_export(tmp_path / "export.uff", names)
+    levels = ", ".join([f'"export.uff#{n}" = {v}' for n, v in zip(names[:3], LEVELS[:3])]
+                       + [f'"{n}" = {v}' for n, v in zip(names[3:], LEVELS[3:])])
+    (tmp_path / "study.toml").write_text(f'[study]\nname = "runs"\n[measured]\nfile = "export.uff"\n'
+                                         f'reference_unit = "V"\nlevels = {{ {levels} }}\n')
+    check_levels(measured_table(load_study(tmp_path / "study.toml")))
+    (tmp_path / "study.toml").write_text('[study]\nname = "runs"\n[measured]\nfile = "export.uff"\n'
+                                         'reference_unit = "V"\nlevels = { "Run A" = -1 }\n')
+    from nlupdate.study.reader import StudyError
+    with pytest.raises(StudyError, match=r"levels.*Run A.*a level > 0 in the reference unit"):
+        load_study(tmp_path / "study.toml")

@@ -35,7 +35,7 @@ ALLOWED: dict[str, set[str]] = {
          "optimisation", "comparison", "prediction"},
     "study": {"name", "description"},
     "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "coordinates",
-                 "input_dof",
+                 "levels", "input_dof",
                  "excitation", "response_quantity"},
     "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
                           "frequencies_hz", "noise", "seed", "sweep"},
@@ -181,6 +181,8 @@ def _measured_statements(read: Reader, table: Mapping[str, Any], source: str) ->
         out["reference_calibration"] = value
     if "coordinates" in table:
         out["coordinates"] = _measured_coordinates(read, table["coordinates"], source)
+    if "levels" in table:
+        out["levels"] = _measured_levels(read, table["levels"], source)
     history_keys = {"input_dof", "excitation", "response_quantity"} & set(table)
     if history_keys and source != "time_histories":
         raise read.fail("measured", sorted(history_keys)[0], "nothing: it applies to time_histories = [...]")
@@ -209,6 +211,37 @@ def _measured_coordinates(read: Reader, value: Any, source: str) -> tuple[tuple[
                             pair)
         out.append((str(read.path_of(name)), (pair[0].strip(), pair[1].strip())))
     return tuple(out)
+
+
+def _measured_levels(read: Reader, value: Any, source: str) -> tuple[tuple[str, float], ...]:
+    """``levels = { "export.uff#Run 3" = 0.15, "Run 4" = 0.2, "b.uff" = 0.1 }``: the level (in
+    the reference unit) of a file, of one run of a file (``FILE#RUN``) or of a run by its
+    name, as ``--level`` takes them; a file name is resolved against the study's folder."""
+    if source not in ("file", "files"):
+        raise read.fail("measured", "levels", "nothing: it applies to file = or files = measured FRFs", value)
+    if not isinstance(value, dict) or not value:
+        raise read.fail("measured", "levels", "a table \"<file>\" | \"<file>#<run>\" | \"<run>\" = level", value)
+    out = []
+    for name, level in value.items():
+        if isinstance(level, bool) or not isinstance(level, (int, float)) or not level > 0:
+            raise read.fail("measured.levels", name, "a level > 0 in the reference unit", level)
+        key = name
+        file, sep, run = name.partition("#")
+        if _existing_file(read, name) is not None:
+            key = str(_existing_file(read, name))
+        elif sep and file and _existing_file(read, file) is not None:
+            key = f"{_existing_file(read, file)}#{run}"
+        out.append((key, float(level)))
+    return tuple(out)
+
+
+def _existing_file(read: Reader, name: str):
+    """The path of ``name`` when it names an existing file (None for a run name)."""
+    try:
+        path = read.path_of(name)
+    except StudyError:  # a rerun reads only the files kept with the study: a run name is none of them
+        return None
+    return path if path.is_file() else None
 
 
 def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None], ...]:

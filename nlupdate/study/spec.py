@@ -63,7 +63,9 @@ class MeasuredSpec:
     (``time_histories``, with ``input_dof``, ``excitation``, ``response_quantity``), or a
     :class:`SimulationSpec`. ``reference_unit`` (``"N"``/``"V"``, None: as the files say)
     and ``reference_calibration`` (N per V) state what the reference is; ``coordinates``
-    (absolute path → (response, input)) names the coordinates of files that do not."""
+    (absolute path → (response, input)) names the coordinates of files that do not;
+    ``levels`` ((key, level): a file's absolute path, ``<path>#<run>`` or a run name, as
+    ``--level`` takes them) gives the levels of files and runs that do not hold them."""
 
     file: str | None = None
     simulate: SimulationSpec | None = None
@@ -75,13 +77,15 @@ class MeasuredSpec:
     excitation: str = "auto"
     response_quantity: str = "displacement"
     coordinates: tuple[tuple[str, tuple[str, str]], ...] = ()
+    levels: tuple[tuple[str, float], ...] = ()
 
     def read_options(self):
         """The :class:`~nlupdate.measurement.units.ReadOptions` of these statements."""
         from nlupdate.measurement.units import ReadOptions
 
-        return ReadOptions(self.reference_unit, self.reference_calibration,
-                           {path: level for path, level in self.files if level is not None}, dict(self.coordinates))
+        levels = {path: level for path, level in self.files if level is not None}
+        levels.update(dict(self.levels))
+        return ReadOptions(self.reference_unit, self.reference_calibration, levels, dict(self.coordinates))
 
 
 @dataclass(frozen=True)
