@@ -253,7 +253,8 @@ def update(
     of the method's options (``max_iterations``, ``frequency_tolerance``, ``pairing``, …).
 
     Returns an :class:`~nlupdate.updating.eigensensitivity.UpdatingResult`:
-    ``parameters`` (updated values), ``converged``/``reason``, ``iterations``, ``history``,
+    ``parameters`` (updated values), ``converged``, ``stop`` (why it stopped: converged,
+    iteration limit, cycle detected, parameter at bound, no decrease), ``reason``, ``iterations``, ``history``,
     ``frequencies_hz("initial"|"final")`` (paired, Hz), ``final`` (the updated modes),
     ``counts`` (FE runs new/cached)."""
     from nlupdate.adapters.registry import AdapterSpec, build_adapter
