@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 
 from nlupdate.cli import CliError, add_command, non_negative_float
+from nlupdate.cli.measured import add_band_option, parse_band
 from nlupdate.cli.output import add_overwrite_option, checked_output
 from nlupdate.measurement.frf_files import is_frf_table, table_suffix, write_frf_table
 from nlupdate.measurement.time_history import (
@@ -41,8 +42,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sample rate of records without a time_s column (default: their constant 'Fs' column)")
     parser.add_argument("--reference", choices=("force", "voltage"),
                         help="the reference column when a record has both (default force)")
+    parser.add_argument("--reference-unit", choices=("N", "V"),
+                        help="as the other commands: N takes the force column as the reference, V the voltage "
+                             "(FRFs and levels per volt); the same as --reference force|voltage")
     parser.add_argument("--reference-calibration", type=non_negative_float, metavar="N_PER_V",
                         help="newtons per volt of a voltage reference: write the FRFs per newton")
+    add_band_option(parser, "of the FRFs written: lines outside it are left out (a random or burst estimate covers "
+                            "0 Hz to half the sample rate; default: every line estimated)")
     add_overwrite_option(parser)
     parser.set_defaults(run=run)
 
@@ -52,8 +58,15 @@ def run(args: argparse.Namespace) -> int:
     table_suffix(out)
     if args.window_cycles < 2:
         raise CliError(f"--window-cycles {args.window_cycles:g}: expected at least 2 cycles")
+    band = parse_band(args.band)
+    reference = args.reference
+    if args.reference_unit is not None:
+        stated = {"N": "force", "V": "voltage"}[args.reference_unit]
+        if reference is not None and reference != stated:
+            raise CliError(f"--reference {reference} and --reference-unit {args.reference_unit} contradict each other")
+        reference = stated
     args.interrupt_note = f"nothing was written to {out}"
-    records = [read_time_record(path, args.sample_rate or None, args.reference) for path in args.records]
+    records = [read_time_record(path, args.sample_rate or None, reference) for path in args.records]
     input_dof = args.input_dof or ("force" if records[0].reference_unit == "N" else "voltage")
     if args.input_dof is None:
         print(f"default input_dof: {input_dof} (the reference column)")
@@ -63,6 +76,14 @@ def run(args: argparse.Namespace) -> int:
     except TimeHistoryError as error:
         raise CliError(str(error)) from None
     table = estimate.table
+    if band is not None:
+        inside = (table["frequency_hz"] >= band[0]) & (table["frequency_hz"] <= band[1])
+        if not inside.any():
+            raise CliError(f"--band {args.band}: no line estimated between {band[0]:g} and {band[1]:g} Hz (estimated "
+                           f"{table['frequency_hz'].min():g}–{table['frequency_hz'].max():g} Hz)")
+        print(f"band {band[0]:g}–{band[1]:g} Hz (--band): {int((~inside).sum())} of {len(table)} lines outside it "
+              f"left out")
+        table = table[inside].reset_index(drop=True)
     unit = table_reference_unit(table)
     if args.reference_calibration:
         if unit != "V":
