@@ -45,12 +45,19 @@ type 8) is refused.
   read only when the user says so (``--reference-unit V``): the FRFs are then per volt;
   a reference the file does not name (type 0/1 without a label) is read only with a
   stated unit. A stated unit that contradicts the file is refused.
-* **Level**, in this order: the level the user gave for the file (``--level
-  FILE=VALUE``); the ID line ``force_level_n=<value>`` (nlupdate's own files); the z-axis
-  value when its specific data type is 13/9 (force) or 0/1 labelled ``V``; the first
-  number with a unit ``N``, ``kN``, ``V`` or ``mV`` in an ID line (``"run 3 0.10 V"``,
-  ``"Level=2.5N"``; two different such numbers are refused as ambiguous). A unit in
-  the ID line must agree with the reference.
+* **Runs**: a file may hold several runs (one per level); a dataset's run name comes
+  from its ID lines (:func:`nlupdate.measurement.run_levels.run_names`).
+* **Level**, in this order: the level the user gave for the run (``--level
+  FILE#RUN=VALUE`` or ``RUN=VALUE``) or for a file of one run (``FILE=VALUE``; refused
+  for a file of several runs); the ID line ``force_level_n=<value>`` (nlupdate's own
+  files); the z-axis value typed as force (13/9) or labelled ``N``/``kN``/``V``/``mV``,
+  when that is the reference's unit; a level in an ID line or the run name in the
+  styles of :mod:`nlupdate.measurement.run_levels` (``"0.10 V"``, ``"0p10V"``,
+  ``"F=2.5N"``, ``"Chirp0p05"``; two different ones are refused as ambiguous; a unit
+  in the ID line must agree with the reference); last, a z-axis value typed in the
+  unit the reference contradicts: used in the reference's unit with a warning (never
+  skipped silently). Without any: one line naming the dataset, its run, what was
+  looked for and the file's runs.
 * **Coordinates**: the ID lines ``response_dof=``/``input_dof=`` when present (taken as
   they are), else the node/direction fields: ``"<node>"`` (direction 0) or
   ``"<node>:<ux|uy|uz|rx|ry|rz>"``. A negative direction in those fields (``-3``:
