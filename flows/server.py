@@ -99,7 +99,8 @@ class RunServer:
     """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
     3.8's own command line; the app wrapped by :mod:`nlupdate.flows.server_app`), started
     through :mod:`nlupdate.flows.server_process` so that it ends when this process does,
-    even when this process is killed.
+    even when this process is killed. It runs in a session (process group) of its own, so
+    a signal to the run's group does not take the API away while the run reports its end.
 
     Started without importing Prefect here (the server process imports it itself, at the
     same time as this process imports what the run needs); :meth:`wait` returns once the
@@ -130,7 +131,10 @@ class RunServer:
                   "--app-dir", str(app_dir), "--factory", "nlupdate.flows.server_app:create_app",
                   "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
             env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
-                 "PREFECT__SERVER_FINAL": "1", **settings})
+                 "PREFECT__SERVER_FINAL": "1", **settings},
+            # a session of its own: a signal to the run's process group (timeout, kill -- -PGID,
+            # a batch scheduler) reaches the run, which then stops its server after reporting to it
+            start_new_session=hasattr(os, "setsid"))
 
     def wait(self, timeout_s: float) -> None:
         """Return once ``/api/health`` answers 200; RuntimeError when the process ends first

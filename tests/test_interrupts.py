@@ -197,6 +197,36 @@ def test_sigterm_stops_a_run_like_ctrl_c_and_its_server_with_it(tmp_path):
     assert ends_soon(server, port), "the temporary Prefect server outlived its run"
 
 
+@pytest.mark.parametrize("whom", ["group", "server, then the run"])
+def test_sigterm_to_the_process_group_of_a_run_ends_it(tmp_path, whom):
+    """``timeout``, ``kill -- -PGID`` and batch schedulers signal the whole group, or every
+    process of the job. The server died with the group while Prefect's own SIGTERM handler
+    (in force while a flow runs) reported the crash to it, retrying for good: the run was
+    alive a minute later (whether it did depended on which of the two went first; the
+    second case makes the server go first). Now the server is in a group of its own, and
+    the first SIGTERM starts the deadline whoever handles it. The run is bounded generously (60 s): the test
+    asserts that it ends, with its one line and 143, not how fast."""
+    process, server, port = started_run(tmp_path)
+    wait_for_line(process, "computed in", timeout_s=120)  # a step has finished: the flow is running
+    if whom == "group":
+        os.killpg(process.pid, signal.SIGTERM)
+    else:  # as a scheduler may, in any order: here the run's API is surely gone when it is told
+        os.kill(server, signal.SIGTERM)
+        assert ends_soon(server, port, timeout_s=30)
+        process.send_signal(signal.SIGTERM)
+    try:
+        _, stderr = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.communicate()
+        raise AssertionError(f"the run outlived a SIGTERM to its {whom} by 60 s") from None
+    assert process.returncode == 143, (process.returncode, stderr)
+    assert stderr.strip().splitlines() == [f"nlupdate run: interrupted (SIGTERM); no archive was written to "
+                                           f"{tmp_path / 'results'}; finished tasks stay in the cache"], stderr
+    assert ends_soon(server, port), "the temporary Prefect server outlived its run"
+
+
 WRAPPED_INTERRUPT = textwrap.dedent("""
     import os, signal, sys, time
     import nlupdate.cli as cli
