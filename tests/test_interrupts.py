@@ -197,7 +197,7 @@ def test_sigterm_stops_a_run_like_ctrl_c_and_its_server_with_it(tmp_path):
     assert ends_soon(server, port), "the temporary Prefect server outlived its run"
 
 
-@pytest.mark.parametrize("whom", ["group", "server, then the run"])
+@pytest.mark.parametrize("whom", ["group", pytest.param("server, then the run", marks=pytest.mark.slow)])
 def test_sigterm_to_the_process_group_of_a_run_ends_it(tmp_path, whom):
     """``timeout``, ``kill -- -PGID`` and batch schedulers signal the whole group, or every
     process of the job. The server died with the group while Prefect's own SIGTERM handler
