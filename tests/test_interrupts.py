@@ -209,6 +209,7 @@ def test_sigterm_to_the_process_group_of_a_run_ends_it(tmp_path, whom):
     process, server, port = started_run(tmp_path)
     wait_for_line(process, "computed in", timeout_s=120)  # a step has finished: the flow is running
     if whom == "group":
+        assert os.getpgid(server) != os.getpgid(process.pid), "the server is in the run's process group"
         os.killpg(process.pid, signal.SIGTERM)
     else:  # as a scheduler may, in any order: here the run's API is surely gone when it is told
         os.kill(server, signal.SIGTERM)
