@@ -45,8 +45,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
     parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving point)")
     parser.add_argument("--frequency", type=float, help="PRD excitation frequency in Hz (default: recommended, see docs)")
-    parser.add_argument("--low-force", type=float, help="PRD low force level in N (default: lowest level)")
-    parser.add_argument("--high-forces", help="PRD high levels in N, comma-separated (default: all above the low level)")
+    parser.add_argument("--low-force", type=float,
+                        help="PRD low force level in the reference unit (N, or V for FRFs per volt; default: lowest)")
+    parser.add_argument("--high-forces",
+                        help="PRD high levels in the reference unit, comma-separated (default: all above the low level)")
     parser.add_argument("--elements", help="physical elements to fit, e.g. cubic,jenkins (default: polynomial)")
     parser.add_argument("--order", type=positive_int, help="polynomial order (default 2)")
     parser.add_argument("--imag-order", type=positive_int, help="PRD order of the imaginary part (default: --order)")
@@ -66,7 +68,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--amplitude-dependent-delta", action="store_true",
                         help="PRD: Δ_f1 = ν_low(|H_1(ω)|F_1) at every frequency (default: the constant Δ_f1 "
                              "identified at the excitation frequency, the source's eq. 2.55)")
-    parser.add_argument("--force-pair", help="DDF levels F1,F2 in N (default: lowest and highest)")
+    parser.add_argument("--force-pair", help="DDF levels F1,F2 in the reference unit (default: lowest and highest)")
     parser.add_argument("--coherence-threshold", type=non_negative_float, metavar="GAMMA2",
                         help="leave out lines whose coherence is below it (default 0.8 when the data carry coherence)")
     parser.add_argument("--noise-fraction", type=non_negative_float,
