@@ -194,12 +194,16 @@ def run(args: argparse.Namespace) -> int:
     out = folder.final
     for key, value in defaults.items():
         print(f"default {key}: {value}")
+    placement = [w for w in identification.warnings if w.kind == "levels_disagree"]
+    for warning in placement:
+        print(f"warning: {warning}")
     for name, stats in identification.uncertainty.parameters.items():
         suffix = f" {parameter_unit(name, unit)}" if parameter_unit(name, unit) else ""
-        print(f"{name} = {stats.value:.6g}{suffix} (MC mean {stats.mean:.6g} ± {stats.std:.3g}, 95 % "
-              f"[{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}])")
+        print(f"{name} = {stats.value:.6g}{suffix} (95 % [{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}]; Monte Carlo "
+              f"std {stats.std:.3g}, median {stats.median:.6g})")
     for warning in identification.warnings:
-        print(f"warning: {warning}")
+        if warning not in placement:
+            print(f"warning: {warning}")
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     if verdict == "poor":
         print(f"fit: poor — the fit's residual is {ratio:.3g}× the noise level ({POOR_FIT_FACTOR:g}× at most for a "

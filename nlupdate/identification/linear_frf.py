@@ -70,15 +70,31 @@ def from_low_force(data: FRFLevels, level: float, receptance: NDArray) -> Linear
     return LinearExtraction((float(level),), f, np.asarray(receptance, dtype=complex), noise, float(level), h)
 
 
-def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LinearExtraction:
-    """The linear receptance from every level (module docstring), on the lowest level's
-    frequencies. ``describing_function_at(level)`` is ν(A [m], ω [rad/s]) → N/m for that
-    level. A line no level gives a finite value for is NaN."""
+@dataclass(frozen=True, eq=False)
+class LevelTerms:
+    """Each level's own estimate of the linear dynamic stiffness, 1/H_j − ν(|H_j|F_j, ω)
+    (N/m), on the reference level's frequencies: ``terms`` (n_levels, n_lines), NaN where
+    a level gives no finite value; ``variance`` the variance of each term ((N/m)²) —
+    absolute when ``absolute`` (the data state h_std), else for a relative noise of 1
+    (multiply by the noise fraction squared)."""
+
+    levels_n: tuple[float, ...]
+    frequency_hz: NDArray[np.float64]
+    terms: NDArray[np.complex128]
+    variance: NDArray[np.float64]
+    absolute: bool
+    reference_receptance: NDArray[np.complex128]
+
+
+def level_terms(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LevelTerms:
+    """Every level's term 1/H_j − ν and its noise variance (module docstring), on the
+    lowest level's frequencies. ``describing_function_at(level)`` is ν(A [m], ω [rad/s])
+    → N/m for that level."""
     reference = float(data.levels[0])
     f, h_reference = data.curve(reference)
     omega = 2 * np.pi * f
-    weighted = np.zeros(f.size, dtype=complex)
-    total_weight = np.zeros(f.size)
+    terms = np.full((data.levels.size, f.size), np.nan, dtype=complex)
+    variances = np.full((data.levels.size, f.size), np.nan)
     for index, level in enumerate(data.levels):
         f_level, h_level = data.curve(float(level))
         at = match_frequencies(f_level, f)
@@ -105,12 +121,29 @@ def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionA
             variance = relative ** 2 * (np.abs(1.0 / h) ** 2 + slope ** 2)
             term = 1.0 / h - nu
         good = usable & np.isfinite(term) & np.isfinite(variance) & (variance > 0)
-        weighted[good] += term[good] / variance[good]
-        total_weight[good] += 1.0 / variance[good]
+        terms[index, good] = term[good]
+        variances[index, good] = variance[good]
+    return LevelTerms(tuple(float(level) for level in data.levels), f, terms, variances, data.h_stds is not None,
+                      h_reference)
+
+
+def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LinearExtraction:
+    """The linear receptance from every level (module docstring), on the lowest level's
+    frequencies. ``describing_function_at(level)`` is ν(A [m], ω [rad/s]) → N/m for that
+    level. A line no level gives a finite value for is NaN."""
+    return combined(level_terms(data, describing_function_at))
+
+
+def combined(terms: LevelTerms) -> LinearExtraction:
+    """The inverse-variance weighted mean of the levels' terms, line by line."""
+    good = np.isfinite(terms.terms) & np.isfinite(terms.variance)
+    weight = np.where(good, 1.0 / np.where(good, terms.variance, 1.0), 0.0)
+    weighted = np.sum(np.where(good, terms.terms, 0.0) * weight, axis=0)
+    total_weight = np.sum(weight, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         inverse = np.where(total_weight > 0, weighted / total_weight, np.nan)
-        return LinearExtraction(tuple(float(level) for level in data.levels), f, 1.0 / inverse,
-                                np.sqrt(1.0 / total_weight), reference, h_reference)
+        return LinearExtraction(terms.levels_n, terms.frequency_hz, 1.0 / inverse, np.sqrt(1.0 / total_weight),
+                                terms.levels_n[0], terms.reference_receptance)
 
 
 def locate_linear_modes(

@@ -17,7 +17,11 @@ From the measured curves of one (response, input) pair at several force levels
    modes, so the natural frequencies carry the uncertainty of the fitted DF *and* of the
    measurement noise, ready to be propagated into updated parameters; the fitted curve
    (over :func:`fit_amplitude_grid`) and the extracted linear FRF get a 95 % band from the
-   same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`).
+   same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`);
+6. checks that the linear FRF each level gives is the same at every level, within the
+   noise (physical elements; :mod:`nlupdate.identification.consistency`): when it is not,
+   the identified model does not describe the structure at the measured coordinate and
+   the result is marked not trustworthy (:attr:`Identification.trustworthy`).
 
 Every option left out is filled by a default, listed in ``defaults_used``. The result,
 :class:`Identification`, is plain data (picklable) and :meth:`Identification.summary`
@@ -38,12 +42,15 @@ from nlupdate.identification.data import MIN_SWEEP_LINES, FRFLevels
 from nlupdate.identification.ddf import DDFResult
 from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
 from nlupdate.identification.frequency import FrequencyChoice, recommend_frequency
-from nlupdate.identification.linear_frf import LINEAR_FROM, LinearExtraction, locate_linear_modes
+from nlupdate.identification.consistency import LevelConsistency, level_consistency
+from nlupdate.identification.linear_frf import LINEAR_FROM, LinearExtraction, level_terms, locate_linear_modes
 from nlupdate.identification.modal_fit import ModalFit
 from nlupdate.identification.methods import METHODS
 from nlupdate.identification.prd import IdentificationError, PRDResult
 from nlupdate.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
-from nlupdate.identification.trust import TrustWarning, excitation_warnings, identification_warnings, sign_warnings
+from nlupdate.identification.trust import (
+    TrustWarning, consistency_warnings, excitation_warnings, identification_warnings, sign_warnings,
+)
 from nlupdate.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
@@ -169,6 +176,9 @@ class Identification:
     (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
     noise_fraction, noise_source: the noise level used and where it came from.
     warnings: reasons not to trust parts of the result (:mod:`nlupdate.identification.trust`).
+    level_consistency: is the linear FRF each level gives the same at every level
+    (:mod:`nlupdate.identification.consistency`)? None when not checked (a polynomial DF
+    is known only over its fitted amplitudes; fewer than two levels per line).
     """
 
     settings: IdentificationSettings
@@ -189,6 +199,13 @@ class Identification:
     excitation: str = "unknown"
     lines_below_coherence: int = 0
     linear_from_levels_n: tuple[float, ...] = ()
+    level_consistency: LevelConsistency | None = None
+
+    @property
+    def trustworthy(self) -> bool:
+        """False when the levels' linear FRFs disagree beyond their noise: the identified
+        model does not describe the structure at the measured coordinate."""
+        return self.level_consistency is None or self.level_consistency.passed
 
     @property
     def linear_source(self) -> str:
@@ -251,7 +268,8 @@ class Identification:
         noise (:func:`nlupdate.identification.trust.identification_warnings`), a parameter
         that must be positive and is not, data that are not stepped-sine FRFs; empty when
         nothing is suspicious."""
-        return identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
+        return consistency_warnings(self.level_consistency, self.settings.response_dof) + \
+            identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
             excitation_warnings(self.excitation, self.settings.method)
 
     def parameters(self) -> dict[str, float]:
@@ -411,6 +429,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
                                  amplitude_grid=grid)
     uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress,
                               curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)})
+    consistency = level_consistency(level_terms(data, result.df_for_force), noise) if settings.elements else None
     model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
     description = model.description() if model is not None else (
         f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")
@@ -420,7 +439,7 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         linear_frequency_hz=f_linear, linear_frf=h_linear, modes=modes, uncertainty=uncertainty,
         noise_fraction=noise, noise_source=source, model_description=description,
         band_hz=band.hz, band_reason=band.reason, reference_unit=data.reference_unit, excitation=data.excitation,
-        lines_below_coherence=lines_masked,
+        lines_below_coherence=lines_masked, level_consistency=consistency,
     )
 
 

@@ -3,6 +3,9 @@ numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporti
 
 ``identification.json`` keys (SI units, polynomial coefficients highest order first):
 
+* ``trustworthy``: false when the placement check failed (below) — the identified model
+  does not describe the structure at the measured coordinate; ``not_trustworthy_because``
+  says why and what to do (empty when trustworthy);
 * ``method`` ("prd"/"ddf"), ``estimator``, ``model``, ``response_dof``, ``input_dof``;
 * ``warnings``: results not to be trusted as they stand, each ``{"subject", "kind",
   "message", "source"}`` (:mod:`nlupdate.identification.trust`; empty when none);
@@ -18,9 +21,13 @@ numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporti
 * ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
   (how the statistics were made); ``noise_fraction`` (the noise level used) and
   ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
-* ``fit``: ``"poor"`` when that ratio exceeds 5 (the model does not describe the data; the
-  fit plot shows the residual against amplitude), ``"consistent"``, or ``"unknown"`` (no
-  spare degrees of freedom), with ``fit_ratio_to_noise``;
+* ``fit``: ``"poor"`` when that ratio exceeds 5 or the placement check failed (the model
+  does not describe the data; the fit plot shows the residual against amplitude),
+  ``"consistent"``, or ``"unknown"`` (no spare degrees of freedom), with
+  ``fit_ratio_to_noise``;
+* ``linear_frf_consistency``: the placement check — is the linear FRF each level gives the
+  same at every level, within the noise (:mod:`nlupdate.identification.consistency`)?
+  null when not made (a polynomial DF);
 * ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
 * ``defaults_used``: every option that was not given and the value chosen.
 """
@@ -82,9 +89,12 @@ def identification_summary(identification: Any) -> dict[str, Any]:
     """The ``identification.json`` content of an
     :class:`~nlupdate.identification.pipeline.Identification` (keys: the module docstring)."""
     s, r = identification.settings, identification.result
-    out: dict[str, Any] = {"method": s.method, "estimator": r.estimator, "model": identification.model_description,
+    warnings = identification.warnings
+    out: dict[str, Any] = {"trustworthy": identification.trustworthy,
+                           "not_trustworthy_because": [w.message for w in warnings if w.kind == "levels_disagree"],
+                           "method": s.method, "estimator": r.estimator, "model": identification.model_description,
                            "response_dof": s.response_dof, "input_dof": s.input_dof,
-                           "warnings": [w.as_dict() for w in identification.warnings],
+                           "warnings": [w.as_dict() for w in warnings],
                            "units": units_block(identification.reference_unit),
                            "band_hz": None if identification.band_hz is None else list(identification.band_hz),
                            "band_reason": identification.band_reason, "excitation": identification.excitation,
@@ -99,6 +109,9 @@ def identification_summary(identification: Any) -> dict[str, Any]:
                                    "reason": choice.reason}
     stats = identification.uncertainty.parameters
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
+    if not identification.trustworthy:
+        verdict = "poor"
+    consistency = identification.level_consistency
     out.update({
         "linear_from_level_n": identification.linear_from_level_n,
         "linear_from_levels_n": list(identification.linear_from_levels_n),
@@ -119,6 +132,7 @@ def identification_summary(identification: Any) -> dict[str, Any]:
         },
         "fit": verdict,
         "fit_ratio_to_noise": ratio,
+        "linear_frf_consistency": None if consistency is None else consistency.as_dict(),
         "elements": elements_summary(r, s.response_dof),
         "linear_frf": {
             "file": "linear_frf.parquet",

@@ -47,6 +47,19 @@ A fit always returns numbers; these checks say when the numbers are not measurem
   estimator uses to detect a poor start. The floor keeps noise-free simulated data from
   warning about round-off.
 
+* ``moves_with_noise`` — the Monte-Carlo re-identifications of a value are centred
+  further from it than their 95 % half-width (:mod:`nlupdate.identification.uncertainty`):
+  adding noise moves the estimate more than the noise spreads it, so it is biased by the
+  noise — most often because the model does not describe the data. Its interval is
+  centred on the estimate; the bias is of the size of the shift. Judged from
+  ``SHIFT_MIN_SAMPLES`` (20) samples on, with the median's own sampling error allowed for.
+* ``levels_disagree`` — the linear FRF each level gives, 1/H_j − ν(|X_j|), differs between
+  the levels by more than their noise (:mod:`nlupdate.identification.consistency`): the
+  identified model does not describe the structure at the measured coordinate. Either
+  the nonlinearity is not there (between other coordinates, or between the measured one
+  and another) or the element set is wrong; the extracted linear FRF and its modes are
+  then a blend of levels, not the linear structure. ``nlupdate discover`` places it.
+
 Two more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
 stuck friction stiffness below zero) and :func:`excitation_warnings` (``not_stepped_sine``
 — FRFs from sweeps or random excitation, which PRD and DDF do not assume).
@@ -59,6 +72,7 @@ from typing import Any
 
 import numpy as np
 
+from nlupdate.identification.consistency import SPREAD_LIMIT
 from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
 from nlupdate.measurement.units import parameter_unit
 
@@ -67,6 +81,7 @@ POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
 JENKINS_END = -0.98  # an Iwan joint's χ at or below this acts as a Jenkins element
 RESIDUAL_FLOOR = 1e-3
 SLIP_TOLERANCE = 0.1
+SHIFT_MIN_SAMPLES = 20  # fewer Monte-Carlo samples: no moves_with_noise judgement
 LOG_LIMIT = 699.0  # PhysicalModel.values clips log-parameters at ±700
 _RAW_COEFFICIENT = re.compile(r"^(re|im)_c\d+$")
 
@@ -199,6 +214,48 @@ def residual_warnings(residual: float | None, noise: float, noise_source: str, s
         f"understated, and the Monte-Carlo uncertainties, drawn at that noise level, are then too small", source)]
 
 
+def shift_warnings(stats: dict[str, Any], source: str = "") -> list[TrustWarning]:
+    """``moves_with_noise`` for every statistic (:class:`~nlupdate.identification.uncertainty.ParameterStatistics`)
+    whose Monte-Carlo median is further from its value than the 95 % interval's half-width
+    plus twice the median's own sampling error (1.25·std/√n); judged from
+    ``SHIFT_MIN_SAMPLES`` samples on (with fewer the percentiles are not yet an interval)."""
+    out = []
+    for name, st in stats.items():
+        if st.count < SHIFT_MIN_SAMPLES:
+            continue
+        half = 0.5 * (st.ci95[1] - st.ci95[0])
+        limit = half + 2 * 1.2533 * st.std / np.sqrt(st.count)
+        if np.isfinite(st.shift) and np.isfinite(limit) and abs(st.shift) > limit:
+            out.append(TrustWarning(
+                name, "moves_with_noise",
+                f"{name} = {st.value:.6g}: its Monte-Carlo re-identifications are centred at {st.median:.6g}, "
+                f"{abs(st.shift):.3g} away, more than their 95 % half-width ({half:.3g}): the estimate moves with the "
+                f"noise more than the noise spreads it (biased, most often because the model does not describe the "
+                f"data); its interval [{st.ci95[0]:.6g}, {st.ci95[1]:.6g}] is centred on it and understates the "
+                f"error by about the shift", source))
+    return out
+
+
+def consistency_warnings(consistency: Any, response_dof: str, source: str = "identification") -> tuple[TrustWarning, ...]:
+    """``levels_disagree`` when the placement check
+    (:class:`~nlupdate.identification.consistency.LevelConsistency`) failed; none when it
+    passed or was not made (None)."""
+    if consistency is None or consistency.passed:
+        return ()
+    span = consistency.worst_band_hz()
+    where = "" if span is None else (f"; {int(consistency.inconsistent.sum())} lines disagree beyond their noise, "
+                                     f"{span[0]:.4g}–{span[1]:.4g} Hz")
+    return (TrustWarning(
+        "linear_frf", "levels_disagree",
+        f"NOT TRUSTWORTHY: the linear FRF extracted from each force level differs between the levels by "
+        f"{consistency.spread_ratio:.3g}× their noise (RMS over the lines; at most {SPREAD_LIMIT:g}× when the model "
+        f"describes the data{where}). The linear FRF is the same at every level, so the identified model does not "
+        f"describe the structure at coordinate {response_dof}: most likely the nonlinearity is not at the measured "
+        f"coordinate (it acts between other coordinates, or between {response_dof} and another), or the element set "
+        f"is wrong. The identified parameters, the extracted linear FRF and its modes are not the structure's; "
+        f"run `nlupdate discover` to place the nonlinearity and choose its elements", source),)
+
+
 def identification_warnings(identification: Any, source: str = "identification") -> tuple[TrustWarning, ...]:
     """Every warning about an :class:`~nlupdate.identification.pipeline.Identification`
     (module docstring); empty when nothing is suspicious."""
@@ -210,6 +267,8 @@ def identification_warnings(identification: Any, source: str = "identification")
     flagged = {w.subject for w in out}
     out += [w for w in uncertainty_warnings(checked, {n: stats[n].std for n in checked}, "Monte-Carlo", source)
             if w.subject not in flagged]
+    flagged = {w.subject for w in out}
+    out += [w for w in shift_warnings({n: stats[n] for n in checked}, source) if w.subject not in flagged]
     out += residual_warnings(identification.residual_noise_fraction, identification.noise_fraction,
                              identification.noise_source, source)
     model = getattr(result, "physical", None) or getattr(result, "model", None)
