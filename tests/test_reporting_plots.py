@@ -365,16 +365,17 @@ def test_the_fit_of_the_whole_chain_is_solid_over_its_data(figures, result):
 
 
 def _pixels(figure: Figure) -> np.ndarray:
+    """The RGB pixels of ``figure`` as drawn now (floats 0–255, row 0 at the top)."""
     canvas = FigureCanvasAgg(figure)
     canvas.draw()
     return np.asarray(canvas.buffer_rgba(), dtype=float)[..., :3]
 
 
 def band_pixels(figure: Figure, bands: list, x_ranges: list) -> list[np.ndarray]:
-    """Per band (each in its own axes; ``x_ranges``: data-unit limits per band, or None)
-    and per pixel column of its axes, how many pixels change visibly (by more than 10 %
-    of full scale in some channel) when the bands are drawn: what of each band shows
-    beside the curves over it."""
+    """Per band (each in its own axes; ``x_ranges``: data-unit limits per band, or None),
+    the display coordinates (n×2, pixel centres) of the pixels of its axes that change
+    visibly (by more than 10 % of full scale in some channel) when the bands are drawn:
+    what of each band shows beside the curves over it."""
     _drawn(figure)
     with_bands = _pixels(figure)
     for band in bands:
@@ -383,47 +384,82 @@ def band_pixels(figure: Figure, bands: list, x_ranges: list) -> list[np.ndarray]
     for band in bands:
         band.set_visible(True)
     height = with_bands.shape[0]
+    changed = np.abs(with_bands - without).max(axis=-1) > 25
+    rows, columns = np.nonzero(changed)
+    xy = np.column_stack([columns + 0.5, height - rows - 0.5])
     out = []
     for band, x_range in zip(bands, x_ranges):
         box = band.axes.get_window_extent()
-        rows = slice(int(height - box.y1) + 2, int(height - box.y0) - 2)  # inside the frame
-        columns = slice(int(box.x0) + 2, int(box.x1) - 2)
+        inside = (xy[:, 0] > box.x0 + 2) & (xy[:, 0] < box.x1 - 2) & (xy[:, 1] > box.y0 + 2) & (xy[:, 1] < box.y1 - 2)
         if x_range is not None:
             ends = band.axes.transData.transform(np.column_stack([x_range, [1.0, 1.0]]))[:, 0]
-            columns = slice(int(max(ends.min(), box.x0 + 2)), int(min(ends.max(), box.x1 - 2)) + 1)
-        changed = np.abs(with_bands[rows, columns] - without[rows, columns]).max(axis=-1) > 25
-        out.append(np.count_nonzero(changed, axis=0))
+            inside &= (xy[:, 0] >= ends.min()) & (xy[:, 0] <= ends.max())
+        out.append(xy[inside])
     return out
 
 
-#: How far (points) a band must reach beyond each side of its curve to count as shown.
+def distance_to_lines(points: np.ndarray, lines: list) -> np.ndarray:
+    """Distance (pixels) of each display point to the nearest of ``lines`` (matplotlib
+    Line2D, their drawn paths, broken at NaN)."""
+    best = np.full(len(points), np.inf)
+    for line in lines:
+        xy = line.get_transform().transform(np.asarray(line.get_xydata(), float))
+        finite = np.all(np.isfinite(xy), axis=1)
+        for run in np.split(np.arange(len(xy)), np.flatnonzero(np.diff(finite.astype(int))) + 1):
+            if not finite[run[0]] or run.size < 2:
+                continue
+            a, b = xy[run[:-1]], xy[run[1:]]
+            for k in range(0, len(points), 256):
+                p = points[k:k + 256, None, :]
+                t = np.clip(np.sum((p - a) * (b - a), -1) / np.maximum(np.sum((b - a) ** 2, -1), 1e-12), 0, 1)
+                d = np.sqrt(np.min(np.sum((p - a - t[..., None] * (b - a)) ** 2, -1), axis=1))
+                best[k:k + 256] = np.minimum(best[k:k + 256], d)
+    return best
+
+
+#: How far (points) a band must reach beyond the edge of its curve to count as shown.
 MARGIN_PT = 2.0
 
 
-def check_band_claims(figure: Figure, over_the_data: bool = False) -> int:
-    """Every Monte-Carlo band of ``figure`` against its legend entry: one called narrower
-    than the line shows nowhere more than 2·MARGIN_PT beside its curve (per pixel column;
-    over the data's x range when ``over_the_data``); any other shows in 100 pixels or more,
-    at least 3 pixels tall in some column. Returns how many bands it checked."""
+def check_band_claims(figure: Figure, curve, over_the_data: bool = False) -> int:
+    """Every Monte-Carlo band of ``figure`` against its legend entry, measured on the
+    rendered pixels: one called narrower than the line changes no pixel further than
+    MARGIN_PT (+1.5 px of antialiasing) beyond the edge of its curve (the lines
+    ``curve(line)`` picks; over the data's x range when ``over_the_data``); any other
+    changes 30 pixels or more beyond that edge. Returns how many bands it checked."""
     bands = [band for ax in figure.axes for band in _band(ax)]
     ranges = []
     for band in bands:
         data = [c.get_offsets()[:, 0] for c in band.axes.collections if c.get_label().startswith("data")]
         ranges.append((data[0].min(), data[0].max()) if over_the_data and "narrower" in band.get_label() else None)
-    margin_px = 2 * MARGIN_PT * figure.dpi / 72
+    px = figure.dpi / 72
     for band, shown in zip(bands, band_pixels(figure, bands, ranges)):
+        lines = [line for line in band.axes.get_lines() if curve(line)]
+        assert lines, band.get_label()
+        width = max(line.get_linewidth() if line.get_linestyle() not in ("None", "none", "") else line.get_markersize()
+                    for line in lines) * px
+        beyond = distance_to_lines(shown, lines) - width / 2
         if "narrower than the line" in band.get_label():
-            assert shown.max(initial=0) <= margin_px, (band.get_label(), shown.max(initial=0), margin_px)
+            assert beyond.max(initial=0) <= MARGIN_PT * px + 1.5, (band.get_label(), beyond.max(initial=0))
         else:
-            assert shown.sum() >= 100 and shown.max(initial=0) >= 3, (band.get_label(), shown.sum(), shown.max())
+            assert np.count_nonzero(beyond > 1.5) >= 30, (band.get_label(), np.count_nonzero(beyond > 1.5))
     return len(bands)
+
+
+def _fit_line(line) -> bool:
+    return to_rgba(line.get_color()) == to_rgba(FIT_COLOUR)
+
+
+def _extracted_line(line) -> bool:
+    return line.get_label() == "extracted linear FRF"
 
 
 def test_a_legend_claims_a_band_only_where_it_shows(figures):
     """Every Monte-Carlo band of the archive's plots, against what its legend entry says."""
-    checked = check_band_claims(figures["identification_fit.png"], over_the_data=True)
+    checked = check_band_claims(figures["identification_fit.png"], _fit_line, over_the_data=True)
     assert "over the data" in _band(figures["identification_fit.png"].axes[0])[0].get_label()
-    checked += check_band_claims(figures["linear_frf.png"]) + check_band_claims(figures["candidate_frfs.png"])
+    checked += check_band_claims(figures["linear_frf.png"], _extracted_line)
+    checked += check_band_claims(figures["candidate_frfs.png"], _extracted_line)
     assert checked == 7
 
 
@@ -434,7 +470,7 @@ def test_a_wide_band_is_drawn_and_claimed_and_a_thin_one_is_called_narrower_than
     for figure, narrow in ((wide, False), (thin, True)):
         (band,) = _band(figure.axes[0])
         assert ("narrower than the line" in band.get_label()) == narrow
-        assert check_band_claims(figure, over_the_data=True) == 2
+        assert check_band_claims(figure, _fit_line, over_the_data=True) == 2
         legend = [t.get_text() for t in figure.legends[0].get_texts() if "Monte-Carlo" in t.get_text()]
         assert len(legend) == 1 and ("narrower than the line" in legend[0]) == narrow
 

@@ -43,49 +43,72 @@ THIN_BAND_NOTE = "narrower than the line"
 FIT_WIDTH = 1.6
 
 
-def band_fill(ax: Axes, x: ArrayLike, low: ArrayLike, high: ArrayLike, label: str, covered_by: float = FIT_WIDTH,
-              judged_over: Sequence[tuple[float, float]] | None = None, **style) -> PolyCollection:
+def band_fill(ax: Axes, x: ArrayLike, low: ArrayLike, high: ArrayLike, label: str, curve: ArrayLike | None = None,
+              covered_by: float = FIT_WIDTH, judged_over: Sequence[tuple[float, float]] | None = None,
+              **style) -> PolyCollection:
     """A 95 % band between ``low`` and ``high`` over ``x`` (a ``fill_between``, no edge),
-    remembering what it spans, the width (points) of the curve drawn over it
-    (``covered_by``) and the x intervals where it matters (``judged_over``, e.g. where
-    the data lie; None: everywhere), so :func:`label_thin_bands` can tell whether it shows."""
+    remembering what it spans, the ``curve`` drawn over it (values on ``x``; None: the
+    band's middle), that curve's width in points (``covered_by``) and the x intervals
+    where the band matters (``judged_over``, e.g. where the data lie; None: everywhere),
+    so :func:`label_thin_bands` can tell whether it shows beside the curve."""
+    x, low, high = (np.asarray(v, float) for v in (x, low, high))
     fill = ax.fill_between(x, low, high, lw=0, label=label, **style)
-    fill.nlupdate_band = (np.asarray(x, float), np.asarray(low, float), np.asarray(high, float), float(covered_by),
-                          None if judged_over is None else [tuple(map(float, i)) for i in judged_over])
+    fill.nlupdate_band = (x, low, high, (low + high) / 2 if curve is None else np.asarray(curve, float),
+                          float(covered_by), None if judged_over is None else [tuple(map(float, i)) for i in judged_over])
     return fill
 
 
-def band_thickness_pt(fill: PolyCollection) -> float:
-    """Largest thickness (points) of a :func:`band_fill` band across its middle line
-    (the vertical thickness times the cosine of the middle line's slope on the page),
-    within its axes' current x limits and its ``judged_over`` intervals; 0 when none of
-    it shows."""
-    x, low, high, _, intervals = fill.nlupdate_band
+def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """Distance of each of ``points`` (n×2) to the polyline through ``line`` (m×2, m ≥ 2)."""
+    a, b = line[:-1], line[1:]
+    d = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+    out = np.empty(len(points))
+    for start in range(0, len(points), 256):
+        p = points[start:start + 256, None, :]
+        t = np.clip(np.einsum("ijk,jk->ij", p - a[None], d) / length2[None], 0.0, 1.0)
+        nearest = a[None] + t[..., None] * d[None]
+        out[start:start + 256] = np.sqrt(np.min(np.sum((p - nearest) ** 2, axis=-1), axis=1))
+    return out
+
+
+def band_reach_pt(fill: PolyCollection) -> float:
+    """How far (points, on the page) a :func:`band_fill` band reaches from its curve: the
+    largest distance of its edges from the curve held over about 3 pixels along x (a
+    one-sample spike shows as no more than a sliver), within the axes' current limits and
+    the band's ``judged_over`` intervals; 0 when none of it is there."""
+    x, low, high, curve, _, intervals = fill.nlupdate_band
     ax = fill.axes
     lo, hi = sorted(ax.get_xlim())
-    keep = (x >= lo) & (x <= hi) & np.isfinite(low) & np.isfinite(high)
+    keep = (x >= lo) & (x <= hi) & np.isfinite(low) & np.isfinite(high) & np.isfinite(curve)
     if intervals is not None:
         keep &= np.any([(x >= a) & (x <= b) for a, b in intervals], axis=0) if intervals else False
     if ax.get_yscale() == "log":
-        keep &= (low > 0) & (high > 0)
-    if np.count_nonzero(keep) < 2:
+        keep &= (low > 0) & (high > 0) & (curve > 0)
+    finite = np.isfinite(curve) & ((curve > 0) if ax.get_yscale() == "log" else True) & (x >= lo) & (x <= hi)
+    if not np.any(keep) or np.count_nonzero(finite) < 2:
         return 0.0
-    bottom = ax.transData.transform(np.column_stack([x[keep], low[keep]]))
-    top = ax.transData.transform(np.column_stack([x[keep], high[keep]]))
-    middle = (bottom + top) / 2
-    slope = np.gradient(middle[:, 1], middle[:, 0]) if np.all(np.diff(middle[:, 0]) > 0) else 0.0
-    across = np.abs(top[:, 1] - bottom[:, 1]) / np.sqrt(1 + np.square(slope))
-    return float(np.max(across)) * 72 / fill.figure.dpi
+    line = ax.transData.transform(np.column_stack([x[finite], curve[finite]]))
+    reach = 0.0
+    for edge in (low, high):
+        points = ax.transData.transform(np.column_stack([x[keep], edge[keep]]))
+        distance = _distance_to_polyline(points, line)
+        # a spike at one sample is a sliver of a pixel: count a reach held over ~3 pixels of x
+        step = float(np.median(np.abs(np.diff(points[:, 0])))) if len(points) > 1 else 3.0
+        span = int(min(len(distance), max(1, np.ceil(3.0 / max(step, 1e-9)) + 1)))
+        held = np.lib.stride_tricks.sliding_window_view(distance, span).min(axis=1)
+        reach = max(reach, float(held.max()))
+    return reach * 72 / fill.figure.dpi
 
 
-#: How far (points) a band must reach beyond each side of its curve to show.
+#: How far (points) a band must reach beyond the edge of its curve to show.
 BAND_MARGIN_PT = 2.0
 
 
 def band_shows(fill: PolyCollection) -> bool:
-    """Whether a :func:`band_fill` band reaches :data:`BAND_MARGIN_PT` beyond each side
-    of the curve over it somewhere it is judged, at the figure's current layout."""
-    return band_thickness_pt(fill) > fill.nlupdate_band[3] + 2 * BAND_MARGIN_PT
+    """Whether a :func:`band_fill` band reaches :data:`BAND_MARGIN_PT` beyond the edge of
+    the curve over it somewhere it is judged, at the figure's current layout."""
+    return band_reach_pt(fill) > fill.nlupdate_band[4] / 2 + BAND_MARGIN_PT
 
 
 def label_thin_bands(figure: Figure) -> None:
@@ -103,7 +126,7 @@ def label_thin_bands(figure: Figure) -> None:
             if spec is None or fill.get_label().startswith("_") or THIN_BAND_NOTE in fill.get_label():
                 continue
             if not band_shows(fill):
-                where = " over the data" if spec[4] is not None else ""
+                where = " over the data" if spec[5] is not None else ""
                 fill.set_label(f"{fill.get_label()}: {THIN_BAND_NOTE}{where}")
 
 

@@ -13,8 +13,8 @@ from numpy.typing import ArrayLike
 
 from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.reporting.figures import (
-    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, band_fill, label_thin_bands, level_colours,
-    unwrapped_phase_deg,
+    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, THIN_BAND_NOTE, band_fill, label_thin_bands,
+    level_colours, unwrapped_phase_deg,
 )
 
 
@@ -93,7 +93,8 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
             ax.axvspan(a * 1e3, b * 1e3, **EXTRAPOLATION_FILL, label="_" if k else "no data")
         if band is not None:
             band_fill(ax, band.x * 1e3, *getattr(band, band_part), f"{BAND_LABEL} ({band.n_samples} fits)",
-                      judged_over=[(a * 1e3, b * 1e3) for a, b in covered], color=FIT_COLOUR, alpha=0.25)
+                      part(result.fitted_y(band.x)), judged_over=[(a * 1e3, b * 1e3) for a, b in covered],
+                      color=FIT_COLOUR, alpha=0.25)
         ax.scatter(amplitude * 1e3, part(y), **point_style, label="data (colour: force level)" if colouring else "data")
         ax.plot(grid * 1e3, np.where(solid, part(curve), np.nan), "-", color=FIT_COLOUR, lw=FIT_WIDTH,
                 label="fit where the data lie")
@@ -176,9 +177,10 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
             ax_phase.plot(f_m, unwrapped_phase_deg(h_m), ".", ms=2, color="0.55", label=label)
         if band is not None:
             label = f"{BAND_LABEL} ({band.n_samples} extractions)"
-            band_fill(ax_mag, f, *band.magnitude, label, covered_by=1.2, color=EXTRACTED_COLOUR, alpha=0.22)
+            band_fill(ax_mag, f, *band.magnitude, label, np.abs(h), covered_by=1.2, color=EXTRACTED_COLOUR,
+                      alpha=0.22)
             band_fill(ax_phase, f, phase + band.phase_offset_deg[0], phase + band.phase_offset_deg[1], label,
-                      covered_by=1.2, color=EXTRACTED_COLOUR, alpha=0.22)
+                      phase, covered_by=1.2, color=EXTRACTED_COLOUR, alpha=0.22)
         ax_mag.semilogy(f, np.abs(h), "-", color=EXTRACTED_COLOUR, lw=1.0, label="extracted linear FRF")
         ax_phase.plot(f, phase, "-", color=EXTRACTED_COLOUR, lw=1.0, label="extracted linear FRF")
         ax_mag.semilogy(f, np.abs(model), "--", color="black", lw=1.2, label="one-mode fit of each mode")
@@ -213,6 +215,13 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
             detail += f" ± {eta_stats.std:.2g}"
         ax_mag.set_title(detail, fontsize=8)
     label_thin_bands(figure)
+    if band is not None:
+        bands = [[c for c in ax.collections if BAND_LABEL in c.get_label()][0] for ax in figure.axes]
+        wide = [k for k in range(1, len(panels)) if any(THIN_BAND_NOTE not in c.get_label()
+                                                         for c in bands[2 * k:2 * k + 2])]
+        if THIN_BAND_NOTE in bands[0].get_label() and wide:  # the legend speaks for the left panel only
+            bands[0].set_label(f"{bands[0].get_label()} here; wider around mode "
+                               + ", ".join(str(k) for k in wide))
     panels[0][0].legend(fontsize=7)
     return figure
 

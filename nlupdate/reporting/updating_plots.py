@@ -206,8 +206,11 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
     side.axis("off")
     band = frfs.reference_band
     if band is not None:
-        band_fill(ax, f, *band.magnitude, f"its {BAND_LABEL}", covered_by=2.5, color="0.3", alpha=0.2)
-    ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label=reference_label)
+        # over the candidates' curves (it veils them lightly), under the reference's points
+        band_fill(ax, f, *band.magnitude, f"its {BAND_LABEL}", np.abs(np.asarray(frfs.reference)), covered_by=2.5,
+                  color="0.3", alpha=0.2, zorder=2.5)
+    ax.semilogy(f, np.abs(np.asarray(frfs.reference)), **{**MEASURED_STYLE, "ms": 2.5}, label=reference_label,
+                zorder=3)
     for name, h in frfs.curves.items():
         ax.semilogy(f, np.abs(np.asarray(h)), label=name, **{"lw": 1.2, **styles[name], "marker": ""})
     ax.set(xlabel="frequency (Hz)", ylabel=f"|H| {frfs.response_dof}/{frfs.input_dof} (m/N)", title=title)
