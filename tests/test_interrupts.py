@@ -284,6 +284,44 @@ def test_an_interrupt_python_swallowed_in_a_finaliser_is_delivered_again():
     assert "Exception ignored" not in done.stderr and "Traceback" not in done.stderr, done.stderr
 
 
+FOREIGN_HANDLER = textwrap.dedent("""
+    import os, signal, sys, time
+    import nlupdate.cli as cli
+    import nlupdate.cli.simulate as simulate
+
+    class Termination(BaseException):
+        pass
+
+    def prefects_handler(signum, frame):
+        raise Termination()
+
+    def run(args):  # as Prefect does while a flow runs: its own SIGTERM handler, and then a
+        signal.signal(signal.SIGTERM, prefects_handler)  # crash report to an API that is gone
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(10)
+        except Termination:
+            while True:  # retrying the dead API
+                time.sleep(0.1)
+
+    simulate.run = run
+    sys.exit(cli.main(["simulate", sys.argv[1], "--input-dof", "0", "--freqs", "600:850:5", "--forces", "1",
+                       "--out", "frf.parquet"]))
+""")
+
+
+def test_a_sigterm_a_library_handled_itself_still_ends_the_command(tmp_path):
+    """Prefect replaces the SIGTERM handler while a flow runs; with its API gone it kept
+    retrying and the run never ended. The deadline starts whichever handler runs."""
+    try:
+        done = subprocess.run([sys.executable, "-c", FOREIGN_HANDLER, str(TWO_DOF)], capture_output=True, text=True,
+                              timeout=60, cwd=tmp_path)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("a SIGTERM caught by another handler left the command running for 60 s") from None
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.strip().splitlines() == ["nlupdate simulate: interrupted (SIGTERM); nothing was written"]
+
+
 def test_a_killed_run_leaves_no_server_running(tmp_path):
     """SIGKILL gives the run no chance to clean up: its server notices its parent is gone."""
     process, server, port = started_run(tmp_path)
