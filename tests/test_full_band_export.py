@@ -113,3 +113,14 @@ def test_discover_finds_the_cubic_spring_in_the_full_band_export(export, tmp_pat
     assert data["effect"] == "cubic_stiffness"
     assert data["effects"][0]["parameters"]["k3"] == pytest.approx(K3, rel=0.05)
     assert data["units"]["force_level"] == "V" and "V/m³" in out  # volts stated in the JSON and the lines
+
+
+def test_amplitude_reads_the_full_band_export_within_its_band(export, tmp_path):
+    code, out, err = run("amplitude", "--measured", export, "--reference-unit", "V", "--backbone", "polynomial",
+                         "--out", tmp_path / "amp")
+    assert code == 0, err
+    assert "band 70–110 Hz found (coherence ≥ 0.8" in out and "FRFs in m/V" in out
+    model = json.loads((tmp_path / "amp" / "amplitude_model.json").read_text())
+    # the linear limit: √(k/m)/2π = 90 Hz and ζ = η/2 = 1 % at resonance (structural damping)
+    assert model["natural_frequency_hz"] == pytest.approx(90.0, rel=1e-3)
+    assert model["damping_ratio"] == pytest.approx(ETA / 2, rel=0.03)

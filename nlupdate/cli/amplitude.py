@@ -35,9 +35,12 @@ from nlupdate.cli.simulate import force_levels, frequency_grid
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "amplitude", __doc__)
-    add_measured_options(parser, "of the FRFs (lines outside it are left out before the fit) or of a modal table's "
-                                 "modes (default: all)", modal=True)
+    add_measured_options(parser, "of the FRFs (lines outside it are left out before the fit; default: the excited "
+                                 "band of the lowest level, where the coherence is ≥ 0.8 or the FRF is smooth) or of a "
+                                 "modal table's modes (default: all)", modal=True)
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
+    parser.add_argument("--response-dof", help="response coordinate of FRFs (default: the input, the driving point, "
+                                               "if measured; else the table's only response: a transfer FRF)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="mass-normalised mode shape (1/√kg) at a coordinate; needed at the input for a modal table")
     parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
@@ -94,7 +97,7 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") ->
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = (f >= f_low) & (f <= f_high)
         ax.semilogy(f[band], np.abs(h[band]), ".", ms=3, color=colours[level], label=f"measured {level:g} {unit}")
-    for level, curve in predicted.groupby("force_level_n"):
+    for level, curve in predicted[predicted["response_dof"].astype(str) == data.response_dof].groupby("force_level_n"):
         h = curve["h_real"].to_numpy() + 1j * curve["h_imag"].to_numpy()
         match = [c for lv, c in colours.items() if np.isclose(lv, level, rtol=1e-9)]
         ax.semilogy(curve["frequency_hz"], np.abs(h), "-", lw=1.4, color=match[0] if match else "black",
@@ -115,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    table, notes = measured_table(args, modal=True)
+    table, notes = measured_table(args, modal=True, find_band=True)
     print_notes(notes)
     unit = "N" if "natural_frequency_hz" in table.columns else table_reference_unit(table)
     if "natural_frequency_hz" in table.columns:
@@ -133,7 +136,13 @@ def run(args: argparse.Namespace) -> int:
         input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
         if input_dof is None:
             raise CliError(f"{sources(args)}: the table has input dofs {inputs}; choose one with --input-dof")
-        data = FRFLevels.from_table(table, input_dof, input_dof)
+        responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
+        response_dof = args.response_dof or (input_dof if input_dof in responses else
+                                             responses[0] if len(responses) == 1 else None)
+        if response_dof is None:
+            raise CliError(f"{sources(args)}: no driving-point FRF at {input_dof!r}; choose a response among {responses} "
+                           f"with --response-dof")
+        data = FRFLevels.from_table(table, response_dof, input_dof)
         samples = samples_from_frfs(data, shapes.get(input_dof))
         model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
         if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
@@ -160,6 +169,8 @@ def run(args: argparse.Namespace) -> int:
               f"beta = {j.beta:.4g}")
     if model.note:
         print(f"note: {model.note}")
+    for warning in model.warnings:
+        print(f"warning: {warning}")
     print(f"wrote {out / 'amplitude_model.json'} and the backbone plot"
           + (" and the predicted FRFs" if predicted is not None else ""))
     return 0
