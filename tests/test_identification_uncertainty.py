@@ -101,3 +101,33 @@ def test_failed_samples_are_counted_with_their_reason():
     assert 10 < stats.n_failed < 30
     assert stats.failures == {"ValueError: modal fit near 700 Hz ran to the edge of its band": stats.n_failed}
     assert stats.as_dict()["failures"] == stats.failures
+
+
+def _mean_power(data: FRFLevels):
+    class Point:
+        def parameters(self):
+            return {"power": float(np.mean(np.abs(data.receptances[0]) ** 2))}
+    return Point()
+
+
+def test_an_estimate_that_moves_with_the_noise_stays_inside_its_interval_and_is_warned_about():
+    """mean |H|² over 400 unit lines: noise of std ε|H| moves it to 1 + ε² (E|1 + n|² = 1 + ε²)
+    with a spread of about ε√2/20, so at ε = 0.3 the samples sit at 1.09 ± 0.02 and their
+    percentile interval leaves out the value 1 they were drawn around. The reported interval
+    is the value's, the shift is reported and warned about."""
+    from nlupdate.identification.trust import shift_warnings
+
+    ones = np.ones(400, dtype=complex)
+    data = FRFLevels("0", "0", np.array([1.0]), (np.arange(400.0),), (ones,))
+    stats = monte_carlo(_mean_power, data, {"power": 1.0}, 0.3, n_samples=200, seed=5).parameters
+    power = stats["power"]
+    assert power.median == pytest.approx(1.09, abs=0.01)
+    assert power.shift == pytest.approx(0.09, abs=0.01)
+    low, high = power.ci95
+    assert low <= 1.0 <= high
+    assert high - low == pytest.approx(2 * 1.96 * 0.3 * np.sqrt(2 + 0.3**2) / 20, rel=0.2)
+    [warning] = shift_warnings(stats)
+    assert warning.subject == "power" and warning.kind == "moves_with_noise"
+    unbiased = monte_carlo(_real_part, FRFLevels("0", "0", np.array([1.0]), (F,), (H,)), {"re": float(H[100].real)},
+                           0.05, n_samples=200, seed=3).parameters
+    assert shift_warnings(unbiased) == []
