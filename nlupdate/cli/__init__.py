@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "frf": "estimate first-harmonic FRFs per level from time histories",
     "identify": "identify the nonlinearity and the linear FRF (PRD or DDF method)",
     "amplitude": "amplitude-dependent modal model of one mode (backbone and damping curve)",
+    "validate": "fit on some force levels, predict the held-out ones, compare with the baseline",
     "update": "run a study (identification, updating, prediction) in this process, without Prefect",
     "discover": "find the effect a model is missing (where, which, parameters), add it and show the gap shrink",
     "archive": "list, show, compare and rerun archived runs",

@@ -1,0 +1,130 @@
+"""``nlupdate validate``: fit on some levels, predict the held-out ones (docs/methods.md §10).
+
+References, each independent of the code under test:
+
+* the resonance estimator against the closed form of a linear mode (peak frequency
+  ω_n√(1 − 2ζ²), peak 1/(2ζω_n²√(1 − ζ²)), half-power ζ);
+* the baseline at a kept level against that level's own measured curve;
+* held-out levels of an SDOF with a Jenkins joint — exactly one nonlinear mode, simulated
+  by describing-function continuation, 0.5 % noise — against the simulated curve: the
+  modal Iwan model (Jenkins is its χ → −1 limit) predicts an interior and the top level;
+* the public Brake–Reuss beam (tests/data/brb): the command's outputs as specified.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cli_runs import run_cli
+from nlupdate.identification.data import FRFLevels
+from nlupdate.model.elements import JenkinsFriction
+from nlupdate.model.linear import LumpedModel
+from nlupdate.model.system import NonlinearSystem
+from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.validation.baseline import baseline_frf, fit_level
+from nlupdate.validation.held_out import hold_out_levels, validate
+from nlupdate.validation.resonance import resonance
+from test_real_measurements import BRB, BRB_COORDINATES
+
+LEVELS = (0.01, 0.02, 0.04, 0.08, 0.16)
+
+
+@pytest.fixture(scope="module")
+def jenkins_sdof() -> FRFLevels:
+    """1 kg at 80 Hz, loss factor 0.002, Jenkins kf = 5 % of k with slip 0.02 N: stuck at
+    0.01 N, through the transition to gross slip at 0.16 N."""
+    k = (2 * np.pi * 80.0) ** 2
+    system = NonlinearSystem(LumpedModel.with_loss_factor([[1.0]], [[k]], 0.002),
+                             (JenkinsFriction((0,), 0.05 * k, 0.02),))
+    table, _ = simulate_frf_table(system, 0, np.linspace(76.0, 84.0, 161), LEVELS, noise=0.005, seed=1)
+    return FRFLevels.from_table(table, "0", "0")
+
+
+def test_resonance_of_a_linear_mode_is_its_closed_form():
+    f = np.linspace(70.0, 90.0, 2001)
+    wr, zeta = 2 * np.pi * 80.0, 0.005
+    w = 2 * np.pi * f
+    shown = resonance(f, 1 / (wr**2 - w**2 + 2j * zeta * wr * w))
+    assert shown.resonance_hz == pytest.approx(80.0 * np.sqrt(1 - 2 * zeta**2), abs=1e-4)
+    assert shown.peak_abs == pytest.approx(1 / (2 * zeta * wr**2 * np.sqrt(1 - zeta**2)), rel=1e-6)
+    assert shown.damping_ratio == pytest.approx(zeta, rel=2e-4)
+    assert shown.half_power_lines == 80 and shown.damping_resolved
+    narrow = resonance(f[(f > 79.9) & (f < 80.1)], 1 / (wr**2 - w**2 + 2j * zeta * wr * w)[(f > 79.9) & (f < 80.1)])
+    assert np.isnan(narrow.damping_ratio)  # the half-power points lie outside the band
+
+
+def test_the_baseline_gives_back_a_kept_level(jenkins_sdof):
+    data = jenkins_sdof
+    fits = [fit_level(level, *data.curve(level)) for level in data.levels]
+    for level in data.levels[1:-1]:
+        f, h = data.curve(level)
+        measured, base = resonance(f, h), resonance(f, baseline_frf(fits, level, f))
+        assert base.resonance_hz == pytest.approx(measured.resonance_hz, abs=0.01)
+        assert base.damping_ratio == pytest.approx(measured.damping_ratio, rel=0.02)
+        assert base.peak_abs == pytest.approx(measured.peak_abs, rel=0.02)
+
+
+def test_a_single_mode_joint_is_predicted_at_an_interior_and_the_top_level(jenkins_sdof):
+    """The modal Iwan model fitted on the kept levels predicts the held-out ones as the
+    simulation has them, and beats the baseline where it must extrapolate."""
+    validation = validate(jenkins_sdof, [0.04, 0.16], ["amplitude-iwan"])
+    for result in validation.held_out:
+        c = result.compared
+        assert abs(c["resonance_hz"].error) < 0.01, result.level
+        assert abs(c["damping_ratio"].relative_error) < 0.05, result.level
+        assert abs(c["peak_abs"].relative_error) < 0.02, result.level
+        assert result.kept == tuple(v for v in LEVELS if v != result.level)
+        for name in ("resonance_hz", "damping_ratio", "peak_abs"):  # a band, where the jackknife has one
+            assert c[name].inside is None or c[name].low <= c[name].predicted <= c[name].high
+        assert c["resonance_hz"].inside
+    top = validation.held_out[1]
+    assert abs(top.baseline["peak_abs"].relative_error) > 10 * abs(top.compared["peak_abs"].relative_error)
+    assert top.residual_to_noise < top.baseline_residual_to_noise
+
+
+def test_hold_out_names_levels_and_refuses_unmeasured_ones(jenkins_sdof):
+    assert hold_out_levels(jenkins_sdof, "top") == (0.16,)
+    assert hold_out_levels(jenkins_sdof, "each") == LEVELS
+    assert hold_out_levels(jenkins_sdof, "0.02,0.08") == (0.02, 0.08)
+    with pytest.raises(ValueError, match=r"hold-out level 0.5: not measured; levels \[0.01, 0.02"):
+        hold_out_levels(jenkins_sdof, "0.5")
+    with pytest.raises(ValueError, match="at least three measured levels"):
+        validate(jenkins_sdof.subset([0.01, 0.02]), "top")
+
+
+@pytest.mark.parametrize("hold_out", ["each", "top"])
+def test_the_brake_reuss_beam_held_out_as_specified(tmp_path, capsys, hold_out):
+    """validate --hold-out each|top on the real data: the files and fields the command
+    promises, one curve per held-out level, bands around every prediction."""
+    out = tmp_path / "v"
+    code, stdout, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES,
+                                "--hold-out", hold_out, "--out", out)
+    assert code == 0, err
+    levels = [0.1947, 0.4886, 0.9699, 1.46] if hold_out == "each" else [1.46]
+    summary = json.loads((out / "validation.json").read_text())
+    assert [entry["level"] for entry in summary["held_out"]] == levels
+    for entry in summary["held_out"]:
+        for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+            assert set(entry[name]) == {"measured", "predicted", "low", "high"}
+            assert set(entry["baseline"][name]) == {"measured", "predicted"}
+        assert entry["requested"] == "auto" and entry["residual_to_noise"] > 0
+        assert entry["resonance_hz"]["low"] < entry["resonance_hz"]["predicted"] < entry["resonance_hz"]["high"]
+    assert np.isfinite(summary["repeatability"]["resonance_hz_std"])
+    predicted = pd.read_parquet(out / "predicted_frf.parquet")
+    assert {"frequency_hz", "force_level_n", "response_dof", "input_dof", "h_real", "h_imag", "h_abs_low",
+            "h_abs_high"} <= set(predicted.columns)
+    assert sorted(predicted["force_level_n"].unique()) == levels
+    h = np.abs(predicted["h_real"] + 1j * predicted["h_imag"])
+    assert np.all((predicted["h_abs_low"] <= h) & (h <= predicted["h_abs_high"]))
+    assert (out / "validation.png").is_file()
+    assert len(list(out.glob("held_out_*.png"))) == len(levels)
+    assert "test repeatability" in stdout and "baseline" in stdout
+
+
+def test_validate_names_a_level_that_is_not_measured(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES,
+                           "--hold-out", "2.5", "--out", tmp_path / "v")
+    assert code == 2 and "hold-out level 2.5: not measured" in err and not (tmp_path / "v").exists()
