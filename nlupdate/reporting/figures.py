@@ -7,8 +7,10 @@ beside its target and renamed, so a reader never sees half a picture.
 
 Conventions of every plot: measured data are black (or viridis by force level) points,
 the initial model is grey and dashed, each updating run has its own colour and line
-style (:mod:`nlupdate.reporting.styles`), a shaded band is a 95 % Monte-Carlo band,
-and a grey region marks where a curve is extrapolated beyond its data.
+style (:mod:`nlupdate.reporting.styles`), a shaded band is a 95 % Monte-Carlo band
+(its legend entry says when it is narrower than the line over it: :func:`label_thin_bands`),
+a grey region marks where a curve has no data (extrapolated beyond them, or across a gap
+between them), and no text is placed on a curve.
 """
 from __future__ import annotations
 

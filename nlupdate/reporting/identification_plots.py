@@ -135,6 +135,13 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
         bar.set_label(f"force level ({unit})", fontsize=8)
         bar.ax.tick_params(labelsize=7)
     label_thin_bands(figure)
+    if band is not None:  # one legend for both panels: say which one a thin band is in
+        fills = [[c for c in ax.collections if BAND_LABEL in c.get_label()][0] for ax in axes[:2]]
+        thin = [THIN_BAND_NOTE in c.get_label() for c in fills]
+        if thin[0] != thin[1]:
+            part = "Re y" if thin[0] else "Im y"
+            for c in fills:
+                c.set_label(f"{BAND_LABEL} ({band.n_samples} fits): {THIN_BAND_NOTE} over the data in {part}")
     handles, labels = axes[0].get_legend_handles_labels()  # beside the panels: inside it would hide points
     figure.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=7)
     what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
