@@ -31,6 +31,7 @@ from nlupdate.identification.pipeline import IdentificationSettings, identify
 from nlupdate.model.elements import CubicStiffness
 from nlupdate.model.linear import LumpedModel
 from nlupdate.model.system import NonlinearSystem
+from nlupdate.reporting.report import _identification_section
 from nlupdate.response.sweep import frequency_sweep
 from nlupdate.response.time_integration import steady_state_response
 
@@ -88,6 +89,7 @@ def test_nonlinearity_at_the_measured_coordinate_passes_and_gives_the_linear_mod
         summary = ident.summary()
         assert summary["trustworthy"] is True and summary["linear_frf_consistency"]["passed"] is True
         assert ident.natural_frequencies_hz == pytest.approx(TRUTH_HZ, rel=0.005)
+        assert "NOT TRUSTWORTHY" not in "\n".join(_identification_section(ident, {}, {}))
 
 
 def _assert_flagged(ident, seed: int) -> None:
@@ -102,6 +104,8 @@ def _assert_flagged(ident, seed: int) -> None:
     assert list(summary)[:2] == ["trustworthy", "not_trustworthy_because"]
     assert summary["trustworthy"] is False and summary["not_trustworthy_because"] == [message]
     assert summary["fit"] == "poor" and summary["linear_frf_consistency"]["passed"] is False
+    section = _identification_section(ident, {}, {})  # a study's report.md
+    assert section[:3] == ["## Identification", "", f"**{message}**"]
 
 
 def test_nonlinearity_between_two_unmeasured_coordinates_is_flagged(between_unmeasured):

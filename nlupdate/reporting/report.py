@@ -156,7 +156,9 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         stats = ident.uncertainty.parameters
         parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name))}" for name, s in stats.items()
                  if name in ident.parameters()]
-        out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts))
+        out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts)
+                   + ("" if ident.trustworthy else " — **not trustworthy**: the linear FRF differs between the "
+                      "levels beyond their noise (Identification below)"))
     if result.runs and result.ranking is not None:
         best = result.ranking[result.ranking["candidate"] != "initial"].iloc[0]["candidate"]
         run = next(r for r in result.runs if r.name == best)
@@ -181,10 +183,16 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
     return out
 
 
+def _untrustworthy_lines(ident) -> list[str]:
+    """The failed placement check (:mod:`nlupdate.identification.consistency`) in bold, first."""
+    return [f"**{w.message}**" for w in ident.warnings if w.kind == "levels_disagree"] + \
+        ([""] if not ident.trustworthy else [])
+
+
 def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     s = ident.settings
     r = ident.result
-    lines = ["## Identification", ""]
+    lines = ["## Identification", ""] + _untrustworthy_lines(ident)
     if s.method == "prd":
         lines += [f"PRD at **{r.setup.frequency_hz:g} Hz** from the {r.setup.low_force:g} N (low) and "
                   f"{len(r.setup.high_forces)} high levels ({min(r.setup.high_forces):g}–{max(r.setup.high_forces):g} N), "
