@@ -94,7 +94,7 @@ def _plot_name(level: float, model: str, several: bool) -> str:
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     models = _models(args.model)
-    table, notes = measured_table(args)
+    table, notes = measured_table(args, find_band=True)
     print_notes(notes)
     data = _curve(table, args.input_dof, ", ".join(args.measured))
     try:
