@@ -19,6 +19,7 @@ measured one and m1) and the Monte-Carlo intervals of the modes.
 """
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -28,12 +29,15 @@ import scipy.linalg
 from nlupdate.identification.consistency import SPREAD_LIMIT
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.pipeline import IdentificationSettings, identify
+from nlupdate.measurement.frf_table import frf_table
 from nlupdate.model.elements import CubicStiffness
 from nlupdate.model.linear import LumpedModel
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.reporting.report import _identification_section
 from nlupdate.response.sweep import frequency_sweep
 from nlupdate.response.time_integration import steady_state_response
+
+from cli_runs import run_cli
 
 STIFFNESS = 1.6e5
 MASS = np.eye(3)
@@ -111,6 +115,20 @@ def _assert_flagged(ident, seed: int) -> None:
 def test_nonlinearity_between_two_unmeasured_coordinates_is_flagged(between_unmeasured):
     for seed in SEEDS:
         _assert_flagged(identified(between_unmeasured, ("cubic",), seed), seed)
+
+
+def test_identify_prints_the_failed_check_before_the_numbers(between_unmeasured, tmp_path, capsys):
+    noisy = between_unmeasured.with_noise(NOISE, np.random.default_rng(1))
+    table = frf_table(np.concatenate(noisy.frequencies), np.repeat(LEVELS, LINES.size), str(TIP), str(TIP),
+                      np.concatenate(noisy.receptances))
+    table.to_parquet(tmp_path / "measured.parquet")
+    code, out, _ = run_cli(capsys, "identify", "--measured", tmp_path / "measured.parquet", "--elements", "cubic",
+                           "--band", f"{LINES[0]}:{LINES[-1]}", "--samples", 2, "--out", tmp_path / "ident")
+    assert code == 0
+    lines = [line for line in out.splitlines() if not line.startswith(("measured:", "default "))]
+    assert lines[0].startswith("warning: identification: NOT TRUSTWORTHY") and "nlupdate discover" in lines[0]
+    assert lines[1].startswith("k3 = ")
+    assert json.loads((tmp_path / "ident" / "identification.json").read_text())["trustworthy"] is False
 
 
 def test_wrong_element_set_is_flagged(at_tip):
