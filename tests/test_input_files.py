@@ -31,7 +31,8 @@ def test_a_device_as_the_model_is_refused_without_reading_it(tmp_path, capsys):
     assert code == 2
     line = _one_error_line(capsys)
     assert "/dev/zero" in line and "a device" in line and "regular file" in line
-    assert time.perf_counter() - start < 5
+    # reading /dev/zero never ends; the refusal comes at once (a bound for a loaded machine)
+    assert time.perf_counter() - start < 60
     assert not (tmp_path / "frf.csv").exists()
 
 
@@ -42,13 +43,10 @@ def test_a_file_over_the_limit_is_refused_before_it_is_read(tmp_path, capsys):
     with open(huge, "wb") as stream:
         stream.truncate(2_000_000_000)
     peak_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    start = time.perf_counter()
     code = main(["identify", "--measured", str(huge), "--out", str(tmp_path / "id")])
-    elapsed = time.perf_counter() - start
     assert code == 2
     line = _one_error_line(capsys)
     assert str(huge) in line and "2000 MB" in line and "512 MB" in line and MAX_INPUT_ENV in line
-    assert elapsed < 5
     # ru_maxrss is in kB on Linux: reading the file would add 2 GB
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - peak_before < 200_000
     assert not (tmp_path / "id").exists()
