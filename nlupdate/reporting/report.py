@@ -179,8 +179,22 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         c = prediction.correlation
         out.append(f"* **Prediction** `{prediction.name}` (loss factor {_number(prediction.loss_factor, 3)}, "
                    f"{prediction.loss_factor_source}): FRAC per level min {_number(c['frac'].min(), 3)}, "
-                   f"mean {_number(c['frac'].mean(), 3)} over {len(c)} levels")
+                   f"mean {_number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
+                   + _single_frequency_levels(c))
     return out
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def _single_frequency_levels(correlation) -> str:
+    """The levels measured at single frequencies (no FRAC): their largest relative error."""
+    single = correlation[correlation["frac"].isna()]
+    if single.empty:
+        return ""
+    return (f"; {_count(len(single), 'single-frequency level')} (no FRAC): relative FRF error up to "
+            f"{_number(single['normalised_error'].max(), 3)}")
 
 
 def _untrustworthy_lines(ident) -> list[str]:
