@@ -68,14 +68,15 @@ LONGEST_MODULES = (
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
     "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
-    "test_demo_identification.py", "test_linear_frf_consistency.py", "test_time_history.py",
+    "test_validate.py", "test_demo_identification.py", "test_linear_frf_consistency.py", "test_time_history.py",
     "test_bolted_beam_example.py", "test_runner.py",
     "test_amplitude_modal.py", "test_discovery_cli.py", "test_archive_compare_studies.py", "test_readme_identify.py",
-    "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_progress.py",
+    "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_amplitude_limits.py",
+    "test_progress.py",
     "test_full_band_export.py", "test_calculix.py", "test_identification_cli.py", "test_solver_vs_time_integration.py",
     "test_reporting_plots.py", "test_frf_speed_benchmark.py", "test_identification_prd.py",
     "test_reporting_archive.py", "test_updating_stops.py", "test_time_integration.py", "test_input_expansion.py",
-    "test_server_app.py",
+    "test_identification_single_frequency.py", "test_server_app.py",
 )
 
 

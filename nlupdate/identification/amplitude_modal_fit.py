@@ -6,11 +6,15 @@ the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
 * a **modal table** (:mod:`nlupdate.measurement.modal_table`: natural frequency and damping
   ratio of the mode per force level, as a phase-resonance or one-mode analysis gives them):
   at phase resonance ``2ζω² a = |φ_f| F``, so ``a_i = |φ_f| F_i / (2ζ_i ω_i²)``;
-* **FRFs at several levels** (driving point): each level's resonance — the peak of |H|
-  after removing the other modes' share ``R − R_m/Ω²`` found by a one-mode fit of the
+* **FRFs at several levels** (driving point or transfer): each level's resonance — the peak
+  of |H| after removing the other modes' share ``R − R_m/Ω²`` found by a one-mode fit of the
   lowest level (:func:`~nlupdate.identification.modal_fit.fit_mode_near`) — gives one
   sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
-  and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). The points off the peak
+  and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
+  r ≠ input f) has the modal constant ``P = φ_rφ_f``: its response amplitude becomes the
+  driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f
+  only P is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets the scale
+  of a, which no prediction of these FRFs depends on. The points off the peak
   are not used: where a stiff joint changes the mode's shape between stuck and slipping,
   single-mode theory holds at the resonance but not on the flanks (the bolted-beam example's
   exact modal model misses its flanks by 21 % rms, its peaks by ≤ 1.1 %). Without a given
@@ -18,7 +22,14 @@ the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
   which fixes the scale of a); a polynomial one uses the lowest level's modal constant.
 
 The backbone is then fitted by weighted least squares of the relative errors of ω and ζ
-(standard deviations ``frequency_std`` and ``damping_std``, relative):
+(standard deviations ``frequency_std`` and ``damping_std``, relative). The linear limit is
+held physical: the joint only softens, so f₀ lies at or above every sample (within
+3 ``frequency_std``), and no higher above the lowest-amplitude sample f_ref than the
+softening measured over all samples, ``f₀ ≤ f_ref(1 + max((f_max − f_min)/f_ref,
+3·frequency_std))`` — an Iwan joint fitted with χ → −1 (it would slip at any amplitude)
+otherwise puts f₀ anywhere above the data. A fit that ends on that bound, or with ζ₀ below
+1 % of the lowest sample's damping ratio (the joint then takes all the damping and the
+linear damping is not determined), gets a warning on the model.
 
 * ``polynomial`` of ``order`` (linear least squares for f₀, c_k and ζ₀, d_k);
 * ``iwan``: ω₀, ζ₀ and the modal joint (K_T < ω₀², F_S, χ, β), from several starts, with
@@ -30,7 +41,7 @@ The backbone is then fitted by weighted least squares of the relative errors of 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -54,7 +65,8 @@ class ModalSamples:
 
     From FRFs, ``response_amplitude`` holds the resonance amplitude x (m) at the excited
     coordinate, so that a = x/φ_f and ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`),
-    and ``shape_free`` says φ_f was not given (an Iwan fit then fits it)."""
+    and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
+    is φ_r/φ_f of the FRFs' response (1 at the driving point)."""
 
     amplitude: NDArray[np.float64]
     frequency_hz: NDArray[np.float64]
@@ -63,6 +75,7 @@ class ModalSamples:
     input_shape: float
     response_amplitude: NDArray[np.float64] | None = None
     shape_free: bool = False
+    response_ratio: float = 1.0
 
     def with_shape(self, input_shape: float) -> "ModalSamples":
         """The same FRF samples for another φ_f (1/√kg)."""
@@ -70,7 +83,7 @@ class ModalSamples:
             raise AmplitudeModelError("only samples from FRFs (with their response amplitudes) can change their shape")
         phi, x, omega = abs(float(input_shape)), self.response_amplitude, 2 * np.pi * self.frequency_hz
         return ModalSamples(x / phi, self.frequency_hz, phi**2 * self.force_n / (2 * omega**2 * x), self.force_n, phi,
-                            x, self.shape_free)
+                            x, self.shape_free, self.response_ratio)
 
 
 def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int = 1,
@@ -96,23 +109,25 @@ def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int 
 
 def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
                       band_fraction: float = 0.1) -> ModalSamples:
-    """One backbone sample per force level from driving-point FRFs (module docstring): the
-    resonance of each level (peak of |H| within ``band_fraction`` of the lowest level's
-    resonance near ``near_hz``, refined by a parabola), after removing the other modes' share."""
-    if data.response_dof != data.input_dof:
-        raise AmplitudeModelError(f"FRFs of response {data.response_dof!r} / input {data.input_dof!r}: the samples "
-                                  "need the driving-point FRF")
+    """One backbone sample per force level from FRFs at the driving point or a transfer
+    (module docstring): the resonance of each level (peak of |H| within ``band_fraction`` of
+    the lowest level's resonance near ``near_hz``, refined by a parabola), after removing the
+    other modes' share."""
     f_low, h_low = data.frequencies[0], data.receptances[0]
     start = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
     fit = fit_mode_near(f_low, h_low, start, band_fraction=band_fraction)
     centre = float(fit.natural_frequencies_hz[0])
+    driving = data.response_dof == data.input_dof
+    constant = complex(fit.modal_constants[0])
+    if not (constant.real > 0 if driving else constant.real != 0):
+        raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} FRF "
+                                  f"({data.response_dof}/{data.input_dof}) gives a modal constant {constant:.4g}"
+                                  + ("; give input_shape" if driving else ": no resonance of this mode to sample"))
     shape_free = input_shape is None
     if shape_free:
-        constant = complex(fit.modal_constants[0])
-        if not constant.real > 0:
-            raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} N FRF gives a modal constant "
-                                      f"{constant:.4g}; give input_shape")
-        input_shape = float(np.sqrt(constant.real))
+        input_shape = float(np.sqrt(abs(constant.real)))
+    phi = abs(float(input_shape))
+    ratio = 1.0 if driving else constant.real / phi**2  # φ_r/φ_f
     peak_hz, peak_x, forces = [], [], []
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre) <= 2.5 * band_fraction * centre
@@ -129,10 +144,9 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
         forces.append(float(level))
     if len(forces) < 2:
         raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
-    x, frequency, force = np.array(peak_x), np.array(peak_hz), np.array(forces)
-    phi = abs(float(input_shape))
+    x, frequency, force = np.array(peak_x) / abs(ratio), np.array(peak_hz), np.array(forces)  # x at the driving point
     omega = 2 * np.pi * frequency
-    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free)
+    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio)
 
 
 # ---------------------------------------------------------------------------------- fitting
@@ -144,27 +158,125 @@ def _residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, dam
     return np.where(np.isfinite(out), out, 1e6)
 
 
+def _constrained_lsq(design: NDArray, target: NDArray, weights: NDArray, constraints: NDArray,
+                     bounds: NDArray) -> NDArray:
+    """Coefficients c minimising ``Σ (w (design·c − target))²`` subject to
+    ``constraints·c ≥ bounds``: SLSQP on the problem scaled to order one (the unconstrained
+    solution's magnitudes, the misfit relative to the weighted target, the constraints in
+    units of the largest target)."""
+    matrix, rhs = design * weights[:, None], target * weights
+    start = np.linalg.lstsq(matrix, rhs, rcond=None)[0]
+    if np.all(constraints @ start >= bounds):
+        return start
+    unit = float(np.max(np.abs(target)))
+    scale = np.maximum(np.abs(start), 1e-6 * unit)
+    m, norm = matrix * scale[None, :], float(rhs @ rhs)
+    g, h = constraints * scale[None, :] / unit, bounds / unit
+    solution = scipy.optimize.minimize(
+        lambda u: float(np.sum((m @ u - rhs) ** 2)) / norm, start / scale,
+        jac=lambda u: 2 * (m.T @ (m @ u - rhs)) / norm, method="SLSQP",
+        constraints=[{"type": "ineq", "fun": lambda u: g @ u - h, "jac": lambda u: g}],
+        options={"maxiter": 1000, "ftol": 1e-15})
+    return solution.x * scale
+
+
+#: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
+_POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
+
+
+#: exponents p of u = (a/a_ref)^p the polynomial backbone and damping curve are each tried
+#: in (the best fit of each is kept)
+POLYNOMIAL_EXPONENTS = (1.0, 0.5)
+
+
 def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float, damping_std: float,
                 mode: int) -> AmplitudeModalModel:
+    """Weighted least squares of f and of ζ, each against ``(a/a_ref)^p`` for the p of
+    :data:`POLYNOMIAL_EXPONENTS` that fits it best, with the backbone monotone over the
+    fitted range in the direction the samples trend (between samples spread over decades of
+    a, a free polynomial in a swings hertz away from them), the linear limit inside
+    :func:`linear_limit_range` (mirrored for a stiffening backbone), and ζ ≥ 0 over the range."""
     a_ref = float(np.max(samples.amplitude))
-    x = samples.amplitude / a_ref
-    design = x[:, None] ** np.arange(order + 1)[None, :]
-    # f_i = f₀ + Σ f₀c_k x^k: linear in (f₀, f₀c_k), weights 1/(σ_f f_i); ζ likewise
+    powers = np.arange(order + 1)
+    grid = _POLYNOMIAL_CHECKS[:, None]
+    checks = grid ** powers[None, :]
+    slope = np.where(powers[None, :] > 0, powers[None, :] * grid ** np.maximum(powers - 1, 0)[None, :], 0.0)
+    softening = np.polyfit(np.log(samples.amplitude), samples.frequency_hz, 1)[0] <= 0
+    low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
+    f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
+    first = np.eye(order + 1)[0]
+    if softening:  # f₀ within linear_limit_range, falling with a
+        limits = np.vstack([-slope, first, -first]), np.concatenate([np.zeros(len(slope)), [low, -high]])
+    else:  # a stiffening backbone, mirrored: f₀ at or below every sample, rising with a
+        top = float(samples.frequency_hz.min()) * (1 + 3 * frequency_std)
+        limits = np.vstack([slope, -first, first]), np.concatenate([np.zeros(len(slope)), [-top, 2 * f_ref - high]])
+    # f_i = f₀ + Σ f₀c_k u^k: linear in (f₀, f₀c_k), weights 1/(σ_f f_i); ζ likewise
     wf = 1 / (frequency_std * samples.frequency_hz)
-    coefficients_f = np.linalg.lstsq(design * wf[:, None], samples.frequency_hz * wf, rcond=None)[0]
     wz = 1 / (damping_std * samples.damping_ratio)
-    coefficients_z = np.linalg.lstsq(design * wz[:, None], samples.damping_ratio * wz, rcond=None)[0]
+
+    def best(target, weights, constraints):
+        fits = []
+        for exponent in POLYNOMIAL_EXPONENTS:
+            design = (samples.amplitude / a_ref)[:, None] ** (exponent * powers)[None, :]
+            c = _constrained_lsq(design, target, weights, *constraints)
+            fits.append((float(np.sum(((design @ c - target) * weights) ** 2)), exponent, c))
+        return min(fits, key=lambda fit: fit[0])
+
+    chi2_f, p_f, coefficients_f = best(samples.frequency_hz, wf, limits)
+    chi2_z, p_z, coefficients_z = best(samples.damping_ratio, wz, (checks, np.zeros(len(checks))))
     f0, z0 = float(coefficients_f[0]), float(coefficients_z[0])
-    return AmplitudeModalModel(f0, max(z0, 0.0), shapes, frequency_coefficients=tuple(coefficients_f[1:] / f0),
-                               damping_coefficients=tuple(coefficients_z[1:]), reference_amplitude=a_ref, mode=mode,
-                               note=f"polynomial backbone of order {order} fitted to amplitudes up to {a_ref:.4g} m·√kg")
+    model = AmplitudeModalModel(f0, max(z0, 0.0), shapes, frequency_coefficients=tuple(coefficients_f[1:] / f0),
+                                damping_coefficients=tuple(coefficients_z[1:]), reference_amplitude=a_ref, mode=mode,
+                                frequency_exponent=p_f, damping_exponent=p_z,
+                                note=f"polynomial backbone of order {order} in (a/a_ref)^{p_f:g} and damping curve in "
+                                     f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for "
+                                     f"{samples.amplitude.size} values each), fitted to amplitudes up to a_ref = "
+                                     f"{a_ref:.4g} m·√kg and held at their values there beyond")
+    return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0))
 
 
-def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
-    """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
-    logit(−χ) (χ ∈ (−1, 0)), log β (or fixed)."""
+def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float,
+                          fitted_zeta: float | None = None) -> tuple[str, ...]:
+    """What is unphysical or undetermined about a fitted model's linear limit (module
+    docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0 or
+    below 1 % of the damping ratio of the lowest-amplitude sample."""
+    out = []
+    low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
+    f0 = model.natural_frequency_hz
+    f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
+    if f0 >= high - 1e-3 * (high - low):
+        out.append(f"the linear limit {f0:.5g} Hz sits at or above its physical bound {high:.5g} Hz (the lowest-amplitude "
+                   f"sample's {f_ref:.5g} Hz plus the softening measured over all samples): the samples do not show "
+                   f"the joint stuck at the lowest level, so they do not determine the linear limit; measure lower "
+                   f"levels")
+    elif f0 < low - 1e-3 * (high - low):
+        out.append(f"the linear limit {f0:.5g} Hz lies below the highest sample's frequency "
+                   f"{float(samples.frequency_hz.max()):.5g} Hz: the backbone stiffens, which a joint does not do")
+    zeta = model.damping_ratio if fitted_zeta is None else fitted_zeta
+    z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
+    if zeta < 0.01 * z_ref:
+        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is below 1 % of the damping measured at the lowest "
+                   f"level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data do not "
+                   f"determine the linear damping" + (" (kept at 0)" if zeta <= 0 else ""))
+    return tuple(out)
+
+
+def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[float, float]:
+    """(lowest, highest) linear limit ω₀ (rad/s) that is physical for these samples (module
+    docstring): at or above every sample, and above the lowest-amplitude one by no more than
+    the softening measured over all of them."""
+    f = samples.frequency_hz
+    f_ref = float(f[np.argmin(samples.amplitude)])
+    margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * frequency_std)
+    return 2 * np.pi * float(f.max()) * (1 - 3 * frequency_std), 2 * np.pi * f_ref * (1 + margin)
+
+
+def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str,
+                omega_range: tuple[float, float]) -> AmplitudeModalModel:
+    """Model from unknowns: ω₀ as the logistic share of ``omega_range``, log ζ₀,
+    logit(K_T/ω₀²), then (log F_S or fixed φ_max), logit(−χ) (χ ∈ (−1, 0)), log β (or fixed)."""
     values = iter(theta)
-    w0 = float(np.exp(next(values)))
+    w0 = float(omega_range[0] + (omega_range[1] - omega_range[0]) * scipy.special.expit(next(values)))
     z0 = float(np.exp(next(values)))
     kt = float(scipy.special.expit(next(values))) * w0**2
     slip = None if "phi_max" in fixed else float(np.exp(next(values)))
@@ -182,16 +294,19 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
     unknown, as a log) is fitted too and the model's shapes carry it."""
     fixed = fixed or {}
     free_shape = samples.shape_free and samples.response_amplitude is not None
+    omega_range = linear_limit_range(samples, frequency_std)
     if free_shape:
         def unpack(t):
             phi = float(np.exp(t[-1]))
-            return _iwan_model(t[:-1], ((shapes[0][0], phi),), fixed, mode, damping), samples.with_shape(phi)
+            scaled = ((shapes[0][0], phi),) + tuple((n, v * phi / shapes[0][1]) for n, v in shapes[1:])
+            return _iwan_model(t[:-1], scaled, fixed, mode, damping, omega_range), samples.with_shape(phi)
     else:
         def unpack(t):
-            return _iwan_model(t, shapes, fixed, mode, damping), samples
+            return _iwan_model(t, shapes, fixed, mode, damping, omega_range), samples
     z_low = float(samples.damping_ratio[np.argmin(samples.amplitude)])
     a_max = float(np.max(samples.amplitude))
-    w0 = 2 * np.pi * float(np.max(samples.frequency_hz)) * 1.001
+    w0 = float(np.clip(2 * np.pi * float(np.max(samples.frequency_hz)) * 1.001, *omega_range))
+    w0_share = float(np.clip((w0 - omega_range[0]) / (omega_range[1] - omega_range[0]), 0.02, 0.98))
     best = None
     for share in (0.05, 0.3):
         for reach in (1.0, 4.0):
@@ -200,7 +315,8 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
                     kt = share * w0**2
                     phi_max = fixed.get("phi_max", reach * a_max)
                     slip = phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
-                    theta = [np.log(w0), np.log(max(min(z_low, 0.5), 1e-5)), scipy.special.logit(share)]
+                    theta = [scipy.special.logit(w0_share), np.log(max(min(z_low, 0.5), 1e-5)),
+                             scipy.special.logit(share)]
                     if "phi_max" not in fixed:
                         theta.append(np.log(slip))
                     theta.append(scipy.special.logit(-chi))
@@ -265,8 +381,9 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     if fitted_shape:
         note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
-    return AmplitudeModalModel(model.natural_frequency_hz, model.damping_ratio, shapes, joint=model.joint, mode=mode,
-                               linear_damping=law, note=note)
+    out = AmplitudeModalModel(model.natural_frequency_hz, model.damping_ratio, shapes, joint=model.joint, mode=mode,
+                              linear_damping=law, note=note)
+    return replace(out, warnings=linear_limit_warnings(out, samples, frequency_std))
 
 
 def amplitude_model_from_modal_table(table: pd.DataFrame, shapes: Sequence[tuple[str, float]], input_dof: str,
@@ -284,11 +401,22 @@ def amplitude_model_from_modal_table(table: pd.DataFrame, shapes: Sequence[tuple
 def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_shape: float | None = None,
                               order: int = 2, near_hz: float | None = None, mode: int = 1) -> AmplitudeModalModel:
     """Fit the model of the mode near ``near_hz`` (default: the lowest level's peak) to
-    driving-point FRFs at several levels, one sample per level (:func:`samples_from_frfs`).
+    driving-point or transfer FRFs at several levels, one sample per level
+    (:func:`samples_from_frfs`); the model's shapes are at the input and, for a transfer, the
+    response.
 
     Without ``input_shape`` an Iwan backbone fits the shape φ_f too; a polynomial one takes
     the lowest level's one-mode fit, which is the *stuck* mode's shape — with a stiff joint it
     differs from the shape the joint slips in (T-beam example: 2.63 against 2.79 1/√kg)."""
     samples = samples_from_frfs(data, input_shape, near_hz)
-    return fit_amplitude_model(samples, ((data.input_dof, samples.input_shape),), backbone, order,
-                               frequency_std=1e-3, damping_std=0.05, mode=mode)
+    shapes = ((data.input_dof, samples.input_shape),)
+    if data.response_dof != data.input_dof:
+        shapes += ((data.response_dof, samples.response_ratio * samples.input_shape),)
+    model = fit_amplitude_model(samples, shapes, backbone, order, frequency_std=1e-3, damping_std=0.05, mode=mode)
+    if data.response_dof == data.input_dof:
+        return model
+    split = ("the split taken equal, |φ_r| = |φ_f|, which sets the scale of the modal amplitude and of the joint's "
+             "F_S and φ_max, not any prediction of these FRFs" if samples.shape_free else
+             f"φ_f = {samples.input_shape:.4g} 1/√kg as given")
+    return replace(model, note=model.note + f"; from transfer FRFs ({data.response_dof}/{data.input_dof}), which fix only "
+                                            f"the product φ_rφ_f: {split}")

@@ -23,8 +23,13 @@ Backbones (ω(a), ζ(a)):
   the structure's damping ``ζ_lin`` is ``linear_damping = "viscous"`` (a constant modal
   damping coefficient 2ζ₀ω₀: ζ_lin = ζ₀ω₀/ω(a)) or ``"structural"`` (a loss factor on the
   stiffness: ζ_lin = ζ₀ω₀²/ω(a)²), both ζ₀ at a → 0;
-* ``polynomial`` — ``f(a) = f₀(1 + Σ_k c_k (a/a_ref)^k)``, ``ζ(a) = ζ₀ + Σ_k d_k (a/a_ref)^k``,
-  k = 1 … n, a_ref the largest amplitude it was fitted to (trust it only up to there).
+* ``polynomial`` — ``f(a) = f₀(1 + Σ_k c_k u^k)`` in ``u = (a/a_ref)^p`` and
+  ``ζ(a) = ζ₀ + Σ_k d_k v^k`` in ``v = (a/a_ref)^q``, k = 1 … n, a_ref the largest amplitude
+  it was fitted to, p and q the ``frequency_exponent`` and ``damping_exponent`` (1: a
+  polynomial in a; ½ follows a joint's ``a^(χ+1)`` softening in microslip over decades of
+  amplitude); beyond a_ref the curves are held
+  at their values there (a polynomial extrapolated turns back on itself and draws a second,
+  spurious resonance branch), and ζ is kept ≥ 0.
 
 Forced response. For a given a the excitation frequencies with ``|q| = a`` solve a
 quadratic in Ω²::
@@ -32,7 +37,9 @@ quadratic in Ω²::
     Ω² = ω²(1 − 2ζ²) ± √(P² − 4ζ²ω⁴(1 − ζ²)),     P = |φ_f F| / a,
 
 real up to the peak amplitude, where the two meet. :meth:`AmplitudeModalModel.frf` traces
-this curve over a (the branch below resonance up to the peak, the one above back down) and
+this curve over a from the smallest amplitude up to the first peak — the branch continuous
+with the linear response; where the discriminant turns real again at larger a the curve is
+not followed there — (the branch below resonance up to the peak, the one above back down) and
 reads it like a stepped-sine test: each frequency in sweep order takes the first crossing
 on a part of the curve that runs in the sweep direction, at or after the current position
 (passing a fold is a jump), and solves ``a·|D(a, Ω)| = |φ_f F|`` within that segment.
@@ -70,9 +77,11 @@ class AmplitudeModalModel:
     natural_frequency_hz, damping_ratio: the linear limit f₀ (Hz) and ζ₀ (fraction).
     shapes: the mass-normalised mode shape (1/√kg) at named coordinates, as pairs.
     joint: the modal Iwan joint of the ``iwan`` backbone (modal units, module docstring);
-    or frequency_coefficients c_k, damping_coefficients d_k (k = 1 …) and
-    reference_amplitude a_ref (m·√kg) of the ``polynomial`` backbone.
-    mode: the mode's number (1 = lowest); note: how it was obtained (free text).
+    or frequency_coefficients c_k, damping_coefficients d_k (k = 1 …), reference_amplitude
+    a_ref (m·√kg) and the exponents p, q of their variables (module docstring) of the
+    ``polynomial`` backbone.
+    mode: the mode's number (1 = lowest); note: how it was obtained (free text); warnings:
+    what the fit could not establish (one sentence each, e.g. a linear limit at its bound).
     """
 
     natural_frequency_hz: float
@@ -83,8 +92,11 @@ class AmplitudeModalModel:
     damping_coefficients: tuple[float, ...] = ()
     reference_amplitude: float = 1.0
     mode: int = 1
+    frequency_exponent: float = 1.0
+    damping_exponent: float = 1.0
     linear_damping: str = "viscous"
     note: str = field(default="", compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         f0, zeta = float(self.natural_frequency_hz), float(self.damping_ratio)
@@ -104,6 +116,9 @@ class AmplitudeModalModel:
                     "without the joint would have no stiffness)")
         if self.linear_damping not in LINEAR_DAMPING:
             raise AmplitudeModelError(f"linear_damping must be one of {list(LINEAR_DAMPING)}, got {self.linear_damping!r}")
+        for name in ("frequency_exponent", "damping_exponent"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise AmplitudeModelError(f"{name} must be > 0, got {getattr(self, name)}")
         if not (np.isfinite(self.reference_amplitude) and self.reference_amplitude > 0):
             raise AmplitudeModelError(f"reference_amplitude must be > 0 (m·√kg), got {self.reference_amplitude}")
         object.__setattr__(self, "natural_frequency_hz", f0)
@@ -143,9 +158,10 @@ class AmplitudeModalModel:
                 linear = z0 * w0 / omega if self.linear_damping == "viscous" else z0 * w0**2 / omega**2
                 zeta = linear + nu.imag / (2 * omega**2)
             return omega, zeta
-        x = a / self.reference_amplitude
-        omega = w0 * (1 + sum(c * x ** (k + 1) for k, c in enumerate(self.frequency_coefficients)))
-        zeta = z0 + sum(d * x ** (k + 1) for k, d in enumerate(self.damping_coefficients))
+        x = np.minimum(a / self.reference_amplitude, 1.0)  # held beyond a_ref
+        u, v = x**self.frequency_exponent, x**self.damping_exponent
+        omega = w0 * (1 + sum(c * u ** (k + 1) for k, c in enumerate(self.frequency_coefficients)))
+        zeta = np.maximum(z0 + sum(d * v ** (k + 1) for k, d in enumerate(self.damping_coefficients)), 0.0)
         return np.asarray(omega + 0 * x, dtype=float), np.asarray(zeta + 0 * x, dtype=float)
 
     def frequency_hz(self, amplitude: ArrayLike) -> NDArray[np.float64]:
@@ -169,7 +185,9 @@ class AmplitudeModalModel:
 
         discriminant, centre = discriminant_of(a)
         real = (discriminant >= 0) & np.isfinite(discriminant)
-        top = int(np.flatnonzero(real)[-1]) if real.any() else -1
+        # the branch continuous from the smallest amplitude: up to the first peak only
+        top = int(np.argmin(real)) - 1 if not real.all() else a.size - 1
+        real[top + 1:] = False
         if 0 <= top < a.size - 1:  # the peak, where the two branches meet, by bisection
             lo, hi = a[top], a[top + 1]
             for _ in range(60):
@@ -179,6 +197,7 @@ class AmplitudeModalModel:
             discriminant, centre = discriminant_of(a)
             discriminant[top + 1] = max(discriminant[top + 1], 0.0)
             real = (discriminant >= 0) & np.isfinite(discriminant)
+            real[top + 2:] = False
         root = np.sqrt(np.where(real, discriminant, 0.0))
         below, above = centre - root, centre + root
         keep_below = real & (below > 0)
@@ -280,9 +299,13 @@ class AmplitudeModalModel:
         else:
             out["polynomial"] = {"frequency_coefficients": list(self.frequency_coefficients),
                                  "damping_coefficients": list(self.damping_coefficients),
-                                 "reference_amplitude": self.reference_amplitude}
+                                 "reference_amplitude": self.reference_amplitude,
+                                 "frequency_exponent": self.frequency_exponent,
+                                 "damping_exponent": self.damping_exponent}
         if self.note:
             out["note"] = self.note
+        if self.warnings:
+            out["warnings"] = list(self.warnings)
         return out
 
     @classmethod
@@ -291,7 +314,7 @@ class AmplitudeModalModel:
             shapes = tuple(dict(data["shapes"]).items())
             common = dict(natural_frequency_hz=float(data["natural_frequency_hz"]),
                           damping_ratio=float(data["damping_ratio"]), shapes=shapes, mode=int(data.get("mode", 1)),
-                          note=str(data.get("note", "")))
+                          note=str(data.get("note", "")), warnings=tuple(str(w) for w in data.get("warnings", ())))
             if data.get("backbone") == "iwan":
                 j = data["joint"]
                 joint = IwanJoint((0,), slip_force=j["slip_force"], kt=j["kt"], chi=j["chi"], beta=j["beta"])
@@ -300,7 +323,9 @@ class AmplitudeModalModel:
                 p = data["polynomial"]
                 return cls(frequency_coefficients=tuple(p["frequency_coefficients"]),
                            damping_coefficients=tuple(p["damping_coefficients"]),
-                           reference_amplitude=float(p["reference_amplitude"]), **common)
+                           reference_amplitude=float(p["reference_amplitude"]),
+                           frequency_exponent=float(p.get("frequency_exponent", 1.0)),
+                           damping_exponent=float(p.get("damping_exponent", 1.0)), **common)
         except (KeyError, TypeError, ValueError) as error:
             raise AmplitudeModelError(f"{source}: not an amplitude-dependent modal model ({error})") from None
         raise AmplitudeModelError(f"{source}: 'backbone' must be one of {list(BACKBONES)}, got {data.get('backbone')!r}")
