@@ -211,3 +211,22 @@ def test_a_study_carries_the_warnings_into_manifest_report_and_identification_js
     folder = write_archive(free, tmp_path / "free", {"orchestration": "test"})
     assert json.loads((folder / "manifest.json").read_text())["warnings"] == []
     assert "Warnings" not in summary_section((folder / "report.md").read_text())
+
+
+def test_warnings_on_per_volt_data_state_volts_not_newtons():
+    """The slip force lost in the noise (test above) with the FRFs per volt — the same
+    numbers, levels in V and H in m/V: its warning speaks of V; and the Jenkins-end warning
+    of an Iwan fit gives kf = beta·kt/(1+beta) in V/m. Both said N and N/m whatever the
+    reference."""
+    import dataclasses
+
+    from nlupdate.identification.dfmodels import PhysicalModel
+    from nlupdate.identification.trust import _jenkins_end_warnings
+
+    ident = identified(dataclasses.replace(sdof_data(1.0), reference_unit="V"), 0.05, 3)
+    assert ident.reference_unit == "V"
+    warning = next(w for w in ident.warnings if w.subject == "slip_force")
+    assert warning.kind == "at_bound" and " V " in warning.message and " N" not in warning.message, warning.message
+    values = {"slip_force": 2.0, "kt": 3e5, "chi": -0.999, "beta": 1.0}
+    (jenkins,) = _jenkins_end_warnings(PhysicalModel(("iwan",)), values, "identification", "V")
+    assert "= 1.5e+05 V/m" in jenkins.message and "slip force 2 V;" in jenkins.message, jenkins.message

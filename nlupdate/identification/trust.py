@@ -138,7 +138,8 @@ def _jenkins_slots(model: PhysicalModel) -> list[tuple[str, str]]:
     return out
 
 
-def _slip_force_warnings(result: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+def _slip_force_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
+    """Slip forces the data bound from one side only; forces in ``unit`` (N, or V per volt)."""
     model = getattr(result, "physical", None) or getattr(result, "model", None)
     if not isinstance(model, PhysicalModel):
         return []
@@ -152,8 +153,8 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str) -> 
             if lower / (1 + SLIP_TOLERANCE) <= slip <= 2 * lower * (1 + SLIP_TOLERANCE):
                 out.append(TrustWarning(
                     slip_name, "at_bound",
-                    f"{slip_name} = {slip:.4g} N sits at the lower limit of what the data can show ({slip / lower:.2g} × "
-                    f"kf·A₁ = {lower:.4g} N, the slip force at which the {result.setup.low_force:g} N level would start "
+                    f"{slip_name} = {slip:.4g} {unit} sits at the lower limit of what the data can show ({slip / lower:.2g} × "
+                    f"kf·A₁ = {lower:.4g} {unit}, the slip force at which the {result.setup.low_force:g} {unit} level would start "
                     f"to slip; the fit starts at 2 × kf·A₁ or above): the data show only that the low level is stuck, "
                     f"not the slip force", source))
                 continue
@@ -162,12 +163,12 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str) -> 
             if slip >= upper / (1 + SLIP_TOLERANCE):
                 out.append(TrustWarning(
                     slip_name, "at_bound",
-                    f"{slip_name} = {slip:.4g} N is at or above kf·A_max = {upper:.4g} N (the largest measured "
+                    f"{slip_name} = {slip:.4g} {unit} is at or above kf·A_max = {upper:.4g} {unit} (the largest measured "
                     f"amplitude): no measured level slips, so the data bound the slip force from below only", source))
     return out
 
 
-def _bound_warnings(result: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
     out = []
     flagged = set()
     for name in getattr(result, "at_bound", ()):
@@ -186,7 +187,7 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str) -> list[
                 out.append(TrustWarning(name, "at_bound",
                                         f"{name} = {value:.4g} ran off to the end of the number range: the data do not "
                                         f"determine it", source))
-    return out + [w for w in _slip_force_warnings(result, values, source) if w.subject not in flagged]
+    return out + [w for w in _slip_force_warnings(result, values, source, unit) if w.subject not in flagged]
 
 
 def fit_verdict(residual: float | None, noise: float) -> tuple[str, float | None]:
@@ -263,7 +264,8 @@ def identification_warnings(identification: Any, source: str = "identification")
     values = dict(result.parameters())
     stats = identification.uncertainty.parameters
     checked = {name: stats[name].value for name in stats if not _RAW_COEFFICIENT.match(name)}
-    out = _bound_warnings(result, values, source)
+    unit = getattr(identification, "reference_unit", "N")  # V: every force-like value is per volt
+    out = _bound_warnings(result, values, source, unit)
     flagged = {w.subject for w in out}
     out += [w for w in uncertainty_warnings(checked, {n: stats[n].std for n in checked}, "Monte-Carlo", source)
             if w.subject not in flagged]
@@ -274,10 +276,10 @@ def identification_warnings(identification: Any, source: str = "identification")
     model = getattr(result, "physical", None) or getattr(result, "model", None)
     if isinstance(model, PhysicalModel) and model.note:
         out.append(TrustWarning(", ".join(name for name, _ in model.fixed), "not_identifiable", model.note, source))
-    return tuple(out + _jenkins_end_warnings(model, values, source))
+    return tuple(out + _jenkins_end_warnings(model, values, source, unit))
 
 
-def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str) -> list[TrustWarning]:
+def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
     """An Iwan joint fitted at χ → −1 is a Jenkins element (kf = βK_T/(1+β), Fs = F_S): its
     K_T and β are then not determined separately."""
     if not isinstance(model, PhysicalModel):
@@ -291,7 +293,8 @@ def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str) -> 
         out.append(TrustWarning(
             f"kt{suffix}, beta{suffix}", "not_identifiable",
             f"chi{suffix} = {chi:.4g} sits at the Jenkins end of the Iwan joint (chi → −1): it acts as a Jenkins "
-            f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} N/m and slip force {slip:.4g} N; "
+            f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} {parameter_unit('kf', unit)} and slip "
+            f"force {slip:.4g} {parameter_unit('slip_force', unit)}; "
             f"kt and beta are not determined separately (fit a jenkins element instead)", source))
     return out
 
