@@ -7,6 +7,7 @@ receptances are the chain's own, 1/(K(1 + iη) − ω²M) solved for the driven 
 """
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -16,11 +17,13 @@ from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.dfmodels import parse_elements
 from nlupdate.identification.linear_frf import locate_linear_modes
 from nlupdate.identification.partition import identify_between
+from nlupdate.measurement.frf_table import frf_table
 from nlupdate.model.elements import CubicStiffness
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.sweep import frequency_sweep
 from nlupdate.response.time_integration import steady_state_response
 
+from cli_runs import run_cli
 from test_linear_frf_consistency import K, LEVELS, LINEAR, LINES, MASS, MODES_NEAR_HZ, TIP, TRUTH_HZ
 
 K3 = 1e10
@@ -76,3 +79,26 @@ def test_on_time_integration_data_the_modes_are_the_chains():
         modes = locate_linear_modes(fit.frequency_hz, fit.h_qq, np.abs(1 / fit.h_qq), MODES_NEAR_HZ, 0.1)
         assert [float(m.natural_frequencies_hz[0]) for m in modes] == pytest.approx(TRUTH_HZ, rel=0.005)
         assert fit.parameters()["k3"] == pytest.approx(K3, rel=0.3)
+
+
+def test_identify_places_the_element_when_the_check_fails_and_the_other_end_is_measured(tmp_path, capsys):
+    """The issue's case through the command line, every response in the table: the
+    driving-point fit is flagged, and the element between m1 and m3 explains every level
+    within the noise while one between m2 and m3 does not."""
+    x = _describing_function_data()
+    rng = np.random.default_rng(1)
+    noisy = np.stack([_levels(x, dof).with_noise(0.01, rng).receptances for dof in range(3)], axis=-1)
+    table = frf_table(np.tile(LINES, LEVELS.size)[:, None], np.repeat(LEVELS, LINES.size)[:, None],
+                      np.array([["0", "1", "2"]]), str(TIP), noisy.reshape(-1, 3))
+    table.to_parquet(tmp_path / "measured.parquet")
+    code, out, _ = run_cli(capsys, "identify", "--measured", tmp_path / "measured.parquet", "--response-dof", TIP,
+                           "--elements", "cubic", "--band", f"{LINES[0]}:{LINES[-1]}", "--samples", 2,
+                           "--out", tmp_path / "ident")
+    assert code == 0 and "NOT TRUSTWORTHY" in out and "placed between 0 and 2" in out
+    summary = json.loads((tmp_path / "ident" / "identification.json").read_text())
+    assert summary["trustworthy"] is False
+    best, other = summary["element_between"]
+    assert best["dofs"] == ["0", "2"] and best["ratio_to_noise"] < 1.5
+    assert best["parameters"]["k3"] == pytest.approx(K3, rel=0.1)
+    assert best["linear_modes_hz"] == pytest.approx(TRUTH_HZ, rel=0.005)
+    assert other["dofs"] == ["1", "2"] and other["ratio_to_noise"] > 5

@@ -23,6 +23,8 @@ from nlupdate.identification.linear_frf import LINEAR_FROM
 from nlupdate.identification.pipeline import (
     MAX_MONTE_CARLO_SAMPLES, Identification, IdentificationSettings, identify,
 )
+from nlupdate.identification.dfmodels import parse_elements
+from nlupdate.identification.partition import Placement, placements
 from nlupdate.identification.prd import ESTIMATORS
 from nlupdate.identification.trust import POOR_FIT_FACTOR, fit_verdict
 from nlupdate.files import atomic_directory
@@ -145,9 +147,31 @@ def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationS
     return settings, defaults
 
 
-def write_identification(identification: Identification, data: FRFLevels, folder: Path) -> list[str]:
+def element_between(identification: Identification, table) -> list[Placement]:
+    """When the placement check failed, the identified elements placed between the driven
+    coordinate and each other measured response of the same input (the aa-partition form,
+    :mod:`nlupdate.identification.partition`), best first; empty otherwise."""
+    s = identification.settings
+    model = parse_elements(s.elements)
+    if identification.trustworthy or model is None or s.response_dof != s.input_dof:
+        return []
+    others = {}
+    for dof in sorted(set(table.loc[table["input_dof"].astype(str) == s.input_dof, "response_dof"].astype(str))):
+        if dof != s.response_dof:
+            curves = FRFLevels.from_table(table, dof, s.input_dof)
+            others[dof] = curves.within(identification.band_hz) if identification.band_hz is not None else curves
+    if not others:
+        return []
+    at_q = FRFLevels.from_table(table, s.response_dof, s.input_dof)
+    at_q = at_q.within(identification.band_hz) if identification.band_hz is not None else at_q
+    return placements(at_q, others, model, s.linear_modes_hz, s.modal_band_fraction)
+
+
+def write_identification(identification: Identification, data: FRFLevels, folder: Path,
+                         between: list[Placement] = ()) -> list[str]:
     """``identification.json``, ``linear_frf.parquet``, ``fit.png`` and ``linear_frf.png``
-    into ``folder``; returns the file names."""
+    into ``folder`` (``between``: :func:`element_between`, in the JSON as
+    ``element_between``); returns the file names."""
     s = identification.settings
     h = identification.linear_frf
     f_ref, h_ref = data.curve(identification.linear_from_level_n)
@@ -158,6 +182,8 @@ def write_identification(identification: Identification, data: FRFLevels, folder
     # FRAC on the extracted FRF's own grid (the band, coherent lines): the measured values at its lines
     summary["linear_frf"]["frac_vs_measured_at_that_level"] = frac(
         data.values(identification.linear_from_level_n, identification.linear_frequency_hz), h)
+    if between:
+        summary["element_between"] = [b.as_dict(s.response_dof, identification.noise_fraction) for b in between]
     files = [JSON_NAME, "linear_frf.parquet", "fit.png", "linear_frf.png"]
     summary["files"] = files
     title = f"{s.method.upper()} ({identification.result.estimator}), response {s.response_dof} / input {s.input_dof}"
@@ -189,8 +215,9 @@ def run(args: argparse.Namespace) -> int:
     unit = identification.reference_unit
     defaults = {**cli_defaults, **identification.defaults_used}
     identification = dataclasses.replace(identification, defaults_used=defaults)
+    between = element_between(identification, table)
     with atomic_directory(out, on_exists="replace" if args.overwrite else "error", kind="identification") as folder:
-        write_identification(identification, data, folder.path)
+        write_identification(identification, data, folder.path, between)
     out = folder.final
     for key, value in defaults.items():
         print(f"default {key}: {value}")
@@ -204,6 +231,15 @@ def run(args: argparse.Namespace) -> int:
     for warning in identification.warnings:
         if warning not in placement:
             print(f"warning: {warning}")
+    for placement in between:
+        fit = placement.fit
+        values = ", ".join(f"{name} = {value:.4g} {parameter_unit(name, unit)}".rstrip()
+                           for name, value in fit.parameters().items())
+        print(f"placed between {placement.other_dof} and {settings.response_dof} (aa-partition form, docs/methods.md "
+              f"§4): {values}; residual {100 * fit.residual_noise_fraction:.3g} % of |H| "
+              f"({fit.residual_noise_fraction / max(identification.noise_fraction, 1e-12):.3g}× the noise); linear "
+              f"modes of H_{settings.response_dof},{settings.response_dof}: "
+              f"{', '.join(f'{f:.5g}' for f in placement.modes_hz) or 'none found'} Hz")
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     if verdict == "poor":
         print(f"fit: poor — the fit's residual is {ratio:.3g}× the noise level ({POOR_FIT_FACTOR:g}× at most for a "

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from nlupdate.identification.data import FRFLevels, match_frequencies
 from nlupdate.identification.dfmodels import PhysicalModel
+from nlupdate.identification.linear_frf import locate_linear_modes
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,3 +130,39 @@ def identify_between(at_p: FRFLevels, at_q: FRFLevels, model: PhysicalModel) -> 
     used = int(np.sum(r != 0))
     ratio = float(np.sqrt(np.sum(r**2) / max(used - 3 * np.sum(np.isfinite(solution[:, 0])) - best.x.size, 1)))
     return PartitionFit(model, best.x, f, solution[:, 0], solution[:, 1], ratio)
+
+
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """The element placed between ``other_dof`` and the driven coordinate: its fit and the
+    natural frequencies (Hz) of the driving-point linear receptance it leaves."""
+
+    other_dof: str
+    fit: PartitionFit
+    modes_hz: tuple[float, ...]
+
+    def as_dict(self, driven_dof: str, noise_fraction: float) -> dict:
+        residual = self.fit.residual_noise_fraction
+        return {"dofs": [self.other_dof, driven_dof], "parameters": self.fit.parameters(),
+                "residual_noise_fraction": residual,
+                "ratio_to_noise": residual / noise_fraction if noise_fraction > 0 else None,
+                "linear_modes_hz": list(self.modes_hz)}
+
+
+def placements(at_q: FRFLevels, others: dict[str, FRFLevels], model: PhysicalModel,
+               modes_near_hz: tuple[float, ...] | None = None, band_fraction: float = 0.1) -> list[Placement]:
+    """The element between each other measured coordinate and the driven one (``at_q``: the
+    driving-point curves), best explained first (smallest residual). A coordinate whose fit
+    fails (too few common lines or levels) is left out."""
+    out = []
+    for dof, at_p in others.items():
+        try:
+            with np.errstate(all="ignore"):
+                fit = identify_between(at_p, at_q, model)
+                finite = np.isfinite(fit.h_qq)
+                modes = locate_linear_modes(fit.frequency_hz[finite], fit.h_qq[finite], np.abs(1 / fit.h_qq[finite]),
+                                            modes_near_hz, band_fraction)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        out.append(Placement(str(dof), fit, tuple(float(m.natural_frequencies_hz[0]) for m in modes)))
+    return sorted(out, key=lambda placement: placement.fit.residual_noise_fraction)

@@ -29,7 +29,11 @@ numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporti
   same at every level, within the noise (:mod:`nlupdate.identification.consistency`)?
   null when not made (a polynomial DF);
 * ``linear_frf``: the table file and the natural frequencies of the extracted linear FRF;
-* ``defaults_used``: every option that was not given and the value chosen.
+* ``defaults_used``: every option that was not given and the value chosen;
+* ``element_between`` (``nlupdate identify``, when the placement check failed and the
+  table holds other responses to the same input): the elements placed between each of
+  them and the driven coordinate by the aa-partition form
+  (:mod:`nlupdate.identification.partition`), best explained first.
 """
 from __future__ import annotations
 
