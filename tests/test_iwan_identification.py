@@ -183,3 +183,27 @@ def test_frequency_recommendation_with_an_iwan_joint_at_extreme_parameters_finds
     choice = recommend_frequency(data, model)
     assert choice.frequency_hz == 712.0, choice
     assert choice.linear_natural_frequency_hz == pytest.approx(np.sqrt(2e7) / (2 * np.pi), abs=0.5)
+
+
+def test_a_monte_carlo_sample_given_the_point_estimates_refit_model_gets_the_free_fits_result():
+    """Microslip-only data (describing-function simulation, 2 % noise): the point estimate is
+    refitted with β = 0 and φ_max fixed. A Monte-Carlo sample fits that model at once (φ_max
+    moved to its own largest amplitude) instead of the free fit it would throw away: on
+    three noise draws the parameters equal those of the full estimator (free fit, then the
+    refit) to 1e-9."""
+    from nlupdate.identification.pipeline import _fit
+
+    system = NonlinearSystem(LINEAR, (TRUTH,))
+    table, _ = simulate_frf_table(system, 0, np.linspace(703.0, 717.0, 15), [0.01] + list(np.geomspace(0.1, 0.8, 5)))
+    data = FRFLevels.from_table(add_table_noise(table, 0.02, 3), "0", "0")
+    settings = IdentificationSettings("0", "0", elements=("iwan",), frequency_hz=710.0, half_window=0.01,
+                                      estimator="improved", order=2)
+    point = _fit(data, settings, 710.0)
+    model = point.model
+    assert dict(model.fixed)["beta"] == 0.0 and "phi_max" in dict(model.fixed)
+    for seed in (1, 2, 3):
+        sample = data.with_noise(0.02, np.random.default_rng(seed))
+        full, direct = _fit(sample, settings, 710.0), _fit(sample, settings, 710.0, model)
+        assert dict(direct.model.fixed)["phi_max"] == float(np.max(direct.amplitude)) != dict(model.fixed)["phi_max"]
+        for name, value in full.parameters().items():
+            assert direct.parameters()[name] == pytest.approx(value, rel=1e-9, abs=1e-12), name

@@ -392,7 +392,16 @@ def iwan_identifiability(model: "PhysicalModel | PolynomialModel | None", p: Arr
     Below φ_max the PRD/DDF data determine the joint's χ and ``R' = K_T/((1+β)φ_max^(χ+1))``
     only (module docstring). The refit fixes β = 0 and φ_max at the largest measured
     amplitude: the smallest joint that keeps every level in microslip, so its K_T and F_S
-    are lower bounds, and χ and R' are what the data say."""
+    are lower bounds, and χ and R' are what the data say.
+
+    A model that is already such a refit (given to a Monte-Carlo sample, which skips the
+    free fit) is returned with its φ_max moved to this fit's largest amplitude when that
+    differs — the refit the free fit of the same data would have led to — else None."""
+    if isinstance(model, PhysicalModel) and model.fixed and p is not None:
+        fixed = dict(model.fixed)
+        moved = {name: float(amplitude_max) for name in fixed if name.startswith("phi_max")
+                 and fixed[name] != float(amplitude_max)}
+        return PhysicalModel(model.element_names, tuple({**fixed, **moved}.items()), model.note) if moved else None
     if not isinstance(model, PhysicalModel) or model.fixed or p is None or "iwan" not in model.element_names:
         return None
     fixed, reaches = [], []
