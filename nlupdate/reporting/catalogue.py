@@ -17,8 +17,10 @@ whole: archives are written in a temporary sibling and renamed when complete.
 """
 from __future__ import annotations
 
+import datetime as dt
 import json
 import os
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -30,6 +32,8 @@ from nlupdate.reporting.archive import MANIFEST
 from nlupdate.fingerprints import file_hash, tree_hash
 
 STATUSES = ("complete", "failed", "incomplete", "writing", "damaged")
+# a run id: ``<UTC time>-<8 hex digits>``, ``-<n>`` added when that folder existed already
+_RUN_ID = re.compile(r"(\d{8}T\d{6}Z)-([0-9a-f]{8})(?:-(\d+))?")
 
 
 class ArchiveError(ValueError):
@@ -131,8 +135,8 @@ def open_run(folder: str | os.PathLike) -> ArchivedRun:
 
 
 def find_runs(root: str | os.PathLike = "results", study: str | None = None) -> list[ArchivedRun]:
-    """Every run under ``root`` (optionally of one study), oldest first; temporary folders
-    of killed or running writers are listed as ``incomplete`` / ``writing``."""
+    """Every run under ``root`` (optionally of one study), oldest first (:func:`_run_order`);
+    temporary folders of killed or running writers are listed as ``incomplete`` / ``writing``."""
     root = Path(root)
     if not root.is_dir():
         raise ArchiveError(f"no results folder {root}")
@@ -148,15 +152,34 @@ def find_runs(root: str | os.PathLike = "results", study: str | None = None) -> 
                     runs.append(ArchivedRun(folder, study_folder.name, folder.name, "damaged", reason=str(error)))
     if study is not None:
         runs = [r for r in runs if r.study == study or r.folder.parent.name == study]
-    return sorted(runs, key=lambda r: (r.started or r.run_id.removeprefix(".tmp-"), r.run_id))
+    return sorted(runs, key=_run_order)
+
+
+def _run_order(run: ArchivedRun) -> tuple:
+    """Oldest first to the second (the run id's resolution); runs of one second by id, an
+    original before its ``-1``, ``-2``, … ``-10`` (which may have started a moment earlier
+    but was written later)."""
+    named = _RUN_ID.fullmatch(run.run_id)
+    second = named.group(1) if named else run.run_id.removeprefix(".tmp-")
+    if run.started:
+        try:
+            second = f"{dt.datetime.fromisoformat(run.started).astimezone(dt.timezone.utc):%Y%m%dT%H%M%SZ}"
+        except ValueError:
+            second = run.started
+    if named:
+        return second, named.group(2), int(named.group(3) or 0), run.started, run.run_id
+    return second, run.run_id, 0, run.started, run.run_id
 
 
 def resolve_run(spec: str, root: str | os.PathLike = "results") -> ArchivedRun:
-    """A run named by its folder or by an unambiguous prefix of its id under ``root``."""
+    """A run named by its folder, its whole id, or an unambiguous prefix of its id under ``root``."""
     path = Path(spec)
     if path.is_dir():
         return open_run(path)
     matches = [r for r in find_runs(root) if r.run_id.startswith(spec) and r.status not in ("incomplete", "writing")]
+    exact = [r for r in matches if r.run_id == spec]
+    if exact:  # a whole id names its run, though ``<id>-1`` starts with it too
+        matches = exact
     if not matches:
         raise ArchiveError(f"no run folder {spec!r} and no run id under {root} starts with {spec!r} "
                            f"(see `nlupdate archive list --root {root}`)")
