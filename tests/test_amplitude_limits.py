@@ -88,3 +88,20 @@ def test_an_iwan_backbone_keeps_its_linear_limit_near_the_lowest_level_and_says_
         a = np.geomspace(samples.amplitude.min() / 10, samples.amplitude.max() * 10, 400)
         backbone_hz = model.frequency_hz(a)
         assert np.all(np.diff(backbone_hz) <= 1e-9), backbone  # softening throughout: no second branch
+
+
+def test_a_model_of_frfs_per_volt_states_volts(measured, tmp_path, capsys):
+    """The same FRFs with the excitation voltage as reference (levels in V, H in m/V): the
+    joint's slip force is printed and written per volt (V/√kg), never in newtons."""
+    import json
+
+    from nlupdate.cli import main
+    from nlupdate.measurement.frf_files import write_frf_table
+
+    per_volt = measured.assign(reference_unit="V")
+    write_frf_table(per_volt[per_volt["response_dof"] == "a"].reset_index(drop=True), tmp_path / "v.parquet")
+    assert main(["amplitude", "--measured", str(tmp_path / "v.parquet"), "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert "slip_force" in printed and "V/√kg" in printed and "N/√kg" not in printed, printed
+    model = json.loads((tmp_path / "out" / "amplitude_model.json").read_text())
+    assert model["reference_unit"] == "V" and model["joint"]["units"].startswith("modal: slip_force V/sqrt(kg)")

@@ -13,6 +13,7 @@ DIR/predicted_frf.png against the measured curves.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -154,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
             predicted["reference_unit"] = unit  # FRFs per volt, as the measurement
     with atomic_directory(out, on_exists="replace") as archive:
         folder = archive.path
-        write_amplitude_model(model, folder / "amplitude_model.json")
+        write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
         _plot_backbone(model, samples, folder / "backbone.png")
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")

@@ -81,7 +81,9 @@ class AmplitudeModalModel:
     a_ref (m·√kg) and the exponents p, q of their variables (module docstring) of the
     ``polynomial`` backbone.
     mode: the mode's number (1 = lowest); note: how it was obtained (free text); warnings:
-    what the fit could not establish (one sentence each, e.g. a linear limit at its bound).
+    what the fit could not establish (one sentence each, e.g. a linear limit at its bound);
+    reference_unit: "N", or "V" for a model of FRFs per volt (forces, the joint's F_S and the
+    shapes' N then per volt: V where N would stand).
     """
 
     natural_frequency_hz: float
@@ -97,6 +99,7 @@ class AmplitudeModalModel:
     linear_damping: str = "viscous"
     note: str = field(default="", compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)
+    reference_unit: str = "N"
 
     def __post_init__(self) -> None:
         f0, zeta = float(self.natural_frequency_hz), float(self.damping_ratio)
@@ -114,6 +117,8 @@ class AmplitudeModalModel:
                 raise AmplitudeModelError(
                     f"joint kt = {self.joint.kt:.4g} rad²/s² must be below ω₀² = {(2 * np.pi * f0) ** 2:.4g} (the mode "
                     "without the joint would have no stiffness)")
+        if self.reference_unit not in ("N", "V"):
+            raise AmplitudeModelError(f"reference_unit must be 'N' or 'V', got {self.reference_unit!r}")
         if self.linear_damping not in LINEAR_DAMPING:
             raise AmplitudeModelError(f"linear_damping must be one of {list(LINEAR_DAMPING)}, got {self.linear_damping!r}")
         for name in ("frequency_exponent", "damping_exponent"):
@@ -289,12 +294,15 @@ class AmplitudeModalModel:
             "kind": "amplitude_dependent_mode", "mode": self.mode, "backbone": self.backbone,
             "natural_frequency_hz": self.natural_frequency_hz, "damping_ratio": self.damping_ratio,
             "shapes": {name: value for name, value in self.shapes},
-            "units": "modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg), frequencies in Hz",
+            "units": "modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg), frequencies in Hz"
+                     + ("; per volt: the levels are in V and every N of the forces and of the joint's slip_force is V"
+                        if self.reference_unit == "V" else ""),
+            "reference_unit": self.reference_unit,
         }
         if self.joint is not None:
             j = self.joint
             out["joint"] = {"slip_force": j.slip_force, "kt": j.kt, "chi": j.chi, "beta": j.beta,
-                            "units": "modal: slip_force N/sqrt(kg), kt rad^2/s^2"}
+                            "units": f"modal: slip_force {self.reference_unit}/sqrt(kg), kt rad^2/s^2"}
             out["linear_damping"] = self.linear_damping
         else:
             out["polynomial"] = {"frequency_coefficients": list(self.frequency_coefficients),
@@ -314,7 +322,8 @@ class AmplitudeModalModel:
             shapes = tuple(dict(data["shapes"]).items())
             common = dict(natural_frequency_hz=float(data["natural_frequency_hz"]),
                           damping_ratio=float(data["damping_ratio"]), shapes=shapes, mode=int(data.get("mode", 1)),
-                          note=str(data.get("note", "")), warnings=tuple(str(w) for w in data.get("warnings", ())))
+                          note=str(data.get("note", "")), warnings=tuple(str(w) for w in data.get("warnings", ())),
+                          reference_unit=str(data.get("reference_unit", "N")))
             if data.get("backbone") == "iwan":
                 j = data["joint"]
                 joint = IwanJoint((0,), slip_force=j["slip_force"], kt=j["kt"], chi=j["chi"], beta=j["beta"])
