@@ -103,6 +103,21 @@ def test_failed_samples_are_counted_with_their_reason():
     assert stats.as_dict()["failures"] == stats.failures
 
 
+def test_a_sample_that_divides_by_zero_is_counted_not_fatal():
+    """A draw whose fit divides by zero (an element's parameters at the ends of their range)
+    fails that sample, named; it used to end the whole identification."""
+    data = FRFLevels("0", "0", np.array([1.0]), (F,), (H,))
+
+    def estimate(d):
+        if d.receptances[0][0].real > H[0].real:
+            return {"re": 1.0 / 0.0}
+        return {"re": float(d.receptances[0][0].real)}
+
+    stats = monte_carlo(estimate, data, {"re": float(H[0].real)}, 0.05, n_samples=40, seed=1)
+    assert 10 < stats.n_failed < 30
+    assert stats.failures == {"ZeroDivisionError: float division by zero": stats.n_failed}
+
+
 def _mean_power(data: FRFLevels):
     class Point:
         def parameters(self):

@@ -144,7 +144,7 @@ def _one_sample(estimate: Callable, data: FRFLevels, fraction: float, seed: int)
     """The sample's values, or why it failed (one line)."""
     try:
         value = estimate(data.with_noise(fraction, np.random.default_rng(seed)))
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as error:
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as error:  # ArithmeticError: 1/0, overflow too
         return f"{type(error).__name__}: {error}".splitlines()[0]
     return value if isinstance(value, Mapping) else value.parameters()
 
