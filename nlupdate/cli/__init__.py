@@ -61,9 +61,12 @@ def plain(docstring: str) -> str:
     return text.replace("``", "").strip()
 
 
-def add_command(subparsers: argparse._SubParsersAction, name: str, docstring: str) -> argparse.ArgumentParser:
-    """A sub-command whose ``--help`` shows ``docstring`` as plain text (first line = summary)."""
-    return subparsers.add_parser(name, help=COMMANDS[name], description=plain(docstring),
+def add_command(subparsers: argparse._SubParsersAction, name: str, docstring: str,
+                add_help: bool = True) -> argparse.ArgumentParser:
+    """A sub-command whose ``--help`` shows ``docstring`` as plain text (first line = summary):
+    the module docstring is the user's help, so it speaks of options and files, not of
+    the code (``tests/test_help_texts.py`` checks)."""
+    return subparsers.add_parser(name, help=COMMANDS[name], description=plain(docstring), add_help=add_help,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
 
 

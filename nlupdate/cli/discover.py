@@ -2,9 +2,10 @@
 
 Reads a model file and measurements at several force levels (a measured-FRF table:
 .parquet, .csv, .uff or .mat; or a modal table: .csv with columns force_level_n, mode,
-natural_frequency_hz, damping_ratio), runs :func:`nlupdate.discovery.discover` and writes
-``DIR/discovery.json``, ``DIR/augmented_model.toml`` and plots
-(:mod:`nlupdate.discovery.outputs`). The folder appears only when complete.
+natural_frequency_hz, damping_ratio), tries the candidate effects at every place the
+model offers and writes ``DIR/discovery.json``, ``DIR/augmented_model.toml`` (the model with
+the effect added) and plots. The folder appears only when complete. Method and outputs:
+docs/discovery.md.
 """
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ controller, and one column per response coordinate; UFF 58 time records, functio
 least squares, harmonic distortion reported), sine sweeps (first harmonic tracked along
 the instantaneous frequency; keep the sweep rate below 0.5·(ζ f_r)² Hz/s for 2 %) or
 random/burst excitation (H1 with coherence). The methods and their limits:
-nlupdate.measurement.time_history and docs/measured-data.md.
+docs/measured-data.md.
 """
 from __future__ import annotations
 

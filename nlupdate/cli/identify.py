@@ -4,9 +4,10 @@ PRD (default) or DDF on one (response, input) pair of a measured-FRF table. Writ
 ``DIR/identification.json``, ``DIR/linear_frf.parquet`` (force_level_n = 0 means
 "linear"), ``DIR/fit.png`` and ``DIR/linear_frf.png``; the folder is written atomically.
 Every option left out is filled by a default that is printed and listed in the JSON
-under ``defaults_used``. The work is :func:`nlupdate.identification.pipeline.identify`;
-this module maps options to its settings and writes the folder.
+under ``defaults_used``. Methods: docs/methods.md.
 """
+# The work is nlupdate.identification.pipeline.identify; this module maps options to its
+# settings and writes the folder.
 from __future__ import annotations
 
 import argparse
@@ -46,7 +47,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--method", choices=("prd", "ddf"), default="prd", help="identification method (default prd)")
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
     parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving point)")
-    parser.add_argument("--frequency", type=float, help="PRD excitation frequency in Hz (default: recommended, see docs)")
+    parser.add_argument("--frequency", type=float,
+                        help="PRD excitation frequency in Hz (default: the measured frequency nearest the natural "
+                             "frequency of the extracted linear FRF)")
     parser.add_argument("--low-force", type=float,
                         help="PRD low force level in the reference unit (N, or V for FRFs per volt; default: lowest)")
     parser.add_argument("--high-forces",

@@ -34,7 +34,7 @@ def add_execution_options(parser: argparse.ArgumentParser) -> None:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "run", __doc__)
-    parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
+    parser.add_argument("study", metavar="STUDY.toml", help="study file (docs/study-files.md)")
     parser.add_argument("--out", default="results", metavar="DIR", help="archive root (default ./results)")
     add_execution_options(parser)
     parser.set_defaults(run=run)

@@ -36,12 +36,45 @@ USAGE = ("nlupdate schedule STUDY.toml (--cron EXPR | --interval SECONDS) [optio
          "       nlupdate schedule delete NAME")
 
 
+#: ``schedule list --help`` and ``schedule delete --help``: the action's own usage and text
+#: (the positional ACTION is not a sub-parser, so argparse alone would print the whole help).
+ACTION_HELP = {
+    "list": ("nlupdate schedule list [--json]",
+             "The scheduled studies: schedule, next run (UTC), study file and results folder.\n"
+             "Needs the Prefect server the schedules live in (see 'nlupdate schedule --help').",
+             [("--json", "print JSON instead of lines")]),
+    "delete": ("nlupdate schedule delete NAME",
+               "Remove the scheduled study NAME; its future runs go with it (archives of past\n"
+               "runs stay). 'nlupdate schedule list' names the scheduled studies.",
+               [("NAME", "the scheduled study to delete")]),
+}
+
+
+class _HelpAction(argparse.Action):
+    """``-h``: the help of the action named before it (list, delete), else the whole help."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        action = getattr(namespace, "target", None)
+        if action in ACTION_HELP:
+            usage, text, items = ACTION_HELP[action]
+            width = max(len(name) for name, _ in items) + 4
+            print(f"usage: {usage}\n\n{text}\n\n" + "\n".join(f"  {name:<{width}}{help}" for name, help in items))
+        else:
+            parser.print_help()
+        parser.exit()
+
+
 NOTE = "stopped serving; the schedules stay registered (nlupdate schedule list); a run in progress, if any, was stopped"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = add_command(subparsers, "schedule", __doc__)
+    parser = add_command(subparsers, "schedule", __doc__, add_help=False)
     parser.usage = USAGE
+    parser.add_argument("-h", "--help", action=_HelpAction,
+                        help="show this help (after list or delete: that action's help) and exit")
     parser.add_argument("target", metavar="STUDY.toml | list | delete", help="study file to schedule, or an action")
     parser.add_argument("name_to_delete", nargs="?", metavar="NAME", help="the scheduled study to delete (with delete)")
     parser.add_argument("--cron", metavar="EXPR", help='cron expression, e.g. "0 2 * * *" (minute hour day month weekday)')

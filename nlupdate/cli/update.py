@@ -1,7 +1,7 @@
 """``nlupdate update``: run a study in this process, in order, without Prefect.
 
-The same steps as ``nlupdate run`` (:mod:`nlupdate.study.steps`), one after another, no
-server, no cache; the archive (tables, plots, report, manifest) goes to ``--out``.
+The same steps as ``nlupdate run``, one after another, no server, no cache; the archive
+(tables, plots, report, manifest) goes to ``--out``.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from nlupdate.study import inputs_read_once, load_study, run_study
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "update", __doc__)
-    parser.add_argument("study", metavar="STUDY.toml", help="study file (see nlupdate.study.spec)")
+    parser.add_argument("study", metavar="STUDY.toml", help="study file (docs/study-files.md)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
     parser.add_argument("--quiet", action="store_true", help="print only the results, not each step")
