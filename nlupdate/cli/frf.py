@@ -59,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
     if args.window_cycles < 2:
         raise CliError(f"--window-cycles {args.window_cycles:g}: expected at least 2 cycles")
     band = parse_band(args.band)
+    for option, value in (("--sample-rate", args.sample_rate), ("--reference-calibration", args.reference_calibration)):
+        if value is not None and not value > 0:
+            raise CliError(f"{option} {value:g}: expected a number > 0")
     reference = args.reference
     if args.reference_unit is not None:
         stated = {"N": "force", "V": "voltage"}[args.reference_unit]
@@ -66,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"--reference {reference} and --reference-unit {args.reference_unit} contradict each other")
         reference = stated
     args.interrupt_note = f"nothing was written to {out}"
-    records = [read_time_record(path, args.sample_rate or None, reference) for path in args.records]
+    records = [read_time_record(path, args.sample_rate, reference) for path in args.records]
     input_dof = args.input_dof or ("force" if records[0].reference_unit == "N" else "voltage")
     if args.input_dof is None:
         print(f"default input_dof: {input_dof} (the reference column)")
@@ -85,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
               f"left out")
         table = table[inside].reset_index(drop=True)
     unit = table_reference_unit(table)
-    if args.reference_calibration:
+    if args.reference_calibration is not None:
         if unit != "V":
             raise CliError("--reference-calibration applies to a voltage reference; these records have a force column")
         table, unit = calibrated(table, args.reference_calibration, str(out)), "N"

@@ -30,6 +30,14 @@ value, and a ``level`` column when several levels share a file)
     to tell; nothing is discarded). A record whose sample rate puts harmonic 3 of a dwell
     at or above the Nyquist frequency is refused (the fit would alias; a time column in ms
     instead of s does that).
+    **Checks**: the reference's first harmonic must carry at least half its power
+    (:data:`REFERENCE_POWER_SHARE`; else the logged frequency or the sample rate is wrong
+    and the record is refused, naming the frequency the reference does oscillate at); a
+    harmonic distortion of the response or the reference above 10 %
+    (:data:`DISTORTION_WARNING`: clipping, a saturated channel, a strong nonlinearity) is
+    warned about, and a dwell where it exceeds 100 % (:data:`DISTORTION_LIMIT`: the
+    harmonics outweigh the first) is left out with a warning; a channel that is 0 at
+    every sample is refused.
 Sine sweep (no ``frequency_hz`` column, a reference of constant envelope)
     The reference's instantaneous phase φ(t) is the unwrapped phase of its analytic signal
     (Hilbert transform), smoothed by a quadratic in t over each window; in windows of
@@ -78,6 +86,13 @@ RESPONSE_QUANTITIES = {"displacement": 0, "velocity": 1, "acceleration": 2}
 SWEEP_RATE_LIMIT = 0.1
 #: a dwell shorter than this (4 blocks of at least 4 periods) is too short for the transient rule
 MIN_SETTLE_PERIODS = 16
+#: a dwell whose response or reference has a harmonic distortion (√Σ_{h=2,3}|X_h|²/|X₁|) above
+#: DISTORTION_WARNING is warned about; above DISTORTION_LIMIT (harmonics as large as the first)
+#: the dwell is left out: its first harmonic does not describe the signal
+DISTORTION_WARNING = 0.10
+DISTORTION_LIMIT = 1.0
+#: the reference's first harmonic at the dwell frequency carries at least this share of its power
+REFERENCE_POWER_SHARE = 0.5
 _SETTLE_TOLERANCE = 2e-3
 _MOVING_TOLERANCE = 1e-2
 _HARMONICS = 3
@@ -126,11 +141,16 @@ def _record_from_columns(columns: dict[str, np.ndarray], source: str, sample_rat
     Trailing samples where every signal is exactly 0 (padding some exports add) are dropped."""
     columns = {str(name).strip().lower() if str(name).strip().lower() in _RESERVED + ("fs",) else str(name).strip():
                value for name, value in columns.items()}
+    if columns and all(np.asarray(v).size == 0 for v in columns.values()):
+        raise TimeHistoryError(f"{source}: no samples: the columns {sorted(columns)} hold no values (a header "
+                               f"without data rows)")
+    if sample_rate_hz is not None and not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        raise TimeHistoryError(f"{source}: sample rate {sample_rate_hz:g} Hz: expected a number > 0 (Hz)")
     if "time_s" not in columns:
         rate = sample_rate_hz
-        if rate is None and "fs" in columns and np.ptp(np.asarray(columns["fs"], float)) == 0:
-            rate = float(np.asarray(columns["fs"], float)[0])
-        if rate is None or not rate > 0:
+        if rate is None and "fs" in columns:
+            rate = _fs_column(columns["fs"], source)
+        if rate is None:
             raise TimeHistoryError(f"{source}: no 'time_s' column (sample times in s) and no sample rate (give "
                                    f"--sample-rate HZ); found {sorted(columns)}")
         columns["time_s"] = np.arange(len(next(iter(columns.values())))) / rate
@@ -170,8 +190,32 @@ def _record_from_columns(columns: dict[str, np.ndarray], source: str, sample_rat
     responses = {name: v for name, v in numbers.items() if name not in _RESERVED}
     if not responses:
         raise TimeHistoryError(f"{source}: no response column (one per response coordinate, named by its header)")
+    for name in (chosen, *responses):
+        if not np.any(numbers[name]):
+            what = "the reference" if name == chosen else "the response"
+            raise TimeHistoryError(f"{source}: column '{name}' ({what}) is 0 at every sample: nothing was recorded "
+                                   f"on that channel; expected a measured signal")
     return TimeRecord(source, time, numbers[chosen], "N" if chosen == "force" else "V", responses,
                       numbers.get("frequency_hz"), numbers.get("level"))
+
+
+def _fs_column(values: object, source: str) -> float:
+    """The sample rate (Hz) a constant ``Fs`` column states; an error naming the column
+    when it varies or is not a number > 0."""
+    array = np.asarray(values)
+    try:
+        array = array.astype(float).ravel()
+    except (TypeError, ValueError):
+        raise TimeHistoryError(f"{source}: column 'Fs' (sample rate) holds text; expected one number > 0 in Hz, the "
+                               f"same in every row") from None
+    finite = array[np.isfinite(array)]
+    if finite.size < array.size or np.ptp(array) != 0:
+        shown = f"{finite.min():g}…{finite.max():g} Hz" if finite.size else "no finite value"
+        raise TimeHistoryError(f"{source}: column 'Fs' (sample rate) varies ({shown}); expected one number > 0 in Hz, "
+                               f"the same in every row (or a 'time_s' column, or --sample-rate HZ)")
+    if not array[0] > 0:
+        raise TimeHistoryError(f"{source}: column 'Fs' (sample rate) is {array[0]:g}; expected a number > 0 in Hz")
+    return float(array[0])
 
 
 def _uff_record(data: bytes, path: Path) -> TimeRecord:
@@ -340,6 +384,35 @@ def _check_sample_rate(record: TimeRecord, logged_hz: float) -> None:
                                f"frequency); 'time_s' gives {rate:.6g} Hz — are the times in seconds?")
 
 
+def _distortion(phasors: NDArray[np.complex128]) -> float:
+    """√Σ_{h≥2}|X_h|² / |X₁| (inf when the first harmonic is 0)."""
+    first = abs(phasors[0])
+    higher = float(np.sqrt(np.sum(np.abs(phasors[1:]) ** 2)))
+    return higher / first if first > 0 else math.inf
+
+
+def _check_reference_harmonic(record: TimeRecord, logged_hz: float, t: NDArray, force: NDArray,
+                              first: complex) -> None:
+    """:class:`TimeHistoryError` unless the reference's first harmonic at the dwell frequency
+    carries at least :data:`REFERENCE_POWER_SHARE` of its (mean-free) power: a wrong logged
+    frequency or sample rate puts the fit where the excitation is not."""
+    where = f"{record.source}: the dwell at {logged_hz:g} Hz"
+    varying = force - force.mean()
+    power = float(np.mean(varying**2))
+    if power == 0:
+        raise TimeHistoryError(f"{where}: the reference is constant ({force.mean():g}) over the dwell: no excitation "
+                               f"recorded; expected a sine at the dwell frequency")
+    share = 0.5 * abs(first) ** 2 / power
+    if share < REFERENCE_POWER_SHARE:
+        spectrum = np.abs(np.fft.rfft(varying))
+        spectrum[0] = 0.0
+        dominant = float(np.fft.rfftfreq(varying.size, t[1] - t[0])[np.argmax(spectrum)])
+        raise TimeHistoryError(
+            f"{where}: the reference's first harmonic at that frequency carries {100 * share:.2g} % of its power "
+            f"(expected ≥ {100 * REFERENCE_POWER_SHARE:g} %); the reference oscillates at about {dominant:.4g} Hz — "
+            f"is the logged 'frequency_hz' or the sample rate wrong?")
+
+
 def stepped_sine_frf(record: TimeRecord, power: int) -> tuple[list[dict], list[str]]:
     """Rows (one per dwell and response) of the stepped-sine estimate; notes."""
     rows, notes = [], []
@@ -363,15 +436,41 @@ def stepped_sine_frf(record: TimeRecord, power: int) -> tuple[list[dict], list[s
         basis = _harmonic_basis(t, frequency, _HARMONICS)
         f_coefficients, f_variance = _fit(basis, force)
         f_phasors = _phasors(f_coefficients, _HARMONICS)
+        _check_reference_harmonic(record, logged, t, force, f_phasors[0])
+        where = f"{record.source}: the dwell at {logged:g} Hz"
+        if _distortion(f_phasors) > DISTORTION_LIMIT:
+            notes.append(f"{where} left out: the reference's harmonic distortion is {100 * _distortion(f_phasors):.3g} %, "
+                         f"above {100 * DISTORTION_LIMIT:g} %: its first harmonic does not describe the excitation")
+            continue
+        if _distortion(f_phasors) > DISTORTION_WARNING:
+            notes.append(f"{where}: the reference's harmonic distortion is {100 * _distortion(f_phasors):.3g} % (above "
+                         f"{100 * DISTORTION_WARNING:g} %): a clipped or saturated force or amplifier channel?")
+        dwell_rows = []
         for name, signal in record.responses.items():
             x_coefficients, x_variance = _fit(basis, signal[span][start:])
             x_phasors = _phasors(x_coefficients, _HARMONICS)
+            if not np.any(signal[span][start:]):
+                raise TimeHistoryError(f"{where}: the response '{name}' is 0 at every sample of the dwell; expected a "
+                                       f"measured signal")
+            distortion = _distortion(x_phasors)
+            if distortion > DISTORTION_LIMIT:
+                notes.append(f"{where} left out: the harmonic distortion of '{name}' is {100 * distortion:.3g} %, above "
+                             f"{100 * DISTORTION_LIMIT:g} %: its first harmonic does not describe the response")
+                dwell_rows = None
+                break
+            if distortion > DISTORTION_WARNING:
+                notes.append(f"{where}: the harmonic distortion of '{name}' is {100 * distortion:.3g} % (above "
+                             f"{100 * DISTORTION_WARNING:g} %): the first-harmonic FRF describes the response only in "
+                             f"part (a strong nonlinearity, or a clipped or saturated channel)")
             h = x_phasors[0] / f_phasors[0]
             relative = math.sqrt(4 * x_variance / (t.size * abs(x_phasors[0]) ** 2)
                                  + 4 * f_variance / (t.size * abs(f_phasors[0]) ** 2))
-            rows.append({"frequency_hz": frequency, "response_dof": name, "h": h, "h_std": abs(h) * relative,
-                         "level_achieved": abs(f_phasors[0]), "level_key": level,
-                         "harmonic_distortion": float(np.sqrt(np.sum(np.abs(x_phasors[1:]) ** 2)) / abs(x_phasors[0]))})
+            dwell_rows.append({"frequency_hz": frequency, "response_dof": name, "h": h, "h_std": abs(h) * relative,
+                               "level_achieved": abs(f_phasors[0]), "level_key": level,
+                               "harmonic_distortion": distortion})
+        rows += dwell_rows or []
+    if dwells and not rows:
+        raise TimeHistoryError(f"{record.source}: every dwell was left out, the first because {notes[-1].split(' left out: ')[-1]}")
     for row in rows:
         row["h"] = _to_receptance(row["h"], row["frequency_hz"], power)
         row["h_std"] = row["h_std"] / (2 * np.pi * row["frequency_hz"]) ** power
