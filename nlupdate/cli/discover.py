@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
             summary = json.loads((archive.path / DISCOVERY_JSON).read_text())
             write_json({**summary, "units": units_block(unit)}, archive.path / DISCOVERY_JSON)
     found = ", ".join(
-        f"{e.name} on dofs {list(e.dofs)} "
+        f"{e.name} on {result.place(e.dofs)} "
         f"({', '.join(f'{k} = {v:.4g} {parameter_unit(k, unit)}'.rstrip() for k, v in e.parameters.items())})"
         for e in result.effects
     ) or "none"

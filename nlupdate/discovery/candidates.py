@@ -27,6 +27,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from nlupdate.discovery.effects import Effect
+from nlupdate.discovery.places import place_name
 from nlupdate.model.system import NonlinearSystem
 
 CRITERIA = ("bic", "aic")
@@ -131,18 +132,20 @@ class CandidateFit:
         return out
 
 
-def is_significant(best: CandidateFit, min_evidence: float, min_explained: float) -> tuple[bool, str]:
-    """Whether the best candidate is worth adding, and why not if it is not."""
+def is_significant(best: CandidateFit, min_evidence: float, min_explained: float,
+                   names: Sequence[str] = ()) -> tuple[bool, str]:
+    """Whether the best candidate is worth adding, and why not if it is not (its place named
+    by the model's coordinate ``names``)."""
     if not best.success:
         return False, f"the best candidate ({best.name}) did not converge"
     if best.score > -min_evidence:
         return False, (
             f"no candidate lowers the criterion by more than {min_evidence:g} "
-            f"(best: {best.name} on dofs {list(best.dofs)}, {best.score:+.1f})"
+            f"(best: {best.name} on {place_name(best.dofs, names)}, {best.score:+.1f})"
         )
     if best.explained < min_explained:
         return False, (
-            f"the best candidate ({best.name} on dofs {list(best.dofs)}) explains only "
+            f"the best candidate ({best.name} on {place_name(best.dofs, names)}) explains only "
             f"{100 * best.explained:.0f} % of the misfit above the noise (needs {100 * min_explained:.0f} %)"
         )
     return True, ""

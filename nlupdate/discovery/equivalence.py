@@ -29,6 +29,7 @@ from typing import Sequence
 import numpy as np
 
 from nlupdate.discovery.effects import DFSamples, Effect
+from nlupdate.discovery.places import place_name
 from nlupdate.discovery.starts import joint_starts
 
 
@@ -43,10 +44,11 @@ class Equivalence:
     simpler_values: tuple[float, ...]
     deviation: float
 
-    def describe(self, dofs: Sequence[int]) -> str:
+    def describe(self, dofs: Sequence[int], names: Sequence[str] = ()) -> str:
+        """One sentence; ``names``: the model's coordinate names (:func:`place_name`)."""
         own = ", ".join(f"{k} = {v:.3g}" for k, v in self.effect.parameter_dict(self.values).items())
         other = ", ".join(f"{k} = {v:.3g}" for k, v in self.simpler.parameter_dict(self.simpler_values).items())
-        return (f"{self.effect.name} on dofs {list(dofs)} ({own}) ≈ {self.simpler.name} ({other}) over the measured "
+        return (f"{self.effect.name} on {place_name(dofs, names)} ({own}) ≈ {self.simpler.name} ({other}) over the measured "
                 f"amplitudes (DF within {100 * self.deviation:.1f} %): the simpler one is used")
 
     def to_dict(self) -> dict:

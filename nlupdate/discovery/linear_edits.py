@@ -23,6 +23,7 @@ import scipy.linalg
 import scipy.sparse
 
 from nlupdate.discovery.errors import UnphysicalModelError
+from nlupdate.discovery.places import place_name
 from nlupdate.model.linear import LinearModel, LumpedModel, ModalModel
 
 
@@ -67,7 +68,7 @@ def _modal(model: ModalModel, dofs: Sequence[int], stiffness: float, mass: float
     values, vectors = scipy.linalg.eigh(k_q, m_q)
     if np.any(values <= 0):
         raise UnphysicalModelError(
-            f"the correction (Δk = {stiffness:g} N/m, Δm = {mass:g} kg on dofs {list(dofs)}) leaves a mode with "
+            f"the correction (Δk = {stiffness:g} N/m, Δm = {mass:g} kg on {place_name(dofs, model.dof_names)}) leaves a mode with "
             "zero or negative stiffness"
         )
     omega = np.sqrt(values)
@@ -87,7 +88,7 @@ def add_linear_correction(
     correction leaves a mode with zero or negative stiffness."""
     dofs = tuple(int(d) for d in dofs)
     if mass and len(dofs) != 1:
-        raise ValueError(f"a mass correction acts on one coordinate, got dofs {list(dofs)}")
+        raise ValueError(f"a mass correction acts on one coordinate, got {place_name(dofs, model.dof_names)}")
     if isinstance(model, LumpedModel):
         return _lumped(model, dofs, stiffness, mass, damping)
     if isinstance(model, ModalModel):

@@ -3,8 +3,10 @@
 ``discovery.json`` (SI units, frequencies in Hz, dofs = model coordinate indices: one for an
 element to ground, two for an element between coordinates):
 
-* ``effect``, ``dofs``, ``parameters`` — the first effect found, or ``"none"``, ``[]``, ``{}``;
-* ``effects`` — ``[{"effect", "dofs", "parameters"(, "variant")}]`` in the order found
+* ``effect``, ``dofs``, ``place``, ``parameters`` — the first effect found, or ``"none"``,
+  ``[]``, ``""``, ``{}``; ``place`` names the dofs as the model does (``"m2–m3"``,
+  ``"m1 (to ground)"``; ``"dofs [1, 2]"`` for a model without ``dof_names``);
+* ``effects`` — ``[{"effect", "dofs", "place", "parameters"(, "variant")}]`` in the order found
   (after the joint refits: every parameter fitted together);
 * ``fit`` — ``"good"``, or ``"poor"`` when the RMS residual left is more than
   ``poor_fit_limit`` (5) times the noise level: then the effects named do not explain the

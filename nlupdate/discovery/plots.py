@@ -158,7 +158,7 @@ def plot_describing_function(result: DiscoveryResult, path: str | os.PathLike) -
         label = "final model: " + " + ".join(found.name for found in final) + " (refitted together)"
         for axis, part in ((left, np.real), (right, np.imag)):
             axis.semilogx(amplitude, part(nu), "-", color="k", lw=2.2, alpha=0.8, label=label)
-    left.set(xlabel="amplitude at the place (m)", ylabel="Re ν (N/m)", title=f"dofs {list(place)}: stiffness")
+    left.set(xlabel="amplitude at the place (m)", ylabel="Re ν (N/m)", title=f"{result.place(place)}: stiffness")
     right.set(xlabel="amplitude at the place (m)", ylabel="Im ν (N/m)", title="damping (Im ν > 0 dissipates)")
     for axis in (left, right):
         axis.grid(True, alpha=0.3)
@@ -226,7 +226,7 @@ def plot_residuals(result: DiscoveryResult, path: str | os.PathLike) -> Path:
         sigma = result.noise_fraction
         axis.axhline(sigma, color="k", ls=":", label=f"noise level σ = {sigma:.2g}")
         axis.axhline(limit * sigma, color="C3", ls="--", label=f"poor fit ({limit:g}σ)")
-        axis.set(xlabel=f"measured amplitude at dofs {list(place)} (m)", ylabel="relative residual |H_model − H̃|/|H̃|")
+        axis.set(xlabel=f"measured amplitude at {result.place(place)} (m)", ylabel="relative residual |H_model − H̃|/|H̃|")
     axis.set_title(f"residual after ({result.summary().split(' — ')[0]}, {result.misfit_ratio:.3g}× noise)", fontsize=9)
     axis.grid(True, which="both", alpha=0.3)
     axis.legend(fontsize=7)

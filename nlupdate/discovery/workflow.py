@@ -74,6 +74,7 @@ from nlupdate.discovery.frf_evidence import FRFEvidence
 from nlupdate.discovery.gap import GapReport
 from nlupdate.discovery.joint import JointFit
 from nlupdate.discovery.localisation import Localisation
+from nlupdate.discovery.places import place_name
 from nlupdate.discovery.modal_evidence import ModalEvidence
 from nlupdate.discovery.modal_data import ModalData
 from nlupdate.measurement.modal_table import MODAL_COLUMNS
@@ -240,6 +241,10 @@ class DiscoveryResult:
     def parameters(self) -> dict[str, float]:
         return self.effects[0].parameters if self.effects else {}
 
+    def place(self, dofs: Sequence[int]) -> str:
+        """``dofs`` as the model names them: ``"m2–m3"``, ``"m1 (to ground)"`` (:func:`place_name`)."""
+        return place_name(dofs, tuple(self.system.model.dof_names))
+
     @property
     def candidates(self) -> tuple[CandidateFit, ...]:
         return tuple(c for step in self.steps for c in step.candidates)
@@ -255,12 +260,14 @@ class DiscoveryResult:
 
     def to_dict(self) -> dict:
         """The ``discovery.json`` content (see :mod:`nlupdate.discovery.outputs`)."""
-        first = self.effects[0].to_dict() if self.effects else {"effect": "none", "dofs": [], "parameters": {}}
+        effects = [{**e.to_dict(), "place": self.place(e.dofs)} for e in self.effects]
+        first = effects[0] if effects else {"effect": "none", "dofs": [], "place": "", "parameters": {}}
         return {
             "effect": first["effect"],
             "dofs": first["dofs"],
+            "place": first["place"],
             "parameters": first["parameters"],
-            "effects": [e.to_dict() for e in self.effects],
+            "effects": effects,
             "fit": self.fit,
             "misfit_to_noise": self.misfit_ratio,
             "misfit_to_noise_before": self.misfit_ratio_before,
@@ -361,6 +368,13 @@ class _Settle:
     places: Sequence[tuple[int, ...]]
     newest: tuple = ()
 
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.system.model.dof_names)
+
+    def place(self, dofs: Sequence[int]) -> str:
+        return place_name(dofs, self.names)
+
     def equivalence(self, found: FoundEffect) -> Equivalence | None:
         samples = next((v for k, v in self.samples.items() if _same_place(k, found.dofs)), None)
         if samples is None:
@@ -418,7 +432,7 @@ class _Settle:
                 if ok:
                     newest = _key(simpler) if _key(found) == newest else newest
                     trial, chi2, changed = list(refitted), chi2_new, True
-                    changes.append("joint refit: " + equivalent.describe(found.dofs))
+                    changes.append("joint refit: " + equivalent.describe(found.dofs, self.names))
             for k in range(len(trial) - 1, -1, -1):  # earlier effects no longer needed
                 if len(trial) == 1 or _key(trial[k]) == newest:
                     continue
@@ -426,7 +440,7 @@ class _Settle:
                 refitted, chi2_new, ok = joint.refit(without)
                 gain = joint.criterion(without, chi2_new) - joint.criterion(trial, chi2)
                 if ok and gain < margin:
-                    changes.append(f"joint refit: {trial[k].name} on dofs {list(trial[k].dofs)} dropped — without it "
+                    changes.append(f"joint refit: {trial[k].name} on {self.place(trial[k].dofs)} dropped — without it "
                                    f"the criterion changes by {gain:+.1f} (needs more than +{margin:g} to keep it)")
                     trial, chi2, changed = list(refitted), chi2_new, True
             best = None  # the one swap the joint fit prefers most: another effect, here or elsewhere
@@ -441,8 +455,8 @@ class _Settle:
                         best = (gain, k, list(refitted), chi2_new)
             if best is not None:
                 gain, k, refitted, chi2_new = best
-                changes.append(f"joint refit: {trial[k].name} on dofs {list(trial[k].dofs)} swapped for "
-                               f"{refitted[k].name} on dofs {list(refitted[k].dofs)} (criterion {-gain:+.1f})")
+                changes.append(f"joint refit: {trial[k].name} on {self.place(trial[k].dofs)} swapped for "
+                               f"{refitted[k].name} on {self.place(refitted[k].dofs)} (criterion {-gain:+.1f})")
                 newest = _key(refitted[k]) if _key(trial[k]) == newest else newest
                 trial, chi2, changed = refitted, chi2_new, True
             if not changed:
@@ -492,6 +506,7 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
     the first iteration may not choose (a restart)."""
     found: list[FoundEffect] = []
     current, prediction = system, before
+    names = tuple(system.model.dof_names)
     steps: list[DiscoveryStep] = []
     stop = f"{options.max_effects} effect(s) found (max_effects)"
     for iteration in range(1, options.max_effects + 1):
@@ -525,7 +540,7 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
                          ranked, [c.dofs for c in contexts])
         accepted, why, changes, rejected = None, "no candidates", [], []
         for candidate in ranked[:_TRIALS]:
-            significant, reason = is_significant(candidate, options.min_evidence, options.min_explained)
+            significant, reason = is_significant(candidate, options.min_evidence, options.min_explained, names)
             if not significant:
                 why = reason if candidate is best else why  # later ones: keep why the earlier failed
                 break
@@ -537,18 +552,18 @@ def _search(evidence: Any, system: NonlinearSystem, before: Any, options: Discov
             try:
                 trial_system = augment(system, trial)
             except UnphysicalModelError as error:  # a finding about this candidate: try the next one
-                why = f"rejected {candidate.name} on dofs {list(candidate.dofs)}: {error}"
+                why = f"rejected {candidate.name} on {place_name(candidate.dofs, names)}: {error}"
                 rejected.append(why)
                 continue
             try:
                 trial_prediction = evidence.predict(trial_system)
             except ModelSolveError as error:
-                why = f"the model with {candidate.name} on dofs {list(candidate.dofs)} cannot be simulated ({error})"
+                why = f"the model with {candidate.name} on {place_name(candidate.dofs, names)} cannot be simulated ({error})"
                 continue
             gap_trial = evidence.gap(trial_prediction).gap
             criterion_trial = evidence.chi2(trial_prediction) + evidence.penalty * _parameters(trial)
             if criterion_trial > criterion_now - options.min_evidence:
-                why = (f"adding {candidate.name} on dofs {list(candidate.dofs)} did not lower the simulated misfit "
+                why = (f"adding {candidate.name} on {place_name(candidate.dofs, names)} did not lower the simulated misfit "
                        f"(criterion {criterion_now:.1f} → {criterion_trial:.1f}; gap {gap_now:.3g} → {gap_trial:.3g})")
                 continue
             accepted = candidate
@@ -593,6 +608,7 @@ def discover(
     excluded: frozenset = frozenset()
     restarts: list[str] = []
     latest = path  # the last search: its first choice is the next one left out
+    names = tuple(system.model.dof_names)
     for _ in range(options.restarts):
         if path.chi2 < _RESTART_RATIO**2 * evidence.n_data or not path.found or path.steps[0].accepted is None:
             break
@@ -601,10 +617,10 @@ def discover(
             break
         excluded = excluded | {_key(first)}
         latest = other = _search(evidence, system, before, options, effects, map_candidates, excluded)
-        names = ", ".join(f"{f.name} on {list(f.dofs)}" for f in other.found) or "none"
+        places = ", ".join(f"{f.name} on {place_name(f.dofs, names)}" for f in other.found) or "none"
         kept = other.criterion < path.criterion - options.min_evidence
-        restarts.append(f"restart without {first.name} on dofs {list(first.dofs)} first (the search ended at "
-                        f"{np.sqrt(path.chi2 / evidence.n_data):.2g}× the noise level): found {names}, criterion {other.criterion:.1f} against {path.criterion:.1f} — "
+        restarts.append(f"restart without {first.name} on {place_name(first.dofs, names)} first (the search ended at "
+                        f"{np.sqrt(path.chi2 / evidence.n_data):.2g}× the noise level): found {places}, criterion {other.criterion:.1f} against {path.criterion:.1f} — "
                         f"{'kept' if kept else 'not kept'}")
         if kept:
             path = other

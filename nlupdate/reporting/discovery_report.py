@@ -17,7 +17,7 @@ def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
     if result.effects:
         for i, effect in enumerate(result.effects, start=1):
             values = ", ".join(f"{k} = {_number(v)}" for k, v in effect.parameters.items())
-            lines.append(f"{i}. **{effect.name}** on model coordinate(s) {list(effect.dofs)}: {values}")
+            lines.append(f"{i}. **{effect.name}** on {result.place(effect.dofs)}: {values}")
     else:
         lines.append("**none**: no effect of the library explains the disagreement significantly better than the "
                      "measurement noise; the model is left unchanged.")
@@ -29,7 +29,7 @@ def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
         lines += ["Warnings (results not to be taken as they stand):", ""]
         lines += [f"* {warning}" for warning in result.warnings] + [""]
     reasoning = [(s.iteration, text) for s in result.steps for text in s.changes]
-    reasoning += [(c.iteration, c.equivalent.describe(c.dofs)) for s in result.steps for c in s.candidates
+    reasoning += [(c.iteration, c.equivalent.describe(c.dofs, result.system.model.dof_names)) for s in result.steps for c in s.candidates
                   if c.equivalent is not None and c is s.candidates[0]]
     reasoning += [(0, text) for text in result.restarts]
     if reasoning:
