@@ -127,3 +127,82 @@ def test_a_dwell_whose_harmonics_outweigh_the_first_is_left_out(tmp_path, capsys
     assert code == 0, err
     assert "the dwell at 22 Hz left out: the harmonic distortion of 'tip' is" in err, err
     assert sorted(pd.read_csv(tmp_path / "frf.csv")["frequency_hz"].round(3)) == [18.0, 20.0]
+
+
+# ------------------------------------------------------------------ measured FRF files: the field at fault is named
+def _two_dof_table(levels=(0.01, 100.0)) -> pd.DataFrame:
+    """A measured table of a linear SDOF (the reader does not care what it is)."""
+    f = np.linspace(60.0, 120.0, 31)
+    h = 1.0 / (3.2e5 * (1 + 0.02j) - (2 * np.pi * f) ** 2)
+    return pd.concat([pd.DataFrame({"frequency_hz": f, "force_level_n": level, "response_dof": "tip",
+                                    "input_dof": "tip", "h_real": h.real, "h_imag": h.imag}) for level in levels],
+                     ignore_index=True)
+
+
+def _uff(folder: Path, name: str, *datasets: dict, direction: int | None = None) -> Path:
+    from test_measured_run_levels import export
+
+    path = export(folder / name, list(datasets))
+    if direction is not None:  # pyuff writes only -6…6: patch record 6's response direction field
+        lines = path.read_text().splitlines(True)
+        row = next(k for k, line in enumerate(lines) if line.strip() == "58") + 6
+        column = 5 + 10 + 5 + 10 + 1 + 10 + 10
+        lines[row] = lines[row][:column] + f"{direction:4d}" + lines[row][column + 4:]
+        path.write_text("".join(lines))
+    return path
+
+
+def _dataset(**fields) -> dict:
+    from test_measured_run_levels import F, dataset, receptance
+
+    return dataset(receptance(F, 3.2e5), "N", **fields)
+
+
+def _csv(folder: Path) -> Path:
+    _two_dof_table().to_csv(folder / "frf.csv", index=False)
+    return folder / "frf.csv"
+
+
+def _spaced_csv(folder: Path) -> list[object]:
+    text = _two_dof_table().to_csv(index=False).replace(",", ", ")
+    (folder / "frf.csv").write_text(text)
+    return ["--measured", folder / "frf.csv"]
+
+
+def _one_level_csv(folder: Path, *levels: str) -> list[object]:
+    _two_dof_table([1.0]).drop(columns="force_level_n").to_csv(folder / "frf.csv", index=False)
+    return ["--measured", folder / "frf.csv", *[a for level in levels for a in ("--level", level)]]
+
+
+MEASURED_MISTAKES = {
+    "--band -50:760": (lambda d: ["--measured", _csv(d), "--band", "-50:760"],
+                       ("--band '-50:760': expected LOW:HIGH in Hz with 0 ≤ LOW < HIGH",)),
+    "', ' separator": (_spaced_csv, ("frf.csv: the header's column names have blanks around the commas",
+                                     "separator ', '")),
+    "two levels for one file": (lambda d: _one_level_csv(d, "frf.csv=1", f"{d / 'frf.csv'}=2"), (
+        "levels given for the file", "frf.csv contradict each other (frf.csv=1,", "frf.csv=2")),
+    "UFF z-axis level 0": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(z_axis_spec_data_type=13))],
+                           ("run.uff, dataset 0: the z-axis level (record 7 field 6; specific data type 13",
+                            "is 0; expected a level > 0")),
+    "UFF z-axis level < 0": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(z_axis_spec_data_type=13,
+                                                                                   z_axis_value=-2.0))],
+                             ("run.uff, dataset 0: the z-axis level", "is -2; expected a level > 0")),
+    "UFF direction code 9": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(id2="F=1N"), direction=9)],
+                             ("run.uff, dataset 0: response direction code 9 (record 6); expected 0 (scalar) or ±1…±6",)),
+    "UFF ID line against z-axis": (lambda d: ["--measured", _uff(
+        d, "runs.uff", _dataset(z_axis_spec_data_type=13, z_axis_value=1.0, id2="F=1N"),
+        _dataset(z_axis_spec_data_type=13, z_axis_value=1.0, id2="F=2N"))],
+        ("runs.uff, dataset 1 (run 'F=2N'): the z-axis level 1 N", "the ID line 'F=2N' (2 N) contradict each other")),
+}
+
+
+@pytest.mark.parametrize("case", MEASURED_MISTAKES, ids=list(MEASURED_MISTAKES))
+def test_measured_file_mistakes_name_the_field(tmp_path, capsys, case):
+    make, fragments = MEASURED_MISTAKES[case]
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    arguments = make(inputs)
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, "identify", *arguments, "--out", out / "identified")
+    assert_refused(result, out, "nlupdate identify: error:", *fragments)

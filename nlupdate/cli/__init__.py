@@ -49,7 +49,16 @@ class CliRuntimeError(Exception):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with errors as two lines: what is wrong, and where help is (not the whole usage)."""
+    """argparse with errors as two lines: what is wrong, and where help is (not the whole usage).
+
+    A value that starts with a minus and a digit (``--band -50:760``, ``--forces -1,2``) is
+    a value, never an option: argparse took only plain negative numbers so, and said
+    "expected one argument" for the rest; the option's own check now names what is wrong.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str):
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n(see '{self.prog} --help')\n")

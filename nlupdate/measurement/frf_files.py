@@ -66,6 +66,11 @@ def _csv_separator_problem(text: str, path: Path) -> str | None:
     """Why a CSV header does not look comma-separated (None when it does)."""
     header = next((line for line in text.splitlines() if line.strip()), "")
     if "," in header:
+        names = header.rstrip("\r\n").split(",")
+        if len(names) > 1 and any(name != name.strip() for name in names[1:]):
+            return (f"{path}: the header's column names have blanks around the commas (header "
+                    f"{header.strip()[:80]!r}: separator ', '); nlupdate reads comma-separated values with nothing "
+                    f"but the comma between them, e.g. 'frequency_hz,force_level_n,...'")
         return None
     for separator, name in ((";", "';'"), ("\t", "tabs"), ("|", "'|'")):
         if separator in header:

@@ -219,7 +219,7 @@ def _fs_column(values: object, source: str) -> float:
 
 
 def _uff_record(data: bytes, path: Path) -> TimeRecord:
-    from nlupdate.measurement.uff import _name_from_node, uff_datasets
+    from nlupdate.measurement.uff import _name_from_node, check_directions, uff_datasets
 
     indices, datasets = uff_datasets(data, path)
     records = [(i, d) for i, d in zip(indices, datasets) if d.get("func_type") == 1]
@@ -229,6 +229,7 @@ def _uff_record(data: bytes, path: Path) -> TimeRecord:
     time = None
     for index, dataset in records:
         where = f"{path}, dataset {index}"
+        check_directions(dataset, where)
         if dataset.get("abscissa_spec_data_type") not in (17, 0, 1):
             raise TimeHistoryError(f"{where}: abscissa specific data type {dataset.get('abscissa_spec_data_type')}; a "
                                    f"time record has 17 (time, s)")

@@ -241,6 +241,21 @@ def _z_axis_level(dataset: dict) -> tuple[float, str, str] | None:
     return None
 
 
+def _check_id_lines_agree(dataset: dict, where: str, z_axis: tuple[float, str, str]) -> None:
+    """Refuse a z-axis level that a level in the ID lines, stated in the same unit,
+    contradicts: which one holds is the user's call, not the reader's."""
+    value, unit, typed = z_axis
+    for line in _id_lines(dataset):
+        if line.strip().startswith(("response_dof=", "input_dof=", "abscissa_hz=")):
+            continue
+        for named, named_unit in levels_in_text(line):
+            if named_unit == unit and not np.isclose(named, value, rtol=1e-6):
+                raise MeasurementTableError(
+                    f"{where}: the z-axis level {value:g} {unit}, {typed}, and the ID line {line.strip()!r} "
+                    f"({named:g} {unit}) contradict each other; give the level with --level FILE=VALUE, FILE#RUN=VALUE or RUN=VALUE (study: "
+                    f"[measured] levels)")
+
+
 def _level(dataset: dict, where: str, unit: str, given: float | None, runs: str,
            contradictions: list | None = None) -> float:
     """The level of a dataset (module docstring, **Level**); a z-axis level whose unit
@@ -252,6 +267,7 @@ def _level(dataset: dict, where: str, unit: str, given: float | None, runs: str,
         return _id_floats(keys, "force_level_n", 1, where)[0]
     z_axis = _z_axis_level(dataset)
     if z_axis is not None and z_axis[1] == unit:
+        _check_id_lines_agree(dataset, where, z_axis)
         return z_axis[0]
     in_id = _level_in_id_lines(dataset, where, unit)
     if in_id is not None:
@@ -264,6 +280,13 @@ def _level(dataset: dict, where: str, unit: str, given: float | None, runs: str,
         if contradictions is not None:
             contradictions.append((z_axis[0], z_axis[2]))
         return z_axis[0]
+    z_value = float(dataset.get("z_axis_value", 0.0) or 0.0)
+    z_label = _label(dataset, "z_axis_axis_units_lab")
+    if dataset.get("z_axis_spec_data_type") in (_FORCE, _REACTION) or z_label.lower() in _REFERENCE_LABELS:
+        raise MeasurementTableError(
+            f"{where}: the z-axis level (record 7 field 6; specific data type {dataset.get('z_axis_spec_data_type')}, "
+            f"label {z_label!r}) is {z_value:g}; expected a level > 0, or give the level with --level FILE=VALUE, "
+            f"FILE#RUN=VALUE or RUN=VALUE (study: [measured] levels){runs}")
     raise MeasurementTableError(
         f"{where}: no level: expected an ID line 'force_level_n=<amplitude>', a z-axis value typed as force (specific "
         f"data type 13) or labelled N or V, a level in an ID line or run name ('0.10 V', '0p10V', 'F=2.5N', "
@@ -322,8 +345,18 @@ def _coordinates(dataset: dict) -> tuple[str, str, int]:
     return response, inp, sign
 
 
+def check_directions(dataset: dict, where: str) -> None:
+    """Refuse a direction code other than 0 (scalar) and ±1…±6 (record 6 fields 7, 10)."""
+    for field, what in (("rsp_dir", "response"), ("ref_dir", "reference")):
+        code = dataset.get(field, 0)
+        if abs(int(code)) > 6:
+            raise MeasurementTableError(
+                f"{where}: {what} direction code {code} (record 6); expected 0 (scalar) or ±1…±6 (x, y, z, rx, ry, rz)")
+
+
 def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None, runs: str,
                contradictions: list) -> pd.DataFrame:
+    check_directions(dataset, where)
     if dataset.get("ord_data_type") not in (5, 6):
         raise MeasurementTableError(f"{where}: ordinate data type {dataset.get('ord_data_type')} is real; an FRF needs "
                                     f"complex data (5 or 6)")
@@ -358,6 +391,7 @@ def _frf_curve(dataset: dict, where: str, options: ReadOptions, given_level: flo
 
 def _coherence_curve(dataset: dict, where: str, options: ReadOptions, given_level: float | None, unit: str):
     """(response, input, level or None, frequencies, coherence) of a coherence dataset."""
+    check_directions(dataset, where)
     _check_count(dataset, where)
     frequency = _abscissa_hz(dataset, where)
     values = np.real(np.asarray(dataset["data"]))

@@ -80,17 +80,18 @@ class ReadOptions:
                 raise ReferenceUnitError(f"coordinates of {name}: {pair!r}; expected two names (response, input)")
 
     def level_of(self, path: str) -> float | None:
-        """The level the user gave for the file ``path`` (None when none)."""
-        value = _statement_for(self.levels, path)
-        return None if value is None else float(value)
+        """The level the user gave for the file ``path`` (None when none); an error when
+        two keys name the file (``a.csv`` and ``./a.csv``) with different levels."""
+        return _one_level({key: value for key, value in self.levels.items() if _statement_for({key: True}, path)},
+                          f"the file {path}")
 
     def level_of_run(self, path: str, run: str) -> float | None:
         """The level the user gave for the run ``run`` of the file ``path``: keyed
-        ``FILE#RUN``, else by the run name alone (None when neither)."""
-        for key, value in self.levels.items():
-            if _names_run(key, path, run):
-                return float(value)
-        return None
+        ``FILE#RUN``, else by the run name alone (None when neither); an error when two
+        keys of one form name the run with different levels."""
+        named = {key: value for key, value in self.levels.items() if _names_run(key, path, run)}
+        with_file = {key: value for key, value in named.items() if key != run}
+        return _one_level(with_file or named, f"the run {run!r} of {path}")
 
     def unmatched_levels(self, runs: Mapping[str, tuple[str, ...]]) -> list[str]:
         """The keys of ``levels`` that name none of the files ``runs`` holds (file → its
@@ -102,6 +103,15 @@ class ReadOptions:
     def coordinates_of(self, path: str) -> tuple[str, str] | None:
         """The (response, input) names the user gave for the file ``path`` (None when none)."""
         return _statement_for(self.coordinates, path)
+
+
+def _one_level(matches: Mapping[str, float], what: str) -> float | None:
+    """The one level ``matches`` (key → level) give for ``what``; None when none."""
+    if len({float(v) for v in matches.values()}) > 1:
+        given = ", ".join(f"{key}={value:g}" for key, value in matches.items())
+        raise ReferenceUnitError(f"levels given for {what} contradict each other ({given}; --level, study [measured] "
+                                 f"levels); expected one level per file or run")
+    return float(next(iter(matches.values()))) if matches else None
 
 
 def _statement_for(statements: Mapping[str, object], path: str) -> object | None:
