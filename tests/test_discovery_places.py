@@ -3,6 +3,7 @@ coordinate index (issue "rough edges a new user hit")."""
 from __future__ import annotations
 
 import json
+import tomllib
 
 import pytest
 
@@ -52,3 +53,18 @@ def test_discover_names_the_place_as_the_model_does(tmp_path, capsys):
     assert found["dofs"] == [1, 2] and found["place"] == "m2–m3"
     assert [e["place"] for e in found["effects"]] == ["m2–m3"]
     assert found["parameters"]["k3"] == pytest.approx(2e9, rel=0.05)
+
+
+def test_a_discovery_result_prints_one_line(tmp_path):
+    """``print(nlu.discover(…))`` printed every measured point (90 kB); now one line with the
+    effects found, where (by name), the gap and the fit."""
+    import nlupdate as nlu
+
+    truth = nlu.model_from_dict(tomllib.loads(LINEAR + CUBIC_M2_M3))
+    measured = nlu.simulate(truth, "m1", [6.0, 6.5, 7.0, 7.1, 7.2, 7.3, 7.5, 8.0], [0.1, 0.7, 1.5], noise=0.01, seed=1)
+    found = nlu.discover(nlu.model_from_dict(tomllib.loads(LINEAR)), measured, effects=("cubic_stiffness",),
+                         max_effects=1)
+    text = repr(found)
+    assert str(found) == text and "\n" not in text and len(text) < 300, text
+    assert text.startswith("<DiscoveryResult: cubic_stiffness on m2–m3 (k3 = "), text
+    assert "gap " in text and "fit: good" in text

@@ -249,6 +249,15 @@ class DiscoveryResult:
     def candidates(self) -> tuple[CandidateFit, ...]:
         return tuple(c for step in self.steps for c in step.candidates)
 
+    def __repr__(self) -> str:
+        """One line: the effects found where, the gap before → after and the fit (the
+        default dataclass repr printed every measured point: 90 kB)."""
+        found = ", ".join(f"{e.name} on {self.place(e.dofs)} ("
+                          + ", ".join(f"{k} = {v:.4g}" for k, v in e.parameters.items()) + ")"
+                          for e in self.effects) or "no effect"
+        return (f"<DiscoveryResult: {found}; gap {self.gap_before.gap:.3g} → {self.gap_after.gap:.3g}; "
+                f"{self.summary()}>")
+
     def summary(self) -> str:
         """One line on how well the effects found explain the data."""
         if self.fit == "poor":

@@ -294,6 +294,18 @@ class Identification:
         """The ``identification.json`` content (:func:`nlupdate.identification.summary.identification_summary`)."""
         return identification_summary(self)
 
+    def __repr__(self) -> str:
+        """One line: method, curve, parameters ± Monte-Carlo std, linear modes, warnings
+        (``summary()`` holds the whole record)."""
+        stats = self.uncertainty.parameters
+        values = ", ".join(f"{name} = {value:.4g}" + (f" ± {stats[name].std:.2g}" if name in stats and
+                                                      np.isfinite(stats[name].std) else "")
+                           for name, value in self.parameters().items())
+        modes = ", ".join(f"{f:.2f}" for f in self.natural_frequencies_hz)
+        return (f"<Identification {self.settings.method.upper()} at {self.settings.response_dof}/"
+                f"{self.settings.input_dof}: {values or 'no parameters'}; linear modes {modes or '–'} Hz; "
+                f"{len(self.warnings)} warning(s)>")
+
 
 # ------------------------------------------------------------------------------------ steps
 def _resolved(settings: IdentificationSettings, data: FRFLevels) -> tuple[IdentificationSettings, dict[str, Any]]:

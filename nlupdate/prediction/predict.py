@@ -154,6 +154,21 @@ class LevelPredictions:
     table: pd.DataFrame
     correlation: pd.DataFrame
 
+    def __repr__(self) -> str:
+        """One line: the levels and their FRAC (``summary()``: every metric per level)."""
+        levels = " ".join(f"{v:g}" for v in self.correlation["force_level_n"])
+        frac = " ".join(f"{v:.3f}" for v in self.correlation["frac"])
+        return f"<LevelPredictions at {levels} N: FRAC {frac}; loss factor {self.loss_factor:.4g}>"
+
+    def summary(self) -> str:
+        """The loss factor and its source, then one line per force level: FRAC, normalised
+        FRF error, peak frequency error (%) and peak amplitude ratio."""
+        lines = [f"loss factor {self.loss_factor:.4g} ({self.loss_factor_source})"]
+        for row in self.correlation.itertuples():
+            lines.append(f"{row.force_level_n:>8g} N: FRAC {row.frac:.3f}, FRF error {row.normalised_error:.3g}, "
+                         f"peak shift {row.peak_frequency_error_pct:+.2f} %, peak ratio {row.peak_amplitude_ratio:.3f}")
+        return "\n".join(lines)
+
 
 def predict_measured(
     modes: ModalResult,

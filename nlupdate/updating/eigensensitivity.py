@@ -145,6 +145,26 @@ class UpdatingResult:
         result, pairing = (self.initial, self.initial_pairing) if which == "initial" else (self.final, self.final_pairing)
         return np.asarray(result.natural_frequencies_hz)[list(pairing.model_indices)]
 
+    def _values(self) -> str:
+        return ", ".join(f"{name} = {value:.6g}" for name, value in self.parameters.items())
+
+    def __repr__(self) -> str:
+        """One line: name, updated values, how it stopped (``summary()``: a few lines more)."""
+        return (f"<UpdatingResult {self.name or self.method!r}: {self._values()}; {self.stop} after "
+                f"{self.iterations} iteration(s)>")
+
+    def summary(self) -> str:
+        """A few lines: the updated values, how the run stopped, FE runs, and each paired
+        mode's frequency (Hz) before and after against its target."""
+        lines = [f"{self.name or self.method}: {self._values()}",
+                 f"{self.stop} ({self.reason}) after {self.iterations} iteration(s)",
+                 f"FE runs: {self.counts.get('new', 0)} new, {self.counts.get('cached', 0)} cached; "
+                 f"{self.wall_time_s:.3g} s"]
+        for label, target, before, after in zip(self.targets.labels, self.targets.frequencies_hz,
+                                                self.frequencies_hz("initial"), self.frequencies_hz("final")):
+            lines.append(f"{label}: {before:.4f} → {after:.4f} Hz (target {target:.4f} Hz)")
+        return "\n".join(lines)
+
 
 def normalisation(parameters: Sequence[Parameter]) -> np.ndarray:
     """Scale s_j of each parameter: |start|, or the bound width when the start is 0."""
