@@ -124,3 +124,18 @@ def test_amplitude_reads_the_full_band_export_within_its_band(export, tmp_path):
     # the linear limit: √(k/m)/2π = 90 Hz and ζ = η/2 = 1 % at resonance (structural damping)
     assert model["natural_frequency_hz"] == pytest.approx(90.0, rel=1e-3)
     assert model["damping_ratio"] == pytest.approx(ETA / 2, rel=0.03)
+
+
+def test_validate_predicts_the_top_run_of_the_full_band_export_within_its_band(export, tmp_path):
+    """The highest run held out and predicted from the two below (a single nonlinear mode
+    fitted to every line near resonance): the closed-form Duffing curve's resonance and
+    damping, read in its band with no --band given."""
+    code, out, err = run("validate", "--measured", export, "--reference-unit", "V", "--hold-out", "top",
+                         "--model", "lines", "--out", tmp_path / "v")
+    assert code == 0, err
+    assert "band 70–110 Hz found" in out
+    (top,) = json.loads((tmp_path / "v" / "validation.json").read_text())["held_out"]
+    assert top["level"] == 1.0 and top["kept_levels"] == [0.25, 0.5]
+    assert abs(top["resonance_hz"]["predicted"] - top["resonance_hz"]["measured"]) < 0.05
+    assert top["damping_ratio"]["predicted"] == pytest.approx(top["damping_ratio"]["measured"], rel=0.05)
+    assert top["peak_abs"]["predicted"] == pytest.approx(top["peak_abs"]["measured"], rel=0.05)

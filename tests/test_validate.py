@@ -128,3 +128,45 @@ def test_validate_names_a_level_that_is_not_measured(tmp_path, capsys):
     code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES,
                            "--hold-out", "2.5", "--out", tmp_path / "v")
     assert code == 2 and "hold-out level 2.5: not measured" in err and not (tmp_path / "v").exists()
+
+
+def _brb_study(tmp_path, validation: dict) -> "Path":
+    import tomli_w
+
+    study = {"study": {"name": "brb-held-out"},
+             "measured": {"file": str(BRB), "coordinates": {str(BRB): ["acc3:-y", "acc3:y"]}},
+             "validation": validation}
+    path = tmp_path / "study.toml"
+    path.write_text(tomli_w.dumps(study))
+    return path
+
+
+def test_a_study_archive_carries_its_held_out_levels(tmp_path, capsys):
+    """[validation] in a study: validation.json, tables/validation.parquet, the plots, and
+    the report's summary line and section — the same numbers as the command's."""
+    study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"]})
+    code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "run", "--quiet")
+    assert code == 0, err
+    run = tmp_path / "run"
+    table = pd.read_parquet(run / "tables" / "validation.parquet")
+    assert table["level"].tolist() == [1.46] and table["model"].tolist() == ["lines"]
+    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
+                           "--model", "lines", "--out", tmp_path / "cli")
+    assert code == 0, err
+    (entry,) = json.loads((tmp_path / "cli" / "validation.json").read_text())["held_out"]
+    assert table["resonance_hz_predicted"].iloc[0] == pytest.approx(entry["resonance_hz"]["predicted"], rel=1e-12)
+    assert json.loads((run / "validation.json").read_text())["held_out"][0]["level"] == 1.46
+    report = (run / "report.md").read_text()
+    assert "* **Held-out levels** `lines` (1 level): resonance within" in report and "## Held-out levels" in report
+    assert (run / "plots" / "validation.png").is_file()
+
+
+@pytest.mark.parametrize("validation, message", [
+    ({"hold_out": "middle"}, "[validation] key 'hold_out': expected \"each\", \"top\" or a list of measured levels > 0"),
+    ({"models": ["nonsense"]}, "[validation] key 'models': expected one of lines"),
+    ({"extra": 1}, "extra"),
+])
+def test_a_bad_validation_table_is_one_line(tmp_path, capsys, validation, message):
+    code, _, err = run_cli(capsys, "update", _brb_study(tmp_path, validation), "--out", tmp_path / "run")
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "run").exists()

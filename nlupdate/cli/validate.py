@@ -111,12 +111,7 @@ def run(args: argparse.Namespace) -> int:
             rows = [r for r in validation.held_out if r.requested == model]
             name = "predicted_frf.parquet" if k == 0 else f"predicted_frf_{_slug(model)}.parquet"
             predicted_table(rows, data).to_parquet(folder / name, index=False)
-        write_json({
-            "reference_unit": unit, "repeatability": repeat.as_dict(),
-            "auto_choices": {f"{level:g}": {"model": c.name, "reason": c.reason, "scores": c.scores}
-                             for level, c in validation.choices.items()},
-            "bands": "95 %: jackknife over the kept levels and the test's repeatability (nlupdate.validation.held_out)",
-            "held_out": [r.as_dict() for r in validation.held_out]}, folder / "validation.json")
+        write_json(validation.summary(), folder / "validation.json")
         for result in validation.held_out:
             save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))
         save_figure(summary_figure(validation), folder / "validation.png")

@@ -27,9 +27,11 @@ Backbones (ω(a), ζ(a)):
   ``ζ(a) = ζ₀ + Σ_k d_k v^k`` in ``v = (a/a_ref)^q``, k = 1 … n, a_ref the largest amplitude
   it was fitted to, p and q the ``frequency_exponent`` and ``damping_exponent`` (1: a
   polynomial in a; ½ follows a joint's ``a^(χ+1)`` softening in microslip over decades of
-  amplitude); beyond a_ref the curves are held
-  at their values there (a polynomial extrapolated turns back on itself and draws a second,
-  spurious resonance branch), and ζ is kept ≥ 0.
+  amplitude); beyond a_ref the curves are held at their values there (``beyond_reference =
+  "hold"``, the default: a polynomial extrapolated turns back on itself and draws a second,
+  spurious resonance branch) or continued as fitted up to where they would turn back and
+  held from there (``"continued"``: monotone, for predicting a level above the fitted
+  ones), and ζ is kept ≥ 0.
 
 Forced response. For a given a the excitation frequencies with ``|q| = a`` solve a
 quadratic in Ω²::
@@ -63,6 +65,11 @@ from nlupdate.model.elements import IwanJoint
 
 BACKBONES = ("iwan", "polynomial")
 LINEAR_DAMPING = ("viscous", "structural")
+#: A polynomial backbone beyond the largest amplitude it was fitted to: held at its value
+#: there, or continued as fitted up to where it would turn back and held from there
+#: (monotone, so no second resonance branch; what ``nlupdate validate`` needs to predict a
+#: level above the fitted ones).
+BEYOND_REFERENCE = ("hold", "continued")
 _CURVE_POINTS = 1500
 
 
@@ -96,6 +103,7 @@ class AmplitudeModalModel:
     mode: int = 1
     frequency_exponent: float = 1.0
     damping_exponent: float = 1.0
+    beyond_reference: str = "hold"
     linear_damping: str = "viscous"
     note: str = field(default="", compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)
@@ -121,6 +129,9 @@ class AmplitudeModalModel:
             raise AmplitudeModelError(f"reference_unit must be 'N' or 'V', got {self.reference_unit!r}")
         if self.linear_damping not in LINEAR_DAMPING:
             raise AmplitudeModelError(f"linear_damping must be one of {list(LINEAR_DAMPING)}, got {self.linear_damping!r}")
+        if self.beyond_reference not in BEYOND_REFERENCE:
+            raise AmplitudeModelError(f"beyond_reference must be one of {list(BEYOND_REFERENCE)}, "
+                                      f"got {self.beyond_reference!r}")
         for name in ("frequency_exponent", "damping_exponent"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise AmplitudeModelError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -163,10 +174,9 @@ class AmplitudeModalModel:
                 linear = z0 * w0 / omega if self.linear_damping == "viscous" else z0 * w0**2 / omega**2
                 zeta = linear + nu.imag / (2 * omega**2)
             return omega, zeta
-        x = np.minimum(a / self.reference_amplitude, 1.0)  # held beyond a_ref
-        u, v = x**self.frequency_exponent, x**self.damping_exponent
-        omega = w0 * (1 + sum(c * u ** (k + 1) for k, c in enumerate(self.frequency_coefficients)))
-        zeta = np.maximum(z0 + sum(d * v ** (k + 1) for k, d in enumerate(self.damping_coefficients)), 0.0)
+        x = a / self.reference_amplitude
+        omega = w0 * (1 + _series(self.frequency_coefficients, x, self.frequency_exponent, self.beyond_reference))
+        zeta = np.maximum(z0 + _series(self.damping_coefficients, x, self.damping_exponent, self.beyond_reference), 0.0)
         return np.asarray(omega + 0 * x, dtype=float), np.asarray(zeta + 0 * x, dtype=float)
 
     def frequency_hz(self, amplitude: ArrayLike) -> NDArray[np.float64]:
@@ -309,7 +319,8 @@ class AmplitudeModalModel:
                                  "damping_coefficients": list(self.damping_coefficients),
                                  "reference_amplitude": self.reference_amplitude,
                                  "frequency_exponent": self.frequency_exponent,
-                                 "damping_exponent": self.damping_exponent}
+                                 "damping_exponent": self.damping_exponent,
+                                 "beyond_reference": self.beyond_reference}
         if self.note:
             out["note"] = self.note
         if self.warnings:
@@ -334,7 +345,8 @@ class AmplitudeModalModel:
                            damping_coefficients=tuple(p["damping_coefficients"]),
                            reference_amplitude=float(p["reference_amplitude"]),
                            frequency_exponent=float(p.get("frequency_exponent", 1.0)),
-                           damping_exponent=float(p.get("damping_exponent", 1.0)), **common)
+                           damping_exponent=float(p.get("damping_exponent", 1.0)),
+                           beyond_reference=str(p.get("beyond_reference", "hold")), **common)
         except (KeyError, TypeError, ValueError) as error:
             raise AmplitudeModelError(f"{source}: not an amplitude-dependent modal model ({error})") from None
         raise AmplitudeModelError(f"{source}: 'backbone' must be one of {list(BACKBONES)}, got {data.get('backbone')!r}")
@@ -357,3 +369,17 @@ def read_amplitude_model(path: str | os.PathLike) -> AmplitudeModalModel:
     if not isinstance(data, dict):
         raise AmplitudeModelError(f"{path}: expected a JSON object")
     return AmplitudeModalModel.from_dict(data, str(path))
+
+
+def _series(coefficients: Sequence[float], x: NDArray, exponent: float, beyond: str) -> NDArray:
+    """``Σ_k c_k u^k`` (k = 1 …) in ``u = x^exponent``; beyond x = 1 held at its value there,
+    or continued as it is up to where it would turn back (its first stationary point past
+    u = 1) and held from there (:data:`BEYOND_REFERENCE`)."""
+    u = np.asarray(x, dtype=float) ** exponent
+    stop = 1.0
+    if beyond == "continued" and len(coefficients):
+        slope = np.polynomial.Polynomial([0.0, *coefficients]).deriv()
+        turns = [r.real for r in slope.roots() if abs(r.imag) < 1e-12 and r.real > 1.0]
+        stop = min(turns, default=np.inf)
+    u = np.minimum(u, stop)
+    return sum(c * u ** (k + 1) for k, c in enumerate(coefficients)) + 0.0 * u

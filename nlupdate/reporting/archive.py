@@ -28,6 +28,7 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import os
+import re
 import stat
 import warnings
 from pathlib import Path
@@ -48,6 +49,7 @@ from nlupdate.reporting.report import hidden_truth, report_markdown
 from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
 from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
+from nlupdate.reporting.validation_plots import held_out_figure, summary_figure
 
 MANIFEST = "manifest.json"
 #: The kind of output folder an archive is (:func:`nlupdate.files.check_replaceable`).
@@ -223,6 +225,13 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
                                                  f"{study.name}: initial and updated nonlinear models vs measurement")))
         plots.append(("correlation", "correlation_per_level.png",
                       lambda: correlation_figure(study_tables(result)["correlation"])))
+    validation = result.validation
+    if validation is not None:
+        plots.append(("validation", "validation.png", lambda: summary_figure(validation)))
+        for held in validation.held_out:
+            name = f"held_out_{held.level:g}_{held.requested}".replace(".", "p")
+            plots.append((name, f"{re.sub(r'[^A-Za-z0-9_]+', '-', name)}.png",
+                          lambda held=held: held_out_figure(held, validation.reference_unit)))
     return plots
 
 
@@ -273,6 +282,8 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
         inputs = archive_inputs(result.study, folder)
         if result.identification is not None:
             write_json(result.identification.summary(), folder / "identification.json")
+        if result.validation is not None:
+            write_json(result.validation.summary(), folder / "validation.json")
         manifest = build_manifest(result, final.name, run, sorted(tables), plots, inputs)
         write_json(manifest, folder / MANIFEST)
         (folder / "report.md").write_text(report_markdown(result, manifest, plots))

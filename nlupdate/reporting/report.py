@@ -115,6 +115,8 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
         lines += _updating_section(result, truth, plots)
     if result.predictions:
         lines += _prediction_section(result, plots)
+    if result.validation is not None:
+        lines += _validation_section(result.validation, plots)
 
     lines += ["## Files", "",
               "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
@@ -181,6 +183,32 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    f"{prediction.loss_factor_source}): FRAC per level min {_number(c['frac'].min(), 3)}, "
                    f"mean {_number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
                    + _single_frequency_levels(c))
+    if result.validation is not None:
+        out += _validation_summary(result.validation)
+    return out
+
+
+def _validation_summary(validation) -> list[str]:
+    """One line per model: its largest held-out errors beside the baseline's."""
+    out = []
+    for requested in dict.fromkeys(r.requested for r in validation.held_out):
+        rows = [r for r in validation.held_out if r.requested == requested]
+
+        def worst(rows, name, relative, source="compared"):
+            values = [getattr(r, source)[name] for r in rows]
+            errors = [abs(v.relative_error if relative else v.error) for v in values]
+            return max((e for e in errors if np.isfinite(e)), default=float("nan"))
+
+        inside = [r.compared["resonance_hz"].inside for r in rows if r.compared["resonance_hz"].inside is not None]
+        out.append(f"* **Held-out levels** `{requested}` ({len(rows)} level{'s' if len(rows) > 1 else ''}): resonance "
+                   f"within {_number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
+                   f"{_number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
+                   f"{_number(100 * worst(rows, 'damping_ratio', True), 3)} % (baseline "
+                   f"{_number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
+                   f"{_number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
+                   f"{_number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
+                   f"95 % band at {sum(inside)} of {len(inside)}; test repeatability "
+                   f"{_number(validation.repeatability.resonance_hz, 3)} Hz")
     return out
 
 
@@ -411,3 +439,36 @@ def summary_section(markdown: str) -> str:
     text = markdown.split("## Summary", 1)[-1].split("\n## ", 1)[0]
     lines = [line for line in text.splitlines() if not (line.startswith("_") and line.endswith("_"))]
     return "\n".join(lines).replace("**", "").replace("`", "").strip()
+
+
+def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
+    """Held-out levels (``[validation]``): each level's errors beside the baseline's and the
+    test's own repeatability."""
+    unit = validation.reference_unit
+    repeat = validation.repeatability
+    lines = ["## Held-out levels", "",
+             "Each held-out level predicted by a model fitted on the other levels of the measured curve "
+             "(docs/methods.md §10), beside the log-amplitude baseline (interpolation between the kept levels). "
+             "Resonance, half-power damping ratio and peak come from one estimator for the measured and predicted "
+             "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability. The test's own "
+             f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
+             f"{_number(repeat.resonance_hz, 3)} Hz, damping ratio {_number(100 * repeat.damping_ratio, 3)} % "
+             "(points) — no model can be expected to do better than that.", ""]
+    rows = []
+    for r in validation.held_out:
+        c, b = r.compared, r.baseline
+        res = c["resonance_hz"]
+        rows.append({f"level ({unit})": _number(r.level), "model": r.label,
+                     "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, "
+                                             f"{res.high - res.measured:+.2f}]",
+                     "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
+                     "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
+                     "baseline: resonance (Hz), damping (%), peak (%)":
+                         f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+                         f"{100 * b['peak_abs'].relative_error:+.1f}",
+                     "residual / noise (model, baseline)": f"{_number(r.residual_to_noise, 3)}, "
+                                                           f"{_number(r.baseline_residual_to_noise, 3)}"})
+    lines += [_table(pd.DataFrame(rows)), ""]
+    if "validation" in plots:
+        lines += [f"![held-out levels]({plots['validation']})", ""]
+    return lines

@@ -93,4 +93,6 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
         tables["predictions"] = pd.concat([p.table.assign(model=p.name) for p in result.predictions], ignore_index=True)
         tables["correlation"] = pd.concat(
             [p.correlation.assign(model=p.name, loss_factor=p.loss_factor) for p in result.predictions], ignore_index=True)
+    if result.validation is not None:
+        tables["validation"] = result.validation.table()
     return tables

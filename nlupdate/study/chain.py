@@ -1,7 +1,7 @@
 """The chain of a study, declared once.
 
     measured data → identification → targets → updating → comparison → candidate FRFs
-    → predictions → warnings
+    → predictions → validation → warnings
 
 :data:`CHAIN` lists the steps in order. Each :class:`Step` names the function that
 computes it (:mod:`nlupdate.study.steps`), the earlier results it takes, the study
@@ -30,8 +30,9 @@ from nlupdate.study.steps import (
     CandidateFRFs, Comparison, Prediction, PredictionJob, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs,
     compare_runs, identification_step, measured_description, measured_table, models_used, predict_job,
     prediction_adapter, prediction_jobs, run_update, run_verdict, study_targets, study_warnings, updating_model,
-    updating_runs,
+    updating_runs, validation_step,
 )
+from nlupdate.validation.held_out import Validation
 from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.target_uncertainty import ParameterUncertainty
 
@@ -114,6 +115,10 @@ CHAIN: tuple[Step, ...] = (
          inputs=("updating", "comparison", "identification", "measured data"), sections=("prediction", "targets"),
          applies=lambda study, results: study.prediction is not None and _has_runs(study, results),
          jobs=prediction_jobs, each=predict_job, model=prediction_adapter, points=lambda job: [job.point]),
+    Step("validation", validation_step, inputs=("measured data",), sections=("validation",),
+         applies=lambda study, results: study.validation is not None,
+         describe=lambda study, validation: f"{len({r.level for r in validation.held_out})} held-out level(s), "
+                                            f"{', '.join(study.validation.models)}"),
     Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions"),
          sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
@@ -138,6 +143,7 @@ class StudyResult:
     predictions: tuple[Prediction, ...] = ()
     warnings: tuple[TrustWarning, ...] = ()
     models: Mapping[str, Any] = field(default_factory=dict)
+    validation: Validation | None = None
 
 
 def study_result(study: Study, results: Results) -> StudyResult:
@@ -151,6 +157,7 @@ def study_result(study: Study, results: Results) -> StudyResult:
         uncertainties={} if compared is None else dict(compared.uncertainties),
         candidate_frfs=results.get("candidate FRFs"), predictions=tuple(results.get("predictions") or ()),
         warnings=tuple(results.get("warnings") or ()), models=models_used(study),
+        validation=results.get("validation"),
     )
 
 

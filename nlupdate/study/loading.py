@@ -76,6 +76,7 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
         raise StudyError(f"{path}: an [adapter] needs an [eigensensitivity] table, an [optimisation] table or both")
     comparison = sections.read_comparison(read, data, labels, n_targets)
     prediction = sections.read_prediction(read, data, identification, adapter)
+    validation = sections.read_validation(read, data, measured)
     if measured is None and identification is not None:
         raise StudyError(f"{path}: [identification] needs measured data: a [measured] table (file or simulate)")
     if adapter is None and measured is None:
@@ -84,5 +85,5 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
         path=path, name=name, description=description, text=text, measured=measured, identification=identification,
         adapter=adapter, fixed=fixed, parameters=parameters, targets=targets, updating=updating,
         eigensensitivity=eigensensitivity, optimisation=optimisation, candidates=candidates, comparison=comparison,
-        prediction=prediction, input_files=dict(read.files),
+        prediction=prediction, validation=validation, input_files=dict(read.files),
     )

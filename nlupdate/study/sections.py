@@ -21,9 +21,10 @@ from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_f
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import (
     LOSS_FACTOR_SOURCES, CandidateEntry, ComparisonSpec, EigensensitivitySpec, MeasuredSpec, PredictionSpec,
-    SimulationSpec, TargetsSpec,
+    SimulationSpec, TargetsSpec, ValidationSpec,
 )
 from nlupdate.updating.eigensensitivity import STEP_CONTROLS, EigensensitivityOptions
+from nlupdate.validation.models import model_fitter
 from nlupdate.updating.optimisation import OPTIMISATION_METHODS, OptimisationOptions
 from nlupdate.updating.pairing import PAIRING_METHODS
 from nlupdate.updating.residuals import ResponseOptions
@@ -32,7 +33,7 @@ from nlupdate.updating.targets import FRF_METHODS
 
 ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
-         "optimisation", "comparison", "prediction"},
+         "optimisation", "comparison", "prediction", "validation"},
     "study": {"name", "description"},
     "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "coordinates",
                  "levels", "input_dof",
@@ -59,6 +60,7 @@ ALLOWED: dict[str, set[str]] = {
     "comparison": {"user_weights", "damping_ratios", "loss_factors", "band_fraction", "frf"},
     "prediction": {"force_levels_n", "candidates", "loss_factor", "sweep", "adapter_options", "method", "harmonics",
                    "samples", "stability"},
+    "validation": {"hold_out", "models", "input_dof"},
 }
 MOVED = {
     ("updating", "max_workers"): "parallel runs are chosen when running: nlupdate run STUDY --workers N",
@@ -639,3 +641,32 @@ def _read_response_method(read: Reader, table: Mapping[str, Any], where: str) ->
     if not valid_samples(samples, harmonics):
         raise read.fail(where, "samples", samples_form(harmonics), samples)
     return HarmonicSettings(harmonics=harmonics, samples=samples, stability=read.boolean(table, where, "stability", True))
+
+
+def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> ValidationSpec | None:
+    """``[validation]`` (:class:`~nlupdate.study.spec.ValidationSpec`); it needs measured data."""
+    table = read.table(data, "validation")
+    if table is None:
+        return None
+    where = "validation"
+    if measured is None:
+        raise read.fail(where, None, "a [measured] table: the levels to hold out")
+    hold_out: str | tuple[float, ...] = "each"
+    if "hold_out" in table:
+        value = table["hold_out"]
+        if isinstance(value, str) and value in ("each", "top"):
+            hold_out = value
+        elif isinstance(value, list) and value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                       and v > 0 for v in value):
+            hold_out = tuple(float(v) for v in value)
+        else:
+            raise read.fail(where, "hold_out", '"each", "top" or a list of measured levels > 0', value)
+    models = tuple(read.strings(table, where, "models")) if "models" in table else ("auto",)
+    for name in models:
+        if name != "auto":
+            try:
+                model_fitter(name)
+            except ValueError as error:
+                raise read.fail(where, "models", str(error).split(": expected ", 1)[1], name) from None
+    return ValidationSpec(hold_out=hold_out, models=models or ("auto",),
+                          input_dof=read.string(table, where, "input_dof") if "input_dof" in table else None)

@@ -26,7 +26,7 @@ from nlupdate.updating.optimisation import OptimisationOptions
 from nlupdate.updating.residuals import ResponseOptions
 
 __all__ = [
-    "CandidateEntry", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec",
+    "CandidateEntry", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
     "Study", "StudyError", "TargetsSpec", "inputs_read_once",
 ]
 
@@ -113,6 +113,19 @@ class PredictionSpec:
 
 
 @dataclass(frozen=True)
+class ValidationSpec:
+    """``[validation]``: the measured driving-point curve judged on held-out levels, as
+    ``nlupdate validate`` does (docs/methods.md §10): ``hold_out`` (``"each"``, ``"top"`` or
+    levels in the reference unit), ``models`` (:mod:`nlupdate.validation.models` names or
+    ``"auto"``), ``input_dof`` (default: the identification's input, else the table's only
+    one)."""
+
+    hold_out: str | tuple[float, ...] = "each"
+    models: tuple[str, ...] = ("auto",)
+    input_dof: str | None = None
+
+
+@dataclass(frozen=True)
 class TargetsSpec:
     """``[targets]``: what the updated model must match — ``frequencies_hz`` (Hz, with
     ``std_hz``), the modes of the study's extracted linear FRF (``from_identification``,
@@ -190,6 +203,7 @@ class Study:
     candidates: tuple[CandidateEntry, ...]
     comparison: ComparisonSpec
     prediction: PredictionSpec | None
+    validation: ValidationSpec | None = None
     input_files: Mapping[str, Path] = field(default_factory=dict)
     snapshots: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 

@@ -45,6 +45,7 @@ from nlupdate.updating.eigensensitivity import UpdatingResult
 from nlupdate.updating.sensitivity import FORMULA_LABELS
 from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
 from nlupdate.updating.target_uncertainty import ParameterUncertainty, propagate_target_uncertainty
+from nlupdate.validation.held_out import Validation, validate
 
 
 @dataclass(frozen=True, eq=False)
@@ -539,3 +540,19 @@ def study_warnings(study: Study, identification: Identification | None, updating
     for run in (updating.runs if updating is not None else ()):
         out += updating_warnings(run, {**(run.bounds or {}), **bounds}, uncertainties.get(run.name))
     return tuple(out)
+
+
+def validation_step(study: Study, table: pd.DataFrame) -> Validation:
+    """``[validation]``: the measured driving-point curve judged on held-out levels
+    (:func:`nlupdate.validation.held_out.validate`)."""
+    spec = study.validation
+    inputs = sorted(set(table["input_dof"].astype(str)))
+    input_dof = spec.input_dof or (study.identification.input_dof if study.identification is not None else None) \
+        or (inputs[0] if len(inputs) == 1 else None)
+    if input_dof is None:
+        raise StudyError(f"{study.path}: [validation] input_dof: the measured table has input dofs {inputs}; name one")
+    try:
+        data = FRFLevels.from_table(table, input_dof, input_dof)
+        return validate(data, spec.hold_out, spec.models)
+    except ValueError as error:
+        raise StudyError(f"{study.path}: [validation]: {error}") from None

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
+import pandas as pd
 import scipy.stats
 from numpy.typing import NDArray
 
@@ -134,6 +135,30 @@ class Validation:
     repeatability: Repeatability
     choices: dict[float, ModelChoice] = field(default_factory=dict)
     reference_unit: str = "N"
+
+    def summary(self) -> dict:
+        """The ``validation.json`` content: the reference unit, the repeatability, auto's
+        choices and one entry per held-out level and model (:meth:`HeldOut.as_dict`)."""
+        return {"reference_unit": self.reference_unit, "repeatability": self.repeatability.as_dict(),
+                "auto_choices": {f"{level:g}": {"model": c.name, "reason": c.reason, "scores": c.scores}
+                                 for level, c in self.choices.items()},
+                "bands": "95 %: jackknife over the kept levels and the test's repeatability "
+                         "(nlupdate.validation.held_out)",
+                "held_out": [r.as_dict() for r in self.held_out]}
+
+    def table(self) -> pd.DataFrame:
+        """One row per held-out level and model: each quantity measured, predicted, its band
+        and the baseline's prediction."""
+        rows = []
+        for r in self.held_out:
+            row = {"level": r.level, "model": r.model, "requested": r.requested,
+                   "residual_to_noise": r.residual_to_noise,
+                   "baseline_residual_to_noise": r.baseline_residual_to_noise, "half_power_lines": r.half_power_lines}
+            for name, c in r.compared.items():
+                row.update({f"{name}_measured": c.measured, f"{name}_predicted": c.predicted, f"{name}_low": c.low,
+                            f"{name}_high": c.high, f"{name}_baseline": r.baseline[name].predicted})
+            rows.append(row)
+        return pd.DataFrame(rows)
 
 
 def hold_out_levels(data: FRFLevels, hold_out: str | Sequence[float]) -> tuple[float, ...]:

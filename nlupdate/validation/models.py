@@ -5,8 +5,9 @@ and returns a predictor of the receptance at any level over any grid:
 
 * ``lines`` — one nonlinear mode whose natural frequency and damping ratio are
   polynomials (order 2) in the modal amplitude, fitted to a sample from every line near
-  each resonance (:mod:`nlupdate.identification.line_samples`); the other modes' share is
-  the lowest level's residual terms;
+  each resonance (:mod:`nlupdate.identification.line_samples`) and continued beyond the
+  largest fitted amplitude until they would turn back; the other modes' share is the
+  lowest level's residual terms;
 * ``amplitude-polynomial``, ``amplitude-iwan`` — the same single-mode model fitted to one
   sample per level, the resonance peak (:func:`~nlupdate.identification.amplitude_modal_fit.amplitude_model_from_frfs`,
   ``nlupdate amplitude``);
@@ -26,9 +27,10 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.identification.amplitude_modal_fit import amplitude_model_from_frfs, fit_amplitude_model
+from nlupdate.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.line_samples import lowest_level_fit, samples_from_lines
+from nlupdate.model.amplitude_modal import AmplitudeModalModel
 
 #: frequency (Hz), level → receptance (m/N, or per volt)
 Predictor = Callable[[NDArray, float], NDArray[np.complex128]]
@@ -37,9 +39,24 @@ Predictor = Callable[[NDArray, float], NDArray[np.complex128]]
 LINES_ORDER = 2
 
 
+def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER) -> AmplitudeModalModel:
+    """Natural frequency and damping ratio as polynomials of ``order`` in a/a_ref, fitted to
+    line samples by least squares (equal weights: the lines near resonance carry equal
+    relative noise, :mod:`nlupdate.identification.line_samples`), continued beyond a_ref as
+    fitted until they would turn back (a held-out top level lies there)."""
+    a_ref = float(np.max(samples.amplitude))
+    design = (samples.amplitude / a_ref)[:, None] ** np.arange(order + 1)[None, :]
+    f = np.linalg.lstsq(design, samples.frequency_hz, rcond=None)[0]
+    zeta = np.linalg.lstsq(design, samples.damping_ratio, rcond=None)[0]
+    return AmplitudeModalModel(float(f[0]), max(float(zeta[0]), 0.0), ((input_dof, samples.input_shape),),
+                               frequency_coefficients=tuple(f[1:] / f[0]), damping_coefficients=tuple(zeta[1:]),
+                               reference_amplitude=a_ref, beyond_reference="continued",
+                               note=f"line samples: polynomials of order {order} in a/a_ref, a_ref = {a_ref:.4g}")
+
+
 def _lines(kept: FRFLevels) -> Predictor:
     samples, fit = samples_from_lines(kept)
-    model = fit_amplitude_model(samples, ((kept.input_dof, samples.input_shape),), "polynomial", LINES_ORDER)
+    model = lines_model(samples, kept.input_dof)
 
     def predict(frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
         f = np.asarray(frequency_hz, dtype=float)
