@@ -231,3 +231,18 @@ def decode_text(data: bytes, path: str | os.PathLike, what: str = "input file") 
 def read_input_text(path: str | os.PathLike, what: str = "input file") -> str:
     """A checked input file (:func:`checked_input`) read as UTF-8 text (:func:`decode_text`)."""
     return decode_text(read_input_bytes(path, what), path, what)
+
+
+def parse_toml(text: str, path: str | os.PathLike, error: type[ValueError] = InputFileError) -> dict:
+    """TOML ``text`` of the file ``path`` as a dict; ``error`` (a ValueError) naming the file
+    when it is not valid TOML or nests arrays or inline tables deeper than Python's parser
+    follows (it ended with "maximum recursion depth exceeded" and no file named)."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as problem:
+        raise error(f"{path}: not valid TOML ({problem})") from None
+    except RecursionError:
+        raise error(f"{path}: arrays or inline tables nested too deeply for the TOML reader (hundreds of levels); "
+                    f"expected the tables, numbers, lists and matrices of the format") from None

@@ -206,3 +206,85 @@ def test_measured_file_mistakes_name_the_field(tmp_path, capsys, case):
     out.mkdir()
     result = run_cli(capsys, "identify", *arguments, "--out", out / "identified")
     assert_refused(result, out, "nlupdate identify: error:", *fragments)
+
+
+# ------------------------------------------------------------------ MATLAB files: what the file holds, not Python's text
+def _v73(folder: Path, build) -> Path:
+    """A MATLAB v7.3 file (HDF5 after a 512-byte header) whose datasets ``build(handle)`` makes."""
+    import h5py
+    from test_measured_exports import write_v73
+
+    path = write_v73(folder / "frf.mat", {"force_level_n": [1.0], "response_dof": "tip", "input_dof": "tip"})
+    with h5py.File(path, "r+") as handle:
+        build(handle, h5py)
+    return path
+
+
+def _empty_frequencies(handle, h5py) -> None:
+    for name in ("frequency_hz", "H"):  # as MATLAB saves zeros(0, 1): its dimensions, flagged MATLAB_empty
+        data = handle.create_dataset(name, data=np.array([0, 0], dtype=np.uint64))
+        data.attrs["MATLAB_class"], data.attrs["MATLAB_empty"] = np.bytes_("double"), np.uint8(1)
+
+
+def _external_link(handle, h5py) -> None:
+    handle.create_dataset("frequency_hz", data=np.linspace(60.0, 120.0, 5)[None, :]).attrs["MATLAB_class"] = \
+        np.bytes_("double")
+    handle["H"] = h5py.ExternalLink("/etc/elsewhere.h5", "/H")
+
+
+def _two_structs(folder: Path) -> Path:
+    import scipy.io
+
+    scipy.io.savemat(folder / "frf.mat", {"low": {"frequency_hz": [60.0, 61.0]}, "high": {"frequency_hz": [60.0]}})
+    return folder / "frf.mat"
+
+
+MAT_MISTAKES = {
+    "empty v7.3 array": (lambda d: _v73(d, _empty_frequencies),
+                         ("frf.mat: variable 'frequency_hz' is empty; expected a vector of values",)),
+    "HDF5 external link": (lambda d: _v73(d, _external_link),
+                           ("frf.mat: variable 'H' is an HDF5 external link to /etc/elsewhere.h5:/H",
+                            "reads only what the file itself holds")),
+    "two structs": (_two_structs, ("frf.mat: holds 2 structs (low, high) and no variable outside them",
+                                   "save('frf.mat', '-struct', 'low')")),
+}
+
+
+@pytest.mark.parametrize("case", MAT_MISTAKES, ids=list(MAT_MISTAKES))
+def test_mat_file_mistakes_name_the_variable(tmp_path, capsys, case):
+    make, fragments = MAT_MISTAKES[case]
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, "identify", "--measured", make(inputs), "--out", out / "identified")
+    assert_refused(result, out, "nlupdate identify: error:", *fragments)
+
+
+def test_a_ragged_mat_time_record_names_the_lengths(tmp_path, capsys):
+    import scipy.io
+
+    t = np.arange(400) / 2000.0
+    scipy.io.savemat(tmp_path / "record.mat", {"time_s": t, "force": np.cos(2 * np.pi * 20 * t),
+                                               "tip": np.cos(2 * np.pi * 20 * t[:390])})
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, "frf", tmp_path / "record.mat", "--out", out / "frf.csv")
+    assert_refused(result, out, "record.mat: the columns differ in length ('time_s' 400, 'force' 400, 'tip' 390 "
+                                "samples); expected one value per sample in every column")
+
+
+# ------------------------------------------------------------------ TOML nested beyond the parser: the file is named
+@pytest.mark.parametrize("command, nested", [
+    ("update", "[" * 3000 + "]" * 3000),
+    ("update", "{a = " * 3000 + "1" + "}" * 3000),
+    ("simulate", "[" * 3000 + "]" * 3000),
+])
+def test_a_deeply_nested_file_is_named(tmp_path, capsys, command, nested):
+    path = tmp_path / "deep.toml"
+    path.write_text(f"deep = {nested}\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    extra = ["--input-dof", "0", "--freqs", "1:2:3", "--forces", "1"] if command == "simulate" else []
+    result = run_cli(capsys, command, path, *extra, "--out", out / ("frf.csv" if extra else "result"))
+    assert_refused(result, out, f"{path}: arrays or inline tables nested too deeply for the TOML reader")

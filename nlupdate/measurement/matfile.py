@@ -80,6 +80,11 @@ def mat_variables(data: bytes, path: Path, kind: str, what: str = "measured-FRF 
     structs = [name for name, value in variables.items() if isinstance(value, dict)]
     if len(variables) == 1 and structs:
         variables = variables[structs[0]]
+    elif len(structs) > 1 and len(structs) == len(variables):
+        raise MeasurementTableError(
+            f"{path}: holds {len(structs)} structs ({', '.join(structs)}) and no variable outside them; nlupdate reads "
+            f"the variables at the top level of the file or the fields of its only struct: save the one struct's "
+            f"fields, e.g. save('{path.name}', '-struct', '{structs[0]}')")
     return {name: value for name, value in variables.items() if not isinstance(value, dict)}
 
 
@@ -141,17 +146,35 @@ def _v73_variables(data: bytes, path: Path, what: str) -> dict[str, Any]:
 
     decoded = [0]  # bytes the datasets read so far declare
     with h5py.File(io.BytesIO(data), "r") as handle:
-        return {name: _v73_value(handle, item, decoded, path, what) for name, item in handle.items()
+        return {name: _v73_value(handle, _v73_member(handle, name, path), decoded, path, what) for name in handle
                 if not name.startswith("#")}
+
+
+def _v73_member(group, name: str, path: Path):
+    """The object ``name`` of an HDF5 group, refusing links: an external link would read
+    another file than the one given, and MATLAB writes none."""
+    import h5py
+
+    link = group.get(name, getlink=True)
+    if isinstance(link, h5py.ExternalLink):
+        raise MeasurementTableError(f"{path}: variable '{f'{group.name}/{name}'.strip('/')}' is an HDF5 external link to "
+                                    f"{link.filename}:{link.path}; nlupdate reads only what the file itself holds "
+                                    f"(save the data in the file, as MATLAB's save -v7.3 does)")
+    if isinstance(link, h5py.SoftLink):
+        raise MeasurementTableError(f"{path}: variable '{f'{group.name}/{name}'.strip('/')}' is an HDF5 soft link to "
+                                    f"{link.path}; expected the variable's data (as MATLAB's save -v7.3 writes it)")
+    return group[name]
 
 
 def _v73_value(handle, item, decoded: list[int], path: Path, what: str) -> Any:
     import h5py
 
     if isinstance(item, h5py.Group):
-        return {name: _v73_value(handle, child, decoded, path, what) for name, child in item.items()}
+        return {name: _v73_value(handle, _v73_member(item, name, path), decoded, path, what) for name in item}
     matlab_class = item.attrs.get("MATLAB_class", b"")
     matlab_class = matlab_class.decode() if isinstance(matlab_class, bytes) else str(matlab_class)
+    if item.attrs.get("MATLAB_empty", 0):  # MATLAB stores an empty array as its dimensions, [0 0]
+        return "" if matlab_class == "char" else [] if matlab_class == "cell" else np.zeros(0)
     elements, width = int(np.prod(item.shape, dtype=object)) if item.shape else 1, item.dtype.itemsize
     decoded[0] += elements * width  # checked from the declared shape, before it is read
     check_decoded_size(decoded[0], path, _declared(item.name.lstrip("/"), elements, width, decoded[0]), what)
@@ -171,6 +194,8 @@ def _v73_value(handle, item, decoded: list[int], path: Path, what: str) -> Any:
 
 def _vector(value: Any, name: str, path: Path) -> np.ndarray:
     array = np.asarray(value)
+    if array.size == 0:
+        raise MeasurementTableError(f"{path}: variable '{name}' is empty; expected a vector of values")
     if array.ndim > 2 or (array.ndim == 2 and min(array.shape) > 1):
         raise MeasurementTableError(f"{path}: variable '{name}' has shape {array.shape}; expected a vector")
     return array.ravel()

@@ -176,6 +176,11 @@ def _record_from_columns(columns: dict[str, np.ndarray], source: str, sample_rat
         if bad.size:
             raise TimeHistoryError(f"{source}: column '{name}', sample {bad[0]}: {array[bad[0]]!r} is not a finite number")
         numbers[name] = array
+    lengths = {name: v.size for name, v in numbers.items()}
+    if len(set(lengths.values())) > 1:
+        shown = ", ".join(f"'{name}' {size}" for name, size in lengths.items())
+        raise TimeHistoryError(f"{source}: the columns differ in length ({shown} samples); expected one value per "
+                               f"sample in every column")
     signals = np.vstack([v for name, v in numbers.items() if name != "time_s"])
     nonzero = np.flatnonzero(np.any(signals != 0, axis=0))
     end = int(nonzero[-1]) + 1 if nonzero.size else 0

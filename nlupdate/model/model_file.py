@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -56,7 +55,7 @@ from nlupdate.model.elements import ELEMENT_TYPES
 from nlupdate.model.linear import LumpedModel, ModalModel, dof_index
 from nlupdate.model.system import NonlinearSystem
 from nlupdate.files import atomic_file
-from nlupdate.input_files import read_input_text
+from nlupdate.input_files import parse_toml, read_input_text
 
 LUMPED_KEYS = {"kind", "mass", "stiffness", "damping", "loss_factor", "structural_damping", "dof_names"}
 MODAL_KEYS = {"kind", "natural_frequencies_hz", "mode_shapes", "damping_ratios", "loss_factors", "dof_names"}
@@ -243,10 +242,7 @@ def system_from_dict(data: Mapping[str, Any], source: str = "<model>") -> Nonlin
 def load_system(path: str | Path) -> NonlinearSystem:
     """Read a TOML model file (see module docstring)."""
     path = Path(path)
-    try:
-        data = tomllib.loads(read_input_text(path, "model file"))
-    except tomllib.TOMLDecodeError as error:
-        raise ModelFileError(f"{path}: not valid TOML ({error})") from None
+    data = parse_toml(read_input_text(path, "model file"), path, ModelFileError)
     return system_from_dict(data, str(path))
 
 

@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 import os
-import tomllib
 from pathlib import Path
 from typing import Mapping
 
 from nlupdate.files import MAX_NAME, name_problem
-from nlupdate.input_files import read_input_text
+from nlupdate.input_files import parse_toml, read_input_text
 from nlupdate.study import sections
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import Study
@@ -25,10 +24,7 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
     ``redirect``: files to read instead of those the study names (path as written → path),
     e.g. the copies kept in a run archive; with ``redirect_only`` no other file is read."""
     path = Path(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise StudyError(f"{path}: not valid TOML ({error})") from error
+    data = parse_toml(text, path, StudyError)
     read = Reader(path, sections.ALLOWED, redirect, redirect_only)
     for (table, key), hint in sections.MOVED.items():
         if isinstance(data.get(table), dict) and key in data[table]:
