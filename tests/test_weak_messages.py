@@ -288,3 +288,46 @@ def test_a_deeply_nested_file_is_named(tmp_path, capsys, command, nested):
     extra = ["--input-dof", "0", "--freqs", "1:2:3", "--forces", "1"] if command == "simulate" else []
     result = run_cli(capsys, command, path, *extra, "--out", out / ("frf.csv" if extra else "result"))
     assert_refused(result, out, f"{path}: arrays or inline tables nested too deeply for the TOML reader")
+
+
+# ------------------------------------------------------------------ a value blamed on the key that holds it
+def _study_with_fixed(folder: Path, fixed: dict) -> Path:
+    from studies import two_dof_study, write_study
+
+    study = two_dof_study()
+    study["adapter"]["fixed"] = fixed
+    return write_study(folder / "study.toml", study)
+
+
+def _iwan_model(folder: Path, kt: float) -> Path:
+    import tomllib
+
+    import tomli_w
+
+    model = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "iwan_sdof.toml").read_text())
+    model["nonlinear"][0]["kt"] = kt
+    path = folder / "iwan.toml"
+    path.write_text(tomli_w.dumps(model))
+    return path
+
+
+VALUE_MISTAKES = {
+    "negative fixed k3": (lambda d, out: ["update", _study_with_fixed(d, {"k3": -1e10}), "--out", out / "run"], (
+        "study.toml: [adapter.fixed] key 'k3': expected a value the lumped model can take",
+        "parameter 'k3' must be positive")),
+    "Iwan K_T 1e29": (lambda d, out: ["simulate", _iwan_model(d, 1e29), "--input-dof", "0", "--freqs", "650:780:11",
+                                      "--forces", "0.01,1", "--method", "hb", "--out", out / "frf.csv"], (
+        "iwan.toml [[nonlinear]] #1: 'kt' = 1e+29 N/m is 5e+22 times the model's largest stiffness (2e+06 N/m)",
+        "expected at most 1e+12 times it")),
+}
+
+
+@pytest.mark.parametrize("case", VALUE_MISTAKES, ids=list(VALUE_MISTAKES))
+def test_a_value_is_blamed_on_its_own_key(tmp_path, capsys, case):
+    make, fragments = VALUE_MISTAKES[case]
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, *make(inputs, out))
+    assert_refused(result, out, *fragments)

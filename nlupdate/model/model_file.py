@@ -220,10 +220,35 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
                 values[key] = table[key]
         elif not parameter.optional:
             raise ModelFileError(f"{where}: missing key '{key}' for a {kind} element")
+    _check_stiffness_scale(values, parameters, model, where)
     try:
         return ELEMENT_TYPES[kind](indices, **values)
     except (TypeError, ValueError) as error:
         raise ModelFileError(f"{where}: {error}") from None
+
+
+#: an element stiffness (N/m) above this multiple of the lumped model's largest stiffness is
+#: refused: the solves would keep no significant digit of the structure's own stiffness
+MAX_STIFFNESS_RATIO = 1e12
+
+
+def _check_stiffness_scale(values: Mapping[str, Any], parameters, model, where: str) -> None:
+    """Refuse an element stiffness in N/m (kt, kf, kc) more than :data:`MAX_STIFFNESS_RATIO`
+    times the lumped model's largest diagonal stiffness: double precision keeps ~16
+    digits, so the solver fails on such a model and would blame the frequency band."""
+    if not isinstance(model, LumpedModel):
+        return
+    diagonal = model.stiffness.diagonal() if hasattr(model.stiffness, "diagonal") else np.diag(model.stiffness)
+    scale = float(np.max(np.abs(diagonal))) if np.size(diagonal) else 0.0
+    if not scale > 0:
+        return
+    for parameter in parameters:
+        value = values.get(parameter.name)
+        if parameter.unit == "N/m" and isinstance(value, (int, float)) and value > MAX_STIFFNESS_RATIO * scale:
+            raise ModelFileError(
+                f"{where}: '{parameter.name}' = {value:g} N/m is {value / scale:.2g} times the model's largest "
+                f"stiffness ({scale:g} N/m); expected at most {MAX_STIFFNESS_RATIO:g} times it (double precision "
+                f"keeps about 16 digits: the structure's own stiffness would be lost in the solves)")
 
 
 def system_from_dict(data: Mapping[str, Any], source: str = "<model>") -> NonlinearSystem:

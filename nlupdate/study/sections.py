@@ -317,6 +317,12 @@ def check_parameter_domain(read: Reader, spec: AdapterSpec, parameters: tuple[Pa
     for name in fixed:
         if name not in known:
             raise read.fail("adapter.fixed", name, f"a parameter of the {adapter.name} model ({', '.join(known)})")
+    for name, value in fixed.items():  # each on the model's defaults: a fixed value is not a parameter's fault
+        try:
+            adapter.check_values({name: value})
+        except ValueError as error:
+            raise read.fail("adapter.fixed", name, f"a value the {adapter.name} model can take ({error})",
+                            value) from None
     start = {**fixed, **{p.name: p.start for p in parameters}}
     for p in parameters:
         for bound, value in (("start", p.start), ("lower", p.lower), ("upper", p.upper)):
