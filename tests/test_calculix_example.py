@@ -45,3 +45,5 @@ def test_calculix_example_leaves_only_its_archive(tmp_path):
     runs = pd.read_parquet(work / out / "tables" / "runs.parquet")
     (updated,) = runs["p:E"]
     assert updated == pytest.approx(210e9 * (initial["target_hz"] / initial["f_hz"]) ** 2, rel=2e-5)
+    report = (work / out / "report.md").read_text()  # no target std: the value and why, never "± –"
+    assert "± –" not in report and "(no uncertainty: the targets state no std_hz)" in report

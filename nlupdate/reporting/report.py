@@ -56,12 +56,23 @@ def hidden_truth(study) -> dict[str, float]:
     return truth
 
 
-def _with_truth(value: float, std: float, truth: float | None, scale: float = 1.0, unit: str = "") -> str:
-    text = f"{_number(value / scale)} ± {_number(std / scale, 2)} {unit}".rstrip()
+#: why an updated parameter has no ± (the table's note and the summary say it)
+NO_TARGET_STD = "no uncertainty: the targets state no std_hz"
+
+
+def _with_truth(value: float, std: float | None, truth: float | None, scale: float = 1.0, unit: str = "",
+                missing: str = "no uncertainty") -> str:
+    """``value ± std unit`` with the truth and how many σ off it; without a std (None or NaN)
+    the value alone and ``missing`` (why there is none) — never "± –"."""
+    known = std is not None and bool(np.isfinite(std))
+    text = (f"{_number(value / scale)} ± {_number(std / scale, 2)} {unit}" if known
+            else f"{_number(value / scale)} {unit}").rstrip()
+    notes = [] if known else [missing]
     if truth is not None:
-        sigmas = abs(value - truth) / std if std and np.isfinite(std) and std > 0 else float("nan")
-        text += f" (truth {_number(truth / scale)}{' ' + unit if unit else ''}; {_number(sigmas, 2)}σ off)"
-    return text
+        truth_text = f"truth {_number(truth / scale)}{' ' + unit if unit else ''}"
+        notes.insert(0, f"{truth_text}; {_number(abs(value - truth) / std, 2)}σ off" if known and std > 0 else truth_text)
+    notes = [note for note in notes if note]
+    return text + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str]) -> str:
@@ -156,7 +167,8 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
     ident = result.identification
     if ident is not None:
         stats = ident.uncertainty.parameters
-        parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name))}" for name, s in stats.items()
+        parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name), missing='no Monte-Carlo uncertainty')}"
+                 for name, s in stats.items()
                  if name in ident.parameters()]
         out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts)
                    + ("" if ident.trustworthy else " — **not trustworthy**: the linear FRF differs between the "
@@ -167,7 +179,7 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         u = result.uncertainties.get(best)
         if run.converged:
             values = "; ".join(
-                f"{name} = {_with_truth(value, u.std[name] if u else float('nan'), truth.get(name))}"
+                f"{name} = {_with_truth(value, u.std[name] if u else None, truth.get(name), missing=NO_TARGET_STD)}"
                 for name, value in run.parameters.items())
             out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
         else:
@@ -330,9 +342,11 @@ def _targets_section(result) -> list[str]:
 
 def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     lines = ["## Updating", ""]
-    rows = []
+    rows, without_std = [], False
     for run in result.runs:
         u = result.uncertainties.get(run.name)
+        stds = {name: u.std[name] if u else None for name in run.parameters}
+        without_std |= run.converged and not all(s is not None and np.isfinite(s) for s in stds.values())
         on_bound = [w.subject for w in result.warnings if w.source == run.name and w.kind == "at_bound"]
         converged = "yes" if run.converged else f"no ({run.stop if on_bound else run.reason})"
         if on_bound:
@@ -340,11 +354,16 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
         rows.append({
             "run": run.name, "converged": converged, "iterations": run.iterations,
             "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
-            **{name: (f"{_number(v)} ± {_number(u.std[name], 2) if u else '–'}" if run.converged
+            **{name: (_with_truth(v, stds[name], None, missing="") if run.converged
                       else _not_converged(v, None)) for name, v in run.parameters.items()},
         })
     frame = pd.DataFrame(rows).fillna("–")
     lines += [_table(frame), ""]
+    if without_std:
+        lines += ["No ± on the updated values: the targets state no std_hz (`[targets] std_hz`, "
+                  "docs/study-files.md), so there is no uncertainty to propagate."
+                  if result.targets is not None and result.targets.std_hz is None
+                  else "No ± on some updated values: their propagated uncertainty could not be determined.", ""]
     if truth:
         known = {k: v for k, v in truth.items() if any(k in r.parameters for r in result.runs)}
         if known:
