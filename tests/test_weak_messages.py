@@ -193,6 +193,11 @@ MEASURED_MISTAKES = {
         d, "runs.uff", _dataset(z_axis_spec_data_type=13, z_axis_value=1.0, id2="F=1N"),
         _dataset(z_axis_spec_data_type=13, z_axis_value=1.0, id2="F=2N"))],
         ("runs.uff, dataset 1 (run 'F=2N'): the z-axis level 1 N", "the ID line 'F=2N' (2 N) contradict each other")),
+    "coherence abscissa against record 7": (lambda d: ["--measured", _uff(
+        d, "run.uff", _dataset(id2="F=1N"),
+        _dataset(id2="F=1N", func_type=6, ord_data_type=2, data=np.full(121, 0.9), id4="abscissa_hz=10.0,0.5"))],
+        ("run.uff, dataset 1: the ID line 'abscissa_hz=10.0,0.5' (10 Hz + 0.5 Hz steps) and record 7 (abscissa "
+         "minimum 60 Hz, increment 0.5 Hz) contradict each other",)),
 }
 
 

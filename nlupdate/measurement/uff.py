@@ -317,7 +317,16 @@ def _abscissa_hz(dataset: dict, where: str) -> np.ndarray:
     keys = _id_keys(dataset)
     if "abscissa_hz" in keys and dataset.get("abscissa_spacing") == 1:
         first, increment = _id_floats(keys, "abscissa_hz", 2, where)
-        frequency = first + increment * np.arange(len(dataset["data"]))
+        exact = first + increment * np.arange(len(dataset["data"]))
+        # record 7 holds the same grid to 5 significant digits (E13.5): the ID line only refines it
+        if exact.size != frequency.size or not np.allclose(frequency, exact, rtol=0.0,
+                                                           atol=1e-4 * max(float(np.max(np.abs(exact))), 1e-300)):
+            raise MeasurementTableError(
+                f"{where}: the ID line 'abscissa_hz={keys['abscissa_hz'].strip()}' ({exact[0]:g} Hz + {increment:g} Hz "
+                f"steps) and record 7 (abscissa minimum {frequency[0]:g} Hz, increment "
+                f"{(frequency[1] - frequency[0]) if frequency.size > 1 else 0.0:g} Hz) contradict each other; expected "
+                f"the same frequencies (remove the ID line to use record 7's)")
+        frequency = exact
     return frequency
 
 
