@@ -17,6 +17,9 @@ RESPONSE_METHODS = ("continuation", "hb")
 #: unknowns grow as 2H + 1 and every force evaluation as the samples).
 MAX_HARMONICS = 64
 MAX_SAMPLES = 65_536
+#: The most frequencies of one simulated curve, by ``simulate --freqs`` or a study's
+#: ``frequencies_hz`` (a finer grid is a mistake, or hours of work).
+MAX_FREQUENCIES = 200_000
 HARMONICS_FORM = f'an integer from 1 to {MAX_HARMONICS}, or "auto"'
 
 

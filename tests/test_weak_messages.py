@@ -336,3 +336,52 @@ def test_a_value_is_blamed_on_its_own_key(tmp_path, capsys, case):
     out.mkdir()
     result = run_cli(capsys, *make(inputs, out))
     assert_refused(result, out, *fragments)
+
+
+# ------------------------------------------------------------------ huge inputs: bounded before the work, not hours into it
+def _study(folder: Path, change) -> Path:
+    from studies import two_dof_study, write_study
+
+    study = two_dof_study()
+    change(study)
+    return write_study(folder / "study.toml", study)
+
+
+def _many_parameters(study: dict) -> None:
+    study["parameters"] = [dict(study["parameters"][0], name=f"k{i}") for i in range(1001)]
+
+
+def _iwan_sliders(folder: Path, sliders: int) -> Path:
+    path = _iwan_model(folder, 3e5)
+    path.write_text(path.read_text().replace("beta = 0.5", f"beta = 0.5\nsliders = {sliders}"))
+    return path
+
+
+HUGE_INPUTS = {
+    "5e7 frequencies in a study": (lambda d, out: ["update", _study(d, lambda s: s["measured"]["simulate"].update(
+        frequencies_hz=[690.0, 770.0, 50_000_000])), "--out", out / "run"], (
+        "study.toml: [measured.simulate] key 'frequencies_hz': expected [start, stop, count] with 2 ≤ count ≤ 200000",)),
+    "frequency list longer than the cap": (lambda d, out: ["update", _study(d, lambda s: s["measured"]["simulate"].update(
+        frequencies_hz={"list": [690.0 + 1e-3 * i for i in range(200_001)]})), "--out", out / "run"], (
+        "[measured.simulate] key 'frequencies_hz': expected at most 200000 frequencies, found 200001",)),
+    "1001 parameters": (lambda d, out: ["update", _study(d, _many_parameters), "--out", out / "run"], (
+        "study.toml: 1001 [[parameters]] tables; expected at most 1000",)),
+    "1001 targets": (lambda d, out: ["update", _study(d, lambda s: s.update(targets={"frequencies_hz": [
+        700.0 + i for i in range(1001)]})), "--out", out / "run"], (
+        "study.toml: [targets] key 'frequencies_hz': expected at most 1000 target modes, found 1001",)),
+    "Iwan sliders 1e8": (lambda d, out: ["simulate", _iwan_sliders(d, 100_000_000), "--input-dof", "0", "--freqs",
+                                         "650:780:11", "--forces", "0.01,1", "--method", "time", "--out",
+                                         out / "frf.csv"], (
+        "iwan.toml [[nonlinear]] #1: sliders must be an integer from 2 to 100000", "got 1e+08")),
+}
+
+
+@pytest.mark.parametrize("case", HUGE_INPUTS, ids=list(HUGE_INPUTS))
+def test_huge_inputs_are_refused_before_the_work(tmp_path, capsys, case):
+    make, fragments = HUGE_INPUTS[case]
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, *make(inputs, out))
+    assert_refused(result, out, *fragments)

@@ -26,6 +26,7 @@ from nlupdate.cli.progress_bar import terminal_progress
 from nlupdate.measurement.frf_files import is_frf_table, table_suffix, write_frf_table
 from nlupdate.model.model_file import load_system
 from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
+from nlupdate.response_method import MAX_FREQUENCIES
 from nlupdate.response.simulate import (
     METHODS,
     SimulationReport,
@@ -51,8 +52,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
-#: The most frequencies of one simulated curve (a finer grid is a mistake, or hours of work).
-MAX_FREQUENCIES = 200_000
 GRID_FORM = "START:STOP:COUNT in Hz (e.g. 600:850:501) or F1,F2,… with 0 < START < STOP"
 
 

@@ -17,7 +17,7 @@ from nlupdate.adapters.base import Parameter
 from nlupdate.adapters.registry import ADAPTER_KINDS, AdapterSpec, build_adapter
 from nlupdate.identification.pipeline import IdentificationSettings
 from nlupdate.response.harmonic_balance import HarmonicSettings
-from nlupdate.response_method import HARMONICS_FORM, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
+from nlupdate.response_method import HARMONICS_FORM, MAX_FREQUENCIES, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import (
     LOSS_FACTOR_SOURCES, CandidateEntry, ComparisonSpec, EigensensitivitySpec, MeasuredSpec, PredictionSpec,
@@ -100,9 +100,13 @@ def _grid(read: Reader, table: Mapping[str, Any], where: str) -> tuple[float, ..
         start, stop, count = read.numbers(table, where, "frequencies_hz", length=3)
         if not 0 < start < stop:
             raise read.fail(where, "frequencies_hz", "[start, stop, count] with 0 < start < stop (Hz)", value)
+        if count > MAX_FREQUENCIES:
+            raise read.fail(where, "frequencies_hz", f"[start, stop, count] with 2 ≤ count ≤ {MAX_FREQUENCIES}", value)
         grid = list(np.linspace(start, stop, int(count)))
     else:
         raise read.fail(where, "frequencies_hz", "[start, stop, count] (Hz, count ≥ 2) or {list = [f1, f2, …]}", value)
+    if len(grid) > MAX_FREQUENCIES:
+        raise read.fail(where, "frequencies_hz", f"at most {MAX_FREQUENCIES} frequencies, found {len(grid)}")
     if min(grid) <= 0:
         raise read.fail(where, "frequencies_hz", "frequencies > 0 Hz", value)
     return tuple(float(f) for f in grid)
@@ -333,10 +337,19 @@ def check_parameter_domain(read: Reader, spec: AdapterSpec, parameters: tuple[Pa
                                  f"{adapter.name} model cannot take ({error})") from None
 
 
+#: The most [[parameters]] and target modes a study may hold: updating solves the FE model once
+#: per parameter and step, and pairs every target with the model's modes (more is a mistake).
+MAX_PARAMETERS = 1_000
+MAX_TARGETS = 1_000
+
+
 def read_parameters(read: Reader, data: Mapping[str, Any]) -> tuple[Parameter, ...]:
     entries = data.get("parameters")
     if not isinstance(entries, list) or not entries or any(not isinstance(e, dict) for e in entries):
         raise StudyError(f"{read.path}: expected one or more [[parameters]] tables (name, unit, start, lower, upper)")
+    if len(entries) > MAX_PARAMETERS:
+        raise StudyError(f"{read.path}: {len(entries)} [[parameters]] tables; expected at most {MAX_PARAMETERS} (each "
+                         f"costs one FE solve per sensitivity step)")
     parameters = []
     for i, entry in enumerate(entries):
         where = f"parameters #{i + 1}"
@@ -379,6 +392,9 @@ def read_targets(read: Reader, targets: Mapping[str, Any],
     if source != "frequencies_hz" and "std_hz" in targets:
         raise read.fail(where, "std_hz", "nothing: target uncertainties come from the identification")
     if source == "frequencies_hz":
+        if isinstance(targets["frequencies_hz"], list) and len(targets["frequencies_hz"]) > MAX_TARGETS:
+            raise read.fail(where, "frequencies_hz", f"at most {MAX_TARGETS} target modes, "
+                                                     f"found {len(targets['frequencies_hz'])}")
         frequencies = read.numbers(targets, where, "frequencies_hz", required=True)
         n = len(frequencies)
         if any(f <= 0 for f in frequencies) or any(b <= a for a, b in zip(frequencies, frequencies[1:])):
@@ -423,6 +439,9 @@ def read_targets(read: Reader, targets: Mapping[str, Any],
                 raise read.fail(where, "band_hz", "[low, high] with 0 ≤ low < high (Hz)", targets["band_hz"])
         read.number(targets, where, "force_level_n", positive=True)
         read.string(targets, where, "frf_method", choices=FRF_METHODS)
+    if n > MAX_TARGETS:
+        key = {"from_identification": "modes", "identification": "n_modes"}.get(source, source)
+        raise read.fail(where, key, f"at most {MAX_TARGETS} target modes, found {n}")
     if source != "identification":
         for key in ("n_modes", "band_hz", "force_level_n", "frf_method"):
             if key in targets:
