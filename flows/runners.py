@@ -59,8 +59,12 @@ def task_runner(execution: Execution, connect_timeout_s: float = 10.0) -> Iterat
         return
     if execution.dask_address is not None:
         check_scheduler_address(execution.dask_address, connect_timeout_s)
-    from distributed import Client, LocalCluster
-    from prefect_dask import DaskTaskRunner
+    try:
+        from distributed import Client, LocalCluster
+        from prefect_dask import DaskTaskRunner
+    except ImportError as error:  # the optional part: pyproject.toml [dask]
+        raise ExecutionError(f"running the tasks on Dask needs {error.name or 'Dask'}, an optional part of nlupdate "
+                             f"that is not installed: pip install 'nlupdate[dask]'") from None
 
     if execution.dask_address is not None:
         try:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import json
 import os
 import sys
@@ -40,11 +41,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+#: the optional packages --dask and --dask-address need (``pip install 'nlupdate[dask]'``)
+DASK_MODULES = ("distributed", "prefect_dask")
+
+
+def dask_installed() -> bool:
+    """Whether the optional Dask packages can be imported (looked up, not imported: seconds)."""
+    try:
+        return all(importlib.util.find_spec(name) is not None for name in DASK_MODULES)
+    except (ImportError, ValueError):  # ValueError: a module set to None in sys.modules
+        return False
+
+
 def check_dask_address(args: argparse.Namespace) -> None:
-    """A ``--dask-address`` where nothing answers is a mistake in the input: one line, exit
-    2, in milliseconds — before any folder is made or server started."""
+    """--dask or --dask-address without Dask installed, or a ``--dask-address`` where nothing
+    answers, is a mistake in the input: one line, exit 2, in milliseconds — before any
+    folder is made or server started."""
     from nlupdate.flows.runners import ExecutionError, check_scheduler_address
 
+    if (getattr(args, "dask", False) or getattr(args, "dask_address", None)) and not dask_installed():
+        option = "--dask" if getattr(args, "dask", False) else "--dask-address"
+        raise CliError(f"{option} needs Dask, an optional part of nlupdate that is not installed: "
+                       f"pip install 'nlupdate[dask]'")
     if getattr(args, "dask_address", None):
         try:
             check_scheduler_address(args.dask_address)
