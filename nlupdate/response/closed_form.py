@@ -8,9 +8,19 @@ taking the modulus squared, a cubic in u at every frequency::
     c²|h|² u³ + 2c Re(h) u² + u − |X_lin|² = 0.
 
 Its positive real roots are all the solutions at that frequency — every branch, also the
-unstable one — whatever the linear model (any receptance ``h``). They come from the
-trigonometric or Cardano formula for all frequencies at once, polished by two Newton steps
-on the cubic. Stability is the continuation's criterion, the sign of ``det ∂R/∂y``.
+unstable one — whatever the linear model (any receptance ``h``). They come from Viète's
+trigonometric form (three real roots) or Cardano's formula in its cancellation-free form (one
+real root) for all frequencies at once, without masks, polished by a Newton step on the
+cubic itself, and a second where the first moved a root by more than 1e-7 (the shift back from
+the depressed cubic cancels for a root much smaller than ``b/3a``; near a fold two roots
+meet). Per frequency this costs less than the textbook trigonometric solve alone
+(``benchmarks/frf/cubic_reference.py``; docs/performance.md).
+
+Stability is the continuation's criterion, the sign of ``det ∂R/∂y``, and that determinant
+is the cubic's slope at the root. With ``g(u) = 1 + h c u`` the residual (times the positive
+scale) is ``X g(|X|²) − X_lin``, a map of X and X̄ whose real Jacobian determinant is
+``|∂R/∂X|² − |∂R/∂X̄|² = |g + u g'|² − u²|g'|² = |g|² + 2u Re(ḡ g') = d/du (u |g|²)``, and
+``u |g|² − |X_lin|²`` is the cubic above: ``det ∂R/∂y = 3c²|h|²u² + 4c Re(h) u + 1``.
 """
 from __future__ import annotations
 
@@ -32,62 +42,112 @@ def applies(problem: CondensedProblem) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class Roots:
-    """The solutions at P frequencies: ``x`` (P, 3) complex amplitudes at the nonlinear
-    coordinate (m), NaN where fewer than three roots are positive; ``u = |x|²`` sorted
-    ascending; ``stable`` by the sign of det ∂R/∂y; ``count`` of positive roots (1 or 3)."""
+    """The solutions at P frequencies: ``u = |x|²`` (P, 3) (m²) sorted ascending, NaN where
+    fewer than three roots are positive; ``stable`` by the sign of det ∂R/∂y; ``count`` of
+    positive roots (1 or 3); ``x_lin`` (P,) (m) and ``gain = c h`` (P,) (1/m²) give the
+    complex amplitudes at the nonlinear coordinate, ``x = x_lin / (1 + gain u)``."""
 
     omega: NDArray[np.float64]
-    x: NDArray[np.complex128]
     u: NDArray[np.float64]
     stable: NDArray[np.bool_]
     count: NDArray[np.int64]
+    x_lin: NDArray[np.complex128]
+    gain: NDArray[np.complex128]
+
+    @property
+    def x(self) -> NDArray[np.complex128]:
+        """Complex amplitudes (P, 3) (m) of all roots, NaN where ``u`` is."""
+        with np.errstate(invalid="ignore"):
+            return self.x_lin[:, None] / (1 + self.gain[:, None] * self.u)
+
+    def response(self, index: NDArray) -> NDArray[np.complex128]:
+        """Complex amplitude (P,) (m) of root ``index[i]`` at frequency i."""
+        u = np.take_along_axis(self.u, np.asarray(index)[:, None], axis=1)[:, 0]
+        with np.errstate(invalid="ignore"):
+            return self.x_lin / (1 + self.gain * u)
+
+
+_BLOCK = 4096  # frequencies solved together: their temporaries stay in cache and on pages already mapped
 
 
 def cubic_roots(problem: CondensedProblem, omega: NDArray) -> Roots:
     """All solutions of the single-harmonic balance at every ω (rad/s) of ``omega``;
-    needs :func:`applies`."""
+    needs :func:`applies`.
+
+    Solved in blocks of ``_BLOCK`` frequencies: the few dozen temporaries of a whole grid
+    of 10,000 would be fresh pages at every call once the allocator returns them to the
+    system (half the time of the solve, measured), those of a block are reused.
+    """
     omega = np.asarray(omega, dtype=float)
     linear = problem.linear_batch(omega, derivative=False)
-    h = linear.h_aa[:, 0, 0]
-    x_lin = linear.x_lin[:, 0]
     c = 0.75 * sum(element.k3 for element, _, _ in problem.element_index)
-    lead = c**2 * np.abs(h) ** 2
-    u = _positive_cubic_roots(lead, 2 * c * h.real, np.ones_like(lead), -np.abs(x_lin) ** 2)
-    with np.errstate(invalid="ignore"):  # NaN roots stay NaN
-        x = x_lin[:, None] / (1 + h[:, None] * c * u)
-    valid = np.isfinite(u)
-    count = valid.sum(axis=1)
-    stable = np.zeros(u.shape, bool)
-    rows, cols = np.nonzero(valid)
-    if rows.size:
-        _, jac, _ = problem.residual_batch(problem.to_real(x[rows, cols][:, None]), linear.take(rows))
-        stable[rows, cols] = np.linalg.det(jac) > 0
-    return Roots(omega, x, u, stable, count)
+    u = np.empty((omega.size, 3))
+    stable = np.empty((omega.size, 3), bool)
+    for start in range(0, omega.size, _BLOCK):
+        block = slice(start, start + _BLOCK)
+        h, x_lin = linear.h_aa[block, 0, 0], linear.x_lin[block, 0]
+        lead, quadratic = c**2 * (h.real**2 + h.imag**2), 2 * c * h.real
+        u[block] = roots = _positive_cubic_roots(lead, quadratic, np.ones_like(lead), -(x_lin.real**2 + x_lin.imag**2))
+        lead, quadratic = 3 * lead, 2 * quadratic
+        with np.errstate(invalid="ignore"):  # NaN roots are not stable
+            for k in range(3):  # det ∂R/∂y, the cubic's slope (module docstring)
+                stable[block, k] = (lead * roots[:, k] + quadratic) * roots[:, k] + 1 > 0
+    count = (u[:, 0] == u[:, 0]).astype(np.int64) + (u[:, 1] == u[:, 1]) + (u[:, 2] == u[:, 2])
+    return Roots(omega, u, stable, count, linear.x_lin[:, 0], c * linear.h_aa[:, 0, 0])
+
+
+_SQRT3 = float(np.sqrt(3.0))
 
 
 def _positive_cubic_roots(a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> NDArray:
-    """Positive real roots of ``a u³ + b u² + c u + d`` (a > 0) per row, sorted, NaN-padded to 3."""
-    p = (3 * a * c - b**2) / (3 * a**2)  # depressed cubic t³ + p t + q, u = t − b/(3a)
-    q = (2 * b**3 - 9 * a * b * c + 27 * a**2 * d) / (27 * a**3)
-    shift = -b / (3 * a)
-    discriminant = (q / 2) ** 2 + (p / 3) ** 3
-    roots = np.full(a.shape + (3,), np.nan)
-    three = discriminant < 0  # three distinct real roots: the trigonometric form
-    if three.any():
-        radius = 2 * np.sqrt(-p[three] / 3)
-        angle = np.arccos(np.clip(3 * q[three] / (p[three] * radius), -1.0, 1.0)) / 3
-        k = np.arange(3)
-        roots[three] = radius[:, None] * np.cos(angle[:, None] - 2 * np.pi * k / 3) + shift[three, None]
-    one = ~three
-    if one.any():
-        root = np.sqrt(np.maximum(discriminant[one], 0.0))
-        roots[one, 0] = np.cbrt(-q[one] / 2 + root) + np.cbrt(-q[one] / 2 - root) + shift[one]
-    for _ in range(2):  # Newton on the cubic itself: full precision whatever the formula lost
-        value = ((a[:, None] * roots + b[:, None]) * roots + c[:, None]) * roots + d[:, None]
-        slope = (3 * a[:, None] * roots + 2 * b[:, None]) * roots + c[:, None]
-        roots = roots - np.divide(value, slope, out=np.zeros_like(roots), where=np.abs(slope) > 0)
-    roots = np.where(roots > 0, roots, np.nan)
-    return np.sort(roots, axis=1)  # NaN last
+    """Positive real roots of ``a u³ + b u² + c u + d`` (a > 0) per row, sorted, NaN-padded to 3.
+
+    The depressed cubic ``t³ + p t + q`` (``u = t + s``, ``s = −b/3a``, ``q`` the monic
+    cubic's value at ``s``) has three real roots where ``(q/2)² + (p/3)³ < 0``:
+    ``t = 2r cos(θ − 2πk/3)``, ``r = √(−p/3)``, ``cos 3θ = −q/(2r³)``, θ ∈ [0, π/3], taken as
+    ``2r cos θ`` and ``r(−cos θ ± √3 sin θ)`` (ascending: −, +, then the first). Else one:
+    ``t = A − p/(3A)``, ``A = −sign(q) ∛(|q|/2 + √((q/2)² + (p/3)³))`` (no cancellation).
+    Both are evaluated on every row (NaN where they do not apply) and chosen by the sign.
+    """
+    b, c, d = b / a, c / a, d / a
+    s = b / -3.0
+    p = c - 3.0 * s * s
+    q = (c - 2.0 * s * s) * s + d
+    discriminant = 0.25 * q * q + p * p * p / 27.0
+    three = discriminant < 0
+    with np.errstate(invalid="ignore", divide="ignore"):  # each formula is NaN where the other applies
+        r = np.sqrt(p / -3.0)
+        theta = np.arccos(np.clip(q / (-2.0 * r * r * r), -1.0, 1.0)) / 3.0
+        r_cos, r_sin = r * np.cos(theta), _SQRT3 * r * np.sin(theta)
+        big = np.copysign(np.cbrt(0.5 * np.abs(q) + np.sqrt(discriminant)), -q)
+        one = np.where(big != 0, big - p / (3.0 * big), 0.0)  # big = 0: p = q = 0, the triple root t = 0
+    columns = [np.where(three, -r_cos - r_sin, one) + s,
+               np.where(three, r_sin - r_cos, np.nan) + s,
+               np.where(three, 2.0 * r_cos, np.nan) + s]
+    for k, root in enumerate(columns):
+        polished = _newton_step(root, b, c, d)
+        # a second step where the first corrected more than 1e-7 (relative): a root much
+        # smaller than the shift s, or close to a double root (a fold)
+        again = np.flatnonzero(np.abs(polished - root) > 1e-7 * np.abs(polished))
+        if again.size:
+            polished[again] = _newton_step(polished[again], b[again], c[again], d[again])
+        polished[~(polished > 0)] = np.inf  # not positive, or no real root: last, then NaN
+        columns[k] = polished
+    low, mid, high = columns  # ascending: a sorting network on the three columns
+    low, mid = np.minimum(low, mid), np.maximum(low, mid)
+    mid, high = np.minimum(mid, high), np.maximum(mid, high)
+    low, mid = np.minimum(low, mid), np.maximum(low, mid)
+    roots = np.stack([low, mid, high], axis=1)
+    roots[roots == np.inf] = np.nan
+    return roots
+
+
+def _newton_step(root: NDArray, b: NDArray, c: NDArray, d: NDArray) -> NDArray:
+    """One Newton step on the monic cubic ``u³ + b u² + c u + d`` (no step where its slope is 0)."""
+    value = ((root + b) * root + c) * root + d
+    slope = (3.0 * root + 2.0 * b) * root + c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return root - np.where(slope != 0, value / slope, 0.0)
 
 
 def sweep_roots(roots: Roots, direction: str) -> tuple[NDArray, NDArray] | None:

@@ -82,7 +82,7 @@ def frequency_sweeps(
             read = closed_form.sweep_roots(roots, direction)
             if read is not None:
                 index, jumped = read
-                x = roots.x[np.arange(grid.size), index][:, None]
+                x = roots.response(index)[:, None]
                 jumps = grid[jumped] if direction == "up" else grid[jumped][::-1]
                 result = SweepResult(problem, grid, x, direction, tuple(float(w / (2 * np.pi)) for w in jumps),
                                      "closed form")
