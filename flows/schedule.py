@@ -47,7 +47,8 @@ from nlupdate.flows.registrations import Registration
 
 FLOW_NAME = "scheduled study"
 DEFAULT_API = "http://127.0.0.1:4200/api"
-HOW_TO_START = (f"schedules live in a persistent Prefect server: start one with `prefect server start` and set "
+HOW_TO_START = (f"schedules live in a persistent Prefect server: start one with `prefect server start` (with "
+                f"PREFECT_SERVER_ANALYTICS_ENABLED=false in its environment: no telemetry) and set "
                 f"PREFECT_API_URL={DEFAULT_API}")
 
 

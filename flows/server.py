@@ -52,7 +52,8 @@ def stop_early_server() -> None:
         server.stop()
 
 
-HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200) and set "
+HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200; with "
+        "PREFECT_SERVER_ANALYTICS_ENABLED=false in its environment: no telemetry) and set "
         "PREFECT_API_URL=http://127.0.0.1:4200/api, or unset PREFECT_API_URL to let nlupdate start its own")
 
 

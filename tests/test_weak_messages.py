@@ -385,3 +385,30 @@ def test_huge_inputs_are_refused_before_the_work(tmp_path, capsys, case):
     out.mkdir()
     result = run_cli(capsys, *make(inputs, out))
     assert_refused(result, out, *fragments)
+
+
+# ------------------------------------------------------------------ policy: what the tool tells users to run
+def _commands_starting_a_server(text: str) -> list[str]:
+    """Every shell block of ``text`` that runs ``prefect server start``."""
+    blocks = re.findall(r"```(?:bash|sh|console)?\n(.*?)```", text, flags=re.S)
+    return [block for block in blocks if "prefect server start" in block]
+
+
+@pytest.mark.parametrize("source", ["docs/schedules.md", "flows/schedule.py:HOW_TO_START", "flows/server.py:HELP"])
+def test_a_server_users_are_told_to_start_sends_no_telemetry(source):
+    root = Path(__file__).resolve().parents[1]
+    if source.endswith(".md"):
+        text = (root / source).read_text()
+        blocks = _commands_starting_a_server(text)
+        assert blocks, "the page shows how to start the server"
+        for block in blocks:
+            assert "PREFECT_SERVER_ANALYTICS_ENABLED=false" in block, block
+        inline = re.findall(r"`([^`]*prefect server start[^`]*)`", text)
+        first = next(span for span in inline if span.startswith(("prefect", "PREFECT")))
+        assert "PREFECT_SERVER_ANALYTICS_ENABLED=false" in first, first
+    else:
+        import importlib
+
+        module, name = source.split(":")
+        text = getattr(importlib.import_module("nlupdate." + module.removesuffix(".py").replace("/", ".")), name)
+        assert "PREFECT_SERVER_ANALYTICS_ENABLED=false" in text, text
