@@ -9,7 +9,9 @@ created private (0700). It holds
 * ``schedules/`` — the studies registered with ``nlupdate schedule`` (what ``nlupdate
   serve`` is allowed to run).
 
-A secret file must be a regular file (a FIFO or device is refused without waiting on it),
+The folder must belong to the user and be writable by nobody else (refused in one line
+otherwise: whoever can write there can swap the secret or the registrations). A secret
+file must be a regular file (a FIFO or device is refused without waiting on it),
 belong to the user and be readable by nobody else (0600 or stricter); otherwise it is
 refused in one line, because anyone who can read it can forge records.
 """
@@ -39,10 +41,24 @@ def config_dir() -> Path:
         folder = Path(base) / "nlupdate"
     try:
         folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        info = folder.stat()
     except OSError as error:
         raise UserConfigError(f"{folder}: cannot create the nlupdate settings folder ({error.strerror or error}); "
                               f"set {CONFIG_ENV} to a folder of yours") from None
+    _check_own_folder(folder, info)
     return folder
+
+
+def _check_own_folder(folder: Path, info: os.stat_result) -> None:
+    """Refuse a settings folder another user owns or may write to: whoever can write there
+    can put their own cache secret or schedule registrations in place of the user's."""
+    if hasattr(os, "getuid") and info.st_uid != os.getuid():
+        raise UserConfigError(f"{folder}: the nlupdate settings folder belongs to another user (uid {info.st_uid}); "
+                              f"set {CONFIG_ENV} to a folder of yours")
+    if info.st_mode & 0o022:
+        raise UserConfigError(f"{folder}: the nlupdate settings folder is writable by others (mode "
+                              f"{stat.S_IMODE(info.st_mode):04o}): they could replace its cache secret or schedules; "
+                              f"run `chmod 700 {folder}`")
 
 
 def _check_private(path: Path, info: os.stat_result) -> None:

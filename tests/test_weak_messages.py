@@ -412,3 +412,22 @@ def test_a_server_users_are_told_to_start_sends_no_telemetry(source):
         module, name = source.split(":")
         text = getattr(importlib.import_module("nlupdate." + module.removesuffix(".py").replace("/", ".")), name)
         assert "PREFECT_SERVER_ANALYTICS_ENABLED=false" in text, text
+
+
+@pytest.mark.parametrize("mode, refused", [(0o777, True), (0o775, True), (0o757, True), (0o755, False), (0o700, False)])
+def test_a_settings_folder_others_can_write_is_refused(tmp_path, monkeypatch, mode, refused):
+    from nlupdate.user_config import UserConfigError, cache_secret
+
+    folder = tmp_path / "config"
+    folder.mkdir()
+    folder.chmod(mode)
+    monkeypatch.setenv("NLUPDATE_CONFIG_DIR", str(folder))
+    monkeypatch.delenv("NLUPDATE_CACHE_SECRET_FILE", raising=False)
+    if refused:
+        with pytest.raises(UserConfigError) as caught:
+            cache_secret()
+        assert str(caught.value) == (f"{folder}: the nlupdate settings folder is writable by others (mode {mode:04o}): "
+                                     f"they could replace its cache secret or schedules; run `chmod 700 {folder}`")
+        assert list(folder.iterdir()) == []  # no secret written into it
+    else:
+        assert len(cache_secret()) >= 32
