@@ -158,3 +158,64 @@ def test_pyharm_multi_harmonic_points(bench, hb_curves):
         for w, state in zip(result["omega"][::8], result["harmonics"][::8]):
             residual = problem.residual(problem.to_real(state[:, None]), w)
             assert np.max(np.abs(residual)) * problem.x_scale < 1e-8 * abs(state[1])
+
+
+# ---- Part 3a: the closed form against the cubic's limits, counted on the same work ----------
+def test_limits_are_the_roots_of_the_cubic(bench):
+    from benchmarks.frf import grid as part3
+    from benchmarks.frf.cubic_reference import companion_roots, trigonometric_roots
+
+    omega = np.linspace(*bench.BAND, 301)
+    problem = bench.CondensedProblem(bench.duffing(), {0: bench.FORCE})
+    coefficients = part3.cubic_coefficients(problem, omega)
+    trig, companion = trigonometric_roots(*coefficients), companion_roots(*coefficients)
+    assert trig.shape == companion.shape == (omega.size, 3)
+    three = 0
+    for i, w in enumerate(omega):
+        # independent: numpy's roots of the cubic from m, c, k (benchmarks/frf/common.py)
+        roots = np.roots(bench._cubic(w))
+        real = np.sort(roots.real[np.abs(roots.imag) <= 1e-9 * np.abs(roots)])
+        three += real.size == 3
+        np.testing.assert_allclose(np.sort(trig[i][np.isfinite(trig[i])]), real, rtol=1e-7)
+        np.testing.assert_allclose(np.sort_complex(companion[i]), np.sort_complex(roots), rtol=1e-9, atol=1e-12)
+    assert three > 50
+
+
+def test_part3a_counts_both_directions_at_every_frequency(bench):
+    """The rows of Part 3a's table do the same work per frequency: the closed form read both ways
+    gives the sweeps frequency_sweep gives (up and down at every frequency) and the limits one
+    root set per frequency of the same grid (quick size: 2000 frequencies)."""
+    from benchmarks.frf import grid as part3
+    from benchmarks.frf.cubic_reference import trigonometric_roots
+    from nlupdate.response.sweep import frequency_sweep
+
+    omega = np.linspace(*bench.BAND, 2000)
+    system, forcing = bench.duffing(), {0: bench.FORCE}
+    up, down = part3.closed_form_both(bench.CondensedProblem(system, forcing), omega)
+    sweeps = [frequency_sweep(system, forcing, omega, direction) for direction in ("up", "down")]
+    assert up.shape == down.shape == omega.shape
+    for mine, sweep in zip((up, down), sweeps):
+        assert sweep.route == "closed form" and sweep.x_nonlinear.shape == (omega.size, 1)
+        np.testing.assert_array_equal(mine, sweep.x_nonlinear[:, 0])
+    assert not np.allclose(np.abs(up), np.abs(down))  # the two directions differ between the folds
+    assert trigonometric_roots(*part3.cubic_coefficients(bench.CondensedProblem(system, forcing), omega)).shape[0] == omega.size
+
+
+def test_interleaved_times_cpu_beside_wall(bench):
+    import subprocess
+    import sys
+    import time
+
+    def child():
+        # a child process that uses CPU and reports how much: counted in the parent's CPU time
+        out = subprocess.run([sys.executable, "-c", "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.05: pass\n"
+                              "print(time.process_time())"], capture_output=True, text=True, check=True)
+        return 0.0, float(out.stdout)
+
+    timing = bench.interleaved({"sleep": bench.timed(lambda: time.sleep(0.05)), "own": lambda: (1.0, "r", 0.123),
+                                "child": child}, 3)
+    sleep = timing["sleep"]
+    assert sleep.times.size == sleep.cpu.size == 3
+    assert sleep.median >= 0.05 and sleep.cpu_median < 0.5 * sleep.median  # waiting is not CPU time
+    assert timing["own"].cpu_median == 0.123 and timing["own"].result == "r"  # a task's own CPU figure is kept
+    assert timing["child"].cpu_median >= timing["child"].result  # the children's CPU is counted

@@ -13,11 +13,15 @@ pyHarm-os is the optional ``benchmark`` extra (it pins pandas < 3); install it i
 environment, e.g. ``python -m venv /tmp/bench-venv && /tmp/bench-venv/bin/pip install -e ".[benchmark]"``,
 and run the script with that interpreter. Without it Parts 1a and 1c report the project alone.
 
-Every figure printed is measured in this run; nothing is extrapolated. Timings are the best
-(and the median) of N repeats, the same N for every tool of a table, taken interleaved (one
-call of each tool per round, the order rotated every round) so that load from other users of
-a shared machine hits all tools alike. Ratios are between times of the same run. The first
-lines say the machine, the date and the repeats.
+Every figure printed is measured in this run; nothing is extrapolated. Timings are medians
+of N repeats, the same N for every tool of a table, taken interleaved (one call of each tool
+per round, the order rotated every round) so that load from other users of a shared machine
+hits all tools alike. Each is given as CPU time (this process and its waited-for children;
+pyHarm-os: the CPU time of its ``operate()``) beside wall time: the CPU time does not count
+the time the core is taken away by other work, which on a loaded shared machine can double
+the wall time. Ratios and every goal's met / NOT met are on CPU time, between times of the
+same run. The first lines say the machine, the date and the load average; each part states
+the load again.
 
 Part 1 — the reference Duffing oscillator ``m ẍ + c ẋ + k x + k3 x³ = F cos ωt`` with
 m = 1 kg, c = 0.05 N·s/m, k = 1 N/m, k3 = 1 N/m³, F = 0.5 N, ω ∈ [0.5, 3.5] rad/s.
@@ -91,7 +95,7 @@ m = 1 kg, c = 0.05 N·s/m, k = 1 N/m, k3 = 1 N/m³, F = 0.5 N, ω ∈ [0.5, 3.5]
     amplitude error, and the amplitude error of harmonics 2 … 7 relative to their reference
     norm (harmonics above H count as zero), where they carry at least 0.1 % of |X₁|; max and
     median per curve. pyHarm's points are also put into the project's H-harmonic residual.
-    Time per curve and per point and the ratio pyHarm ÷ this project, best and median.
+    Time per curve and per point and the ratio pyHarm ÷ this project, on CPU-time medians (wall beside).
 
 Part 2 — condensed-solve scaling: a fixed–free spring–mass chain (total mass 1 kg, static
 tip stiffness 1e4 N/m, loss factor 0.01) with a cubic spring (1e8 N/m³) and a Jenkins

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import platform
+import resource
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -45,8 +46,11 @@ HB_SCALING_HARMONICS = 5  # Part 2's multi-harmonic rows
 # --------------------------------------------------------------------------------------
 @dataclass
 class Timing:
+    """Wall times and CPU times (s, process and children) of the repeats, and the last result."""
+
     times: np.ndarray
     result: object
+    cpu: np.ndarray
 
     @property
     def best(self) -> float:
@@ -55,6 +59,20 @@ class Timing:
     @property
     def median(self) -> float:
         return float(np.median(self.times))
+
+    @property
+    def cpu_median(self) -> float:
+        return float(np.median(self.cpu))
+
+    @property
+    def cpu_best(self) -> float:
+        return float(self.cpu.min())
+
+
+def cpu_seconds() -> float:
+    """CPU time (s) of this process (all threads) and of its finished, waited-for children."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def timed(function: Callable[[], object]) -> Callable[[], tuple[float, object]]:
@@ -68,20 +86,33 @@ def timed(function: Callable[[], object]) -> Callable[[], tuple[float, object]]:
     return run
 
 
-def interleaved(tasks: dict[str, Callable[[], tuple[float, object]]], repeats: int) -> dict[str, Timing]:
+def interleaved(tasks: dict[str, Callable[[], tuple]], repeats: int) -> dict[str, Timing]:
     """``repeats`` rounds, one call of every task per round (order rotated each round).
 
-    Each task returns (seconds, result); the last result of each is kept.
+    Each task returns (wall seconds, result) or (wall seconds, result, CPU seconds); without
+    the third, the CPU time (process and children) of the whole call is taken. The last
+    result of each is kept. Compare tools by the medians (``median``, ``cpu_median``): the
+    CPU time does not count the time other users of a shared machine take the core away.
     """
     names = list(tasks)
     times: dict[str, list[float]] = {name: [] for name in names}
+    cpu: dict[str, list[float]] = {name: [] for name in names}
     results: dict[str, object] = {}
     for round_ in range(repeats):
         shift = round_ % len(names)
         for name in names[shift:] + names[:shift]:
-            seconds, results[name] = tasks[name]()
+            start = cpu_seconds()
+            answer = tasks[name]()
+            used = cpu_seconds() - start
+            seconds, results[name] = answer[0], answer[1]
             times[name].append(seconds)
-    return {name: Timing(np.array(times[name]), results[name]) for name in names}
+            cpu[name].append(answer[2] if len(answer) > 2 else used)
+    return {name: Timing(np.array(times[name]), results[name], np.array(cpu[name])) for name in names}
+
+
+def fmt_cpu_wall(timing: Timing) -> str:
+    """``CPU s / wall s``, medians of the repeats."""
+    return f"{fmt_time(timing.cpu_median)} / {fmt_time(timing.median)}"
 
 
 def print_table(title: str, header: list[str], rows: list[list[str]]) -> None:

@@ -15,9 +15,10 @@ from nlupdate.response.time_integration import steady_state_response
 
 from benchmarks.frf.common import (
     FORCE, N_GRID, BAND, BRANCH, HB_GOAL, HB_HARMONICS, HB_REFERENCE_HARMONICS, HB_RESOLVED, HB_SAMPLES, HB_STEP,
-    PYHARM_HB_STEP, duffing, fmt_list, fmt_ms, fmt_ratio, fmt_time, interleaved, print_table, timed,
+    PYHARM_HB_STEP, duffing, fmt_cpu_wall, fmt_list, fmt_ms, fmt_ratio, fmt_time, interleaved, load_average,
+    print_table, timed,
 )
-from benchmarks.frf.pyharm import pyharm_constant_step, pyharm_grid_sweep, pyharm_run, pyharm_version
+from benchmarks.frf.pyharm import pyharm_constant_step, pyharm_grid_sweep, pyharm_run, pyharm_version, with_cpu
 
 
 # --------------------------------------------------------------------------------------
@@ -95,14 +96,15 @@ def multi_harmonic_benchmark(quick: bool) -> None:
         f" {HB_STEP}\n  (scaled arc length; continuation steps up to 4× that, the points between corrected together —"
         f" docs/harmonic-balance.md), pyHarm stepsizer\n  'constant', ds = {PYHARM_HB_STEP} (its default"
         f" tangent predictor, arc-length corrector, scipy root hybr);"
-        f" every time is the best of {repeats} interleaved repeats (median in brackets)"
+        f" every time is the median of {repeats} interleaved repeats, CPU time (process and children) / wall;"
+        f" ratios and goals on CPU time; load average {load_average()}"
     )
     tasks: dict[str, Callable[[], tuple[float, object]]] = {}
     for h in HB_HARMONICS:
         tasks[f"hb{h}"] = timed(lambda h=h: hb_trace(system, h, stability=False))
         tasks[f"hill{h}"] = timed(lambda h=h: hb_trace(system, h, stability=True))
         if version:
-            tasks[f"ph{h}"] = lambda h=h: pyharm_run(pyharm_constant_step(PYHARM_HB_STEP), h, HB_SAMPLES)
+            tasks[f"ph{h}"] = lambda h=h: with_cpu(pyharm_run(pyharm_constant_step(PYHARM_HB_STEP), h, HB_SAMPLES))
     tasks["df"] = timed(lambda: trace_frequency_response(system, {0: FORCE}, *BAND, step=HB_STEP, max_step=HB_STEP))
     for task in tasks.values():  # warm-up (pyHarm's numba JIT), not timed
         task()
@@ -175,8 +177,8 @@ def multi_harmonic_benchmark(quick: bool) -> None:
             t = timing[f"{tool}{h}" if tool != "df" else "df"]
             n = n_ph if tool == "ph" else t.result.omega.size
             if ph:
-                per_curve = f"{fmt_ratio(ph.best / t.best)} ({fmt_ratio(ph.median / t.median)})"
-                per_point = fmt_ratio((ph.best / n_ph) / (t.best / n))
+                per_curve = f"{fmt_ratio(ph.cpu_median / t.cpu_median)} ({fmt_ratio(ph.median / t.median)})"
+                per_point = fmt_ratio((ph.cpu_median / n_ph) / (t.cpu_median / n))
             else:
                 per_curve = per_point = "—"
             e = errors.get((tool, h))
@@ -184,8 +186,8 @@ def multi_harmonic_benchmark(quick: bool) -> None:
                 [
                     label,
                     f"{n}",
-                    f"{fmt_time(t.best)} ({fmt_time(t.median)})",
-                    fmt_ms(t.best / n),
+                    fmt_cpu_wall(t),
+                    fmt_ms(t.cpu_median / n),
                     per_curve,
                     per_point,
                     f"{e['n']} ({e['left']})" if e else "″" if tool == "hill" else "—",
@@ -194,11 +196,12 @@ def multi_harmonic_benchmark(quick: bool) -> None:
                 ]
             )
         if ph:
-            goal.append((h, n_hb, n_ph, ph.best / timing[f"hb{h}"].best, ph.median / timing[f"hb{h}"].median,
-                         (ph.best / n_ph) / (timing[f"hb{h}"].best / n_hb)))
+            goal.append((h, n_hb, n_ph, ph.cpu_median / timing[f"hb{h}"].cpu_median, ph.median / timing[f"hb{h}"].median,
+                         (ph.cpu_median / n_ph) / (timing[f"hb{h}"].cpu_median / n_hb)))
     print_table(
         "Time per curve and per point, pyHarm ÷ this project, and accuracy against time integration",
-        ["method", "points", "time/curve (s)", "per point (ms)", "pyHarm ÷ this, curve", "per point",
+        ["method", "points", "CPU / wall per curve (s)", "CPU per point (ms)", "pyHarm ÷ this, curve CPU (wall)",
+         "per point CPU",
          "compared (left branch)", "X1 error max (median)", f"harmonics 2–{HB_REFERENCE_HARMONICS} error max (median) [points]"],
         rows,
     )
@@ -219,7 +222,7 @@ def multi_harmonic_benchmark(quick: bool) -> None:
     hill_notes = []
     for h in HB_HARMONICS:
         hill, plain = timing[f"hill{h}"].result, timing[f"hb{h}"].result
-        note = f"H = {h}: {timing[f'hill{h}'].best / timing[f'hb{h}'].best:.2f}× the trace"
+        note = f"H = {h}: {timing[f'hill{h}'].cpu_median / timing[f'hb{h}'].cpu_median:.2f}× the trace"
         if np.array_equal(hill.omega, plain.omega):  # the same curve: compare the two stability verdicts
             det_unstable = ~plain.stable & ~plain.turning_point
             note += f", calls {hill_contradictions(hill, plain)} of {int(det_unstable.sum())} determinant-unstable points stable"
@@ -239,8 +242,8 @@ def multi_harmonic_benchmark(quick: bool) -> None:
             f"{fmt_time(max(builds))} s per curve (last run)."
         )
         print(
-            f"  Goal (≥ {HB_GOAL:.0f}× faster than pyHarm-os at every H, stability=False like for like): "
-            + "; ".join(f"H = {h}: {p} vs {q} points {c:.2f}× (median {m:.2f}×, per point {pp:.2f}×)"
+            f"  Goal (≥ {HB_GOAL:.0f}× faster than pyHarm-os at every H, stability=False like for like; CPU medians): "
+            + "; ".join(f"H = {h}: {p} vs {q} points {c:.2f}× (wall {m:.2f}×, per point {pp:.2f}×)"
                         for h, p, q, c, m, pp in goal)
             + " — " + ("met." if min(g[3] for g in goal) >= HB_GOAL else "NOT met.")
         )
@@ -279,7 +282,7 @@ def multi_harmonic_grid_benchmark(quick: bool) -> None:
             def pyharm(h=h):
                 t_up, up = pyharm_run(pyharm_grid_sweep(grids[h][0]), h, HB_SAMPLES)
                 t_down, down = pyharm_run(pyharm_grid_sweep(grids[h][1]), h, HB_SAMPLES)
-                return t_up + t_down, (up, down)
+                return t_up + t_down, (up, down), up["cpu"] + down["cpu"]
 
             tasks[f"ph{h}"] = pyharm
     for task in tasks.values():
@@ -299,7 +302,7 @@ def multi_harmonic_grid_benchmark(quick: bool) -> None:
                        for w, s in zip(omega, states))
 
         t = timing[f"hb{h}"]
-        cells = [f"H = {h}", f"{n}", f"{fmt_time(t.best)} ({fmt_time(t.median)})", fmt_ms(t.best / n),
+        cells = [f"H = {h}", f"{n}", fmt_cpu_wall(t), fmt_ms(t.cpu_median / n),
                  f"{worst_residual(omega, x_project):.1e}"]
         if version:
             ph = timing[f"ph{h}"]
@@ -310,16 +313,17 @@ def multi_harmonic_grid_benchmark(quick: bool) -> None:
             same = (n_ph == n) and np.allclose(ph_omega, omega, atol=1e-9)
             difference = (np.max(np.abs(np.abs(ph_states[:, 1]) - np.abs(x_project[:, 1])) / np.abs(x_project[:, 1]))
                           if same else float("nan"))
-            ratio = (ph.best / n_ph) / (t.best / n)
+            ratio = (ph.cpu_median / n_ph) / (t.cpu_median / n)
             ratios.append(ratio)
-            cells += [f"{n_ph}", f"{fmt_time(ph.best)} ({fmt_time(ph.median)})", fmt_ms(ph.best / n_ph),
+            cells += [f"{n_ph}", fmt_cpu_wall(ph), fmt_ms(ph.cpu_median / n_ph),
                       f"{worst_residual(ph_omega, ph_states):.1e}", f"{difference:.1e}", fmt_ratio(ratio)]
         rows.append(cells)
-    header = ["H", "points", "project (s)", "per point (ms)", "max residual"]
+    header = ["H", "points", "project CPU / wall (s)", "CPU per point (ms)", "max residual"]
     if version:
-        header += ["pyHarm points", "pyHarm (s)", "per point (ms)", "max residual", "|X1| difference", "pyHarm ÷ this"]
+        header += ["pyHarm points", "pyHarm CPU / wall (s)", "CPU per point (ms)", "max residual", "|X1| difference",
+                   "pyHarm ÷ this (CPU)"]
     print_table(f"(b) Multi-harmonic FRF on the {N_GRID}-point grid, swept up to the upper fold and down to the lower one "
-                f"(best of {repeats} interleaved, median in brackets)", header, rows)
+                f"(medians of {repeats} interleaved; load average {load_average()})", header, rows)
     if ratios:
         print(f"  Goal (≥ {HB_GOAL:.0f}× faster than pyHarm-os at every H, stability off) on the grid: "
               + ", ".join(f"{r:.2f}×" for r in ratios) + " — " + ("met." if min(ratios) >= HB_GOAL else "NOT met."))

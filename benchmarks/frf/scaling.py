@@ -14,7 +14,9 @@ from nlupdate.model.system import NonlinearSystem
 from nlupdate.response.continuation import trace_frequency_response
 from nlupdate.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
 
-from benchmarks.frf.common import HB_SCALING_HARMONICS, fmt_list, fmt_ms, fmt_time, interleaved, print_table, timed
+from benchmarks.frf.common import (
+    HB_SCALING_HARMONICS, Timing, fmt_cpu_wall, fmt_list, fmt_ms, fmt_time, interleaved, load_average, print_table, timed,
+)
 
 
 # --------------------------------------------------------------------------------------
@@ -46,8 +48,11 @@ def scaling_benchmark(quick: bool) -> None:
             return trace_harmonic_balance(system, {force_dof: 5.0}, *band, harmonics=h, stability=stability)
 
     def hb_row(n, label, seconds, repeats_label, curve, w1, setup="—"):
-        hb_rows.append([f"{n}", label, setup, fmt_time(seconds), repeats_label, f"{curve.omega.size}",
-                        fmt_ms(seconds / curve.omega.size), fmt_list(np.sort(curve.omega[curve.turning_point]) / w1),
+        """``seconds``: a Timing (CPU / wall medians) or one run's wall time."""
+        shown, per = (fmt_cpu_wall(seconds), seconds.cpu_median) if isinstance(seconds, Timing) else (
+            f"— / {fmt_time(seconds)}", seconds)
+        hb_rows.append([f"{n}", label, setup, shown, repeats_label, f"{curve.omega.size}",
+                        fmt_ms(per / curve.omega.size), fmt_list(np.sort(curve.omega[curve.turning_point]) / w1),
                         f"{100 * curve.harmonic_share:.2g}"])
 
     # the 10- and the 10,000-dof model (as its 20-mode modal model) timed in the same interleaved rounds
@@ -76,11 +81,11 @@ def scaling_benchmark(quick: bool) -> None:
     for key, n, label, w, setup in (("10", 10, "dense lumped", w1_small, "—"),
                                     ("10k", 10_000, "20-mode modal (tip)", w1, f"{fmt_time(t_modal)} (to_modal, 1 run)")):
         t, c = timing[f"df{key}"], timing[f"df{key}"].result
-        rows.append([f"{n}", label, setup, fmt_time(t.best), f"best of {repeats}", f"{c.omega.size}",
-                     fmt_ms(t.best / c.omega.size), fmt_list(c.omega[c.turning_point] / w)])
+        rows.append([f"{n}", label, setup, fmt_cpu_wall(t), f"median of {repeats}", f"{c.omega.size}",
+                     fmt_ms(t.cpu_median / c.omega.size), fmt_list(c.omega[c.turning_point] / w)])
         t, c = timing[f"hb{key}"], timing[f"hb{key}"].result
-        hb_row(n, f"{label}, stability=False", t.best, f"best of {repeats}", c, w, setup)
-        hb_per_point[n] = (t.best, t.best / c.omega.size)
+        hb_row(n, f"{label}, stability=False", t, f"median of {repeats}", c, w, setup)
+        hb_per_point[n] = (t.cpu_median, t.cpu_median / c.omega.size)
     if not quick:
         for n, label, system, dof, b, w in ((10, "dense lumped", system_small, 9, band_small, w1_small),
                                             (10_000, "20-mode modal (tip)", system_modal, 0, band, w1)):
@@ -95,17 +100,18 @@ def scaling_benchmark(quick: bool) -> None:
         t = time.perf_counter() - start
         stalled = any("stalled" in str(w.message) for w in caught)
         note = f"stalled at {c.omega[-1] / w1:.3f}·ω1" if stalled else fmt_list(c.omega[c.turning_point] / w1)
-        rows.append(["10000", "sparse lumped (LU per ω)", "—", fmt_time(t), "1 run", f"{c.omega.size}",
+        rows.append(["10000", "sparse lumped (LU per ω)", "—", f"— / {fmt_time(t)}", "1 run (wall)", f"{c.omega.size}",
                      fmt_ms(t / c.omega.size), note])
         start = time.perf_counter()
         c = hb(system, 9_999, band, stability=False)
         hb_row(10_000, "sparse lumped (LU per ω and harmonic), stability=False", time.perf_counter() - start, "1 run", c, w1)
     rows.append(["10000", "(first eigenvalue, eigsh)", f"{fmt_time(t_modes)} (1 run)", "—", "—", "—", "—", "—"])
     print("\nPart 2: condensed solve, fixed–free chain with cubic + Jenkins at the tip, 5 N at the tip,"
-          " band [0.7, 2]·ω1")
+          f" band [0.7, 2]·ω1; CPU time (process and children) / wall, goal on CPU; load average {load_average()}")
     print_table(
         "Trace time by model size (same nonlinear coordinate)",
-        ["dofs", "linear model", "linear solve (s)", "trace (s)", "repeats", "points", "per point (ms)", "folds / ω1"],
+        ["dofs", "linear model", "linear solve (s)", "trace CPU / wall (s)", "repeats", "points", "CPU per point (ms)",
+         "folds / ω1"],
         rows,
     )
     if not quick:
@@ -117,8 +123,8 @@ def scaling_benchmark(quick: bool) -> None:
     print_table(
         f"Multi-harmonic balance (trace_harmonic_balance, H = {h}, default samples and step control) by model size;"
         " the stability=False rows timed in the same interleaved rounds as the four rows of the table above",
-        ["dofs", "linear model", "linear solve (s)", "trace (s)", "repeats", "points", "per point (ms)", "folds / ω1",
-         "share of harmonics H−1, H (%)"],
+        ["dofs", "linear model", "linear solve (s)", "trace CPU / wall (s)", "repeats", "points", "CPU per point (ms)",
+         "folds / ω1", "share of harmonics H−1, H (%)"],
         hb_rows,
     )
     (t10, p10), (t10k, p10k) = hb_per_point[10], hb_per_point[10_000]
