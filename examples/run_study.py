@@ -4,8 +4,8 @@ A study file describes the chain once (docs/study-files.md): here a simulated te
 docs/methods.md §8 2-DOF rig (examples/two_dof.toml) at 0.01–100 N, PRD identification of its
 joint, updating of the spring chain's k1 (started 20 % low; truth 1e6 N/m) against the
 extracted linear mode with two finite-difference formulas and an optimisation, and the
-best-ranked model's predictions at every level. The script writes the study file, runs it
-and prints what the archive holds — the same archive either way:
+best-ranked model's predictions at every level (examples/two_dof_study.toml). The script runs
+it and prints what the archive holds — the same archive either way:
 
     python examples/run_study.py [OUT_DIR]             # nlu.run_study, in order, no Prefect
     python examples/run_study.py [OUT_DIR] --prefect   # Prefect flows: cached tasks, parallel runs
@@ -26,61 +26,7 @@ parser.add_argument("--prefect", action="store_true", help="run as Prefect flows
 args = parser.parse_args()
 out = args.out or Path(tempfile.mkdtemp(prefix="nlupdate-study-"))
 out.mkdir(parents=True, exist_ok=True)
-model_file = (Path(__file__).resolve().parent / "two_dof.toml").as_posix()
-
-STUDY = f"""
-[study]
-name = "two-dof-python"
-
-[measured.simulate]          # the "test": the rig of two_dof.toml, 1 % noise
-model = "{model_file}"
-input_dof = "0"
-forces_n = [0.01, 20, 40, 60, 80, 100]
-frequencies_hz = [690.0, 770.0, 161]   # start, stop, count (Hz)
-noise = 0.01
-seed = 3
-
-[identification]
-response_dof = "0"
-input_dof = "0"
-elements = ["cubic", "jenkins"]
-samples = 8
-
-[adapter]                    # the FE model: ground -k1- 0.1 kg -k2- 0.5 kg -k3- ground
-kind = "lumped"
-options = {{ masses = [0.1, 0.5], stiffnesses = [0.8e6, 1.0e6, 1.0e6] }}
-
-[[parameters]]
-name = "k1"
-unit = "N/m"
-start = 0.8e6
-lower = 0.5e6
-upper = 1.5e6
-
-[targets]                    # mode 1 of the extracted linear FRF is the model's mode 2
-from_identification = true
-modes = [1]
-model_response_dof = "x1"
-model_input_dof = "x1"
-model_modes = [2]
-
-[eigensensitivity]
-formulas = ["forward", "central2"]
-parameter_sets = [["k1"]]
-
-[optimisation]
-formula = "central2"
-
-[[optimisation.candidates]]
-name = "optimisation {{k1}}"
-parameters = ["k1"]
-
-[prediction]
-candidates = "best"
-"""
-study_file = out / "two_dof_study.toml"
-study_file.write_text(STUDY)
-study = nlu.load_study(study_file)
+study = nlu.load_study(Path(__file__).resolve().parent / "two_dof_study.toml")
 
 started = time.perf_counter()
 if args.prefect:

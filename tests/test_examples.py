@@ -27,7 +27,8 @@ EXAMPLES = ROOT / "examples"
 #: the SDOF discover (tests/test_discovery_cli.py, the `run_output` fixture) and the gun
 #: barrel's discover (tests/test_discovery_examples.py, as examples/discovery/README.md gives it).
 SLOW = {"bolted_beam/study.toml", "discovery/brb_mode1.toml", "discovery/sdof_linear.toml",
-        "discovery/gunbarrel_mode1.toml"}
+        "discovery/gunbarrel_mode1.toml",
+        "two_dof_study.toml"}  # the same study runs in the default suite: tests/test_examples_py.py
 
 
 def header_commands(path: Path) -> list[list[str]]:

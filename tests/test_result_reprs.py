@@ -66,3 +66,16 @@ def test_predictions_print_one_line_and_a_summary(chain):
     assert lines[0].startswith("loss factor ") and "fitted to the 0.01 N measurement" in lines[0]
     assert len(lines) == 1 + len(LEVELS_N)
     assert all(float(re.search(r"FRAC (\S+),", line).group(1)) > 0.99 for line in lines[1:])  # the truth's model
+
+
+def test_a_study_result_prints_one_line_and_a_summary():
+    """examples/two_dof_study.toml: the chain's k1 starts 20 % low, its truth is 1e6 N/m."""
+    result = nlu.run_study(nlu.load_study("examples/two_dof_study.toml"))
+    text = short(result)
+    assert text == ("<StudyResult 'two-dof-python': 3 updating run(s); best 'optimisation {k1}'; 2 prediction(s); "
+                    "0 warning(s)>")
+    lines = result.summary().splitlines()
+    runs = [line for line in lines if line.startswith("run ")]
+    assert len(runs) == 3 and all(numbers_after(line, "k1") == pytest.approx(1e6, rel=1e-3) for line in runs)
+    assert "best ranked: optimisation {k1}" in lines
+    assert any(line.startswith("identified (PRD): k3 = ") for line in lines)

@@ -145,6 +145,39 @@ class StudyResult:
     models: Mapping[str, Any] = field(default_factory=dict)
     validation: Validation | None = None
 
+    @property
+    def best(self) -> str | None:
+        """The best-ranked updating run's name (None without updating runs)."""
+        if self.ranking is None:
+            return None
+        ranked = self.ranking[self.ranking["candidate"] != "initial"]
+        return None if ranked.empty else str(ranked["candidate"].iloc[0])
+
+    def __repr__(self) -> str:
+        """One line: the study, its runs, the best one, predictions and warnings
+        (``summary()``: a line per part; the default repr printed the measured table)."""
+        failed = f" ({len(self.failures)} failed)" if self.failures else ""
+        best = f"; best {self.best!r}" if self.best else ""
+        return (f"<StudyResult {self.study.name!r}: {len(self.runs)} updating run(s){failed}{best}; "
+                f"{len(self.predictions)} prediction(s); {len(self.warnings)} warning(s)>")
+
+    def summary(self) -> str:
+        """A line for the identification, each updating run, each failure, the best run,
+        each prediction (FRAC per force level) and each warning."""
+        lines = [f"study {self.study.name!r}"]
+        if self.identification is not None:
+            lines.append(f"identified ({self.identification.settings.method.upper()}): "
+                         + ", ".join(f"{k} = {v:.4g}" for k, v in self.identification.parameters().items()))
+        lines += [f"run {run.name}: " + ", ".join(f"{k} = {v:.6g}" for k, v in run.parameters.items())
+                  + f" ({run.stop} after {run.iterations} iteration(s))" for run in self.runs]
+        lines += [f"run {failure.name!r} failed: {failure.error}" for failure in self.failures]
+        if self.best:
+            lines.append(f"best ranked: {self.best}")
+        lines += [f"prediction {p.name}: FRAC per level " + " ".join(f"{v:.3f}" for v in p.correlation["frac"])
+                  for p in self.predictions]
+        lines += [f"warning: {w.source + ': ' if w.source else ''}{w.message}" for w in self.warnings]
+        return "\n".join(lines)
+
 
 def study_result(study: Study, results: Results) -> StudyResult:
     """The :class:`StudyResult` of the chain's ``results`` (step name → result)."""
