@@ -32,11 +32,11 @@ from nlupdate.study.spec import Study
 
 #: The subpackages a study step runs (not the CLI, flows, tasks, reporting or discovery).
 STUDY_PACKAGES = ("model", "response", "measurement", "identification", "updating", "prediction", "correlation",
-                  "study", "fe")
+                  "study", "fe", "validation")
 #: The subpackages a discovery candidate fit runs.
 DISCOVERY_PACKAGES = ("discovery", "model", "response", "identification", "measurement", "correlation")
 #: Single modules of the numerics the steps use besides their packages.
-NUMERICS_MODULES = ("fingerprints.py", "input_files.py", "response_method.py", "files.py", "notices.py")
+NUMERICS_MODULES = ("fingerprints.py", "input_files.py", "response_method.py", "files.py", "notices.py", "progress.py")
 
 
 def source_hash(paths: Iterable[Path]) -> str:

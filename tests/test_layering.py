@@ -63,7 +63,8 @@ ROOTS.update({f"nlupdate.{name}": ROOTS["nlupdate"].parent / name for name in ("
 LAYERS = ("nlupdate.cli", "nlupdate.flows", "nlupdate.tasks", "nlupdate.reporting")
 NUMERICS_PACKAGES = ("nlupdate.model", "nlupdate.response", "nlupdate.measurement", "nlupdate.identification",
                      "nlupdate.updating", "nlupdate.prediction", "nlupdate.correlation", "nlupdate.discovery",
-                     "nlupdate.fe", "nlupdate.study", "nlupdate.adapters", "nlupdate.response_method")
+                     "nlupdate.fe", "nlupdate.study", "nlupdate.validation", "nlupdate.adapters",
+                     "nlupdate.response_method")
 #: Functions reporting may import from the numerics, and why.
 REPORTING_MAY_CALL = {
     ("nlupdate.response_method", "describe"): "the wording of the response method's settings",
@@ -205,3 +206,26 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     assert step_keys() == before
     (package / "identification" / "prd.py").write_text((package / "identification" / "prd.py").read_text() + "\n#\n")
     assert step_keys()[0] != before[0]
+
+
+def test_every_package_a_study_step_runs_is_in_its_cache_key():
+    """STUDY_PACKAGES is kept by hand: a package the steps import but the list leaves out
+    would leave a cached step stale after its code changed (the new validation package was
+    such a one). The steps' own imports, followed through nlupdate, decide."""
+    import subprocess
+    import sys
+
+    from nlupdate.tasks.keys import NUMERICS_MODULES, STUDY_PACKAGES
+
+    code = ("import sys, nlupdate.study.chain, nlupdate.study.steps; "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('nlupdate.'))))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    packages, modules = set(), set()
+    for name in loaded:
+        parts = name.split(".")
+        if parts[1] in ("adapters", "tasks", "flows", "cli", "reporting"):  # hashed apart, or not run by a step
+            continue
+        target = packages if (ROOTS["nlupdate"] / parts[1]).is_dir() else modules
+        target.add(parts[1] if target is packages else f"{parts[1]}.py")
+    assert packages <= set(STUDY_PACKAGES), sorted(packages - set(STUDY_PACKAGES))
+    assert modules <= set(NUMERICS_MODULES) | {"__init__.py"}, sorted(modules - set(NUMERICS_MODULES))
