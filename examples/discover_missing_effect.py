@@ -25,7 +25,7 @@ found = nlu.discover(model, measured, max_effects=3)
 
 for effect in found.effects:
     values = ", ".join(f"{name} = {value:.4g}" for name, value in effect.parameters.items())
-    print(f"found {effect.name} on dofs {list(effect.dofs)}: {values}")
+    print(f"found {effect.name} on {found.place(effect.dofs)}: {values}")  # as the model names it
 print(f"gap (mean 1 − FRAC): before {found.gap_before.gap:.3g}, after {found.gap_after.gap:.3g}; "
       f"residual {found.misfit_ratio:.2f}× the noise; stopped: {found.stop_reason}")
 

@@ -1,7 +1,8 @@
 """``nlupdate archive``: the runs under a results folder — list, show, compare, rerun.
 
-RUN is a run folder or an unambiguous prefix of its id (the folder name,
-``<UTC time>-<hash>``) under --root.
+RUN is a run folder, a run id (the folder name: <UTC time>-<hash>, then -1, -2, …
+when one second saw the same inputs again) or an unambiguous prefix of one, under
+--root. list shows the runs oldest first, an original before its -1, -2, ….
 
   list      one line per run: study, id, date, status (complete / failed /
             incomplete / writing), best candidate, its updated parameters, lowest
@@ -45,13 +46,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     listing.set_defaults(run=list_runs)
 
     show = commands.add_parser("show", help="the report's summary and where the files are")
-    show.add_argument("run_spec", metavar="RUN", help="run folder or run-id prefix")
+    show.add_argument("run_spec", metavar="RUN", help="run folder, run id or its unambiguous prefix")
     show.add_argument("--root", default="results", metavar="DIR", help=ROOT_HELP)
     show.set_defaults(run=show_run)
 
     compare = commands.add_parser("compare", help="what differs between two runs (inputs and results)")
-    compare.add_argument("run_a", metavar="RUN_A", help="run folder or run-id prefix")
-    compare.add_argument("run_b", metavar="RUN_B", help="run folder or run-id prefix")
+    compare.add_argument("run_a", metavar="RUN_A", help="run folder, run id or its unambiguous prefix")
+    compare.add_argument("run_b", metavar="RUN_B", help="run folder, run id or its unambiguous prefix")
     compare.add_argument("--root", default="results", metavar="DIR", help=ROOT_HELP)
     compare.add_argument("--rtol", type=non_negative_float, default=None,
                          help="relative tolerance for result numbers (default 1e-6)")
@@ -62,7 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compare.set_defaults(run=compare_two)
 
     rerun = commands.add_parser("rerun", help="run an archived study again from its archive and check the results")
-    rerun.add_argument("run_spec", metavar="RUN", help="run folder or run-id prefix")
+    rerun.add_argument("run_spec", metavar="RUN", help="run folder, run id or its unambiguous prefix")
     rerun.add_argument("--root", default="results", metavar="DIR", help=ROOT_HELP)
     rerun.add_argument("--out", metavar="DIR", help="where the rerun's archive goes (default: the original's results folder)")
     rerun.add_argument("--rtol", type=non_negative_float, default=None,
