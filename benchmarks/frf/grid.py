@@ -201,7 +201,7 @@ def grid_benchmark(quick: bool) -> None:
               fmt_cpu_wall(trace), f"{1e6 * trace.cpu_median / n_trace:.1f}",
               f"{fmt_ratio(like)} ({fmt_ratio(ph_trace.median / trace.median)})", f"{acc_trace[0]:.1e} / {acc_trace[1]:.1e}"],
              ["pyHarm-os: fixed-ω Newton sweeps up to / down to the folds", f"{responses}", fmt_cpu_wall(ph),
-              f"{1e6 * ph_response:.2f}", "1", f"{err:.1e} (distance {dist:.1e})"],
+              f"{1e6 * ph_response:.2f}", "1", f"{err:.1e} / {dist:.1e}"],
              ["this project's traced route on the grid (general), up + down", f"{2 * GRID_POINTS}", fmt_cpu_wall(timing["traced"]),
               f"{1e6 * per_frequency['traced'] / 2:.2f}", fmt_ratio(ph_response / (per_frequency["traced"] / 2)), "above"],
              ["closed form for one cubic coordinate vs pyHarm's general Newton — not like for like", f"{2 * GRID_POINTS}",
