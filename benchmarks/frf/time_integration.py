@@ -13,7 +13,7 @@ from nlupdate.response.time_integration import steady_state_response, time_sweep
 
 from benchmarks.frf.common import (
     DAMPING, FORCE, K3, MASS, STIFFNESS, BAND, BRANCH, N_GRID, duffing, fmt_list, fmt_ms, fmt_ratio, fmt_time,
-    interleaved, nearest_branch, print_table, relative_error, simple_jumps, timed,
+    cpu_seconds, interleaved, load_average, nearest_branch, print_table, relative_error, simple_jumps, timed,
 )
 
 
@@ -81,7 +81,7 @@ def time_integration_benchmark(quick: bool) -> None:
         "ti_df": timed(lambda: steady_state_response(system, forcing, omega2, initial=x_df)),
     }
     timing = interleaved(fast, repeats)
-    t_project = timing["project"].best
+    t_project, w_project = timing["project"].cpu_median, timing["project"].median
     fixed, ti_lin, ti_df = timing["fixed"].result, timing["ti_lin"].result, timing["ti_df"].result
 
     # Reference: the time-domain stepped sine (state carried, follows the true branches); in
@@ -95,20 +95,21 @@ def time_integration_benchmark(quick: bool) -> None:
         ratio_up, ratio_down = ref.harmonic_ratio[:N_GRID, 0], ref.harmonic_ratio[N_GRID:, 0]
     else:
         reference_name = "time_sweep up and down (64 steps, tol 1e-6, state carried)"
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), cpu_seconds()
         ts_up = time_sweep(system, forcing, grid, "up")
         ts_down = time_sweep(system, forcing, grid, "down")
-        t_ts = time.perf_counter() - start
+        t_ts, w_ts = cpu_seconds() - cpu, time.perf_counter() - start
         ref_up, ref_down = ts_up.x[:, 0], ts_down.x[:, 0]
         ratio_up, ratio_down = ts_up.harmonic_ratio[:, 0], ts_down.harmonic_ratio[:, 0]
         # scipy DOP853 sequential sweeps, interleaved with the project's figure
-        dop_times, dop_project, dop_ratios = [], [], []
+        dop_times, dop_walls, dop_project, dop_ratios = [], [], [], []
         for _ in range(dop_repeats):
-            t_near = interleaved({"project": fast["project"]}, repeats)["project"].best
-            start = time.perf_counter()
+            t_near = interleaved({"project": fast["project"]}, repeats)["project"].cpu_median
+            start, cpu = time.perf_counter(), cpu_seconds()
             dop_up = dop853_sweep(grid)
             dop_down = dop853_sweep(grid[::-1])[::-1]
-            dop_times.append(time.perf_counter() - start)
+            dop_times.append(cpu_seconds() - cpu)
+            dop_walls.append(time.perf_counter() - start)
             dop_project.append(t_near)
             dop_ratios.append(dop_times[-1] / t_near)
         err_dop = np.concatenate([relative_error(dop_up, ref_up), relative_error(dop_down, ref_down)])
@@ -127,40 +128,49 @@ def time_integration_benchmark(quick: bool) -> None:
 
     print(
         f"\nPart 1b: the single-harmonic results against time integration — same Duffing, {N_GRID} grid frequencies"
-        f" swept up and down\n  (= {n_out} responses); best of {repeats} interleaved repeats for the rows marked so"
+        f" swept up and down\n  (= {n_out} responses); medians of {repeats} interleaved repeats for the rows marked so,"
+        f" CPU time (process and children) / wall, ratios on CPU; load average {load_average()}"
         + ("" if quick else "; the two sequential time integrations take minutes each (repeats as marked)")
     )
 
-    def row(name, n, seconds, repeats_label, notes, t_ref=t_project):
+    def row(name, n, seconds, wall, repeats_label, notes, t_ref=t_project):
+        """``seconds``: CPU time; ``wall``: wall time."""
         per_point_ratio = (seconds / n) / (t_ref / n_out)
-        return [name, f"{n}", repeats_label, fmt_time(seconds), fmt_ms(seconds / n), fmt_ratio(per_point_ratio), notes]
+        return [name, f"{n}", repeats_label, f"{fmt_time(seconds)} / {fmt_time(wall)}", fmt_ms(seconds / n),
+                fmt_ratio(per_point_ratio), notes]
 
     rows = [
-        row("this project: trace + stepped_sine up + down", n_out, t_project, f"best of {repeats}",
+        row("this project: trace + stepped_sine up + down", n_out, t_project, w_project, f"median of {repeats}",
             f"{curve.omega.size}-point trace, then Newton-polished grid points"),
-        row("fixed-point iteration (source method)", N_GRID, timing["fixed"].best, f"best of {repeats}",
+        row("fixed-point iteration (source method)", N_GRID, timing["fixed"].cpu_median, timing["fixed"].median,
+            f"median of {repeats}",
             f"{conv.sum()}/{N_GRID} converged"),
-        row("vectorised TI (numpy RK4), linear start", N_GRID, timing["ti_lin"].best, f"best of {repeats}",
+        row("vectorised TI (numpy RK4), linear start", N_GRID, timing["ti_lin"].cpu_median, timing["ti_lin"].median,
+            f"median of {repeats}",
             f"all at once, ≤{ti_lin.periods.max()} periods, {ti_lin.converged.sum()} converged"),
-        row("vectorised TI, from the DF points up + down", n_out, timing["ti_df"].best, f"best of {repeats}",
+        row("vectorised TI, from the DF points up + down", n_out, timing["ti_df"].cpu_median, timing["ti_df"].median,
+            f"median of {repeats}",
             "all at once"),
     ]
     if not quick:
-        rows.append(row("time_sweep (numpy RK4) up + down", n_out, t_ts, "1 run (the reference)", "sequential, state carried"))
+        rows.append(row("time_sweep (numpy RK4) up + down", n_out, t_ts, w_ts, "1 run (the reference)",
+                        "sequential, state carried"))
         rows.append(
             row(
                 "scipy solve_ivp DOP853 sweeps up + down",
                 n_out,
                 min(dop_times),
+                dop_walls[int(np.argmin(dop_times))],
                 f"best of {dop_repeats}",
-                f"sequential; runs {', '.join(fmt_time(t) for t in dop_times)} s, each ÷ the project's best of "
+                f"sequential; runs {', '.join(fmt_time(t) for t in dop_times)} s CPU, each ÷ the project's median of "
                 f"{repeats} just before it: {', '.join(f'{r:.0f}×' for r in dop_ratios)}",
                 t_ref=min(dop_project),
             )
         )
     print_table(
-        "Wall time at equal output (not equal accuracy: the time integrations include the higher harmonics)",
-        ["method", "responses", "repeats", "time (s)", "per response (ms)", "× project per response", "notes"],
+        "Time at equal output (not equal accuracy: the time integrations include the higher harmonics)",
+        ["method", "responses", "repeats", "CPU / wall (s)", "CPU per response (ms)", "× project per response (CPU)",
+         "notes"],
         rows,
     )
     if quick:
