@@ -38,7 +38,7 @@ def test_roots_of_the_physical_family_to_high_precision():
     # φ = arg h: weak (ε = 1e-8: the shift back from the depressed cubic cancels 8 digits) to
     # strong nonlinearity, light damping (φ → π) and every scale of |X_lin|².
     rng = np.random.default_rng(7)
-    n = 400
+    n = 300
     eps = 10 ** rng.uniform(-8, 8, n)
     phi = np.where(rng.random(n) < 0.5, rng.uniform(0, np.pi, n), np.pi - 10 ** rng.uniform(-8, -1, n))
     scale = 10 ** rng.uniform(-12, 6, n)
