@@ -431,3 +431,58 @@ def test_a_settings_folder_others_can_write_is_refused(tmp_path, monkeypatch, mo
         assert list(folder.iterdir()) == []  # no secret written into it
     else:
         assert len(cache_secret()) >= 32
+
+
+# ------------------------------------------------------------------ policy: an archive holds the run's inputs, and only those
+def _study_naming(folder: Path, measured: dict) -> Path:
+    from studies import two_dof_study, write_study
+
+    (folder / "notes.key").write_text("not measured data\n")
+    _two_dof_table().to_csv(folder / "frf.csv", index=False)
+    study = two_dof_study()
+    study["measured"] = measured
+    return write_study(folder / "study.toml", study)
+
+
+@pytest.mark.parametrize("measured, fragment", [
+    ({"file": "notes.key"}, "[measured] key 'file': expected an existing FRF table (.parquet, .csv, .uff, .unv, .mat)"),
+    ({"files": ["frf.csv", "notes.key"]}, "[measured] key 'files': expected existing measured-FRF files"),
+    ({"time_histories": ["notes.key"]}, "[measured] key 'time_histories': expected existing time-record files"),
+])
+def test_a_study_naming_a_file_of_no_input_type_is_refused_before_any_step(tmp_path, capsys, measured, fragment):
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, "update", _study_naming(inputs, measured), "--out", out / "run")
+    assert_refused(result, out, "study.toml: " + fragment)
+
+
+@pytest.mark.parametrize("measured", [
+    {"file": "frf.csv", "levels": {"notes.key": 1.0}},
+    {"file": "frf.csv", "coordinates": {"notes.key": ["tip", "tip"]}},
+])
+def test_a_file_a_key_only_names_is_not_copied_into_the_failed_archive(tmp_path, measured):
+    from nlupdate.reporting.archive import write_failed_archive
+    from nlupdate.study import load_study
+
+    study = load_study(_study_naming(tmp_path, measured))
+    folder = write_failed_archive(study, tmp_path / "results" / "two-dof" / "run", {}, "ValueError: bad table")
+    archived = sorted(p.name for p in (folder / "inputs").rglob("*") if p.is_file())
+    assert archived == ["frf.csv"], archived
+
+
+@pytest.mark.parametrize("command", [["rerun", "run-1", "--out", "again"], ["compare", "run-1", "run-1"]])
+def test_an_archived_study_file_that_is_a_link_is_not_followed(tmp_path, capsys, command):
+    from test_archive_safety import good_manifest, make_run
+
+    private = tmp_path / "private.toml"
+    private.write_text('[study]\nname = "secret"\n')
+    root = tmp_path / "results"
+    folder = make_run(root, "s", "run-1", good_manifest("run-1"))
+    (folder / "study.toml").symlink_to(private)
+    code, out, err = run_cli(capsys, "archive", *[tmp_path / c if c == "again" else c for c in command],
+                             "--root", root)
+    assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1, (code, err)
+    assert f"{folder / 'study.toml'}: is a link (to {private}), not the study file the run wrote; not followed" in err
+    assert "secret" not in out and not (tmp_path / "again").exists()

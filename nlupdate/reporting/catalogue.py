@@ -21,6 +21,7 @@ import datetime as dt
 import json
 import os
 import re
+import stat
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -244,14 +245,35 @@ def archived_inputs(run: ArchivedRun) -> tuple[dict[str, Path], list[str]]:
     return redirect, notes
 
 
+def archived_study_text(folder: Path) -> str | None:
+    """The text of the archive ``folder``'s study.toml (None when it has none); an
+    :class:`ArchiveError` when it is a link or no regular file: nlupdate writes a file
+    there, and a link put in its place would make a rerun or a comparison read whatever
+    it points to."""
+    path = Path(folder) / "study.toml"
+    if path.is_symlink():
+        raise ArchiveError(f"{path}: is a link (to {os.readlink(path)}), not the study file the run wrote; not followed")
+    if not path.exists():
+        return None
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(descriptor, "rb") as stream:
+            if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
+                raise ArchiveError(f"{path}: is not a regular file, not the study file the run wrote")
+            return stream.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise ArchiveError(f"{path}: cannot be read ({error})") from None
+
+
 def archived_study(run: ArchivedRun):
     """The study of ``run`` as it ran, reading the input copies kept in the archive; and
     the notes of :func:`archived_inputs`."""
     from nlupdate.study import study_from_text
 
     text_path = run.folder / "study.toml"
-    if not text_path.is_file():
+    text = archived_study_text(run.folder)
+    if text is None:
         raise ArchiveError(f"{run.folder}: no study.toml: this archive cannot be rerun")
     redirect, notes = archived_inputs(run)
-    study = study_from_text(text_path.read_text(), text_path, redirect, redirect_only=True)
+    study = study_from_text(text, text_path, redirect, redirect_only=True)
     return replace(study, name=run.manifest.get("study", {}).get("name", study.name)), notes

@@ -25,7 +25,7 @@ from typing import Any, Iterable, NamedTuple
 import numpy as np
 import pandas as pd
 
-from nlupdate.reporting.catalogue import ArchivedRun
+from nlupdate.reporting.catalogue import ArchivedRun, archived_study_text
 from nlupdate.fingerprints import table_hash
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.prediction_plots import predictions_figure
@@ -77,8 +77,8 @@ def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
 
 def study_fields(run: ArchivedRun) -> dict[str, Any]:
     """The study file as run, flattened to dotted keys (``eigensensitivity.formulas``)."""
-    path = run.folder / "study.toml"
-    return _flatten(tomllib.loads(path.read_text())) if path.is_file() else {}
+    text = archived_study_text(run.folder)
+    return _flatten(tomllib.loads(text)) if text is not None else {}
 
 
 def input_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
@@ -210,8 +210,8 @@ def curves(table: pd.DataFrame | None) -> dict[tuple[str, str], list[float]]:
 def overview_fields(run: ArchivedRun) -> dict[str, str]:
     """What a run is, one line each: study, chain steps, FE model, parameters, targets,
     measured curves and force levels, identified parameters, updating runs, predicted models."""
-    study_file = run.folder / "study.toml"
-    study = tomllib.loads(study_file.read_text()) if study_file.is_file() else {}
+    text = archived_study_text(run.folder)
+    study = tomllib.loads(text) if text is not None else {}
     out = {"study": run.study, "chain steps": ", ".join(steps_present(run)) or "none"}
     adapter = run.manifest.get("adapters", {}).get("updating")
     if adapter:

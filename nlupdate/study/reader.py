@@ -137,8 +137,10 @@ class Reader:
                 raise self.fail(f"{where}.{key}" if where else key, name, "a finite number", v)
         return {name: float(v) for name, v in value.items()}
 
-    def path_of(self, written: str) -> Path:
-        """A path given in the file (relative to the file's directory), or its redirect."""
+    def path_of(self, written: str, record: bool = True) -> Path:
+        """A path given in the file (relative to the file's directory), or its redirect;
+        recorded in :attr:`files` (the files the run reads and archives) unless ``record``
+        is False (a name that only refers to a file read elsewhere, as a level's key)."""
         if written in self.redirect:
             path = Path(self.redirect[written])
         elif self.redirect_only:
@@ -147,5 +149,6 @@ class Reader:
         else:
             path = Path(written)
             path = path if path.is_absolute() else self.path.parent / path
-        self.files[written] = path
+        if record:
+            self.files[written] = path
         return path

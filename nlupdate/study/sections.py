@@ -112,6 +112,11 @@ def _grid(read: Reader, table: Mapping[str, Any], where: str) -> tuple[float, ..
     return tuple(float(f) for f in grid)
 
 
+#: What a study's measured files may be: the formats the readers take (a study naming
+#: another kind of file is refused when read, so no step runs and no archive copies it).
+MEASURED_SUFFIXES = (".parquet", ".csv", ".uff", ".unv", ".mat")
+
+
 def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterSpec | None) -> MeasuredSpec | None:
     table = read.table(data, "measured")
     if table is None:
@@ -124,8 +129,8 @@ def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterS
     statements = _measured_statements(read, table, sources[0])
     if "file" in table:
         file = read.path_of(read.string(table, "measured", "file", required=True))
-        if not file.is_file():
-            raise read.fail("measured", "file", "an existing FRF table (.parquet, .csv, .uff or .mat)", str(file))
+        if not file.is_file() or file.suffix.lower() not in MEASURED_SUFFIXES:
+            raise read.fail("measured", "file", f"an existing FRF table ({', '.join(MEASURED_SUFFIXES)})", str(file))
         return MeasuredSpec(file=str(file), **statements)
     if "files" in table:
         return MeasuredSpec(files=_measured_files(read, table["files"]), **statements)
@@ -134,8 +139,9 @@ def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterS
         paths = []
         for name in written:
             path = read.path_of(name)
-            if not path.is_file():
-                raise read.fail("measured", "time_histories", "existing time-record files", name)
+            if not path.is_file() or path.suffix.lower() not in MEASURED_SUFFIXES:
+                raise read.fail("measured", "time_histories",
+                                f"existing time-record files ({', '.join(MEASURED_SUFFIXES)})", name)
             paths.append(str(path))
         if not paths:
             raise read.fail("measured", "time_histories", "at least one time-record file", written)
@@ -156,8 +162,8 @@ def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterS
     )
     if has_model:
         model = read.path_of(read.string(sim, where, "model", required=True))
-        if not model.is_file():
-            raise read.fail(where, "model", "an existing model file (TOML)", str(model))
+        if not model.is_file() or model.suffix.lower() != ".toml":
+            raise read.fail(where, "model", "an existing model file (.toml)", str(model))
         return MeasuredSpec(simulate=SimulationSpec(model_file=str(model), **common))
     adapter_table = read.table(sim, f"{where}.adapter")
     adapter = adapter_from(read, adapter_table, f"{where}.adapter") if adapter_table is not None else study_adapter
@@ -215,7 +221,7 @@ def _measured_coordinates(read: Reader, value: Any, source: str) -> tuple[tuple[
         if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(c, str) and c.strip() for c in pair)):
             raise read.fail("measured.coordinates", name, "[\"<response>\", \"<input>\"] (e.g. [\"tip:-uz\", \"tip:uz\"])",
                             pair)
-        out.append((str(read.path_of(name)), (pair[0].strip(), pair[1].strip())))
+        out.append((str(read.path_of(name, record=False)), (pair[0].strip(), pair[1].strip())))
     return tuple(out)
 
 
@@ -243,8 +249,8 @@ def _measured_levels(read: Reader, value: Any, source: str) -> tuple[tuple[str, 
 
 def _existing_file(read: Reader, name: str):
     """The path of ``name`` when it names an existing file (None for a run name)."""
-    try:
-        path = read.path_of(name)
+    try:  # not recorded as an input: the key refers to a file [measured] reads (or to a run)
+        path = read.path_of(name, record=False)
     except StudyError:  # a rerun reads only the files kept with the study: a run name is none of them
         return None
     return path if path.is_file() else None
@@ -265,8 +271,8 @@ def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None],
     out = []
     for name, level in entries:
         path = read.path_of(name)
-        if not path.is_file():
-            raise read.fail("measured", "files", "existing measured-FRF files", name)
+        if not path.is_file() or path.suffix.lower() not in MEASURED_SUFFIXES:
+            raise read.fail("measured", "files", f"existing measured-FRF files ({', '.join(MEASURED_SUFFIXES)})", name)
         out.append((str(path), level))
     return tuple(out)
 
