@@ -9,6 +9,11 @@ DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its l
 and DIR/backbone.png. With --forces and --freqs it also writes the FRFs the model predicts at
 those levels (DIR/predicted_frf.parquet, single-nonlinear-mode theory) and, for an FRF table,
 DIR/predicted_frf.png against the measured curves.
+
+A free decay (--ring-down FILE, repeatable; --channel NAME when it holds several; --band the
+mode's band-pass) is enough input on its own, or joins the FRFs or modal table (then with the
+shape at the excited coordinate): nlupdate.identification.ring_down. DIR/backbone_points.csv
+holds every source's samples and DIR/backbone.csv the fitted backbone over their range.
 """
 from __future__ import annotations
 
@@ -26,7 +31,10 @@ from nlupdate.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels
-from nlupdate.cli.measured import add_measured_options, measured_table, print_notes, sources
+from nlupdate.identification.ring_down import (
+    backbone_curve, backbone_points, estimate_ring_down, join_samples, read_ring_down,
+)
+from nlupdate.cli.measured import add_measured_options, measured_table, parse_band, print_notes, sources
 from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.measurement.units import table_reference_unit
 from nlupdate.model.amplitude_modal import BACKBONES, write_amplitude_model
@@ -38,7 +46,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "amplitude", __doc__)
     add_measured_options(parser, "of the FRFs (lines outside it are left out before the fit; default: the excited "
                                  "band of the lowest level, where the coherence is ≥ 0.8 or the FRF is smooth) or of a "
-                                 "modal table's modes (default: all)", modal=True)
+                                 "modal table's modes (default: all); of a ring-down, its band-pass (default: around "
+                                 "the spectrum's largest peak)",
+                         modal=True, required=False)
+    parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
+                        help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
+    parser.add_argument("--channel", help="the ring-down files' channel (default: their only one); its --shape, if "
+                                          "given, makes the amplitude modal")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--response-dof", help="response coordinate of FRFs (default: the input, the driving point, "
                                                "if measured; else the table's only response: a transfer FRF)")
@@ -113,41 +127,73 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") ->
     return save_figure(fig, path)
 
 
+def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[list[tuple[str, object]], str]:
+    """((file, samples) of each --ring-down, the channel): the channel's shape, when given, makes the
+    amplitude modal."""
+    out, channel = [], ""
+    band = parse_band(args.band)
+    for path in args.ring_down:
+        record = read_ring_down(path, args.channel)
+        estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(record.channel), source=path)
+        samples = estimate.samples()
+        print(f"{path}: channel {record.channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "
+              f"{estimate.trim_s:.3g} s trimmed at each end, {samples.amplitude.size} samples (one per "
+              f"{estimate.window_s:.3g} s window)" + ("" if record.channel in shapes else
+                                                      f"; no --shape {record.channel}=VALUE: amplitudes in the "
+                                                      f"response's units"))
+        out.append((path, samples))
+        channel = record.channel
+    return out, (channel if out else "")
+
+
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if (args.forces is None) != (args.freqs is None):
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    table, notes = measured_table(args, modal=True, find_band=True)
-    print_notes(notes)
-    unit = "N" if "natural_frequency_hz" in table.columns else table_reference_unit(table)
-    if "natural_frequency_hz" in table.columns:
-        inputs = sorted(set(table["input_dof"])) if "input_dof" in table.columns else []
-        input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
-        if input_dof is None:
-            raise CliError(f"{sources(args)}: name the excited coordinate with --input-dof")
-        if input_dof not in shapes:
-            raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the excited "
-                           f"coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
-        samples = samples_from_modal_table(table, shapes[input_dof], args.mode, sources(args))
-        model = fit_amplitude_model(samples, tuple(shapes.items()), args.backbone, args.order, mode=args.mode)
+    if not args.measured and not args.ring_down:
+        raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE")
+    rings, channel = _ring_down_samples(args, shapes)
+    if not args.measured:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
+        samples, input_dof = join_samples([s for _, s in rings]), channel
+        model = fit_amplitude_model(samples, ((channel, samples.input_shape),), args.backbone, args.order,
+                                    mode=args.mode)
+        unit, points = "N", rings
     else:
-        inputs = sorted(set(table["input_dof"].astype(str)))
-        input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
-        if input_dof is None:
-            raise CliError(f"{sources(args)}: the table has input dofs {inputs}; choose one with --input-dof")
-        responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
-        response_dof = args.response_dof or (input_dof if input_dof in responses else
-                                             responses[0] if len(responses) == 1 else None)
-        if response_dof is None:
-            raise CliError(f"{sources(args)}: no driving-point FRF at {input_dof!r}; choose a response among {responses} "
-                           f"with --response-dof")
-        data = FRFLevels.from_table(table, response_dof, input_dof)
-        samples = samples_from_frfs(data, shapes.get(input_dof))
-        model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
-        if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
-            samples = samples.with_shape(model.shapes[0][1])
+        table, notes = measured_table(args, modal=True, find_band=True)
+        print_notes(notes)
+        unit = "N" if "natural_frequency_hz" in table.columns else table_reference_unit(table)
+        if "natural_frequency_hz" in table.columns:
+            inputs = sorted(set(table["input_dof"])) if "input_dof" in table.columns else []
+            input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
+            if input_dof is None:
+                raise CliError(f"{sources(args)}: name the excited coordinate with --input-dof")
+            if input_dof not in shapes:
+                raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the excited "
+                               f"coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
+            samples = samples_from_modal_table(table, shapes[input_dof], args.mode, sources(args))
+            model = fit_amplitude_model(samples, tuple(shapes.items()), args.backbone, args.order, mode=args.mode)
+        else:
+            inputs = sorted(set(table["input_dof"].astype(str)))
+            input_dof = args.input_dof or (inputs[0] if len(inputs) == 1 else None)
+            if input_dof is None:
+                raise CliError(f"{sources(args)}: the table has input dofs {inputs}; choose one with --input-dof")
+            responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
+            response_dof = args.response_dof or (input_dof if input_dof in responses else
+                                                 responses[0] if len(responses) == 1 else None)
+            if response_dof is None:
+                raise CliError(f"{sources(args)}: no driving-point FRF at {input_dof!r}; choose a response among {responses} "
+                               f"with --response-dof")
+            data = FRFLevels.from_table(table, response_dof, input_dof)
+            samples = samples_from_frfs(data, shapes.get(input_dof))
+            model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
+            if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
+                samples = samples.with_shape(model.shapes[0][1])
+        points = [(sources(args), samples)] + rings
+        if rings:  # the measured samples and the ring-downs, fitted together at the given shape
+            samples = join_samples([samples] + [s for _, s in rings])
+            model = fit_amplitude_model(samples, model.shapes, args.backbone, args.order, mode=args.mode)
     predicted = None
     if args.forces is not None:
         predicted = model.frf_table(frequency_grid(args.freqs), force_levels(args.forces), input_dof)
@@ -157,6 +203,8 @@ def run(args: argparse.Namespace) -> int:
         folder = archive.path
         write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
         _plot_backbone(model, samples, folder / "backbone.png")
+        backbone_curve(model, samples).to_csv(folder / "backbone.csv", index=False)
+        backbone_points(points).to_csv(folder / "backbone_points.csv", index=False)
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")
             if data is not None:
@@ -172,6 +220,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {model.note}")
     for warning in model.warnings:
         print(f"warning: {warning}")
-    print(f"wrote {out / 'amplitude_model.json'} and the backbone plot"
+    print("note: backbone.csv's *_low/*_high band columns are NaN: the backbone fits give no covariance")
+    print(f"wrote {out / 'amplitude_model.json'}, the backbone plot, backbone.csv and backbone_points.csv"
           + (" and the predicted FRFs" if predicted is not None else ""))
     return 0
