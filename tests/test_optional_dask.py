@@ -1,9 +1,11 @@
 """Dask is an optional part (``pip install 'nlupdate[dask]'``): the base install leaves its
-15 packages out, every command runs without it, and --dask / --dask-address without it say
+14 packages out, every command runs without it, and --dask / --dask-address without it say
 in one line what to install (issue "rough edges a new user hit": ``pip install .`` brought
 ~150 packages)."""
 from __future__ import annotations
 
+import ast
+import importlib.metadata as metadata
 import subprocess
 import sys
 import time
@@ -11,6 +13,8 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
 
 from nlupdate.cli import main
 
@@ -66,3 +70,45 @@ def test_the_flows_import_and_run_on_threads_without_dask():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.strip() == "ThreadPoolTaskRunner 2 threads"
+
+
+def pulled_in(requirements: list[str]) -> set[str]:
+    """The distributions ``requirements`` install (their requirements' closure, extras as
+    named, no optional ones), from the installed packages' metadata."""
+    seen: set[tuple[str, frozenset]] = set()
+    todo = [(Requirement(r), {""}) for r in requirements]
+    while todo:
+        requirement, extras = todo.pop()
+        if requirement.marker is not None and not any(requirement.marker.evaluate({"extra": e}) for e in extras):
+            continue
+        key = (canonicalize_name(requirement.name), frozenset(requirement.extras))
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            todo += [(Requirement(r), {"", *requirement.extras}) for r in metadata.requires(requirement.name) or []]
+        except metadata.PackageNotFoundError:
+            continue
+    return {name for name, _ in seen}
+
+
+def test_every_package_the_code_imports_comes_with_the_base_install():
+    """Leaving Dask out left psutil out (flows/liveness.py imports it: it came with Dask);
+    every package imported by the installed code comes with the base dependencies, but
+    the [dask] extra's, which flows/runners.py imports only when asked."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    base, providers = pulled_in(project["dependencies"]), metadata.packages_distributions()
+    missing = {}
+    for folder in ("nlupdate", "flows", "tasks", "adapters"):
+        for path in (ROOT / folder).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.Import):
+                    names = [alias.name for alias in node.names]
+                elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                    names = [node.module]
+                else:
+                    continue
+                for top in {name.split(".")[0] for name in names} - set(sys.stdlib_module_names) - {"nlupdate"}:
+                    if not {canonicalize_name(d) for d in providers.get(top, [])} & base:
+                        missing.setdefault(top, set()).add(path.relative_to(ROOT).as_posix())
+    assert missing == {"distributed": {"flows/runners.py"}, "prefect_dask": {"flows/runners.py"}}, missing
