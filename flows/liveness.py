@@ -5,17 +5,20 @@ that ended a container) cannot tell the Prefect API it stopped: its flow runs an
 runs stay "Running" in the database for ever, and the UI shows a dead run as alive.
 
 * :func:`claim_flow_run`, called as each of our flows starts, records the process that
-  runs it in the flow run's ``infrastructure_pid`` as ``<host>:<pid>`` (the host name as
-  in the temporary names of :mod:`nlupdate.files`; the form Prefect's own process
-  workers use). One API call; a failure is never fatal (the run goes on unclaimed).
+  runs it in the flow run's ``infrastructure_pid`` as ``<host>:<pid>@<uid>`` (the host
+  name as in the temporary names of :mod:`nlupdate.files`, the process id and the user
+  id of its owner; Prefect's own process workers write ``<host>:<pid>``). One API call;
+  a failure is never fatal (the run goes on unclaimed).
 * :func:`mark_dead_runs_crashed`, called by :func:`nlupdate.flows.server.prefect_api` as
   each run starts, finds the Running and Pending flow runs claimed by a process of this
-  host that no longer runs (or whose process id now belongs to a process started after
-  the flow run, i.e. was reused), sets them Crashed (forced) with a message saying the
-  process was killed, crashes their task runs that are still Running or Pending, and
-  does the same for the unclaimed subflow runs those task runs started.
+  host and this user that no longer runs (or whose process id now belongs to a process
+  started after the flow run started, i.e. was reused), sets them Crashed (forced) with a
+  message saying the process was killed, crashes their task runs that are still Running
+  or Pending, and does the same for the unclaimed subflow runs those task runs started.
 
-Runs of other hosts are never touched (their processes cannot be checked from here).
+Runs of other hosts, of other users (a Prefect database in a shared ``PREFECT_HOME`` holds
+theirs too) and runs claimed without a user (Prefect's own workers) are never touched:
+whether their processes live cannot be told, or is not this user's business.
 """
 from __future__ import annotations
 
@@ -36,17 +39,27 @@ PAGE = 200
 REUSED_PID_SLACK_S = 2.0
 
 
+def _uid() -> int | None:
+    return os.getuid() if hasattr(os, "getuid") else None
+
+
 def owner(pid: int | None = None) -> str:
-    """``<host>:<pid>`` of this process (or of ``pid`` on this host)."""
-    return f"{HOST}:{os.getpid() if pid is None else pid}"
+    """``<host>:<pid>@<uid>`` of this process (or of ``pid`` on this host, run by this user);
+    ``<host>:<pid>`` where there are no user ids."""
+    uid = _uid()
+    return f"{HOST}:{os.getpid() if pid is None else pid}" + ("" if uid is None else f"@{uid}")
 
 
-def parse_owner(text: str | None) -> tuple[str, int] | None:
-    """``(host, pid)`` of an ``infrastructure_pid`` in the form ``<host>:<pid>``, else None."""
+def parse_owner(text: str | None) -> tuple[str, int, int | None] | None:
+    """``(host, pid, uid or None)`` of an ``infrastructure_pid`` in the form
+    ``<host>:<pid>@<uid>`` or ``<host>:<pid>``, else None."""
     if not text or ":" not in text:
         return None
-    host, _, pid = text.rpartition(":")
-    return (host, int(pid)) if pid.isdigit() and host else None
+    host, _, rest = text.rpartition(":")
+    pid, at, uid = rest.partition("@")
+    if not (host and pid.isdigit() and (not at or uid.isdigit())):
+        return None
+    return host, int(pid), int(uid) if at else None
 
 
 def claim_flow_run(flow: Any = None, flow_run: Any = None, state: Any = None) -> bool:
@@ -95,14 +108,16 @@ def _started(pid: int) -> dt.datetime | None:
 
 
 def owner_is_dead(infrastructure_pid: str | None, created: dt.datetime | None = None) -> bool:
-    """Whether ``infrastructure_pid`` names a process of this host that is gone.
+    """Whether ``infrastructure_pid`` names a process of this host and this user that is gone.
 
     A process id that is alive but belongs to a process started more than
-    :data:`REUSED_PID_SLACK_S` after the flow run was ``created`` has been reused: the
-    owner is gone too. Other hosts' and unparsable owners are never dead.
+    :data:`REUSED_PID_SLACK_S` after the flow run ``created`` (pass the time it started
+    running: a scheduled run is created long before its process starts) has been reused:
+    the owner is gone too. Other hosts', other users', user-less and unparsable owners are
+    never dead.
     """
     parsed = parse_owner(infrastructure_pid)
-    if parsed is None or parsed[0] != HOST:
+    if parsed is None or parsed[0] != HOST or parsed[2] is None or parsed[2] != _uid():
         return False
     pid = parsed[1]
     if pid == os.getpid():
@@ -164,7 +179,7 @@ def mark_dead_runs_crashed(say: Callable[[str], None] | None = None) -> int:
 
     with get_client(sync_client=True) as client:
         alive = _alive_flow_runs(client)
-        dead = {run.id: run for run in alive if owner_is_dead(run.infrastructure_pid, run.created)}
+        dead = {run.id: run for run in alive if owner_is_dead(run.infrastructure_pid, run.start_time or run.created)}
         if not dead:
             return 0
         by_parent_task = {run.parent_task_run_id: run for run in alive

@@ -29,6 +29,7 @@ import pandas as pd
 import pytest
 
 from nlupdate.files import HOST, atomic_directory
+from nlupdate.flows.liveness import owner
 from nlupdate.reporting.catalogue import find_runs
 from prefect_settings import talking_to
 from studies import two_dof_study, write_study
@@ -141,7 +142,7 @@ def flow_runs_of(pid: int, url: str) -> list:
 
     with talking_to(url), get_client(sync_client=True) as client:
         recent = client.read_flow_runs(sort=FlowRunSort.EXPECTED_START_TIME_DESC, limit=200)
-    return [run for run in recent if run.infrastructure_pid == f"{HOST}:{pid}"]
+    return [run for run in recent if run.infrastructure_pid == owner(pid)]
 
 
 # ----------------------------------------------------------------------------- killed and resumed
@@ -475,9 +476,9 @@ def dead_pid() -> int:
 def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(prefect_server):
     from prefect import flow, task
     from prefect.client.orchestration import get_client
-    from prefect.states import Running
+    from prefect.states import Pending, Running
 
-    from nlupdate.flows.liveness import mark_dead_runs_crashed
+    from nlupdate.flows.liveness import REUSED_PID_SLACK_S, mark_dead_runs_crashed
 
     @flow(name=f"liveness-{uuid.uuid4().hex[:8]}")
     def a_flow():
@@ -488,6 +489,7 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
         pass
 
     dead, live = dead_pid(), subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    late = None
     said: list[str] = []
     try:
         with talking_to(prefect_server), get_client(sync_client=True) as client:
@@ -497,27 +499,39 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
                     client.update_flow_run(created.id, infrastructure_pid=owner)
                 return created
 
-            killed = run(f"{HOST}:{dead}")
+            killed = run(owner(dead))
             killed_task = client.create_task_run(a_task, killed.id, dynamic_key="0", state=Running())
             unclaimed_subflow = run(None, parent_task_run_id=killed_task.id)
-            alive = run(f"{HOST}:{live.pid}")
-            elsewhere = run(f"another-host:{dead}")
+            alive = run(owner(live.pid))
+            elsewhere = run(f"another-host:{dead}@{os.getuid()}")
+            other_user = run(f"{HOST}:{dead}@{os.getuid() + 1}")  # a shared PREFECT_HOME holds their runs too
+            userless = run(f"{HOST}:{dead}")  # as Prefect's own workers claim
             unclaimed = run(None)
+            # created (scheduled) long before the process that runs it started: not a reused pid
+            scheduled = client.create_flow_run(a_flow, state=Pending())
+            time.sleep(REUSED_PID_SLACK_S + 0.5)
+            late = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+            client.set_flow_run_state(scheduled.id, Running())
+            client.update_flow_run(scheduled.id, infrastructure_pid=owner(late.pid))
 
             assert mark_dead_runs_crashed(said.append) >= 2
             state = {name: client.read_flow_run(r.id).state for name, r in
                      [("killed", killed), ("subflow", unclaimed_subflow), ("alive", alive), ("elsewhere", elsewhere),
-                      ("unclaimed", unclaimed)]}
+                      ("other user", other_user), ("userless", userless), ("unclaimed", unclaimed),
+                      ("scheduled", scheduled)]}
             task_state = client.read_task_run(killed_task.id).state
             assert mark_dead_runs_crashed(said.append) == 0  # done once
     finally:
-        live.kill()
-        live.wait()
-    assert state["killed"].name == "Crashed" and f"({HOST}:{dead}) is gone (killed)" in state["killed"].message
-    assert state["subflow"].name == "Crashed" and f"({HOST}:{dead}) is gone" in state["subflow"].message
+        for process in (live, late):
+            if process is not None:
+                process.kill()
+                process.wait()
+    assert state["killed"].name == "Crashed" and f"({owner(dead)}) is gone (killed)" in state["killed"].message
+    assert state["subflow"].name == "Crashed" and f"({owner(dead)}) is gone" in state["subflow"].message
     assert task_state.name == "Crashed"
-    assert [state[name].name for name in ("alive", "elsewhere", "unclaimed")] == ["Running"] * 3
-    assert len(said) == 1 and said[0].startswith("marked ") and f"{HOST}:{dead}" in said[0]
+    left = ("alive", "elsewhere", "other user", "userless", "unclaimed", "scheduled")
+    assert {name: state[name].name for name in left} == {name: "Running" for name in left}
+    assert len(said) == 1 and said[0].startswith("marked ") and owner(dead) in said[0]
 
 
 def test_a_flow_claims_its_run_and_a_claim_never_fails_the_run(prefect_server, monkeypatch):
@@ -541,7 +555,7 @@ def test_a_flow_claims_its_run_and_a_claim_never_fails_the_run(prefect_server, m
         ids = [claimed_in_body(), claimed_by_hook()]
         with get_client(sync_client=True) as client:
             owners = [client.read_flow_run(i).infrastructure_pid for i in ids]
-    assert owners == [f"{HOST}:{os.getpid()}"] * 2
+    assert owners == [liveness.owner()] * 2
 
     def unreachable(*args, **kwargs):
         raise ConnectionError("the API went away")
