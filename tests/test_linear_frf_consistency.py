@@ -154,3 +154,23 @@ def test_the_issue_case_and_the_mode_intervals(at_tip):
             low, high = ident.uncertainty.parameters[f"linear_f{i + 1}_hz"].ci95
             inside.append(low <= truth <= high)
     assert sum(inside) >= 12, inside
+
+
+def test_elements_that_leave_no_linear_frf_fail_the_check():
+    """A degenerate fit (a wrong element set driven to kf = 1e-305) gives no finite term at
+    any line: that is no evidence the levels agree, and the check says so."""
+    from nlupdate.identification.consistency import level_consistency
+    from nlupdate.identification.linear_frf import LevelTerms
+    from nlupdate.identification.trust import consistency_warnings
+
+    f = np.linspace(20.0, 40.0, 21)
+    nothing = np.full((3, f.size), np.nan)
+    terms = LevelTerms((0.1, 1.0, 10.0), f, nothing + 0j, nothing, False, np.ones(f.size, complex),
+                       np.ones((3, f.size), bool))
+    check = level_consistency(terms, 0.01)
+    assert not check.passed and check.spread_ratio == float("inf")
+    (warning,) = consistency_warnings(check, "2")
+    assert "cannot be formed: the fitted elements leave no finite value" in warning.message
+    unmeasured = LevelTerms((0.1, 1.0, 10.0), f, nothing + 0j, nothing, False, np.ones(f.size, complex),
+                            np.eye(3, f.size, dtype=bool))
+    assert level_consistency(unmeasured, 0.01) is None  # no line two levels share: nothing to compare

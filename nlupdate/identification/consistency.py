@@ -106,12 +106,21 @@ class LevelConsistency:
 def level_consistency(terms: LevelTerms, noise_fraction: float) -> LevelConsistency | None:
     """The check on ``terms`` (:func:`~nlupdate.identification.linear_frf.level_terms`)
     with relative noise ``noise_fraction`` (std / |H|; used when the terms' variances are
-    relative). None when no line has two levels or the noise level is 0."""
+    relative). None when no line has two measured levels or the noise level is 0. Lines two
+    levels measured where the fitted elements leave no finite term (a degenerate fit of a
+    wrong element set: a stiffness of 1e-305) fail the check with an infinite spread: no
+    linear FRF at all is no evidence that the levels agree."""
     scale = 1.0 if terms.absolute else float(noise_fraction) ** 2
     good = np.isfinite(terms.terms) & np.isfinite(terms.variance) & (terms.variance > 0)
     count = np.sum(good, axis=0)
-    if not scale > 0 or not np.any(count >= 2):
+    if not scale > 0:
         return None
+    if not np.any(count >= 2):
+        measured = np.sum(terms.measured, axis=0) if terms.measured is not None else count
+        if not np.any(measured >= 2):
+            return None
+        none = np.full(terms.frequency_hz.shape, np.nan)
+        return LevelConsistency(terms.levels_n, terms.frequency_hz, none, np.zeros(none.shape, bool), float("inf"))
     weight = np.where(good, 1.0 / (scale * np.where(good, terms.variance, 1.0)), 0.0)
     value = np.where(good, terms.terms, 0.0)
     total = np.sum(weight, axis=0)

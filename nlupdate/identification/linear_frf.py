@@ -37,6 +37,9 @@ from nlupdate.measurement.noise import smooth_inverse_receptance
 #: Relative amplitude step (central difference) for ∂ν/∂A in the noise of each level.
 AMPLITUDE_STEP = 1e-4
 
+#: Finite lines a mode's band needs for its one-mode fit (``fit_mode_near``'s minimum).
+MIN_MODE_LINES = 8
+
 #: The linear-FRF routes by name (study files: ``[identification] linear_from``).
 LINEAR_FROM = ("all levels", "low force")
 
@@ -84,6 +87,7 @@ class LevelTerms:
     variance: NDArray[np.float64]
     absolute: bool
     reference_receptance: NDArray[np.complex128]
+    measured: NDArray[np.bool_] | None = None  # (n_levels, n_lines): the level was measured at the line
 
 
 def level_terms(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LevelTerms:
@@ -95,10 +99,11 @@ def level_terms(data: FRFLevels, describing_function_at: DescribingFunctionAt) -
     omega = 2 * np.pi * f
     terms = np.full((data.levels.size, f.size), np.nan, dtype=complex)
     variances = np.full((data.levels.size, f.size), np.nan)
+    measured = np.zeros((data.levels.size, f.size), dtype=bool)
     for index, level in enumerate(data.levels):
         f_level, h_level = data.curve(float(level))
         at = match_frequencies(f_level, f)
-        present = at >= 0
+        present = measured[index] = at >= 0
         h = np.full(f.size, np.nan, dtype=complex)
         h[present] = h_level[at[present]]
         force = np.full(f.size, np.nan)
@@ -124,7 +129,7 @@ def level_terms(data: FRFLevels, describing_function_at: DescribingFunctionAt) -
         terms[index, good] = term[good]
         variances[index, good] = variance[good]
     return LevelTerms(tuple(float(level) for level in data.levels), f, terms, variances, data.h_stds is not None,
-                      h_reference)
+                      h_reference, measured)
 
 
 def from_all_levels(data: FRFLevels, describing_function_at: DescribingFunctionAt) -> LinearExtraction:
@@ -153,7 +158,9 @@ def locate_linear_modes(
     """One-mode fits of an extracted linear FRF near ``near_hz`` (default: at each of its
     resonance crossings; none when it has no resonance in the band), weighted by
     ``inverse_noise``, the noise of its ``1/H`` at each frequency (up to a common factor);
-    fits that land on an already found mode (within 1 %) are dropped. Ascending."""
+    fits that land on an already found mode (within 1 %) are dropped. Ascending. A mode
+    asked for where the extraction has no finite line (elements that leave no linear FRF
+    there: a wrong element set, which the level check flags) is left out, not an error."""
     finite = np.isfinite(h_linear) & np.isfinite(inverse_noise)  # lines no level gave
     frequency_hz, h_linear, noise_scale = frequency_hz[finite], h_linear[finite], inverse_noise[finite]
     starts = resonance_crossings(frequency_hz, h_linear) if near_hz is None else np.asarray(near_hz, dtype=float)
@@ -163,9 +170,10 @@ def locate_linear_modes(
             fit = fit_mode_near(frequency_hz, h_linear, float(start), inverse_noise=noise_scale,
                                 band_fraction=band_fraction, residual_slope=True)
         except (ValueError, np.linalg.LinAlgError):
-            if near_hz is not None:
+            near = np.abs(frequency_hz - float(start)) <= band_fraction * float(start)
+            if near_hz is not None and near.sum() >= MIN_MODE_LINES:
                 raise
-            continue
+            continue  # no crossing there, or the elements leave no linear FRF there (said by the level check)
         found = float(fit.natural_frequencies_hz[0])
         if all(abs(found / float(m.natural_frequencies_hz[0]) - 1) > 0.01 for m in modes):
             modes.append(fit)

@@ -246,11 +246,13 @@ def consistency_warnings(consistency: Any, response_dof: str, source: str = "ide
     span = consistency.worst_band_hz()
     where = "" if span is None else (f"; {int(consistency.inconsistent.sum())} lines disagree beyond their noise, "
                                      f"{span[0]:.4g}–{span[1]:.4g} Hz")
+    how = (f"differs between the levels by {consistency.spread_ratio:.3g}× their noise (RMS over the lines; at most "
+           f"{SPREAD_LIMIT:g}× when the model describes the data{where})" if np.isfinite(consistency.spread_ratio) else
+           "cannot be formed: the fitted elements leave no finite value at any line two levels share (a degenerate "
+           "fit)")
     return (TrustWarning(
         "linear_frf", "levels_disagree",
-        f"NOT TRUSTWORTHY: the linear FRF extracted from each force level differs between the levels by "
-        f"{consistency.spread_ratio:.3g}× their noise (RMS over the lines; at most {SPREAD_LIMIT:g}× when the model "
-        f"describes the data{where}). The linear FRF is the same at every level, so the identified model does not "
+        f"NOT TRUSTWORTHY: the linear FRF extracted from each force level {how}. The linear FRF is the same at every level, so the identified model does not "
         f"describe the structure at coordinate {response_dof}: most likely the nonlinearity is not at the measured "
         f"coordinate (it acts between other coordinates, or between {response_dof} and another), or the element set "
         f"is wrong. The identified parameters, the extracted linear FRF and its modes are not the structure's; "
