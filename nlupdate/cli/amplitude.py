@@ -137,8 +137,9 @@ def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tu
         estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(record.channel), source=path)
         samples = estimate.samples()
         print(f"{path}: channel {record.channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "
-              f"{estimate.trim_s:.3g} s trimmed at each end, {samples.amplitude.size} samples (one per "
-              f"{estimate.window_s:.3g} s window)" + ("" if record.channel in shapes else
+              f"{estimate.trim_s[0]:.3g} s and {estimate.trim_s[1]:.3g} s trimmed at the start "
+              f"and end, {samples.amplitude.size} samples (a smoothing "
+              f"window apart: {estimate.window_s.min():.3g}–{estimate.window_s.max():.3g} s)" + ("" if record.channel in shapes else
                                                       f"; no --shape {record.channel}=VALUE: amplitudes in the "
                                                       f"response's units"))
         out.append((path, samples))
