@@ -150,3 +150,44 @@ def test_amplitude_command_fits_a_ring_down_alone(tmp_path, iwan_decay, capsys):
     assert np.max(np.abs(curve["damping_ratio"] / z - 1)) < 0.05
     assert curve["damping_ratio_low"].isna().all()
     assert "no covariance" in capsys.readouterr().out
+
+
+def test_amplitude_command_finds_the_iwan_joint_of_a_ring_down(tmp_path, iwan_decay, capsys):
+    t, x = iwan_decay
+    pd.DataFrame({"time_s": t, "tip": x, "base": 0.1 * x}).to_csv(tmp_path / "decay.csv", index=False)
+    out = tmp_path / "out"
+    assert main(["amplitude", "--ring-down", str(tmp_path / "decay.csv"), "--channel", "tip", "--shape",
+                 f"tip={1 / np.sqrt(M)}", "--backbone", "iwan", "--out", str(out)]) == 0
+    model = json.loads((out / "amplitude_model.json").read_text())
+    assert model["natural_frequency_hz"] == pytest.approx(np.sqrt(1.1) * F0, rel=1e-3)  # stuck: k + K_T
+    assert model["damping_ratio"] == pytest.approx(ZETA, rel=0.1)
+    assert model["joint"]["chi"] == pytest.approx(IWAN.chi, abs=0.05)
+
+
+def test_amplitude_command_joins_a_ring_down_with_a_modal_table(tmp_path, iwan_decay):
+    t, x = iwan_decay
+    pd.DataFrame({"time_s": t, "tip": x}).to_csv(tmp_path / "decay.csv", index=False)
+    phi = 1 / np.sqrt(M)
+    a = np.array([2e-4, 5e-4, 1e-3, 2e-3])  # modal amplitudes of phase-resonance tests: F = 2ζω²a/φ
+    f, z = df_backbone(IWAN, a * phi)
+    force = 2 * z * (2 * np.pi * f) ** 2 * a / phi
+    pd.DataFrame({"force_level_n": force, "mode": 1, "natural_frequency_hz": f, "damping_ratio": z,
+                  "input_dof": "tip"}).to_csv(tmp_path / "modal.csv", index=False)
+    out = tmp_path / "out"
+    assert main(["amplitude", "--measured", str(tmp_path / "modal.csv"), "--ring-down", str(tmp_path / "decay.csv"),
+                 "--shape", f"tip={phi}", "--backbone", "polynomial", "--order", "3", "--out", str(out)]) == 0
+    points = pd.read_csv(out / "backbone_points.csv")
+    assert points.groupby("source").size().to_dict()[str(tmp_path / "modal.csv")] == 4
+    assert len(set(points["source"])) == 2
+    curve = pd.read_csv(out / "backbone.csv")
+    assert curve["modal_amplitude"].min() == pytest.approx(2e-4) and curve["modal_amplitude"].max() == pytest.approx(2e-3)
+    f_ref, _ = df_backbone(IWAN, curve["modal_amplitude"].to_numpy() * phi)
+    assert np.max(np.abs(curve["natural_frequency_hz"] / f_ref - 1)) < 2e-3
+
+
+def test_amplitude_command_needs_some_data(tmp_path, capsys):
+    pd.DataFrame({"time_s": np.arange(100) / 100, "a": 1.0, "b": 2.0}).to_csv(tmp_path / "two.csv", index=False)
+    assert main(["amplitude", "--ring-down", str(tmp_path / "two.csv"), "--out", str(tmp_path / "out")]) != 0
+    assert "two.csv: holds channels ['a', 'b']; choose one with --channel NAME" in capsys.readouterr().err
+    assert main(["amplitude", "--out", str(tmp_path / "out")]) != 0
+    assert "--measured FILE (FRFs or a modal table) and/or --ring-down FILE" in capsys.readouterr().err
