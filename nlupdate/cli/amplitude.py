@@ -14,6 +14,8 @@ A free decay (--ring-down FILE, repeatable; --channel NAME when it holds several
 mode's band-pass) is enough input on its own, or joins the FRFs or modal table (then with the
 shape at the excited coordinate): nlupdate.identification.ring_down. DIR/backbone_points.csv
 holds every source's samples and DIR/backbone.csv the fitted backbone over their range.
+Response-controlled stepped-sine runs (--response-controlled FILE.mat) give one sample per held
+amplitude from a one-mode fit of each run: nlupdate.identification.response_controlled.
 """
 from __future__ import annotations
 
@@ -31,10 +33,11 @@ from nlupdate.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.identification.data import FRFLevels
+from nlupdate.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.identification.ring_down import (
     backbone_curve, backbone_points, estimate_ring_down, join_samples, read_ring_down,
 )
-from nlupdate.cli.measured import add_measured_options, measured_table, parse_band, print_notes, sources
+from nlupdate.cli.measured import add_measured_options, measured_table, parse_band, print_notes, read_options, sources
 from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.measurement.units import table_reference_unit
 from nlupdate.model.amplitude_modal import BACKBONES, write_amplitude_model
@@ -51,6 +54,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          modal=True, required=False)
     parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
                         help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
+    parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
+                        help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
+                             "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
     parser.add_argument("--channel", help="the ring-down files' channel (default: their only one); its --shape, if "
                                           "given, makes the amplitude modal")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
@@ -128,8 +134,9 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") ->
 
 
 def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[list[tuple[str, object]], str]:
-    """((file, samples) of each --ring-down, the channel): the channel's shape, when given, makes the
-    amplitude modal."""
+    """((file, samples) of each --ring-down and --response-controlled, the coordinate of the last):
+    the shape at a ring-down's channel, when given, makes its amplitude modal; a response-controlled
+    file's shape is given or from its lowest run's modal constant."""
     out, channel = [], ""
     band = parse_band(args.band)
     for path in args.ring_down:
@@ -144,7 +151,16 @@ def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tu
                                                       f"response's units"))
         out.append((path, samples))
         channel = record.channel
-    return out, (channel if out else "")
+    for path in args.response_controlled:
+        runs = read_response_controlled(path, read_options(args))
+        channel = runs[0].response_dof
+        samples = samples_from_held_runs(runs, shapes.get(channel))
+        print(f"{path}: {len(runs)} response-controlled run(s) at {channel}, held {1e6 * runs[0].held_m:.3g}–"
+              f"{1e6 * runs[-1].held_m:.3g} µm, one-mode fit of each" + ("" if channel in shapes else
+                                                                         f"; shape {samples.input_shape:.4g} 1/√kg "
+                                                                         f"from the lowest run's modal constant"))
+        out.append((path, samples))
+    return out, channel
 
 
 def run(args: argparse.Namespace) -> int:
@@ -153,8 +169,9 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    if not args.measured and not args.ring_down:
-        raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE")
+    if not args.measured and not args.ring_down and not args.response_controlled:
+        raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE and/or "
+                       "--response-controlled FILE")
     rings, channel = _ring_down_samples(args, shapes)
     if not args.measured:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
         samples, input_dof = join_samples([s for _, s in rings]), channel
