@@ -7,7 +7,8 @@ References, each independent of the code under test:
 * the baseline at a kept level against that level's own measured curve;
 * held-out levels of an SDOF with a Jenkins joint — exactly one nonlinear mode, simulated
   by describing-function continuation, 0.5 % noise — against the simulated curve: the
-  modal Iwan model (Jenkins is its χ → −1 limit) predicts an interior and the top level;
+  modal Iwan model (Jenkins is its χ → −1 limit) predicts an interior and the top level,
+  and its fit gives the stuck system's linear limit, damping and mass-normalised shape;
 * the public Brake–Reuss beam (tests/data/brb): the command's outputs as specified.
 """
 from __future__ import annotations
@@ -19,6 +20,7 @@ import pandas as pd
 import pytest
 
 from cli_runs import run_cli
+from nlupdate.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.identification.data import FRFLevels
 from nlupdate.model.elements import JenkinsFriction
 from nlupdate.model.linear import LumpedModel
@@ -83,6 +85,18 @@ def test_a_single_mode_joint_is_predicted_at_an_interior_and_the_top_level(jenki
     top = validation.held_out[1]
     assert abs(top.baseline["peak_abs"].relative_error) > 10 * abs(top.compared["peak_abs"].relative_error)
     assert top.residual_to_noise < top.baseline_residual_to_noise
+
+
+def test_the_iwan_fit_of_a_single_mode_joint_finds_the_stuck_system(jenkins_sdof):
+    """The modal Iwan fit on the four lower levels recovers the SDOF itself: the linear limit
+    of the stuck system, √(k + kf) = √1.05 · 80 Hz = 81.98 Hz, its damping ratio η/2 = 0.001
+    and the mass-normalised shape of 1 kg, 1 1/√kg (ω₀ parametrised over its physical range
+    by a logistic stalled the fit at ζ₀ = 1, with a shape 22.7 × too large)."""
+    model = amplitude_model_from_frfs(jenkins_sdof.subset([0.01, 0.02, 0.04, 0.08]), "iwan")
+    assert model.natural_frequency_hz == pytest.approx(np.sqrt(1.05) * 80.0, abs=0.2)
+    assert model.damping_ratio == pytest.approx(0.001, rel=0.15)
+    assert model.shapes[0][1] == pytest.approx(1.0, rel=0.02)
+    assert model.warnings == ()
 
 
 def test_hold_out_names_levels_and_refuses_unmeasured_ones(jenkins_sdof):
