@@ -34,9 +34,8 @@ from nlupdate.identification.amplitude_modal_fit import (
 )
 from nlupdate.identification.data import FRFLevels
 from nlupdate.identification.response_controlled import read_response_controlled, samples_from_held_runs
-from nlupdate.identification.ring_down import (
-    backbone_curve, backbone_points, estimate_ring_down, join_samples, read_ring_down,
-)
+from nlupdate.identification.backbone_samples import backbone_curve, backbone_points, join_samples
+from nlupdate.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.cli.measured import add_measured_options, measured_table, parse_band, print_notes, read_options, sources
 from nlupdate.measurement.frf_files import write_frf_table
 from nlupdate.measurement.units import table_reference_unit
@@ -143,12 +142,12 @@ def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tu
         record = read_ring_down(path, args.channel)
         estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(record.channel), source=path)
         samples = estimate.samples()
+        units = "" if record.channel in shapes else \
+            f"; no --shape {record.channel}=VALUE: amplitudes in the response's units"
         print(f"{path}: channel {record.channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "
-              f"{estimate.trim_s[0]:.3g} s and {estimate.trim_s[1]:.3g} s trimmed at the start "
-              f"and end, {samples.amplitude.size} samples (a smoothing "
-              f"window apart: {estimate.window_s.min():.3g}–{estimate.window_s.max():.3g} s)" + ("" if record.channel in shapes else
-                                                      f"; no --shape {record.channel}=VALUE: amplitudes in the "
-                                                      f"response's units"))
+              f"{estimate.trim_s[0]:.3g} s and {estimate.trim_s[1]:.3g} s trimmed at the start and end, "
+              f"{samples.amplitude.size} samples (a smoothing window apart: {estimate.window_s.min():.3g}–"
+              f"{estimate.window_s.max():.3g} s){units}")
         out.append((path, samples))
         channel = record.channel
     for path in args.response_controlled:
@@ -188,8 +187,8 @@ def run(args: argparse.Namespace) -> int:
             if input_dof is None:
                 raise CliError(f"{sources(args)}: name the excited coordinate with --input-dof")
             if input_dof not in shapes:
-                raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the excited "
-                               f"coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
+                raise CliError(f"--shape {input_dof}=VALUE: a modal table needs the mass-normalised shape at the "
+                               f"excited coordinate {input_dof!r} (1/√kg) to know the modal amplitude of each level")
             samples = samples_from_modal_table(table, shapes[input_dof], args.mode, sources(args))
             model = fit_amplitude_model(samples, tuple(shapes.items()), args.backbone, args.order, mode=args.mode)
         else:
@@ -201,8 +200,8 @@ def run(args: argparse.Namespace) -> int:
             response_dof = args.response_dof or (input_dof if input_dof in responses else
                                                  responses[0] if len(responses) == 1 else None)
             if response_dof is None:
-                raise CliError(f"{sources(args)}: no driving-point FRF at {input_dof!r}; choose a response among {responses} "
-                               f"with --response-dof")
+                raise CliError(f"{sources(args)}: no driving-point FRF at {input_dof!r}; choose a response among "
+                               f"{responses} with --response-dof")
             data = FRFLevels.from_table(table, response_dof, input_dof)
             samples = samples_from_frfs(data, shapes.get(input_dof))
             model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)

@@ -37,9 +37,10 @@ large start outlives the signal). With a smoothing window of length T_w, another
 dropped at each end, as the smoothing's fits there are one-sided.
 
 Noise. Samples whose envelope is below ``snr`` times the in-band noise are dropped: the
-noise is estimated from what the band-pass removed, ``r = x − y``, taken white: its in-band standard deviation is ``1.4826·MAD(r)·√(B/(f_N − B))`` (B the
-bandwidth, f_N the Nyquist frequency; the median absolute deviation, so that the harmonics
-of the large start do not count as noise over the whole record). The noise also sets how
+noise is estimated from what the band-pass removed, ``r = x − y``, taken white: its in-band
+standard deviation is ``1.4826·MAD(r)·√(B/(f_N − B))`` (B the bandwidth, f_N the Nyquist
+frequency; the median absolute deviation, so that the harmonics of the large start do not
+count as noise over the whole record). The noise also sets how
 well the decay rate is known: a straight-line fit of ``ln|z|`` over ``T_w`` with about
 ``B·T_w`` independent values, each of standard deviation ``noise/|z|``, has the slope's
 standard error ``(noise/|z|)·√(12/(B·T_w))/T_w``; a window is used at a sample only where
@@ -137,9 +138,9 @@ class RingDownEstimate:
         """Samples a window apart (module docstring), largest amplitude first: from the first
         retained time, the next sample is the first at least its own window later."""
         if self.time_s.size == 0:
-            raise RingDownError(f"{self.source}: no part of the decay is left after trimming {self.trim_s[0]:.3g} s at the "
-                                f"start and {self.trim_s[1]:.3g} s at the end and dropping the envelope where the noise hides its decay: record a longer or "
-                                f"less noisy decay, or give the band")
+            raise RingDownError(f"{self.source}: no part of the decay is left after trimming {self.trim_s[0]:.3g} s at "
+                                f"the start and {self.trim_s[1]:.3g} s at the end and dropping the envelope where the "
+                                f"noise hides its decay: record a longer or less noisy decay, or give the band")
         keep, next_time = [], -np.inf
         for i, (time, window) in enumerate(zip(self.time_s, self.window_s)):
             if time >= next_time:
@@ -349,37 +350,3 @@ def read_ring_down(path: str | Path, channel: str | None = None) -> RingDownReco
     raise RingDownError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; ring-downs are read from .csv "
                         f"(time_s and one column per channel) or .mat")
 
-
-# ------------------------------------------------------------------------------ samples of several sources
-def join_samples(parts: list[ModalSamples]) -> ModalSamples:
-    """One set of samples from several sources at the same modal-amplitude scale (each with
-    its shape given: FRF samples whose shape is to be fitted cannot join others)."""
-    if any(p.shape_free for p in parts):
-        raise RingDownError("joining FRF samples with ring-down samples needs the mode shape at the excited coordinate "
-                            "(--shape NAME=VALUE): without it their modal amplitudes have no common scale")
-    if len(parts) == 1:
-        return parts[0]
-    return ModalSamples(np.concatenate([p.amplitude for p in parts]), np.concatenate([p.frequency_hz for p in parts]),
-                        np.concatenate([p.damping_ratio for p in parts]), np.concatenate([p.force_n for p in parts]),
-                        parts[0].input_shape)
-
-
-def backbone_points(parts: list[tuple[str, ModalSamples]]) -> pd.DataFrame:
-    """Every source's samples, one row each: ``source``, ``modal_amplitude`` (m·√kg),
-    ``natural_frequency_hz``, ``damping_ratio``."""
-    return pd.concat([pd.DataFrame({"source": name, "modal_amplitude": s.amplitude,
-                                    "natural_frequency_hz": s.frequency_hz, "damping_ratio": s.damping_ratio})
-                      for name, s in parts], ignore_index=True)
-
-
-def backbone_curve(model, samples: ModalSamples, count: int = 50) -> pd.DataFrame:
-    """The fitted model's backbone at ``count`` modal amplitudes spaced geometrically over the
-    samples' range: ``modal_amplitude``, ``natural_frequency_hz``, ``damping_ratio`` and their
-    band columns ``*_low``/``*_high``. The backbone fits carry no covariance, so the band columns
-    are NaN (not estimated) rather than a guess."""
-    a = np.geomspace(float(samples.amplitude.min()), float(samples.amplitude.max()), count)
-    f, z = model.frequency_hz(a), model.damping(a)
-    nan = np.full(a.size, np.nan)
-    return pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": f, "natural_frequency_hz_low": nan,
-                         "natural_frequency_hz_high": nan, "damping_ratio": z, "damping_ratio_low": nan,
-                         "damping_ratio_high": nan})
