@@ -1,4 +1,5 @@
-"""``nlupdate amplitude``: an amplitude-dependent modal model of one mode from a modal table or FRFs.
+"""``nlupdate amplitude``: an amplitude-dependent modal model of one mode from a modal table or FRFs
+(or ring-downs and response-controlled runs).
 
 From a modal table (CSV: force level, mode, natural frequency, damping ratio per row) and the
 mode's mass-normalised shape at the excited coordinate (--shape NAME=VALUE, 1/√kg), or from a
@@ -12,10 +13,10 @@ DIR/predicted_frf.png against the measured curves.
 
 A free decay (--ring-down FILE, repeatable; --channel NAME when it holds several; --band the
 mode's band-pass) is enough input on its own, or joins the FRFs or modal table (then with the
-shape at the excited coordinate): nlupdate.identification.ring_down. DIR/backbone_points.csv
-holds every source's samples and DIR/backbone.csv the fitted backbone over their range.
-Response-controlled stepped-sine runs (--response-controlled FILE.mat) give one sample per held
-amplitude from a one-mode fit of each run: nlupdate.identification.response_controlled.
+shape at the excited coordinate). Response-controlled stepped-sine runs (--response-controlled
+FILE.mat) give one sample per held amplitude from a one-mode fit of each run (docs/ring-down.md
+for both). DIR/backbone_points.csv holds every source's samples and DIR/backbone.csv the fitted
+backbone over their range.
 """
 from __future__ import annotations
 
