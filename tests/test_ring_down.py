@@ -174,8 +174,10 @@ def test_amplitude_command_fits_a_ring_down_alone(tmp_path, iwan_decay, capsys):
     f, z = df_backbone(IWAN, curve["modal_amplitude"].to_numpy() / np.sqrt(M))
     assert np.max(np.abs(curve["natural_frequency_hz"] / f - 1)) < 2e-3
     assert np.max(np.abs(curve["damping_ratio"] / z - 1)) < 0.05
-    assert curve["damping_ratio_low"].isna().all()
-    assert "no covariance" in capsys.readouterr().out
+    inside = (curve["natural_frequency_hz_low"] <= curve["natural_frequency_hz"]) & \
+        (curve["natural_frequency_hz"] <= curve["natural_frequency_hz_high"])
+    assert inside.all() and (curve["damping_ratio_high"] > curve["damping_ratio_low"]).all()
+    assert "95 % of 200 refits of a residual bootstrap" in capsys.readouterr().out
 
 
 def test_amplitude_command_finds_the_iwan_joint_of_a_ring_down(tmp_path, iwan_decay, capsys):
@@ -188,6 +190,8 @@ def test_amplitude_command_finds_the_iwan_joint_of_a_ring_down(tmp_path, iwan_de
     assert model["natural_frequency_hz"] == pytest.approx(np.sqrt(1.1) * F0, rel=1e-3)  # stuck: k + K_T
     assert model["damping_ratio"] == pytest.approx(ZETA, rel=0.1)
     assert model["joint"]["chi"] == pytest.approx(IWAN.chi, abs=0.05)
+    assert pd.read_csv(out / "backbone.csv")["damping_ratio_low"].isna().all()  # no refits unless asked
+    assert "--bootstrap N refits N resamples" in capsys.readouterr().out
 
 
 def test_amplitude_command_joins_a_ring_down_with_a_modal_table(tmp_path, iwan_decay):

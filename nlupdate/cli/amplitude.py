@@ -67,6 +67,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
     parser.add_argument("--backbone", choices=BACKBONES, default="iwan", help="backbone model (default iwan)")
     parser.add_argument("--order", type=positive_int, default=2, help="polynomial order (default 2)")
+    parser.add_argument("--bootstrap", type=int, metavar="N",
+                        help="refits of a residual bootstrap for the bands of backbone.csv (default 200 for the "
+                             "polynomial backbone, 0 for iwan: about a second per refit; 0: no bands, NaN)")
     parser.add_argument("--forces", help="levels to predict FRFs at, comma-separated (in the reference unit: N, or V "
                                          "for FRFs per volt)")
     parser.add_argument("--freqs", help="frequency grid (Hz) of the predictions: START:STOP:COUNT or F1,F2,…")
@@ -212,6 +215,9 @@ def run(args: argparse.Namespace) -> int:
         if rings:  # the measured samples and the ring-downs, fitted together at the given shape
             samples = join_samples([samples] + [s for _, s in rings])
             model = fit_amplitude_model(samples, model.shapes, args.backbone, args.order, mode=args.mode)
+    resamples = (200 if args.backbone == "polynomial" else 0) if args.bootstrap is None else args.bootstrap
+    if resamples < 0:
+        raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
     predicted = None
     if args.forces is not None:
         predicted = model.frf_table(frequency_grid(args.freqs), force_levels(args.forces), input_dof)
@@ -221,7 +227,9 @@ def run(args: argparse.Namespace) -> int:
         folder = archive.path
         write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
         _plot_backbone(model, samples, folder / "backbone.png")
-        backbone_curve(model, samples).to_csv(folder / "backbone.csv", index=False)
+        backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
+            draw, model.shapes, args.backbone, args.order, mode=args.mode), resamples=resamples).to_csv(
+            folder / "backbone.csv", index=False)
         backbone_points(points).to_csv(folder / "backbone_points.csv", index=False)
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")
@@ -238,7 +246,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {model.note}")
     for warning in model.warnings:
         print(f"warning: {warning}")
-    print("note: backbone.csv's *_low/*_high band columns are NaN: the backbone fits give no covariance")
+    if resamples:
+        print(f"note: backbone.csv's *_low/*_high bands: 95 % of {resamples} refits of a residual bootstrap")
+    else:
+        print("note: backbone.csv's *_low/*_high band columns are NaN (the backbone fits give no covariance); "
+              "--bootstrap N refits N resamples for them")
     print(f"wrote {out / 'amplitude_model.json'}, the backbone plot, backbone.csv and backbone_points.csv"
           + (" and the predicted FRFs" if predicted is not None else ""))
     return 0
