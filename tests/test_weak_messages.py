@@ -181,6 +181,12 @@ MEASURED_MISTAKES = {
                                      "separator ', '")),
     "two levels for one file": (lambda d: _one_level_csv(d, "frf.csv=1", f"{d / 'frf.csv'}=2"), (
         "levels given for the file", "frf.csv contradict each other (frf.csv=1,", "frf.csv=2")),
+    "run level twice": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(id2="Run 3")), "--level",
+                                   "run.uff#Run 3=1", "--level", "Run 3=2"], (
+        "levels given for the run 'Run 3' of", "run.uff contradict each other (run.uff#Run 3=1, Run 3=2")),
+    "file and run level": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(id2="Run 3")), "--level",
+                                      "run.uff=1", "--level", "Run 3=2"], (
+        "run.uff: levels given for the file (1) and for its run 'Run 3' (2) contradict each other",)),
     "UFF z-axis level 0": (lambda d: ["--measured", _uff(d, "run.uff", _dataset(z_axis_spec_data_type=13))],
                            ("run.uff, dataset 0: the z-axis level (record 7 field 6; specific data type 13",
                             "is 0; expected a level > 0")),

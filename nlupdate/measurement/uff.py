@@ -464,6 +464,10 @@ def read_uff_frf(data: bytes, path: Path, options: ReadOptions) -> pd.DataFrame:
     for index, dataset, run in zip(indices, datasets, runs):
         where = f"{path}, dataset {index}" + (f" (run {run!r})" if several else "")
         given = options.level_of_run(str(path), run) if run else None
+        if given is not None and file_level is not None and given != file_level:
+            raise MeasurementTableError(
+                f"{path}: levels given for the file ({file_level:g}) and for its run {run!r} ({given:g}) contradict "
+                f"each other (--level, study [measured] levels); expected one level")
         given = file_level if given is None else given
         function = dataset.get("func_type")
         if function == _FRF:

@@ -86,12 +86,11 @@ class ReadOptions:
                           f"the file {path}")
 
     def level_of_run(self, path: str, run: str) -> float | None:
-        """The level the user gave for the run ``run`` of the file ``path``: keyed
-        ``FILE#RUN``, else by the run name alone (None when neither); an error when two
-        keys of one form name the run with different levels."""
+        """The level the user gave for the run ``run`` of the file ``path``, keyed
+        ``FILE#RUN`` or by the run name alone (None when neither); an error when two keys
+        name the run with different levels."""
         named = {key: value for key, value in self.levels.items() if _names_run(key, path, run)}
-        with_file = {key: value for key, value in named.items() if key != run}
-        return _one_level(with_file or named, f"the run {run!r} of {path}")
+        return _one_level(named, f"the run {run!r} of {path}")
 
     def unmatched_levels(self, runs: Mapping[str, tuple[str, ...]]) -> list[str]:
         """The keys of ``levels`` that name none of the files ``runs`` holds (file → its
