@@ -492,3 +492,18 @@ def test_an_archived_study_file_that_is_a_link_is_not_followed(tmp_path, capsys,
     assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1, (code, err)
     assert f"{folder / 'study.toml'}: is a link (to {private}), not the study file the run wrote; not followed" in err
     assert "secret" not in out and not (tmp_path / "again").exists()
+
+
+@pytest.mark.parametrize("measured, fragment", [
+    ({"file": "frf.csv", "levels": {"frf.csv": 1.0, "./frf.csv": 2.0}},
+     "[measured.levels] key './frf.csv': expected one level per file or run: 'frf.csv' names the same one with 1"),
+    ({"files": {"frf.csv": 1.0}, "levels": {"./frf.csv": 2.0}},
+     "[measured.levels] key './frf.csv': expected the level [measured] files gives the file (1), or none"),
+])
+def test_a_study_giving_one_file_two_levels_is_refused(tmp_path, capsys, measured, fragment):
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run_cli(capsys, "update", _study_naming(inputs, measured), "--out", out / "run")
+    assert_refused(result, out, "study.toml: " + fragment)

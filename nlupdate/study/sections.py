@@ -133,7 +133,13 @@ def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterS
             raise read.fail("measured", "file", f"an existing FRF table ({', '.join(MEASURED_SUFFIXES)})", str(file))
         return MeasuredSpec(file=str(file), **statements)
     if "files" in table:
-        return MeasuredSpec(files=_measured_files(read, table["files"]), **statements)
+        files = _measured_files(read, table["files"])
+        in_files = {path: level for path, level in files if level is not None}
+        for (key, level), name in zip(statements.get("levels", ()), table.get("levels", {})):
+            if in_files.get(key, level) != level:
+                raise read.fail("measured.levels", name, f"the level [measured] files gives the file "
+                                                         f"({in_files[key]:g}), or none", level)
+        return MeasuredSpec(files=files, **statements)
     if "time_histories" in table:
         written = read.strings(table, "measured", "time_histories", required=True)
         paths = []
@@ -243,6 +249,10 @@ def _measured_levels(read: Reader, value: Any, source: str) -> tuple[tuple[str, 
             key = str(_existing_file(read, name))
         elif sep and file and _existing_file(read, file) is not None:
             key = f"{_existing_file(read, file)}#{run}"
+        earlier = next((written for written, (k, v) in zip(value, out) if k == key and v != float(level)), None)
+        if earlier is not None:
+            raise read.fail("measured.levels", name, f"one level per file or run: {earlier!r} names the same one "
+                                                     f"with {value[earlier]:g}", level)
         out.append((key, float(level)))
     return tuple(out)
 
