@@ -22,12 +22,19 @@ import importlib
 import io
 import json
 import math
+import threading
 import zipfile
 from pathlib import Path, PurePath
 from typing import Any
 
 import numpy as np
 import pandas as pd
+
+#: One record read at a time in a process. numpy parses each array's header with
+#: ast.literal_eval, and CPython 3.11's AST construction is not safe from threads
+#: (python/cpython#106905): two cached tasks read on the flow's threads under load failed
+#: with "SystemError: AST constructor recursion depth mismatch". Reads are milliseconds.
+_ARRAY_READS = threading.Lock()
 
 #: Version of the record layout; a record of another version is recomputed.
 SCHEMA = 1
@@ -234,10 +241,12 @@ def check(blob: bytes) -> None:
 def loads(blob: bytes) -> Any:
     """The value of record bytes; :class:`RecordError` when they are not a record of
     schema :data:`SCHEMA` or name anything but data and nlupdate classes."""
-    arrays, structure = _open(blob)
-    try:
-        return _Reader(arrays).decode(structure.get("value"))
-    except (TypeError, ValueError, AttributeError) as error:
-        if isinstance(error, RecordError):
-            raise
-        raise RecordError(f"malformed record ({type(error).__name__}: {error})") from None
+    with _ARRAY_READS:
+        arrays, structure = _open(blob)
+        try:
+            return _Reader(arrays).decode(structure.get("value"))
+        except (TypeError, ValueError, AttributeError) as error:
+            if isinstance(error, RecordError):
+                raise
+            raise RecordError(f"malformed record ({type(error).__name__}: {error})") from None
+

@@ -272,3 +272,47 @@ def test_a_full_cache_disk_warns_once_and_the_run_goes_on(tmp_path, monkeypatch)
     messages = [str(w.message) for w in caught]
     assert messages == [f"cache folder {tmp_path / RECORDS_FOLDER}: cannot write records (No space left on device); "
                         f"results from now on are not cached"]
+
+
+def test_records_read_on_threads_never_parse_array_headers_at_once(monkeypatch):
+    """numpy parses every array header with ast.literal_eval, and CPython 3.11's AST
+    construction is not thread-safe (python/cpython#106905): two cached tasks read on a
+    flow's threads under load failed with 'SystemError: AST constructor recursion depth
+    mismatch'. Record reads take turns; a header parse held open (1 ms) shows any overlap."""
+    import ast
+    import threading
+    import time as clock
+
+    from nlupdate.tasks import records
+
+    blob = records.dumps({"curves": [np.arange(5.0 + i) for i in range(8)]})
+    parse, inside, most = ast.literal_eval, [0], [0]
+    lock = threading.Lock()
+
+    def slow_parse(text):
+        with lock:
+            inside[0] += 1
+            most[0] = max(most[0], inside[0])
+        clock.sleep(0.001)
+        try:
+            return parse(text)
+        finally:
+            with lock:
+                inside[0] -= 1
+
+    monkeypatch.setattr(ast, "literal_eval", slow_parse)
+    errors = []
+
+    def read():
+        try:
+            for _ in range(5):
+                records.loads(blob)
+        except Exception as error:  # noqa: BLE001 - counted
+            errors.append(error)
+
+    threads = [threading.Thread(target=read) for _ in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == [] and most[0] == 1, (errors, most)
