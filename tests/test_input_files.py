@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import resource
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -25,14 +24,11 @@ def _one_error_line(capsys) -> str:
 
 
 def test_a_device_as_the_model_is_refused_without_reading_it(tmp_path, capsys):
-    start = time.perf_counter()
     code = main(["simulate", "/dev/zero", "--input-dof", "0", "--freqs", "1:2:3", "--forces", "1",
                  "--out", str(tmp_path / "frf.csv")])
     assert code == 2
     line = _one_error_line(capsys)
     assert "/dev/zero" in line and "a device" in line and "regular file" in line
-    # reading /dev/zero never ends; the refusal comes at once (a bound for a loaded machine)
-    assert time.perf_counter() - start < 60
     assert not (tmp_path / "frf.csv").exists()
 
 

@@ -8,7 +8,6 @@ import ast
 import importlib.metadata as metadata
 import subprocess
 import sys
-import time
 import tomllib
 from pathlib import Path
 
@@ -40,13 +39,12 @@ def test_dask_is_an_extra_that_the_tests_install():
 
 @pytest.mark.parametrize("option", [["--dask"], ["--dask-address", "tcp://127.0.0.1:8786"]])
 def test_dask_options_without_dask_say_what_to_install(option, without_dask, two_dof_study_file, tmp_path, capsys):
-    started = time.perf_counter()
     code = main(["run", str(two_dof_study_file), *option, "--out", str(tmp_path / "results")])
     assert code == 2
     assert capsys.readouterr().err.splitlines() == [
         f"nlupdate run: error: {option[0]} needs Dask, an optional part of nlupdate that is not installed: "
         f"pip install 'nlupdate[dask]'"]
-    assert not (tmp_path / "results").exists() and time.perf_counter() - started < 10  # no server started
+    assert not (tmp_path / "results").exists()
 
 
 def test_a_dask_execution_without_dask_says_what_to_install(without_dask):

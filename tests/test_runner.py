@@ -414,9 +414,7 @@ def test_a_version_probe_that_times_out_kills_what_it_started(tmp_path: Path) ->
         open({str(tmp_path / "pids")!r}, "w").write(f"{{child.pid}} {{helper.pid}}")
         time.sleep(60)
         """)
-    start = time.monotonic()
     version = ProcessRunner(str(exe), tmp_path / "runs").version(timeout_s=2.0)
-    assert time.monotonic() - start < 30
     pids = [int(pid) for pid in (tmp_path / "pids").read_text().split()]
     deadline = time.time() + 5
     while any(_alive(pid) for pid in pids) and time.time() < deadline:
