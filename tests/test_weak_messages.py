@@ -88,7 +88,16 @@ TIME_HISTORY_MISTAKES = {
 }
 
 
+def folders(tmp_path):
+    """(inputs, out): a folder for the case's files and an output folder that must stay empty."""
+    inputs, out = tmp_path / "inputs", tmp_path / "out"
+    inputs.mkdir()
+    out.mkdir()
+    return inputs, out
+
+
 @pytest.mark.parametrize("case", TIME_HISTORY_MISTAKES, ids=list(TIME_HISTORY_MISTAKES))
+
 def test_time_history_mistakes_blame_the_signal(tmp_path, capsys, case):
     change, options, fragments = TIME_HISTORY_MISTAKES[case]
     _record(change).to_csv(tmp_path / "record.csv", index=False)
@@ -210,11 +219,8 @@ MEASURED_MISTAKES = {
 @pytest.mark.parametrize("case", MEASURED_MISTAKES, ids=list(MEASURED_MISTAKES))
 def test_measured_file_mistakes_name_the_field(tmp_path, capsys, case):
     make, fragments = MEASURED_MISTAKES[case]
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
+    inputs, out = folders(tmp_path)
     arguments = make(inputs)
-    out = tmp_path / "out"
-    out.mkdir()
     result = run_cli(capsys, "identify", *arguments, "--out", out / "identified")
     assert_refused(result, out, "nlupdate identify: error:", *fragments)
 
@@ -264,10 +270,7 @@ MAT_MISTAKES = {
 @pytest.mark.parametrize("case", MAT_MISTAKES, ids=list(MAT_MISTAKES))
 def test_mat_file_mistakes_name_the_variable(tmp_path, capsys, case):
     make, fragments = MAT_MISTAKES[case]
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
-    out = tmp_path / "out"
-    out.mkdir()
+    inputs, out = folders(tmp_path)
     result = run_cli(capsys, "identify", "--measured", make(inputs), "--out", out / "identified")
     assert_refused(result, out, "nlupdate identify: error:", *fragments)
 
@@ -336,10 +339,7 @@ VALUE_MISTAKES = {
 @pytest.mark.parametrize("case", VALUE_MISTAKES, ids=list(VALUE_MISTAKES))
 def test_a_value_is_blamed_on_its_own_key(tmp_path, capsys, case):
     make, fragments = VALUE_MISTAKES[case]
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
-    out = tmp_path / "out"
-    out.mkdir()
+    inputs, out = folders(tmp_path)
     result = run_cli(capsys, *make(inputs, out))
     assert_refused(result, out, *fragments)
 
@@ -385,10 +385,7 @@ HUGE_INPUTS = {
 @pytest.mark.parametrize("case", HUGE_INPUTS, ids=list(HUGE_INPUTS))
 def test_huge_inputs_are_refused_before_the_work(tmp_path, capsys, case):
     make, fragments = HUGE_INPUTS[case]
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
-    out = tmp_path / "out"
-    out.mkdir()
+    inputs, out = folders(tmp_path)
     result = run_cli(capsys, *make(inputs, out))
     assert_refused(result, out, *fragments)
 
@@ -456,10 +453,7 @@ def _study_naming(folder: Path, measured: dict) -> Path:
     ({"time_histories": ["notes.key"]}, "[measured] key 'time_histories': expected existing time-record files"),
 ])
 def test_a_study_naming_a_file_of_no_input_type_is_refused_before_any_step(tmp_path, capsys, measured, fragment):
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
-    out = tmp_path / "out"
-    out.mkdir()
+    inputs, out = folders(tmp_path)
     result = run_cli(capsys, "update", _study_naming(inputs, measured), "--out", out / "run")
     assert_refused(result, out, "study.toml: " + fragment)
 
@@ -501,9 +495,6 @@ def test_an_archived_study_file_that_is_a_link_is_not_followed(tmp_path, capsys,
      "[measured.levels] key './frf.csv': expected the level [measured] files gives the file (1), or none"),
 ])
 def test_a_study_giving_one_file_two_levels_is_refused(tmp_path, capsys, measured, fragment):
-    inputs = tmp_path / "inputs"
-    inputs.mkdir()
-    out = tmp_path / "out"
-    out.mkdir()
+    inputs, out = folders(tmp_path)
     result = run_cli(capsys, "update", _study_naming(inputs, measured), "--out", out / "run")
     assert_refused(result, out, "study.toml: " + fragment)
