@@ -94,7 +94,6 @@ backbone curves of nonlinear systems from resonance decay responses", J. Sound V
 """
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -104,8 +103,9 @@ import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.identification.amplitude_modal_fit import ModalSamples
-from nlupdate.input_files import decode_text, read_input_bytes, sniff
+from nlupdate.input_files import read_input_bytes, sniff
 from nlupdate.measurement.frf_table import MeasurementTableError
+from nlupdate.measurement.time_history import csv_frame
 
 #: the filter's impulse response counts as ended below this fraction of its peak
 IMPULSE_FLOOR = 1e-3
@@ -337,11 +337,7 @@ def read_ring_down(path: str | Path, channel: str | None = None) -> RingDownReco
     kind = sniff(data[:4096])
     suffix = path.suffix.lower()
     if suffix == ".csv" and kind == "text":
-        text = decode_text(data, path, "ring-down file")
-        try:
-            frame = pd.read_csv(io.StringIO(text))
-        except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as error:
-            raise RingDownError(f"{path}: not a readable CSV file ({error})") from None
+        frame = csv_frame(data, path, "ring-down file", RingDownError)
         frame.columns = [str(c).strip() for c in frame.columns]
         for name in frame.columns:
             if not pd.api.types.is_numeric_dtype(frame[name]):

@@ -273,11 +273,7 @@ def read_time_record(path: str | Path, sample_rate_hz: float | None = None, refe
     if kind == "binary" and data.lstrip(b"\r\n ").startswith(b"-1"):
         kind = "uff"
     if suffix == ".csv" and kind == "text":
-        text = decode_text(data, path, "time-history file")
-        try:
-            frame = pd.read_csv(io.StringIO(text))
-        except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as error:
-            raise TimeHistoryError(f"{path}: not a readable CSV file ({error})") from None
+        frame = csv_frame(data, path, "time-history file", TimeHistoryError)
         if len(frame.columns) == 1 and ";" in str(frame.columns[0]):
             raise TimeHistoryError(f"{path}: columns are separated by ';'; nlupdate reads comma-separated values with "
                                    f"'.' as the decimal point")
@@ -640,3 +636,14 @@ def estimate_frf(records: list[TimeRecord], input_dof: str, excitation: str = "a
     for note in notes:
         warnings.warn(note, NlupdateWarning, stacklevel=2)
     return FRFEstimate(validate_frf_table(table.reset_index(drop=True), source="estimated FRF"), kind, levels, notes)
+
+
+def csv_frame(data: bytes, path: Path, what: str, error: type[ValueError]) -> pd.DataFrame:
+    """The table of a CSV file's bytes (decoded as :func:`decode_text` does); ``error`` with
+    one line naming ``path`` when pandas cannot read it. Time histories and ring-down
+    records share it."""
+    text = decode_text(data, path, what)
+    try:
+        return pd.read_csv(io.StringIO(text))
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as problem:
+        raise error(f"{path}: not a readable CSV file ({problem})") from None
