@@ -1,7 +1,7 @@
 """The DF closed form before and after a change, counted as frf_speed.py Part 3a counts:
 ``python benchmarks/closed_form_before_after.py [--commit REV] [--repeats N]``.
 
-The "before" code is ``nlupdate/response/closed_form.py`` and ``sweep.py`` at ``--commit``
+The "before" code is ``src/nlupdate/core/response/closed_form.py`` and ``sweep.py`` at ``--commit``
 (default b86565c, the last before the closed form was sped up), read with ``git show`` and
 loaded beside the working tree's in one process. Both ``frequency_sweep`` up + down on the
 10,000-point Duffing grid, the vectorised trigonometric solve of the cubic and batched
@@ -26,8 +26,8 @@ import numpy as np  # noqa: E402
 from benchmarks.frf.common import BAND, FORCE, duffing, interleaved, load_average, timed  # noqa: E402
 from benchmarks.frf.cubic_reference import companion_roots, trigonometric_roots  # noqa: E402
 from benchmarks.frf.grid import GRID_POINTS, cubic_coefficients  # noqa: E402
-from nlupdate.model.system import CondensedProblem  # noqa: E402
-from nlupdate.response.sweep import frequency_sweep  # noqa: E402
+from nlupdate.core.model.system import CondensedProblem  # noqa: E402
+from nlupdate.core.response.sweep import frequency_sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,9 +52,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--commit", default="b86565c")
     parser.add_argument("--repeats", type=int, default=41)
     args = parser.parse_args(argv)
-    old_module("closed_form_before", args.commit, "nlupdate/response/closed_form.py")
-    sweep_before = old_module("sweep_before", args.commit, "nlupdate/response/sweep.py",
-                              ("from nlupdate.response import closed_form\n", "import closed_form_before as closed_form\n"))
+    old_module("closed_form_before", args.commit, "src/nlupdate/core/response/closed_form.py")
+    sweep_before = old_module("sweep_before", args.commit, "src/nlupdate/core/response/sweep.py",
+                              ("from nlupdate.core.response import closed_form\n", "import closed_form_before as closed_form\n"))
     grid = np.linspace(*BAND, GRID_POINTS)
     system, forcing = duffing(), {0: FORCE}
     coefficients = cubic_coefficients(CondensedProblem(system, forcing), grid)

@@ -43,7 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from discovery_cases import benchmark_cases, legacy_cases  # noqa: E402
 
-from nlupdate.discovery import discover  # noqa: E402
+from nlupdate.core.discovery import discover  # noqa: E402
 
 
 def _label(effects) -> str:

@@ -4,12 +4,12 @@ Used by ``benchmarks/discovery.py`` and by the discovery tests (loaded from this
 test scaffolding, not part of the package).
 
 The measurement is made by direct time integration of the truth
-(:func:`nlupdate.response.time_integration.steady_state_response`: no describing-function
+(:func:`nlupdate.core.response.time_integration.steady_state_response`: no describing-function
 assumption) at every force level and frequency, plus docs/methods.md §8 noise. Discovery is given
 only the model; the case knows which effects it should name and where. The truths are built
-here from the elements of :mod:`nlupdate.model.elements` (and one element outside the
+here from the elements of :mod:`nlupdate.core.model.elements` (and one element outside the
 library, :class:`OneSidedStop`) and from explicit matrix edits — not through the library's
-:meth:`~nlupdate.discovery.effects.Effect.apply` — so a case is an independent reference.
+:meth:`~nlupdate.core.discovery.effects.Effect.apply` — so a case is an independent reference.
 
 How the test reaches each frequency (``method``):
 
@@ -48,12 +48,12 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.noise import add_table_noise
-from nlupdate.model.elements import CoulombFriction, CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.noise import add_table_noise
+from nlupdate.core.model.elements import CoulombFriction, CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.time_integration import steady_state_response
 
 LEVELS_N = (2.0, 8.0, 25.0, 60.0)
 LOSS_FACTOR = 0.04

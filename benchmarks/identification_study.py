@@ -8,7 +8,7 @@
 2. Excitation-frequency study on the §3.1 SDOF (linear resonance 711.8 Hz, low-force
    resonance 763 Hz) and the §3.2 2-DOF (linear mode 2 at 732.2 Hz, low-force 745 Hz):
    bias ± std of k3 and kf at each frequency, and where
-   :func:`nlupdate.identification.frequency.recommend_frequency` lands on noisy data.
+   :func:`nlupdate.core.identification.frequency.recommend_frequency` lands on noisy data.
 """
 from __future__ import annotations
 
@@ -23,9 +23,9 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from source_cases import case_data  # noqa: E402
 
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel  # noqa: E402
-from nlupdate.identification.frequency import recommend_frequency  # noqa: E402
-from nlupdate.identification.prd import identify_prd  # noqa: E402
+from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel  # noqa: E402
+from nlupdate.core.identification.frequency import recommend_frequency  # noqa: E402
+from nlupdate.core.identification.prd import identify_prd  # noqa: E402
 
 NOISE = 0.05
 MODELS = {

@@ -14,8 +14,8 @@ import tempfile
 
 import pandas as pd
 
-from nlupdate.adapters.calculix_tbeam import TBeamMesh, mesh_study
-from nlupdate.fe import GunBarrelParameters, TBeamParameters, global_frequencies, gunbarrel_model, mesh_refinement_study, tbeam_model
+from nlupdate.fe.adapters.calculix_tbeam import TBeamMesh, mesh_study
+from nlupdate.fe.models import GunBarrelParameters, TBeamParameters, global_frequencies, gunbarrel_model, mesh_refinement_study, tbeam_model
 
 
 def main() -> None:

@@ -26,15 +26,15 @@ import tempfile
 import time
 from pathlib import Path
 
-from nlupdate.flows.environment import prepare_environment
+from nlupdate.orchestration.flows.environment import prepare_environment
 
 prepare_environment()
 
-from nlupdate.cli.demo import demo_study_text  # noqa: E402
-from nlupdate.flows.status_lines import Progress  # noqa: E402
-from nlupdate.flows.run import run_study_flow  # noqa: E402
-from nlupdate.flows.runners import Execution  # noqa: E402
-from nlupdate.flows.server import prefect_api  # noqa: E402
+from nlupdate.app.cli.demo import demo_study_text  # noqa: E402
+from nlupdate.orchestration.flows.status_lines import Progress  # noqa: E402
+from nlupdate.orchestration.flows.run import run_study_flow  # noqa: E402
+from nlupdate.orchestration.flows.runners import Execution  # noqa: E402
+from nlupdate.orchestration.flows.server import prefect_api  # noqa: E402
 from nlupdate.reporting.archive import write_archive  # noqa: E402
 from nlupdate.study import run_study, study_from_text  # noqa: E402
 
@@ -119,7 +119,7 @@ def calculix(work: Path) -> None:
                              ("flow, 2 Dask workers", Execution(workers=2, dask=True))):
         seconds, manifest = flow_seconds(study, work / "ccx-flow", work / f"ccx-cache-{len(rows)}", execution)
         rows.append((label, seconds, computed(manifest, "FE point")))
-    from nlupdate.flows.runners import task_runner
+    from nlupdate.orchestration.flows.runners import task_runner
 
     started = time.perf_counter()
     with task_runner(Execution(workers=2, dask=True)):

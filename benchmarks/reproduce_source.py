@@ -36,13 +36,13 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from source_cases import case_data  # noqa: E402
 
-from nlupdate.correlation.metrics import frac, peak_errors  # noqa: E402
-from nlupdate.identification.ddf import identify_ddf  # noqa: E402
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel  # noqa: E402
-from nlupdate.identification.modal_fit import fit_modal_model  # noqa: E402
-from nlupdate.identification.prd import identify_prd  # noqa: E402
-from nlupdate.identification.regenerate import regenerate_frf  # noqa: E402
-from nlupdate.identification.uncertainty import monte_carlo  # noqa: E402
+from nlupdate.core.correlation.metrics import frac, peak_errors  # noqa: E402
+from nlupdate.core.identification.ddf import identify_ddf  # noqa: E402
+from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel  # noqa: E402
+from nlupdate.core.identification.modal_fit import fit_modal_model  # noqa: E402
+from nlupdate.core.identification.prd import identify_prd  # noqa: E402
+from nlupdate.core.identification.regenerate import regenerate_frf  # noqa: E402
+from nlupdate.core.identification.uncertainty import monte_carlo  # noqa: E402
 
 NOISE = 0.05
 POLY2 = PolynomialModel.of_order(2)

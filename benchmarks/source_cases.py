@@ -2,7 +2,7 @@
 
 Each case is a lumped linear model with local elements at dof 0, forced and measured at
 dof 0. Data are made like the source's: single-harmonic (describing-function) responses,
-here by continuation + an upward stepped-sine sweep (:func:`nlupdate.response.simulate.simulate_frf_table`)
+here by continuation + an upward stepped-sine sweep (:func:`nlupdate.core.response.simulate.simulate_frf_table`)
 on a 1 Hz grid, noise-free; noise (docs/methods.md §8, 5 % of |H|) is added per seed by the
 benchmark scripts.
 """
@@ -13,11 +13,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.identification.data import FRFLevels
-from nlupdate.model.linear import LumpedModel
-from nlupdate.response.simulate import simulate_frf_table
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.response.simulate import simulate_frf_table
+from nlupdate.core.model.system import NonlinearSystem
 
 
 @dataclass(frozen=True)

@@ -18,15 +18,15 @@ import argparse
 import time
 from pathlib import Path
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.surrogate import SurrogateAdapter
-from nlupdate.updating.runs import compare_candidates, rank_candidates
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
-from nlupdate.updating.sensitivity import FORMULA_LABELS
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.surrogate import SurrogateAdapter
+from nlupdate.core.updating.runs import compare_candidates, rank_candidates
+from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
+from nlupdate.core.updating.sensitivity import FORMULA_LABELS
 from nlupdate.study import load_study
 from nlupdate.study import run_study
 from nlupdate.study.steps import study_targets, updating_runs
-from nlupdate.updating.targets import UpdatingTargets
+from nlupdate.core.updating.targets import UpdatingTargets
 
 ROOT = Path(__file__).resolve().parents[1]
 THREE_MODE_STUDY = ROOT / "examples" / "tbeam_three_modes.toml"

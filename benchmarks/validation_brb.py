@@ -23,9 +23,9 @@ BRB = ROOT / "tests" / "data" / "brb" / "ForcedFrequencyResponses.mat"
 
 
 def brb_levels():
-    from nlupdate.identification.data import FRFLevels
-    from nlupdate.measurement.frf_files import read_frf_table
-    from nlupdate.measurement.units import ReadOptions
+    from nlupdate.core.identification.data import FRFLevels
+    from nlupdate.core.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.units import ReadOptions
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -34,7 +34,7 @@ def brb_levels():
 
 
 def main(argv: list[str] | None = None) -> int:
-    from nlupdate.validation.held_out import validate
+    from nlupdate.core.validation.held_out import validate
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default="lines,amplitude-polynomial,amplitude-iwan,auto")

@@ -30,8 +30,8 @@ study = nlu.load_study(Path(__file__).resolve().parent / "two_dof_study.toml")
 
 started = time.perf_counter()
 if args.prefect:
-    from nlupdate.flows.run import run_study_flow
-    from nlupdate.flows.runners import Execution
+    from nlupdate.orchestration.flows.run import run_study_flow
+    from nlupdate.orchestration.flows.runners import Execution
 
     archive = run_study_flow(study, out / "results", Execution(workers=2), cache_dir=out / ".nlupdate-cache")
 else:

@@ -36,7 +36,7 @@ os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
 
 import prefect_home  # noqa: E402
-from nlupdate.flows.environment import prepare_environment  # noqa: E402
+from nlupdate.orchestration.flows.environment import prepare_environment  # noqa: E402
 
 prepare_environment()
 
@@ -128,7 +128,7 @@ def two_dof_study_file(tmp_path, two_dof_study):
 @pytest.fixture(scope="session")
 def prefect_server():
     """One Prefect server for the session; yields its API URL (also in PREFECT_API_URL)."""
-    from nlupdate.flows.server import prefect_api
+    from nlupdate.orchestration.flows.server import prefect_api
 
     with prefect_api(lambda message: None) as url:
         yield url

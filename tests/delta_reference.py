@@ -7,7 +7,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.model.elements import NonlinearElement, nonlinear_dofs
+from nlupdate.core.model.elements import NonlinearElement, nonlinear_dofs
 
 
 def assemble_delta(

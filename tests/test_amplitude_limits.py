@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from nlupdate.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs, fit_amplitude_model
-from nlupdate.identification.data import FRFLevels
-from nlupdate.model.elements import IwanJoint
-from nlupdate.model.linear import LumpedModel
-from nlupdate.response.simulate import simulate_frf_table
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs, fit_amplitude_model
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.response.simulate import simulate_frf_table
+from nlupdate.core.model.system import NonlinearSystem
 
 K = 9e5
 STIFFNESS = np.array([[2 * K, -K], [-K, K]])
@@ -95,8 +95,8 @@ def test_a_model_of_frfs_per_volt_states_volts(measured, tmp_path, capsys):
     joint's slip force is printed and written per volt (V/√kg), never in newtons."""
     import json
 
-    from nlupdate.cli import main
-    from nlupdate.measurement.frf_files import write_frf_table
+    from nlupdate.app.cli import main
+    from nlupdate.core.measurement.frf_files import write_frf_table
 
     per_volt = measured.assign(reference_unit="V")
     write_frf_table(per_volt[per_volt["response_dof"] == "a"].reset_index(drop=True), tmp_path / "v.parquet")

@@ -14,18 +14,18 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from nlupdate.identification.amplitude_modal_fit import (
+from nlupdate.core.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, amplitude_model_from_modal_table, samples_from_modal_table,
 )
-from nlupdate.identification.data import FRFLevels
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.modal_table import modal_table
-from nlupdate.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, read_amplitude_model, write_amplitude_model
-from nlupdate.model.elements import IwanJoint
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.simulate import simulate_frf_table
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.modal_table import modal_table
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, read_amplitude_model, write_amplitude_model
+from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.simulate import simulate_frf_table
+from nlupdate.core.response.time_integration import steady_state_response
 
 MASS, STIFFNESS = 0.1, 2e6
 JOINT = IwanJoint((0,), slip_force=1.0, kt=3e5, chi=-0.5, beta=0.5)
@@ -223,8 +223,8 @@ formulas = ["central2"]
 
 
 def test_command_line_from_a_modal_table_and_from_frfs(measured_modal_table, tmp_path):
-    from nlupdate.cli import main
-    from nlupdate.measurement.modal_table import write_modal_table
+    from nlupdate.app.cli import main
+    from nlupdate.core.measurement.modal_table import write_modal_table
 
     modal = write_modal_table(measured_modal_table, tmp_path / "modal.csv")
     out = tmp_path / "amm"

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.files import HOST
 from nlupdate.study import load_study
 from nlupdate.study.steps import measured_table

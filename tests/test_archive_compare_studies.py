@@ -14,7 +14,7 @@ import json
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from studies import small_two_dof_study, write_study
 
 TWO_DOF_FORCES = [0.01, 20.0, 60.0]

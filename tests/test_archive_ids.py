@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.reporting.catalogue import ArchiveError, find_runs, resolve_run
 
 ID = "20261128T181505Z-18ac07f8"

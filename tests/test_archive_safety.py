@@ -10,7 +10,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.reporting.archive import archive_inputs, write_failed_archive
 from nlupdate.reporting.catalogue import ArchiveError, archived_study, open_run
 from nlupdate.fingerprints import tree_hash
@@ -204,7 +204,7 @@ def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monke
 
     import pandas as pd
 
-    import nlupdate.cli.update as update_command
+    import nlupdate.app.cli.update as update_command
 
     measured = tmp_path / "frf.csv"
     assert main(["simulate", str(MODEL), "--input-dof", "0", "--freqs", "690:770:40", "--forces",
@@ -232,7 +232,7 @@ def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monke
     assert entry["sha256"] == hashlib.sha256(original).hexdigest()
     assert (tmp_path / "out" / entry["archived"]).read_bytes() == original
     assert manifest["inputs"]["measured"]["file_sha256"] == hashlib.sha256(original).hexdigest()
-    from nlupdate.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.frf_files import read_frf_table
     from nlupdate.fingerprints import table_hash
 
     measured.write_bytes(original)

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nlupdate.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
-from nlupdate.identification.backbone_samples import backbone_curve
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.backbone_samples import backbone_curve
 
 A = np.geomspace(1e-4, 1e-3, 30)
 U = A / A.max()

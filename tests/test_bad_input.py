@@ -1,7 +1,7 @@
 """Every mistake a user can make ends as one clear line, the right exit code and nothing half-written.
 
 Each case runs the real ``nlupdate`` command line — in this process, through
-:func:`nlupdate.cli.main` with stdout and stderr captured (what a user sees: stderr, exit
+:func:`nlupdate.app.cli.main` with stdout and stderr captured (what a user sees: stderr, exit
 code; starting a Python process per case cost a minute and checks nothing more), or in a
 subprocess where the process itself is the point (the traceback of ``--debug``, the
 umask) — and checks: exit code 2 for a mistake in the input, 1 for a failure of the
@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from studies import two_dof_study, study_text, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -248,7 +248,7 @@ def test_uff_mobility_and_accelerance_are_converted_to_receptance(tmp_path, ordi
     """An ASCII UFF 58 written by pyuff as another tool would: A = (iω)^p H, read back as H."""
     import pyuff
 
-    from nlupdate.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.frf_files import read_frf_table
     from nlupdate.notices import NlupdateWarning
 
     f = np.linspace(10.0, 20.0, 11)
@@ -357,12 +357,12 @@ def test_debug_shows_the_traceback(tmp_path):
 
 
 def test_an_unexpected_error_is_one_line_pointing_to_debug(tmp_path, monkeypatch, capsys):
-    from nlupdate.cli import main
+    from nlupdate.app.cli import main
 
     def broken(*args, **kwargs):
         raise TypeError("unsupported operand")
 
-    monkeypatch.setattr("nlupdate.cli.simulate.simulate_frf_table", broken)
+    monkeypatch.setattr("nlupdate.app.cli.simulate.simulate_frf_table", broken)
     code = main(["simulate", str(TWO_DOF), *SIMULATE, "--out", str(tmp_path / "x.csv")])
     stderr = capsys.readouterr().err.strip()
     assert code == 1 and stderr.count("\n") == 0

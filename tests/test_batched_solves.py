@@ -18,14 +18,14 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from nlupdate.model.elements import (
+from nlupdate.core.model.elements import (
     CoulombFriction, CubicStiffness, IwanJoint, JenkinsFriction, PolynomialDF, QuadraticDamping, SymmetricGap,
 )
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_batch
-from nlupdate.response.continuation import ContinuationOptions, trace_frequency_response
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.sweep import fold_free_branch, frequency_sweep
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import CondensedProblem, NonlinearSystem, newton_batch
+from nlupdate.core.response.continuation import ContinuationOptions, trace_frequency_response
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.response.sweep import fold_free_branch, frequency_sweep
 
 M, C, K, K3, F = 1.0, 0.05, 1.0, 1.0, 0.5
 DUFFING = NonlinearSystem(LumpedModel([[M]], [[K]], [[C]]), (CubicStiffness((0,), K3),))
@@ -164,7 +164,7 @@ def test_fold_free_batch_equals_the_traced_route():
 
 
 def test_levels_traced_in_lockstep_are_the_curves_traced_one_by_one():
-    from nlupdate.response.continuation import trace_frequency_responses
+    from nlupdate.core.response.continuation import trace_frequency_responses
 
     model = LumpedModel.with_loss_factor(np.diag([0.1, 0.5]), np.array([[2e6, -1e6], [-1e6, 2e6]]), 0.005)
     system = NonlinearSystem(model, (CubicStiffness((0,), 1e10), JenkinsFriction((0,), 8e4, 1.0)))
@@ -182,7 +182,7 @@ def test_levels_traced_in_lockstep_are_the_curves_traced_one_by_one():
 
 @pytest.mark.parametrize("name", list(ELEMENTS))
 def test_multi_harmonic_batch_equals_points_and_central_differences(name):
-    from nlupdate.response.harmonic_balance import HarmonicBalanceProblem
+    from nlupdate.core.response.harmonic_balance import HarmonicBalanceProblem
 
     system = NonlinearSystem(TWO_DOF, (ELEMENTS[name]((0, 1)), ELEMENTS[name]((1,))))
     problem = HarmonicBalanceProblem(system, {0: 0.1}, harmonics=3, samples=64, x_scale=0.1)

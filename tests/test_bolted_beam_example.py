@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.identification.amplitude_modal_fit import amplitude_model_from_frfs
-from nlupdate.identification.data import FRFLevels
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
+from nlupdate.core.identification.data import FRFLevels
 from nlupdate.study import load_study
-from nlupdate.measurement.noise import add_table_noise
-from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.core.measurement.noise import add_table_noise
+from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.study.steps import measured_table, truth_system
-from nlupdate.adapters.registry import AdapterSpec, build_adapter
+from nlupdate.fe.adapters.registry import AdapterSpec, build_adapter
 
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "bolted_beam" / "study.toml"
 

@@ -16,10 +16,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.adapters.base import ModalResult
+from nlupdate.fe.adapters.base import ModalResult
 from nlupdate.notices import NlupdateWarning
-from nlupdate.tasks import records
-from nlupdate.tasks.store import RECORDS_FOLDER, sign, verified
+from nlupdate.orchestration.tasks import records
+from nlupdate.orchestration.tasks.store import RECORDS_FOLDER, sign, verified
 from prefect_settings import talking_to
 
 
@@ -47,7 +47,7 @@ def test_results_round_trip_as_data():
 def test_a_record_can_name_no_foreign_class_or_function():
     """A structure naming os.system, builtins.eval or a module outside nlupdate is refused
     before anything is imported or called."""
-    for name in ("os:system", "builtins:eval", "subprocess:Popen", "nlupdate.tasks.records:_trusted_class",
+    for name in ("os:system", "builtins:eval", "subprocess:Popen", "nlupdate.orchestration.tasks.records:_trusted_class",
                  "nlupdate:__class__", "nlupdate.files:os"):
         structure = {"schema": records.SCHEMA, "value": {"object": name, "attributes": {}}}
         buffer = io.BytesIO()
@@ -157,7 +157,7 @@ def _run_twice_with(tmp_path, prefect_server, tamper):
     again. Returns (state names, results, computations, warnings of the second run)."""
     from prefect import flow, task
 
-    from nlupdate.tasks.cached import configured
+    from nlupdate.orchestration.tasks.cached import configured
 
     calls = []
 
@@ -252,8 +252,8 @@ def test_a_full_cache_disk_warns_once_and_the_run_goes_on(tmp_path, monkeypatch)
 
     from prefect.results import ResultStore
 
-    import nlupdate.tasks.store as store
-    from nlupdate.tasks.cached import configured
+    import nlupdate.orchestration.tasks.store as store
+    from nlupdate.orchestration.tasks.cached import configured
     from prefect import task
 
     @task
@@ -283,7 +283,7 @@ def test_records_read_on_threads_never_parse_array_headers_at_once(monkeypatch):
     import threading
     import time as clock
 
-    from nlupdate.tasks import records
+    from nlupdate.orchestration.tasks import records
 
     blob = records.dumps({"curves": [np.arange(5.0 + i) for i in range(8)]})
     parse, inside, most = ast.literal_eval, [0], [0]

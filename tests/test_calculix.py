@@ -21,10 +21,10 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
-from nlupdate.updating.evaluation import MemoisedEvaluator
-from nlupdate.adapters.base import AdapterError
-from nlupdate.adapters.calculix import CalculixAdapter, count_elements, fortran_float, frequency_step, parse_dat
-from nlupdate.adapters.calculix_tbeam import (
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
+from nlupdate.fe.adapters.base import AdapterError
+from nlupdate.fe.adapters.calculix import CalculixAdapter, count_elements, fortran_float, frequency_step, parse_dat
+from nlupdate.fe.adapters.calculix_tbeam import (
     SENSOR_MASSES,
     TBEAM_PARAMETER_NAMES,
     TBeamDeck,
@@ -34,7 +34,7 @@ from nlupdate.adapters.calculix_tbeam import (
     global_modes,
     mesh_study,
 )
-from nlupdate.adapters.runner import ExecutableNotFoundError, RunTimeoutError
+from nlupdate.fe.adapters.runner import ExecutableNotFoundError, RunTimeoutError
 
 E_STEEL, NU_STEEL, RHO_STEEL = 210e9, 0.3, 7850.0
 

@@ -9,7 +9,7 @@ import json
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 
 STUDY = """
 [adapter]

@@ -13,7 +13,7 @@ HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "prefect")
 
 def modules_after(argv: list[str]) -> tuple[str, set[str]]:
     script = (
-        "import sys\nfrom nlupdate.cli import main\n"
+        "import sys\nfrom nlupdate.app.cli import main\n"
         f"try:\n    main({argv!r})\nexcept SystemExit:\n    pass\n"
         "print('MODULES', ' '.join(sorted(sys.modules)))\n"
     )
@@ -29,17 +29,17 @@ def test_help_and_version_import_no_numerics(argv):
     assert "nlupdate" in shown
     loaded = sorted(m for m in modules if m.split(".")[0] in HEAVY)
     assert loaded == [], f"nlupdate {argv[0]} imported {loaded[:5]}"
-    assert not any(m.startswith("nlupdate.cli.") and m != "nlupdate.cli.interrupts" for m in modules)
+    assert not any(m.startswith("nlupdate.app.cli.") and m != "nlupdate.app.cli.interrupts" for m in modules)
 
 
 def test_help_lists_every_command_and_a_command_loads_only_its_module():
-    from nlupdate.cli import COMMANDS
+    from nlupdate.app.cli import COMMANDS
 
     shown, _ = modules_after(["--help"])
     for name, help in COMMANDS.items():
         assert name in shown and help[:30] in " ".join(shown.split()), name
     _, modules = modules_after(["identify", "--help"])
-    commands = {m.split(".")[2] for m in modules if m.startswith("nlupdate.cli.") and m.count(".") == 2}
+    commands = {m.split(".")[3] for m in modules if m.startswith("nlupdate.app.cli.") and m.count(".") == 3}
     assert "identify" in commands and not commands & (set(COMMANDS) - {"identify"})
 
 

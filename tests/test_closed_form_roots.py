@@ -1,4 +1,4 @@
-"""The describing-function closed form (nlupdate/response/closed_form.py) against independent
+"""The describing-function closed form (src/nlupdate/core/response/closed_form.py) against independent
 references: its cubic's roots against 40-digit roots (mpmath) over the whole physical family of
 the cubic and on the reference Duffing grid through both folds (coefficients from m, c, k),
 its stability against the sign of the continuation's Jacobian determinant, and its responses
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from nlupdate.model.elements import CubicStiffness
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import CondensedProblem, NonlinearSystem
-from nlupdate.response import closed_form
+from nlupdate.core.model.elements import CubicStiffness
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import CondensedProblem, NonlinearSystem
+from nlupdate.core.response import closed_form
 
 M, C, K, K3, F = 1.0, 0.05, 1.0, 1.0, 0.5  # the reference Duffing (benchmarks/frf)
 

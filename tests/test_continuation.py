@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.core.response.continuation import trace_frequency_response
 from delta_reference import assemble_delta
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.model.linear import LumpedModel
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.model.system import CondensedProblem, NonlinearSystem
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction, QuadraticDamping, SymmetricGap
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.model.system import CondensedProblem, NonlinearSystem
 
 M, C, K, K3, F = 1.0, 0.05, 1.0, 1.0, 0.5
 DUFFING = NonlinearSystem(LumpedModel([[M]], [[K]], [[C]]), (CubicStiffness((0,), K3),))
@@ -223,7 +223,7 @@ def test_stick_slip_kinks_are_passed_without_stalling(force):
 
 
 def test_continuation_options_in_one_place():
-    from nlupdate.response.continuation import ContinuationOptions
+    from nlupdate.core.response.continuation import ContinuationOptions
 
     system = NonlinearSystem(LumpedModel([[1.0]], [[1.0]], [[0.05]]), (CubicStiffness((0,), 1.0),))
     default = trace_frequency_response(system, {0: 0.5}, 0.5, 3.5)
@@ -250,8 +250,8 @@ def test_a_large_step_never_carries_the_trace_over_a_fold_onto_the_other_branch(
     turns from either tangent by more than the angle limit is now refused."""
     from pathlib import Path
 
-    from nlupdate.cli.demo import demo_study_text
-    from nlupdate.model.linear import dof_index
+    from nlupdate.app.cli.demo import demo_study_text
+    from nlupdate.core.model.linear import dof_index
     from nlupdate.study import study_from_text
     from nlupdate.study.steps import truth_system
 

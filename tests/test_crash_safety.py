@@ -29,7 +29,7 @@ import pandas as pd
 import pytest
 
 from nlupdate.files import HOST, atomic_directory
-from nlupdate.flows.liveness import owner
+from nlupdate.orchestration.flows.liveness import owner
 from nlupdate.reporting.catalogue import find_runs
 from prefect_settings import talking_to
 from studies import two_dof_study, write_study
@@ -127,7 +127,7 @@ def complete_archives(results: Path) -> list[Path]:
 def assert_no_record_is_truncated(cache: Path) -> None:
     from prefect.results import ResultRecord
 
-    from nlupdate.tasks.store import RECORDS_FOLDER, verified
+    from nlupdate.orchestration.tasks.store import RECORDS_FOLDER, verified
 
     records = [p for p in (cache / RECORDS_FOLDER).iterdir() if not p.name.startswith(".")]
     assert records, "the killed run left no cache record"
@@ -291,7 +291,7 @@ CACHE_WRITER = textwrap.dedent("""
     from pathlib import Path
     from prefect import task
     from prefect.results import ResultStore, resolve_result_storage
-    from nlupdate.tasks.cached import configured
+    from nlupdate.orchestration.tasks.cached import configured
 
     @task
     def step():
@@ -317,7 +317,7 @@ def test_a_record_rewritten_by_another_run_is_never_read_half_written(tmp_path):
     from prefect import task
     from prefect.results import ResultStore, resolve_result_storage
 
-    from nlupdate.tasks.cached import configured
+    from nlupdate.orchestration.tasks.cached import configured
 
     @task
     def step():
@@ -353,7 +353,7 @@ KILLED_CACHE_WRITER = textwrap.dedent("""
     from pathlib import Path
     from prefect import task
     from prefect.results import ResultStore
-    from nlupdate.tasks.cached import configured
+    from nlupdate.orchestration.tasks.cached import configured
 
     @task
     def step():
@@ -374,8 +374,8 @@ def test_a_writer_killed_mid_write_leaves_the_record_whole_and_its_leftover_is_c
     from prefect import task
     from prefect.results import ResultStore
 
-    import nlupdate.tasks.cached as steps
-    import nlupdate.tasks.store as store
+    import nlupdate.orchestration.tasks.cached as steps
+    import nlupdate.orchestration.tasks.store as store
 
     @task
     def step():
@@ -404,7 +404,7 @@ def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server
     leave): the task runs again and rewrites the record."""
     from prefect import flow, task
 
-    from nlupdate.tasks.cached import configured
+    from nlupdate.orchestration.tasks.cached import configured
 
     calls = []
 
@@ -433,8 +433,8 @@ def test_a_truncated_record_is_computed_again_not_fatal(tmp_path, prefect_server
 def test_a_nearly_full_disk_is_refused_before_work(tmp_path, monkeypatch):
     from collections import namedtuple
 
-    from nlupdate.cli import CliError, CliRuntimeError
-    from nlupdate.cli import output
+    from nlupdate.app.cli import CliError, CliRuntimeError
+    from nlupdate.app.cli import output
 
     usage = namedtuple("usage", "total used free")
     monkeypatch.setattr(output.shutil, "disk_usage", lambda path: usage(10**11, 10**11 - 50 * 10**6, 50 * 10**6))
@@ -478,7 +478,7 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
     from prefect.client.orchestration import get_client
     from prefect.states import Pending, Running
 
-    from nlupdate.flows.liveness import REUSED_PID_SLACK_S, mark_dead_runs_crashed
+    from nlupdate.orchestration.flows.liveness import REUSED_PID_SLACK_S, mark_dead_runs_crashed
 
     @flow(name=f"liveness-{uuid.uuid4().hex[:8]}")
     def a_flow():
@@ -539,7 +539,7 @@ def test_a_flow_claims_its_run_and_a_claim_never_fails_the_run(prefect_server, m
     from prefect.client.orchestration import get_client
     from prefect.context import FlowRunContext
 
-    from nlupdate.flows import liveness
+    from nlupdate.orchestration.flows import liveness
 
     @flow
     def claimed_in_body() -> str:
@@ -565,8 +565,8 @@ def test_a_flow_claims_its_run_and_a_claim_never_fails_the_run(prefect_server, m
 
 
 def test_prefect_api_goes_on_when_dead_runs_cannot_be_checked(prefect_server, monkeypatch):
-    from nlupdate.flows import liveness
-    from nlupdate.flows.server import prefect_api
+    from nlupdate.orchestration.flows import liveness
+    from nlupdate.orchestration.flows.server import prefect_api
 
     def broken(say):
         raise RuntimeError("API too old")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli.demo import demo_study_text
+from nlupdate.app.cli.demo import demo_study_text
 from nlupdate.study import run_study, study_from_text
 
 TRUTH = {"k3": 3e9, "kf": 3e4, "slip_force": 0.5, "E": 195e9, "h2": 1.45e-3}

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.cli.demo import demo_study_text
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.pipeline import identify
+from nlupdate.app.cli.demo import demo_study_text
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.pipeline import identify
 from nlupdate.study import study_from_text
 from nlupdate.study.steps import measured_table, truth_system
 

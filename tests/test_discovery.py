@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.discovery import DiscoveryOptions, discover, fit_candidate
-from nlupdate.discovery.effects import library
-from nlupdate.discovery.workflow import measurement_evidence
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.discovery import DiscoveryOptions, discover, fit_candidate
+from nlupdate.core.discovery.effects import library
+from nlupdate.core.discovery.workflow import measurement_evidence
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from discovery_cases import hidden_case, legacy_cases, sdof, two_dof  # noqa: E402
@@ -173,7 +173,7 @@ def test_the_describing_function_plot_shows_the_final_model_against_the_truth(di
     truth's describing function (Jenkins + cubic) over the measured amplitudes."""
     from matplotlib.figure import Figure
 
-    from nlupdate.discovery import plots
+    from nlupdate.core.discovery import plots
 
     result = discovered("friction_and_cubic")
     drawn: list[Figure] = []

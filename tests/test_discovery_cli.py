@@ -6,8 +6,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
-from nlupdate.model.model_file import load_system
+from nlupdate.app.cli import main
+from nlupdate.core.model.model_file import load_system
 from test_examples import header_commands
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "discovery"
@@ -93,12 +93,12 @@ def test_model_without_mass_is_refused_before_work(tmp_path, capsys):
 
 
 def test_model_that_fails_to_solve(tmp_path, capsys, monkeypatch):
-    from nlupdate.discovery import ModelSolveError
+    from nlupdate.core.discovery import ModelSolveError
 
     def unsolvable(*args, **kwargs):
         raise ModelSolveError("the model cannot be solved at 2 N (singular dynamic stiffness)")
 
-    monkeypatch.setattr("nlupdate.cli.discover.discover", unsolvable)
+    monkeypatch.setattr("nlupdate.app.cli.discover.discover", unsolvable)
     error = _bad_run(tmp_path, capsys)
     assert f"{MODEL}: the model cannot be solved at 2 N" in error
 
@@ -113,5 +113,5 @@ def test_failure_while_writing_leaves_nothing(tmp_path, capsys, monkeypatch):
         (Path(directory) / "discovery.json").write_text("{")
         raise ValueError("disk full (simulated)")
 
-    monkeypatch.setattr("nlupdate.cli.discover.write_discovery", half_written)
+    monkeypatch.setattr("nlupdate.app.cli.discover.write_discovery", half_written)
     assert "disk full" in _bad_run(tmp_path, capsys, extra=("--max-effects", "1"))

@@ -12,30 +12,30 @@
 import numpy as np
 import pytest
 
-from nlupdate.correlation.metrics import frac
-from nlupdate.discovery.candidates import at_noise_level
-from nlupdate.discovery.effects import (
+from nlupdate.core.correlation.metrics import frac
+from nlupdate.core.discovery.candidates import at_noise_level
+from nlupdate.core.discovery.effects import (
     LIBRARY, Clearance, CoulombSlider, CubicHardening, CubicSoftening, DampingError, DFSamples, DryFriction, MassError,
     QuadraticDamper, StiffnessError, library,
 )
-from nlupdate.discovery.errors import DiscoveryError
-from nlupdate.discovery.frf_fit import background_receptance, frf_context
-from nlupdate.discovery.linear_edits import add_linear_correction
-from nlupdate.discovery.backbone_fit import phase_resonance
-from nlupdate.discovery.starts import joint_starts
-from nlupdate.measurement.noise import add_frf_noise
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
-from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.core.discovery.errors import DiscoveryError
+from nlupdate.core.discovery.frf_fit import background_receptance, frf_context
+from nlupdate.core.discovery.linear_edits import add_linear_correction
+from nlupdate.core.discovery.backbone_fit import phase_resonance
+from nlupdate.core.discovery.starts import joint_starts
+from nlupdate.core.measurement.noise import add_frf_noise
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
+from nlupdate.core.model.linear import LumpedModel, ModalModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.stepped_sine import stepped_sine
 
 A = np.geomspace(1e-6, 1e-3, 40)
 W = np.full(A.size, 2 * np.pi * 700.0)
 
 
 def jenkins_formula(kf, fs, a):
-    """docs/methods.md §2, written out independently of nlupdate.model.elements."""
+    """docs/methods.md §2, written out independently of nlupdate.core.model.elements."""
     a0 = fs / kf
     beta = np.arccos(np.clip(1 - 2 * a0 / a, -1, 1))
     slipping = (kf / np.pi) * (beta - 0.5 * np.sin(2 * beta)) + 1j * 4 * fs / (np.pi * a) * (1 - a0 / a)

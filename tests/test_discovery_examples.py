@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from test_examples import absolute, header_commands
 
 ROOT = Path(__file__).resolve().parents[1]

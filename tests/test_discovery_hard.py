@@ -34,18 +34,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.discovery import DiscoveryOptions, discover
-from nlupdate.discovery.candidates import FoundEffect
-from nlupdate.discovery.effects import LIBRARY, Clearance, CubicHardening, DFSamples, DryFriction
-from nlupdate.discovery.frf_data import FRFData
-from nlupdate.identification.scalar_balance import all_amplitudes
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.noise import add_frf_noise, add_table_noise
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.core.discovery import DiscoveryOptions, discover
+from nlupdate.core.discovery.candidates import FoundEffect
+from nlupdate.core.discovery.effects import LIBRARY, Clearance, CubicHardening, DFSamples, DryFriction
+from nlupdate.core.discovery.frf_data import FRFData
+from nlupdate.core.identification.scalar_balance import all_amplitudes
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.noise import add_frf_noise, add_table_noise
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.stepped_sine import stepped_sine
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from discovery_cases import chain, hidden_case, three_dof  # noqa: E402
@@ -69,7 +69,7 @@ def banded_frfs(noise: float, seed: int) -> pd.DataFrame:
 
 
 def test_grid_stretches_split_at_gaps_between_bands_only():
-    from nlupdate.measurement.noise import contiguous_stretches
+    from nlupdate.core.measurement.noise import contiguous_stretches
 
     bands = np.concatenate([np.linspace(100, 120, 21), np.linspace(300, 330, 16), np.geomspace(500, 900, 40)])
     assert [len(s) for s in contiguous_stretches(bands)] == [21, 16, 40]
@@ -93,7 +93,7 @@ def test_noise_from_coherence_and_averages_matches_the_h1_error():
     """H1 from n_d averages of a randomly excited SDOF with output noise: the relative error of
     H1 against the true receptance, over 4000 frequencies, has the RMS that
     √((1 − γ²)/(γ² n_d)) predicts from the estimated coherence (Bendat & Piersol)."""
-    from nlupdate.measurement.noise import coherence_noise_fraction, estimate_table_noise
+    from nlupdate.core.measurement.noise import coherence_noise_fraction, estimate_table_noise
 
     rng = np.random.default_rng(4)
     f = np.linspace(500, 900, 4000)
@@ -114,7 +114,7 @@ def test_noise_from_coherence_and_averages_matches_the_h1_error():
 
 
 def test_noise_from_stated_std_and_from_repeats():
-    from nlupdate.measurement.noise import estimate_table_noise
+    from nlupdate.core.measurement.noise import estimate_table_noise
 
     f = np.linspace(600, 830, 60)
     h = 1 / (2e6 * (1 + 0.04j) - 0.1 * (2 * np.pi * f) ** 2)
@@ -146,7 +146,7 @@ SAMPLES = DFSamples(A, W, np.zeros(A.size, complex), np.full(A.size, 1e3))  # eq
 def test_degenerate_candidates_are_their_simpler_effects(effect, values, simpler, value):
     """The DFs of docs/methods.md §2 in their limits: a gap with g ≪ A is the spring kc, a Jenkins
     joint with Fs/kf ≫ A the spring kf, one with Fs/kf ≪ A Coulomb friction of the same Fs."""
-    from nlupdate.discovery.equivalence import simpler_equivalent
+    from nlupdate.core.discovery.equivalence import simpler_equivalent
 
     equivalent = simpler_equivalent(effect, values, (0,), SAMPLES, LIBRARY, 0.1)
     assert equivalent is not None and equivalent.simpler.name == simpler
@@ -160,7 +160,7 @@ def test_degenerate_candidates_are_their_simpler_effects(effect, values, simpler
     (CubicHardening(), [1e12]),                     # nothing simpler has its shape
 ])
 def test_effects_that_use_their_shape_have_no_simpler_equivalent(effect, values):
-    from nlupdate.discovery.equivalence import simpler_equivalent
+    from nlupdate.core.discovery.equivalence import simpler_equivalent
 
     assert simpler_equivalent(effect, values, (0,), SAMPLES, LIBRARY, 0.1) is None
 
@@ -169,7 +169,7 @@ def test_effects_that_use_their_shape_have_no_simpler_equivalent(effect, values)
 def test_joint_problem_reproduces_the_continuation_of_the_full_system():
     """Every point solved for elements at two places at once (Jenkins at dof 0, cubic at dof
     2; started from the measured state) gives the continuation solver's response."""
-    from nlupdate.discovery.joint import FRFJoint
+    from nlupdate.core.discovery.joint import FRFJoint
 
     truth = NonlinearSystem(THREE.model, (JenkinsFriction((0,), kf=2e5, slip_force=6.0), CubicStiffness((2,), 3e11)))
     f = np.sort(THREE.frequency_hz)[::3]
@@ -230,7 +230,7 @@ def test_points_the_model_cannot_solve_count_as_misfit_and_are_warned(monkeypatc
     """The augmented model's curve is cut above 700 Hz at the highest level (as a solver that
     stops): the gap covers every measured point, the level's unsolved points are counted and
     a warning names them."""
-    import nlupdate.discovery.frf_evidence as evidence_module
+    import nlupdate.core.discovery.frf_evidence as evidence_module
 
     case = hidden_case(THREE.measuring((0,), "3dof[0]"), (), seed=7, noise=0.01)
     f = np.sort(THREE.frequency_hz)

@@ -1,7 +1,7 @@
 """The discovery fits' Jacobians against finite differences of the whole residual.
 
-Fits at a place (:class:`nlupdate.discovery.frf_fit.PlaceSolution`) and the joint refit
-(:class:`nlupdate.discovery.joint.JointSolution`) give least squares ∂r/∂θ from one solve
+Fits at a place (:class:`nlupdate.core.discovery.frf_fit.PlaceSolution`) and the joint refit
+(:class:`nlupdate.core.discovery.joint.JointSolution`) give least squares ∂r/∂θ from one solve
 (implicit function theorem) instead of one solve per parameter. Every fit of a discovery
 on the SDOF example (time-integration data, friction and a cubic spring hidden) is checked
 at its start against central differences that re-solve the amplitudes. Where the residual
@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize._numdiff import approx_derivative  # scipy 1.11 has no public name for it
 
-import nlupdate.discovery.fitting as fitting
-import nlupdate.discovery.joint as joint
-from nlupdate.discovery import DiscoveryOptions, discover
-from nlupdate.measurement.frf_files import read_frf_table
-from nlupdate.model.model_file import load_system
+import nlupdate.core.discovery.fitting as fitting
+import nlupdate.core.discovery.joint as joint
+from nlupdate.core.discovery import DiscoveryOptions, discover
+from nlupdate.core.measurement.frf_files import read_frf_table
+from nlupdate.core.model.model_file import load_system
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "discovery"
 

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.discovery import discover
-from nlupdate.discovery.effects import Microslip, library
-from nlupdate.model.elements import IwanJoint
-from nlupdate.measurement.noise import add_table_noise
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.discovery import discover
+from nlupdate.core.discovery.effects import Microslip, library
+from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.measurement.noise import add_table_noise
+from nlupdate.core.model.system import NonlinearSystem
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from discovery_cases import Structure, place_scales, sdof, time_integration_table, two_dof  # noqa: E402

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.discovery import MeasuredDataError, discover
-from nlupdate.discovery.modal_evidence import ModalEvidence
-from nlupdate.discovery.modal_data import ModalData
-from nlupdate.measurement.modal_table import read_modal_table
-from nlupdate.model.model_file import load_system, system_from_dict, system_to_toml
+from nlupdate.core.discovery import MeasuredDataError, discover
+from nlupdate.core.discovery.modal_evidence import ModalEvidence
+from nlupdate.core.discovery.modal_data import ModalData
+from nlupdate.core.measurement.modal_table import read_modal_table
+from nlupdate.core.model.model_file import load_system, system_from_dict, system_to_toml
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "discovery"
 FORCE = np.array([0.88, 1.829, 2.809, 3.859, 7.888, 21.851])

@@ -7,8 +7,8 @@ import tomllib
 
 import pytest
 
-from nlupdate.cli import main
-from nlupdate.discovery.places import place_name
+from nlupdate.app.cli import main
+from nlupdate.core.discovery.places import place_name
 
 LINEAR = """
 [model]

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nlupdate.model.elements import (
+from nlupdate.core.model.elements import (
     CoulombFriction, CubicStiffness, JenkinsFriction, PolynomialDF, QuadraticDamping, SymmetricGap,
 )
-from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.model.model_file import load_system, write_system
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.model.linear import LumpedModel, ModalModel
+from nlupdate.core.model.model_file import load_system, write_system
+from nlupdate.core.model.system import NonlinearSystem
 
 ELEMENTS = (
     CubicStiffness((0,), -1.234567890123e11),

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from nlupdate.model.elements import (
+from nlupdate.core.model.elements import (
     CoulombFriction,
     CubicStiffness,
     JenkinsFriction,
@@ -126,8 +126,8 @@ def test_each_element_declares_its_parameters_as_its_constructor_takes_them():
     under its own ``type_name``."""
     import dataclasses
 
-    from nlupdate.identification.dfmodels import ELEMENT_PARAMETERS
-    from nlupdate.model.elements import ELEMENT_TYPES
+    from nlupdate.core.identification.dfmodels import ELEMENT_PARAMETERS
+    from nlupdate.core.model.elements import ELEMENT_TYPES
 
     for name, cls in ELEMENT_TYPES.items():
         assert cls.type_name == name

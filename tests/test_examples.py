@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.reporting.catalogue import find_runs
 
 ROOT = Path(__file__).resolve().parents[1]

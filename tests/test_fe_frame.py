@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from nlupdate.fe.frame import DENSE_LIMIT, FrameModel, Material, Section
+from nlupdate.fe.models.frame import DENSE_LIMIT, FrameModel, Material, Section
 
 STEEL = Material(E=210e9, nu=0.3, rho=7850.0)
 

@@ -7,9 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nlupdate.fe.gunbarrel import GUNBARREL_COORDINATES, GunBarrelParameters, gunbarrel_model
-from nlupdate.fe.mesh_study import mesh_refinement_study
-from nlupdate.fe.tbeam import (
+from nlupdate.fe.models.gunbarrel import GUNBARREL_COORDINATES, GunBarrelParameters, gunbarrel_model
+from nlupdate.fe.models.mesh_study import mesh_refinement_study
+from nlupdate.fe.models.tbeam import (
     TBEAM_COORDINATES,
     TBeamParameters,
     global_frequencies,

@@ -16,14 +16,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.flows.status_lines import Progress
-from nlupdate.flows.run import run_study_flow
-from nlupdate.flows.runners import Execution, ExecutionError, task_runner
+from nlupdate.orchestration.flows.status_lines import Progress
+from nlupdate.orchestration.flows.run import run_study_flow
+from nlupdate.orchestration.flows.runners import Execution, ExecutionError, task_runner
 from prefect_settings import talking_to
 from studies import small_two_dof_study, two_dof_study, study_text, write_study
 from nlupdate.study import load_study, run_study, study_from_text
 from nlupdate.study.spec import TargetsSpec
-from nlupdate.tasks.names import JOB_NOUNS
+from nlupdate.orchestration.tasks.names import JOB_NOUNS
 
 STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
 
@@ -219,7 +219,7 @@ def test_a_rerun_of_the_same_results_keeps_its_figures_and_a_tampered_one_is_dra
     again; with ``refresh`` none is read."""
     import nlupdate.reporting.archive as archive_module
     from nlupdate.notices import NlupdateWarning
-    from nlupdate.tasks.figures import FOLDER
+    from nlupdate.orchestration.tasks.figures import FOLDER
 
     tmp_path, first, _ = first_run
     drawn: list[int] = []
@@ -236,7 +236,7 @@ def test_a_rerun_of_the_same_results_keeps_its_figures_and_a_tampered_one_is_dra
         tampered, _ = flow_run(load_study(STUDY), tmp_path)
     assert len(drawn) == 1
     assert (tampered / "plots" / "candidate_frfs.png").read_bytes() == (first / "plots" / "candidate_frfs.png").read_bytes()
-    from nlupdate.tasks.figures import FigureStore
+    from nlupdate.orchestration.tasks.figures import FigureStore
 
     key = kept[0].name.removesuffix("-candidate_frfs.png")
     assert FigureStore(tmp_path / "cache", key).get("candidate_frfs.png") is not None  # kept again, signed
@@ -286,8 +286,8 @@ def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_pat
     """A candidate whose FE runs fail (the lumped solver made to crash at its start point;
     values a model cannot take are refused when the study is read); the rest of the sweep,
     the comparison and the prediction go on."""
-    from nlupdate.adapters.base import AdapterError
-    from nlupdate.adapters.lumped import LumpedAdapter
+    from nlupdate.fe.adapters.base import AdapterError
+    from nlupdate.fe.adapters.lumped import LumpedAdapter
 
     solve = LumpedAdapter._solve
 
@@ -320,8 +320,8 @@ def test_an_unreachable_dask_address_fails_clearly_within_ten_seconds():
 
 
 def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch):
-    from nlupdate.flows import server
-    from nlupdate.flows.server import ServerError, prefect_api
+    from nlupdate.orchestration.flows import server
+    from nlupdate.orchestration.flows.server import ServerError, prefect_api
 
     def broken(self, timeout_s):
         raise RuntimeError("the server did not answer within 120 s")
@@ -344,7 +344,7 @@ def test_a_server_started_early_is_the_one_the_run_uses_and_stops_with_it(monkey
     meanwhile); prefect_api waits for that one instead of starting a second, and stops it."""
     import httpx
 
-    from nlupdate.flows import server
+    from nlupdate.orchestration.flows import server
 
     monkeypatch.delenv("PREFECT_API_URL", raising=False)
     before = list(server._STARTED)  # the session's server, when a test before started it
@@ -362,10 +362,10 @@ def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_
     """The SDOF example (time-integration data, friction + cubic hidden): the flow's
     candidate fits are tasks; effects and parameters equal the plain call's; a rerun
     takes every fit from the cache."""
-    from nlupdate.discovery import DiscoveryOptions, discover
-    from nlupdate.flows.run import run_discovery_flow
-    from nlupdate.measurement.frf_files import read_frf_table
-    from nlupdate.model.model_file import load_system
+    from nlupdate.core.discovery import DiscoveryOptions, discover
+    from nlupdate.orchestration.flows.run import run_discovery_flow
+    from nlupdate.core.measurement.frf_files import read_frf_table
+    from nlupdate.core.model.model_file import load_system
 
     examples = Path(__file__).resolve().parents[1] / "examples" / "discovery"
     model, measured = examples / "sdof_linear.toml", examples / "sdof_friction_cubic.csv"
@@ -427,7 +427,7 @@ def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(pre
     as several in-process runs of one test module need."""
     import httpx
 
-    from nlupdate.flows import server
+    from nlupdate.orchestration.flows import server
 
     import os
 

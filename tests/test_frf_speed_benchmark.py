@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from benchmarks.frf import common, multi_harmonic, pyharm
-from nlupdate.response.continuation import trace_frequency_response
+from nlupdate.core.response.continuation import trace_frequency_response
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def test_traced_route_on_a_grid_is_exact_to_1e_8_away_from_folds(bench):
     """Issue 24: the traced describing-function route (continuation, then every grid point
     polished at once) within 1e-8 of the exact curve; its polish once stopped at Newton's
     residual tolerance, 1.4e-8 off."""
-    from nlupdate.response.sweep import frequency_sweep
+    from nlupdate.core.response.sweep import frequency_sweep
 
     grid = np.linspace(*bench.BAND, 2000)
     folds = bench.exact_folds()
@@ -187,7 +187,7 @@ def test_part3a_counts_both_directions_at_every_frequency(bench):
     root set per frequency of the same grid (quick size: 2000 frequencies)."""
     from benchmarks.frf import grid as part3
     from benchmarks.frf.cubic_reference import trigonometric_roots
-    from nlupdate.response.sweep import frequency_sweep
+    from nlupdate.core.response.sweep import frequency_sweep
 
     omega = np.linspace(*bench.BAND, 2000)
     system, forcing = bench.duffing(), {0: bench.FORCE}

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import pyuff
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 
 M, K, ETA, K3 = 1.0, (2 * np.pi * 90.0) ** 2, 0.02, 3e11  # kg (per volt), V/m, loss factor, V/m³
 LEVELS = (0.25, 0.5, 1.0)  # V

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nlupdate.model.elements import (
+from nlupdate.core.model.elements import (
     CoulombFriction,
     CubicStiffness,
     JenkinsFriction,
@@ -20,13 +20,13 @@ from nlupdate.model.elements import (
     QuadraticDamping,
     SymmetricGap,
 )
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.aft import Fourier, period_forces
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.aft import Fourier, period_forces
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.response.time_integration import steady_state_response
 
 SDOF = LumpedModel([[1.0]], [[1.0]], [[0.05]])
 DUFFING = NonlinearSystem(SDOF, (CubicStiffness((0,), 1.0),))

@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
-from nlupdate.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
+from nlupdate.app.cli import main
+from nlupdate.core.response.harmonic_balance import HarmonicSettings, HarmonicTruncationWarning
 from nlupdate.study import StudyError, run_study, study_from_text
 from studies import small_two_dof_study, study_text
 
@@ -173,8 +173,8 @@ def test_discover_takes_the_same_options_and_checks_them(tmp_path):
 def test_discovery_simulates_by_harmonic_balance_when_told(duffing, time_reference):
     """``simulate_points`` (the discovery's model response) with five harmonics agrees with
     time integration; by default it stays the describing function."""
-    from nlupdate.discovery.simulation import simulate_points
-    from nlupdate.model.model_file import load_system
+    from nlupdate.core.discovery.simulation import simulate_points
+    from nlupdate.core.model.model_file import load_system
 
     system = load_system(duffing)
     reference_table, _ = time_reference
@@ -232,8 +232,8 @@ def test_study_errors_for_the_prediction_method_name_file_table_and_key(tmp_path
 def test_predict_uses_the_harmonic_balance_it_is_given(duffing, time_reference):
     """``predict`` (the prediction step's simulation) with five harmonics follows time
     integration; without settings it is the describing function, as before."""
-    from nlupdate.model.model_file import load_system
-    from nlupdate.prediction.predict import predict
+    from nlupdate.core.model.model_file import load_system
+    from nlupdate.core.prediction.predict import predict
 
     system = load_system(duffing)
     reference_table, _ = time_reference
@@ -248,7 +248,7 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
     """``nlupdate update`` on a study with ``method = "hb"``: the loss-factor fit and the
     prediction of both models are called with the file's settings, and the report names
     the method."""
-    from nlupdate.prediction import predict as prediction
+    from nlupdate.core.prediction import predict as prediction
     from nlupdate.study import steps
 
     calls = []
@@ -278,7 +278,7 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
 def test_the_prediction_cache_key_follows_the_method_and_its_settings():
     from nlupdate.study.chain import STEPS
     from nlupdate.study.steps import PredictionJob
-    from nlupdate.tasks import keys
+    from nlupdate.orchestration.tasks import keys
 
     def key(extra: str) -> str:
         study = study_from_text(STUDY + extra, "s.toml")
@@ -295,8 +295,8 @@ def test_the_prediction_cache_key_follows_the_method_and_its_settings():
 
 
 def test_under_prefect_a_changed_harmonics_recomputes_only_the_predictions(prefect_server, tmp_path):
-    from nlupdate.flows.status_lines import Progress
-    from nlupdate.flows.run import run_study_flow
+    from nlupdate.orchestration.flows.status_lines import Progress
+    from nlupdate.orchestration.flows.run import run_study_flow
 
     def flow_run(text: str) -> tuple[Path, dict]:
         with warnings.catch_warnings():

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import COMMANDS, main
+from nlupdate.app.cli import COMMANDS, main
 
 ROOT = Path(__file__).resolve().parents[1]
 #: module names of the code: "(steps)", "(outputs)" in a help text are leftovers of

@@ -18,15 +18,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.ddf import identify_ddf
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
-from nlupdate.identification.prd import identify_prd
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.ddf import identify_ddf
+from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel
+from nlupdate.core.identification.prd import identify_prd
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.fixed_point import fixed_point_response
 
 LEVELS = (0.01,) + tuple(float(f) for f in np.arange(100.0, 401.0, 30.0))
 GRID_HZ = np.arange(700.0, 717.0)

@@ -13,11 +13,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.measurement.band import excited_band
-from nlupdate.model.model_file import load_system
-from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.measurement.band import excited_band
+from nlupdate.core.model.model_file import load_system
+from nlupdate.core.response.simulate import simulate_frf_table
 
 TWO_DOF = Path(__file__).resolve().parents[1] / "examples" / "two_dof.toml"
 

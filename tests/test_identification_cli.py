@@ -8,13 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.frf_files import write_frf_table
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.app.cli import main
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.frf_files import write_frf_table
+from nlupdate.core.model.system import NonlinearSystem
 
 MODEL = LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01)
 GRID = np.arange(690.0, 717.0)  # single-valued responses (fixed point converges)
@@ -160,7 +160,7 @@ def test_refuses_to_replace_an_unrelated_folder(friction_file, tmp_path, capsys)
 
 def test_extracted_linear_frf_reads_back_through_the_project_reader(friction_file, tmp_path, capsys):
     """force_level_n = 0 marks the linear FRF; read_frf_table must accept what identify wrote."""
-    from nlupdate.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.frf_files import read_frf_table
 
     code, _, stderr = run(capsys, "--measured", friction_file, "--out", tmp_path / "id", "--samples", 2)
     assert code == 0, stderr

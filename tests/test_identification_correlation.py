@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from nlupdate.correlation.metrics import (
+from nlupdate.core.correlation.metrics import (
     frac, mac_matrix, natural_frequencies, natural_frequency_error, peak, peak_errors,
 )
-from nlupdate.model.linear import LumpedModel
+from nlupdate.core.model.linear import LumpedModel
 
 
 def test_frac_values():

@@ -1,6 +1,6 @@
 """PRD identification against independent references.
 
-* Data from TIME INTEGRATION (nlupdate.response.time_integration, the elements' time-domain force
+* Data from TIME INTEGRATION (nlupdate.core.response.time_integration, the elements' time-domain force
   laws, no describing function): parameters of cubic + Jenkins close to the values the
   data were made with — polynomial DF k3 within 1.5 %, kf within 1 %; physical elements
   k3 within 0.6 %, kf within 0.2 % — and the extracted linear FRF against the analytical
@@ -16,18 +16,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.correlation.metrics import frac
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.dfmodels import PhysicalModel, PolynomialModel
-from nlupdate.identification.prd import IdentificationError, identify_prd
-from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.correlation.metrics import frac
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel
+from nlupdate.core.identification.prd import IdentificationError, identify_prd
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.time_integration import steady_state_response
 
 HIGH = tuple(float(f) for f in np.arange(100.0, 401.0, 30.0))
 LEVELS = (0.01,) + HIGH

@@ -5,18 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.correlation.metrics import frac
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.dfmodels import PhysicalModel
-from nlupdate.identification.prd import identify_prd
-from nlupdate.identification.regenerate import SampledReceptance, regenerate_frf
-from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.correlation.metrics import frac
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.dfmodels import PhysicalModel
+from nlupdate.core.identification.prd import identify_prd
+from nlupdate.core.identification.regenerate import SampledReceptance, regenerate_frf
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.model.system import NonlinearSystem
 
 MODEL = LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01)
 ELEMENTS = (CubicStiffness((0,), 1e10), JenkinsFriction((0,), 3e5, 1.0))

@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.modal_fit import resonance_crossings
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.identification.trust import sign_warnings
-from nlupdate.model.model_file import system_from_dict
-from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_fit import resonance_crossings
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.identification.trust import sign_warnings
+from nlupdate.core.model.model_file import system_from_dict
+from nlupdate.core.response.simulate import simulate_frf_table
 
 TRUTH_HZ = np.sqrt(2 * 1e6 / 0.1) / (2 * np.pi)
 

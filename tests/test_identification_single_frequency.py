@@ -26,12 +26,12 @@ import pytest
 
 from benchmarks.source_cases import case_data
 from cli_runs import run_cli
-from nlupdate.cli.demo import demo_study_text
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.identification.prd import IdentificationError
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.response.simulate import simulate_frf_table
+from nlupdate.app.cli.demo import demo_study_text
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.identification.prd import IdentificationError
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.study import study_from_text
 from nlupdate.study.steps import truth_system
 
@@ -232,7 +232,7 @@ def test_ddf_pairs_the_swept_levels_by_default():
 # ------------------------------------------------------------------------ the whole chain
 def test_correlation_of_a_single_frequency_level_is_its_relative_error_alone():
     """FRAC of one line is 1 whatever the model (|a*b|²/(|a|²|b|²)): it is not reported."""
-    from nlupdate.correlation.levels import correlate_levels
+    from nlupdate.core.correlation.levels import correlate_levels
 
     f = np.array([700.0, 710.0, 720.0, 730.0])
     h = 1.0 / (1e6 - 0.1 * (2 * np.pi * f) ** 2 + 1e4j)
@@ -253,7 +253,7 @@ def test_a_study_on_single_frequency_data_runs_the_chain_and_reports_each_level(
 
     import tomli_w
 
-    from nlupdate.model.model_file import load_system
+    from nlupdate.core.model.model_file import load_system
     from studies import TWO_DOF_MODEL, TWO_DOF_STUDY
 
     system = load_system(TWO_DOF_MODEL)

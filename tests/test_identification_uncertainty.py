@@ -6,16 +6,16 @@ import functools
 import numpy as np
 import pytest
 
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.identification.data import FRFLevels
-from nlupdate.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
-from nlupdate.identification.dfmodels import PolynomialModel
-from nlupdate.identification.prd import identify_prd
-from nlupdate.identification.uncertainty import monte_carlo
-from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.noise import add_frf_noise
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.measurement.noise import estimate_noise_fraction, smooth_inverse_receptance
+from nlupdate.core.identification.dfmodels import PolynomialModel
+from nlupdate.core.identification.prd import identify_prd
+from nlupdate.core.identification.uncertainty import monte_carlo
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.measurement.noise import add_frf_noise
+from nlupdate.core.model.system import NonlinearSystem
 
 F = np.arange(600.0, 900.0, 1.0)
 H = 1.0 / (2.3e6 - 0.1 * (2 * np.pi * F) ** 2 + 0.01j * 2e6)
@@ -130,7 +130,7 @@ def test_an_estimate_that_moves_with_the_noise_stays_inside_its_interval_and_is_
     with a spread of about ε√2/20, so at ε = 0.3 the samples sit at 1.09 ± 0.02 and their
     percentile interval leaves out the value 1 they were drawn around. The reported interval
     is the value's, the shift is reported and warned about."""
-    from nlupdate.identification.trust import shift_warnings
+    from nlupdate.core.identification.trust import shift_warnings
 
     ones = np.ones(400, dtype=complex)
     data = FRFLevels("0", "0", np.array([1.0]), (np.arange(400.0),), (ones,))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.input_files import DEFAULT_MAX_INPUT_MB, MAX_INPUT_ENV
 
 SAMPLES = 10**8  # 800 MB of doubles per column once decoded
@@ -86,7 +86,7 @@ def test_matlab_v73_variables_are_counted_together(tmp_path, monkeypatch):
     import h5py
 
     from nlupdate.input_files import InputFileError
-    from nlupdate.measurement.matfile import mat_variables
+    from nlupdate.core.measurement.matfile import mat_variables
 
     monkeypatch.setenv(MAX_INPUT_ENV, "1")
     path = tmp_path / "many.mat"
@@ -103,7 +103,7 @@ def test_a_matlab_v5_file_declaring_a_huge_array_is_refused(tmp_path, monkeypatc
     import scipy.io
 
     from nlupdate.input_files import InputFileError
-    from nlupdate.measurement.matfile import mat_variables
+    from nlupdate.core.measurement.matfile import mat_variables
 
     monkeypatch.setenv(MAX_INPUT_ENV, "1")
     path = tmp_path / "zeros.mat"
@@ -118,7 +118,7 @@ def test_files_within_the_limit_are_read(tmp_path, monkeypatch):
     """The check does not refuse what it should read: a real record of 40 000 samples."""
     import scipy.io
 
-    from nlupdate.measurement.time_history import read_time_record
+    from nlupdate.core.measurement.time_history import read_time_record
 
     monkeypatch.setenv(MAX_INPUT_ENV, "1")  # 3 × 40 000 doubles: 0.96 MB
     t = np.arange(40_000) / 1000.0

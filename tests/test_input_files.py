@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from nlupdate.input_files import MAX_INPUT_ENV, InputFileError, read_input_bytes, read_input_text
 
 MODEL = Path(__file__).resolve().parents[1] / "examples" / "sdof.toml"

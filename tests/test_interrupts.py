@@ -230,9 +230,9 @@ def test_sigterm_to_the_process_group_of_a_run_ends_it(tmp_path, whom):
 
 WRAPPED_INTERRUPT = textwrap.dedent("""
     import os, signal, sys, time
-    import nlupdate.cli as cli
-    import nlupdate.cli.simulate as simulate
-    from nlupdate.cli.interrupts import Interrupted
+    import nlupdate.app.cli as cli
+    import nlupdate.app.cli.simulate as simulate
+    from nlupdate.app.cli.interrupts import Interrupted
 
     def run(args):  # SIGTERM arrives inside a library that wraps what it raises in its own error
         try:
@@ -258,7 +258,7 @@ def test_an_interrupt_a_library_wrapped_in_its_own_error_is_still_an_interrupt(t
 
 SWALLOWED_INTERRUPT = textwrap.dedent("""
     import gc, os, signal, sys, time
-    from nlupdate.cli import interrupts
+    from nlupdate.app.cli import interrupts
 
     interrupts.install()
 
@@ -286,8 +286,8 @@ def test_an_interrupt_python_swallowed_in_a_finaliser_is_delivered_again():
 
 FOREIGN_HANDLER = textwrap.dedent("""
     import os, signal, sys, time
-    import nlupdate.cli as cli
-    import nlupdate.cli.simulate as simulate
+    import nlupdate.app.cli as cli
+    import nlupdate.app.cli.simulate as simulate
 
     class Termination(BaseException):
         pass

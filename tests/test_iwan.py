@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.model.elements import IwanJoint, JenkinsFriction
-from nlupdate.response.aft import Fourier, period_forces
+from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
+from nlupdate.core.response.aft import Fourier, period_forces
 
 AMPLITUDES = np.array([1e-3, 1e-2, 0.1, 0.5, 0.9, 1.0, 1.2, 2.0, 5.0, 10.0])  # × φ_max
 

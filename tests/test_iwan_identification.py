@@ -11,18 +11,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.dfmodels import PhysicalModel
-from nlupdate.identification.ddf import identify_ddf
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.identification.prd import identify_prd
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.noise import add_table_noise
-from nlupdate.model.elements import IwanJoint, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.simulate import simulate_frf_table
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.dfmodels import PhysicalModel
+from nlupdate.core.identification.ddf import identify_ddf
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.identification.prd import identify_prd
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.noise import add_table_noise
+from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.simulate import simulate_frf_table
+from nlupdate.core.response.time_integration import steady_state_response
 
 TRUTH = IwanJoint((0,), slip_force=1.0, kt=3e5, chi=-0.5, beta=0.5)
 LINEAR = LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01)
@@ -155,7 +155,7 @@ def test_a_model_that_cannot_describe_the_data_is_called_a_poor_fit(iwan_table, 
     import contextlib
     import io
 
-    from nlupdate.cli import main
+    from nlupdate.app.cli import main
 
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
@@ -174,7 +174,7 @@ def test_frequency_recommendation_with_an_iwan_joint_at_extreme_parameters_finds
     SDOF, 1 % noise) and the extracted linear FRF are those of m = 0.1 kg, k = 2e6 N/m, and the
     recommendation is the measured frequency nearest √(k/m)/2π = 711.76 Hz. It used to die
     with a ZeroDivisionError in IwanJoint.r_prime."""
-    from nlupdate.identification.frequency import recommend_frequency
+    from nlupdate.core.identification.frequency import recommend_frequency
 
     system = NonlinearSystem(LumpedModel.with_loss_factor([[0.1]], [[2e6]], 0.01), ())
     table, _ = simulate_frf_table(system, 0, np.arange(690.0, 731.0, 1.0), [0.01, 0.5, 1.0, 2.0])
@@ -191,7 +191,7 @@ def test_a_monte_carlo_sample_given_the_point_estimates_refit_model_gets_the_fre
     moved to its own largest amplitude) instead of the free fit it would throw away: on
     three noise draws the parameters equal those of the full estimator (free fit, then the
     refit) to 1e-9."""
-    from nlupdate.identification.pipeline import _fit
+    from nlupdate.core.identification.pipeline import _fit
 
     system = NonlinearSystem(LINEAR, (TRUTH,))
     table, _ = simulate_frf_table(system, 0, np.linspace(703.0, 717.0, 15), [0.01] + list(np.geomspace(0.1, 0.8, 5)))

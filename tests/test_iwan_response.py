@@ -8,14 +8,14 @@ import warnings
 import numpy as np
 import pytest
 
-from nlupdate.model.elements import IwanJoint
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
-from nlupdate.response.simulate import METHODS, simulate_frf_table
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
+from nlupdate.core.response.simulate import METHODS, simulate_frf_table
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.response.time_integration import steady_state_response
 
 
 def sdof(sliders: int = 400) -> NonlinearSystem:

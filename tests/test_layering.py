@@ -1,9 +1,12 @@
-"""The layers, checked: CLI → flows → tasks → reporting → numerics and adapters.
+"""The layers, read from the folders of src/nlupdate (top to bottom):
 
-* Every module of the numerics (``nlupdate`` without ``cli``, ``flows``, ``tasks``) and of
-  the adapters is imported in a fresh interpreter, which must not have loaded Prefect,
-  the flows, the tasks, the CLI or ``matplotlib.pyplot`` afterwards; no source file of
-  theirs selects a matplotlib backend.
+``app`` (CLI, Python API) → ``orchestration`` (flows, tasks) → ``reporting`` → ``study``
+(study files and the chain's steps) → ``core`` (numerics) and ``fe`` (FE models and
+adapters) → the foundation modules at the package root (files, fingerprints, notices …).
+
+* Every module below orchestration is imported in a fresh interpreter, which must not have
+  loaded Prefect, the orchestration, the app layer or ``matplotlib.pyplot`` afterwards; no
+  source file of theirs selects a matplotlib backend.
 * In the import graph (read from the sources, imports inside functions included) no
   module imports a layer above its own, and no modules import each other in a circle.
 * Reporting renders: from the numerics it imports types and constants, not functions.
@@ -15,31 +18,53 @@ import ast
 import dataclasses
 import importlib
 import inspect
-import pkgutil
 import subprocess
 import sys
 from pathlib import Path
 
 import nlupdate
-import nlupdate.adapters
 
-FORBIDDEN = ("prefect", "prefect_dask", "distributed", "nlupdate.flows", "nlupdate.tasks", "nlupdate.cli",
+PACKAGE = Path(nlupdate.__file__).parent
+#: The layer folders, top to bottom; a module may import its own layer and the ones below.
+LAYERS = ("app", "orchestration", "reporting", "study")
+#: The bottom layer: the numerics and the FE models and adapters (they use each other).
+BOTTOM = ("core", "fe")
+FORBIDDEN = ("prefect", "prefect_dask", "distributed", "nlupdate.orchestration", "nlupdate.app",
              "matplotlib.pyplot")
-ORCHESTRATION = {"nlupdate.cli", "nlupdate.flows", "nlupdate.tasks"}
+NUMERICS_PACKAGES = ("nlupdate.core", "nlupdate.fe")
+#: Functions reporting may import from the layers below it, and why.
+REPORTING_MAY_CALL = {
+    ("nlupdate.core.response.method", "describe"): "the wording of the response method's settings",
+    ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
+}
 
 
-def numerics_modules() -> list[str]:
-    names = []
-    for package in (nlupdate, nlupdate.adapters):
-        for info in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
-            if not any(info.name == p or info.name.startswith(p + ".") for p in ORCHESTRATION):
-                names.append(info.name)
-    return sorted(set(names) - {"nlupdate.__main__"})
+def _modules() -> dict[str, Path]:
+    """Every module of the package (dotted name → source file), read from the folders."""
+    found = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = ["nlupdate", *path.relative_to(PACKAGE).with_suffix("").parts]
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        found[".".join(parts)] = path
+    return found
 
 
-def test_numerics_modules_import_no_orchestration_cli_or_pyplot():
-    modules = numerics_modules()
-    assert len(modules) > 40 and "nlupdate.study.steps" in modules and "nlupdate.adapters.calculix" in modules
+def test_every_folder_is_a_layer():
+    """A new folder is placed in a layer on purpose, not by accident."""
+    folders = {path.name for path in PACKAGE.iterdir() if path.is_dir() and path.name not in ("__pycache__", "data")}
+    assert folders == set(LAYERS) | set(BOTTOM)
+
+
+def lower_modules() -> list[str]:
+    """The modules below orchestration (study, core, fe, the foundation; not reporting)."""
+    return sorted(name for name in _modules() if _layer(name) <= _layer("nlupdate.study")
+                  and name not in ("nlupdate", "nlupdate.__main__"))
+
+
+def test_lower_layers_import_no_orchestration_app_or_pyplot():
+    modules = lower_modules()
+    assert len(modules) > 40 and "nlupdate.study.steps" in modules and "nlupdate.fe.adapters.calculix" in modules
     script = (
         "import importlib, sys\n"
         f"for name in {modules!r}:\n"
@@ -47,44 +72,15 @@ def test_numerics_modules_import_no_orchestration_cli_or_pyplot():
         f"print(sorted(m for m in sys.modules if m in {FORBIDDEN!r} or any(m.startswith(f + '.') for f in {FORBIDDEN!r})))\n"
     )
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
-    assert done.stdout.strip() == "[]", f"numerics import {done.stdout.strip()}"
+    assert done.stdout.strip() == "[]", f"lower layers import {done.stdout.strip()}"
 
 
 def test_no_module_selects_a_matplotlib_backend():
-    roots = [Path(nlupdate.__file__).parent, Path(nlupdate.adapters.__file__).parent]
-    offenders = [str(path) for root in roots for path in root.rglob("*.py") if "matplotlib.use(" in path.read_text()]
+    offenders = [str(path) for path in PACKAGE.rglob("*.py") if "matplotlib.use(" in path.read_text()]
     assert offenders == []
 
 
 # ----------------------------------------------------------------------------- the import graph
-ROOTS = {"nlupdate": Path(nlupdate.__file__).parent, "nlupdate.adapters": Path(nlupdate.adapters.__file__).parent}
-ROOTS.update({f"nlupdate.{name}": ROOTS["nlupdate"].parent / name for name in ("flows", "tasks")})
-#: Top to bottom; a module may import its own layer and the ones below it only.
-LAYERS = ("nlupdate.cli", "nlupdate.flows", "nlupdate.tasks", "nlupdate.reporting")
-NUMERICS_PACKAGES = ("nlupdate.model", "nlupdate.response", "nlupdate.measurement", "nlupdate.identification",
-                     "nlupdate.updating", "nlupdate.prediction", "nlupdate.correlation", "nlupdate.discovery",
-                     "nlupdate.fe", "nlupdate.study", "nlupdate.validation", "nlupdate.adapters",
-                     "nlupdate.response_method")
-#: Functions reporting may import from the numerics, and why.
-REPORTING_MAY_CALL = {
-    ("nlupdate.response_method", "describe"): "the wording of the response method's settings",
-    ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
-}
-
-
-def _modules() -> dict[str, Path]:
-    found = {}
-    for prefix, folder in ROOTS.items():
-        for path in folder.rglob("*.py"):
-            parts = list(path.relative_to(folder).with_suffix("").parts)
-            if parts[-1] == "__init__":
-                parts = parts[:-1]
-            if prefix == "nlupdate" and parts and parts[0] in ("flows", "tasks", "adapters"):
-                continue
-            found[".".join([prefix, *parts])] = path
-    return found
-
-
 def _imports(path: Path) -> list[tuple[str, str | None]]:
     """(module, name) of every nlupdate import in a file, function bodies included."""
     found = []
@@ -111,15 +107,16 @@ def _graph() -> dict[str, set[str]]:
 
 
 def _layer(module: str) -> int:
-    for rank, prefix in enumerate(LAYERS):
-        if module == prefix or module.startswith(prefix + "."):
-            return len(LAYERS) - rank
-    return 0  # the numerics and adapters
+    """The module's rank: 0 for the bottom and the foundation, higher for higher layers."""
+    parts = module.split(".")
+    if len(parts) > 1 and parts[1] in LAYERS:
+        return len(LAYERS) - LAYERS.index(parts[1])
+    return 0
 
 
 def test_no_module_imports_a_layer_above_its_own():
     upward = sorted((module, target) for module, targets in _graph().items() for target in targets
-                    if _layer(target) > _layer(module) and module != "nlupdate.__main__")
+                    if _layer(target) > _layer(module) and module not in ("nlupdate", "nlupdate.__main__"))
     assert upward == []
 
 
@@ -182,13 +179,11 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     from nlupdate.study import load_study
     from nlupdate.study.chain import STEPS
     from nlupdate.study.steps import study_targets, updating_runs
-    from nlupdate.tasks import keys
+    from nlupdate.orchestration.tasks import keys
 
-    package, adapters = tmp_path / "nlupdate", tmp_path / "adapters"
-    shutil.copytree(ROOTS["nlupdate"], package, ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copytree(ROOTS["nlupdate.adapters"], adapters, ignore=shutil.ignore_patterns("__pycache__"))
+    package = tmp_path / "nlupdate"
+    shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(keys, "_PACKAGE", package)
-    monkeypatch.setattr(keys, "_ADAPTERS", adapters)
     study = load_study(Path(__file__).parent / "data" / "studies" / "two_dof.toml")
     from nlupdate.study.spec import TargetsSpec
 
@@ -204,7 +199,8 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     for plots in ("reporting/updating_plots.py", "reporting/identification_plots.py", "reporting/report.py"):
         (package / plots).write_text((package / plots).read_text() + "\n# a plot or a sentence changed\n")
     assert step_keys() == before
-    (package / "identification" / "prd.py").write_text((package / "identification" / "prd.py").read_text() + "\n#\n")
+    prd = package / "core" / "identification" / "prd.py"
+    prd.write_text(prd.read_text() + "\n#\n")
     assert step_keys()[0] != before[0]
 
 
@@ -215,7 +211,7 @@ def test_every_package_a_study_step_runs_is_in_its_cache_key():
     import subprocess
     import sys
 
-    from nlupdate.tasks.keys import NUMERICS_MODULES, STUDY_PACKAGES
+    from nlupdate.orchestration.tasks.keys import NUMERICS_MODULES, STUDY_PACKAGES
 
     code = ("import sys, nlupdate.study.chain, nlupdate.study.steps; "
             "print(' '.join(sorted(m for m in sys.modules if m.startswith('nlupdate.'))))")
@@ -223,9 +219,10 @@ def test_every_package_a_study_step_runs_is_in_its_cache_key():
     packages, modules = set(), set()
     for name in loaded:
         parts = name.split(".")
-        if parts[1] in ("adapters", "tasks", "flows", "cli", "reporting"):  # hashed apart, or not run by a step
+        if parts[1] in ("orchestration", "app", "reporting") or name == "nlupdate.core":  # not run by a step
             continue
-        target = packages if (ROOTS["nlupdate"] / parts[1]).is_dir() else modules
-        target.add(parts[1] if target is packages else f"{parts[1]}.py")
+        package = "/".join(parts[1:3]) if parts[1] == "core" else parts[1]
+        target = packages if (PACKAGE / package).is_dir() else modules
+        target.add(package if target is packages else f"{parts[1]}.py")
     assert packages <= set(STUDY_PACKAGES), sorted(packages - set(STUDY_PACKAGES))
     assert modules <= set(NUMERICS_MODULES) | {"__init__.py"}, sorted(modules - set(NUMERICS_MODULES))

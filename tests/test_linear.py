@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nlupdate.model.linear import LumpedModel, ModalModel
+from nlupdate.core.model.linear import LumpedModel, ModalModel
 
 M = np.diag([0.1, 0.5, 0.2])
 K = 1e6 * np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.5]])

@@ -1,4 +1,4 @@
-"""The linear FRF from every force level (nlupdate.identification.linear_frf).
+"""The linear FRF from every force level (nlupdate.core.identification.linear_frf).
 
 An oscillator with a cubic spring and a Jenkins slider (m = 0.1 kg, k = 2e6 N/m, loss factor
 0.01) is solved at seven levels from stuck to gross slip; with the true describing
@@ -14,14 +14,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.linear_frf import from_all_levels
-from nlupdate.identification.pipeline import IdentificationSettings
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.fixed_point import fixed_point_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.linear_frf import from_all_levels
+from nlupdate.core.identification.pipeline import IdentificationSettings
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.fixed_point import fixed_point_response
 
 MASS, STIFFNESS, LOSS = 0.1, 2e6, 0.01
 ELEMENTS = (CubicStiffness((0,), 1e10), JenkinsFriction((0,), 3e5, 1.0))

@@ -3,7 +3,7 @@
 A 3-DOF chain ground–m1–m2–m3 (1 kg masses, 1.6e5 N/m springs, loss factor 0.02), driven
 and measured at the tip m3 (coordinate 2), five levels 0.1–4 N, lines ±8 % around each
 linear mode. The measurements are the first harmonic of a *time integration* of the
-system to the steady state (:mod:`nlupdate.response.time_integration`, independent of the
+system to the steady state (:mod:`nlupdate.core.response.time_integration`, independent of the
 describing functions the identification uses), with 1 % noise, seeds 1–5. Cases:
 
 * a cubic spring from the tip to ground — the nonlinearity at the measured coordinate:
@@ -26,16 +26,16 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from nlupdate.identification.consistency import SPREAD_LIMIT
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.model.elements import CubicStiffness
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.core.identification.consistency import SPREAD_LIMIT
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.elements import CubicStiffness
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.reporting.report import _identification_section
-from nlupdate.response.sweep import frequency_sweep
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.response.sweep import frequency_sweep
+from nlupdate.core.response.time_integration import steady_state_response
 
 from cli_runs import run_cli
 
@@ -159,9 +159,9 @@ def test_the_issue_case_and_the_mode_intervals(at_tip):
 def test_elements_that_leave_no_linear_frf_fail_the_check():
     """A degenerate fit (a wrong element set driven to kf = 1e-305) gives no finite term at
     any line: that is no evidence the levels agree, and the check says so."""
-    from nlupdate.identification.consistency import level_consistency
-    from nlupdate.identification.linear_frf import LevelTerms
-    from nlupdate.identification.trust import consistency_warnings
+    from nlupdate.core.identification.consistency import level_consistency
+    from nlupdate.core.identification.linear_frf import LevelTerms
+    from nlupdate.core.identification.trust import consistency_warnings
 
     f = np.linspace(20.0, 40.0, 21)
     nothing = np.full((3, f.size), np.nan)

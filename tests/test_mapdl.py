@@ -24,16 +24,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.adapters.base import AdapterError
-from nlupdate.adapters.mapdl import MAPDL_EXEC_ENV, MapdlAdapter
-from nlupdate.adapters.mapdl_block import check_modes, modal_block, parse_modal_table
-from nlupdate.adapters.mapdl_deck import substitute_parameters
-from nlupdate.adapters.runner import ExecutableNotFoundError, RunTimeoutError
+from nlupdate.fe.adapters.base import AdapterError
+from nlupdate.fe.adapters.mapdl import MAPDL_EXEC_ENV, MapdlAdapter
+from nlupdate.fe.adapters.mapdl_block import check_modes, modal_block, parse_modal_table
+from nlupdate.fe.adapters.mapdl_deck import substitute_parameters
+from nlupdate.fe.adapters.runner import ExecutableNotFoundError, RunTimeoutError
 
 DATA = Path(__file__).parent / "data" / "mapdl"
 COORDINATES = {"tip:uz": (101, "uz"), "mid:uy": ("NODE(0.215,0,0)", "uy")}
 
-# The block for 3 modes and COORDINATES, written by hand from nlupdate.adapters.mapdl_block's docstring.
+# The block for 3 modes and COORDINATES, written by hand from nlupdate.fe.adapters.mapdl_block's docstring.
 EXPECTED_BLOCK = """\
 ! ---- nlupdate modal block (generated) ----
 FINISH
@@ -252,7 +252,7 @@ def test_adapter_checks_its_configuration(tmp_path: Path) -> None:
 def test_units_and_options_come_from_the_study_file(tmp_path: Path) -> None:
     """[adapter.options] of a study reach the adapter: units, tolerance, keep_files, points in metres."""
     from nlupdate.study import load_study
-    from nlupdate.adapters.registry import build_adapter
+    from nlupdate.fe.adapters.registry import build_adapter
 
     (tmp_path / "springs.inp").write_text(SPRING_DECKS["mm-t-s"])
     study = tmp_path / "mapdl.toml"

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 import scipy.io
 
-from nlupdate.cli import main
-from nlupdate.measurement.frf_table import MeasurementTableError
-from nlupdate.measurement.frf_files import read_frf_table
-from nlupdate.measurement.units import ReadOptions
+from nlupdate.app.cli import main
+from nlupdate.core.measurement.frf_table import MeasurementTableError
+from nlupdate.core.measurement.frf_files import read_frf_table
+from nlupdate.core.measurement.units import ReadOptions
 
 F_HZ = np.arange(79.0, 81.01, 0.05)
 W = 2 * np.pi * F_HZ

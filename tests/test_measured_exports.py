@@ -15,10 +15,10 @@ import pandas as pd
 import pytest
 import pyuff
 
-from nlupdate.measurement.frf_table import MeasurementTableError, select_frf
+from nlupdate.core.measurement.frf_table import MeasurementTableError, select_frf
 
-from nlupdate.measurement.frf_files import read_frf_table, read_frf_tables
-from nlupdate.measurement.units import ReadOptions
+from nlupdate.core.measurement.frf_files import read_frf_table, read_frf_tables
+from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.notices import NlupdateWarning
 
 F = np.arange(0.0, 161.0, 1.0)  # 0–160 Hz with the DC line, as an FFT analyser exports it

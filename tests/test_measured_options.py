@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from test_measured_run_levels import LEVELS, multi_run_export, receptance, stiffness_of  # noqa: E402
 from test_time_history import sdof_receptance, stepped_record  # noqa: E402
 
-from nlupdate.cli import COMMANDS, build_parser, main  # noqa: E402
+from nlupdate.app.cli import COMMANDS, build_parser, main  # noqa: E402
 
 MEASURED_OPTIONS = {"--measured", "--reference-unit", "--reference-calibration", "--level", "--coordinates", "--band"}
 READERS = [name for name in ("identify", "discover", "amplitude", "validate") if name in COMMANDS]

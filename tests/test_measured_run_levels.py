@@ -1,5 +1,5 @@
 """Exports as test systems write them: several runs in one UFF file, the level in the run
-name, the z-axis or an ID line in the styles of nlupdate.measurement.run_levels, levels per
+name, the z-axis or an ID line in the styles of nlupdate.core.measurement.run_levels, levels per
 run given by the user, and a z-axis level typed in the unit the reference contradicts.
 
 Every file is written here with pyuff from a known analytic receptance and known levels;
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 import pyuff
 
-from nlupdate.measurement.frf_files import read_frf_tables
-from nlupdate.measurement.frf_table import MeasurementTableError, select_frf
-from nlupdate.measurement.run_levels import levels_in_text
-from nlupdate.measurement.units import ReadOptions
+from nlupdate.core.measurement.frf_files import read_frf_tables
+from nlupdate.core.measurement.frf_table import MeasurementTableError, select_frf
+from nlupdate.core.measurement.run_levels import levels_in_text
+from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.notices import NlupdateWarning
 
 F = np.arange(60.0, 120.5, 0.5)

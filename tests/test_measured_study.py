@@ -13,7 +13,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from test_measured_exports import F, export_58, lms_like, receptance  # noqa: E402
 from test_time_history import sdof_receptance, stepped_record  # noqa: E402
 
-from nlupdate.measurement.frf_table import select_frf  # noqa: E402
+from nlupdate.core.measurement.frf_table import select_frf  # noqa: E402
 from nlupdate.study.reader import StudyError  # noqa: E402
 from nlupdate.study.loading import load_study  # noqa: E402
 from nlupdate.study.steps import measured_table  # noqa: E402

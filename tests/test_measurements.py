@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 import pyuff
 
-from nlupdate.measurement.frf_files import read_frf_table, write_frf_table
-from nlupdate.measurement.frf_table import FRF_COLUMNS, MeasurementTableError, force_levels, frf_table, select_frf, validate_frf_table
+from nlupdate.core.measurement.frf_files import read_frf_table, write_frf_table
+from nlupdate.core.measurement.frf_table import FRF_COLUMNS, MeasurementTableError, force_levels, frf_table, select_frf, validate_frf_table
 
 RNG = np.random.default_rng(7)
 EVEN = np.linspace(600.0, 850.0, 26)  # step 10 Hz

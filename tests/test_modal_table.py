@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.measurement.modal_table import (
+from nlupdate.core.measurement.modal_table import (
     MODAL_COLUMNS, ModalTableError, is_modal_table_file, modal_table, read_modal_table, validate_modal_table,
     write_modal_table,
 )

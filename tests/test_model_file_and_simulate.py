@@ -4,9 +4,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.cli import main
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.model_file import ModelFileError, load_system
+from nlupdate.app.cli import main
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.model_file import ModelFileError, load_system
 
 from cli_runs import run_cli
 

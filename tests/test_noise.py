@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.noise import add_frf_noise, add_table_noise
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.noise import add_frf_noise, add_table_noise
 
 H = np.array([2e-6 + 1e-6j, -3e-4j, 1e-9, -5.0 + 0.0j])
 N_SAMPLES = 100_000

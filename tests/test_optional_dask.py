@@ -15,7 +15,7 @@ import pytest
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 DASK = ("dask", "distributed", "prefect_dask")
@@ -48,7 +48,7 @@ def test_dask_options_without_dask_say_what_to_install(option, without_dask, two
 
 
 def test_a_dask_execution_without_dask_says_what_to_install(without_dask):
-    from nlupdate.flows.runners import Execution, ExecutionError, task_runner
+    from nlupdate.orchestration.flows.runners import Execution, ExecutionError, task_runner
 
     with pytest.raises(ExecutionError, match=r"not installed: pip install 'nlupdate\[dask\]'"):
         with task_runner(Execution(workers=1, dask=True)):
@@ -59,10 +59,10 @@ def test_the_flows_import_and_run_on_threads_without_dask():
     """In a fresh interpreter where Dask cannot be imported: the flows import, the default
     task runner is a thread pool, and the commands' parser is built."""
     code = BLOCK + (
-        "from nlupdate.cli import build_parser\n"
+        "from nlupdate.app.cli import build_parser\n"
         "build_parser()\n"
-        "import nlupdate.flows.run, nlupdate.flows.study, nlupdate.flows.discovery\n"
-        "from nlupdate.flows.runners import Execution, task_runner\n"
+        "import nlupdate.orchestration.flows.run, nlupdate.orchestration.flows.study, nlupdate.orchestration.flows.discovery\n"
+        "from nlupdate.orchestration.flows.runners import Execution, task_runner\n"
         "with task_runner(Execution(workers=2)) as (runner, what):\n"
         "    print(type(runner).__name__, what)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
@@ -91,9 +91,9 @@ def pulled_in(requirements: list[str]) -> set[str]:
 
 
 def test_every_package_the_code_imports_comes_with_the_base_install():
-    """Leaving Dask out left psutil out (flows/liveness.py imports it: it came with Dask);
+    """Leaving Dask out left psutil out (src/nlupdate/orchestration/flows/liveness.py imports it: it came with Dask);
     every package imported by the installed code comes with the base dependencies, but
-    the [dask] extra's, which flows/runners.py imports only when asked."""
+    the [dask] extra's, which src/nlupdate/orchestration/flows/runners.py imports only when asked."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     base, providers = pulled_in(project["dependencies"]), metadata.packages_distributions()
     missing = {}
@@ -109,4 +109,4 @@ def test_every_package_the_code_imports_comes_with_the_base_install():
                 for top in {name.split(".")[0] for name in names} - set(sys.stdlib_module_names) - {"nlupdate"}:
                     if not {canonicalize_name(d) for d in providers.get(top, [])} & base:
                         missing.setdefault(top, set()).add(path.relative_to(ROOT).as_posix())
-    assert missing == {"distributed": {"flows/runners.py"}, "prefect_dask": {"flows/runners.py"}}, missing
+    assert missing == {"distributed": {"src/nlupdate/orchestration/flows/runners.py"}, "prefect_dask": {"src/nlupdate/orchestration/flows/runners.py"}}, missing

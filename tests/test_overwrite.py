@@ -1,6 +1,6 @@
 """``--overwrite`` replaces only an output nlupdate wrote (issue 19, item 1).
 
-Each command runs in this process through :func:`nlupdate.cli.main` (what matters here
+Each command runs in this process through :func:`nlupdate.app.cli.main` (what matters here
 is what is left on disk, not process start-up); the checks are on the exit code, the one
 line on stderr, and that every file the user had is still there, byte for byte.
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from studies import two_dof_study, write_study
 from nlupdate.files import OUTPUT_MARKER, NotAnOutputError, atomic_directory, check_replaceable
 

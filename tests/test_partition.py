@@ -1,5 +1,5 @@
 """The `aa`-partition form for an element between two measured coordinates
-(nlupdate.identification.partition).
+(nlupdate.core.identification.partition).
 
 The issue's chain (tests/test_linear_frf_consistency.py): a cubic spring between the outer
 masses m1 and m3, driven at m3, responses at m1 and m3 measured. The reference linear
@@ -13,15 +13,15 @@ import warnings
 import numpy as np
 import pytest
 
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.dfmodels import parse_elements
-from nlupdate.identification.linear_frf import locate_linear_modes
-from nlupdate.identification.partition import identify_between
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.model.elements import CubicStiffness
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.sweep import frequency_sweep
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.dfmodels import parse_elements
+from nlupdate.core.identification.linear_frf import locate_linear_modes
+from nlupdate.core.identification.partition import identify_between
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.elements import CubicStiffness
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.sweep import frequency_sweep
+from nlupdate.core.response.time_integration import steady_state_response
 
 from cli_runs import run_cli
 from test_linear_frf_consistency import K, LEVELS, LINEAR, LINES, MASS, MODES_NEAR_HZ, TIP, TRUTH_HZ

@@ -12,8 +12,8 @@ import numpy as np
 import scipy.optimize
 from scipy.optimize._numdiff import approx_derivative  # scipy 1.11 has no public name for it
 
-import nlupdate.identification.prd as prd
-from nlupdate.cli import main
+import nlupdate.core.identification.prd as prd
+from nlupdate.app.cli import main
 from test_readme_identify import readme_commands
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 TOLERANCE = {"k3": 0.05, "kf": 0.02, "slip_force": 0.02}

@@ -37,7 +37,7 @@ import pytest
 import scipy.io
 import scipy.optimize
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 from test_examples import absolute, header_commands
 
 BRB = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"

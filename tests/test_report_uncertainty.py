@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 import studies
 
 MASSES = [0.1, 0.5]  # kg

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 from studies import TWO_DOF_STUDY, study_text, two_dof_study
 
-from nlupdate.identification.uncertainty import CurveBand
+from nlupdate.core.identification.uncertainty import CurveBand
 from nlupdate.reporting.archive import archive_figures, write_archive
 from nlupdate.reporting.figures import FIT_COLOUR, png_bytes, unwrapped_phase_deg
 from nlupdate.reporting.identification_plots import fit_figure, zoom_window
@@ -219,7 +219,7 @@ def test_report_mentions_no_frac_when_the_comparison_has_none(result, tmp_path):
 
 
 def test_report_says_what_the_monte_carlo_samples_are_and_why_some_failed():
-    from nlupdate.identification.uncertainty import Uncertainty
+    from nlupdate.core.identification.uncertainty import Uncertainty
     from nlupdate.reporting.report import monte_carlo_note
 
     edge = "ValueError: modal fit near 43.37 Hz ran to the edge of its band ({} Hz): no clear resonance there"

@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 import scipy.io
 
-from nlupdate.identification.amplitude_modal_fit import samples_from_frfs
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.response_controlled import HeldRun, read_response_controlled, samples_from_held_runs
-from nlupdate.measurement.frf_files import read_frf_tables
-from nlupdate.measurement.frf_table import MeasurementTableError
-from nlupdate.measurement.units import ReadOptions
-from nlupdate.model.elements import JenkinsFriction
+from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled, samples_from_held_runs
+from nlupdate.core.measurement.frf_files import read_frf_tables
+from nlupdate.core.measurement.frf_table import MeasurementTableError
+from nlupdate.core.measurement.units import ReadOptions
+from nlupdate.core.model.elements import JenkinsFriction
 
 BRB = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
 BRB_OPTIONS = ReadOptions(coordinates={str(BRB): ("acc3:-y", "acc3:y")})
@@ -95,7 +95,7 @@ def test_a_file_without_held_runs_is_refused(tmp_path):
 def test_amplitude_command_fits_the_held_runs_alone(tmp_path, capsys):
     import pandas as pd
 
-    from nlupdate.cli import main
+    from nlupdate.app.cli import main
 
     out = tmp_path / "out"
     assert main(["amplitude", "--response-controlled", str(BRB), "--coordinates", f"{BRB}=acc3:-y,acc3:y",

@@ -4,7 +4,7 @@ References independent of the estimator: the analytic free decay of a linear SDO
 RK4 time integration (written here, with the elements' own time-domain force laws and
 their hysteretic state committed once per step) of an SDOF with a Jenkins or an Iwan joint,
 against the describing-function backbone ``ω(A)² = (k + Re ν(A))/m``,
-``ζ(A) = c/(2mω) + Im ν(A)/(2mω²)`` (module docstring of nlupdate.identification.ring_down).
+``ζ(A) = c/(2mω) + Im ν(A)/(2mω²)`` (module docstring of nlupdate.core.identification.ring_down).
 """
 from __future__ import annotations
 
@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 import scipy.io
 
-from nlupdate.cli import main
-from nlupdate.identification.ring_down import RingDownError, estimate_ring_down, read_ring_down
-from nlupdate.model.elements import IwanJoint, JenkinsFriction
+from nlupdate.app.cli import main
+from nlupdate.core.identification.ring_down import RingDownError, estimate_ring_down, read_ring_down
+from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
 
 M, F0, ZETA = 2.0, 10.0, 0.005
 K = M * (2 * np.pi * F0) ** 2

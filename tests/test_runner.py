@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from nlupdate.adapters import runner as runner_module
-from nlupdate.adapters.base import AdapterError
-from nlupdate.adapters.runner import (
+from nlupdate.fe.adapters import runner as runner_module
+from nlupdate.fe.adapters.base import AdapterError
+from nlupdate.fe.adapters.runner import (
     ExecutableNotFoundError,
     ProcessRunner,
     RunTimeoutError,
@@ -189,7 +189,7 @@ def test_timeout_kills_a_process_the_solver_started_in_a_session_of_its_own(tmp_
 
 
 def test_a_process_that_cannot_be_stopped_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import nlupdate.adapters.runner as runner_module
+    import nlupdate.fe.adapters.runner as runner_module
 
     exe = make_script(tmp_path / "daemonising", f"""
         import subprocess, time
@@ -355,8 +355,8 @@ def test_invalid_timeout_is_rejected(tmp_path: Path) -> None:
 def test_a_huge_log_line_gives_a_bounded_message(tmp_path: Path) -> None:
     """A program that prints one 50 MB line and fails: the error (which goes into the
     report and the manifest) holds a bounded excerpt, read without loading the log."""
-    from nlupdate.adapters.runner import EXCERPT_CHARS
-    from nlupdate.adapters.mapdl_files import find_errors
+    from nlupdate.fe.adapters.runner import EXCERPT_CHARS
+    from nlupdate.fe.adapters.mapdl_files import find_errors
 
     exe = make_script(tmp_path / "chatty", """
         import sys
@@ -379,7 +379,7 @@ def test_an_adapter_only_built_leaves_no_folder_and_runs_share_one(tmp_path: Pat
     made a temporary folder each: three per run were left in /tmp."""
     import tempfile
 
-    import nlupdate.adapters.runner as runner_module
+    import nlupdate.fe.adapters.runner as runner_module
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     monkeypatch.setattr(runner_module, "_SCRATCH", {})
@@ -392,7 +392,7 @@ def test_an_adapter_only_built_leaves_no_folder_and_runs_share_one(tmp_path: Pat
 def test_the_version_probe_keeps_a_bounded_first_line(tmp_path: Path) -> None:
     """A program whose ``-v`` printed 1.5 GB on one line put all of it into manifest.json
     (4.6 GB RSS); here 20 MB stand for it: the probe keeps the line's start only."""
-    from nlupdate.adapters.runner import VERSION_LINE_CHARS
+    from nlupdate.fe.adapters.runner import VERSION_LINE_CHARS
 
     exe = make_script(tmp_path / "loud_solver", """
         import sys

@@ -2,7 +2,7 @@
 ``nlupdate serve`` runs them, each run writing its own complete archive.
 
 * Mistakes in the command line or the study are one line and exit code 2, before any
-  server is asked (in this process, through :func:`nlupdate.cli.main`).
+  server is asked (in this process, through :func:`nlupdate.app.cli.main`).
 * A cron schedule is registered on the session's Prefect server (in this process) and read
   back from the API as the server stores it; ``list`` shows it, ``delete`` removes it.
 * A real ``prefect server start`` (its scheduler creates the runs) with a 2-second
@@ -26,7 +26,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from nlupdate.cli import main
+from nlupdate.app.cli import main
 
 import prefect_home
 from cli_runs import run_cli
@@ -154,7 +154,7 @@ def test_cron_schedule_is_registered_listed_and_deleted(tmp_path, study, prefect
     # the API says only which registration to run; the rest stays in the user's own folder
     sha = hashlib.sha256(study.read_text().encode()).hexdigest()
     assert deployment["parameters"] == {"name": "two-dof", "study_sha256": sha}
-    assert deployment["entrypoint"] == "nlupdate.flows.schedule.scheduled_study"
+    assert deployment["entrypoint"] == "nlupdate.orchestration.flows.schedule.scheduled_study"
 
     code, _, err = cli("schedule", study, "--interval", "60")
     assert code == 2 and "a scheduled study named 'two-dof' exists" in err, err

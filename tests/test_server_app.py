@@ -1,4 +1,4 @@
-"""The run's Prefect server retries writes SQLite refused as busy (flows/server_app.py).
+"""The run's Prefect server retries writes SQLite refused as busy (src/nlupdate/orchestration/flows/server_app.py).
 
 The middleware is driven here with a small ASGI app that answers 503 a given number of
 times, the way Prefect's app does on ``SQLITE_BUSY_SNAPSHOT`` (Starlette's error middleware
@@ -12,7 +12,7 @@ import json
 
 import pytest
 
-from nlupdate.flows.server_app import RetryBusyWrites
+from nlupdate.orchestration.flows.server_app import RetryBusyWrites
 
 
 class BusyApp:
@@ -90,7 +90,7 @@ def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypat
     from prefect.server.api.server import is_client_retryable_exception
     from prefect.server.database.configurations import AioSqliteConfiguration
 
-    from nlupdate.flows.server_app import BUSY_TIMEOUT_MS, shorten_busy_timeout
+    from nlupdate.orchestration.flows.server_app import BUSY_TIMEOUT_MS, shorten_busy_timeout
 
     monkeypatch.setattr(AioSqliteConfiguration, "setup_sqlite", AioSqliteConfiguration.setup_sqlite)  # restored after
     shorten_busy_timeout()

@@ -18,13 +18,13 @@
 import numpy as np
 import pytest
 
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.model.linear import LumpedModel
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.time_integration import steady_state_response, time_sweep
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction, SymmetricGap
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.time_integration import steady_state_response, time_sweep
 
 TWO_PI = 2 * np.pi
 

@@ -11,11 +11,11 @@ import pandas as pd
 import pytest
 import scipy.linalg
 
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.cli import main
-from nlupdate.model.linear import LumpedModel
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.frf_files import write_frf_table
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.app.cli import main
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.study import StudyError, load_study
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -265,7 +265,7 @@ def test_example_studies_are_valid(name):
         assert list(study.eigensensitivity.formulas) == case["formulas"]
     assert [tuple(c.parameters) for c in study.candidates] == case["sets"]
     if case["f1"] is not None:
-        from nlupdate.adapters.registry import build_adapter
+        from nlupdate.fe.adapters.registry import build_adapter
 
         start = {**study.fixed, **{p.name: p.start for p in study.parameters}}
         assert build_adapter(study.adapter).evaluate(start).natural_frequencies_hz[0] == pytest.approx(case["f1"], abs=0.005)
@@ -341,8 +341,8 @@ def test_mapdl_adapter_is_built_from_a_study(tmp_path):
         frequencies_hz = [10.0]
         [eigensensitivity]
     """))
-    from nlupdate.adapters.mapdl import MapdlAdapter
-    from nlupdate.adapters.registry import build_adapter
+    from nlupdate.fe.adapters.mapdl import MapdlAdapter
+    from nlupdate.fe.adapters.registry import build_adapter
 
     spec = load_study(study).adapter
     spec = dataclasses.replace(spec, options={**spec.options, "work_root": str(tmp_path / "runs")})

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.updating.evaluation import MemoisedEvaluator
-from nlupdate.adapters.surrogate import SurrogateAdapter
-from nlupdate.fe.gunbarrel import GunBarrelParameters
-from nlupdate.fe.tbeam import TBEAM_COORDINATES, TBeamParameters
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
+from nlupdate.fe.adapters.surrogate import SurrogateAdapter
+from nlupdate.fe.models.gunbarrel import GunBarrelParameters
+from nlupdate.fe.models.tbeam import TBEAM_COORDINATES, TBeamParameters
 
 
 @pytest.fixture

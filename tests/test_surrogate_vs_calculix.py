@@ -8,9 +8,9 @@ updated design with sensor masses.
 import numpy as np
 import pytest
 
-from nlupdate.adapters.calculix import CalculixAdapter
-from nlupdate.adapters.calculix_tbeam import TBEAM_PARAMETER_NAMES, TBeamDeck, TBeamMesh, global_modes
-from nlupdate.adapters.surrogate import SurrogateAdapter
+from nlupdate.fe.adapters.calculix import CalculixAdapter
+from nlupdate.fe.adapters.calculix_tbeam import TBEAM_PARAMETER_NAMES, TBeamDeck, TBeamMesh, global_modes
+from nlupdate.fe.adapters.surrogate import SurrogateAdapter
 
 DESIGNS = [
     {},

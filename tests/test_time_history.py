@@ -20,12 +20,12 @@ import pytest
 import scipy.integrate
 import scipy.signal
 
-from nlupdate.measurement.frf_table import select_frf
+from nlupdate.core.measurement.frf_table import select_frf
 
-from nlupdate.measurement.frf_files import read_frf_table
-from nlupdate.measurement.time_history import SWEEP_RATE_LIMIT, TimeRecord, estimate_frf, read_time_record
-from nlupdate.model.model_file import system_from_dict
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.measurement.frf_files import read_frf_table
+from nlupdate.core.measurement.time_history import SWEEP_RATE_LIMIT, TimeRecord, estimate_frf, read_time_record
+from nlupdate.core.model.model_file import system_from_dict
+from nlupdate.core.response.time_integration import steady_state_response
 
 M, K = 1.0, (2 * np.pi * 20.0) ** 2  # 20 Hz
 ZETA = 0.01
@@ -252,7 +252,7 @@ def test_dwells_too_short_for_the_transient_rule_are_warned_about():
 def test_a_time_column_in_milliseconds_is_refused():
     """Times in ms make the sample rate look 1000 × lower: 2 Hz for dwells at 18–22 Hz, far
     above its Nyquist frequency. The fit aliased and gave levels of 1e5–1e6 N for a 1 N test."""
-    from nlupdate.measurement.time_history import TimeHistoryError
+    from nlupdate.core.measurement.time_history import TimeHistoryError
 
     frame = stepped_record([18.0, 20.0, 22.0], levels=[1.0], dwell_s=2.0)
     record = TimeRecord("ms.csv", 1000 * frame["time_s"].to_numpy(), frame["force"].to_numpy(), "N",

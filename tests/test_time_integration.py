@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.time_integration import TimeIntegrationError, steady_state_response, time_sweep
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.time_integration import TimeIntegrationError, steady_state_response, time_sweep
 
 
 def chain_matrices(n: int, k: float = 1.0, m: float = 1.0):

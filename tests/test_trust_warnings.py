@@ -19,22 +19,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.identification.data import FRFLevels
-from nlupdate.identification.pipeline import IdentificationSettings, identify
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.pipeline import IdentificationSettings, identify
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.reporting.archive import write_archive
 from nlupdate.reporting.report import summary_section
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.stepped_sine import stepped_sine
 from nlupdate.study import run_study, study_from_text
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
-from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
-from nlupdate.updating.targets import UpdatingTargets
-from nlupdate.updating.parameter_warnings import updating_warnings
+from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
+from nlupdate.core.updating.optimisation import OptimisationOptions, optimise_frequencies
+from nlupdate.core.updating.targets import UpdatingTargets
+from nlupdate.core.updating.parameter_warnings import updating_warnings
 
 LEVELS = (0.01,) + tuple(float(f) for f in np.arange(100.0, 401.0, 30.0))
 GRID = np.arange(680.0, 741.0)
@@ -220,8 +220,8 @@ def test_warnings_on_per_volt_data_state_volts_not_newtons():
     reference."""
     import dataclasses
 
-    from nlupdate.identification.dfmodels import PhysicalModel
-    from nlupdate.identification.trust import _jenkins_end_warnings
+    from nlupdate.core.identification.dfmodels import PhysicalModel
+    from nlupdate.core.identification.trust import _jenkins_end_warnings
 
     ident = identified(dataclasses.replace(sdof_data(1.0), reference_unit="V"), 0.05, 3)
     assert ident.reference_unit == "V"

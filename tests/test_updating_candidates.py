@@ -8,18 +8,18 @@ import pandas as pd
 import pytest
 import scipy.optimize
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.model.linear import LumpedModel, ModalModel
-from nlupdate.measurement.frf_table import frf_table
-from nlupdate.measurement.frf_files import write_frf_table
-from nlupdate.adapters.registry import AdapterSpec
-from nlupdate.adapters.registry import build_adapter
-from nlupdate.updating.evaluation import MemoisedEvaluator
-from nlupdate.updating.runs import UpdatingRun, compare_candidates, rank_candidates, update
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions
-from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
-from nlupdate.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies, read_linear_frf
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.core.model.linear import LumpedModel, ModalModel
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.measurement.frf_files import write_frf_table
+from nlupdate.fe.adapters.registry import AdapterSpec
+from nlupdate.fe.adapters.registry import build_adapter
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
+from nlupdate.core.updating.runs import UpdatingRun, compare_candidates, rank_candidates, update
+from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions
+from nlupdate.core.updating.optimisation import OptimisationOptions, optimise_frequencies
+from nlupdate.core.updating.targets import UpdatingTargets, frf_natural_frequencies, peak_frequencies, read_linear_frf
 
 MASSES = [0.1, 0.3, 0.2]
 NOMINAL_K = [1e6, 1e6, 1e6, 1e6]

@@ -4,13 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.adapters.surrogate import SurrogateAdapter
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
-from nlupdate.updating.pairing import pair_modes
-from nlupdate.updating.sensitivity import FORMULAS
-from nlupdate.updating.targets import UpdatingTargets
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.fe.adapters.surrogate import SurrogateAdapter
+from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
+from nlupdate.core.updating.pairing import pair_modes
+from nlupdate.core.updating.sensitivity import FORMULAS
+from nlupdate.core.updating.targets import UpdatingTargets
 
 NEW_POINTS = {"forward": 1, "backward": 1, "central2": 2, "central4": 4}
 MASSES = [0.1, 0.3, 0.2]

@@ -24,15 +24,15 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.adapters.surrogate import SurrogateAdapter
-from nlupdate.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
-from nlupdate.updating.evaluation import MemoisedEvaluator
-from nlupdate.updating.optimisation import OptimisationOptions, optimise_frequencies
-from nlupdate.updating.residuals import ModalResponse, ResponseOptions
-from nlupdate.updating.sensitivity import FORMULAS, jacobian
-from nlupdate.updating.targets import UpdatingTargets
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.fe.adapters.surrogate import SurrogateAdapter
+from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions, inverse_eigensensitivity
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
+from nlupdate.core.updating.optimisation import OptimisationOptions, optimise_frequencies
+from nlupdate.core.updating.residuals import ModalResponse, ResponseOptions
+from nlupdate.core.updating.sensitivity import FORMULAS, jacobian
+from nlupdate.core.updating.targets import UpdatingTargets
 
 # ------------------------------------------------------------------ 3-mass chain
 MASSES = [0.1, 0.3, 0.2]

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.adapters.base import Parameter
-from nlupdate.adapters.lumped import LumpedAdapter
-from nlupdate.updating.evaluation import MemoisedEvaluator
-from nlupdate.updating.sensitivity import FORMULAS, assemble_jacobian, jacobian, step_size, stencil, stencil_points
+from nlupdate.fe.adapters.base import Parameter
+from nlupdate.fe.adapters.lumped import LumpedAdapter
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
+from nlupdate.core.updating.sensitivity import FORMULAS, assemble_jacobian, jacobian, step_size, stencil, stencil_points
 
 
 def response(values):

@@ -18,12 +18,12 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
-from nlupdate.adapters.base import FEAdapter, ModalResult, Parameter
-from nlupdate.cli import main
+from nlupdate.fe.adapters.base import FEAdapter, ModalResult, Parameter
+from nlupdate.app.cli import main
 from nlupdate.reporting.archive import write_archive
 from nlupdate.reporting.report import summary_section
 from nlupdate.study import load_study, run_study
-from nlupdate.updating import EigensensitivityOptions, UpdatingTargets, inverse_eigensensitivity
+from nlupdate.core.updating import EigensensitivityOptions, UpdatingTargets, inverse_eigensensitivity
 from studies import CHAIN_MASSES, CHAIN_MODEL_K1, CHAIN_TRUTH, small_two_dof_study, three_dof_chain_study, write_study
 
 BOTH = "eigensensitivity central O(h²) {k2, k3}"

@@ -20,15 +20,15 @@ import pandas as pd
 import pytest
 
 from cli_runs import run_cli
-from nlupdate.identification.amplitude_modal_fit import amplitude_model_from_frfs
-from nlupdate.identification.data import FRFLevels
-from nlupdate.model.elements import JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.simulate import simulate_frf_table
-from nlupdate.validation.baseline import baseline_frf, fit_level
-from nlupdate.validation.held_out import hold_out_levels, validate
-from nlupdate.validation.resonance import resonance
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.model.elements import JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.simulate import simulate_frf_table
+from nlupdate.core.validation.baseline import baseline_frf, fit_level
+from nlupdate.core.validation.held_out import hold_out_levels, validate
+from nlupdate.core.validation.resonance import resonance
 from test_real_measurements import BRB, BRB_COORDINATES
 
 LEVELS = (0.01, 0.02, 0.04, 0.08, 0.16)

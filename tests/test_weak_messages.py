@@ -397,7 +397,7 @@ def _commands_starting_a_server(text: str) -> list[str]:
     return [block for block in blocks if "prefect server start" in block]
 
 
-@pytest.mark.parametrize("source", ["docs/schedules.md", "flows/schedule.py:HOW_TO_START", "flows/server.py:HELP"])
+@pytest.mark.parametrize("source", ["docs/schedules.md", "src/nlupdate/orchestration/flows/schedule.py:HOW_TO_START", "src/nlupdate/orchestration/flows/server.py:HELP"])
 def test_a_server_users_are_told_to_start_sends_no_telemetry(source):
     root = Path(__file__).resolve().parents[1]
     if source.endswith(".md"):

@@ -12,10 +12,10 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import brentq
 
-from nlupdate.model.elements import CubicStiffness
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
-from nlupdate.response.continuation import default_x_scale
+from nlupdate.core.model.elements import CubicStiffness
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
+from nlupdate.core.response.continuation import default_x_scale
 
 MASS, DAMPING, STIFFNESS, K3, FORCE = 1.0, 0.05, 1.0, 1.0, 0.5
 BAND = (0.5, 3.5)

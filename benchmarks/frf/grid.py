@@ -37,11 +37,11 @@ import tracemalloc
 
 import numpy as np
 
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.system import CondensedProblem, NonlinearSystem
-from nlupdate.response import closed_form
-from nlupdate.response.continuation import default_x_scale, trace_frequency_response
-from nlupdate.response.sweep import frequency_sweep
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.system import CondensedProblem, NonlinearSystem
+from nlupdate.core.response import closed_form
+from nlupdate.core.response.continuation import default_x_scale, trace_frequency_response
+from nlupdate.core.response.sweep import frequency_sweep
 
 from benchmarks.frf.common import (
     BAND, FORCE, PYHARM_STEP_78, cpu_seconds, curve_distance, duffing, exact_accuracy, exact_amplitude, exact_folds, fmt_cpu_wall,

@@ -5,8 +5,8 @@ import time
 
 import numpy as np
 
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.stepped_sine import stepped_sine
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.stepped_sine import stepped_sine
 
 from benchmarks.frf.common import (
     DAMPING, FORCE, K3, MASS, STIFFNESS, BAND, N_GRID, PROJECT_MAX_STEP_283, PYHARM_STEP_78, PYHARM_STEP_FORMER,

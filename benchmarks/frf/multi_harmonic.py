@@ -7,11 +7,11 @@ from typing import Callable
 
 import numpy as np
 
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.time_integration import steady_state_response
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.response.time_integration import steady_state_response
 
 from benchmarks.frf.common import (
     FORCE, N_GRID, BAND, BRANCH, HB_GOAL, HB_HARMONICS, HB_REFERENCE_HARMONICS, HB_RESOLVED, HB_SAMPLES, HB_STEP,

@@ -1,4 +1,4 @@
-"""Part 4: the prediction step of the demo study (``nlupdate/data/demo.toml``).
+"""Part 4: the prediction step of the demo study (``src/nlupdate/data/demo.toml``).
 
 The demo's measured table and identification are computed once (not timed); then
 ``predict_model`` — the low-force loss-factor fit and the prediction at the ten force levels,
@@ -13,11 +13,11 @@ import threading
 import time
 from pathlib import Path
 
-from nlupdate.cli.demo import demo_study_text
+from nlupdate.app.cli.demo import demo_study_text
 from nlupdate.study.loading import study_from_text
 from nlupdate.study.steps import identification_step, measured_table, predict_model, prediction_adapter
-from nlupdate.adapters.registry import build_adapter
-from nlupdate.updating.evaluation import MemoisedEvaluator
+from nlupdate.fe.adapters.registry import build_adapter
+from nlupdate.core.updating.evaluation import MemoisedEvaluator
 
 from benchmarks.frf.common import fmt_cpu_wall, fmt_time, interleaved, load_average, print_table, timed
 

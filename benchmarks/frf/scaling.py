@@ -8,11 +8,11 @@ import numpy as np
 import scipy
 import scipy.sparse
 
-from nlupdate.model.elements import CubicStiffness, JenkinsFriction
-from nlupdate.model.linear import LumpedModel
-from nlupdate.model.system import NonlinearSystem
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
+from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
 
 from benchmarks.frf.common import (
     HB_SCALING_HARMONICS, Timing, fmt_cpu_wall, fmt_list, fmt_ms, fmt_time, interleaved, load_average, print_table, timed,

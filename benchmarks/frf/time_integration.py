@@ -6,10 +6,10 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from nlupdate.response.continuation import trace_frequency_response
-from nlupdate.response.fixed_point import fixed_point_response
-from nlupdate.response.stepped_sine import stepped_sine
-from nlupdate.response.time_integration import steady_state_response, time_sweep
+from nlupdate.core.response.continuation import trace_frequency_response
+from nlupdate.core.response.fixed_point import fixed_point_response
+from nlupdate.core.response.stepped_sine import stepped_sine
+from nlupdate.core.response.time_integration import steady_state_response, time_sweep
 
 from benchmarks.frf.common import (
     DAMPING, FORCE, K3, MASS, STIFFNESS, BAND, BRANCH, N_GRID, duffing, fmt_list, fmt_ms, fmt_ratio, fmt_time,

@@ -1,4 +1,0 @@
-"""How well a model matches measurements (docs/methods.md §7).
-
-* :mod:`~nlupdate.correlation.metrics` — FRAC, MAC, natural-frequency and peak errors.
-"""

@@ -1,0 +1,139 @@
+"""``nlupdate validate``: fit on some force levels, predict the others, compare with the baseline.
+
+Judges a model where it was not fitted (docs/methods.md §10). For each held-out level
+(--hold-out each: every level in turn; top: the highest, an extrapolation; or levels
+like 0.49,0.97) the model is fitted on the other levels of the driving-point curve and
+predicts the held-out curve over its measured band; its resonance frequency, half-power
+damping ratio and peak are compared with the measured ones and with the log-amplitude
+baseline (interpolation between the kept levels), each with a 95 % band (jackknife over
+the kept levels plus the test's repeatability, stated beside every error). Writes
+DIR/predicted_frf.parquet (the first model's curves in the measured-FRF table schema plus
+h_abs_low and h_abs_high; predicted_frf_<model>.parquet for the others), DIR/validation.json (held_out: one entry per level and model),
+DIR/held_out_<level>.png per level and DIR/validation.png (errors per level and model).
+"""
+from __future__ import annotations
+
+import argparse
+import re
+
+import numpy as np
+import pandas as pd
+
+from nlupdate.app.cli import CliError, add_command
+from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes
+from nlupdate.app.cli.output import add_overwrite_option, checked_output
+from nlupdate.app.cli.progress_bar import terminal_progress
+from nlupdate.files import atomic_directory
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
+from nlupdate.reporting.figures import save_figure
+from nlupdate.reporting.jsonfile import write_json
+from nlupdate.reporting.validation_plots import held_out_figure, summary_figure
+from nlupdate.core.validation.held_out import validate
+from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = add_command(subparsers, "validate", __doc__)
+    add_measured_options(parser, "the curves are cut to before any fit (default: every measured line)")
+    parser.add_argument("--input-dof", help="excited coordinate of the driving-point curve (default: the only one)")
+    parser.add_argument("--hold-out", default="each", metavar="LEVELS",
+                        help="each (default: every level in turn), top (the highest: extrapolation) or levels, "
+                             "comma-separated, in the reference unit")
+    parser.add_argument("--model", default="auto", metavar="NAMES",
+                        help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
+                             f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
+                             f"from each other best)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
+    add_overwrite_option(parser)
+    parser.set_defaults(run=run)
+
+
+def _models(text: str) -> list[str]:
+    """``--model`` split on commas; ``prd:`` element lists join their elements with ``+``."""
+    names = [name.strip().replace("+", ",") for name in text.split(",") if name.strip()]
+    if not names:
+        raise CliError("--model: name at least one model")
+    return names
+
+
+def _curve(table: pd.DataFrame, input_dof: str | None, sources: str) -> FRFLevels:
+    inputs = sorted(set(table["input_dof"].astype(str)))
+    input_dof = input_dof or (inputs[0] if len(inputs) == 1 else None)
+    if input_dof is None:
+        raise CliError(f"{sources}: the table has input dofs {inputs}; choose one with --input-dof")
+    if input_dof not in inputs:
+        raise CliError(f"--input-dof {input_dof}: {sources} has input_dof {', '.join(inputs)}")
+    if input_dof not in set(table["response_dof"].astype(str)):
+        raise CliError(f"{sources}: no driving-point FRF at {input_dof} (response_dof "
+                       f"{', '.join(sorted(set(table['response_dof'].astype(str))))}); validate needs it")
+    return FRFLevels.from_table(table, input_dof, input_dof)
+
+
+def predicted_table(results, data: FRFLevels) -> pd.DataFrame:
+    """One curve per held-out level of one model (a valid measured-FRF table), with its
+    95 % |H| band (``h_abs_low``, ``h_abs_high``)."""
+    tables = []
+    for result in results:
+        table = validate_frf_table(frf_table(result.frequency_hz, result.level, data.response_dof, data.input_dof,
+                                             result.predicted), source="the predicted curves")
+        tables.append(table.assign(reference_unit=data.reference_unit, h_abs_low=result.abs_low,
+                                   h_abs_high=result.abs_high))
+    return pd.concat(tables, ignore_index=True)
+
+
+def _slug(model: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "-", model).strip("-")
+
+
+def _plot_name(level: float, model: str, several: bool) -> str:
+    name = f"held_out_{level:g}" + (f"_{_slug(model)}" if several else "")
+    return name.replace(".", "p") + ".png"
+
+
+def run(args: argparse.Namespace) -> int:
+    out = checked_output(args.out, args.overwrite, folder=True)
+    models = _models(args.model)
+    table, notes = measured_table(args, find_band=True)
+    print_notes(notes)
+    data = _curve(table, args.input_dof, ", ".join(args.measured))
+    try:
+        with terminal_progress() as progress:
+            validation = validate(data, args.hold_out, models, progress=progress)
+    except ValueError as error:
+        raise CliError(str(error)) from None
+    unit = data.reference_unit
+    several = len(models) > 1
+    repeat = validation.repeatability
+    with atomic_directory(out, on_exists="replace") as archive:
+        folder = archive.path
+        for k, model in enumerate(models):  # auto's choice may differ per level: its rows together
+            rows = [r for r in validation.held_out if r.requested == model]
+            name = "predicted_frf.parquet" if k == 0 else f"predicted_frf_{_slug(model)}.parquet"
+            predicted_table(rows, data).to_parquet(folder / name, index=False)
+        write_json(validation.summary(), folder / "validation.json")
+        for result in validation.held_out:
+            save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))
+        save_figure(summary_figure(validation), folder / "validation.png")
+    print(f"test repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
+          f"{repeat.resonance_hz:.3g} Hz, damping ratio {100 * repeat.damping_ratio:.3g} % (points)")
+    print(f"{'level':>8} {'model':<22} {'resonance error (Hz)':>30} {'damping error (%)':>22} {'peak error (%)':>16} "
+          f"{'res/noise':>9}")
+    for r in validation.held_out:
+        c, b = r.compared, r.baseline
+        res, zeta, peak = c["resonance_hz"], c["damping_ratio"], c["peak_abs"]
+        inside = "" if res.inside is None else (" in band" if res.inside else " OUTSIDE band")
+        print(f"{r.level:>6g} {unit} {r.label:<22} {res.error:+8.3f} [{res.low - res.measured:+.2f}, "
+              f"{res.high - res.measured:+.2f}]{inside:>13} {100 * zeta.relative_error:+8.1f} "
+              f"(base {100 * b['damping_ratio'].relative_error:+6.1f}) {100 * peak.relative_error:+7.1f} "
+              f"{r.residual_to_noise:9.3g}")
+        print(f"{'':>8} {'baseline':<22} {b['resonance_hz'].error:+8.3f}")
+        if r.half_power_lines < 5:
+            print(f"{'':>8} note: the measured half-power band spans {r.half_power_lines} lines: its damping ratio "
+                  f"is poorly resolved")
+        if r.note:
+            print(f"{'':>8} note: {r.note}")
+    for level, choice in validation.choices.items():
+        print(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
+    print(f"wrote {out / 'validation.json'}, {out / 'predicted_frf.parquet'} and the plots")
+    return 0

@@ -1,0 +1,4 @@
+"""How well a model matches measurements (docs/methods.md §7).
+
+* :mod:`~nlupdate.core.correlation.metrics` — FRAC, MAC, natural-frequency and peak errors.
+"""

@@ -1,0 +1,444 @@
+"""Identify an amplitude-dependent modal model (:mod:`nlupdate.core.model.amplitude_modal`) of one mode.
+
+Two kinds of data give samples ``(a_i, ω_i, ζ_i)`` of the backbone and damping curve, with
+the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
+
+* a **modal table** (:mod:`nlupdate.core.measurement.modal_table`: natural frequency and damping
+  ratio of the mode per force level, as a phase-resonance or one-mode analysis gives them):
+  at phase resonance ``2ζω² a = |φ_f| F``, so ``a_i = |φ_f| F_i / (2ζ_i ω_i²)``;
+* **FRFs at several levels** (driving point or transfer): each level's resonance — the peak
+  of |H| after removing the other modes' share ``R − R_m/Ω²`` found by a one-mode fit of the
+  lowest level (:func:`~nlupdate.core.identification.modal_fit.fit_mode_near`) — gives one
+  sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
+  and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
+  r ≠ input f) has the modal constant ``P = φ_rφ_f``: its response amplitude becomes the
+  driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f
+  only P is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets the scale
+  of a, which no prediction of these FRFs depends on. The points off the peak
+  are not used: where a stiff joint changes the mode's shape between stuck and slipping,
+  single-mode theory holds at the resonance but not on the flanks (the bolted-beam example's
+  exact modal model misses its flanks by 21 % rms, its peaks by ≤ 1.1 %). Without a given
+  φ_f an Iwan fit fits φ_f with the backbone (the joint's damping is tied to its softening,
+  which fixes the scale of a); a polynomial one uses the lowest level's modal constant.
+
+The backbone is then fitted by weighted least squares of the relative errors of ω and ζ
+(standard deviations ``frequency_std`` and ``damping_std``, relative). The linear limit is
+held physical: the joint only softens, so f₀ lies at or above every sample (within
+3 ``frequency_std``), and no higher above the lowest-amplitude sample f_ref than the
+softening measured over all samples, ``f₀ ≤ f_ref(1 + max((f_max − f_min)/f_ref,
+3·frequency_std))`` — an Iwan joint fitted with χ → −1 (it would slip at any amplitude)
+otherwise puts f₀ anywhere above the data. A fit that ends on that bound, or with ζ₀ below
+1 % of the lowest sample's damping ratio (the joint then takes all the damping and the
+linear damping is not determined), gets a warning on the model.
+
+* ``polynomial`` of ``order`` (linear least squares for f₀, c_k and ζ₀, d_k);
+* ``iwan``: ω₀, ζ₀ and the modal joint (K_T < ω₀², F_S, χ, β), from several starts, with
+  viscous and with structural linear damping (the better fit is kept; the note says). As for
+  a PRD fit (:func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`), amplitudes
+  that stay below ``MACROSLIP_REACH × φ_max`` show only χ and R' of the joint; the fit is
+  then repeated with β = 0 and φ_max at the largest amplitude (the smallest joint that
+  keeps every sample in microslip) and the model's ``note`` says so.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.optimize
+import scipy.special
+from numpy.typing import NDArray
+
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
+from nlupdate.core.identification.modal_fit import fit_mode_near
+from nlupdate.core.measurement.modal_table import validate_modal_table
+from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
+from nlupdate.core.model.elements import IwanJoint
+
+
+@dataclass(frozen=True, eq=False)
+class ModalSamples:
+    """Samples of one mode's backbone: modal amplitude a (m·√kg), natural frequency (Hz),
+    damping ratio and the force level (N) each came from; ``input_shape`` φ_f (1/√kg).
+
+    From FRFs, ``response_amplitude`` holds the resonance amplitude x (m) at the excited
+    coordinate, so that a = x/φ_f and ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`),
+    and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
+    is φ_r/φ_f of the FRFs' response (1 at the driving point)."""
+
+    amplitude: NDArray[np.float64]
+    frequency_hz: NDArray[np.float64]
+    damping_ratio: NDArray[np.float64]
+    force_n: NDArray[np.float64]
+    input_shape: float
+    response_amplitude: NDArray[np.float64] | None = None
+    shape_free: bool = False
+    response_ratio: float = 1.0
+
+    def with_shape(self, input_shape: float) -> "ModalSamples":
+        """The same FRF samples for another φ_f (1/√kg)."""
+        if self.response_amplitude is None:
+            raise AmplitudeModelError("only samples from FRFs (with their response amplitudes) can change their shape")
+        phi, x, omega = abs(float(input_shape)), self.response_amplitude, 2 * np.pi * self.frequency_hz
+        return ModalSamples(x / phi, self.frequency_hz, phi**2 * self.force_n / (2 * omega**2 * x), self.force_n, phi,
+                            x, self.shape_free, self.response_ratio)
+
+
+def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int = 1,
+                             source: str = "<modal table>") -> ModalSamples:
+    """Backbone samples of ``mode`` from a modal table (phase resonance: module docstring)."""
+    clean = validate_modal_table(table, source)
+    rows = clean[clean["mode"] == int(mode)]
+    if len(rows) < 2:
+        raise AmplitudeModelError(f"{source}: mode {mode} appears at {len(rows)} force level(s); an amplitude-dependent "
+                                  "model needs two or more")
+    if not (np.isfinite(input_shape) and input_shape != 0):
+        raise AmplitudeModelError(f"input_shape: the mass-normalised mode shape at the excited coordinate (1/√kg, ≠ 0), "
+                                  f"got {input_shape}")
+    force = rows["force_level_n"].to_numpy(dtype=float)
+    frequency = rows["natural_frequency_hz"].to_numpy(dtype=float)
+    zeta = rows["damping_ratio"].to_numpy(dtype=float)
+    if np.any(zeta <= 0):
+        raise AmplitudeModelError(f"{source}: mode {mode} has a damping ratio of 0; the phase-resonance amplitude "
+                                  "|φ_f|F/(2ζω²) needs ζ > 0")
+    amplitude = abs(input_shape) * force / (2 * zeta * (2 * np.pi * frequency) ** 2)
+    return ModalSamples(amplitude, frequency, zeta, force, abs(float(input_shape)))
+
+
+def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
+                      band_fraction: float = 0.1) -> ModalSamples:
+    """One backbone sample per force level from FRFs at the driving point or a transfer
+    (module docstring): the resonance of each level (peak of |H| within ``band_fraction`` of
+    the lowest level's resonance near ``near_hz``, refined by a parabola), after removing the
+    other modes' share."""
+    f_low, h_low = data.frequencies[0], data.receptances[0]
+    start = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
+    fit = fit_mode_near(f_low, h_low, start, band_fraction=band_fraction)
+    centre = float(fit.natural_frequencies_hz[0])
+    driving = data.response_dof == data.input_dof
+    constant = complex(fit.modal_constants[0])
+    if not (constant.real > 0 if driving else constant.real != 0):
+        raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} FRF "
+                                  f"({data.response_dof}/{data.input_dof}) gives a modal constant {constant:.4g}"
+                                  + ("; give input_shape" if driving else ": no resonance of this mode to sample"))
+    shape_free = input_shape is None
+    if shape_free:
+        input_shape = float(np.sqrt(abs(constant.real)))
+    phi = abs(float(input_shape))
+    ratio = 1.0 if driving else constant.real / phi**2  # φ_r/φ_f
+    peak_hz, peak_x, forces = [], [], []
+    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
+        band = np.abs(f - centre) <= 2.5 * band_fraction * centre
+        fb = f[band]
+        hb = np.abs(h[band] - fit.residual_receptance(fb))
+        if fb.size < 3:
+            continue
+        i = int(np.clip(np.argmax(hb), 1, fb.size - 2))
+        y0, y1, y2 = hb[i - 1 : i + 2]
+        curvature = y0 - 2 * y1 + y2
+        shift = float(np.clip(0.5 * (y0 - y2) / curvature, -1, 1)) if curvature < 0 else 0.0
+        peak_hz.append(fb[i] + shift * 0.5 * (fb[i + 1] - fb[i - 1]))
+        peak_x.append((y1 - 0.25 * (y0 - y2) * shift) * float(level))
+        forces.append(float(level))
+    if len(forces) < 2:
+        raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
+    x, frequency, force = np.array(peak_x) / abs(ratio), np.array(peak_hz), np.array(forces)  # x at the driving point
+    omega = 2 * np.pi * frequency
+    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio)
+
+
+# ---------------------------------------------------------------------------------- fitting
+def _residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
+    omega, zeta = model_omega_zeta(samples.amplitude)
+    r_f = (omega / (2 * np.pi * samples.frequency_hz) - 1) / frequency_std
+    r_z = (zeta / samples.damping_ratio - 1) / damping_std
+    out = np.concatenate([r_f, r_z])
+    return np.where(np.isfinite(out), out, 1e6)
+
+
+def _constrained_lsq(design: NDArray, target: NDArray, weights: NDArray, constraints: NDArray,
+                     bounds: NDArray) -> NDArray:
+    """Coefficients c minimising ``Σ (w (design·c − target))²`` subject to
+    ``constraints·c ≥ bounds``: SLSQP on the problem scaled to order one (the unconstrained
+    solution's magnitudes, the misfit relative to the weighted target, the constraints in
+    units of the largest target)."""
+    matrix, rhs = design * weights[:, None], target * weights
+    start = np.linalg.lstsq(matrix, rhs, rcond=None)[0]
+    if np.all(constraints @ start >= bounds):
+        return start
+    unit = float(np.max(np.abs(target)))
+    scale = np.maximum(np.abs(start), 1e-6 * unit)
+    m, norm = matrix * scale[None, :], float(rhs @ rhs)
+    g, h = constraints * scale[None, :] / unit, bounds / unit
+    solution = scipy.optimize.minimize(
+        lambda u: float(np.sum((m @ u - rhs) ** 2)) / norm, start / scale,
+        jac=lambda u: 2 * (m.T @ (m @ u - rhs)) / norm, method="SLSQP",
+        constraints=[{"type": "ineq", "fun": lambda u: g @ u - h, "jac": lambda u: g}],
+        options={"maxiter": 1000, "ftol": 1e-15})
+    return solution.x * scale
+
+
+#: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
+_POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
+
+
+#: exponents p of u = (a/a_ref)^p the polynomial backbone and damping curve are each tried
+#: in (the best fit of each is kept)
+POLYNOMIAL_EXPONENTS = (1.0, 0.5)
+
+
+def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float, damping_std: float,
+                mode: int) -> AmplitudeModalModel:
+    """Weighted least squares of f and of ζ, each against ``(a/a_ref)^p`` for the p of
+    :data:`POLYNOMIAL_EXPONENTS` that fits it best, with the backbone monotone over the
+    fitted range in the direction the samples trend (between samples spread over decades of
+    a, a free polynomial in a swings hertz away from them), the linear limit inside
+    :func:`linear_limit_range` (mirrored for a stiffening backbone), and ζ ≥ 0 over the range."""
+    a_ref = float(np.max(samples.amplitude))
+    powers = np.arange(order + 1)
+    grid = _POLYNOMIAL_CHECKS[:, None]
+    checks = grid ** powers[None, :]
+    slope = np.where(powers[None, :] > 0, powers[None, :] * grid ** np.maximum(powers - 1, 0)[None, :], 0.0)
+    softening = np.polyfit(np.log(samples.amplitude), samples.frequency_hz, 1)[0] <= 0
+    low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
+    f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
+    first = np.eye(order + 1)[0]
+    if softening:  # f₀ within linear_limit_range, falling with a
+        limits = np.vstack([-slope, first, -first]), np.concatenate([np.zeros(len(slope)), [low, -high]])
+    else:  # a stiffening backbone, mirrored: f₀ at or below every sample, rising with a
+        top = float(samples.frequency_hz.min()) * (1 + 3 * frequency_std)
+        limits = np.vstack([slope, -first, first]), np.concatenate([np.zeros(len(slope)), [-top, 2 * f_ref - high]])
+    # f_i = f₀ + Σ f₀c_k u^k: linear in (f₀, f₀c_k), weights 1/(σ_f f_i); ζ likewise
+    wf = 1 / (frequency_std * samples.frequency_hz)
+    wz = 1 / (damping_std * samples.damping_ratio)
+
+    def best(target, weights, constraints):
+        fits = []
+        for exponent in POLYNOMIAL_EXPONENTS:
+            design = (samples.amplitude / a_ref)[:, None] ** (exponent * powers)[None, :]
+            c = _constrained_lsq(design, target, weights, *constraints)
+            fits.append((float(np.sum(((design @ c - target) * weights) ** 2)), exponent, c))
+        return min(fits, key=lambda fit: fit[0])
+
+    chi2_f, p_f, coefficients_f = best(samples.frequency_hz, wf, limits)
+    chi2_z, p_z, coefficients_z = best(samples.damping_ratio, wz, (checks, np.zeros(len(checks))))
+    f0, z0 = float(coefficients_f[0]), float(coefficients_z[0])
+    model = AmplitudeModalModel(f0, max(z0, 0.0), shapes, frequency_coefficients=tuple(coefficients_f[1:] / f0),
+                                damping_coefficients=tuple(coefficients_z[1:]), reference_amplitude=a_ref, mode=mode,
+                                frequency_exponent=p_f, damping_exponent=p_z,
+                                note=f"polynomial backbone of order {order} in (a/a_ref)^{p_f:g} and damping curve in "
+                                     f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for "
+                                     f"{samples.amplitude.size} values each), fitted to amplitudes up to a_ref = "
+                                     f"{a_ref:.4g} m·√kg and held at their values there beyond")
+    return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0))
+
+
+def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float,
+                          fitted_zeta: float | None = None) -> tuple[str, ...]:
+    """What is unphysical or undetermined about a fitted model's linear limit (module
+    docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0 or
+    below 1 % of the damping ratio of the lowest-amplitude sample."""
+    out = []
+    low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
+    f0 = model.natural_frequency_hz
+    f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
+    if f0 >= high - 1e-3 * (high - low):
+        out.append(f"the linear limit {f0:.5g} Hz sits at or above its physical bound {high:.5g} Hz (the lowest-amplitude "
+                   f"sample's {f_ref:.5g} Hz plus the softening measured over all samples): the samples do not show "
+                   f"the joint stuck at the lowest level, so they do not determine the linear limit; measure lower "
+                   f"levels")
+    elif f0 < low - 1e-3 * (high - low):
+        out.append(f"the linear limit {f0:.5g} Hz lies below the highest sample's frequency "
+                   f"{float(samples.frequency_hz.max()):.5g} Hz: the backbone stiffens, which a joint does not do")
+    zeta = model.damping_ratio if fitted_zeta is None else fitted_zeta
+    z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
+    if zeta < 0.01 * z_ref:
+        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is below 1 % of the damping measured at the lowest "
+                   f"level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data do not "
+                   f"determine the linear damping" + (" (kept at 0)" if zeta <= 0 else ""))
+    return tuple(out)
+
+
+def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[float, float]:
+    """(lowest, highest) linear limit ω₀ (rad/s) that is physical for these samples (module
+    docstring): at or above every sample, and above the lowest-amplitude one by no more than
+    the softening measured over all of them."""
+    f = samples.frequency_hz
+    f_ref = float(f[np.argmin(samples.amplitude)])
+    margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * frequency_std)
+    return 2 * np.pi * float(f.max()) * (1 - 3 * frequency_std), 2 * np.pi * f_ref * (1 + margin)
+
+
+def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
+    """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
+    logit(−χ) (χ ∈ (−1, 0)), log β (or fixed)."""
+    values = iter(theta)
+    w0 = float(np.exp(next(values)))
+    z0 = float(np.exp(next(values)))
+    kt = float(scipy.special.expit(next(values))) * w0**2
+    slip = None if "phi_max" in fixed else float(np.exp(next(values)))
+    chi = -float(np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9))
+    beta = fixed["beta"] if "beta" in fixed else float(np.exp(next(values)))
+    if slip is None:
+        slip = fixed["phi_max"] * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+    joint = IwanJoint((0,), slip_force=slip, kt=kt, chi=chi, beta=beta)
+    return AmplitudeModalModel(w0 / (2 * np.pi), z0, shapes, joint=joint, mode=mode, linear_damping=damping)
+
+
+def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
+          fixed: dict[str, float] | None = None) -> tuple[AmplitudeModalModel, float]:
+    """Best Iwan backbone over the starts; with ``samples.shape_free`` the shape φ_f (the last
+    unknown, as a log) is fitted too and the model's shapes carry it."""
+    fixed = fixed or {}
+    free_shape = samples.shape_free and samples.response_amplitude is not None
+    omega_range = linear_limit_range(samples, frequency_std)
+    if free_shape:
+        def unpack(t):
+            phi = float(np.exp(t[-1]))
+            scaled = ((shapes[0][0], phi),) + tuple((n, v * phi / shapes[0][1]) for n, v in shapes[1:])
+            return _iwan_model(t[:-1], scaled, fixed, mode, damping), samples.with_shape(phi)
+    else:
+        def unpack(t):
+            return _iwan_model(t, shapes, fixed, mode, damping), samples
+    z_low = float(samples.damping_ratio[np.argmin(samples.amplitude)])
+    a_max = float(np.max(samples.amplitude))
+    # log ω₀ is held in linear_limit_range by the trust region's own bounds: a logistic map
+    # onto that narrow range (1.5 Hz for a Jenkins SDOF at 81 Hz) made ω₀'s column ~300 × weaker
+    # than under log ω₀, the first step went into ζ₀ and φ_f instead (ζ₀ 0.0074 → 0.35), and the
+    # fit stalled at ζ₀ → 1 with φ_f 22.7 × the truth
+    log_range = np.log(omega_range)
+    inside = log_range + np.array([0.02, -0.02]) * (log_range[1] - log_range[0])
+    w0 = float(np.exp(np.clip(np.log(2 * np.pi * float(np.max(samples.frequency_hz)) * 1.001), *inside)))
+    best = None
+    for share in (0.05, 0.3):
+        # φ_max from a tenth of the largest amplitude (FRFs into gross slip: a Jenkins SDOF
+        # measured up to 0.08 N has it at 1.4 %) to four times it; one start where it is fixed
+        for reach in ((0.1, 1.0, 4.0) if "phi_max" not in fixed else (1.0,)):
+            for chi in (-0.3, -0.7):
+                for beta in ((0.1, 1.0) if "beta" not in fixed else (fixed["beta"],)):
+                    kt = share * w0**2
+                    phi_max = fixed.get("phi_max", reach * a_max)
+                    slip = phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+                    theta = [np.log(w0), np.log(max(min(z_low, 0.5), 1e-5)),
+                             scipy.special.logit(share)]
+                    if "phi_max" not in fixed:
+                        theta.append(np.log(slip))
+                    theta.append(scipy.special.logit(-chi))
+                    if "beta" not in fixed:
+                        theta.append(np.log(beta))
+                    if free_shape:
+                        theta.append(np.log(samples.input_shape))
+
+                    def residual(t):
+                        with np.errstate(all="ignore"):
+                            try:
+                                model, data = unpack(t)
+                            except (ValueError, OverflowError):
+                                return np.full(2 * samples.amplitude.size, 1e6)
+                            return _residual(model.omega_zeta, data, frequency_std, damping_std)
+
+                    lower, upper = np.full(len(theta), -np.inf), np.full(len(theta), np.inf)
+                    lower[0], upper[0] = log_range
+                    solution = scipy.optimize.least_squares(residual, np.array(theta), method="trf", max_nfev=400,
+                                                            bounds=(lower, upper))
+                    if best is None or solution.cost < best.cost:
+                        best = solution
+    return unpack(best.x)[0], float(2 * best.cost)
+
+
+#: how far (a factor either way) an Iwan fit's mode shape may stray from the lowest level's
+#: one-mode fit without a warning (the bolted-beam example: 2.79 against 2.63 1/√kg)
+SHAPE_RATIO_LIMIT = 1.5
+
+
+def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
+                        order: int = 2, frequency_std: float = 1e-3, damping_std: float = 0.05,
+                        mode: int = 1) -> AmplitudeModalModel:
+    """The amplitude-dependent model of ``backbone`` fitted to ``samples`` (module docstring).
+
+    ``shapes``: the mode's mass-normalised shape (1/√kg) at named coordinates, the excited
+    one included (its magnitude must be the samples' ``input_shape``)."""
+    if backbone not in BACKBONES:
+        raise AmplitudeModelError(f"backbone must be one of {list(BACKBONES)}, got {backbone!r}")
+    if frequency_std <= 0 or damping_std <= 0:
+        raise AmplitudeModelError("frequency_std and damping_std must be > 0 (relative standard deviations)")
+    shapes = tuple((str(n), float(v)) for n, v in shapes)
+    if backbone == "polynomial":
+        if not 1 <= int(order) < samples.amplitude.size:
+            raise AmplitudeModelError(f"polynomial order {order}: need 1 ≤ order < {samples.amplitude.size} samples")
+        return _polynomial(samples, shapes, int(order), frequency_std, damping_std, mode)
+    if samples.amplitude.size < 3:
+        raise AmplitudeModelError(f"an Iwan backbone needs at least 3 samples, got {samples.amplitude.size}")
+    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law), law) for law in LINEAR_DAMPING]
+    model, chi2, law = min(fits, key=lambda fit: fit[1])
+    fitted_shape = samples.shape_free and samples.response_amplitude is not None
+    stuck_shape = samples.input_shape  # the lowest level's one-mode fit (FRF samples)
+    if fitted_shape:  # the fitted φ_f sets the amplitudes of every sample from here on
+        samples = samples.with_shape(model.shapes[0][1])
+        samples = ModalSamples(samples.amplitude, samples.frequency_hz, samples.damping_ratio, samples.force_n,
+                               samples.input_shape, samples.response_amplitude, shape_free=False)
+        shapes = model.shapes
+    a_max = float(np.max(samples.amplitude))
+    n = 2 * samples.amplitude.size
+    if a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
+        reach = a_max / model.joint.phi_max
+        model, chi2 = _iwan(samples, shapes, frequency_std, damping_std, mode, law, {"beta": 0.0, "phi_max": a_max})
+        note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
+                f"the φ_max of a free fit; {MACROSLIP_REACH:g} × needed) or too few samples: the data determine chi "
+                f"and R' only; fixed beta = 0 and phi_max = the largest amplitude, so kt and slip_force are lower "
+                f"bounds")
+    else:
+        note = "modal Iwan backbone, all parameters fitted"
+    others = ", ".join(f"{other} {c:.3g}" for _, c, other in fits if other != law)
+    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values; {others})"
+    if fitted_shape:
+        note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
+                 f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
+    out = AmplitudeModalModel(model.natural_frequency_hz, model.damping_ratio, shapes, joint=model.joint, mode=mode,
+                              linear_damping=law, note=note)
+    warnings = linear_limit_warnings(out, samples, frequency_std)
+    ratio = shapes[0][1] / stuck_shape
+    if fitted_shape and not 1 / SHAPE_RATIO_LIMIT <= ratio <= SHAPE_RATIO_LIMIT:
+        warnings += (f"the mode shape the Iwan fit needs at the excited coordinate, {shapes[0][1]:.4g} 1/√kg, is "
+                     f"{ratio:.3g} × the lowest level's one-mode fit ({stuck_shape:.4g} 1/√kg; a joint that slips "
+                     f"changes it by a few per cent): the joint cannot tie this damping to this softening, so its "
+                     f"modal amplitudes and damping ratios are not the structure's; try the polynomial backbone",)
+    return replace(out, warnings=warnings)
+
+
+def amplitude_model_from_modal_table(table: pd.DataFrame, shapes: Sequence[tuple[str, float]], input_dof: str,
+                                     backbone: str = "iwan", mode: int = 1, order: int = 2,
+                                     source: str = "<modal table>") -> AmplitudeModalModel:
+    """Fit the model of ``mode`` to a modal table measured with the force at ``input_dof``."""
+    shapes = tuple((str(n), float(v)) for n, v in shapes)
+    names = [n for n, _ in shapes]
+    if str(input_dof) not in names:
+        raise AmplitudeModelError(f"input_dof {input_dof!r}: give the mode shape there too (shapes at {names})")
+    samples = samples_from_modal_table(table, dict(shapes)[str(input_dof)], mode, source)
+    return fit_amplitude_model(samples, shapes, backbone, order, mode=mode)
+
+
+def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_shape: float | None = None,
+                              order: int = 2, near_hz: float | None = None, mode: int = 1) -> AmplitudeModalModel:
+    """Fit the model of the mode near ``near_hz`` (default: the lowest level's peak) to
+    driving-point or transfer FRFs at several levels, one sample per level
+    (:func:`samples_from_frfs`); the model's shapes are at the input and, for a transfer, the
+    response.
+
+    Without ``input_shape`` an Iwan backbone fits the shape φ_f too; a polynomial one takes
+    the lowest level's one-mode fit, which is the *stuck* mode's shape — with a stiff joint it
+    differs from the shape the joint slips in (T-beam example: 2.63 against 2.79 1/√kg)."""
+    samples = samples_from_frfs(data, input_shape, near_hz)
+    shapes = ((data.input_dof, samples.input_shape),)
+    if data.response_dof != data.input_dof:
+        shapes += ((data.response_dof, samples.response_ratio * samples.input_shape),)
+    model = fit_amplitude_model(samples, shapes, backbone, order, frequency_std=1e-3, damping_std=0.05, mode=mode)
+    if data.response_dof == data.input_dof:
+        return model
+    split = ("the split taken equal, |φ_r| = |φ_f|, which sets the scale of the modal amplitude and of the joint's "
+             "F_S and φ_max, not any prediction of these FRFs" if samples.shape_free else
+             f"φ_f = {samples.input_shape:.4g} 1/√kg as given")
+    return replace(model, note=model.note + f"; from transfer FRFs ({data.response_dof}/{data.input_dof}), which fix only "
+                                            f"the product φ_rφ_f: {split}")

@@ -1,0 +1,78 @@
+"""Backbone samples from every measured line, not one per level (single-nonlinear-mode theory).
+
+Near a well-separated resonance a force-controlled stepped-sine line at excitation Ω with
+force F (the force achieved at that line) and receptance H at the driving point f obeys
+(docs/methods.md §9, :mod:`nlupdate.core.model.amplitude_modal`)
+
+    (ω(a)² − Ω² + 2iζ(a)ω(a)Ω)·q = φ_f F,     X_f = φ_f q,     a = |q|,
+
+after the other modes' share (the residual terms of a one-mode fit of the lowest level) is
+removed from H. With ``D = φ_f²/H_mode`` each line gives one point of the backbone and of
+the damping curve at its own amplitude:
+
+    ω(a)² = Re D + Ω²,     ζ(a) = Im D / (2ω(a)Ω),     a = |H_mode|·F/|φ_f|.
+
+The peak alone gives one point per level; the lines around it give the curves over the
+amplitudes each sweep passes through, so a few levels cover a decade of amplitude densely.
+A line far from resonance carries little: D is large there and its noise (a fraction of
+|D|) swamps ``Re D + Ω²``; only the lines where |H_mode| is at least :data:`PEAK_FRACTION`
+of the level's peak are used (the half-power band and a little beyond). φ_f comes from the
+one-mode fit of the lowest level, ``√Re A`` (the stuck mode's shape; a joint that slips
+changes it by a few per cent, which scales every amplitude alike).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_near
+from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+
+#: Lines whose modal |H| is below this fraction of their level's peak are left out.
+PEAK_FRACTION = 0.5
+
+
+def lowest_level_fit(data: FRFLevels) -> ModalFit:
+    """One-mode fit of the lowest level over its whole measured band (its peak at the centre
+    of the fit's band, the band as wide as the data)."""
+    f, h = data.frequencies[0], data.receptances[0]
+    near = float(f[int(np.argmax(np.abs(h)))])
+    fraction = min(0.9, max(near - f.min(), f.max() - near) / near * 1.0001)
+    return fit_mode_near(f, h, near, band_fraction=fraction)
+
+
+def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None) -> tuple[ModalSamples, ModalFit]:
+    """(one sample per usable line of every level, the one-mode fit that gave φ_f and the
+    residual terms) from driving-point FRFs (module docstring)."""
+    if data.response_dof != data.input_dof:
+        raise AmplitudeModelError(f"FRFs of response {data.response_dof!r} / input {data.input_dof!r}: line samples "
+                                  "need the driving-point FRF")
+    fit = fit or lowest_level_fit(data)
+    constant = complex(fit.modal_constants[0])
+    if not constant.real > 0:
+        raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} curve gives a "
+                                  f"modal constant {constant:.4g}: no driving-point resonance to take φ_f from")
+    phi = float(np.sqrt(constant.real))
+    amplitude, frequency, damping, force, response = [], [], [], [], []
+    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
+        modal = h - fit.residual_receptance(f)
+        near = np.abs(modal) >= PEAK_FRACTION * np.max(np.abs(modal))
+        omega = 2 * np.pi * f[near]
+        d = phi**2 / modal[near]
+        w_sq = d.real + omega**2
+        good = w_sq > 0
+        w = np.sqrt(np.where(good, w_sq, np.nan))
+        line_force = data.force_at(float(level), f[near])
+        amplitude.append((np.abs(modal[near]) * line_force / phi)[good])
+        frequency.append((w / (2 * np.pi))[good])
+        damping.append((d.imag / (2 * w * omega))[good])
+        force.append(line_force[good])
+        response.append((np.abs(modal[near]) * line_force)[good])
+    samples = ModalSamples(np.concatenate(amplitude), np.concatenate(frequency), np.concatenate(damping),
+                           np.concatenate(force), phi, np.concatenate(response), shape_free=False)
+    if samples.amplitude.size < 3 or not np.all(samples.damping_ratio > 0):
+        bad = int(np.count_nonzero(samples.damping_ratio <= 0))
+        raise AmplitudeModelError(f"{samples.amplitude.size} line samples, {bad} with zero or negative damping: "
+                                  f"the curves do not show one resonance of the driving point")
+    return samples, fit

@@ -1,0 +1,161 @@
+"""The two identification methods behind one interface: PRD (docs/methods.md §4) and DDF (§5).
+
+:func:`nlupdate.core.identification.pipeline.identify` runs the same steps for both — fit the
+nonlinearity, extract the linear FRF, locate its modes, Monte Carlo — and asks the
+method (:data:`METHODS`) only what differs: its settings' defaults, the fit, which level
+the linear FRF comes from, and its own part of ``identification.json``.
+"""
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
+from nlupdate.core.identification.dfmodels import PhysicalModel
+from nlupdate.core.identification.linear_frf import LinearExtraction, from_all_levels, from_low_force
+from nlupdate.core.identification.prd import DEFAULT_HALF_WINDOW, ESTIMATORS, PRDResult, identify_prd
+
+
+class Method(Protocol):
+    """What an identification method supplies (see the module docstring)."""
+
+    estimators: tuple[str, ...]
+    default_estimator: str
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(changes to the settings, the defaults to list) for its own settings."""
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult | DDFResult:
+        """The nonlinearity fit."""
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: Any) -> LinearExtraction:
+        """The extracted linear receptance."""
+
+    def summary(self, result: Any, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        """Its own part of ``identification.json``."""
+
+
+class PRD:
+    """Pseudo receptance difference at one excitation frequency."""
+
+    estimators = ESTIMATORS
+    default_estimator = "improved"
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        changes: dict[str, Any] = {}
+        listed: dict[str, Any] = {}
+        if settings.half_window is None:
+            changes["half_window"] = DEFAULT_HALF_WINDOW
+            if (settings.estimator or self.default_estimator) == "improved":
+                listed["half_window"] = DEFAULT_HALF_WINDOW
+        if settings.low_force_n is None and data.levels.size:
+            changes["low_force_n"] = listed["low_force_n"] = float(data.levels[0])
+        if settings.high_forces_n is None:
+            listed["high_forces_n"] = "all levels above the low force"
+        if settings.linear_from is None:
+            changes["linear_from"], listed["linear_from"] = self._linear_from(settings, data,
+                                                                              changes.get("low_force_n"))
+        return changes, listed
+
+    @staticmethod
+    def _linear_from(settings: Any, data: FRFLevels, default_low: float | None) -> tuple[str, str]:
+        """The default linear-FRF route and why: every level where physical elements give
+        the DF everywhere and the high levels are sweeps; else the low-force sweep (the
+        source's eq. 2.55). Single-frequency high levels (the source's own protocol) add a
+        line each, and the slip force they leave undetermined would decide how the
+        low-force sweep is corrected near its resonance."""
+        if settings.smoothing_window or settings.amplitude_dependent_delta:
+            return "low force", "low force (the source's eq. 2.55; smoothing or Δ(A) options given)"
+        if not settings.elements:
+            return "low force", "low force (the source's eq. 2.55; a polynomial DF is known only over its fitted " \
+                                "amplitudes)"
+        low = settings.low_force_n if settings.low_force_n is not None else default_low
+        highs = settings.high_forces_n if settings.high_forces_n is not None else \
+            tuple(float(level) for level in data.levels if low is not None and level > low)
+        sweeps = data.sweep_levels()
+        single = [level for level in highs if float(data.levels[data.level_index(level)]) not in sweeps]
+        if single:
+            return "low force", (f"low force (the source's eq. 2.55; {len(single)} high level(s) measured at single "
+                                 f"frequencies)")
+        return "all levels", "all levels (each line weighted by its noise; physical elements give the DF everywhere)"
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult:
+        return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
+                            high_forces=settings.high_forces_n, estimator=settings.estimator,
+                            half_window=settings.half_window)
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: PRDResult) -> LinearExtraction:
+        if settings.linear_from == "all levels":
+            return from_all_levels(data, result.df_for_force)
+        level = result.setup.low_force
+        f, h = data.curve(level)
+        return from_low_force(data, level, result.extract_linear_frf(
+            f, h, data.force_at(level, f), amplitude_dependent=settings.amplitude_dependent_delta,
+            smoothing_window=settings.smoothing_window))
+
+    def summary(self, result: PRDResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        prd_real, prd_imag = result.prd_polynomial(order)
+        delta = result.delta_f1
+        out = {
+            "excitation_frequency_hz": result.setup.frequency_hz,
+            "low_force_n": result.setup.low_force,
+            "high_forces_n": list(result.setup.high_forces),
+            "describing_function": {
+                "real": real, "imag": imag, "amplitude_range_m": list(result.amplitude_range),
+                "definition": "high-force DF nu(|X|) in N/m, first-harmonic force = nu*X at the response dof; "
+                              "1/H = 1/H_linear + nu; coefficients highest order first (m -> N/m)",
+            },
+            "prd_fit": {"real": prd_real, "imag": prd_imag,
+                        "definition": "y(|X|) = 1/H_i - 1/H_1 fitted against |X_i| = |H_i| F_i; y(0) = -delta_f1"},
+            "delta_f1": {"real": delta.real, "imag": delta.imag,
+                         "definition": "DF at the low-force amplitude (stuck friction: kf); "
+                                       "1/H_linear = 1/H_1 - delta_f1"},
+            "linear_extraction": (
+                {"from": "all levels", "definition": "1/H_linear = weighted mean over the levels of 1/H_L - nu(|X_L|), "
+                 "weights the inverse noise variance of each term"}
+                if settings.linear_from == "all levels" else
+                {"from": "low force", "delta_f1": "amplitude dependent" if settings.amplitude_dependent_delta else "constant",
+                 "smoothing_window_points": settings.smoothing_window}),
+        }
+        if result.extras:
+            out["estimator_details"] = dict(result.extras, noise_fraction_from_fit=result.noise_fraction)
+        return out
+
+
+class DDF:
+    """Direct describing function from two force levels over many frequencies."""
+
+    estimators = DDF_ESTIMATORS
+    default_estimator = "naive"
+
+    def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
+        sweeps = data.sweep_levels()  # default pair: the lowest and the highest sweep
+        if settings.force_pair_n is not None or len(sweeps) < 2:
+            return {}, {}
+        pair = (sweeps[0], sweeps[-1])
+        return {"force_pair_n": pair}, {"force_pair_n": list(pair)}
+
+    def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> DDFResult:
+        return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,
+                            physical=model if isinstance(model, PhysicalModel) else None, estimator=settings.estimator)
+
+    def linear_frf(self, data: FRFLevels, settings: Any, result: DDFResult) -> LinearExtraction:
+        level = result.setup.linear_level
+        f, h = data.curve(level)
+        return from_low_force(data, level, result.extract_linear_frf(f, h, data.force_at(level, f)))
+
+    def summary(self, result: DDFResult, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
+        return {
+            "excitation_frequency_hz": None,
+            "force_pair_n": list(result.setup.force_pair),
+            "band_hz": list(result.setup.band_hz),
+            "describing_function": {
+                "real": real, "imag": imag, "amplitude_range_m": list(result.amplitude_range),
+                "definition": "DF Delta(|X|) in N/m (no constant term), first-harmonic force = Delta*X; "
+                              "coefficients highest order first (m -> N/m)",
+            },
+        }
+
+
+#: The methods by name.
+METHODS: dict[str, Method] = {"prd": PRD(), "ddf": DDF()}

@@ -1,0 +1,525 @@
+"""The identification step of the chain as one call: :func:`identify`.
+
+From the measured curves of one (response, input) pair at several force levels
+(:class:`~nlupdate.core.identification.data.FRFLevels`) it
+
+1. chooses the PRD excitation frequency (given, or :func:`recommend_frequency`);
+2. fits the nonlinearity (PRD or DDF; physical elements or a polynomial DF);
+3. extracts the linear FRF (:mod:`nlupdate.core.identification.linear_frf`): with physical
+   elements from every level, each line weighted by its noise; with a polynomial DF from
+   the low-force sweep (PRD) or the lower DDF level;
+4. locates the linear modes of the extracted FRF (one-mode fits around each resonance,
+   :func:`~nlupdate.core.identification.linear_frf.locate_linear_modes`): their natural
+   frequencies are the updating targets, their loss factors the linear damping;
+5. estimates the uncertainty of everything above by Monte Carlo over the noise model
+   (:mod:`nlupdate.core.identification.uncertainty`): each sample re-identifies at the chosen
+   frequency, re-extracts the linear FRF from its own perturbed curves and re-fits the
+   modes, so the natural frequencies carry the uncertainty of the fitted DF *and* of the
+   measurement noise, ready to be propagated into updated parameters; the fitted curve
+   (over :func:`fit_amplitude_grid`) and the extracted linear FRF get a 95 % band from the
+   same samples (:attr:`Identification.fit_band`, :attr:`Identification.linear_frf_band`);
+6. checks that the linear FRF each level gives is the same at every level, within the
+   noise (physical elements; :mod:`nlupdate.core.identification.consistency`): when it is not,
+   the identified model does not describe the structure at the measured coordinate and
+   the result is marked not trustworthy (:attr:`Identification.trustworthy`).
+
+Every option left out is filled by a default, listed in ``defaults_used``. The result,
+:class:`Identification`, is plain data (picklable) and :meth:`Identification.summary`
+is the content of ``identification.json``. Conventions: SI units, Hz at interfaces.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from nlupdate.core.identification.data import MIN_SWEEP_LINES, FRFLevels
+from nlupdate.core.identification.ddf import DDFResult
+from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
+from nlupdate.core.identification.frequency import FrequencyChoice, recommend_frequency
+from nlupdate.core.identification.consistency import LevelConsistency, level_consistency
+from nlupdate.core.identification.linear_frf import LINEAR_FROM, LinearExtraction, level_terms, locate_linear_modes
+from nlupdate.core.identification.modal_fit import ModalFit
+from nlupdate.core.identification.methods import METHODS
+from nlupdate.core.identification.prd import IdentificationError, PRDResult
+from nlupdate.core.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
+from nlupdate.core.identification.trust import (
+    TrustWarning, consistency_warnings, excitation_warnings, identification_warnings, sign_warnings,
+)
+from nlupdate.core.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
+from nlupdate.core.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
+from nlupdate.core.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
+from nlupdate.core.measurement.noise import estimate_noise_fraction
+from nlupdate.progress import ProgressCallback, no_progress
+
+
+
+#: The most Monte-Carlo samples (each repeats the whole identification; more would take days).
+MAX_MONTE_CARLO_SAMPLES = 100_000
+
+
+@dataclass(frozen=True)
+class IdentificationSettings:
+    """What to identify and how. ``None`` means "choose a default" (see ``defaults_used``).
+
+    response_dof, input_dof: the measured curve (the nonlinearity acts at the response
+        coordinate, to ground). method: ``prd`` or ``ddf``.
+    elements: physical elements to fit (``cubic``, ``jenkins``, ``coulomb``,
+        ``quadratic_damping``, ``gap``); empty: a polynomial DF of ``order``
+        (``imag_order``; ``complex_delta_f1``: PRD's Δ_f1 = −y(0) complex).
+    estimator: PRD ``improved``/``naive`` (default improved), DDF ``naive``/``weighted``
+        (default naive). half_window: improved PRD, relative half-width of its window
+        (default 0.01).
+    frequency_hz: PRD excitation frequency (default: recommended). low_force_n,
+        high_forces_n: PRD levels (default: lowest; all others).
+    force_pair_n: DDF levels (default: lowest and highest).
+    band_hz: the band (Hz) every step uses, for every method (default: the excited band,
+        :func:`nlupdate.core.measurement.band.excited_band` on the lowest level — where the
+        coherence is at least ``coherence_threshold``, or, without coherence, where the
+        FRF is smooth). coherence_threshold: lines with a lower coherence are left out
+        (default 0.8 when the data carry coherence).
+    linear_from: PRD, where the linear FRF comes from: ``all levels`` (every level, line
+        by line, weighted by its noise: :mod:`nlupdate.core.identification.linear_frf`;
+        default for physical elements) or ``low force`` (the source's eq. 2.55; default
+        for a polynomial DF). smoothing_window, amplitude_dependent_delta: options of
+        the ``low force`` route.
+    noise_fraction: noise std / |H| (default: estimated from the lowest-force sweep).
+    samples, seed: Monte-Carlo samples and seed.
+    linear_modes_hz: approximate natural frequencies (Hz) of the linear modes to fit in
+        the extracted FRF (default: every resonance of it); modal_band_fraction: half-width
+        of each one-mode fit, relative.
+    """
+
+    response_dof: str
+    input_dof: str
+    method: str = "prd"
+    elements: tuple[str, ...] = ()
+    order: int | None = None
+    imag_order: int | None = None
+    complex_delta_f1: bool = False
+    estimator: str | None = None
+    half_window: float | None = None
+    frequency_hz: float | None = None
+    low_force_n: float | None = None
+    high_forces_n: tuple[float, ...] | None = None
+    force_pair_n: tuple[float, float] | None = None
+    band_hz: tuple[float, float] | None = None
+    linear_from: str | None = None
+    smoothing_window: int = 0
+    amplitude_dependent_delta: bool = False
+    noise_fraction: float | None = None
+    samples: int = 200
+    seed: int = 0
+    linear_modes_hz: tuple[float, ...] | None = None
+    modal_band_fraction: float = 0.1
+    coherence_threshold: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"identification method must be one of {list(METHODS)}, got {self.method!r}")
+        method = METHODS[self.method]
+        if self.estimator is not None and self.estimator not in method.estimators:
+            raise ValueError(f"estimator {self.estimator!r}: {self.method.upper()} estimators are "
+                             f"{', '.join(method.estimators)}")
+        if not 2 <= self.samples <= MAX_MONTE_CARLO_SAMPLES:
+            raise ValueError(f"Monte-Carlo samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES}, got {self.samples}")
+        if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
+            raise ValueError(f"noise_fraction must be a number ≥ 0 (std / |H|), got {self.noise_fraction}")
+        if self.band_hz is not None:
+            low, high = (float(v) for v in self.band_hz)
+            if not (np.isfinite(low) and np.isfinite(high) and 0 <= low < high):
+                raise ValueError(f"band_hz {list(self.band_hz)}: expected LOW < HIGH, both ≥ 0 Hz")
+        if self.coherence_threshold is not None and not 0 <= self.coherence_threshold <= 1:
+            raise ValueError(f"coherence_threshold must be between 0 and 1, got {self.coherence_threshold}")
+        if self.linear_from is not None and self.linear_from not in LINEAR_FROM:
+            raise ValueError(f"linear_from must be one of {list(LINEAR_FROM)}, got {self.linear_from!r}")
+        if self.method == "prd":
+            if self.force_pair_n is not None:
+                raise ValueError("force_pair_n applies to the DDF method")
+            if self.linear_from == "all levels" and not self.elements:
+                raise ValueError("linear_from = 'all levels' needs physical elements (a polynomial DF is known only "
+                                 "over the amplitudes it was fitted to); use 'low force'")
+            if self.linear_from == "all levels" and (self.smoothing_window or self.amplitude_dependent_delta):
+                raise ValueError("smoothing_window and amplitude_dependent_delta apply to linear_from = 'low force'")
+        else:
+            prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
+                        "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
+                        "amplitude_dependent_delta": self.amplitude_dependent_delta or None,
+                        "linear_from": self.linear_from,
+                        "half_window": self.half_window}
+            given = [name for name, value in prd_only.items() if value is not None]
+            if given:
+                raise ValueError(f"{', '.join(given)} apply to the PRD method")
+        parse_elements(self.elements)  # unknown element names fail here
+        if not 0 < self.modal_band_fraction < 0.5:
+            raise ValueError(f"modal_band_fraction must be in (0, 0.5), got {self.modal_band_fraction}")
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """Outcome of :func:`identify` (SI units, Hz).
+
+    settings: as given; defaults_used: every default chosen, with its value.
+    result: the PRD/DDF fit (:class:`~nlupdate.core.identification.prd.PRDResult` or
+    :class:`~nlupdate.core.identification.ddf.DDFResult`). frequency_choice: how the PRD
+    frequency was chosen (None when given, and for DDF). linear_frequency_hz,
+    linear_frf: the extracted linear receptance (m/N) on the grid of the lowest level it
+    came from (``linear_from_level_n``, the measured curve drawn beside it);
+    linear_from_levels_n: every level it came from. modes: one-mode fits of the
+    extracted FRF, ascending.
+    uncertainty: Monte-Carlo statistics of the parameters and of ``linear_f<i>_hz``
+    (natural frequency of mode i, 1-based) and ``linear_eta<i>`` (its loss factor).
+    noise_fraction, noise_source: the noise level used and where it came from.
+    warnings: reasons not to trust parts of the result (:mod:`nlupdate.core.identification.trust`).
+    level_consistency: is the linear FRF each level gives the same at every level
+    (:mod:`nlupdate.core.identification.consistency`)? None when not checked (a polynomial DF
+    is known only over its fitted amplitudes; fewer than two levels per line).
+    """
+
+    settings: IdentificationSettings
+    defaults_used: dict[str, Any]
+    result: PRDResult | DDFResult
+    frequency_choice: FrequencyChoice | None
+    linear_from_level_n: float
+    linear_frequency_hz: NDArray[np.float64]
+    linear_frf: NDArray[np.complex128]
+    modes: tuple[ModalFit, ...]
+    uncertainty: Uncertainty
+    noise_fraction: float
+    noise_source: str
+    model_description: str = field(default="")
+    band_hz: tuple[float, float] | None = None
+    band_reason: str = ""
+    reference_unit: str = "N"
+    excitation: str = "unknown"
+    lines_below_coherence: int = 0
+    linear_from_levels_n: tuple[float, ...] = ()
+    level_consistency: LevelConsistency | None = None
+
+    @property
+    def trustworthy(self) -> bool:
+        """False when the levels' linear FRFs disagree beyond their noise: the identified
+        model does not describe the structure at the measured coordinate."""
+        return self.level_consistency is None or self.level_consistency.passed
+
+    @property
+    def linear_source(self) -> str:
+        """Where the extracted linear FRF came from, in words."""
+        unit = self.reference_unit
+        levels = self.linear_from_levels_n or (self.linear_from_level_n,)
+        if len(levels) == 1:
+            return f"the {levels[0]:g} {unit} sweep"
+        return (f"all {len(levels)} levels ({min(levels):g}–{max(levels):g} {unit}), each line weighted by the noise "
+                f"of 1/H − ν(|X|) at that level")
+
+    @property
+    def fit_band(self) -> CurveBand | None:
+        """95 % Monte-Carlo band of the fitted curve ``result.fitted_y`` (N/m) over the
+        amplitudes (m) of :func:`fit_amplitude_grid`; None for results made without it."""
+        return self.uncertainty.curves.get("fit")
+
+    @property
+    def linear_frf_band(self) -> CurveBand | None:
+        """95 % Monte-Carlo band of the extracted linear receptance (m/N) over
+        ``linear_frequency_hz``; None for results made without it."""
+        return self.uncertainty.curves.get("linear_frf")
+
+    @property
+    def natural_frequencies_hz(self) -> NDArray[np.float64]:
+        """Natural frequencies (Hz) of the linear modes of the extracted FRF."""
+        return np.array([float(m.natural_frequencies_hz[0]) for m in self.modes])
+
+    @property
+    def natural_frequency_std_hz(self) -> NDArray[np.float64]:
+        """Monte-Carlo standard deviation (Hz) of each natural frequency."""
+        return np.array([self.uncertainty.parameters[f"linear_f{i + 1}_hz"].std for i in range(len(self.modes))])
+
+    @property
+    def loss_factors(self) -> NDArray[np.float64]:
+        """Loss factors of the linear modes of the extracted FRF."""
+        return np.array([float(m.loss_factors[0]) for m in self.modes])
+
+    def modal_receptance(self, frequency_hz: NDArray) -> NDArray[np.complex128]:
+        """The fitted modes' receptance (m/N) over their fit bands, NaN elsewhere."""
+        f = np.asarray(frequency_hz, dtype=float)
+        out = np.full(f.shape, np.nan + 0j)
+        fraction = self.settings.modal_band_fraction
+        for mode in self.modes:
+            natural = float(mode.natural_frequencies_hz[0])
+            band = np.abs(f - natural) <= fraction * natural
+            out[band] = mode.receptance(f[band])
+        return out
+
+    @property
+    def residual_noise_fraction(self) -> float | None:
+        """The noise level (std / |H|) implied by the fit's residuals; about
+        ``noise_fraction`` when the model fits (None when the fit has no spare degrees of
+        freedom)."""
+        return getattr(self.result, "residual_noise_fraction", None)
+
+    @property
+    def warnings(self) -> tuple[TrustWarning, ...]:
+        """Parameters on a bound or not determined by the data, a residual far above the
+        noise (:func:`nlupdate.core.identification.trust.identification_warnings`), a parameter
+        that must be positive and is not, data that are not stepped-sine FRFs; empty when
+        nothing is suspicious."""
+        return consistency_warnings(self.level_consistency, self.settings.response_dof) + \
+            identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
+            excitation_warnings(self.excitation, self.settings.method)
+
+    def parameters(self) -> dict[str, float]:
+        """Identified nonlinearity parameters (SI) by name."""
+        return self.result.parameters()
+
+    def elements(self, dofs: tuple[int, ...]) -> list:
+        """Forward-model elements at model coordinate(s) ``dofs``."""
+        return self.result.elements(dofs)
+
+    def misfit_in_noise_units(self) -> NDArray[np.float64]:
+        """Each PRD/DDF point's misfit over the noise it carries — about 1 where the model
+        fits (:func:`nlupdate.core.identification.summary.residual_in_noise_units`)."""
+        return residual_in_noise_units(self.result, self.noise_fraction)
+
+    def linear_frf_table(self) -> pd.DataFrame:
+        """The extracted linear FRF as a measured-FRF table (``force_level_n = 0``)."""
+        return linear_frf_table(self.linear_frequency_hz, self.linear_frf, self.settings.response_dof,
+                                self.settings.input_dof)
+
+    def summary(self) -> dict[str, Any]:
+        """The ``identification.json`` content (:func:`nlupdate.core.identification.summary.identification_summary`)."""
+        return identification_summary(self)
+
+    def __repr__(self) -> str:
+        """One line: method, curve, parameters ± Monte-Carlo std, linear modes, warnings
+        (``summary()`` holds the whole record)."""
+        stats = self.uncertainty.parameters
+        values = ", ".join(f"{name} = {value:.4g}" + (f" ± {stats[name].std:.2g}" if name in stats and
+                                                      np.isfinite(stats[name].std) else "")
+                           for name, value in self.parameters().items())
+        modes = ", ".join(f"{f:.2f}" for f in self.natural_frequencies_hz)
+        return (f"<Identification {self.settings.method.upper()} at {self.settings.response_dof}/"
+                f"{self.settings.input_dof}: {values or 'no parameters'}; linear modes {modes or '–'} Hz; "
+                f"{len(self.warnings)} warning(s)>")
+
+
+# ------------------------------------------------------------------------------------ steps
+def _resolved(settings: IdentificationSettings, data: FRFLevels) -> tuple[IdentificationSettings, dict[str, Any]]:
+    """Settings with every default filled in, and the defaults that were used."""
+    method = METHODS[settings.method]
+    defaults: dict[str, Any] = {}
+    changes: dict[str, Any] = {}
+    if settings.order is None:
+        changes["order"] = defaults["order"] = 2
+    if settings.estimator is None:
+        changes["estimator"] = defaults["estimator"] = method.default_estimator
+    own_changes, own_defaults = method.defaults(dataclasses.replace(settings, **changes), data)
+    return dataclasses.replace(settings, **changes, **own_changes), {**defaults, **own_defaults}
+
+
+def _model(settings: IdentificationSettings) -> PhysicalModel | PolynomialModel:
+    physical = parse_elements(settings.elements)
+    return physical or PolynomialModel.of_order(settings.order, settings.imag_order, settings.complex_delta_f1)
+
+
+def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None,
+         model: PhysicalModel | PolynomialModel | None = None) -> PRDResult | DDFResult:
+    """The nonlinearity fit alone (also each Monte-Carlo sample's, given the point estimate's
+    ``model``); an Iwan joint no level drives into macroslip is refitted with what the data
+    cannot show fixed (:func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`). A
+    sample given such a refit model fits it at once, its φ_max moved to the sample's own
+    largest amplitude — the refit its free fit would have led to; that free fit runs into
+    the directions the data do not show (1000 evaluations, 1.8 s on the BRB) to be thrown
+    away."""
+    def fit(model):
+        return METHODS[settings.method].fit(data, settings, frequency_hz, model)
+
+    result = fit(model or _model(settings))
+    refit = iwan_identifiability(getattr(result, "physical", None) or getattr(result, "model", None), result.p,
+                                 float(np.max(result.amplitude)))
+    return result if refit is None else fit(refit)
+
+
+def _linear_frf(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult) -> LinearExtraction:
+    return METHODS[settings.method].linear_frf(data, settings, result)
+
+
+def fit_amplitude_grid(result: PRDResult | DDFResult) -> NDArray[np.float64]:
+    """Amplitudes (m) to draw a fitted curve and its band over: from 0 (PRD: y(0) = −Δ_f1)
+    or half the smallest fitted amplitude (DDF) to 1.1 × the largest, denser towards 0
+    (down to a tenth of the smallest fitted amplitude, for a log axis) where friction's
+    describing function turns fastest. Outside ``result.amplitude_range``
+    the curve is an extrapolation."""
+    low, high = result.amplitude_range
+    if result.method == "prd":
+        grid = np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(min(1e-3 * high, 0.1 * low), low, 120)])
+    else:
+        grid = np.linspace(0.5 * low, 1.1 * high, 301)
+    return np.unique(np.concatenate([grid, [low, high]]))
+
+
+def _sample_values(
+    data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None, modes_hz: tuple[float, ...],
+    amplitude_grid: NDArray | None = None, model: PhysicalModel | PolynomialModel | None = None,
+) -> dict[str, Any]:
+    """One Monte-Carlo sample: the parameters and the linear modes of perturbed data, its
+    extracted linear FRF (``linear_frf``) and, given ``amplitude_grid``, its fitted curve
+    over it (``fit``); ``model``: the point estimate's (:func:`_fit`)."""
+    result = _fit(data, settings, frequency_hz, model)
+    values: dict[str, Any] = dict(result.parameters())
+    linear = _linear_frf(data, settings, result)
+    values["linear_frf"] = linear.receptance
+    if amplitude_grid is not None:
+        values["fit"] = result.fitted_y(amplitude_grid)
+    for i, fit in enumerate(locate_linear_modes(linear.frequency_hz, linear.receptance, linear.inverse_noise, modes_hz,
+                                                settings.modal_band_fraction)):
+        values[f"linear_f{i + 1}_hz"] = float(fit.natural_frequencies_hz[0])
+        values[f"linear_eta{i + 1}"] = float(fit.loss_factors[0])
+    return values
+
+
+def identify(data: FRFLevels, settings: IdentificationSettings, progress: ProgressCallback = no_progress) -> Identification:
+    """Run the identification step (module docstring) on measured curves ``data``;
+    ``progress`` hears the Monte-Carlo samples as they finish."""
+    if (data.response_dof, data.input_dof) != (str(settings.response_dof), str(settings.input_dof)):
+        raise ValueError(
+            f"the data are response {data.response_dof!r} / input {data.input_dof!r}, the settings ask for "
+            f"{settings.response_dof!r} / {settings.input_dof!r}"
+        )
+    data, settings, defaults, band = prepared_data(data, settings)
+    lines_masked = int(sum(f.size for f in data.frequencies))
+    data = data.coherent(settings.coherence_threshold) if settings.coherence_threshold is not None else data
+    lines_masked -= int(sum(f.size for f in data.frequencies))
+    resolved, more = _resolved(settings, data)
+    settings, defaults = resolved, {**defaults, **more}
+    _check_levels(data, settings)
+    choice = None
+    frequency = settings.frequency_hz
+    if settings.method == "prd" and frequency is None:
+        choice = recommend_frequency(data, _model(settings), low_force=settings.low_force_n,
+                                     high_forces=settings.high_forces_n, estimator=settings.estimator,
+                                     half_window=settings.half_window)
+        frequency = choice.frequency_hz
+        defaults["frequency_hz"] = f"{frequency:g} ({choice.reason}; visited {list(choice.visited_hz)} Hz)"
+    result = _fit(data, settings, frequency)
+    if settings.method == "ddf" and settings.band_hz is None:
+        defaults["band_hz"] = list(result.setup.band_hz)
+    linear = _linear_frf(data, settings, result)
+    f_linear, h_linear = linear.frequency_hz, linear.receptance
+    modes = locate_linear_modes(f_linear, h_linear, linear.inverse_noise, settings.linear_modes_hz,
+                                settings.modal_band_fraction)
+
+    k = data.level_index(data.sweep_levels()[0])  # the noise of the lowest sweep
+    if settings.noise_fraction is not None:
+        noise, source = float(settings.noise_fraction), "given"
+    elif data.h_stds is not None:
+        noise = noise_fraction_from_std(data.receptances[k], data.h_stds[k])
+        source = f"the stated standard deviations (h_std) of the {data.levels[k]:g} {data.reference_unit} curve"
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
+    elif data.coherences is not None and data.averages is not None:
+        noise = noise_fraction_from_coherence(data.coherences[k], data.averages[k])
+        source = (f"coherence and averages of the {data.levels[k]:g} {data.reference_unit} curve "
+                  f"(H1 random error, Bendat & Piersol)")
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
+    else:
+        f_low, h_low = data.curve(data.levels[k])
+        try:
+            noise = estimate_noise_fraction(f_low, h_low)
+            source = f"estimated from the {data.levels[k]:g} {data.reference_unit} sweep (local quadratic fits of 1/H)"
+        except ValueError as error:
+            if getattr(result, "noise_fraction", None) is None:
+                raise IdentificationError(f"cannot estimate the noise level ({error}); give noise_fraction") from None
+            noise, source = float(result.noise_fraction), "estimated from the residuals of the fit"
+        defaults["noise_fraction"] = f"{noise:.4g} ({source})"
+
+    modes_hz = tuple(float(m.natural_frequencies_hz[0]) for m in modes)
+    point = dict(result.parameters())
+    for i, m in enumerate(modes):
+        point[f"linear_f{i + 1}_hz"] = float(m.natural_frequencies_hz[0])
+        point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
+    grid = fit_amplitude_grid(result)
+    estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz,
+                                 amplitude_grid=grid,
+                                 model=getattr(result, "physical", None) or getattr(result, "model", None))
+    uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress,
+                              curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)})
+    consistency = level_consistency(level_terms(data, result.df_for_force), noise) if settings.elements else None
+    model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
+    description = model.description() if model is not None else (
+        f"DDF polynomial Δ(x) = Σ c_k x^k, k = 1..{result.setup.order}")
+    return Identification(
+        settings=settings, defaults_used=defaults, result=result, frequency_choice=choice,
+        linear_from_level_n=linear.reference_level_n, linear_from_levels_n=linear.levels_n,
+        linear_frequency_hz=f_linear, linear_frf=h_linear, modes=modes, uncertainty=uncertainty,
+        noise_fraction=noise, noise_source=source, model_description=description,
+        band_hz=band.hz, band_reason=band.reason, reference_unit=data.reference_unit, excitation=data.excitation,
+        lines_below_coherence=lines_masked, level_consistency=consistency,
+    )
+
+
+def prepared_data(data: FRFLevels, settings: IdentificationSettings):
+    """(data within the band, settings with the band and coherence threshold filled in,
+    the defaults chosen, the :class:`~nlupdate.core.measurement.band.Band`). The band comes
+    from the settings or from the lowest swept level's excited band; every later step (the
+    excitation frequency, the fits, the linear FRF and its modes) sees only it."""
+    defaults: dict[str, Any] = {}
+    changes: dict[str, Any] = {}
+    if settings.coherence_threshold is None and data.coherences is not None:
+        changes["coherence_threshold"] = defaults["coherence_threshold"] = COHERENCE_THRESHOLD
+    threshold = changes.get("coherence_threshold", settings.coherence_threshold)
+    if settings.band_hz is not None:
+        band = Band(float(settings.band_hz[0]), float(settings.band_hz[1]), "given")
+    else:
+        sweeps = data.sweep_levels()
+        if not sweeps:
+            most = max(f.size for f in data.frequencies)
+            raise IdentificationError(f"no level is a sweep: the most lines a level has is {most}, a sweep has at "
+                                      f"least {MIN_SWEEP_LINES}; identification needs at least the low force "
+                                      f"measured over a band")
+        k = data.level_index(sweeps[0])
+        f, h = data.frequencies[k], data.receptances[k]
+        coherence = None if data.coherences is None else data.coherences[k]
+        band = excited_band(f, h, coherence, threshold if threshold is not None else COHERENCE_THRESHOLD)
+        changes["band_hz"] = band.hz
+        defaults["band_hz"] = f"{band.low_hz:g}:{band.high_hz:g} Hz ({band.reason}, {sweeps[0]:g} " \
+                              f"{data.reference_unit} curve)"
+    inside = data.within(band.hz)
+    return inside, dataclasses.replace(settings, **changes), defaults, band
+
+
+
+def _check_levels(data: FRFLevels, settings: IdentificationSettings) -> None:
+    """Levels > 0, each with a line left in the band; the levels the method reads as sweeps
+    (PRD's low force, from which the linear FRF comes; DDF's pair) with at least
+    :data:`MIN_SWEEP_LINES` lines. Single-frequency high levels are PRD's own protocol."""
+    unit = data.reference_unit
+    zero = [float(level) for level in data.levels if not level > 0]
+    if zero:
+        raise IdentificationError(
+            f"level {zero[0]:g} {unit}: identification needs measured levels > 0 (force_level_n = 0 marks an "
+            f"extracted linear FRF); leave that curve out")
+    where = f"the band {settings.band_hz[0]:g}–{settings.band_hz[1]:g} Hz" if settings.band_hz else "the data"
+    if settings.coherence_threshold is not None and data.coherences is not None:
+        where += f" with coherence ≥ {settings.coherence_threshold:g}"
+    for level, f in zip(data.levels, data.frequencies):
+        if f.size == 0:
+            raise IdentificationError(f"level {level:g} {unit}: no line in {where}; widen the band, lower the "
+                                      f"coherence threshold or leave the level out")
+    if settings.method == "prd":
+        needed = {float(settings.low_force_n): "the PRD low force: the linear FRF comes from its sweep"}
+    elif settings.force_pair_n is None:
+        raise IdentificationError(f"DDF compares two sweeps; the swept levels are {list(data.sweep_levels())} {unit} "
+                                  f"(a sweep has at least {MIN_SWEEP_LINES} lines in {where})")
+    else:
+        needed = {float(level): "a DDF level: DDF compares two sweeps" for level in settings.force_pair_n}
+    sweeps = data.sweep_levels()
+    for level, role in needed.items():
+        if level not in sweeps:
+            lines = data.frequencies[data.level_index(level)].size
+            raise IdentificationError(
+                f"level {level:g} {unit} is {role}, but it has {lines} line(s) in {where}; "
+                f"need a sweep of at least {MIN_SWEEP_LINES} lines")

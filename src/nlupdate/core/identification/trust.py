@@ -1,0 +1,329 @@
+"""Warnings about identified values that should not be trusted as they stand.
+
+A fit always returns numbers; these checks say when the numbers are not measurements.
+:func:`identification_warnings` looks at an
+:class:`~nlupdate.core.identification.pipeline.Identification` and returns one
+:class:`TrustWarning` per finding (none for a well-identified result):
+
+* ``uncertainty_exceeds_value`` — the Monte-Carlo standard deviation of a parameter (or
+  of a linear mode's natural frequency or loss factor) is larger than its magnitude: the
+  data do not distinguish it from zero. Raw coefficients of a polynomial DF
+  (``re_c<k>``, ``im_c<k>``) are not checked: a polynomial term consistent with zero is
+  the normal case, not a failure. ``uncertainty_unknown``: the Monte Carlo gave fewer
+  than two values for it.
+* ``at_bound`` — the value sits where the fit or the data put a limit, not where the
+  data put the parameter:
+
+  - a naive PRD/DDF fit of physical elements keeps every log-parameter within a factor
+    1e6 of its start; a parameter that ends on that box (``at_bound`` of the fit);
+  - a log-parameter at the end of the number range (e^±699 and beyond: it ran off);
+  - a Jenkins slip force at the edges of what the data can show. The PRD relies on the
+    low force leaving the slider stuck, so the data say ``slip_force > kf·A₁`` (A₁: the
+    largest low-force amplitude the fit used), and the fit's start is clipped to at
+    least ``2·kf·A₁`` (:meth:`~nlupdate.core.identification.dfmodels.PhysicalModel.initial_guesses`).
+    A slip force the data do not otherwise determine ends in between: at the limit (on
+    the §3.1 SDOF at 5 % noise half of the seeds end at 0.97–1.0 × kf·A₁, truth
+    100 × kf·A₁) or where it started (the review's 0.0199 N = 1.9 × kf·A₁ on the
+    demo's T-beam, truth 0.5 N = 48 × kf·A₁). Warned: ``kf·A₁/1.1 ≤ slip_force ≤
+    2.2·kf·A₁`` (``SLIP_TOLERANCE`` = 10 % beyond both). Far below kf·A₁ the model has
+    the low level slipping, which the data can show. At the other end, a slip force at
+    or above ``kf·A_max/1.1`` (A_max: the largest high-force amplitude) means no
+    measured level slips (or barely): the data bound it from below only.
+
+* ``not_identifiable`` — parameters the data cannot show were fixed, and why (an Iwan joint
+  no level drives into macroslip: :func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`),
+  or an Iwan joint fitted at χ ≤ −0.98, which acts as a Jenkins element whose K_T and β the
+  data cannot separate (only βK_T/(1+β)).
+* ``residual_above_noise`` — the fit's residual, as a relative noise level
+  (:attr:`~nlupdate.core.identification.pipeline.Identification.residual_noise_fraction`),
+  is more than ``RESIDUAL_FACTOR`` (3) times the noise level the identification used
+  (given, or estimated from the low-force sweep; at least ``RESIDUAL_FLOOR``, 0.1 %).
+  For a model that fits, the ratio is 1 within a few per cent (hundreds of residuals;
+  the noise estimate itself is good to ~10 %), and the naive estimators sit below 1;
+  a ratio above 3 means the misfit has about ten times the variance of the noise: the
+  model misses part of the behaviour (e.g. a polynomial DF across a friction transition
+  gives 9–15×), or the noise level is understated — and the Monte-Carlo uncertainties,
+  drawn at that noise level, are then too small. 3 is also the factor the improved PRD
+  estimator uses to detect a poor start. The floor keeps noise-free simulated data from
+  warning about round-off.
+
+* ``moves_with_noise`` — the Monte-Carlo re-identifications of a value are centred
+  further from it than their 95 % half-width (:mod:`nlupdate.core.identification.uncertainty`):
+  adding noise moves the estimate more than the noise spreads it, so it is biased by the
+  noise — most often because the model does not describe the data. Its interval is
+  centred on the estimate; the bias is of the size of the shift. Judged from
+  ``SHIFT_MIN_SAMPLES`` (20) samples on, with the median's own sampling error allowed for.
+* ``levels_disagree`` — the linear FRF each level gives, 1/H_j − ν(|X_j|), differs between
+  the levels by more than their noise (:mod:`nlupdate.core.identification.consistency`): the
+  identified model does not describe the structure at the measured coordinate. Either
+  the nonlinearity is not there (between other coordinates, or between the measured one
+  and another) or the element set is wrong; the extracted linear FRF and its modes are
+  then a blend of levels, not the linear structure. ``nlupdate discover`` places it.
+
+Two more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
+stuck friction stiffness below zero) and :func:`excitation_warnings` (``not_stepped_sine``
+— FRFs from sweeps or random excitation, which PRD and DDF do not assume).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from nlupdate.core.identification.consistency import SPREAD_LIMIT
+from nlupdate.core.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
+from nlupdate.core.measurement.units import parameter_unit
+
+RESIDUAL_FACTOR = 3.0
+POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
+JENKINS_END = -0.98  # an Iwan joint's χ at or below this acts as a Jenkins element
+RESIDUAL_FLOOR = 1e-3
+SLIP_TOLERANCE = 0.1
+SHIFT_MIN_SAMPLES = 20  # fewer Monte-Carlo samples: no moves_with_noise judgement
+LOG_LIMIT = 699.0  # PhysicalModel.values clips log-parameters at ±700
+_RAW_COEFFICIENT = re.compile(r"^(re|im)_c\d+$")
+
+
+@dataclass(frozen=True)
+class TrustWarning:
+    """One reason not to trust a result as it stands.
+
+    subject: what it is about (a parameter name, ``fit``, ``run`` or ``prediction``); kind:
+    ``at_bound``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
+    ``residual_above_noise``, ``not_converged`` (an updating run) or ``prediction_worse``
+    (the best model predicts worse than the initial one);
+    message: one plain sentence with the numbers; source: where the result came from
+    (``identification``, or an updating run's name).
+    """
+
+    subject: str
+    kind: str
+    message: str
+    source: str = ""
+
+    def as_dict(self) -> dict[str, str]:
+        return asdict(self)
+
+    def __str__(self) -> str:
+        return f"{self.source}: {self.message}" if self.source else self.message
+
+
+def uncertainty_warnings(values: dict[str, float], std: dict[str, float], what: str, source: str = "") -> list[TrustWarning]:
+    """``uncertainty_exceeds_value`` for every value whose std exceeds its magnitude."""
+    out = []
+    for name, value in values.items():
+        s = std.get(name)
+        if s is None or not np.isfinite(value):
+            continue
+        if np.isnan(s):
+            out.append(TrustWarning(name, "uncertainty_unknown", f"{name} = {value:.4g}: no {what} uncertainty could "
+                                                                  f"be computed for it", source))
+        elif s > abs(value):
+            out.append(TrustWarning(name, "uncertainty_exceeds_value",
+                                    f"{name} = {value:.4g} ± {s:.3g}: the {what} uncertainty exceeds the value, so the "
+                                    f"data do not determine it", source))
+    return out
+
+
+def _jenkins_slots(model: PhysicalModel) -> list[tuple[str, str]]:
+    """(kf name, slip force name) of every Jenkins element of a physical model."""
+    names = iter(name for _, name, _ in model._all_slots())
+    out = []
+    for element in model.element_names:
+        slot = [next(names) for _ in ELEMENT_PARAMETERS[element]]
+        if element == "jenkins":
+            out.append((slot[0], slot[1]))
+    return out
+
+
+def _slip_force_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
+    """Slip forces the data bound from one side only; forces in ``unit`` (N, or V per volt)."""
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if not isinstance(model, PhysicalModel):
+        return []
+    out = []
+    a_low = getattr(result, "amplitude_low_max", None) if result.method == "prd" else None
+    a_high = float(np.max(result.amplitude)) if np.size(result.amplitude) else None
+    for kf_name, slip_name in _jenkins_slots(model):
+        kf, slip = values[kf_name], values[slip_name]
+        if a_low is not None and a_low > 0:
+            lower = kf * a_low
+            if lower / (1 + SLIP_TOLERANCE) <= slip <= 2 * lower * (1 + SLIP_TOLERANCE):
+                out.append(TrustWarning(
+                    slip_name, "at_bound",
+                    f"{slip_name} = {slip:.4g} {unit} sits at the lower limit of what the data can show ({slip / lower:.2g} × "
+                    f"kf·A₁ = {lower:.4g} {unit}, the slip force at which the {result.setup.low_force:g} {unit} level would start "
+                    f"to slip; the fit starts at 2 × kf·A₁ or above): the data show only that the low level is stuck, "
+                    f"not the slip force", source))
+                continue
+        if a_high is not None and a_high > 0:
+            upper = kf * a_high
+            if slip >= upper / (1 + SLIP_TOLERANCE):
+                out.append(TrustWarning(
+                    slip_name, "at_bound",
+                    f"{slip_name} = {slip:.4g} {unit} is at or above kf·A_max = {upper:.4g} {unit} (the largest measured "
+                    f"amplitude): no measured level slips, so the data bound the slip force from below only", source))
+    return out
+
+
+def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
+    out = []
+    flagged = set()
+    for name in getattr(result, "at_bound", ()):
+        flagged.add(name)
+        out.append(TrustWarning(name, "at_bound",
+                                f"{name} = {values.get(name, float('nan')):.4g} ended on a bound of the fit (log-parameters "
+                                f"are kept within a factor 1e6 of their start): the data do not determine it", source))
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if isinstance(model, PhysicalModel):
+        positive = {name: pos for (_, name, pos) in model._slots}
+        for name, value in values.items():
+            if name in flagged or not positive.get(name) or not value > 0:
+                continue
+            if abs(np.log(value)) >= LOG_LIMIT:
+                flagged.add(name)
+                out.append(TrustWarning(name, "at_bound",
+                                        f"{name} = {value:.4g} ran off to the end of the number range: the data do not "
+                                        f"determine it", source))
+    return out + [w for w in _slip_force_warnings(result, values, source, unit) if w.subject not in flagged]
+
+
+def fit_verdict(residual: float | None, noise: float) -> tuple[str, float | None]:
+    """(``"poor"`` | ``"consistent"`` | ``"unknown"``, ratio of the fit's residual to
+    max(noise, ``RESIDUAL_FLOOR``)): poor above ``POOR_FIT_FACTOR``, the misfit is then far
+    above what the noise explains and the model does not describe the data."""
+    if residual is None or not np.isfinite(residual):
+        return "unknown", None
+    ratio = float(residual) / max(float(noise), RESIDUAL_FLOOR)
+    return ("poor" if ratio > POOR_FIT_FACTOR else "consistent"), ratio
+
+
+def residual_warnings(residual: float | None, noise: float, noise_source: str, source: str = "") -> list[TrustWarning]:
+    """``residual_above_noise`` when the fit's residual noise level exceeds
+    ``RESIDUAL_FACTOR`` × max(noise, ``RESIDUAL_FLOOR``)."""
+    if residual is None or not np.isfinite(residual):
+        return []
+    reference = max(float(noise), RESIDUAL_FLOOR)
+    if residual <= RESIDUAL_FACTOR * reference:
+        return []
+    return [TrustWarning(
+        "fit", "residual_above_noise",
+        f"the fit's residual ({100 * residual:.3g} % of |H|) is {residual / reference:.1f}× the noise level used "
+        f"({100 * noise:.3g} %, {noise_source}): the model misses part of the behaviour or the noise level is "
+        f"understated, and the Monte-Carlo uncertainties, drawn at that noise level, are then too small", source)]
+
+
+def shift_warnings(stats: dict[str, Any], source: str = "") -> list[TrustWarning]:
+    """``moves_with_noise`` for every statistic (:class:`~nlupdate.core.identification.uncertainty.ParameterStatistics`)
+    whose Monte-Carlo median is further from its value than the 95 % interval's half-width
+    plus twice the median's own sampling error (1.25·std/√n); judged from
+    ``SHIFT_MIN_SAMPLES`` samples on (with fewer the percentiles are not yet an interval)."""
+    out = []
+    for name, st in stats.items():
+        if st.count < SHIFT_MIN_SAMPLES:
+            continue
+        half = 0.5 * (st.ci95[1] - st.ci95[0])
+        limit = half + 2 * 1.2533 * st.std / np.sqrt(st.count)
+        if np.isfinite(st.shift) and np.isfinite(limit) and abs(st.shift) > limit:
+            out.append(TrustWarning(
+                name, "moves_with_noise",
+                f"{name} = {st.value:.6g}: its Monte-Carlo re-identifications are centred at {st.median:.6g}, "
+                f"{abs(st.shift):.3g} away, more than their 95 % half-width ({half:.3g}): the estimate moves with the "
+                f"noise more than the noise spreads it (biased, most often because the model does not describe the "
+                f"data); its interval [{st.ci95[0]:.6g}, {st.ci95[1]:.6g}] is centred on it and understates the "
+                f"error by about the shift", source))
+    return out
+
+
+def consistency_warnings(consistency: Any, response_dof: str, source: str = "identification") -> tuple[TrustWarning, ...]:
+    """``levels_disagree`` when the placement check
+    (:class:`~nlupdate.core.identification.consistency.LevelConsistency`) failed; none when it
+    passed or was not made (None)."""
+    if consistency is None or consistency.passed:
+        return ()
+    span = consistency.worst_band_hz()
+    where = "" if span is None else (f"; {int(consistency.inconsistent.sum())} lines disagree beyond their noise, "
+                                     f"{span[0]:.4g}–{span[1]:.4g} Hz")
+    how = (f"differs between the levels by {consistency.spread_ratio:.3g}× their noise (RMS over the lines; at most "
+           f"{SPREAD_LIMIT:g}× when the model describes the data{where})" if np.isfinite(consistency.spread_ratio) else
+           "cannot be formed: the fitted elements leave no finite value at any line two levels share (a degenerate "
+           "fit)")
+    return (TrustWarning(
+        "linear_frf", "levels_disagree",
+        f"NOT TRUSTWORTHY: the linear FRF extracted from each force level {how}. The linear FRF is the same at every level, so the identified model does not "
+        f"describe the structure at coordinate {response_dof}: most likely the nonlinearity is not at the measured "
+        f"coordinate (it acts between other coordinates, or between {response_dof} and another), or the element set "
+        f"is wrong. The identified parameters, the extracted linear FRF and its modes are not the structure's; "
+        f"run `nlupdate discover` to place the nonlinearity and choose its elements", source),)
+
+
+def identification_warnings(identification: Any, source: str = "identification") -> tuple[TrustWarning, ...]:
+    """Every warning about an :class:`~nlupdate.core.identification.pipeline.Identification`
+    (module docstring); empty when nothing is suspicious."""
+    result = identification.result
+    values = dict(result.parameters())
+    stats = identification.uncertainty.parameters
+    checked = {name: stats[name].value for name in stats if not _RAW_COEFFICIENT.match(name)}
+    unit = getattr(identification, "reference_unit", "N")  # V: every force-like value is per volt
+    out = _bound_warnings(result, values, source, unit)
+    flagged = {w.subject for w in out}
+    out += [w for w in uncertainty_warnings(checked, {n: stats[n].std for n in checked}, "Monte-Carlo", source)
+            if w.subject not in flagged]
+    flagged = {w.subject for w in out}
+    out += [w for w in shift_warnings({n: stats[n] for n in checked}, source) if w.subject not in flagged]
+    out += residual_warnings(identification.residual_noise_fraction, identification.noise_fraction,
+                             identification.noise_source, source)
+    model = getattr(result, "physical", None) or getattr(result, "model", None)
+    if isinstance(model, PhysicalModel) and model.note:
+        out.append(TrustWarning(", ".join(name for name, _ in model.fixed), "not_identifiable", model.note, source))
+    return tuple(out + _jenkins_end_warnings(model, values, source, unit))
+
+
+def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
+    """An Iwan joint fitted at χ → −1 is a Jenkins element (kf = βK_T/(1+β), Fs = F_S): its
+    K_T and β are then not determined separately."""
+    if not isinstance(model, PhysicalModel):
+        return []
+    out = []
+    for element, suffix in model._suffixes():
+        chi = values.get(f"chi{suffix}")
+        if element != "iwan" or chi is None or chi > JENKINS_END:
+            continue
+        kt, beta, slip = values[f"kt{suffix}"], values[f"beta{suffix}"], values[f"slip_force{suffix}"]
+        out.append(TrustWarning(
+            f"kt{suffix}, beta{suffix}", "not_identifiable",
+            f"chi{suffix} = {chi:.4g} sits at the Jenkins end of the Iwan joint (chi → −1): it acts as a Jenkins "
+            f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} {parameter_unit('kf', unit)} and slip "
+            f"force {slip:.4g} {parameter_unit('slip_force', unit)}; "
+            f"kt and beta are not determined separately (fit a jenkins element instead)", source))
+    return out
+
+
+def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tuple[TrustWarning, ...]:
+    """A warning for each parameter that must be positive and is not (``kf``: a stuck
+    friction stiffness, from a polynomial's constant term)."""
+    out = []
+    for name, value in parameters.items():
+        if name.split("_")[0] == "kf" and value < 0:
+            out.append(TrustWarning(
+                name, "negative",
+                f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction "
+                f"stiffness is > 0: the describing function has the wrong sign (a transfer FRF, a negative modal "
+                f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
+                f"low level is not stuck", "identification"))
+    return tuple(out)
+
+
+def excitation_warnings(excitation: str, method: str) -> tuple[TrustWarning, ...]:
+    """A warning when the FRFs are not stepped-sine FRFs, which PRD and DDF assume."""
+    kinds = set(excitation.split("+")) - {"stepped_sine", "unknown"}
+    if not kinds:
+        return ()
+    return (TrustWarning(
+        "data", "not_stepped_sine",
+        f"{method.upper()} assumes stepped-sine FRFs at a constant force amplitude; these are {excitation} FRFs "
+        f"(an estimate averaged over the amplitudes the excitation passed through), so the describing function is an "
+        f"equivalent linearisation at an ill-defined amplitude and the fit residual includes that distortion",
+        "identification"),)

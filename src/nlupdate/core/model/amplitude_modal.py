@@ -1,0 +1,385 @@
+"""Amplitude-dependent modal model of one nonlinear mode (single-nonlinear-mode theory).
+
+Near a well-separated resonance a structure with joints behaves like one mode whose natural
+frequency and damping ratio depend on how far it vibrates. With the mode mass-normalised
+(shape φ in 1/√kg at each coordinate, modal coordinate q in m·√kg), a harmonic force
+``Re(F e^{iΩt})`` (N) at coordinate f and the modal amplitude ``a = |q|``::
+
+    (ω(a)² − Ω² + 2iζ(a)ω(a)Ω) q = φ_f F,        X_j = φ_j q   (m),
+
+ω in rad/s. ``ω(0)`` and ``ζ(0)`` are the linear limit (the joint stuck): the natural
+frequency an FE model with tied contact should have, and an updating target.
+
+Backbones (ω(a), ζ(a)):
+
+* ``iwan`` — a modal Iwan joint (:class:`~nlupdate.core.model.elements.IwanJoint`, parameters in
+  modal units: K_T in rad²/s², i.e. N/m per kg of modal mass; F_S in N/√kg; φ_max in
+  m·√kg; a physical joint whose relative displacement is ψ·q gives ψ²K_T and ψF_S)::
+
+      ω(a)² = ω₀² − K_T + Re ν(a),      ζ(a) = ζ_lin(a) + Im ν(a) / (2ω(a)²),
+
+  ν the joint's describing function, so ω(0) = ω₀; the joint softens the mode and adds
+  damping that grows as a^(χ+1) in microslip and falls as 1/a in macroslip. The rest of
+  the structure's damping ``ζ_lin`` is ``linear_damping = "viscous"`` (a constant modal
+  damping coefficient 2ζ₀ω₀: ζ_lin = ζ₀ω₀/ω(a)) or ``"structural"`` (a loss factor on the
+  stiffness: ζ_lin = ζ₀ω₀²/ω(a)²), both ζ₀ at a → 0;
+* ``polynomial`` — ``f(a) = f₀(1 + Σ_k c_k u^k)`` in ``u = (a/a_ref)^p`` and
+  ``ζ(a) = ζ₀ + Σ_k d_k v^k`` in ``v = (a/a_ref)^q``, k = 1 … n, a_ref the largest amplitude
+  it was fitted to, p and q the ``frequency_exponent`` and ``damping_exponent`` (1: a
+  polynomial in a; ½ follows a joint's ``a^(χ+1)`` softening in microslip over decades of
+  amplitude); beyond a_ref the curves are held at their values there (``beyond_reference =
+  "hold"``, the default: a polynomial extrapolated turns back on itself and draws a second,
+  spurious resonance branch) or continued as fitted up to where they would turn back and
+  held from there (``"continued"``: monotone, for predicting a level above the fitted
+  ones), and ζ is kept ≥ 0.
+
+Forced response. For a given a the excitation frequencies with ``|q| = a`` solve a
+quadratic in Ω²::
+
+    Ω² = ω²(1 − 2ζ²) ± √(P² − 4ζ²ω⁴(1 − ζ²)),     P = |φ_f F| / a,
+
+real up to the peak amplitude, where the two meet. :meth:`AmplitudeModalModel.frf` traces
+this curve over a from the smallest amplitude up to the first peak — the branch continuous
+with the linear response; where the discriminant turns real again at larger a the curve is
+not followed there — (the branch below resonance up to the peak, the one above back down) and
+reads it like a stepped-sine test: each frequency in sweep order takes the first crossing
+on a part of the curve that runs in the sweep direction, at or after the current position
+(passing a fold is a jump), and solves ``a·|D(a, Ω)| = |φ_f F|`` within that segment.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from nlupdate.files import atomic_file
+from nlupdate.input_files import read_input_text
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.elements import IwanJoint
+
+BACKBONES = ("iwan", "polynomial")
+LINEAR_DAMPING = ("viscous", "structural")
+#: A polynomial backbone beyond the largest amplitude it was fitted to: held at its value
+#: there, or continued as fitted up to where it would turn back and held from there
+#: (monotone, so no second resonance branch; what ``nlupdate validate`` needs to predict a
+#: level above the fitted ones).
+BEYOND_REFERENCE = ("hold", "continued")
+_CURVE_POINTS = 1500
+
+
+class AmplitudeModelError(ValueError):
+    """An amplitude-dependent modal model that cannot be used (the message says why)."""
+
+
+@dataclass(frozen=True)
+class AmplitudeModalModel:
+    """One nonlinear mode: natural frequency and damping ratio against modal amplitude.
+
+    natural_frequency_hz, damping_ratio: the linear limit f₀ (Hz) and ζ₀ (fraction).
+    shapes: the mass-normalised mode shape (1/√kg) at named coordinates, as pairs.
+    joint: the modal Iwan joint of the ``iwan`` backbone (modal units, module docstring);
+    or frequency_coefficients c_k, damping_coefficients d_k (k = 1 …), reference_amplitude
+    a_ref (m·√kg) and the exponents p, q of their variables (module docstring) of the
+    ``polynomial`` backbone.
+    mode: the mode's number (1 = lowest); note: how it was obtained (free text); warnings:
+    what the fit could not establish (one sentence each, e.g. a linear limit at its bound);
+    reference_unit: "N", or "V" for a model of FRFs per volt (forces, the joint's F_S and the
+    shapes' N then per volt: V where N would stand).
+    """
+
+    natural_frequency_hz: float
+    damping_ratio: float
+    shapes: tuple[tuple[str, float], ...]
+    joint: IwanJoint | None = None
+    frequency_coefficients: tuple[float, ...] = ()
+    damping_coefficients: tuple[float, ...] = ()
+    reference_amplitude: float = 1.0
+    mode: int = 1
+    frequency_exponent: float = 1.0
+    damping_exponent: float = 1.0
+    beyond_reference: str = "hold"
+    linear_damping: str = "viscous"
+    note: str = field(default="", compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)
+    reference_unit: str = "N"
+
+    def __post_init__(self) -> None:
+        f0, zeta = float(self.natural_frequency_hz), float(self.damping_ratio)
+        if not (np.isfinite(f0) and f0 > 0):
+            raise AmplitudeModelError(f"natural_frequency_hz must be a frequency > 0 Hz, got {self.natural_frequency_hz}")
+        if not (np.isfinite(zeta) and 0 <= zeta < 1):
+            raise AmplitudeModelError(f"damping_ratio must be a fraction 0 ≤ ζ < 1, got {self.damping_ratio}")
+        shapes = tuple((str(name), float(value)) for name, value in self.shapes)
+        if not shapes or any(not np.isfinite(v) for _, v in shapes):
+            raise AmplitudeModelError("shapes: give the mass-normalised mode shape (1/√kg) at one coordinate or more")
+        if self.joint is not None:
+            if self.frequency_coefficients or self.damping_coefficients:
+                raise AmplitudeModelError("give either an Iwan joint or polynomial coefficients, not both")
+            if self.joint.kt >= (2 * np.pi * f0) ** 2:
+                raise AmplitudeModelError(
+                    f"joint kt = {self.joint.kt:.4g} rad²/s² must be below ω₀² = {(2 * np.pi * f0) ** 2:.4g} (the mode "
+                    "without the joint would have no stiffness)")
+        if self.reference_unit not in ("N", "V"):
+            raise AmplitudeModelError(f"reference_unit must be 'N' or 'V', got {self.reference_unit!r}")
+        if self.linear_damping not in LINEAR_DAMPING:
+            raise AmplitudeModelError(f"linear_damping must be one of {list(LINEAR_DAMPING)}, got {self.linear_damping!r}")
+        if self.beyond_reference not in BEYOND_REFERENCE:
+            raise AmplitudeModelError(f"beyond_reference must be one of {list(BEYOND_REFERENCE)}, "
+                                      f"got {self.beyond_reference!r}")
+        for name in ("frequency_exponent", "damping_exponent"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise AmplitudeModelError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not (np.isfinite(self.reference_amplitude) and self.reference_amplitude > 0):
+            raise AmplitudeModelError(f"reference_amplitude must be > 0 (m·√kg), got {self.reference_amplitude}")
+        object.__setattr__(self, "natural_frequency_hz", f0)
+        object.__setattr__(self, "damping_ratio", zeta)
+        object.__setattr__(self, "shapes", shapes)
+        object.__setattr__(self, "frequency_coefficients", tuple(float(c) for c in self.frequency_coefficients))
+        object.__setattr__(self, "damping_coefficients", tuple(float(c) for c in self.damping_coefficients))
+        object.__setattr__(self, "reference_amplitude", float(self.reference_amplitude))
+
+    @property
+    def backbone(self) -> str:
+        return "iwan" if self.joint is not None else "polynomial"
+
+    @property
+    def omega0(self) -> float:
+        return 2 * np.pi * self.natural_frequency_hz
+
+    def shape(self, coordinate: str | int) -> float:
+        """φ (1/√kg) at a coordinate (name, or position in ``shapes``)."""
+        if isinstance(coordinate, (int, np.integer)) and not isinstance(coordinate, bool):
+            return self.shapes[int(coordinate)][1]
+        for name, value in self.shapes:
+            if name == str(coordinate):
+                return value
+        raise AmplitudeModelError(f"coordinate {coordinate!r}: the model's shape is given at "
+                                  f"{[name for name, _ in self.shapes]}")
+
+    # -- backbone and damping curve -------------------------------------------------------
+    def omega_zeta(self, amplitude: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """ω(a) (rad/s) and ζ(a) at modal amplitudes a (m·√kg)."""
+        a = np.asarray(amplitude, dtype=float)
+        w0, z0 = self.omega0, self.damping_ratio
+        if self.joint is not None:
+            nu = self.joint.describing_function(a)
+            omega = np.sqrt(np.maximum(w0**2 - self.joint.kt + nu.real, 0.0))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                linear = z0 * w0 / omega if self.linear_damping == "viscous" else z0 * w0**2 / omega**2
+                zeta = linear + nu.imag / (2 * omega**2)
+            return omega, zeta
+        x = a / self.reference_amplitude
+        omega = w0 * (1 + _series(self.frequency_coefficients, x, self.frequency_exponent, self.beyond_reference))
+        zeta = np.maximum(z0 + _series(self.damping_coefficients, x, self.damping_exponent, self.beyond_reference), 0.0)
+        return np.asarray(omega + 0 * x, dtype=float), np.asarray(zeta + 0 * x, dtype=float)
+
+    def frequency_hz(self, amplitude: ArrayLike) -> NDArray[np.float64]:
+        """Natural frequency (Hz) at modal amplitudes a (m·√kg): the backbone."""
+        return self.omega_zeta(amplitude)[0] / (2 * np.pi)
+
+    def damping(self, amplitude: ArrayLike) -> NDArray[np.float64]:
+        """Damping ratio at modal amplitudes a (m·√kg): the damping curve."""
+        return self.omega_zeta(amplitude)[1]
+
+    # -- forced response ------------------------------------------------------------------
+    def _curve(self, modal_force: float, lowest: float) -> tuple[NDArray, NDArray]:
+        """(Ω rad/s, a) along the response curve: below resonance up to the peak, then back."""
+        peak_guess = modal_force / (2 * max(self.damping_ratio, 1e-6) * self.omega0**2)
+        a = np.geomspace(lowest, 10 * peak_guess, _CURVE_POINTS)
+
+        def discriminant_of(amplitude):
+            omega, zeta = self.omega_zeta(amplitude)
+            value = (modal_force / amplitude) ** 2 - 4 * zeta**2 * omega**4 * (1 - zeta**2)
+            return value, omega**2 * (1 - 2 * zeta**2)
+
+        discriminant, centre = discriminant_of(a)
+        real = (discriminant >= 0) & np.isfinite(discriminant)
+        # the branch continuous from the smallest amplitude: up to the first peak only
+        top = int(np.argmin(real)) - 1 if not real.all() else a.size - 1
+        real[top + 1:] = False
+        if 0 <= top < a.size - 1:  # the peak, where the two branches meet, by bisection
+            lo, hi = a[top], a[top + 1]
+            for _ in range(60):
+                mid = np.sqrt(lo * hi)
+                lo, hi = (mid, hi) if discriminant_of(mid)[0] >= 0 else (lo, mid)
+            a = np.insert(a, top + 1, lo)
+            discriminant, centre = discriminant_of(a)
+            discriminant[top + 1] = max(discriminant[top + 1], 0.0)
+            real = (discriminant >= 0) & np.isfinite(discriminant)
+            real[top + 2:] = False
+        root = np.sqrt(np.where(real, discriminant, 0.0))
+        below, above = centre - root, centre + root
+        keep_below = real & (below > 0)
+        keep_above = real & (above > 0)
+        w = np.concatenate([np.sqrt(below[keep_below]), np.sqrt(above[keep_above])[::-1]])
+        amp = np.concatenate([a[keep_below], a[keep_above][::-1]])
+        return w, amp
+
+    def modal_amplitude(self, omega: ArrayLike, force_n: float, input_dof: str | int, sweep: str = "up") -> NDArray:
+        """Modal amplitude a (m·√kg) at the excitation frequencies Ω (rad/s) for a force of
+        amplitude ``force_n`` (N) at ``input_dof``, read as a stepped-sine test (module docstring)."""
+        if sweep not in ("up", "down"):
+            raise AmplitudeModelError(f"sweep must be 'up' or 'down', got {sweep!r}")
+        omega = np.asarray(omega, dtype=float)
+        modal_force = abs(self.shape(input_dof) * float(force_n))
+        if modal_force == 0:
+            return np.zeros(omega.shape)
+        w_max = float(np.max(omega))
+        lowest = modal_force / (4 * (self.omega0**2 + w_max**2))  # |q| well below any |φ_f F/D|
+        w, a = self._curve(modal_force, lowest)
+        order = np.argsort(omega) if sweep == "up" else np.argsort(omega)[::-1]
+        if sweep == "down":
+            w, a = w[::-1], a[::-1]
+        sign = 1.0 if sweep == "up" else -1.0
+        low = np.full(omega.shape, np.nan)
+        high = np.full(omega.shape, np.nan)
+        position = 0
+        for index in order:
+            target = omega[index]
+            lo, hi = w[position:-1], w[position + 1:]
+            forward = sign * (hi - lo) > 0
+            crossing = forward & ((lo - target) * (hi - target) <= 0)
+            hits = np.flatnonzero(crossing)
+            if hits.size == 0:
+                if sign * (target - w[position]) < 0:  # before the traced curve: far from resonance
+                    low[index] = high[index] = a[0]
+                continue
+            k = position + int(hits[0])
+            low[index], high[index] = a[k], a[k + 1]
+            position = k
+        return self._polish(omega, modal_force, low, high)
+
+    def _polish(self, omega: NDArray, modal_force: float, low: NDArray, high: NDArray) -> NDArray:
+        """The root of ``a·|D(a, Ω)| = |φ_f F|`` between the amplitudes of the curve segment
+        each Ω crosses (bisection in log a; the segment end nearer the root where the
+        bracket does not change sign)."""
+        def mismatch(a):
+            w, zeta = self.omega_zeta(a)
+            return np.log(a * np.abs(w**2 - omega**2 + 2j * zeta * w * omega) / modal_force)
+
+        valid = np.isfinite(low) & np.isfinite(high)
+        lo, hi = np.where(valid, np.minimum(low, high), 1.0), np.where(valid, np.maximum(low, high), 1.0)
+        g_lo = mismatch(lo)
+        bracket = valid & (np.sign(g_lo) != np.sign(mismatch(hi)))
+        for _ in range(60):
+            mid = np.sqrt(lo * hi)
+            g_mid = mismatch(mid)
+            same = np.sign(g_mid) == np.sign(g_lo)
+            lo, g_lo = np.where(same, mid, lo), np.where(same, g_mid, g_lo)
+            hi = np.where(same, hi, mid)
+        nearest = np.where(np.abs(mismatch(np.where(valid, low, 1.0))) <= np.abs(mismatch(np.where(valid, high, 1.0))),
+                           low, high)
+        return np.where(bracket, np.sqrt(lo * hi), np.where(valid, nearest, np.nan))
+
+    def frf(self, frequency_hz: ArrayLike, force_n: float, response_dof: str | int, input_dof: str | int,
+            sweep: str = "up") -> NDArray[np.complex128]:
+        """Receptance H = X_response/F (m/N) at the frequencies (Hz) for a force amplitude
+        ``force_n`` (N) at ``input_dof``, by single-nonlinear-mode theory (module docstring)."""
+        omega = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
+        a = self.modal_amplitude(omega, force_n, input_dof, sweep)
+        w, zeta = self.omega_zeta(a)
+        denominator = w**2 - omega**2 + 2j * zeta * w * omega
+        return self.shape(response_dof) * self.shape(input_dof) / denominator
+
+    def frf_table(self, frequency_hz: ArrayLike, force_levels_n: Sequence[float], input_dof: str,
+                  sweep: str = "up") -> pd.DataFrame:
+        """Predicted measured-FRF table (every coordinate of ``shapes``) at each force level."""
+        f = np.asarray(frequency_hz, dtype=float)
+        names = [name for name, _ in self.shapes]
+        tables = []
+        for level in force_levels_n:
+            h = np.column_stack([self.frf(f, level, name, input_dof, sweep) for name in names])
+            tables.append(frf_table(f[:, None], float(level), np.array(names, dtype=object)[None, :], str(input_dof), h))
+        return pd.concat(tables, ignore_index=True)
+
+    # -- files ----------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "kind": "amplitude_dependent_mode", "mode": self.mode, "backbone": self.backbone,
+            "natural_frequency_hz": self.natural_frequency_hz, "damping_ratio": self.damping_ratio,
+            "shapes": {name: value for name, value in self.shapes},
+            "units": "modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg), frequencies in Hz"
+                     + ("; per volt: the levels are in V and every N of the forces and of the joint's slip_force is V"
+                        if self.reference_unit == "V" else ""),
+            "reference_unit": self.reference_unit,
+        }
+        if self.joint is not None:
+            j = self.joint
+            out["joint"] = {"slip_force": j.slip_force, "kt": j.kt, "chi": j.chi, "beta": j.beta,
+                            "units": f"modal: slip_force {self.reference_unit}/sqrt(kg), kt rad^2/s^2"}
+            out["linear_damping"] = self.linear_damping
+        else:
+            out["polynomial"] = {"frequency_coefficients": list(self.frequency_coefficients),
+                                 "damping_coefficients": list(self.damping_coefficients),
+                                 "reference_amplitude": self.reference_amplitude,
+                                 "frequency_exponent": self.frequency_exponent,
+                                 "damping_exponent": self.damping_exponent,
+                                 "beyond_reference": self.beyond_reference}
+        if self.note:
+            out["note"] = self.note
+        if self.warnings:
+            out["warnings"] = list(self.warnings)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<amplitude model>") -> "AmplitudeModalModel":
+        try:
+            shapes = tuple(dict(data["shapes"]).items())
+            common = dict(natural_frequency_hz=float(data["natural_frequency_hz"]),
+                          damping_ratio=float(data["damping_ratio"]), shapes=shapes, mode=int(data.get("mode", 1)),
+                          note=str(data.get("note", "")), warnings=tuple(str(w) for w in data.get("warnings", ())),
+                          reference_unit=str(data.get("reference_unit", "N")))
+            if data.get("backbone") == "iwan":
+                j = data["joint"]
+                joint = IwanJoint((0,), slip_force=j["slip_force"], kt=j["kt"], chi=j["chi"], beta=j["beta"])
+                return cls(joint=joint, linear_damping=str(data.get("linear_damping", "viscous")), **common)
+            if data.get("backbone") == "polynomial":
+                p = data["polynomial"]
+                return cls(frequency_coefficients=tuple(p["frequency_coefficients"]),
+                           damping_coefficients=tuple(p["damping_coefficients"]),
+                           reference_amplitude=float(p["reference_amplitude"]),
+                           frequency_exponent=float(p.get("frequency_exponent", 1.0)),
+                           damping_exponent=float(p.get("damping_exponent", 1.0)),
+                           beyond_reference=str(p.get("beyond_reference", "hold")), **common)
+        except (KeyError, TypeError, ValueError) as error:
+            raise AmplitudeModelError(f"{source}: not an amplitude-dependent modal model ({error})") from None
+        raise AmplitudeModelError(f"{source}: 'backbone' must be one of {list(BACKBONES)}, got {data.get('backbone')!r}")
+
+
+def write_amplitude_model(model: AmplitudeModalModel, path: str | os.PathLike) -> Path:
+    """Write the model as JSON (atomically); returns the path."""
+    path = Path(path)
+    with atomic_file(path) as temporary:
+        Path(temporary).write_text(json.dumps(model.to_dict(), indent=2) + "\n")
+    return path
+
+
+def read_amplitude_model(path: str | os.PathLike) -> AmplitudeModalModel:
+    """Read a model written by :func:`write_amplitude_model`."""
+    try:
+        data = json.loads(read_input_text(Path(path), "amplitude-dependent modal model"))
+    except json.JSONDecodeError as error:
+        raise AmplitudeModelError(f"{path}: not valid JSON ({error})") from None
+    if not isinstance(data, dict):
+        raise AmplitudeModelError(f"{path}: expected a JSON object")
+    return AmplitudeModalModel.from_dict(data, str(path))
+
+
+def _series(coefficients: Sequence[float], x: NDArray, exponent: float, beyond: str) -> NDArray:
+    """``Σ_k c_k u^k`` (k = 1 …) in ``u = x^exponent``; beyond x = 1 held at its value there,
+    or continued as it is up to where it would turn back (its first stationary point past
+    u = 1) and held from there (:data:`BEYOND_REFERENCE`)."""
+    u = np.asarray(x, dtype=float) ** exponent
+    stop = 1.0
+    if beyond == "continued" and len(coefficients):
+        slope = np.polynomial.Polynomial([0.0, *coefficients]).deriv()
+        turns = [r.real for r in slope.roots() if abs(r.imag) < 1e-12 and r.real > 1.0]
+        stop = min(turns, default=np.inf)
+    u = np.minimum(u, stop)
+    return sum(c * u ** (k + 1) for k, c in enumerate(coefficients)) + 0.0 * u

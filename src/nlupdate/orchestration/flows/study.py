@@ -1,0 +1,209 @@
+"""The study as a Prefect flow: the chain (:data:`nlupdate.study.chain.CHAIN`) as cached
+tasks, then the run's archive.
+
+Each step is a task named after it (:mod:`nlupdate.orchestration.tasks.cached`), keyed by its entry in the
+chain (:func:`nlupdate.orchestration.tasks.keys.step_key`). A fan-out step — the updating runs, the
+predictions — is a subflow named after it. Its jobs start at once, each on a coordinator
+thread that runs its job task; jobs whose FE points are known beforehand (the
+predictions: :attr:`~nlupdate.study.chain.Step.points`) submit those at once and then run
+in turn. The FE evaluations are FE-point tasks submitted to the flow's task runner
+(threads or Dask workers) and shared between the jobs and the whole run
+(:class:`~nlupdate.orchestration.tasks.fe_points.PointRegistry`), so the start point four difference
+formulas need — and the prediction of the initial model — is solved once. A failing
+updating run fails its own branch only; it is named in the report and the manifest.
+:func:`nlupdate.study.sequential.run_study` walks the same chain in one process and gives
+the same numbers.
+"""
+from __future__ import annotations
+
+import contextvars
+import datetime as dt
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+from prefect import flow
+from prefect.context import FlowRunContext
+from rich.markup import escape
+
+from nlupdate.orchestration.flows.cache import Cache
+from nlupdate.orchestration.flows.handles import Handle, handle, study_handle
+from nlupdate.orchestration.flows.liveness import claim_flow_run
+from nlupdate.orchestration.flows.status_lines import current_progress
+from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
+from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
+from nlupdate.study.spec import Study
+from nlupdate.study.steps import RunFailure
+from nlupdate.orchestration.tasks import cached, keys
+from nlupdate.orchestration.tasks.figures import FigureStore
+from nlupdate.orchestration.tasks.names import job_run_name, step_run_name
+from nlupdate.orchestration.tasks.fe_points import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
+
+__all__ = ["Cache", "study_flow", "study_handle"]
+
+
+def _named(job: Any) -> str:
+    return str(getattr(job, "name", job))
+
+
+def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: Cache) -> tuple[Any, str]:
+    """One step as a cached task; its result and key."""
+    key = keys.step_key(step, study, input_keys)
+    started = time.perf_counter()
+    task = cache.task(cached.chain_step, step.name, step_run_name(step.name, study.name))
+    future = task.submit(key, step.name, study, tuple(inputs))
+    future.wait()
+    result = future.result()
+    current_progress().finished(step.name, future.state.name, step.describe(study, result),
+                                time.perf_counter() - started)
+    return result, key
+
+
+@flow(name="fan-out")
+def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, cache: Cache) -> tuple[Any, str]:
+    """Every job of the fan-out step ``step_name``, started together, their FE points in
+    the run's registry ``points``; their outcomes gathered by the step. Returns the result
+    and its key. Each job's task run, progress line and manifest entry carry the job's
+    name (:func:`~nlupdate.orchestration.tasks.names.job_run_name`)."""
+    claim_flow_run()
+    step, study, (values, input_keys), registry = STEPS[step_name], study.value, inputs.value, points.value
+    _name_the_subflow_task_run(step_run_name(step.name, study.name))
+    progress = current_progress()
+    spec = step.model(study)
+    model = keys.model_identity(spec, adapter_for(spec).model_fingerprint())
+    jobs = step.jobs(study, *values)
+    count, finished, in_order = len(jobs), iter(range(1, len(jobs) + 1)), threading.Lock()
+
+    def report(name: str, state: str, detail: str, seconds: float | None = None) -> None:
+        with in_order:  # lines in the order of their i/N
+            progress.finished(name, state, detail, seconds, f"{next(finished)}/{count}")
+
+    def one(job: Any) -> tuple[Any, str | None]:
+        key = keys.job_key(step, study, job, model, input_keys)
+        name = job_run_name(step.name, _named(job))
+        task = cache.task(cached.chain_job, step.name, name)
+        started = time.perf_counter()
+        with evaluating_with(TaskPointEvaluator(spec, registry)):
+            state = task(key, step.name, study, job, tuple(values), return_state=True)
+        if state.is_completed():
+            outcome = state.result()
+            # a job read from the cache ran no FE points here: its result's own counts are
+            # those of the run that computed it, so they are not shown as this run's
+            report(name, state.name, "" if state.name == "Cached" else step.label(job, outcome),
+                   time.perf_counter() - started)
+            return outcome, key
+        try:
+            state.result()
+            error = state.message or state.name
+        except Exception as raised:  # the job's error, as raised in its task
+            if not step.keep_going:
+                raise
+            error = f"{type(raised).__name__}: {raised}"
+        failure = RunFailure(_named(job), error)
+        report(name, state.name, step.label(job, failure))
+        return failure, None
+
+    if step.points is not None:  # the FE points of every job to compute at once, then the jobs in turn
+        for job in jobs:
+            if cache.will_compute(keys.job_key(step, study, job, model, input_keys)):
+                for point in step.points(job):
+                    registry.future(spec, point)
+        outcomes = [one(job) for job in jobs]
+    else:
+        with ThreadPoolExecutor(max_workers=max(count, 1), thread_name_prefix=f"{step.name}-job") as pool:
+            # each coordinator runs in a copy of this thread's context: the flow run and the progress
+            futures = [pool.submit(contextvars.copy_context().run, one, job) for job in jobs]
+            outcomes = [future.result() for future in futures]
+    return (step.compute(study, [outcome for outcome, _ in outcomes], *values),
+            keys.gathered_key(step, [key for _, key in outcomes if key is not None]))
+
+
+def _name_the_subflow_task_run(name: str) -> None:
+    """Give the task run Prefect adds to the parent flow run for this subflow (``updating-0``)
+    the subflow's name."""
+    context = FlowRunContext.get()
+    if context.flow_run.parent_task_run_id is not None:
+        context.client.set_task_run_name(context.flow_run.parent_task_run_id, name)
+
+
+def _as_written(text: str):
+    """A flow run name shown as written (a string would be read as a format template)."""
+    return lambda: text
+
+
+def run_chain(study: Study, cache: Cache) -> tuple[StudyResult, dict[str, str]]:
+    """Every step the study asks for, as cached tasks and subflows; the result and every
+    step's key (step name → key)."""
+    results: dict[str, Any] = {}
+    result_keys: dict[str, str] = {}
+    subflow_runner = FlowRunContext.get().task_runner
+    registry = PointRegistry(lambda name: cache.task(cached.evaluate_point, run_name=name))
+    points = handle(registry, "the FE points of this run")
+    for step in CHAIN:
+        if not step.applies(study, results):
+            continue
+        inputs = [results.get(name) for name in step.inputs]
+        input_keys = [result_keys.get(name) for name in step.inputs]
+        if step.fans_out:
+            subflow = fan_out_flow.with_options(name=step.name, task_runner=subflow_runner.duplicate(),
+                                                flow_run_name=_as_written(step_run_name(step.name, study.name)))
+            results[step.name], result_keys[step.name] = subflow(
+                step.name, study_handle(study), handle((inputs, input_keys), f"inputs: {', '.join(step.inputs)}"),
+                points, cache)
+        else:
+            results[step.name], result_keys[step.name] = _step_task(step, study, inputs, input_keys, cache)
+    if any(step.fans_out and step.name in results for step in CHAIN):
+        _tally_points(registry.states())
+    return study_result(study, results), result_keys
+
+
+def _tally_points(states: list[str]) -> None:
+    """Record the run's FE points and say how many were computed here and how many read
+    from the cache (none at all when every job came from the cache)."""
+    progress = current_progress()
+    for state in states:
+        progress.record("FE point", state)
+    if not states:
+        progress.say("[bold]FE points[/bold]: none needed, every job came from the cache")
+        return
+    computed, from_cache = states.count("Completed"), states.count("Cached")
+    failed = len(states) - computed - from_cache
+    progress.say(f"[bold]FE points[/bold]: {computed} computed, {from_cache} from the cache"
+                 + (f", {failed} failed" if failed else ""))
+
+
+@flow(name="study")
+def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestration: str,
+               annotations: dict[str, str] | None = None) -> str:
+    """The whole study, then its archive under ``results_root``; returns the archive path.
+    ``annotations`` go into the manifest's ``run`` record (e.g. ``rerun_of``). A study
+    that fails with an error still leaves an archive (status ``failed``: the error, the
+    study and its inputs), then the error is raised."""
+    claim_flow_run()
+    study = study_handle.value
+    started = dt.datetime.now(dt.timezone.utc)
+    clock = time.perf_counter()
+    progress = current_progress()
+
+    def run_record() -> dict:
+        return {
+            "started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),
+            "wall_time_s": time.perf_counter() - clock, "orchestration": orchestration,
+            "flow_run_id": str(FlowRunContext.get().flow_run.id), "cache_store": cache.store,
+            "cache_refreshed": cache.refresh, "tasks": progress.summary(), **(annotations or {}),
+        }
+
+    try:
+        result, step_keys = run_chain(study, cache)
+    except Exception as error:
+        folder = write_failed_archive(study, run_folder(results_root, study.name, started, study.sha256), run_record(),
+                                      f"{type(error).__name__}: {error}")
+        progress.say(f"[bold red]the study failed[/bold red]: {escape(f'{type(error).__name__}: {error}')}; "
+                     f"archive {escape(str(folder))}")
+        raise
+    progress.say(f"steps done in {time.perf_counter() - clock:.1f} s; writing the archive …")
+    figures = FigureStore(cache.store, keys.figures_key(study, step_keys), refresh=cache.refresh)
+    folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run_record(),
+                           figures=figures)
+    return str(folder)

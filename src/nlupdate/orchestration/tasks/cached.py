@@ -1,0 +1,78 @@
+"""The Prefect tasks of a study: one per chain step, one per job of a fan-out step, one per
+FE evaluation (and one per discovery candidate fit).
+
+Every task takes its cache ``key`` first (:mod:`nlupdate.orchestration.tasks.keys`) and is cached by it
+alone — never by the heavy or live arguments beside it (studies, tables, models), which
+Prefect could not hash reliably. A step's task runs the step's function from
+:data:`nlupdate.study.chain.STEPS`; a job's task runs the step's ``each`` with the FE
+evaluator of its context (:func:`nlupdate.orchestration.tasks.fe_points.evaluating_with`). Both read the
+run's inputs as it pinned them, also on a Dask worker. Newton steps and continuation
+points are not tasks: a task is a step a person would name.
+
+Results persist as signed data records (:mod:`nlupdate.orchestration.tasks.store`): a record someone
+else wrote or edited is named and recomputed, never executed or used. Prefect's
+``SERIALIZABLE`` isolation with its ``FileSystemLockManager`` is not used: its locks never
+expire when taken through a task's transaction, so a run killed while holding one would
+leave the next run waiting forever; two runs computing the same key at once both compute
+it and write the same result.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+from prefect import Task, task
+
+from nlupdate.fe.adapters.base import ModalResult
+from nlupdate.fe.adapters.registry import AdapterSpec
+from nlupdate.core.discovery.candidates import CandidateFit
+from nlupdate.core.discovery.workflow import fit_candidate
+from nlupdate.input_files import pinned
+from nlupdate.study.chain import STEPS
+from nlupdate.study.spec import Study
+from nlupdate.orchestration.tasks.fe_points import adapter_for, current_evaluator
+from nlupdate.orchestration.tasks.store import DataSerializer, record_store
+
+
+def _by_key(context: Any, parameters: Mapping[str, Any]) -> str:
+    return parameters["key"]
+
+
+@task(name="step", cache_key_fn=_by_key, persist_result=True)
+def chain_step(key: str, step: str, study: Study, inputs: tuple) -> Any:
+    """The chain step named ``step`` on ``inputs`` (the results of its inputs)."""
+    with pinned(study.snapshots):
+        return STEPS[step].compute(study, *inputs)
+
+
+@task(name="job", cache_key_fn=_by_key, persist_result=True)
+def chain_job(key: str, step: str, study: Study, job: Any, inputs: tuple) -> Any:
+    """One job of the fan-out step ``step``; its FE points go to the evaluator of the
+    context (FE-point tasks on the flow's task runner)."""
+    with pinned(study.snapshots):
+        return STEPS[step].each(study, job, current_evaluator(), *inputs)
+
+
+@task(name="FE point", cache_key_fn=_by_key, persist_result=True)
+def evaluate_point(key: str, spec: AdapterSpec, point: Mapping[str, float]) -> ModalResult:
+    """One FE evaluation: modes of the model ``spec`` at parameter values ``point``."""
+    return adapter_for(spec).evaluate(point)
+
+
+@task(name="candidate fit", cache_key_fn=_by_key, persist_result=True)
+def candidate_fit(key: str, job: tuple) -> CandidateFit:
+    """One discovery candidate (an effect at a place) fitted to the measurements."""
+    return fit_candidate(job)
+
+
+def configured(step: Task, store: Path, refresh: bool = False) -> Task:
+    """``step`` persisting its results in the cache folder ``store`` (``refresh``: compute
+    even when the store has the result, and overwrite it) as signed data records
+    (:mod:`nlupdate.orchestration.tasks.store`)."""
+    configured_step = step.with_options(result_storage=Path(store), refresh_cache=refresh,
+                                        result_serializer=DataSerializer())
+    # Task() accepts a block only once saved on the server (for workers elsewhere to load
+    # it); a local folder needs no such record — Prefect itself turns the Path into an
+    # unsaved LocalFileSystem — so the block replaces the Path after that check.
+    configured_step.result_storage = record_store(Path(store))
+    return configured_step

@@ -1,0 +1,137 @@
+"""Cache keys: what a cached result depends on, as one fingerprint.
+
+A key is :func:`nlupdate.fingerprints.fingerprint` of everything the result depends on:
+
+* the code that computes it — :func:`numerics_code` (the packages a study step runs, not
+  the reporting, plots, CLI, flows or tasks: editing a plot or the report keeps every
+  cached identification and updating run) for the chain's steps and jobs,
+  :func:`fe_code` (adapters, built-in FE, linear models) for FE points, so editing a
+  report does not throw away hours of FE runs, :func:`discovery_code` for candidate fits;
+* for the archive's figures (:mod:`nlupdate.orchestration.tasks.figures`) :func:`reporting_code` and
+  matplotlib's version, the whole study file and every step's key;
+* the inputs: the study sections the step's entry in :data:`nlupdate.study.chain.CHAIN`
+  names, the content of every input file of the study (as the run read it), the keys of
+  the step's inputs; for a job, the job itself and the FE model's identity; for an FE
+  point, the adapter's point key (model fingerprint and parameter values).
+
+The code hashes are computed once per process, when first needed.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import nlupdate
+from nlupdate.fe.adapters.registry import AdapterSpec
+from nlupdate.fingerprints import fingerprint, path_hash
+from nlupdate.study.chain import Step
+from nlupdate.study.spec import Study
+
+#: The subpackages a study step runs (not the CLI, flows, tasks, reporting or discovery).
+STUDY_PACKAGES = ("core/model", "core/response", "core/measurement", "core/identification", "core/updating",
+                  "core/prediction", "core/correlation", "core/validation", "study", "fe")
+#: The subpackages a discovery candidate fit runs.
+DISCOVERY_PACKAGES = ("core/discovery", "core/model", "core/response", "core/identification", "core/measurement",
+                      "core/correlation")
+#: Single modules of the numerics the steps use besides their packages.
+NUMERICS_MODULES = ("fingerprints.py", "input_files.py", "files.py", "notices.py", "progress.py")
+
+
+def source_hash(paths: Iterable[Path]) -> str:
+    """SHA-256 of the Python sources under ``paths`` (files or folders), names included."""
+    digest = hashlib.sha256()
+    for root in sorted(Path(p) for p in paths):
+        files = [root] if root.is_file() else sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts)
+        for path in files:
+            digest.update(str(path.relative_to(root.parent)).encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+_PACKAGE = Path(nlupdate.__file__).parent
+
+
+@functools.cache
+def numerics_code() -> str:
+    """Hash of the code the study's steps run (:data:`STUDY_PACKAGES`, FE models and adapters included, and
+    :data:`NUMERICS_MODULES`)."""
+    return source_hash([_PACKAGE / name for name in STUDY_PACKAGES + NUMERICS_MODULES])
+
+
+@functools.cache
+def discovery_code() -> str:
+    """Hash of the code a discovery candidate fit depends on."""
+    return source_hash([_PACKAGE / name for name in DISCOVERY_PACKAGES + NUMERICS_MODULES])
+
+
+@functools.cache
+def fe_code() -> str:
+    """Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models)."""
+    return source_hash([_PACKAGE / "fe", _PACKAGE / "core/model", _PACKAGE / "fingerprints.py"])
+
+
+@functools.cache
+def reporting_code() -> str:
+    """Hash of the code that draws and writes an archive (:mod:`nlupdate.reporting`)."""
+    return source_hash([_PACKAGE / "reporting"])
+
+
+def figures_key(study: Study, step_keys: dict[str, str]) -> str:
+    """The archive figures of one run's results: the study file, every step's key (step
+    name → key), the reporting code and matplotlib's version."""
+    from importlib.metadata import version
+
+    return fingerprint("figures", reporting_code(), version("matplotlib"), study.sha256, input_files(study),
+                       sorted(step_keys.items()))
+
+
+def input_files(study: Study) -> dict[str, str]:
+    """Content hashes of the files the study reads (as written → SHA-256), as a run
+    pinned them (:func:`nlupdate.study.spec.inputs_read_once`)."""
+    return {written: path_hash(path) for written, path in sorted(study.input_files.items())}
+
+
+def sections(study: Study, step: Step) -> list[Any]:
+    """The study sections a step depends on."""
+    return [getattr(study, name) for name in step.sections]
+
+
+def step_key(step: Step, study: Study, input_keys: Sequence[str | None]) -> str:
+    """A chain step's result: the step, the code, its study sections, the study's input
+    files and the keys of its inputs."""
+    return fingerprint("step", step.name, numerics_code(), sections(study, step), input_files(study),
+                       list(input_keys))
+
+
+def job_key(step: Step, study: Study, job: Any, model_identity: str, input_keys: Sequence[str | None]) -> str:
+    """One job of a fan-out step (an updating run, a prediction): the job and its FE
+    model, and — unless the job describes itself (:attr:`~nlupdate.study.chain.Step.jobs_describe_themselves`)
+    — what its step's key is made of."""
+    if step.jobs_describe_themselves:
+        return fingerprint("job", step.name, numerics_code(), job, model_identity)
+    return fingerprint("job", step.name, numerics_code(), job, model_identity, sections(study, step),
+                       input_files(study), list(input_keys))
+
+
+def gathered_key(step: Step, job_keys: Sequence[str]) -> str:
+    """The key of a fan-out step's gathered result: its jobs' keys."""
+    return fingerprint("gathered", step.name, list(job_keys))
+
+
+def model_identity(spec: AdapterSpec, model_fingerprint: str) -> str:
+    """An FE model: its description and its built adapter's fingerprint (a deck's content, …)."""
+    return fingerprint("adapter", spec.identity(), model_fingerprint)
+
+
+def point_key(spec: AdapterSpec, point_of_adapter: str) -> str:
+    """One FE evaluation: the adapter's own point key (model fingerprint and values) and
+    the FE code."""
+    return fingerprint("point", fe_code(), spec.identity(), point_of_adapter)
+
+
+def candidate_key(job: Any) -> str:
+    """One discovery candidate fit: the job's content (data, model, place and effect) and
+    the discovery code."""
+    return fingerprint("candidate", discovery_code(), job)

@@ -1,0 +1,183 @@
+"""The task-result store: records that are data, signed, and written atomically.
+
+Whoever can write a cache folder must not be able to make a run execute code or use a
+number it did not compute (a shared ``NLUPDATE_CACHE_DIR``, Dask workers, a scheduled
+run's cache). So every record
+
+* holds its result as data (:mod:`nlupdate.orchestration.tasks.records`: JSON and ``.npz`` arrays read
+  with ``allow_pickle=False``, through :class:`DataSerializer`), never a pickle;
+* is signed: ``nlupdate-record 1`` and an HMAC-SHA256 under the user's cache secret
+  (:func:`nlupdate.user_config.cache_secret`, a 0600 file) of the record's key and
+  content. A record is verified before any byte of it is parsed; one that is unsigned,
+  edited, copied from another key, written by another serializer or of another schema is
+  named in one line (an :class:`~nlupdate.notices.NlupdateWarning`) and treated as absent,
+  so the task is computed again and the record rewritten;
+* is written beside its final name and renamed into place: a reader sees the old record
+  or the new one, never a part (Prefect's own ``LocalFileSystem`` truncates and rewrites
+  in place, which made concurrent readers fail and left truncated records after kills).
+
+Records live in ``<cache>/records-v1``; records of earlier versions (pickles) are never
+read. A disk that fills up stops caching with one warning, not silently.
+"""
+from __future__ import annotations
+
+import base64
+import errno
+import hashlib
+import hmac
+import json
+import threading
+import warnings
+from pathlib import Path
+from typing import Any
+
+from prefect.filesystems import LocalFileSystem
+from prefect.serializers import Serializer
+from pydantic import Field
+
+from nlupdate.files import clean_leftovers, write_bytes_atomic
+from nlupdate.notices import NlupdateWarning
+from nlupdate.orchestration.tasks import records
+from nlupdate.user_config import cache_secret
+
+MAGIC = b"nlupdate-record 1\n"
+RECORDS_FOLDER = "records-v1"
+SERIALIZER_TYPE = "nlupdate-data"
+
+
+class DataSerializer(Serializer):
+    """Prefect serializer writing results as data (:mod:`nlupdate.orchestration.tasks.records`)."""
+
+    type: str = Field(default=SERIALIZER_TYPE, frozen=True)
+
+    def dumps(self, obj: Any) -> bytes:
+        return base64.b64encode(records.dumps(obj))  # Prefect keeps it in a JSON string
+
+    def loads(self, blob: bytes) -> Any:
+        return records.loads(base64.b64decode(blob, validate=True))
+
+
+def _signature(secret: bytes, key: str, payload: bytes) -> bytes:
+    message = MAGIC + key.encode() + b"\0" + payload
+    return hmac.new(secret, message, hashlib.sha256).hexdigest().encode()
+
+
+def sign(key: str, payload: bytes, secret: bytes | None = None) -> bytes:
+    """The stored form of ``payload`` under ``key``."""
+    return MAGIC + _signature(secret or cache_secret(), key, payload) + b"\n" + payload
+
+
+def signed_payload(key: str, content: bytes, secret: bytes | None = None) -> bytes:
+    """The payload of what :func:`sign` stored under ``key``, or ``ValueError`` saying why it
+    cannot be trusted (whatever the payload holds)."""
+    if not content.startswith(MAGIC):
+        raise ValueError("not a signed nlupdate record (written by an older version or by something else)")
+    signature, _, payload = content[len(MAGIC):].partition(b"\n")
+    if not hmac.compare_digest(signature, _signature(secret or cache_secret(), key, payload)):
+        raise ValueError("its signature does not match (edited, copied from another key, or signed with another "
+                         "cache secret)")
+    return payload
+
+
+def verified(key: str, content: bytes, secret: bytes | None = None) -> bytes:
+    """The payload of a stored task record, or ``ValueError`` saying why it cannot be trusted."""
+    payload = signed_payload(key, content, secret)
+    try:
+        serializer = json.loads(payload)["metadata"]["serializer"]["type"]
+    except (ValueError, KeyError, TypeError):
+        raise ValueError("not a Prefect result record") from None
+    if serializer != SERIALIZER_TYPE:
+        raise ValueError(f"written with serializer {serializer!r}, not {SERIALIZER_TYPE!r}")
+    return payload
+
+
+_REPORTED: set[str] = set()
+_REPORTED_LOCK = threading.Lock()
+
+
+def _warn_once(subject: str, message: str) -> None:
+    with _REPORTED_LOCK:
+        if subject in _REPORTED:
+            return
+        _REPORTED.add(subject)
+    warnings.warn(message, NlupdateWarning, stacklevel=3)
+
+
+class SignedLocalFileSystem(LocalFileSystem):
+    """Prefect's local result storage with signed, atomic records (see the module docstring).
+
+    The first write into a folder by this process removes (and reports) the temporary
+    files that killed runs on this host left there (:func:`nlupdate.files.clean_leftovers`)."""
+
+    _block_type_name = "nlupdate signed local file system"
+    _block_type_slug = "nlupdate-signed-local-file-system"
+
+    def _key(self, resolved: Path) -> str:
+        return resolved.name
+
+    def read_path(self, path: str, **_: Any) -> bytes | None:  # Prefect passes _sync=True
+        resolved = Path(self._resolve_path(path))
+        try:
+            content = resolved.read_bytes()
+        except FileNotFoundError:
+            return None
+        try:
+            payload = verified(self._key(resolved), content)
+            records_schema_ok(payload)
+        except ValueError as error:
+            _warn_once(str(resolved), f"cache record {resolved}: {error}; not used, the result is computed again")
+            return None
+        return payload
+
+    async def aread_path(self, path: str) -> bytes | None:
+        return self.read_path(path)
+
+    def write_path(self, path: str, content: bytes, **_: Any) -> str:  # Prefect passes _sync=True
+        resolved = Path(self._resolve_path(path))
+        try:
+            resolved.parent.mkdir(exist_ok=True, parents=True)
+            if resolved.exists() and not resolved.is_file():
+                raise ValueError(f"Path {resolved} already exists and is not a file.")
+            _clean_once(resolved.parent)
+            write_bytes_atomic(resolved, sign(self._key(resolved), content))
+        except OSError as error:
+            if error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES):
+                _warn_once(f"write {resolved.parent}", f"cache folder {resolved.parent}: cannot write records "
+                           f"({error.strerror}); results from now on are not cached")
+                return str(resolved)
+            raise
+        return str(resolved)
+
+    async def awrite_path(self, path: str, content: bytes) -> str:
+        return self.write_path(path, content)
+
+
+def records_schema_ok(payload: bytes) -> None:
+    """``ValueError`` when the result inside a verified record is not data of this
+    version's schema (:func:`nlupdate.orchestration.tasks.records.check`)."""
+    try:
+        result = json.loads(payload)["result"]
+        blob = base64.b64decode(result, validate=True)
+    except (ValueError, KeyError, TypeError):
+        raise ValueError("its result is not stored as data") from None
+    try:
+        records.check(blob)
+    except records.RecordError as error:
+        raise ValueError(str(error)) from None
+
+
+_CLEANED: set[Path] = set()
+_CLEANED_LOCK = threading.Lock()
+
+
+def _clean_once(folder: Path) -> None:
+    with _CLEANED_LOCK:
+        if folder in _CLEANED:
+            return
+        _CLEANED.add(folder)
+    clean_leftovers(folder)
+
+
+def record_store(cache_folder: Path) -> SignedLocalFileSystem:
+    """The signed store of the cache folder ``cache_folder``."""
+    return SignedLocalFileSystem(basepath=str(Path(cache_folder) / RECORDS_FOLDER))

@@ -1,0 +1,493 @@
+"""``report.md``: a run archive's report, written to be read top to bottom.
+
+It opens with a line saying so when no updating run converged (and why each stopped),
+then the warnings about results that should not be trusted as they stand
+(:func:`nlupdate.study.steps.study_warnings`, a best model that predicts worse than the
+initial one first; the CLI prints the summary, so they reach the terminal too) and the
+answer (identified nonlinearity, updated parameters with their
+uncertainty, how well the updated nonlinear model predicts every force level), then
+shows how each step got there, with the plots linked beside the numbers. For a
+simulated study the hidden truth is printed beside every estimate.
+"""
+from __future__ import annotations
+
+import re
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
+from nlupdate.core.response.method import describe
+
+UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
+                    "propagated through the updating sensitivities for updated parameters); the interval given as "
+                    "'3σ' has coverage ≈ 99.7 % for a normal spread")
+
+
+def _number(value: float, digits: int = 4) -> str:
+    if value is None or not np.isfinite(value):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def _table(frame: pd.DataFrame, digits: int = 4) -> str:
+    """A markdown table of ``frame`` (numbers to ``digits`` significant digits)."""
+    def cell(value: Any) -> str:
+        if isinstance(value, (float, np.floating)):
+            return _number(float(value), digits)
+        return str(value).replace("|", "/")
+    header = "| " + " | ".join(str(c).replace("|", "/") for c in frame.columns) + " |"
+    rule = "|" + "---|" * len(frame.columns)
+    rows = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
+    return "\n".join([header, rule, *rows])
+
+
+def hidden_truth(study) -> dict[str, float]:
+    """Truth values of a simulated study (adapter parameters and element parameters), by name."""
+    sim = study.measured.simulate if study.measured is not None else None
+    if sim is None or sim.model_file is not None:
+        return {}
+    truth = dict(sim.parameters)
+    for element in sim.elements:
+        for key, value in element.items():
+            if key not in ("type", "dofs") and isinstance(value, (int, float)):
+                truth[key] = float(value)
+    return truth
+
+
+#: why an updated parameter has no ± (the table's note and the summary say it)
+NO_TARGET_STD = "no uncertainty: the targets state no std_hz"
+
+
+def _with_truth(value: float, std: float | None, truth: float | None, scale: float = 1.0, unit: str = "",
+                missing: str = "no uncertainty") -> str:
+    """``value ± std unit`` with the truth and how many σ off it; without a std (None or NaN)
+    the value alone and ``missing`` (why there is none) — never "± –"."""
+    known = std is not None and bool(np.isfinite(std))
+    text = (f"{_number(value / scale)} ± {_number(std / scale, 2)} {unit}" if known
+            else f"{_number(value / scale)} {unit}").rstrip()
+    notes = [] if known else [missing]
+    if truth is not None:
+        truth_text = f"truth {_number(truth / scale)}{' ' + unit if unit else ''}"
+        notes.insert(0, f"{truth_text}; {_number(abs(value - truth) / std, 2)}σ off" if known and std > 0 else truth_text)
+    notes = [note for note in notes if note]
+    return text + (f" ({'; '.join(notes)})" if notes else "")
+
+
+def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str]) -> str:
+    """The report of a :class:`~nlupdate.study.sequential.StudyResult` with its manifest; ``plots``
+    maps plot keys to their paths relative to the archive."""
+    study = result.study
+    truth = hidden_truth(study)
+    run = manifest.get("run", {})
+    lines = [f"# Study `{study.name}`", ""]
+    if study.description:
+        lines += [study.description, ""]
+    lines += [f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
+              f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
+
+    lines += ["## Summary", ""]
+    headline = none_converged_line(result.runs)
+    lines += [f"**{headline[0]}**{headline[1]}", ""] if headline else []
+    lines += _warning_lines(result)
+    summary = _summary_lines(result, truth)
+    lines += summary or ["(nothing was computed)"]
+    lines += ["", f"_{UNCERTAINTY_NOTE}._", ""]
+    if result.failures:
+        lines += ["**Failed updating runs** (the others finished):", ""]
+        lines += [f"* `{f.name}`: {f.error}" for f in result.failures] + [""]
+
+    if result.measured is not None:
+        lines += ["## Measured data", ""]
+        sim = study.measured.simulate
+        if sim is not None:
+            lines += [f"Simulated stepped-sine test (sweep {sim.sweep}) of the hidden truth at "
+                      f"{', '.join(f'{f:g}' for f in sim.forces_n)} N, {len(sim.frequencies_hz)} frequencies "
+                      f"{min(sim.frequencies_hz):g}–{max(sim.frequencies_hz):g} Hz, noise {100 * sim.noise:g} % "
+                      f"(docs/methods.md §8), seed {sim.seed}.", ""]
+        else:
+            spec = study.measured
+            sources = [spec.file] if spec.file else [p for p, _ in spec.files] or list(spec.time_histories)
+            how = "FRFs estimated by `nlupdate frf` from the time histories " if spec.time_histories else "Read from "
+            unit = result.measured["reference_unit"].iloc[0] if "reference_unit" in result.measured.columns else "N"
+            per_volt = " The reference is the excitation voltage: levels in V, FRFs in m/V, parameters per volt." \
+                if unit == "V" else ""
+            lines += [f"{how}{', '.join(f'`{s}`' for s in sources)} (SHA-256 of the table "
+                      f"`{manifest['inputs']['measured']['sha256'][:16]}…`).{per_volt}", ""]
+        if "measured" in plots:
+            lines += [f"![measured FRFs]({plots['measured']})", ""]
+
+    if result.identification is not None:
+        lines += _identification_section(result.identification, truth, plots)
+    if result.targets is not None:
+        lines += _targets_section(result)
+    if result.runs:
+        lines += _updating_section(result, truth, plots)
+    if result.predictions:
+        lines += _prediction_section(result, plots)
+    if result.validation is not None:
+        lines += _validation_section(result.validation, plots)
+
+    lines += ["## Files", "",
+              "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
+              "* `study.toml` — the study file as run",
+              "* `tables/*.parquet` — " + ", ".join(f"`{name}`" for name in manifest.get("tables", [])),
+              "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())), ""]
+    return "\n".join(lines)
+
+
+def none_converged_line(runs) -> tuple[str, str] | None:
+    """(headline, detail) when there are updating runs and none converged: how each stopped."""
+    if not runs or any(run.converged for run in runs):
+        return None
+    how = "; ".join(f"{run.name}: {run.reason}" for run in runs)
+    what = "The updating run did not converge" if len(runs) == 1 else f"None of the {len(runs)} updating runs converged"
+    return what, (f" ({how}). The values below are where {'it' if len(runs) == 1 else 'each'} stopped, not updated "
+                  f"parameters.")
+
+
+def _not_converged(value: float, truth: float | None) -> str:
+    """A value where a run stopped: no ±, since it is no result."""
+    return f"{_number(value)} (not converged{f'; truth {_number(truth)}' if truth is not None else ''})"
+
+
+def _warning_lines(result) -> list[str]:
+    """The **Warnings** block that opens the summary (nothing when there are none)."""
+    warnings = result.warnings
+    if not warnings:
+        return []
+    lines = [f"**Warnings** ({len(warnings)}: results not to be trusted as they stand):", ""]
+    lines += [f"* {w.source}: {w.message}" if w.source else f"* {w.message}" for w in warnings]
+    return lines + [""]
+
+
+def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
+    out = []
+    ident = result.identification
+    if ident is not None:
+        stats = ident.uncertainty.parameters
+        parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name), missing='no Monte-Carlo uncertainty')}"
+                 for name, s in stats.items()
+                 if name in ident.parameters()]
+        out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts)
+                   + ("" if ident.trustworthy else " — **not trustworthy**: the linear FRF differs between the "
+                      "levels beyond their noise (Identification below)"))
+    if result.runs and result.ranking is not None:
+        best = result.ranking[result.ranking["candidate"] != "initial"].iloc[0]["candidate"]
+        run = next(r for r in result.runs if r.name == best)
+        u = result.uncertainties.get(best)
+        if run.converged:
+            values = "; ".join(
+                f"{name} = {_with_truth(value, u.std[name] if u else None, truth.get(name), missing=NO_TARGET_STD)}"
+                for name, value in run.parameters.items())
+            out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
+        else:
+            values = "; ".join(f"{name} = {_not_converged(value, truth.get(name))}"
+                               for name, value in run.parameters.items())
+            out.append(f"* **No converged updated model**; the best-ranked run `{best}` did not converge "
+                       f"({run.stop}): {values}")
+        if u is not None and u.note:
+            out.append(f"  ({u.note})")
+    for prediction in result.predictions:
+        c = prediction.correlation
+        out.append(f"* **Prediction** `{prediction.name}` (loss factor {_number(prediction.loss_factor, 3)}, "
+                   f"{prediction.loss_factor_source}): FRAC per level min {_number(c['frac'].min(), 3)}, "
+                   f"mean {_number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
+                   + _single_frequency_levels(c))
+    if result.validation is not None:
+        out += _validation_summary(result.validation)
+    return out
+
+
+def _validation_summary(validation) -> list[str]:
+    """One line per model: its largest held-out errors beside the baseline's."""
+    out = []
+    for requested in dict.fromkeys(r.requested for r in validation.held_out):
+        rows = [r for r in validation.held_out if r.requested == requested]
+
+        def worst(rows, name, relative, source="compared"):
+            values = [getattr(r, source)[name] for r in rows]
+            errors = [abs(v.relative_error if relative else v.error) for v in values]
+            return max((e for e in errors if np.isfinite(e)), default=float("nan"))
+
+        inside = [r.compared["resonance_hz"].inside for r in rows if r.compared["resonance_hz"].inside is not None]
+        out.append(f"* **Held-out levels** `{requested}` ({len(rows)} level{'s' if len(rows) > 1 else ''}): resonance "
+                   f"within {_number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
+                   f"{_number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
+                   f"{_number(100 * worst(rows, 'damping_ratio', True), 3)} % (baseline "
+                   f"{_number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
+                   f"{_number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
+                   f"{_number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
+                   f"95 % band at {sum(inside)} of {len(inside)}; test repeatability "
+                   f"{_number(validation.repeatability.resonance_hz, 3)} Hz")
+    return out
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def _single_frequency_levels(correlation) -> str:
+    """The levels measured at single frequencies (no FRAC): their largest relative error."""
+    single = correlation[correlation["frac"].isna()]
+    if single.empty:
+        return ""
+    return (f"; {_count(len(single), 'single-frequency level')} (no FRAC): relative FRF error up to "
+            f"{_number(single['normalised_error'].max(), 3)}")
+
+
+def _untrustworthy_lines(ident) -> list[str]:
+    """The failed placement check (:mod:`nlupdate.core.identification.consistency`) in bold, first."""
+    return [f"**{w.message}**" for w in ident.warnings if w.kind == "levels_disagree"] + \
+        ([""] if not ident.trustworthy else [])
+
+
+def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
+    s = ident.settings
+    r = ident.result
+    lines = ["## Identification", ""] + _untrustworthy_lines(ident)
+    if s.method == "prd":
+        lines += [f"PRD at **{r.setup.frequency_hz:g} Hz** from the {r.setup.low_force:g} N (low) and "
+                  f"{len(r.setup.high_forces)} high levels ({min(r.setup.high_forces):g}–{max(r.setup.high_forces):g} N), "
+                  f"{r.estimator} estimator."]
+        if ident.frequency_choice is not None:
+            choice = ident.frequency_choice
+            final = ""
+            if ident.modes and choice.linear_natural_frequency_hz is not None:
+                nearest = min(range(len(ident.modes)), key=lambda i: abs(
+                    ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
+                final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
+                         f"{_number(ident.natural_frequencies_hz[nearest])} ± "
+                         f"{_number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")
+            lines += [f"Why this frequency: {choice.reason} (visited "
+                      f"{', '.join(f'{f:g}' for f in choice.visited_hz)} Hz{final}). The identification is "
+                      f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
+                      f"because the stuck friction stiffens it."]
+    else:
+        lines += [f"DDF between {r.setup.force_pair[0]:g} and {r.setup.force_pair[1]:g} N over "
+                  f"{r.setup.band_hz[0]:g}–{r.setup.band_hz[1]:g} Hz, {r.estimator} estimator."]
+    lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
+                  + monte_carlo_note(ident.uncertainty), ""]
+    stats = ident.uncertainty.parameters
+    rows = [{"parameter": name, "value": st.value, "std": st.std, "3σ interval": f"[{_number(st.value - 3 * st.std)}, "
+             f"{_number(st.value + 3 * st.std)}]", **({"truth": truth.get(name, float("nan"))} if truth else {})}
+            for name, st in stats.items() if name in ident.parameters()]
+    lines += [_table(pd.DataFrame(rows)), ""]
+    if "fit" in plots:
+        covered = covered_intervals(r.amplitude)
+        gaps = (f", dashed across the gap{'s' if len(covered) > 2 else ''} between them (no point within a factor "
+                f"{AMPLITUDE_GAP_RATIO:g} in amplitude: an interpolation no measurement checks)" if len(covered) > 1
+                else "")
+        lines += [f"![{s.method.upper()} fit]({plots['fit']})", "",
+                  f"The points are the data ({len(r.amplitude)} of them, coloured by force level), the line the fitted "
+                  f"model, solid where the data lie ({describe_intervals(covered)}){gaps} and dotted beyond them: an "
+                  f"extrapolation no measurement supports, though predictions at other levels and frequencies use it. "
+                  f"Grey regions hold no data. The shaded band holds 95 % of the Monte-Carlo fits; where the legend "
+                  f"calls it narrower than the line, the fits agree within the line's width there. Right: "
+                  f"each point's misfit in units of its noise (about 1 where the model fits).", ""]
+    if ident.modes:
+        rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
+                 "std (Hz)": stats[f"linear_f{i + 1}_hz"].std, "loss factor": stats[f"linear_eta{i + 1}"].value,
+                 "std": stats[f"linear_eta{i + 1}"].std} for i in range(len(ident.modes))]
+        lines += [f"The extracted linear FRF (from {ident.linear_source}) has these modes "
+                  f"(one-mode fits over ±{100 * s.modal_band_fraction:g} % around each resonance):", "",
+                  _table(pd.DataFrame(rows)), ""]
+    if "linear_frf" in plots:
+        combined = len(ident.linear_from_levels_n) > 1
+        lines += [f"![extracted linear FRF]({plots['linear_frf']})", "",
+                  f"The extracted linear FRF (red, from {ident.linear_source}) with the band holding 95 % of the "
+                  f"Monte-Carlo extractions, the one-mode fits (dashed) and the {ident.linear_from_level_n:g} "
+                  f"{ident.reference_unit} measurement (grey); right, around each mode (a few half-power bandwidths, within "
+                  f"the frequencies the FRF covers). Where the legend calls the band narrower than the line, the "
+                  f"extractions agree within the line's width. "
+                  + ("Each level gives 1/H_L = 1/H − ν(|X|); near a linear resonance a level that the nonlinearity "
+                     "stiffens (a stuck joint) subtracts two nearly equal dynamic stiffnesses and carries much more "
+                     "noise than one near its own resonance, so the levels are weighted by their noise line by line. "
+                     "Where" if combined else
+                     "Near a resonance of the linear structure the extraction subtracts two nearly equal dynamic "
+                     "stiffnesses (1/H_L = 1/H_1 − Δ_f1), so the noise grows there: where")
+                  + " the band is wide, the modes' values and every FRF comparison against this curve carry that "
+                    "uncertainty.", ""]
+    return lines
+
+
+def monte_carlo_note(uncertainty) -> str:
+    """What the Monte-Carlo sample count means, how many failed and why."""
+    n, failed = uncertainty.n_samples, uncertainty.n_failed
+    text = (f"Uncertainty: {n} Monte-Carlo samples — the measured curves perturbed {n} times with fresh noise of "
+            f"that level and identified again (excitation frequency or band, force levels and model held fixed); the ± below and the bands "
+            f"in the plots are the spread of the {n - failed} results")
+    if not failed:
+        return text + " (none failed)."
+    grouped: dict[str, int] = {}
+    for message, count in uncertainty.failures.items():  # one reason, whatever the numbers in parentheses
+        reason = re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])
+        grouped[reason] = grouped.get(reason, 0) + count
+    reasons = "; ".join(f"{count} × {reason}" for reason, count in sorted(grouped.items(), key=lambda g: -g[1])[:3])
+    more = len(grouped) - 3
+    reasons += f"; {more} other reason{'s' if more > 1 else ''}" if more > 0 else ""
+    return (text + f". {failed} sample{'s' if failed > 1 else ''} failed and {'are' if failed > 1 else 'is'} left "
+            f"out as a whole ({reasons}): these are the perturbed data hardest to identify, so the ± of what "
+            f"failed there may be understated.")
+
+
+def _targets_section(result) -> list[str]:
+    t = result.targets.targets
+    std = result.targets.std_hz
+    frame = pd.DataFrame({"mode": list(t.labels), "target (Hz)": t.frequencies_hz,
+                          "std (Hz)": std if std is not None else float("nan"), "weight": t.weights})
+    return ["## Updating targets", "", _table(frame, 6), ""]
+
+
+def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
+    lines = ["## Updating", ""]
+    rows, without_std = [], False
+    for run in result.runs:
+        u = result.uncertainties.get(run.name)
+        stds = {name: u.std[name] if u else None for name in run.parameters}
+        without_std |= run.converged and not all(s is not None and np.isfinite(s) for s in stds.values())
+        on_bound = [w.subject for w in result.warnings if w.source == run.name and w.kind == "at_bound"]
+        converged = "yes" if run.converged else f"no ({run.stop if on_bound else run.reason})"
+        if on_bound:
+            converged += f", on the bound of {', '.join(on_bound)}"
+        rows.append({
+            "run": run.name, "converged": converged, "iterations": run.iterations,
+            "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
+            **{name: (_with_truth(v, stds[name], None, missing="") if run.converged
+                      else _not_converged(v, None)) for name, v in run.parameters.items()},
+        })
+    frame = pd.DataFrame(rows).fillna("–")
+    lines += [_table(frame), ""]
+    if without_std:
+        lines += ["No ± on the updated values: the targets state no std_hz (`[targets] std_hz`, "
+                  "docs/study-files.md), so there is no uncertainty to propagate."
+                  if result.targets is not None and result.targets.std_hz is None
+                  else "No ± on some updated values: their propagated uncertainty could not be determined.", ""]
+    if truth:
+        known = {k: v for k, v in truth.items() if any(k in r.parameters for r in result.runs)}
+        if known:
+            lines += ["Hidden truth: " + ", ".join(f"{k} = {_number(v)}" for k, v in known.items()), ""]
+    notes = {u.note for u in result.uncertainties.values() if u.note}
+    lines += [f"* {note}" for note in sorted(notes)] + ([""] if notes else [])
+    if "convergence" in plots:
+        lines += [f"![convergence]({plots['convergence']})", ""]
+    comparison = result.comparison
+    has_frac = bool(comparison["frac"].notna().any())
+    lines += ["Comparison with the targets, mode by mode: the frequency error of each candidate model"
+              + (" and the FRAC of its linear FRF against the extracted one (explained below the table):" if has_frac
+                 else ":"), ""]
+    errors = comparison.pivot_table(index="candidate", columns="mode", values="error_pct", sort=False)
+    errors.columns = [f"error {c} (%)" for c in errors.columns]
+    table = errors
+    if has_frac:
+        fracs = comparison.pivot_table(index="candidate", columns="mode", values="frac", sort=False, dropna=False)
+        fracs.columns = [f"FRAC {c}" for c in fracs.columns]
+        table = errors.join(fracs)
+    lines += [_table(table.reset_index()), ""]
+    if has_frac:
+        lines += [_frac_explanation(result), ""]
+    if "frequency_errors" in plots:
+        sigma = (" The green bands are each target's ±1σ and ±2σ — the uncertainty the updating propagates into "
+                 "the updated parameters." if result.targets is not None and result.targets.std_hz is not None else "")
+        lines += [f"![frequency errors]({plots['frequency_errors']})", "",
+                  f"Each bar is a candidate's error for one target mode, its value beside it.{sigma}", ""]
+    if "frf_comparison" in plots:
+        lines += [f"![candidate FRFs]({plots['frf_comparison']})", "",
+                  f"The candidates' linear FRFs are modal superpositions of the {result.candidate_frfs.modes} modes "
+                  f"each model computed, without residual terms: if the model has higher modes, the curves miss them "
+                  f"(modal truncation) — anti-resonances and the level above the last computed mode are off for that "
+                  f"reason, not because of the updating.", ""]
+    columns = {"rank": "rank", "candidate": "candidate", "weighted_abs_error_pct": "weighted mean abs. frequency error (%)"}
+    if has_frac:
+        columns["weighted_frac"] = "weighted FRAC"
+    ranking = result.ranking[list(columns)].rename(columns=columns)
+    if "converged" in result.ranking:
+        ranking.insert(2, "converged", ["–" if v is pd.NA else ("yes" if v else "no") for v in result.ranking["converged"]])
+    lines += ["Ranking for the user weights, by the weighted mean |frequency error| (Σ w·|error| / Σ w over the target "
+              "modes; lower is better), the runs that converged before those that did not, whatever their errors "
+              "where they stopped: the first is the best updated model"
+              + (". Weighted FRAC (Σ w·FRAC / Σ w, higher is better) is shown beside it; read it against what the "
+                 "extracted FRF's own fits reach (above)." if has_frac else "."), "",
+              _table(ranking), ""]
+    return lines
+
+
+def _frac_explanation(result) -> str:
+    """What the candidates' per-mode FRAC measures and what it can reach here."""
+    band = result.study.comparison.band_fraction
+    text = (f"FRAC (0–1, 1 = same shape) compares a candidate's linear FRF — its computed modes with the "
+            f"identified loss factors — with the extracted linear FRF within ±{100 * band:g} % of each target. It "
+            f"is limited by the noise of that reference and by modal truncation, not only by the model")
+    reachable = result.targets.reference_fit_frac if result.targets is not None else None
+    if reachable is None:
+        return text + "."
+    values = ", ".join(f"{_number(v, 3)} ({label})" for label, v in zip(result.targets.targets.labels, reachable))
+    return (text + f": the extracted FRF's own one-mode fits — curves fitted to these very data — reach {values} in "
+            f"the same bands. A candidate near those values agrees with the reference as well as its noise lets "
+            f"any curve agree, however low the number; a low value there says the reference is noisy, not that the "
+            f"model is poor. How well the model predicts is the prediction's FRAC against the measurements, below.")
+
+
+def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
+    lines = ["## Prediction at every force level", "",
+             "The updated linear FE model (its modes at the measured coordinates) plus the identified elements, "
+             "simulated at every measured force level and frequency, against the measurements; `initial` is the "
+             "model before updating with the same elements. Response method ([prediction] `method`): "
+             f"{describe(result.study.prediction.harmonic_balance)}.", ""]
+    if "predictions" in plots:
+        lines += [f"![predictions]({plots['predictions']})", "",
+                  "Magnitude and phase at each force level; each panel's title gives the FRAC of the initial and of "
+                  "the updated model at that level.", ""]
+    columns = {"model": "model", "force_level_n": "force level (N)", "frac": "FRAC",
+               "normalised_error": "‖H_model − H_measured‖ / ‖H_measured‖",
+               "peak_frequency_error_pct": "peak frequency error (%)",
+               "peak_amplitude_ratio": "peak amplitude model / measured"}
+    table = pd.concat([p.correlation.assign(model=p.name) for p in result.predictions], ignore_index=True)
+    table = table[list(columns)].rename(columns=columns)
+    lines += ["Per level, against the measurement itself over the whole measured band: FRAC (0–1, 1 = the "
+              "measured shape), the relative FRF error, and the error of the highest peak's frequency and "
+              "amplitude.", "", _table(table, 3), ""]
+    if "correlation" in plots:
+        lines += [f"![correlation per level]({plots['correlation']})", ""]
+    return lines
+
+
+def summary_section(markdown: str) -> str:
+    """The ``## Summary`` section of a report as plain text (for a terminal)."""
+    text = markdown.split("## Summary", 1)[-1].split("\n## ", 1)[0]
+    lines = [line for line in text.splitlines() if not (line.startswith("_") and line.endswith("_"))]
+    return "\n".join(lines).replace("**", "").replace("`", "").strip()
+
+
+def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
+    """Held-out levels (``[validation]``): each level's errors beside the baseline's and the
+    test's own repeatability."""
+    unit = validation.reference_unit
+    repeat = validation.repeatability
+    lines = ["## Held-out levels", "",
+             "Each held-out level predicted by a model fitted on the other levels of the measured curve "
+             "(docs/methods.md §10), beside the log-amplitude baseline (interpolation between the kept levels). "
+             "Resonance, half-power damping ratio and peak come from one estimator for the measured and predicted "
+             "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability. The test's own "
+             f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
+             f"{_number(repeat.resonance_hz, 3)} Hz, damping ratio {_number(100 * repeat.damping_ratio, 3)} % "
+             "(points) — no model can be expected to do better than that.", ""]
+    rows = []
+    for r in validation.held_out:
+        c, b = r.compared, r.baseline
+        res = c["resonance_hz"]
+        rows.append({f"level ({unit})": _number(r.level), "model": r.label,
+                     "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, "
+                                             f"{res.high - res.measured:+.2f}]",
+                     "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
+                     "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
+                     "baseline: resonance (Hz), damping (%), peak (%)":
+                         f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+                         f"{100 * b['peak_abs'].relative_error:+.1f}",
+                     "residual / noise (model, baseline)": f"{_number(r.residual_to_noise, 3)}, "
+                                                           f"{_number(r.baseline_residual_to_noise, 3)}"})
+    lines += [_table(pd.DataFrame(rows)), ""]
+    if "validation" in plots:
+        lines += [f"![held-out levels]({plots['validation']})", ""]
+    return lines
