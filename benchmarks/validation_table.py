@@ -1,0 +1,49 @@
+"""The held-out-level table of a real data set, as docs/validation.md shows it: one row per
+held-out level and model — resonance error (Hz), damping-ratio and peak errors (%), each
+with its 95 % band, whether the measured value lies in the band, the log-amplitude
+baseline's errors — for ``--hold-out each`` and ``--hold-out top``, then the test's
+repeatability. Used by benchmarks/validation_brb.py and validation_transmitter_beam.py.
+"""
+from __future__ import annotations
+
+import os
+import time
+import warnings
+from typing import Sequence
+
+
+def print_validation_tables(data, models: Sequence[str], unit: str, hz_digits: int = 3) -> None:
+    """Runs :func:`validate` on ``data`` (an ``FRFLevels``) for ``each`` and ``top`` with
+    ``models`` and prints both tables (levels in ``unit``; resonance errors with ``hz_digits``
+    decimals, their bands with one fewer), the repeatability, the load and the times."""
+    from nlupdate.core.validation.held_out import validate
+
+    print(f"load {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores; "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    started, cpu = time.perf_counter(), time.process_time()
+    for hold_out in ("each", "top"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = validate(data, hold_out, models)
+        print(f"\n--hold-out {hold_out}")
+        print(f"| level ({unit}) | model | resonance error (Hz) [95 % band] | damping error (%) [band] | peak error "
+              "(%) [band] | in band (f, ζ, peak) | baseline: f (Hz), ζ (%), peak (%) |")
+        print("|---|---|---|---|---|---|---|")
+        for r in result.held_out:
+            c, b = r.compared, r.baseline
+
+            def rel(q):
+                return (f"{100 * q.relative_error:+.1f} [{100 * (q.low / q.measured - 1):+.0f}, "
+                        f"{100 * (q.high / q.measured - 1):+.0f}]")
+
+            res = c["resonance_hz"]
+            inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
+            print(f"| {r.level:g} | {r.label} | {res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
+                  f"{res.high - res.measured:+.{hz_digits - 1}f}] | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | {inside} | "
+                  f"{b['resonance_hz'].error:+.{hz_digits}f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+                  f"{100 * b['peak_abs'].relative_error:+.1f} |")
+        if hold_out == "each":
+            repeat = result.repeatability
+            print(f"\ntest repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
+                  f"{repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio {100 * repeat.damping_ratio:.{hz_digits}f} % (points)")
+    print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
