@@ -14,8 +14,9 @@ DIR/predicted_frf.png against the measured curves.
 A free decay (--ring-down FILE, repeatable; --channel NAME when it holds several; --band the
 mode's band-pass) is enough input on its own, or joins the FRFs or modal table (then with the
 shape at the excited coordinate). Response-controlled stepped-sine runs (--response-controlled
-FILE.mat) give one sample per held amplitude from a one-mode fit of each run (docs/ring-down.md
-for both). DIR/backbone_points.csv holds every source's samples and DIR/backbone.csv the fitted
+FILE.mat) give one sample per held amplitude from a one-mode fit of each run, and phase-resonance
+points (--phase-resonance FILE, .csv or .mat: frequency, force, response and phase per level) one
+sample per level, the damping from the force needed at resonance (docs/ring-down.md for all three). DIR/backbone_points.csv holds every source's samples and DIR/backbone.csv the fitted
 backbone over their range.
 """
 from __future__ import annotations
@@ -34,6 +35,7 @@ from nlupdate.core.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.phase_resonance import read_phase_resonance, samples_from_phase_resonance
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.backbone_samples import backbone_curve, backbone_points, join_samples
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
@@ -57,6 +59,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
                         help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
                              "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
+    parser.add_argument("--phase-resonance", action="append", default=[], metavar="FILE",
+                        help="phase-resonance points (.csv: frequency_hz, force_n, response_amplitude, "
+                             "response_phase_deg, optional response_unit, response_dof, input_dof; or .mat runs): one "
+                             "sample per level; needs --shape at its response (and input) coordinate; repeatable")
     parser.add_argument("--channel", help="the ring-down files' channel (default: their only one); its --shape, if "
                                           "given, makes the amplitude modal")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
@@ -163,6 +169,18 @@ def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tu
                                                                          f"; shape {samples.input_shape:.4g} 1/√kg "
                                                                          f"from the lowest run's modal constant"))
         out.append((path, samples))
+    for path in args.phase_resonance:
+        points = read_phase_resonance(path, read_options(args))
+        missing = [dof for dof in (points.response_dof, points.input_dof) if dof not in shapes]
+        if missing:
+            raise CliError(f"{path}: give --shape {missing[0]}=VALUE: the damping at phase resonance, "
+                           f"ζ = |φ_f φ_r| F/(2Ω²|X_r|), needs the mass-normalised shape (1/√kg) at the response "
+                           f"and the force")
+        samples = samples_from_phase_resonance(points, shapes[points.response_dof], shapes[points.input_dof])
+        print(f"{path}: {samples.amplitude.size} phase-resonance point(s) at {points.response_dof} (force at "
+              f"{points.input_dof}), {points.force_n.min():.4g}–{points.force_n.max():.4g} N")
+        out.append((path, samples))
+        channel = points.input_dof
     return out, channel
 
 
@@ -172,9 +190,9 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    if not args.measured and not args.ring_down and not args.response_controlled:
-        raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE and/or "
-                       "--response-controlled FILE")
+    if not (args.measured or args.ring_down or args.response_controlled or args.phase_resonance):
+        raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE, "
+                       "--response-controlled FILE, --phase-resonance FILE")
     rings, channel = _ring_down_samples(args, shapes)
     if not args.measured:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
         samples, input_dof = join_samples([s for _, s in rings]), channel
