@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError
+from nlupdate.core.measurement.band import in_band
 from nlupdate.core.measurement.units import ReadOptions, ReferenceUnitError, table_reference_unit
 
 LEVEL_HELP = ("level (in the reference unit) of a file that does not hold it: FILE=VALUE; of one run of a file "
@@ -149,7 +150,7 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
         notes.append(describe_frf_table(table, paths, options.reference_calibration))
         column = "frequency_hz"
     if band is not None:
-        inside = (table[column] >= band[0]) & (table[column] <= band[1])
+        inside = pd.Series(in_band(table[column], band), index=table.index)
         if not inside.any():
             lo, hi = float(table[column].min()), float(table[column].max())
             what = "mode" if column != "frequency_hz" else "line"
@@ -161,7 +162,7 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
         table = table[inside].reset_index(drop=True)
     elif find_band and column == "frequency_hz":
         found, reason = excited_band_of_table(table)
-        inside = (table[column] >= found[0]) & (table[column] <= found[1])
+        inside = pd.Series(in_band(table[column], found), index=table.index)
         if not inside.all():
             notes.append(f"band {found[0]:g}–{found[1]:g} Hz found ({reason}): {int((~inside).sum())} of {len(table)} "
                          f"measured rows outside it left out before any step (choose another with --band LOW:HIGH)")

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from nlupdate.core.measurement.band import in_band
 from nlupdate.core.measurement.frf_table import force_levels, select_frf
 from nlupdate.core.measurement.noise import add_frf_noise
 
@@ -120,8 +121,7 @@ class FRFLevels:
 
     def within(self, band_hz: tuple[float, float]) -> "FRFLevels":
         """The sweeps restricted to ``band_hz`` = (low, high) Hz, ends included."""
-        low, high = band_hz
-        return self._masked([(f >= low * (1 - _RTOL)) & (f <= high * (1 + _RTOL)) for f in self.frequencies])
+        return self._masked([in_band(f, band_hz) for f in self.frequencies])
 
     def coherent(self, threshold: float) -> "FRFLevels":
         """The sweeps without the lines whose coherence is below ``threshold`` (unchanged

@@ -25,6 +25,18 @@ from numpy.typing import ArrayLike
 COHERENCE_THRESHOLD = 0.8
 ROUGHNESS_LIMIT = 0.5
 _WINDOW = 9
+#: relative tolerance of a band's ends: a stepped-sine test repeats its frequencies at every
+#: level, and a logger may round them differently in the last digits (42.70540998163596 and
+#: …597 Hz); a band found at one level keeps the same lines of the others
+BAND_RTOL = 1e-9
+
+
+def in_band(frequency_hz: ArrayLike, band_hz: tuple[float, float]) -> np.ndarray:
+    """Boolean mask of the frequencies (Hz) within ``band_hz`` = (low, high) Hz, ends
+    included up to :data:`BAND_RTOL`."""
+    f = np.asarray(frequency_hz, dtype=float)
+    low, high = band_hz
+    return (f >= low * (1 - BAND_RTOL)) & (f <= high * (1 + BAND_RTOL))
 
 
 @dataclass(frozen=True)
