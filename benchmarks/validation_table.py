@@ -9,11 +9,14 @@ from __future__ import annotations
 import os
 import time
 import warnings
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
+
+if TYPE_CHECKING:
+    from nlupdate.core.identification.data import FRFLevels
 
 
-def print_validation_tables(data, models: Sequence[str], unit: str, hz_digits: int = 3) -> None:
-    """Runs :func:`validate` on ``data`` (an ``FRFLevels``) for ``each`` and ``top`` with
+def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str, hz_digits: int = 3) -> None:
+    """Runs :func:`validate` on ``data`` for ``each`` and ``top`` with
     ``models`` and prints both tables (levels in ``unit``; resonance errors with ``hz_digits``
     decimals, their bands with one fewer), the repeatability, the load and the times."""
     from nlupdate.core.validation.held_out import validate
@@ -38,12 +41,14 @@ def print_validation_tables(data, models: Sequence[str], unit: str, hz_digits: i
 
             res = c["resonance_hz"]
             inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
-            print(f"| {r.level:g} | {r.label} | {res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
-                  f"{res.high - res.measured:+.{hz_digits - 1}f}] | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | {inside} | "
-                  f"{b['resonance_hz'].error:+.{hz_digits}f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
-                  f"{100 * b['peak_abs'].relative_error:+.1f} |")
+            resonance_hz = (f"{res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
+                            f"{res.high - res.measured:+.{hz_digits - 1}f}]")
+            print(f"| {r.level:g} | {r.label} | {resonance_hz} | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | "
+                  f"{inside} | {b['resonance_hz'].error:+.{hz_digits}f}, "
+                  f"{100 * b['damping_ratio'].relative_error:+.1f}, {100 * b['peak_abs'].relative_error:+.1f} |")
         if hold_out == "each":
             repeat = result.repeatability
             print(f"\ntest repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
-                  f"{repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio {100 * repeat.damping_ratio:.{hz_digits}f} % (points)")
+                  f"{repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio "
+                  f"{100 * repeat.damping_ratio:.{hz_digits}f} % (points)")
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")

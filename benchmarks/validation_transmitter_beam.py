@@ -35,6 +35,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -44,6 +45,9 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.validation_table import print_validation_tables  # noqa: E402
+
+if TYPE_CHECKING:
+    from nlupdate.core.identification.data import FRFLevels
 
 FILE_NAME = "forced_data.mat"
 ENVIRONMENT_VARIABLE = "NLUPDATE_TRANSMITTER_BEAM"
@@ -103,7 +107,7 @@ def data_file(folder: str | os.PathLike | None) -> Path:
     return path
 
 
-def measured_levels(csv: Path):
+def measured_levels(csv: Path) -> "FRFLevels":
     """The exported table read back as every command reads it (``--reference-unit V``)."""
     from nlupdate.core.identification.data import FRFLevels
     from nlupdate.core.measurement.frf_files import read_frf_table
@@ -126,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     table = lockin_table(data_file(args.data))
     if args.export:
         table.to_csv(args.export, index=False)
-        print(f"wrote {args.export}: {len(table)} lines, levels {', '.join(f'{v:g}' for v in sorted(set(table['force_level_n'])))} V")
+        levels = ", ".join(f"{v:g}" for v in sorted(set(table["force_level_n"])))
+        print(f"wrote {args.export}: {len(table)} lines, levels {levels} V")
         return 0
     with tempfile.TemporaryDirectory() as folder:
         csv = Path(folder) / "transmitter_beam.csv"
