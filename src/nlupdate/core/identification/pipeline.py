@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from nlupdate.core.identification.bands import MIN_JACKKNIFE, leave_one_level_out, parameter_bounds
 from nlupdate.core.identification.data import MIN_SWEEP_LINES, FRFLevels
 from nlupdate.core.identification.ddf import DDFResult
 from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
@@ -47,9 +48,10 @@ from nlupdate.core.identification.linear_frf import LINEAR_FROM, LinearExtractio
 from nlupdate.core.identification.modal_fit import ModalFit
 from nlupdate.core.identification.methods import METHODS
 from nlupdate.core.identification.prd import IdentificationError, PRDResult
+from nlupdate.core.identification.settings import MAX_MONTE_CARLO_SAMPLES, IdentificationSettings
 from nlupdate.core.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
 from nlupdate.core.identification.trust import (
-    TrustWarning, consistency_warnings, excitation_warnings, identification_warnings, sign_warnings,
+    TrustWarning, consistency_warnings, excitation_warnings, fit_verdict, identification_warnings, sign_warnings,
 )
 from nlupdate.core.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.core.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
@@ -57,107 +59,6 @@ from nlupdate.core.measurement.coherence import noise_fraction_from_coherence, n
 from nlupdate.core.measurement.noise import estimate_noise_fraction
 from nlupdate.progress import ProgressCallback, no_progress
 
-
-
-#: The most Monte-Carlo samples (each repeats the whole identification; more would take days).
-MAX_MONTE_CARLO_SAMPLES = 100_000
-
-
-@dataclass(frozen=True)
-class IdentificationSettings:
-    """What to identify and how. ``None`` means "choose a default" (see ``defaults_used``).
-
-    response_dof, input_dof: the measured curve (the nonlinearity acts at the response
-        coordinate, to ground). method: ``prd`` or ``ddf``.
-    elements: physical elements to fit (``cubic``, ``jenkins``, ``coulomb``,
-        ``quadratic_damping``, ``gap``); empty: a polynomial DF of ``order``
-        (``imag_order``; ``complex_delta_f1``: PRD's Δ_f1 = −y(0) complex).
-    estimator: PRD ``improved``/``naive`` (default improved), DDF ``naive``/``weighted``
-        (default naive). half_window: improved PRD, relative half-width of its window
-        (default 0.01).
-    frequency_hz: PRD excitation frequency (default: recommended). low_force_n,
-        high_forces_n: PRD levels (default: lowest; all others).
-    force_pair_n: DDF levels (default: lowest and highest).
-    band_hz: the band (Hz) every step uses, for every method (default: the excited band,
-        :func:`nlupdate.core.measurement.band.excited_band` on the lowest level — where the
-        coherence is at least ``coherence_threshold``, or, without coherence, where the
-        FRF is smooth). coherence_threshold: lines with a lower coherence are left out
-        (default 0.8 when the data carry coherence).
-    linear_from: PRD, where the linear FRF comes from: ``all levels`` (every level, line
-        by line, weighted by its noise: :mod:`nlupdate.core.identification.linear_frf`;
-        default for physical elements) or ``low force`` (the source's eq. 2.55; default
-        for a polynomial DF). smoothing_window, amplitude_dependent_delta: options of
-        the ``low force`` route.
-    noise_fraction: noise std / |H| (default: estimated from the lowest-force sweep).
-    samples, seed: Monte-Carlo samples and seed.
-    linear_modes_hz: approximate natural frequencies (Hz) of the linear modes to fit in
-        the extracted FRF (default: every resonance of it); modal_band_fraction: half-width
-        of each one-mode fit, relative.
-    """
-
-    response_dof: str
-    input_dof: str
-    method: str = "prd"
-    elements: tuple[str, ...] = ()
-    order: int | None = None
-    imag_order: int | None = None
-    complex_delta_f1: bool = False
-    estimator: str | None = None
-    half_window: float | None = None
-    frequency_hz: float | None = None
-    low_force_n: float | None = None
-    high_forces_n: tuple[float, ...] | None = None
-    force_pair_n: tuple[float, float] | None = None
-    band_hz: tuple[float, float] | None = None
-    linear_from: str | None = None
-    smoothing_window: int = 0
-    amplitude_dependent_delta: bool = False
-    noise_fraction: float | None = None
-    samples: int = 200
-    seed: int = 0
-    linear_modes_hz: tuple[float, ...] | None = None
-    modal_band_fraction: float = 0.1
-    coherence_threshold: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ValueError(f"identification method must be one of {list(METHODS)}, got {self.method!r}")
-        method = METHODS[self.method]
-        if self.estimator is not None and self.estimator not in method.estimators:
-            raise ValueError(f"estimator {self.estimator!r}: {self.method.upper()} estimators are "
-                             f"{', '.join(method.estimators)}")
-        if not 2 <= self.samples <= MAX_MONTE_CARLO_SAMPLES:
-            raise ValueError(f"Monte-Carlo samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES}, got {self.samples}")
-        if self.noise_fraction is not None and not (np.isfinite(self.noise_fraction) and self.noise_fraction >= 0):
-            raise ValueError(f"noise_fraction must be a number ≥ 0 (std / |H|), got {self.noise_fraction}")
-        if self.band_hz is not None:
-            low, high = (float(v) for v in self.band_hz)
-            if not (np.isfinite(low) and np.isfinite(high) and 0 <= low < high):
-                raise ValueError(f"band_hz {list(self.band_hz)}: expected LOW < HIGH, both ≥ 0 Hz")
-        if self.coherence_threshold is not None and not 0 <= self.coherence_threshold <= 1:
-            raise ValueError(f"coherence_threshold must be between 0 and 1, got {self.coherence_threshold}")
-        if self.linear_from is not None and self.linear_from not in LINEAR_FROM:
-            raise ValueError(f"linear_from must be one of {list(LINEAR_FROM)}, got {self.linear_from!r}")
-        if self.method == "prd":
-            if self.force_pair_n is not None:
-                raise ValueError("force_pair_n applies to the DDF method")
-            if self.linear_from == "all levels" and not self.elements:
-                raise ValueError("linear_from = 'all levels' needs physical elements (a polynomial DF is known only "
-                                 "over the amplitudes it was fitted to); use 'low force'")
-            if self.linear_from == "all levels" and (self.smoothing_window or self.amplitude_dependent_delta):
-                raise ValueError("smoothing_window and amplitude_dependent_delta apply to linear_from = 'low force'")
-        else:
-            prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
-                        "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
-                        "amplitude_dependent_delta": self.amplitude_dependent_delta or None,
-                        "linear_from": self.linear_from,
-                        "half_window": self.half_window}
-            given = [name for name, value in prd_only.items() if value is not None]
-            if given:
-                raise ValueError(f"{', '.join(given)} apply to the PRD method")
-        parse_elements(self.elements)  # unknown element names fail here
-        if not 0 < self.modal_band_fraction < 0.5:
-            raise ValueError(f"modal_band_fraction must be in (0, 0.5), got {self.modal_band_fraction}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -382,6 +283,23 @@ def _sample_values(
     return values
 
 
+def _level_jackknife(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult,
+                     frequency_hz: float | None, modes_hz: tuple[float, ...], model: Any) -> list[dict[str, Any]]:
+    """The values of each PRD refit with one high level left out (the model-form part of the
+    intervals, :mod:`nlupdate.core.identification.bands`); none for DDF (two levels) or fewer
+    than :data:`~nlupdate.core.identification.bands.MIN_JACKKNIFE` high levels."""
+    if settings.method != "prd" or len(result.setup.high_forces) < MIN_JACKKNIFE:
+        return []
+    highs = tuple(float(level) for level in result.setup.high_forces)
+
+    def refit(level: float) -> dict[str, Any]:
+        kept = [v for v in data.levels if not np.isclose(v, level, rtol=1e-9)]
+        fewer = dataclasses.replace(settings, high_forces_n=tuple(h for h in highs if h != level))
+        return _sample_values(data.subset(kept), fewer, frequency_hz, modes_hz, model=model)
+
+    return leave_one_level_out(refit, highs)[0]
+
+
 def identify(data: FRFLevels, settings: IdentificationSettings, progress: ProgressCallback = no_progress) -> Identification:
     """Run the identification step (module docstring) on measured curves ``data``;
     ``progress`` hears the Monte-Carlo samples as they finish."""
@@ -442,11 +360,15 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
         point[f"linear_f{i + 1}_hz"] = float(m.natural_frequencies_hz[0])
         point[f"linear_eta{i + 1}"] = float(m.loss_factors[0])
     grid = fit_amplitude_grid(result)
+    fitted = getattr(result, "physical", None) or getattr(result, "model", None)
     estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz,
-                                 amplitude_grid=grid,
-                                 model=getattr(result, "physical", None) or getattr(result, "model", None))
+                                 amplitude_grid=grid, model=fitted)
+    ratio = fit_verdict(result.residual_noise_fraction, noise)[1]
+    jackknife = _level_jackknife(data, settings, result, frequency, modes_hz, fitted) if (ratio or 0) > 1 else []
     uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress,
-                              curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)})
+                              curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)},
+                              residual_ratio=ratio, jackknife=jackknife,
+                              bounds=parameter_bounds(fitted, point, getattr(result, "at_bound", ())))
     consistency = level_consistency(level_terms(data, result.df_for_force), noise) if settings.elements else None
     model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
     description = model.description() if model is not None else (

@@ -11,16 +11,19 @@ as the point estimate, the Monte-Carlo mean ± standard deviation, the samples' 
 a 95 % interval (``benchmarks/reproduce_source.py`` measures its coverage over independent
 noise seeds).
 
-The interval is that of the point estimate: the samples' 2.5–97.5 % percentile interval
-moved by (point − median), i.e. the estimator's spread placed around the estimate it
-belongs to. It always contains the estimate. The raw percentile interval need not: the
-samples carry the noise of the data *and* the added noise, so an estimator whose result
-moves with the noise (a biased one — above all a model that does not describe the data,
-whose fit then depends on the noise realisation) has its samples centred elsewhere; a
-linear mode extracted with the nonlinearity misplaced (docs/methods.md §4) came out at
-89.24 Hz with its samples in [89.19, 89.21] Hz. That shift, ``median − value``, is
-reported (:attr:`ParameterStatistics.shift`) and warned about when it exceeds the
-interval's half-width (:func:`nlupdate.core.identification.trust.shift_warnings`).
+The interval (:mod:`nlupdate.core.identification.bands`) is the basic bootstrap one: the
+samples' deviations from their median, reflected about the estimate (centred at
+``value − (median − value)``), widened by the model-form error when the fit's residual is
+above the noise (leave-one-level-out refits, or the residual ratio), one-sided for a value
+on a limit, and always holding the estimate. The samples carry the noise of the data
+*and* the added noise, so an estimator whose result moves with the noise (a biased one —
+above all a model that does not describe the data, whose fit then depends on the noise
+realisation) has its samples centred away from the estimate, on the far side from the
+noise-free value: the raw percentile interval then holds neither (BRB cubic+jenkins k3
+7.80e10 outside [8.06, 9.19]e10; a linear mode extracted with the nonlinearity misplaced,
+docs/methods.md §4, at 89.24 Hz with its samples in [89.19, 89.21] Hz). That shift,
+``median − value``, is reported (:attr:`ParameterStatistics.shift`) and warned about when
+it exceeds the interval's half-width (:func:`nlupdate.core.identification.trust.shift_warnings`).
 
 Curves the estimate returns beside its
 numbers (a fitted describing function over amplitude, an extracted FRF over frequency)
@@ -31,11 +34,12 @@ from __future__ import annotations
 import warnings
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
+from nlupdate.core.identification.bands import Bound, band
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.progress import ProgressCallback, no_progress
 
@@ -43,7 +47,8 @@ from nlupdate.progress import ProgressCallback, no_progress
 @dataclass(frozen=True)
 class ParameterStatistics:
     """One parameter: point estimate, Monte-Carlo mean, std and median, and the 95 %
-    interval of the point estimate (module docstring; SI); count: the samples behind them."""
+    interval of the point estimate (module docstring; SI); count: the samples behind them;
+    bound: the limit it sits on (its interval then one-sided), if any."""
 
     value: float
     mean: float
@@ -51,6 +56,7 @@ class ParameterStatistics:
     ci95: tuple[float, float]
     median: float = float("nan")
     count: int = 0
+    bound: Bound | None = None
 
     @property
     def shift(self) -> float:
@@ -60,7 +66,7 @@ class ParameterStatistics:
 
     def as_dict(self) -> dict[str, Any]:
         return {"value": self.value, "mean": self.mean, "std": self.std, "ci95": list(self.ci95),
-                "mc_median": self.median}
+                "mc_median": self.median, **({"bound": self.bound.as_dict()} if self.bound else {})}
 
 
 #: The most sample curves a :class:`CurveBand` keeps in memory at once (a 95 % band is
@@ -115,7 +121,9 @@ class Uncertainty:
 
     failures: why samples failed, message → count (a failed sample is left out as a
     whole: its parameters and curves). curves: the 95 % band of each curve the estimate
-    returned, by name.
+    returned, by name. residual_ratio: the fit's residual over the noise the intervals
+    allowed for (None: not known, taken as at the noise); jackknife_fits: the
+    leave-one-level-out refits behind the model-form part (0: none).
     """
 
     parameters: dict[str, ParameterStatistics]
@@ -125,18 +133,24 @@ class Uncertainty:
     seed: int
     failures: dict[str, int] = field(default_factory=dict)
     curves: dict[str, CurveBand] = field(default_factory=dict)
+    residual_ratio: float | None = None
+    jackknife_fits: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "method": "Monte Carlo over the noise model (docs/methods.md §8): data perturbed with circular complex "
-                      "normal noise of std noise_fraction·|H| and re-identified; ci95 = the interval of the point "
-                      "estimate: the samples' 2.5–97.5 % percentiles moved by (value − mc_median), so it contains the "
-                      "value; mc_median − value is how far the estimate moves with the noise",
+                      "normal noise of std noise_fraction·|H| and re-identified; ci95 = the basic bootstrap interval "
+                      "(the samples' deviations from mc_median reflected about the value), widened by the model-form "
+                      "error when residual_ratio > 1 (leave-one-level-out refits: t·σ_J·√(1 − 1/R²); without them "
+                      "the deviations times R), one-sided for a value on a limit (bound), and holding the value; "
+                      "mc_median − value is how far the estimate moves with the noise (docs/methods.md §4, Intervals)",
             "noise_fraction": self.noise_fraction,
             "n_samples": self.n_samples,
             "n_failed": self.n_failed,
             "failures": dict(self.failures),
             "seed": self.seed,
+            "residual_ratio": self.residual_ratio,
+            "jackknife_fits": self.jackknife_fits,
         }
 
 
@@ -158,6 +172,9 @@ def monte_carlo(
     seed: int = 0,
     progress: ProgressCallback = no_progress,
     curves: Mapping[str, tuple[NDArray, NDArray]] | None = None,
+    residual_ratio: float | None = None,
+    jackknife: Sequence[Mapping[str, Any]] = (),
+    bounds: Mapping[str, Bound] | None = None,
 ) -> Uncertainty:
     """Statistics of ``estimate(perturbed data)`` over ``n_samples`` noise draws.
 
@@ -166,6 +183,10 @@ def monte_carlo(
     name → (x, point-estimate curve) of complex curves the mapping also holds (each on
     that x); each gets a :class:`CurveBand` from the first :data:`MAX_CURVE_SAMPLES`
     samples that return it with the point curve's shape.
+
+    ``residual_ratio`` (the fit's residual over the noise), ``jackknife`` (the values of
+    each leave-one-level-out refit) and ``bounds`` (the limits values sit on, by name) set
+    each parameter's interval beside the samples (:func:`~nlupdate.core.identification.bands.band`).
 
     Samples are drawn from ``seed`` and identified in order (``progress("Monte-Carlo
     samples", done, n_samples)`` after each). Samples whose identification
@@ -194,19 +215,20 @@ def monte_carlo(
             good.append({k: v for k, v in sample.items() if k not in curves})
         progress("Monte-Carlo samples", done, n_samples)
     stats = {}
+    bounds = dict(bounds or {})
     for name, value in point.items():
         values = np.array([s[name] for s in good if name in s and np.isfinite(s[name])])
+        refits = [float(j[name]) for j in jackknife if name in j]
+        interval = band(float(value), values, residual_ratio, refits, bounds.get(name))
         if values.size >= 2:
-            low, median, high = np.percentile(values, [2.5, 50.0, 97.5])
             with np.errstate(over="ignore", invalid="ignore"):
                 mean, std = float(values.mean()), float(values.std(ddof=1))
-                offset = float(value) - float(median)
-                interval = (low + offset, high + offset) if np.isfinite(offset) else (low, high)
-            stats[name] = ParameterStatistics(float(value), mean, std, (float(interval[0]), float(interval[1])),
-                                              float(median), int(values.size))
+            stats[name] = ParameterStatistics(float(value), mean, std, interval, float(np.median(values)),
+                                              int(values.size), bounds.get(name))
         else:
-            stats[name] = ParameterStatistics(float(value), float("nan"), float("nan"), (float("nan"), float("nan")))
+            stats[name] = ParameterStatistics(float(value), float("nan"), float("nan"), interval,
+                                              bound=bounds.get(name))
     bands = {name: CurveBand.of(x, point_curve, np.array(sample_curves[name]).reshape(-1, np.size(x)))
              for name, (x, point_curve) in curves.items()}
     return Uncertainty(stats, float(noise_fraction), n_samples, n_samples - len(good), seed,
-                       dict(failures.most_common()), bands)
+                       dict(failures.most_common()), bands, residual_ratio, len(jackknife))
