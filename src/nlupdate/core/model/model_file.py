@@ -211,7 +211,7 @@ def element_from_table(table: Mapping[str, Any], model: LumpedModel | ModalModel
     for parameter in parameters:
         key = parameter.name
         if key in table:
-            if kind == "polynomial":
+            if parameter.sequence:
                 values[key] = tuple(_numbers(table[key], key, where, "a list of numbers (highest order first)"))
             elif not _is_number(table[key]):
                 raise ModelFileError(f"{where}: '{key}' must be a number (SI units), got {table[key]!r} "
@@ -315,9 +315,9 @@ def system_to_toml(system: NonlinearSystem) -> str:
         if ELEMENT_TYPES.get(kind) is not type(element):
             raise ModelFileError(f"cannot write a {type(element).__name__} element: no model-file type")
         lines += ["", "[[nonlinear]]", f'type = "{kind}"', f"dofs = {list(element.dofs)}"]
-        for key in (p.name for p in element.parameters):
-            value = getattr(element, key)
-            text = _row(value) if kind == "polynomial" else str(value) if isinstance(value, int) else _number(value)
+        for parameter in element.parameters:
+            key, value = parameter.name, getattr(element, parameter.name)
+            text = _row(value) if parameter.sequence else str(value) if isinstance(value, int) else _number(value)
             lines.append(f"{key} = {text}")
     return "\n".join(lines) + "\n"
 

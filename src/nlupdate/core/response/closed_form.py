@@ -29,14 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.core.model.elements import CubicStiffness
 from nlupdate.core.model.system import CondensedProblem
 
 
 def applies(problem: CondensedProblem) -> bool:
     """True when every element is a cubic spring on the one nonlinear coordinate."""
     return problem.n == 1 and bool(problem.element_index) and all(
-        type(element) is CubicStiffness for element, _, _ in problem.element_index
+        element.cubic_coefficient is not None for element, _, _ in problem.element_index
     )
 
 
@@ -80,7 +79,7 @@ def cubic_roots(problem: CondensedProblem, omega: NDArray) -> Roots:
     """
     omega = np.asarray(omega, dtype=float)
     linear = problem.linear_batch(omega, derivative=False)
-    c = 0.75 * sum(element.k3 for element, _, _ in problem.element_index)
+    c = 0.75 * sum(element.cubic_coefficient for element, _, _ in problem.element_index)
     u = np.empty((omega.size, 3))
     stable = np.empty((omega.size, 3), bool)
     for start in range(0, omega.size, _BLOCK):

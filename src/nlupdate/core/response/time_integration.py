@@ -38,8 +38,8 @@ boundary and for each case we bound the spectral radius of the linearised system
 ``ρ = √(λ_K + Σ_e k_e(A_e) w_e) + λ_C + λ_D/ω + Σ_e c_e(V_e) w_e`` where ``λ_K, λ_C, λ_D``
 are the largest generalised eigenvalues of (K, M), (C, M), (D, M); ``k_e(A)`` is the
 element's ``stiffness_bound`` at 1.5 × the largest relative displacement A_e seen in the
-previous period (the initial amplitude for the first), ``c_e = 2 cq V`` the tangent of a
-quadratic damper at 1.5 × its largest relative velocity, and ``w_e = sᵀM⁻¹s`` for the
+previous period (the initial amplitude for the first), ``c_e`` its ``damping_bound`` at 1.5 ×
+its largest relative velocity (``2 cq V`` for a quadratic damper), and ``w_e = sᵀM⁻¹s`` for the
 element's connectivity vector s (Weyl + Cauchy–Schwarz make this a true upper bound of the
 largest natural frequency, |λ| ≤ max(√(k/m), c/m) for every eigenvalue). The step is
 ``dt ≤ courant/ρ`` (default ``courant = 1``: a factor 2.8 margin, which also covers a
@@ -89,7 +89,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.core.model.elements import NonlinearElement, QuadraticDamping
+from nlupdate.core.model.elements import NonlinearElement
 from nlupdate.core.model.linear import LumpedModel, ModalModel, dof_index
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.progress import ProgressCallback, no_progress
@@ -311,8 +311,7 @@ class _Operators:
             w = self.weights[index]
             bound = np.asarray(element.stiffness_bound(1.5 * amp[index]), float)
             stiff = stiff + w * np.broadcast_to(bound, omega.shape)
-            if isinstance(element, QuadraticDamping):
-                damp = damp + w * 2 * element.cq * 1.5 * vel[index]
+            damp = damp + w * np.asarray(element.damping_bound(1.5 * vel[index]), float)
         return np.sqrt(np.maximum(stiff, 0.0)) + damp
 
 
