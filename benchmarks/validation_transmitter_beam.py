@@ -51,6 +51,7 @@ if TYPE_CHECKING:
 
 FILE_NAME = "forced_data.mat"
 ENVIRONMENT_VARIABLE = "NLUPDATE_TRANSMITTER_BEAM"
+DEFAULT_FOLDER = Path(__file__).resolve().parents[1] / "tests" / "data" / "transmitter_beam"
 #: response velocity amplitude (m/s) per volt of the lock-in's RMS output: 4 · range (10) mm/s
 #: per V, × √2 from RMS to amplitude (the SSMLearn example's conversion)
 VELOCITY_PER_VOLT = 0.04 * np.sqrt(2.0)
@@ -94,16 +95,19 @@ def lockin_table(path: str | os.PathLike) -> pd.DataFrame:
                          "excitation": "stepped_sine", "reference_unit": "V"})
 
 
-def data_file(folder: str | os.PathLike | None) -> Path:
-    """``FILE_NAME`` in ``folder`` (default: $NLUPDATE_TRANSMITTER_BEAM); SystemExit saying
-    where to get it when absent."""
-    folder = folder or os.environ.get(ENVIRONMENT_VARIABLE)
-    path = Path(folder) / FILE_NAME if folder else None
-    if path is None or not path.is_file():
-        raise SystemExit(f"{FILE_NAME} not found{f' in {folder}' if folder else ''}: put the file of "
-                         f"github.com/haller-group/SSMLearn, examples/experiment_nonlinear_beam_oblique/"
-                         f"nonlinear_beam_experiments/{FILE_NAME}, in a folder and give it with --data or "
-                         f"{ENVIRONMENT_VARIABLE}")
+def data_folder(folder: str | os.PathLike | None = None) -> Path:
+    """Where ``FILE_NAME`` is looked for: ``folder``, else $NLUPDATE_TRANSMITTER_BEAM, else
+    :data:`DEFAULT_FOLDER` (tests/data/transmitter_beam, where a copy with its licence would go)."""
+    return Path(folder or os.environ.get(ENVIRONMENT_VARIABLE) or DEFAULT_FOLDER)
+
+
+def data_file(folder: str | os.PathLike | None = None) -> Path:
+    """``FILE_NAME`` in :func:`data_folder`; SystemExit saying where to get it when absent."""
+    path = data_folder(folder) / FILE_NAME
+    if not path.is_file():
+        raise SystemExit(f"{FILE_NAME} not found in {path.parent}: put the file of github.com/haller-group/SSMLearn, "
+                         f"examples/experiment_nonlinear_beam_oblique/nonlinear_beam_experiments/{FILE_NAME}, in a "
+                         f"folder and give it with --data or {ENVIRONMENT_VARIABLE}")
     return path
 
 
@@ -123,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     from nlupdate.core.validation.resonance import resonance
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", help=f"folder holding {FILE_NAME} (default: ${ENVIRONMENT_VARIABLE})")
+    parser.add_argument("--data", help=f"folder holding {FILE_NAME} (default: ${ENVIRONMENT_VARIABLE}, else "
+                                       f"tests/data/transmitter_beam)")
     parser.add_argument("--export", metavar="CSV", help="write the measured-FRF table as CSV and stop")
     parser.add_argument("--models", default="lines,amplitude-polynomial,amplitude-iwan,auto")
     args = parser.parse_args(argv)

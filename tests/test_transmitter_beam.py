@@ -5,8 +5,8 @@
 transmitter beam of the ETH Zürich gravitational-coupling experiment (T. Brack et al., Nat.
 Phys. 18, 952–957, 2022), first bending mode ≈ 42.8 Hz at excitation amplitudes 0.1, 0.2,
 0.3 and 0.45 V. Not in this repository: ``NLUPDATE_TRANSMITTER_BEAM`` = the folder holding
-the file as published; the tests that need it skip without it (docs/measured-data.md,
-"Data not in the repository"). What they check against:
+the file as published (default tests/data/transmitter_beam); the tests that need it skip
+without it (docs/measured-data.md, "Data not in the repository"). What they check against:
 
 * the peak velocity amplitudes SSMLearn's example calibrates its forced responses with
   (``amplitudeCal = [38.41, 56.00, 71.95, 93.83]`` mm/s, nonlinear_beam_oblique.mlx);
@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -32,7 +31,7 @@ import pytest
 import scipy.io
 
 from benchmarks.validation_transmitter_beam import (ENVIRONMENT_VARIABLE, FILE_NAME, VELOCITY_PER_VOLT,
-                                                    lockin_table)
+                                                    data_folder, lockin_table)
 from nlupdate.app.cli.measured import measured_table
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.validation.resonance import resonance
@@ -108,12 +107,12 @@ def test_found_band_keeps_levels_whose_frequencies_differ_in_the_last_digits(tmp
 
 
 def _data_folder() -> Path:
-    value = os.environ.get(ENVIRONMENT_VARIABLE)
-    if not value or not (Path(value) / FILE_NAME).is_file():
-        pytest.skip(f"the transmitter-beam data ({FILE_NAME} of github.com/haller-group/SSMLearn) not present: set "
-                    f"{ENVIRONMENT_VARIABLE} to the folder holding it (docs/measured-data.md, 'Data not in the "
-                    f"repository')")
-    return Path(value)
+    folder = data_folder()
+    if not (folder / FILE_NAME).is_file():
+        pytest.skip(f"the transmitter-beam data ({FILE_NAME} of github.com/haller-group/SSMLearn) not present in "
+                    f"{folder}: set {ENVIRONMENT_VARIABLE} to the folder holding it (docs/measured-data.md, 'Data "
+                    f"not in the repository')")
+    return folder
 
 
 def test_transmitter_beam_peaks_as_published_and_softening():
