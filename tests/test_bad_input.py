@@ -203,10 +203,10 @@ def test_identify_input_dof_out_of_range_names_the_option(measured, tmp_path):
 
 @pytest.mark.parametrize("extra, fragment", [
     (["--seed", "-5"], "argument --seed: expected an integer ≥ 0"),
-    (["--samples", "0"], "argument --samples: expected an integer ≥ 1"),
+    (["--samples", "0"], "argument --samples: expected an integer in [2, 100000], got '0'"),
     (["--method", "magic"], "argument --method: invalid choice: 'magic'"),
     (["--band", "5:1"], "--band '5:1': expected LOW:HIGH in Hz with 0 ≤ LOW < HIGH"),
-    (["--force-pair", "1,2"], "--force-pair applies to --method ddf"),
+    (["--force-pair", "1,2"], "--force-pair applies to the DDF method"),
 ])
 def test_identify_option_mistakes_fail_before_the_work(measured, tmp_path, extra, fragment):
     result = nlupdate("identify", "--measured", measured, *extra, "--out", tmp_path / "id", timeout=20)

@@ -116,7 +116,7 @@ def test_ddf_end_to_end(tmp_path, capsys):
         (["--response-dof", "7"], "--response-dof 7: "),
         (["--order", "3", "--estimator", "naive", "--high-forces", "100,160", "--frequency", "710"],
          "high-force point(s) but the polynomial has 4"),
-        (["--method", "ddf", "--frequency", "710"], "apply to --method prd"),
+        (["--method", "ddf", "--frequency", "710"], "--frequency apply to the PRD method"),
         (["--estimator", "bogus"], "PRD estimators are"),
         (["--elements", "spring"], "unknown element(s) ['spring']"),
     ],

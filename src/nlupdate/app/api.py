@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 if TYPE_CHECKING:
     import numpy as np
@@ -163,13 +163,6 @@ def simulate(
 
 
 # ----------------------------------------------------------------------------- identify
-def _only(values: Iterable[str], what: str) -> str:
-    values = sorted(set(values))
-    if len(values) != 1:
-        raise ValueError(f"the measurements have several {what} {values}; choose one")
-    return values[0]
-
-
 def identify(
     measured: pd.DataFrame | PathLike | Sequence[PathLike],
     *,
@@ -189,7 +182,7 @@ def identify(
     ``method``: ``"prd"`` (default) or ``"ddf"``. ``elements``: physical elements to fit
     (``("cubic", "jenkins")``, ``("iwan",)``, …); empty: a polynomial describing function.
     ``samples``/``seed``: Monte-Carlo samples of the uncertainty. Further keywords are the
-    fields of :class:`~nlupdate.core.identification.pipeline.IdentificationSettings`
+    fields of :class:`~nlupdate.core.identification.settings.IdentificationSettings`
     (``frequency_hz``, ``low_force_n``, ``band_hz``, ``noise_fraction``, …); every one left
     out is chosen and listed in ``defaults_used``.
 
@@ -199,16 +192,13 @@ def identify(
     ``natural_frequencies_hz`` (Hz) and ``loss_factors`` of its modes, ``warnings``,
     ``summary()`` (the content of identification.json)."""
     from nlupdate.core.identification.data import FRFLevels
-    from nlupdate.core.identification.pipeline import IdentificationSettings
     from nlupdate.core.identification.pipeline import identify as run
+    from nlupdate.core.identification.settings import IdentificationSettings
+    from nlupdate.core.measurement.frf_table import measured_pair
 
     table = _measurements(measured)
-    inputs = table["input_dof"].astype(str)
-    input_dof = _only(inputs, "input dofs") if input_dof is None else str(input_dof)
-    if response_dof is None:
-        responses = set(table.loc[inputs == input_dof, "response_dof"].astype(str))
-        response_dof = input_dof if input_dof in responses else _only(responses, "response dofs")
-    settings = IdentificationSettings(response_dof=str(response_dof), input_dof=input_dof, method=method,
+    response_dof, input_dof, _ = measured_pair(table, input_dof, response_dof)
+    settings = IdentificationSettings(response_dof=response_dof, input_dof=input_dof, method=method,
                                       elements=tuple(elements), samples=samples, seed=seed, **settings)
     return run(FRFLevels.from_table(table, settings.response_dof, settings.input_dof), settings)
 

@@ -15,7 +15,8 @@ import numpy as np
 
 from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import ADAPTER_KINDS, AdapterSpec, build_adapter
-from nlupdate.core.identification.pipeline import IdentificationSettings
+from nlupdate.core.identification.settings import IdentificationSettings
+from nlupdate.settings import SettingError, from_mapping, settings_of
 from nlupdate.core.response.harmonic_balance import HarmonicSettings
 from nlupdate.core.response.method import HARMONICS_FORM, MAX_FREQUENCIES, RESPONSE_METHODS, samples_form, valid_harmonics, valid_samples
 from nlupdate.study.reader import Reader, StudyError
@@ -41,7 +42,7 @@ ALLOWED: dict[str, set[str]] = {
     "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
                           "frequencies_hz", "noise", "seed", "sweep"},
     "measured.simulate.adapter": {"kind", "model", "options"},
-    "identification": {f.name for f in dataclasses.fields(IdentificationSettings)},
+    "identification": set(settings_of(IdentificationSettings)),
     "adapter": {"kind", "model", "options", "fixed"},
     "parameters": {"name", "unit", "start", "lower", "upper", "relative_step"},
     "targets": {
@@ -288,36 +289,14 @@ def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None],
 
 
 def read_identification(read: Reader, data: Mapping[str, Any]) -> IdentificationSettings | None:
+    """The ``[identification]`` table, read by the settings' own declaration."""
     table = read.table(data, "identification")
     if table is None:
         return None
-    where = "identification"
-    values: dict[str, Any] = {
-        "response_dof": read.string(table, where, "response_dof", required=True),
-        "input_dof": read.string(table, where, "input_dof", required=True),
-    }
-    for key in ("method", "estimator", "linear_from"):
-        if key in table:
-            values[key] = read.string(table, where, key)
-    if "elements" in table:
-        values["elements"] = tuple(read.strings(table, where, "elements"))
-    for key in ("order", "imag_order", "smoothing_window", "samples"):
-        if key in table:
-            values[key] = read.integer(table, where, key, minimum=0 if key == "smoothing_window" else 1)
-    if "seed" in table:
-        values["seed"] = read.integer(table, where, "seed", minimum=0)
-    for key in ("half_window", "frequency_hz", "low_force_n", "noise_fraction", "modal_band_fraction",
-                "coherence_threshold"):
-        if key in table:
-            values[key] = read.number(table, where, key, nonnegative=True)
-    for key in ("complex_delta_f1", "amplitude_dependent_delta"):
-        if key in table:
-            values[key] = read.boolean(table, where, key, False)
-    for key, length in (("high_forces_n", None), ("force_pair_n", 2), ("band_hz", 2), ("linear_modes_hz", None)):
-        if key in table:
-            values[key] = tuple(read.numbers(table, where, key, length=length))
     try:
-        return IdentificationSettings(**values)
+        return from_mapping(IdentificationSettings, table)
+    except SettingError as error:
+        raise read.fail("identification", error.key, error.expected, error.got) from None
     except ValueError as error:
         raise StudyError(f"{read.path}: [identification]: {error}") from None
 

@@ -14,19 +14,15 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from nlupdate.app.cli import CliError, add_command, non_negative_float, non_negative_int, positive_int
+from nlupdate.app.cli import CliError, add_command
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.core.correlation.metrics import frac
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.ddf import DDF_ESTIMATORS
-from nlupdate.core.identification.linear_frf import LINEAR_FROM
-from nlupdate.core.identification.pipeline import (
-    MAX_MONTE_CARLO_SAMPLES, Identification, IdentificationSettings, identify,
-)
+from nlupdate.core.identification.pipeline import Identification, identify
+from nlupdate.core.identification.settings import IdentificationSettings
 from nlupdate.core.identification.dfmodels import parse_elements
 from nlupdate.core.identification.partition import Placement, placements
-from nlupdate.core.identification.prd import ESTIMATORS
 from nlupdate.core.identification.trust import POOR_FIT_FACTOR, fit_verdict
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.summary import JSON_NAME
@@ -36,6 +32,8 @@ from nlupdate.reporting.jsonfile import write_json
 from nlupdate.app.cli.measured import add_measured_options, measured_table, parse_band, print_notes
 from nlupdate.core.identification.prd import IdentificationError
 from nlupdate.core.measurement.frf_files import write_frf_table
+from nlupdate.core.measurement.frf_table import MeasurementTableError, measured_pair
+from nlupdate.app.cli.settings_options import add_setting_options, setting_values, with_flags
 from nlupdate.core.measurement.units import parameter_unit
 
 
@@ -44,110 +42,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_measured_options(parser, "that every method uses; lines outside it are left out before any step (default: "
                                  "the excited band: where the coherence is ≥ the threshold, or, without coherence, "
                                  "where the FRF is smooth)")
-    parser.add_argument("--method", choices=("prd", "ddf"), default="prd", help="identification method (default prd)")
     parser.add_argument("--input-dof", help="forced coordinate (default: the table's only input)")
-    parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving point)")
-    parser.add_argument("--frequency", type=float,
-                        help="PRD excitation frequency in Hz (default: the measured frequency nearest the natural "
-                             "frequency of the extracted linear FRF)")
-    parser.add_argument("--low-force", type=float,
-                        help="PRD low force level in the reference unit (N, or V for FRFs per volt; default: lowest)")
-    parser.add_argument("--high-forces",
-                        help="PRD high levels in the reference unit, comma-separated (default: all above the low level)")
-    parser.add_argument("--elements", help="physical elements to fit, e.g. cubic,jenkins (default: polynomial)")
-    parser.add_argument("--order", type=positive_int, help="polynomial order (default 2)")
-    parser.add_argument("--imag-order", type=positive_int, help="PRD order of the imaginary part (default: --order)")
-    parser.add_argument("--complex-delta-f1", action="store_true",
-                        help="PRD polynomial: use the complex −y(0) as Δ_f1 (default: its real part, stuck friction)")
-    parser.add_argument("--estimator", help=f"PRD: {'|'.join(ESTIMATORS)} (default improved); DDF: "
-                                            f"{'|'.join(DDF_ESTIMATORS)} (default naive)")
-    parser.add_argument("--half-window", type=non_negative_float, default=None,
-                        help="PRD improved estimator: relative half-width of the frequency window (default 0.01)")
-    parser.add_argument("--linear-from", choices=LINEAR_FROM, default=None,
-                        help="PRD: extract the linear FRF from every level, each line weighted by its noise (default "
-                             "with --elements), or from the low force alone (the source's eq. 2.55; default for a "
-                             "polynomial DF)")
-    parser.add_argument("--smooth-linear", type=non_negative_int, default=0, metavar="N",
-                        help="PRD: smooth 1/H of the low-force sweep over N points (odd ≥ 5) before extracting the "
-                             "linear FRF (default 0: no smoothing, as the source)")
-    parser.add_argument("--amplitude-dependent-delta", action="store_true",
-                        help="PRD: Δ_f1 = ν_low(|H_1(ω)|F_1) at every frequency (default: the constant Δ_f1 "
-                             "identified at the excitation frequency, the source's eq. 2.55)")
-    parser.add_argument("--force-pair", help="DDF levels F1,F2 in the reference unit (default: lowest and highest)")
-    parser.add_argument("--coherence-threshold", type=non_negative_float, metavar="GAMMA2",
-                        help="leave out lines whose coherence is below it (default 0.8 when the data carry coherence)")
-    parser.add_argument("--noise-fraction", type=non_negative_float,
-                        help="noise std / |H| for the uncertainty (default: estimated from the lowest-force sweep)")
-    parser.add_argument("--samples", type=positive_int, default=200,
-                        help="Monte-Carlo samples for the uncertainty of the parameters and of the linear modes (default 200)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="Monte-Carlo seed ≥ 0 (default 0)")
+    parser.add_argument("--response-dof", help="response coordinate of the nonlinearity (default: the input, driving "
+                                               "point; or the input's only response)")
+    add_setting_options(parser, IdentificationSettings)
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
     parser.set_defaults(run=run)
 
 
-def _floats(text: str, option: str, count: int | None = None) -> list[float]:
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise CliError(f"{option} {text!r}: expected comma-separated numbers") from None
-    if count is not None and len(values) != count:
-        raise CliError(f"{option} {text!r}: expected {count} comma-separated numbers")
-    return values
-
-
 def settings_from_args(args: argparse.Namespace, table) -> tuple[IdentificationSettings, dict[str, object]]:
-    """Identification settings for the command-line options (and the defaults chosen here)."""
-    defaults: dict[str, object] = {}
-    if args.method == "prd" and args.force_pair:
-        raise CliError("--force-pair applies to --method ddf")
-    if args.coherence_threshold is not None and args.coherence_threshold > 1:
-        raise CliError(f"--coherence-threshold {args.coherence_threshold:g}: expected a coherence between 0 and 1")
-    if args.method == "ddf" and (args.frequency is not None or args.low_force is not None or args.high_forces is not None
-                                 or args.smooth_linear or args.amplitude_dependent_delta or args.half_window is not None
-                                 or args.linear_from is not None):
-        raise CliError("--frequency, --low-force, --high-forces, --half-window, --linear-from, --smooth-linear and "
-                       "--amplitude-dependent-delta apply to --method prd")
-    if args.estimator is not None:
-        allowed = ESTIMATORS if args.method == "prd" else DDF_ESTIMATORS
-        if args.estimator not in allowed:
-            raise CliError(f"--estimator {args.estimator!r}: {args.method.upper()} estimators are {', '.join(allowed)}")
-    if not 2 <= args.samples <= MAX_MONTE_CARLO_SAMPLES:
-        raise CliError(f"--samples must be from 2 to {MAX_MONTE_CARLO_SAMPLES} (Monte-Carlo samples), "
-                       f"got {args.samples}")
-    measured = ", ".join(args.measured)
-    inputs = sorted(set(table["input_dof"].astype(str)))
-    responses = sorted(set(table["response_dof"].astype(str)))
-    input_dof = args.input_dof
-    if input_dof is None:
-        if len(inputs) != 1:
-            raise CliError(f"{measured}: the table has several input dofs {inputs}; choose one with --input-dof")
-        input_dof = defaults["input_dof"] = inputs[0]
-    elif input_dof not in inputs:
-        raise CliError(f"--input-dof {input_dof}: {measured} has input_dof {', '.join(inputs)}")
-    response_dof = args.response_dof
-    if response_dof is None:
-        response_dof = str(input_dof)
-        if response_dof not in responses:
-            if len(responses) != 1:
-                raise CliError(f"{measured} has no driving-point FRF at {response_dof}; choose one of response_dof "
-                               f"{', '.join(responses)} with --response-dof")
-            response_dof = responses[0]  # the only measured response: a transfer FRF
-        defaults["response_dof"] = response_dof
-    elif response_dof not in responses:
-        raise CliError(f"--response-dof {response_dof}: {measured} has response_dof {', '.join(responses)}")
-    settings = IdentificationSettings(
-        response_dof=str(response_dof), input_dof=str(input_dof), method=args.method,
-        elements=tuple(e.strip() for e in args.elements.split(",") if e.strip()) if args.elements else (),
-        order=args.order, imag_order=args.imag_order, complex_delta_f1=args.complex_delta_f1, estimator=args.estimator,
-        half_window=args.half_window, frequency_hz=args.frequency, low_force_n=args.low_force,
-        high_forces_n=None if args.high_forces is None else tuple(_floats(args.high_forces, "--high-forces")),
-        force_pair_n=None if args.force_pair is None else tuple(_floats(args.force_pair, "--force-pair", 2)),
-        band_hz=parse_band(args.band), coherence_threshold=args.coherence_threshold,
-        smoothing_window=args.smooth_linear, amplitude_dependent_delta=args.amplitude_dependent_delta,
-        linear_from=args.linear_from, noise_fraction=args.noise_fraction, samples=args.samples, seed=args.seed,
-    )
-    return settings, defaults
+    """Identification settings for the command-line options (and the measured curve chosen here)."""
+    try:
+        response_dof, input_dof, defaults = measured_pair(table, args.input_dof, args.response_dof,
+                                                          ("--input-dof", "--response-dof"))
+    except MeasurementTableError as error:
+        raise CliError(f"{', '.join(args.measured)}: {error}") from None
+    try:
+        settings = IdentificationSettings(response_dof=response_dof, input_dof=input_dof, band_hz=parse_band(args.band),
+                                          **setting_values(args, IdentificationSettings))
+    except ValueError as error:
+        raise CliError(with_flags(str(error), IdentificationSettings)) from None
+    return settings, dict(defaults)
 
 
 def element_between(identification: Identification, table) -> list[Placement]:

@@ -281,3 +281,37 @@ def select_frf(
     return frequency, h
 
 
+
+
+def measured_pair(table: pd.DataFrame, input_dof: str | None = None, response_dof: str | None = None,
+                  names: tuple[str, str] = ("input_dof", "response_dof")) -> tuple[str, str, dict[str, str]]:
+    """The (response, input) curve of a measured-FRF table that one identification works
+    on, and the defaults chosen for it: the table's only input when none is given; the
+    driving point at that input, or the input's only response (a transfer FRF), when no
+    response is given. Raises :class:`MeasurementTableError` naming the option (``names``:
+    the input's and the response's, as the caller's user writes them) and what the table
+    has."""
+    input_name, response_name = names
+    inputs = sorted(set(table["input_dof"].astype(str)))
+    defaults: dict[str, str] = {}
+    if input_dof is None:
+        if len(inputs) != 1:
+            raise MeasurementTableError(f"the table has several input dofs {inputs}; choose one with {input_name}")
+        input_dof = defaults["input_dof"] = inputs[0]
+    elif str(input_dof) not in inputs:
+        raise MeasurementTableError(f"{input_name} {input_dof}: the table has input_dof {', '.join(inputs)}")
+    input_dof = str(input_dof)
+    responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
+    if response_dof is None:
+        if input_dof in responses:
+            response_dof = input_dof
+        elif len(responses) == 1:
+            response_dof = responses[0]
+        else:
+            raise MeasurementTableError(f"no driving-point FRF at {input_dof}; choose one of response_dof "
+                                        f"{', '.join(responses)} with {response_name}")
+        defaults["response_dof"] = response_dof
+    elif str(response_dof) not in responses:
+        raise MeasurementTableError(f"{response_name} {response_dof}: the table has response_dof "
+                                    f"{', '.join(responses)} for input {input_dof}")
+    return str(response_dof), input_dof, defaults
