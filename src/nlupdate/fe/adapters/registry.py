@@ -23,6 +23,9 @@ Kinds and their options:
     ``element_type`` and the adapter's keyword arguments (``n_modes``, ``executable``,
     ``threads``, ``timeout_s``, ``work_root``). CalculiX returns all modes, including
     the local modes of the thin beams: pair with ``nearest`` or list ``model_modes``.
+    ``model = "brb"``: the Brake–Reuss beam reduced exactly at its bolts
+    (:mod:`nlupdate.fe.adapters.calculix_brb`; options ``mesh``, ``n_modes``,
+    ``fixed_interface_modes`` and the run options).
 ``mapdl``
     :class:`nlupdate.fe.adapters.mapdl.MapdlAdapter`; options ``deck`` (path of the
     parametric APDL deck), ``parameter_names`` (list), ``coordinates``
