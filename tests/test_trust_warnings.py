@@ -221,12 +221,12 @@ def test_warnings_on_per_volt_data_state_volts_not_newtons():
     import dataclasses
 
     from nlupdate.core.identification.dfmodels import PhysicalModel
-    from nlupdate.core.identification.trust import _jenkins_end_warnings
+    from nlupdate.core.identification.trust import _degenerate_warnings
 
     ident = identified(dataclasses.replace(sdof_data(1.0), reference_unit="V"), 0.05, 3)
     assert ident.reference_unit == "V"
     warning = next(w for w in ident.warnings if w.subject == "slip_force")
     assert warning.kind == "at_bound" and " V " in warning.message and " N" not in warning.message, warning.message
     values = {"slip_force": 2.0, "kt": 3e5, "chi": -0.999, "beta": 1.0}
-    (jenkins,) = _jenkins_end_warnings(PhysicalModel(("iwan",)), values, "identification", "V")
+    (jenkins,) = _degenerate_warnings(PhysicalModel(("iwan",)), values, "identification", "V")
     assert "= 1.5e+05 V/m" in jenkins.message and "slip force 2 V;" in jenkins.message, jenkins.message

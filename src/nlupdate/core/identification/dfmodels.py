@@ -37,10 +37,12 @@ friction, the source's assumption in its case studies) and the imaginary constan
 ``delta_f1_imag`` reports the imaginary part used.
 
 :class:`PhysicalModel` — named elements of :data:`nlupdate.core.model.elements.ELEMENT_TYPES`
-(``cubic``, ``jenkins``, ``coulomb``, ``quadratic_damping``, ``gap``, ``iwan``) acting at all
+(``cubic``, ``jenkins``, ``iwan``, … every element type with fitted parameters) acting at all
 force levels: ``nu_high = nu_low = Σ ν_e(A; θ)``. Positive parameters are fitted as
-logarithms; ``k3`` (which may be negative: softening) linearly; an Iwan joint's exponent
-χ ∈ (−1, 0) through a logistic map. This model is exact for describing-function data of
+logarithms; signed ones (``k3``: softening) linearly; those with an interval (an Iwan joint's
+exponent χ ∈ (−1, 0)) through a logistic map. Each element class states its starts, the
+parameters that may be fixed in place of others and those the data may not show
+(:class:`~nlupdate.core.model.elements.base.ElementBase`); nothing here names an element. This model is exact for describing-function data of
 those elements, including a slipping low-force level.
 
 What PRD data determine of an Iwan joint: ``y = ν(A_i) − ν(A_1)``. While every level stays
@@ -60,6 +62,7 @@ import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.model.elements import ELEMENT_TYPES, PolynomialDF
+from nlupdate.core.model.elements.iwan import MACROSLIP_REACH
 
 #: Fitted parameter names of each physical element (constructor keyword order) and whether
 #: they are positive (fitted as log) or signed; those in INTERVAL_PARAMETERS are fitted
@@ -222,7 +225,8 @@ class PhysicalModel:
             )
         object.__setattr__(self, "element_names", names)
         object.__setattr__(self, "fixed", tuple((str(k), float(v)) for k, v in self.fixed))
-        known = {name for _, name, _ in self._all_slots()} | {f"phi_max{sfx}" for el, sfx in self._suffixes() if el == "iwan"}
+        known = {name for _, name, _ in self._all_slots()} | {
+            alternative + sfx for el, sfx in self._suffixes() for alternative in ELEMENT_TYPES[el].alternatives}
         unknown = [k for k, _ in self.fixed if k not in known]
         if unknown:
             raise ModelError(f"fixed parameter(s) {unknown} are not parameters of {' + '.join(names)}")
@@ -243,8 +247,8 @@ class PhysicalModel:
     def _slots(self) -> list[tuple[str, str, bool]]:
         """(element, reported parameter name, positive) per entry of p (the fitted ones)."""
         fixed = dict(self.fixed)
-        replaced = {f"slip_force{suffix}" for element, suffix in self._suffixes()
-                    if element == "iwan" and f"phi_max{suffix}" in fixed}
+        replaced = {name + suffix for element, suffix in self._suffixes()
+                    for alternative, name in ELEMENT_TYPES[element].alternatives.items() if alternative + suffix in fixed}
         return [slot for slot in self._all_slots() if slot[1] not in fixed and slot[1] not in replaced]
 
     @property
@@ -299,10 +303,11 @@ class PhysicalModel:
         for element, suffix in self._suffixes():
             kwargs = {name: float(values[name + suffix]) for name, _ in ELEMENT_PARAMETERS[element]
                       if name + suffix in values}
-            if element == "iwan" and "slip_force" not in kwargs:  # from φ_max (IwanJoint.phi_max inverted)
-                chi, beta = kwargs["chi"], kwargs["beta"]
-                kwargs["slip_force"] = values["phi_max" + suffix] * kwargs["kt"] * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
-            out.append(ELEMENT_TYPES[element](tuple(dofs), **kwargs))
+            kind = ELEMENT_TYPES[element]
+            for alternative, name in kind.alternatives.items():
+                if name not in kwargs and alternative + suffix in values:  # fixed in its place
+                    kwargs = kind.with_alternative(kwargs, alternative, values[alternative + suffix])
+            out.append(kind(tuple(dofs), **kwargs))
         return out
 
     def function(self, p: ArrayLike, level: str = "high") -> Callable[[NDArray, NDArray], NDArray]:
@@ -335,7 +340,8 @@ class PhysicalModel:
     def initial_guesses(
         self, amplitude: NDArray, y: NDArray, amplitude_low: float, omega: float
     ) -> list[NDArray[np.float64]]:
-        """Starting vectors from PRD points ``y_i`` at amplitudes ``A_i`` (several for gaps)."""
+        """Starting vectors from PRD points ``y_i`` at amplitudes ``A_i``: the shared guesses
+        below, overridden by each element class's ``start_values`` (several for gaps)."""
         a = np.asarray(amplitude, dtype=float)
         y = np.asarray(y, dtype=complex)
         scale = float(np.max(np.abs(y))) or 1.0
@@ -350,17 +356,15 @@ class PhysicalModel:
             "slip_force": [float(np.clip(damping_force, kf * amplitude_low * 2, kf * a_min * 0.5))
                            if damping_force > 0 else kf * np.sqrt(max(amplitude_low, 1e-30) * a_min)],
             "cq": [max(float(np.median(y.imag / (omega**2 * a))) * 3 * np.pi / 8, 1e-12)],
-            "gap": [f * a_min for f in (0.2, 0.5, 0.8)],
-            "kc": [max(float(np.max(np.abs(y.real))), 1e-3 * scale)],
         }
-        if "jenkins" not in self.element_names:
+        if not any(ELEMENT_TYPES[name].stick_slip for name in self.element_names):  # no element stuck at the low force
             guess["slip_force"] = [max(damping_force, 1e-6 * scale * a_min)]
-        iwan = _iwan_guesses(a, y, scale)
+        own = {name: {**guess, **ELEMENT_TYPES[name].start_values(a, y, omega, scale)} for name in set(self.element_names)}
         starts = [[]]
         for element, name, _ in self._slots:
-            base = name.rsplit("_", 1)[0] if name not in guess else name
-            options = iwan.get(base, [1.0]) if element == "iwan" else guess.get(base, [1.0])
-            starts = [s + [o] for s in starts for o in options]
+            options = own[element]
+            base = name if name in options else name.rsplit("_", 1)[0]
+            starts = [s + [o] for s in starts for o in options.get(base, [1.0])]
         return [self.vector(s) for s in starts]
 
 
@@ -368,31 +372,15 @@ class PhysicalModel:
 Model = PolynomialModel | PhysicalModel
 
 
-def _iwan_guesses(amplitude: NDArray, y: NDArray, scale: float) -> dict[str, list[float]]:
-    """Starts of an Iwan joint from PRD (or DDF) points: K_T from the stiffness lost at the
-    largest amplitude; F_S from the damping there (``Im ν ≈ 4F_S/(πA)`` in macroslip) and,
-    in case that level is not in macroslip, from K_T times the middle amplitude; two
-    exponents and two shares of the concentrated part."""
-    largest = int(np.argmax(amplitude))
-    kt = max(-float(np.min(y.real)), 1e-3 * scale) * 1.2
-    floor = 1e-6 * kt * float(amplitude.min())
-    slips = [max(float(np.pi / 4 * y.imag[largest] * amplitude[largest]), floor), kt * float(np.median(amplitude))]
-    return {"slip_force": slips, "kt": [kt], "chi": [-0.3, -0.7], "beta": [0.1, 1.0]}
-
-
-MACROSLIP_REACH = 2.0
-"""An Iwan joint's F_S, K_T and β count as determined only when the largest measured
-amplitude reaches ``MACROSLIP_REACH × φ_max`` of the fit."""
-
-
 def iwan_identifiability(model: "PhysicalModel | PolynomialModel | None", p: ArrayLike | None,
                          amplitude_max: float) -> "PhysicalModel | None":
-    """The model to refit when an Iwan joint of a fit has no level in macroslip, else None.
+    """The model to refit when an element of a fit has parameters no measured level shows
+    (the element's ``refit_when_unseen``), else None.
 
-    Below φ_max the PRD/DDF data determine the joint's χ and ``R' = K_T/((1+β)φ_max^(χ+1))``
-    only (module docstring). The refit fixes β = 0 and φ_max at the largest measured
-    amplitude: the smallest joint that keeps every level in microslip, so its K_T and F_S
-    are lower bounds, and χ and R' are what the data say.
+    An Iwan joint with no level in macroslip: below φ_max the PRD/DDF data determine the
+    joint's χ and ``R' = K_T/((1+β)φ_max^(χ+1))`` only (module docstring). The refit fixes
+    β = 0 and φ_max at the largest measured amplitude: the smallest joint that keeps every
+    level in microslip, so its K_T and F_S are lower bounds, and χ and R' are what the data say.
 
     A model that is already such a refit (given to a Monte-Carlo sample, which skips the
     free fit) is returned with its φ_max moved to this fit's largest amplitude when that
@@ -402,22 +390,18 @@ def iwan_identifiability(model: "PhysicalModel | PolynomialModel | None", p: Arr
         moved = {name: float(amplitude_max) for name in fixed if name.startswith("phi_max")
                  and fixed[name] != float(amplitude_max)}
         return PhysicalModel(model.element_names, tuple({**fixed, **moved}.items()), model.note) if moved else None
-    if not isinstance(model, PhysicalModel) or model.fixed or p is None or "iwan" not in model.element_names:
+    if not isinstance(model, PhysicalModel) or model.fixed or p is None:
         return None
-    fixed, reaches = [], []
+    fixed, reaches, why = [], [], ""
     for (element, suffix), built in zip(model._suffixes(), model.elements(p)):
-        if element == "iwan" and amplitude_max < MACROSLIP_REACH * built.phi_max:
-            fixed += [(f"beta{suffix}", 0.0), (f"phi_max{suffix}", float(amplitude_max))]
-            reaches.append(amplitude_max / built.phi_max)
+        refit = built.refit_when_unseen(amplitude_max)
+        if refit is not None:
+            values, reach, why = refit
+            fixed += [(name + suffix, value) for name, value in values.items()]
+            reaches.append(reach)
     if not fixed:
         return None
-    note = (f"no measured level reaches the Iwan joint's macroslip (largest amplitude {amplitude_max:.4g} m, "
-            f"{min(reaches):.2g} × the φ_max of a free fit; {MACROSLIP_REACH:g} × needed): the data determine its "
-            f"chi and R' = kt/((1+beta)·phi_max^(chi+1)) only (kt trades with the linear stiffness, slip_force "
-            f"and beta act above φ_max). Fixed beta = 0 and phi_max = the largest amplitude — the smallest joint "
-            f"that keeps every level in microslip — so kt and slip_force are lower bounds, and the extracted "
-            f"linear FRF holds the rest of the joint's stiffness")
-    return PhysicalModel(model.element_names, tuple(fixed), note)
+    return PhysicalModel(model.element_names, tuple(fixed), why.replace("{reach}", f"{min(reaches):.2g}"))
 
 
 def polynomial_approximation(

@@ -73,12 +73,12 @@ from typing import Any
 import numpy as np
 
 from nlupdate.core.identification.consistency import SPREAD_LIMIT
-from nlupdate.core.identification.dfmodels import ELEMENT_PARAMETERS, PhysicalModel
+from nlupdate.core.identification.dfmodels import PhysicalModel
+from nlupdate.core.model.elements import ELEMENT_TYPES
 from nlupdate.core.measurement.units import parameter_unit
 
 RESIDUAL_FACTOR = 3.0
 POOR_FIT_FACTOR = 5.0  # a residual this many times the noise: "fit": "poor"
-JENKINS_END = -0.98  # an Iwan joint's χ at or below this acts as a Jenkins element
 RESIDUAL_FLOOR = 1e-3
 SLIP_TOLERANCE = 0.1
 SHIFT_MIN_SAMPLES = 20  # fewer Monte-Carlo samples: no moves_with_noise judgement
@@ -127,15 +127,11 @@ def uncertainty_warnings(values: dict[str, float], std: dict[str, float], what: 
     return out
 
 
-def _jenkins_slots(model: PhysicalModel) -> list[tuple[str, str]]:
-    """(kf name, slip force name) of every Jenkins element of a physical model."""
-    names = iter(name for _, name, _ in model._all_slots())
-    out = []
-    for element in model.element_names:
-        slot = [next(names) for _ in ELEMENT_PARAMETERS[element]]
-        if element == "jenkins":
-            out.append((slot[0], slot[1]))
-    return out
+def _stick_slip_slots(model: PhysicalModel) -> list[tuple[str, str]]:
+    """(stuck stiffness name, slip force name) of every element of a physical model the PRD
+    assumes stuck at the low force (a Jenkins element's kf and slip_force: its ``stick_slip``)."""
+    return [(pair[0] + suffix, pair[1] + suffix) for element, suffix in model._suffixes()
+            if (pair := ELEMENT_TYPES[element].stick_slip) is not None]
 
 
 def _slip_force_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
@@ -146,7 +142,7 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str, uni
     out = []
     a_low = getattr(result, "amplitude_low_max", None) if result.method == "prd" else None
     a_high = float(np.max(result.amplitude)) if np.size(result.amplitude) else None
-    for kf_name, slip_name in _jenkins_slots(model):
+    for kf_name, slip_name in _stick_slip_slots(model):
         kf, slip = values[kf_name], values[slip_name]
         if a_low is not None and a_low > 0:
             lower = kf * a_low
@@ -278,26 +274,24 @@ def identification_warnings(identification: Any, source: str = "identification")
     model = getattr(result, "physical", None) or getattr(result, "model", None)
     if isinstance(model, PhysicalModel) and model.note:
         out.append(TrustWarning(", ".join(name for name, _ in model.fixed), "not_identifiable", model.note, source))
-    return tuple(out + _jenkins_end_warnings(model, values, source, unit))
+    return tuple(out + _degenerate_warnings(model, values, source, unit))
 
 
-def _jenkins_end_warnings(model: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
-    """An Iwan joint fitted at χ → −1 is a Jenkins element (kf = βK_T/(1+β), Fs = F_S): its
-    K_T and β are then not determined separately."""
+def _degenerate_warnings(model: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
+    """Parameters an element's fitted values leave inseparable (its ``degenerate``: an Iwan
+    joint fitted at χ → −1 is a Jenkins element, kf = βK_T/(1+β), Fs = F_S, whose K_T and β
+    are then not determined separately)."""
     if not isinstance(model, PhysicalModel):
         return []
     out = []
     for element, suffix in model._suffixes():
-        chi = values.get(f"chi{suffix}")
-        if element != "iwan" or chi is None or chi > JENKINS_END:
-            continue
-        kt, beta, slip = values[f"kt{suffix}"], values[f"beta{suffix}"], values[f"slip_force{suffix}"]
-        out.append(TrustWarning(
-            f"kt{suffix}, beta{suffix}", "not_identifiable",
-            f"chi{suffix} = {chi:.4g} sits at the Jenkins end of the Iwan joint (chi → −1): it acts as a Jenkins "
-            f"element with kf = beta·kt/(1+beta) = {beta * kt / (1 + beta):.4g} {parameter_unit('kf', unit)} and slip "
-            f"force {slip:.4g} {parameter_unit('slip_force', unit)}; "
-            f"kt and beta are not determined separately (fit a jenkins element instead)", source))
+        kind = ELEMENT_TYPES[element]
+        own = {p.name: values[p.name + suffix] for p in kind.parameters if p.name + suffix in values}
+        found = kind.degenerate(own, lambda name: parameter_unit(name, unit))
+        if found is not None:
+            names, message = found
+            out.append(TrustWarning(", ".join(name + suffix for name in names), "not_identifiable",
+                                    message.replace("{suffix}", suffix), source))
     return out
 
 
