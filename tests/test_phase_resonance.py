@@ -36,14 +36,17 @@ IWAN = IwanJoint((0,), slip_force=0.1 * K * 1e-3, kt=0.1 * K, chi=-0.5, beta=0.5
 FORCES = np.geomspace(0.01, 0.16, 9)  # N: A from 0.06 to 1 mm
 
 
-def locked_points(element, forces, phase_deg: float = -90.0):
-    """(Ω rad/s, F N, X₁ complex m) where the first harmonic of x is ``phase_deg`` from the force."""
-    system = NonlinearSystem(LumpedModel([[M]], [[K]], [[C]]), (element,))
+def locked_points(element, forces, phase_deg: float = -90.0, mkc: tuple[float, float, float] = (M, K, C)):
+    """(Ω rad/s, F N, X₁ complex m) where the first harmonic of x is ``phase_deg`` from the
+    force, on the SDOF of mass, stiffness and damping ``mkc``."""
+    m, k, c = mkc
+    system = NonlinearSystem(LumpedModel([[m]], [[k]], [[c]]), (element,))
+    w0 = np.sqrt(k / m)
     out = []
     for force in forces:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", HarmonicTruncationWarning)
-            curve = trace_harmonic_balance(system, {0: force}, 0.85 * W0, 1.15 * W0, harmonics=5, stability=False)
+            curve = trace_harmonic_balance(system, {0: force}, 0.85 * w0, 1.15 * w0, harmonics=5, stability=False)
         x = curve.response([0])[:, 0]
         s = np.angle(x) - np.radians(phase_deg)
         i = int(np.flatnonzero(np.sign(s[:-1]) != np.sign(s[1:]))[0])

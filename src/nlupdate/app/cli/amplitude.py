@@ -1,23 +1,25 @@
-"""``nlupdate amplitude``: an amplitude-dependent modal model of one mode from a modal table or FRFs
-(or ring-downs and response-controlled runs).
+"""``nlupdate amplitude``: an amplitude-dependent modal model of one mode from any mix of tests
+(stepped sine, response-controlled runs, phase resonance, ring-downs, impacts).
 
 From a modal table (CSV: force level, mode, natural frequency, damping ratio per row) and the
 mode's mass-normalised shape at the excited coordinate (--shape NAME=VALUE, 1/√kg), or from a
 measured-FRF table (driving point, several force levels; the shape then comes from a one-mode
 fit of the lowest level unless given), fit the natural frequency and damping ratio against
 modal amplitude (--backbone iwan: a modal Iwan joint; polynomial: of --order) and write
-DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its linear limit)
-and DIR/backbone.png. With --forces and --freqs it also writes the FRFs the model predicts at
-those levels (DIR/predicted_frf.parquet, single-nonlinear-mode theory) and, for an FRF table,
-DIR/predicted_frf.png against the measured curves.
+DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its linear limit),
+DIR/backbone.png and DIR/damping.png. With --forces and --freqs it also writes the FRFs the
+model predicts at those levels (DIR/predicted_frf.parquet, single-nonlinear-mode theory) and,
+for an FRF table, DIR/predicted_frf.png against the measured curves.
 
-A free decay (--ring-down FILE, repeatable; --channel NAME when it holds several; --band the
-mode's band-pass) is enough input on its own, or joins the FRFs or modal table (then with the
-shape at the excited coordinate). Response-controlled stepped-sine runs (--response-controlled
-FILE.mat) give one sample per held amplitude from a one-mode fit of each run, and phase-resonance
-points (--phase-resonance FILE, .csv or .mat: frequency, force, response and phase per level) one
-sample per level, the damping from the force needed at resonance (docs/ring-down.md for all three). DIR/backbone_points.csv holds every source's samples and DIR/backbone.csv the fitted
-backbone over their range.
+Other test types, each repeatable and each enough on its own (docs/ring-down.md): a free
+decay (--ring-down FILE; --channel NAME when it holds several; --band the mode's band-pass),
+response-controlled stepped-sine runs (--response-controlled FILE.mat: one sample per held
+amplitude), phase-resonance points (--phase-resonance FILE: one sample per level, the damping
+from the force needed at resonance) and impact or low-level records (--impact FILE: the linear
+limit by a complex exponential fit of the quietest part of the decay). Several sources are
+fitted jointly, each weighted by its own noise, and DIR/consistency.csv names those that
+disagree with the joint fit beyond their uncertainty. DIR/backbone_points.csv holds every
+source's samples and DIR/backbone.csv the fitted backbone over their range.
 """
 from __future__ import annotations
 
@@ -35,14 +37,15 @@ from nlupdate.core.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.phase_resonance import read_phase_resonance, samples_from_phase_resonance
-from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
-from nlupdate.core.identification.backbone_samples import backbone_curve, backbone_points, join_samples
-from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
-from nlupdate.app.cli.measured import add_measured_options, measured_table, parse_band, print_notes, read_options, sources
+from nlupdate.core.identification.backbone_samples import (
+    DISAGREEMENT, backbone_curve, backbone_points, consistency, join_samples, source_noise,
+)
+from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
+from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import BACKBONES, write_amplitude_model
+from nlupdate.reporting.backbone_plots import plot_sources
 from nlupdate.reporting.figures import level_colours, save_figure
 from nlupdate.app.cli.simulate import force_levels, frequency_grid
 
@@ -54,17 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                  "modal table's modes (default: all); of a ring-down, its band-pass (default: around "
                                  "the spectrum's largest peak)",
                          modal=True, required=False)
-    parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
-                        help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
-    parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
-                        help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
-                             "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
-    parser.add_argument("--phase-resonance", action="append", default=[], metavar="FILE",
-                        help="phase-resonance points (.csv: frequency_hz, force_n, response_amplitude, "
-                             "response_phase_deg, optional response_unit, response_dof, input_dof; or .mat runs): one "
-                             "sample per level; needs --shape at its response (and input) coordinate; repeatable")
-    parser.add_argument("--channel", help="the ring-down files' channel (default: their only one); its --shape, if "
-                                          "given, makes the amplitude modal")
+    add_source_options(parser)
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--response-dof", help="response coordinate of FRFs (default: the input, the driving point, "
                                                "if measured; else the table's only response: a transfer FRF)")
@@ -97,26 +90,6 @@ def _shapes(texts: list[str]) -> dict[str, float]:
     return shapes
 
 
-def _plot_backbone(model, samples, path: Path) -> Path:
-    fig = Figure(figsize=(10, 4))
-    ax_f, ax_z = fig.subplots(1, 2)
-    a = np.geomspace(samples.amplitude.min() / 3, samples.amplitude.max() * 3, 300)
-    f, z = model.frequency_hz(a), model.damping(a)
-    ax_f.semilogx(samples.amplitude, samples.frequency_hz, ".", label="measured")
-    ax_f.semilogx(a, f, "-", label=f"{model.backbone} backbone")
-    ax_z.semilogx(samples.amplitude, 100 * samples.damping_ratio, ".", label="measured")
-    ax_z.semilogx(a, 100 * z, "-", label=f"{model.backbone} damping curve")
-    for ax, label in ((ax_f, "natural frequency (Hz)"), (ax_z, "damping ratio (%)")):
-        ax.set_xlabel("modal amplitude a (m·√kg)")
-        ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.4g} Hz, "
-                 f"ζ₀ = {100 * model.damping_ratio:.3g} %", fontsize=10)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
 def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") -> Path:
     """|H| the model predicts (lines) against the measured curves (dots) over the predicted
     band; a level measured and predicted shares its colour."""
@@ -142,62 +115,21 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") ->
     return save_figure(fig, path)
 
 
-def _ring_down_samples(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[list[tuple[str, object]], str]:
-    """((file, samples) of each --ring-down and --response-controlled, the coordinate of the last):
-    the shape at a ring-down's channel, when given, makes its amplitude modal; a response-controlled
-    file's shape is given or from its lowest run's modal constant."""
-    out, channel = [], ""
-    band = parse_band(args.band)
-    for path in args.ring_down:
-        record = read_ring_down(path, args.channel)
-        estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(record.channel), source=path)
-        samples = estimate.samples()
-        units = "" if record.channel in shapes else \
-            f"; no --shape {record.channel}=VALUE: amplitudes in the response's units"
-        print(f"{path}: channel {record.channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "
-              f"{estimate.trim_s[0]:.3g} s and {estimate.trim_s[1]:.3g} s trimmed at the start and end, "
-              f"{samples.amplitude.size} samples (a smoothing window apart: {estimate.window_s.min():.3g}–"
-              f"{estimate.window_s.max():.3g} s){units}")
-        out.append((path, samples))
-        channel = record.channel
-    for path in args.response_controlled:
-        runs = read_response_controlled(path, read_options(args))
-        channel = runs[0].response_dof
-        samples = samples_from_held_runs(runs, shapes.get(channel))
-        print(f"{path}: {len(runs)} response-controlled run(s) at {channel}, held {1e6 * runs[0].held_m:.3g}–"
-              f"{1e6 * runs[-1].held_m:.3g} µm, one-mode fit of each" + ("" if channel in shapes else
-                                                                         f"; shape {samples.input_shape:.4g} 1/√kg "
-                                                                         f"from the lowest run's modal constant"))
-        out.append((path, samples))
-    for path in args.phase_resonance:
-        points = read_phase_resonance(path, read_options(args))
-        missing = [dof for dof in (points.response_dof, points.input_dof) if dof not in shapes]
-        if missing:
-            raise CliError(f"{path}: give --shape {missing[0]}=VALUE: the damping at phase resonance, "
-                           f"ζ = |φ_f φ_r| F/(2Ω²|X_r|), needs the mass-normalised shape (1/√kg) at the response "
-                           f"and the force")
-        samples = samples_from_phase_resonance(points, shapes[points.response_dof], shapes[points.input_dof])
-        print(f"{path}: {samples.amplitude.size} phase-resonance point(s) at {points.response_dof} (force at "
-              f"{points.input_dof}), {points.force_n.min():.4g}–{points.force_n.max():.4g} N")
-        out.append((path, samples))
-        channel = points.input_dof
-    return out, channel
-
-
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if (args.forces is None) != (args.freqs is None):
         raise CliError("--forces and --freqs go together (the levels and the grid of the predicted FRFs)")
     shapes = _shapes(args.shape)
     data = None
-    if not (args.measured or args.ring_down or args.response_controlled or args.phase_resonance):
+    if not (args.measured or args.ring_down or args.response_controlled or args.phase_resonance or args.impact):
         raise CliError("give the mode's data: --measured FILE (FRFs or a modal table) and/or --ring-down FILE, "
-                       "--response-controlled FILE, --phase-resonance FILE")
-    rings, channel = _ring_down_samples(args, shapes)
+                       "--response-controlled FILE, --phase-resonance FILE, --impact FILE")
+    rings, channel = read_sources(args, shapes)
     if not args.measured:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
-        samples, input_dof = join_samples([s for _, s in rings]), channel
-        model = fit_amplitude_model(samples, ((channel, samples.input_shape),), args.backbone, args.order,
-                                    mode=args.mode)
+        samples, input_dof = join_samples([s for _, s, _, _ in rings]), channel
+        shapes_fit = ((channel, samples.input_shape),)
+        model = None if len(rings) > 1 else fit_amplitude_model(samples, shapes_fit, args.backbone, args.order,
+                                                                mode=args.mode)
         unit, points = "N", rings
     else:
         table, notes = measured_table(args, modal=True, find_band=True)
@@ -229,10 +161,27 @@ def run(args: argparse.Namespace) -> int:
             model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
             if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
                 samples = samples.with_shape(model.shapes[0][1])
-        points = [(sources(args), samples)] + rings
-        if rings:  # the measured samples and the ring-downs, fitted together at the given shape
-            samples = join_samples([samples] + [s for _, s in rings])
-            model = fit_amplitude_model(samples, model.shapes, args.backbone, args.order, mode=args.mode)
+        points = [(sources(args), samples, None, "stepped sine" if data is not None else "modal table")] + rings
+        shapes_fit = model.shapes
+        if rings:  # the measured samples and the other sources, fitted together at the given shape
+            samples = join_samples([s for _, s, _, _ in points])
+    # several sources: one backbone fitted jointly, each source weighted by its own noise
+    noises = [source_noise(s, stated) for _, s, stated, _ in points]
+
+    def joint_fit(chosen: list[int]):
+        """The model of the sources at ``chosen``, each weighted by its noise."""
+        stds = [np.concatenate([np.full(points[i][1].amplitude.size, noises[i][k]) for i in chosen]) for k in (0, 1)]
+        return fit_amplitude_model(join_samples([points[i][1] for i in chosen]), shapes_fit, args.backbone, args.order,
+                                   *stds, mode=args.mode)
+
+    f_std, z_std = (1e-3, 0.05)
+    agreement = None
+    if len(points) > 1:
+        everything = list(range(len(points)))
+        f_std, z_std = (np.concatenate([np.full(p[1].amplitude.size, n[k]) for p, n in zip(points, noises)])
+                        for k in (0, 1))
+        model = joint_fit(everything)
+        agreement = consistency(model, [(name, s, kind) for name, s, _, kind in points], noises, joint_fit)
     resamples = (200 if args.backbone == "polynomial" else 0) if args.bootstrap is None else args.bootstrap
     if resamples < 0:
         raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
@@ -244,11 +193,13 @@ def run(args: argparse.Namespace) -> int:
     with atomic_directory(out, on_exists="replace") as archive:
         folder = archive.path
         write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
-        _plot_backbone(model, samples, folder / "backbone.png")
-        backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
-            draw, model.shapes, args.backbone, args.order, mode=args.mode), resamples=resamples).to_csv(
-            folder / "backbone.csv", index=False)
-        backbone_points(points).to_csv(folder / "backbone_points.csv", index=False)
+        curve = backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
+            draw, model.shapes, args.backbone, args.order, f_std, z_std, mode=args.mode), resamples=resamples)
+        curve.to_csv(folder / "backbone.csv", index=False)
+        backbone_points([(name, s, kind) for name, s, _, kind in points]).to_csv(folder / "backbone_points.csv", index=False)
+        plot_sources(model, [(f"{name} ({kind})", s) for name, s, _, kind in points], curve, folder)
+        if agreement is not None:
+            agreement.to_csv(folder / "consistency.csv", index=False)
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")
             if data is not None:
@@ -269,6 +220,18 @@ def run(args: argparse.Namespace) -> int:
     else:
         print("note: backbone.csv's *_low/*_high band columns are NaN (the backbone fits give no covariance); "
               "--bootstrap N refits N resamples for them")
-    print(f"wrote {out / 'amplitude_model.json'}, the backbone plot, backbone.csv and backbone_points.csv"
+    if agreement is not None:
+        for row in agreement.itertuples():
+            print(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit {100 * row.frequency_offset:+.3g} % in frequency "
+                  f"({row.frequency_score:+.2g} standard errors), {100 * row.damping_offset:+.3g} % in damping "
+                  f"({row.damping_score:+.2g})" + ("" if row.consistent else
+                                                  " — DISAGREES with the other sources beyond its uncertainty"))
+        odd = agreement.loc[~agreement["consistent"], "source"].tolist()
+        if odd:
+            print(f"warning: {', '.join(odd)} disagree(s) with the joint fit by more than {DISAGREEMENT:g} standard "
+                  f"errors (consistency.csv): a test-type effect (e.g. shaker–structure interaction, a drift between "
+                  f"tests) or a wrong shape or unit")
+    print(f"wrote {out / 'amplitude_model.json'}, backbone.png, damping.png, backbone.csv and backbone_points.csv"
+          + (", consistency.csv" if agreement is not None else "")
           + (" and the predicted FRFs" if predicted is not None else ""))
     return 0

@@ -211,7 +211,7 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
     if softening:  # f₀ within linear_limit_range, falling with a
         limits = np.vstack([-slope, first, -first]), np.concatenate([np.zeros(len(slope)), [low, -high]])
     else:  # a stiffening backbone, mirrored: f₀ at or below every sample, rising with a
-        top = float(samples.frequency_hz.min()) * (1 + 3 * frequency_std)
+        top = float(samples.frequency_hz.min()) * (1 + 3 * float(np.median(frequency_std)))
         limits = np.vstack([slope, -first, first]), np.concatenate([np.zeros(len(slope)), [-top, 2 * f_ref - high]])
     # f_i = f₀ + Σ f₀c_k u^k: linear in (f₀, f₀c_k), weights 1/(σ_f f_i); ζ likewise
     wf = 1 / (frequency_std * samples.frequency_hz)
@@ -270,8 +270,9 @@ def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[flo
     the softening measured over all of them."""
     f = samples.frequency_hz
     f_ref = float(f[np.argmin(samples.amplitude)])
-    margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * frequency_std)
-    return 2 * np.pi * float(f.max()) * (1 - 3 * frequency_std), 2 * np.pi * f_ref * (1 + margin)
+    typical = float(np.median(frequency_std))  # one value, or the median of each sample's
+    margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * typical)
+    return 2 * np.pi * float(f.max()) * (1 - 3 * typical), 2 * np.pi * f_ref * (1 + margin)
 
 
 def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
@@ -363,15 +364,19 @@ SHAPE_RANGE = 1.1
 
 
 def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
-                        order: int = 2, frequency_std: float = 1e-3, damping_std: float = 0.05,
+                        order: int = 2, frequency_std: float | NDArray = 1e-3, damping_std: float | NDArray = 0.05,
                         mode: int = 1) -> AmplitudeModalModel:
     """The amplitude-dependent model of ``backbone`` fitted to ``samples`` (module docstring).
+
+    ``frequency_std``, ``damping_std``: relative standard deviations of the samples' natural
+    frequencies and damping ratios, one value for all or one per sample (samples of several
+    sources each weighted by its own noise: :mod:`~nlupdate.core.identification.backbone_samples`).
 
     ``shapes``: the mode's mass-normalised shape (1/√kg) at named coordinates, the excited
     one included (its magnitude must be the samples' ``input_shape``)."""
     if backbone not in BACKBONES:
         raise AmplitudeModelError(f"backbone must be one of {list(BACKBONES)}, got {backbone!r}")
-    if frequency_std <= 0 or damping_std <= 0:
+    if np.any(np.asarray(frequency_std) <= 0) or np.any(np.asarray(damping_std) <= 0):
         raise AmplitudeModelError("frequency_std and damping_std must be > 0 (relative standard deviations)")
     shapes = tuple((str(n), float(v)) for n, v in shapes)
     if backbone == "polynomial":

@@ -12,6 +12,20 @@ with replacement onto the fitted curves at the same amplitudes, the model is ref
 each draw, and ``*_low``/``*_high`` are the 2.5th and 97.5th percentiles of the refitted
 curves (a 95 % interval of the fit, given the model; ring-down samples are a smoothing window
 apart, so their misfits are about independent). Without resamples the band columns are NaN.
+
+Joint fit of several sources (stepped sine, response-controlled runs, phase resonance,
+ring-downs, impacts). Each source is weighted by its own noise: the relative standard
+deviations of its frequencies and damping ratios are the scatter of its samples about a
+quadratic in ln a fitted to that source alone (``√(Σr²/(n − 3))``, n ≥ 5 samples), or the
+standard errors a source states (an impact's pole), or, for fewer samples, the fit's defaults
+(1e-3 and 5 %); floors of :data:`NOISE_FLOOR` keep one smooth source from taking all the
+weight. Consistency: each source's mean relative misfit in frequency and in damping is
+compared with its standard error (its noise/√n); the source farthest beyond
+:data:`DISAGREEMENT` standard errors is named and the rest refitted without it, until the
+sources left agree — a source off by a test-type effect (e.g. ring-down damping above
+stepped-sine damping: shaker–structure interaction; a wrong force calibration) is named
+alone rather than dragging the joint fit away from all the others. The model written is
+still the joint fit of every source.
 """
 from __future__ import annotations
 
@@ -21,7 +35,15 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+
+#: smallest relative standard deviation a source is given, (frequency, damping ratio)
+NOISE_FLOOR = (1e-5, 0.01)
+#: default relative standard deviations of a source with too few samples to show its scatter
+DEFAULT_NOISE = (1e-3, 0.05)
+#: a source's mean misfit beyond this many standard errors disagrees with the joint fit
+DISAGREEMENT = 3.0
 
 
 def join_samples(parts: list[ModalSamples]) -> ModalSamples:
@@ -38,12 +60,13 @@ def join_samples(parts: list[ModalSamples]) -> ModalSamples:
                         parts[0].input_shape)
 
 
-def backbone_points(parts: list[tuple[str, ModalSamples]]) -> pd.DataFrame:
-    """Every source's samples, one row each: ``source``, ``modal_amplitude`` (m·√kg),
-    ``natural_frequency_hz``, ``damping_ratio``."""
-    return pd.concat([pd.DataFrame({"source": name, "modal_amplitude": s.amplitude,
-                                    "natural_frequency_hz": s.frequency_hz, "damping_ratio": s.damping_ratio})
-                      for name, s in parts], ignore_index=True)
+def backbone_points(parts: list[tuple[str, ModalSamples] | tuple[str, ModalSamples, str]]) -> pd.DataFrame:
+    """Every source's samples, one row each: ``source``, ``test_type`` (when the parts give
+    one), ``modal_amplitude`` (m·√kg), ``natural_frequency_hz``, ``damping_ratio``."""
+    return pd.concat([pd.DataFrame({"source": part[0], **({"test_type": part[2]} if len(part) > 2 else {}),
+                                    "modal_amplitude": part[1].amplitude, "natural_frequency_hz": part[1].frequency_hz,
+                                    "damping_ratio": part[1].damping_ratio})
+                      for part in parts], ignore_index=True)
 
 
 def backbone_curve(model: AmplitudeModalModel, samples: ModalSamples, count: int = 50,
@@ -82,3 +105,74 @@ def _bootstrap(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.
         frequencies.append(refitted.frequency_hz(amplitude))
         dampings.append(refitted.damping(amplitude))
     return np.array(frequencies), np.array(dampings)
+
+
+def displacement_samples(samples: ModalSamples, unit: str) -> ModalSamples:
+    """Samples of a record in ``unit`` (m, m/s, m/s², … of
+    :data:`~nlupdate.core.measurement.units.RESPONSE_UNIT_LABELS`) with their amplitudes as
+    displacement: divided by ω^p (ω the sample's natural frequency, rad/s; p = 0, 1, 2) and
+    scaled to metres. A free decay oscillates at its damped frequency ω√(1 − ζ²): the
+    difference is of order ζ², below 10⁻⁴ for ζ < 1 %."""
+    if unit not in RESPONSE_UNIT_LABELS:
+        raise AmplitudeModelError(f"response unit {unit!r}: expected one of {', '.join(RESPONSE_UNIT_LABELS)}")
+    power, factor = RESPONSE_UNIT_LABELS[unit]
+    omega = 2 * np.pi * samples.frequency_hz
+    return ModalSamples(samples.amplitude * factor / omega**power, samples.frequency_hz, samples.damping_ratio,
+                        samples.force_n, samples.input_shape)
+
+
+def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = None) -> tuple[float, float]:
+    """(frequency, damping-ratio) relative standard deviations of one source (module docstring)."""
+    if stated is not None:
+        f_std, z_std = stated
+    elif samples.amplitude.size >= 5:
+        x = np.log(samples.amplitude)
+        spreads = []
+        for y in (samples.frequency_hz, samples.damping_ratio):
+            fitted = np.polyval(np.polyfit(x, y, 2), x)
+            spreads.append(float(np.sqrt(np.sum((y / fitted - 1) ** 2) / (y.size - 3))))
+        f_std, z_std = spreads
+    else:
+        f_std, z_std = DEFAULT_NOISE
+    return max(f_std, NOISE_FLOOR[0]), max(z_std, NOISE_FLOOR[1])
+
+
+def _scores(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples, str]],
+            noises: list[tuple[float, float]]) -> list[dict]:
+    rows = []
+    for (name, samples, kind), (f_std, z_std) in zip(parts, noises):
+        n = samples.amplitude.size
+        df = float(np.mean(samples.frequency_hz / model.frequency_hz(samples.amplitude) - 1))
+        dz = float(np.mean(samples.damping_ratio / model.damping(samples.amplitude) - 1))
+        rows.append({"source": name, "test_type": kind, "samples": n, "frequency_offset": df,
+                     "frequency_score": df / (f_std / np.sqrt(n)), "damping_offset": dz,
+                     "damping_score": dz / (z_std / np.sqrt(n))})
+    return rows
+
+
+def consistency(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples, str]],
+                noises: list[tuple[float, float]],
+                refit: Callable[[list[int]], AmplitudeModalModel]) -> pd.DataFrame:
+    """Which sources (file, samples, test type) agree (module docstring): against ``model``
+    (the joint fit of all), the source whose mean misfit is the most standard errors away is
+    named and the others are refitted without it (``refit``: the model of the sources at
+    those indices), until every source left is within :data:`DISAGREEMENT` or cannot be
+    fitted alone. One row per source: ``source``, ``test_type``, ``samples``, the mean
+    relative misfits ``frequency_offset``, ``damping_offset`` (sample/model − 1) and each in
+    standard errors (``*_score``) against the fit of the agreeing sources, and ``consistent``."""
+    kept = list(range(len(parts)))
+    while True:
+        rows = _scores(model, parts, noises)
+        score = [max(abs(r["frequency_score"]), abs(r["damping_score"])) for r in rows]
+        worst = max(kept, key=lambda i: score[i])
+        if score[worst] <= DISAGREEMENT or len(kept) <= 1:
+            break
+        try:
+            candidate = refit([i for i in kept if i != worst])
+        except AmplitudeModelError:  # what is left cannot be fitted on its own
+            break
+        kept.remove(worst)
+        model = candidate
+    for i, row in enumerate(rows):
+        row["consistent"] = i in kept
+    return pd.DataFrame(rows)

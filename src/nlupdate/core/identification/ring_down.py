@@ -207,6 +207,17 @@ def _trims(tail: NDArray, envelope: NDArray) -> tuple[int, int]:
     return (int(loud[-1]) + 1 if loud.size else 0), end
 
 
+def analytic_band_pass(time_s: NDArray, x: NDArray, band_hz: tuple[float, float], sample_rate_hz: float,
+                       order: int = 4) -> tuple[NDArray[np.complex128], NDArray]:
+    """``(z, sos)``: the analytic signal of ``x`` band-passed to ``band_hz`` (module docstring,
+    step 2: shifted down by the band's centre, low-passed forward and back by the Butterworth
+    ``sos`` of ``order``, shifted back, times 2)."""
+    low, high = band_hz
+    sos = scipy.signal.butter(order, 0.5 * (high - low), btype="lowpass", fs=sample_rate_hz, output="sos")
+    shift = np.exp(2j * np.pi * 0.5 * (low + high) * (time_s - time_s[0]))
+    return 2 * scipy.signal.sosfiltfilt(sos, x / shift) * shift, sos
+
+
 def estimate_ring_down(time_s: ArrayLike, response: ArrayLike, band_hz: tuple[float, float] | None = None,
                        shape: float | None = None, periods: float = 2.0, order: int = 4, snr: float = 20.0,
                        damping_precision: float = 0.02,
@@ -236,11 +247,7 @@ def estimate_ring_down(time_s: ArrayLike, response: ArrayLike, band_hz: tuple[fl
     if not 0 < low < high < fs / 2:
         raise RingDownError(f"{source}: band {low:g}–{high:g} Hz: expected 0 < low < high < the Nyquist frequency "
                             f"{fs / 2:g} Hz")
-    # the analytic band-pass: x shifted down by the band's centre, low-passed (zero phase), shifted back
-    middle = 0.5 * (low + high)
-    sos = scipy.signal.butter(order, 0.5 * (high - low), btype="lowpass", fs=fs, output="sos")
-    shift = np.exp(2j * np.pi * middle * (t - t[0]))
-    z = 2 * scipy.signal.sosfiltfilt(sos, x / shift) * shift
+    z, sos = analytic_band_pass(t, x, (low, high), fs, order)
     y = z.real
     envelope = np.abs(z)
     start, end = _trims(_filter_tail(sos, x.size), envelope)
@@ -327,31 +334,42 @@ def _pick_channel(columns: dict[str, NDArray], channel: str | None, path: Path) 
     return RingDownRecord(str(path), channel, time_s, values)
 
 
-def read_ring_down(path: str | Path, channel: str | None = None) -> RingDownRecord:
-    """One channel of a ring-down record, read through the input gate: a CSV file (``time_s``
-    and one numeric column per channel) or a MATLAB file (v5 or v7.3: vector variables
-    ``time_s`` and one per channel, at the top level or in the only struct); ``channel``
-    names it when there are several."""
+def read_channels(path: str | Path, what: str = "ring-down file") -> dict[str, NDArray[np.float64]]:
+    """The columns of a time record, read through the input gate: a CSV file (``time_s`` and
+    one numeric column per channel) or a MATLAB file (v5 or v7.3: vector variables ``time_s``
+    and one per channel, at the top level or in the only struct; ``time`` stands for
+    ``time_s`` when a text variable ``units`` starts with ``s``, as in the Brake–Reuss beam's
+    ``HammerImpact.mat``: ``'s, m/s^2'``)."""
     path = Path(path)
-    data = read_input_bytes(path, "ring-down file")
+    data = read_input_bytes(path, what)
     kind = sniff(data[:4096])
     suffix = path.suffix.lower()
     if suffix == ".csv" and kind == "text":
-        frame = csv_frame(data, path, "ring-down file", RingDownError)
+        frame = csv_frame(data, path, what, RingDownError)
         frame.columns = [str(c).strip() for c in frame.columns]
         for name in frame.columns:
             if not pd.api.types.is_numeric_dtype(frame[name]):
                 raise RingDownError(f"{path}: column {name!r} is not numeric; expected time_s and one number per "
                                     f"channel on every row")
-        return _pick_channel({c: frame[c].to_numpy(dtype=float) for c in frame.columns}, channel, path)
+        return {c: frame[c].to_numpy(dtype=float) for c in frame.columns}
     if suffix == ".mat" and kind in ("mat5", "hdf5"):
         from nlupdate.core.measurement.matfile import mat_variables
 
-        variables = mat_variables(data, path, kind, "ring-down file")
+        variables = mat_variables(data, path, kind, what)
         columns = {name: value for name, value in variables.items()
                    if isinstance(value, np.ndarray) and value.size > 1 and value.squeeze().ndim == 1
                    and np.issubdtype(value.dtype, np.number)}
-        return _pick_channel(columns, channel, path)
-    raise RingDownError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; ring-downs are read from .csv "
+        units = variables.get("units")
+        if "time_s" not in columns and "time" in columns and isinstance(units, str) \
+                and units.split(",")[0].strip() == "s":
+            columns = {"time_s": columns.pop("time"), **columns}
+        return columns
+    raise RingDownError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; {what}s are read from .csv "
                         f"(time_s and one column per channel) or .mat")
+
+
+def read_ring_down(path: str | Path, channel: str | None = None) -> RingDownRecord:
+    """One channel of a ring-down record (:func:`read_channels`); ``channel`` names it when
+    there are several."""
+    return _pick_channel(read_channels(path), channel, Path(path))
 

@@ -1,0 +1,68 @@
+"""Several test types of one mode fitted jointly by ``nlupdate amplitude``, and the
+consistency check across them.
+
+Truth: the SDOF with an Iwan joint of tests/test_ring_down.py (10 Hz, ζ_lin = 0.5 %), its
+describing-function backbone ``ω(A)² = (k + Re ν(A))/m``, ``ζ(A) = c/(2mω) + Im ν/(2mω²)``.
+Its tests are simulated independently of the estimators: a ring-down and a low-level decay
+by RK4 time integration of the joint's own force law, phase-resonance points by the
+multi-harmonic balance at 90° (tests/test_phase_resonance.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nlupdate.app.cli import main
+from test_phase_resonance import locked_points, write_csv
+from test_ring_down import C, IWAN, K, M, df_backbone, free_decay
+
+PHI = 1 / np.sqrt(M)
+
+
+@pytest.fixture(scope="module")
+def tests_of_one_mode(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tests")
+    t, x = free_decay(IWAN, 3e-3, 60)
+    pd.DataFrame({"time_s": t, "x": x}).to_csv(folder / "decay.csv", index=False)
+    t, x = free_decay(IWAN, 5e-5, 40)  # a light tap: the joint barely slips
+    pd.DataFrame({"time_s": t, "x": x}).to_csv(folder / "tap.csv", index=False)
+    omega, force, xs = locked_points(IWAN, np.geomspace(0.01, 0.25, 7), mkc=(M, K, C))
+    frame = pd.read_csv(write_csv(folder / "pr.csv", omega, force, xs))
+    frame.assign(response_dof="x", input_dof="x").to_csv(folder / "pr.csv", index=False)
+    frame.assign(response_dof="x", input_dof="x", force_n=1.3 * frame["force_n"]).to_csv(folder / "pr_off.csv",
+                                                                                       index=False)
+    return folder
+
+
+def run_amplitude(folder, out, phase_resonance="pr.csv"):
+    assert main(["amplitude", "--ring-down", str(folder / "decay.csv"), "--impact", str(folder / "tap.csv"),
+                 "--phase-resonance", str(folder / phase_resonance), "--shape", f"x={PHI}", "--band", "7:13",
+                 "--backbone", "polynomial", "--bootstrap", "20", "--out", str(out)]) == 0
+    return (pd.read_csv(out / name) for name in ("backbone.csv", "backbone_points.csv", "consistency.csv"))
+
+
+def test_three_test_types_fitted_jointly_give_the_backbone(tests_of_one_mode, tmp_path, capsys):
+    curve, points, agreement = run_amplitude(tests_of_one_mode, tmp_path / "amm")
+    assert set(points["test_type"]) == {"ring-down", "impact", "phase resonance"}
+    assert agreement["consistent"].all(), agreement
+    f, z = df_backbone(IWAN, curve["modal_amplitude"].to_numpy() * PHI)
+    assert np.max(np.abs(curve["natural_frequency_hz"] / f - 1)) < 2e-3
+    assert np.max(np.abs(curve["damping_ratio"] / z - 1)) < 0.05
+    # each source's own samples against the truth, over the amplitudes each covers
+    for kind, rows in points.groupby("test_type"):
+        f, z = df_backbone(IWAN, rows["modal_amplitude"].to_numpy() * PHI)
+        assert np.max(np.abs(rows["natural_frequency_hz"] / f - 1)) < 2e-3, kind
+        assert np.max(np.abs(rows["damping_ratio"] / z - 1)) < 0.05, kind
+    assert (tmp_path / "amm" / "backbone.png").stat().st_size > 0 and (tmp_path / "amm" / "damping.png").exists()
+    assert "DISAGREES" not in capsys.readouterr().out
+
+
+def test_a_source_off_by_its_force_calibration_is_named(tests_of_one_mode, tmp_path, capsys):
+    """Phase-resonance forces read 30 % high (a wrong load-cell sensitivity): its damping is
+    30 % high, beyond its uncertainty, and the check names it."""
+    _, _, agreement = run_amplitude(tests_of_one_mode, tmp_path / "amm", "pr_off.csv")
+    row = agreement.set_index("test_type").loc["phase resonance"]
+    assert not row["consistent"] and row["damping_offset"] > 0.1
+    assert agreement["consistent"].sum() == 2  # the two others agree once it is left out
+    assert "warning: " + str(tests_of_one_mode / "pr_off.csv") + " disagree" in capsys.readouterr().out
