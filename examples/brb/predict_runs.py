@@ -1,8 +1,8 @@
 """The Brake–Reuss beam's joint, identified from the force-controlled runs, and every forced run predicted.
 
-    python examples/brb/predict_runs.py DIR      # DIR: the archive of `nlupdate run examples/brb/brb.toml --out DIR`
+    python examples/brb/predict_runs.py DIR      # DIR as given to `nlupdate run examples/brb/brb.toml --out DIR`
 
-Reads the study's archive (its ``study.toml`` and the updated parameters in
+Reads the study's archive (the newest under DIR; its ``study.toml`` and the updated parameters in
 ``tables/runs.parquet``), builds the reduced nonlinear model — the Craig–Bampton model of
 :class:`nlupdate.fe.adapters.calculix_brb.BRBAdapter` with the joint's linear springs and one
 Iwan element per bolt along x between the bolt's two reference points — for the initial and
@@ -243,11 +243,21 @@ def run(archive: Path, data: Path = DATA) -> dict:
     return {"modes": pd.DataFrame(modes), "validation": validation, **record}
 
 
+def find_archive(folder: Path) -> Path:
+    """``folder`` itself when it is an archive (`nlupdate update --out`), else the newest archive
+    `nlupdate run --out` wrote under it (``<folder>/<study>/<time stamp>``)."""
+    if (folder / "study.toml").is_file():
+        return folder
+    found = sorted(folder.glob("*/*/study.toml"), key=lambda path: path.parent.name)
+    return found[-1].parent if found else folder
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("archive", type=Path, help="the archive of `nlupdate run examples/brb/brb.toml --out DIR`")
     parser.add_argument("--data", type=Path, default=DATA, help="folder of ForcedFrequencyResponses.mat (and HammerImpact.mat)")
     args = parser.parse_args(argv)
+    args.archive = find_archive(args.archive)
     if not (args.archive / "study.toml").is_file() or not (args.archive / "tables" / "runs.parquet").is_file():
         print(f"predict_runs.py: error: {args.archive}: not the archive of an updating study (no study.toml or "
               "tables/runs.parquet); run `nlupdate run examples/brb/brb.toml --out DIR` first", file=sys.stderr)
