@@ -186,10 +186,14 @@ def default_text(field: dataclasses.Field, declaration: Setting) -> str:
 
 def docs_table(cls: type) -> str:
     """The markdown table of the keys of ``cls``: key, form, unit, default, meaning."""
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")
+
     rows = ["| key | form | unit | default | meaning |", "|---|---|---|---|---|"]
     for name, (field, declaration) in settings_of(cls).items():
-        form = declaration.form() + (", **required**" if declaration.required else "")
+        form = (" or ".join(f'`"{c}"`' for c in declaration.choices) if declaration.kind == "choice"
+                else declaration.form()) + (", **required**" if declaration.required else "")
         meaning = declaration.meaning + (f" ({declaration.method.upper()} only)" if declaration.method else "")
-        rows.append(f"| `{name}` | {form} | {declaration.unit} | {default_text(field, declaration)} | "
-                    f"{meaning.replace('|', chr(92) + '|')} |")
+        rows.append(f"| `{name}` | {cell(form)} | {cell(declaration.unit)} | {cell(default_text(field, declaration))} "
+                    f"| {cell(meaning)} |")
     return "\n".join(rows)
