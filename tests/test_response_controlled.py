@@ -32,15 +32,15 @@ C = 2 * ZETA * np.sqrt(K * M)
 JENKINS = JenkinsFriction((0,), kf=0.1 * K, slip_force=0.1 * K * 1e-3)
 
 
-def held_sweep(amplitude: float, frequency_hz: np.ndarray, points: int = 2048) -> HeldRun:
+def held_sweep(amplitude: float, frequency_hz: np.ndarray, points: int = 2048, element=JENKINS) -> HeldRun:
     """x = X cos Ωt imposed; F = first harmonic of m ẍ + c ẋ + k x + g(x) over the second cycle."""
     forces = []
     phase = 2 * np.pi * np.arange(2 * points) / points
     x = amplitude * np.cos(phase)
-    state = JENKINS.initial_state(())
+    state = element.initial_state(())
     g = np.empty_like(x)
     for i, xi in enumerate(x):  # the slider's history, two cycles from rest
-        g[i], state = JENKINS.force(np.array(xi), np.array(0.0), state)
+        g[i], state = element.force(np.array(xi), np.array(0.0), state)
     g = g[points:]
     for f in frequency_hz:
         w = 2 * np.pi * f

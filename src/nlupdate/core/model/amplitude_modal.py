@@ -287,6 +287,57 @@ class AmplitudeModalModel:
         denominator = w**2 - omega**2 + 2j * zeta * w * omega
         return self.shape(response_dof) * self.shape(input_dof) / denominator
 
+    # -- the other test types ----------------------------------------------------------
+    def phase_resonance_point(self, force_n: ArrayLike, input_dof: str | int) -> tuple[NDArray, NDArray]:
+        """(natural frequency Hz, modal amplitude a m·√kg) a phase-resonance test holds at
+        force amplitudes ``force_n`` (N) at ``input_dof``: at quadrature Ω = ω(a) and
+        ``2ζ(a)ω(a)²a = |φ_f|F`` (docs/ring-down.md, "Phase resonance"), solved for a by
+        bisection in log a over 1e-12 … 1e3 m·√kg (the lowest a if several)."""
+        modal_force = np.abs(self.shape(input_dof) * np.asarray(force_n, dtype=float))
+
+        def excess(a):
+            omega, zeta = self.omega_zeta(a)
+            return np.log(2 * zeta * omega**2 * a / modal_force)
+
+        lo, hi = np.full(modal_force.shape, 1e-12), np.full(modal_force.shape, 1e3)
+        grid = np.geomspace(1e-12, 1e3, 301)
+        values = np.array([excess(np.full(modal_force.shape, a)) for a in grid])
+        crossing = np.argmax(values >= 0, axis=0)  # the first grid amplitude at or past the balance
+        found = np.take_along_axis(values >= 0, crossing[None], axis=0)[0] & (crossing > 0)
+        lo = np.where(found, grid[np.maximum(crossing - 1, 0)], np.nan)
+        hi = np.where(found, grid[crossing], np.nan)
+        for _ in range(60):
+            mid = np.sqrt(lo * hi)
+            above = excess(mid) >= 0
+            lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
+        a = np.sqrt(lo * hi)
+        return self.frequency_hz(a), a
+
+    def ring_down_envelope(self, time_s: ArrayLike, start_amplitude: float) -> NDArray[np.float64]:
+        """Modal amplitude a(t) (m·√kg) of a free decay from ``start_amplitude`` at ``time_s[0]``:
+        the slow flow ``da/dt = −ζ(a)ω(a)a`` of first-order averaging (docs/ring-down.md, "What it
+        is checked against"), integrated in ln a by scipy's DOP853 (rtol 1e-9)."""
+        import scipy.integrate
+
+        t = np.asarray(time_s, dtype=float)
+
+        def rate(_, y):
+            omega, zeta = self.omega_zeta(np.exp(y))
+            return -zeta * omega
+
+        solution = scipy.integrate.solve_ivp(rate, (t[0], t[-1]), [np.log(float(start_amplitude))], method="DOP853",
+                                             t_eval=t, rtol=1e-9, atol=1e-12)
+        return np.exp(solution.y[0])
+
+    def held_frf(self, frequency_hz: ArrayLike, held_m: float, response_dof: str | int,
+                 input_dof: str | int) -> NDArray[np.complex128]:
+        """Receptance (m/N) of a response-controlled sweep holding the displacement amplitude
+        ``held_m`` (m) at ``response_dof``: at a = held/|φ_r| the mode is linear,
+        ``H = φ_rφ_f/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω)``."""
+        omega = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
+        w, zeta = self.omega_zeta(abs(float(held_m)) / abs(self.shape(response_dof)))
+        return self.shape(response_dof) * self.shape(input_dof) / (w**2 - omega**2 + 2j * zeta * w * omega)
+
     def frf_table(self, frequency_hz: ArrayLike, force_levels_n: Sequence[float], input_dof: str,
                   sweep: str = "up") -> pd.DataFrame:
         """Predicted measured-FRF table (every coordinate of ``shapes``) at each force level."""
