@@ -92,8 +92,11 @@ def test_parameters_fixed_because_no_level_slips_are_lower_bounds():
     F_S are lower bounds (:func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`)."""
     model = PhysicalModel(("iwan",), (("beta", 0.0), ("phi_max", 1e-5)), "no macroslip")
     bounds = parameter_bounds(model, {"slip_force": 0.4, "kt": 2e5, "chi": -0.5, "beta": 0.0})
-    assert {name: (b.side, b.limit, b.far) for name, b in bounds.items()} == {
-        "beta": ("lower", 0.0, np.inf), "kt": ("lower", 2e5, np.inf), "slip_force": ("lower", 0.4, np.inf)}
+    assert {name: (b.side, b.limit, b.far, b.open) for name, b in bounds.items()} == {
+        "beta": ("lower", 0.0, np.inf, True), "kt": ("lower", 2e5, np.inf, True),
+        "slip_force": ("lower", 0.4, np.inf, True)}
+    spread = 2e5 * (1 + np.abs(np.random.default_rng(3).normal(0, 0.05, 50)))  # the samples move kt up a little
+    assert band(2e5, spread, bound=bounds["kt"]) == (2e5, np.inf)  # but a lower bound says nothing above it
 
 
 def test_monte_carlo_reports_the_bound_and_its_one_sided_interval():
@@ -112,7 +115,7 @@ def test_monte_carlo_reports_the_bound_and_its_one_sided_interval():
 def clearance_fitted_with_a_cubic():
     """A clearance (contact spring beyond ±g) simulated by the multi-harmonic balance of the
     true joint, 1 % noise, fitted with a cubic spring (benchmarks/band_coverage.py's case)."""
-    from benchmarks.band_coverage import gap_design, simulate
+    from benchmarks.band_coverage import gap_design, noise_free_fit, simulate
     from nlupdate.core.identification.pipeline import IdentificationSettings, identify
     from nlupdate.core.measurement.noise import add_table_noise
 
@@ -123,7 +126,7 @@ def clearance_fitted_with_a_cubic():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the poor fit's own warnings
         fitted = identify(data, IdentificationSettings("0", "0", elements=("cubic",), samples=8, seed=1))
-        truth = identify(clean, IdentificationSettings("0", "0", elements=("cubic",), samples=2, noise_fraction=0.01))
+        truth = noise_free_fit(clean, ("cubic",))
     return fitted, truth
 
 

@@ -89,6 +89,10 @@ def test_microslip_only_data_fix_what_they_cannot_show_and_say_why():
     assert p["kt"] < 3e5 and p["slip_force"] < 1.0  # lower bounds
     kinds = {w.kind: w for w in identification.warnings}
     assert "not_identifiable" in kinds and "R'" in kinds["not_identifiable"].message
+    stats = identification.uncertainty.parameters  # one-sided 95 % bands, each named
+    assert stats["beta"].ci95 == (0.0, np.inf) and stats["kt"].ci95 == (p["kt"], np.inf)
+    assert stats["slip_force"].ci95 == (p["slip_force"], np.inf) and stats["slip_force"].bound.side == "lower"
+    assert {"beta", "kt", "slip_force"} <= {w.subject for w in identification.warnings if w.kind == "at_bound"}
     amplitude = np.geomspace(identification.result.amplitude.min(), identification.result.amplitude.max(), 20)
     low = identification.result.amplitude_low
     fitted = element.describing_function(amplitude) - element.describing_function(low)

@@ -48,15 +48,18 @@ class Bound:
     """A limit a value sits on: ``side`` ``lower`` or ``upper`` (the value cannot go below /
     above ``limit``; empty: the side the Monte-Carlo samples leave free), ``far``: the
     parameter's other limit (±inf when it has none; NaN: inf above a lower limit, 0 below an
-    upper one, as for a positive parameter), ``why``: one phrase naming the limit."""
+    upper one, as for a positive parameter), ``why``: one phrase naming the limit;
+    ``open``: the data say nothing on the free side either (a value fixed, or a lower bound
+    by construction): the band reaches ``far`` whatever the samples."""
 
     side: str
     limit: float
     far: float
     why: str
+    open: bool = False
 
     def as_dict(self) -> dict[str, object]:
-        return {"side": self.side, "limit": self.limit, "far": self.far, "why": self.why}
+        return {"side": self.side, "limit": self.limit, "far": self.far, "why": self.why, "open": self.open}
 
 
 def jackknife_std(values: ArrayLike) -> float:
@@ -95,7 +98,7 @@ def band(value: float, samples: ArrayLike, residual_ratio: float | None = None,
     if bound is not None and np.isfinite(value):
         side = bound.side or ("upper" if values.size and np.max(values) <= value and np.min(values) < value else "lower")
         far = bound.far if not np.isnan(bound.far) else (np.inf if side == "lower" else 0.0)
-        tiny = 1e-9 * max(abs(value), abs(bound.limit), 1e-300)
+        tiny = float("inf") if bound.open else 1e-9 * max(abs(value), abs(bound.limit), 1e-300)
         if side == "lower":  # the free side reaches the samples' far end too (reflected, it would cross the limit)
             high = max(high, float(np.percentile(values, 97.5))) if values.size >= 2 else high
             low, high = bound.limit, (high if np.isfinite(high) and high - value > tiny else far)
@@ -141,11 +144,12 @@ def parameter_bounds(model: Any, values: Mapping[str, float], at_bound: Sequence
             continue
         suffix = name[len("beta"):]
         why = "no measured level reaches the Iwan joint's macroslip"
-        out[name] = Bound("lower", 0.0, float("inf"), f"fixed at 0: {why}")
+        out[name] = Bound("lower", 0.0, float("inf"), f"fixed at 0: {why}", open=True)
         for other in (f"kt{suffix}", f"slip_force{suffix}"):
             if other in values:
                 out[other] = Bound("lower", float(values[other]), float("inf"),
-                                   f"a lower bound: {why} (beta fixed at 0, phi_max at the largest amplitude)")
+                                   f"a lower bound: {why} (beta fixed at 0, phi_max at the largest amplitude)",
+                                   open=True)
     return out
 
 

@@ -12,7 +12,7 @@ A fit always returns numbers; these checks say when the numbers are not measurem
   the normal case, not a failure. ``uncertainty_unknown``: the Monte Carlo gave fewer
   than two values for it.
 * ``at_bound`` — the value sits where the fit or the data put a limit, not where the
-  data put the parameter:
+  data put the parameter (its interval is then one-sided, :mod:`nlupdate.core.identification.bands`):
 
   - a naive PRD/DDF fit of physical elements keeps every log-parameter within a factor
     1e6 of its start; a parameter that ends on that box (``at_bound`` of the fit);
@@ -42,8 +42,9 @@ A fit always returns numbers; these checks say when the numbers are not measurem
   the noise estimate itself is good to ~10 %), and the naive estimators sit below 1;
   a ratio above 3 means the misfit has about ten times the variance of the noise: the
   model misses part of the behaviour (e.g. a polynomial DF across a friction transition
-  gives 9–15×), or the noise level is understated — and the Monte-Carlo uncertainties,
-  drawn at that noise level, are then too small. 3 is also the factor the improved PRD
+  gives 9–15×), or the noise level is understated. The intervals then carry the
+  model-form error too (the leave-one-level-out spread, or the Monte-Carlo spread times
+  the ratio: :mod:`nlupdate.core.identification.bands`). 3 is also the factor the improved PRD
   estimator uses to detect a poor start. The floor keeps noise-free simulated data from
   warning about round-off.
 
@@ -208,7 +209,8 @@ def residual_warnings(residual: float | None, noise: float, noise_source: str, s
         "fit", "residual_above_noise",
         f"the fit's residual ({100 * residual:.3g} % of |H|) is {residual / reference:.1f}× the noise level used "
         f"({100 * noise:.3g} %, {noise_source}): the model misses part of the behaviour or the noise level is "
-        f"understated, and the Monte-Carlo uncertainties, drawn at that noise level, are then too small", source)]
+        f"understated; the 95 % intervals are widened by the model-form error (the spread of the fits with one "
+        f"level left out, or the noise spread times the ratio)", source)]
 
 
 def shift_warnings(stats: dict[str, Any], source: str = "") -> list[TrustWarning]:
@@ -228,8 +230,8 @@ def shift_warnings(stats: dict[str, Any], source: str = "") -> list[TrustWarning
                 f"{name} = {st.value:.6g}: its Monte-Carlo re-identifications are centred at {st.median:.6g}, "
                 f"{abs(st.shift):.3g} away, more than their 95 % half-width ({half:.3g}): the estimate moves with the "
                 f"noise more than the noise spreads it (biased, most often because the model does not describe the "
-                f"data); its interval [{st.ci95[0]:.6g}, {st.ci95[1]:.6g}] is centred on it and understates the "
-                f"error by about the shift", source))
+                f"data); its interval [{st.ci95[0]:.6g}, {st.ci95[1]:.6g}] reflects the samples about it, towards "
+                f"the noise-free value, and reaches it", source))
     return out
 
 
@@ -271,6 +273,11 @@ def identification_warnings(identification: Any, source: str = "identification")
     out += [w for w in shift_warnings({n: stats[n] for n in checked}, source) if w.subject not in flagged]
     out += residual_warnings(identification.residual_noise_fraction, identification.noise_fraction,
                              identification.noise_source, source)
+    flagged = {w.subject for w in out}
+    out += [TrustWarning(name, "at_bound", f"{name} = {st.value:.4g} is {st.bound.why}: the data bound it on one side "
+                                           f"only, and its 95 % interval [{st.ci95[0]:.4g}, {st.ci95[1]:.4g}] is "
+                                           f"one-sided", source)
+            for name, st in stats.items() if st.bound is not None and name not in flagged]
     model = getattr(result, "physical", None) or getattr(result, "model", None)
     if isinstance(model, PhysicalModel) and model.note:
         out.append(TrustWarning(", ".join(name for name, _ in model.fixed), "not_identifiable", model.note, source))
