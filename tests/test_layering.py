@@ -204,25 +204,26 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     assert step_keys()[0] != before[0]
 
 
-def test_every_package_a_study_step_runs_is_in_its_cache_key():
-    """STUDY_PACKAGES is kept by hand: a package the steps import but the list leaves out
-    would leave a cached step stale after its code changed (the new validation package was
-    such a one). The steps' own imports, followed through nlupdate, decide."""
+def test_every_module_a_study_step_loads_is_in_its_cache_key():
+    """The code a step's key covers is derived from the imports (read from the sources);
+    here it is checked against what Python actually loads when the chain and its steps
+    are imported and an FE adapter of each kind is looked up."""
     import subprocess
     import sys
 
-    from nlupdate.orchestration.tasks.keys import NUMERICS_MODULES, STUDY_PACKAGES
+    from nlupdate.orchestration.tasks.keys import FE_ROOTS, STUDY_ROOTS, _PACKAGE, imported_modules
 
-    code = ("import sys, nlupdate.study.chain, nlupdate.study.steps; "
-            "print(' '.join(sorted(m for m in sys.modules if m.startswith('nlupdate.'))))")
+    code = ("import sys, importlib, nlupdate.study.chain, nlupdate.study.steps\n"
+            "from nlupdate.fe.adapters.registry import ADAPTERS\n"
+            "[importlib.import_module(m) for m in ADAPTERS.values()]\n"
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('nlupdate'))))")
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    packages, modules = set(), set()
+    covered = {path.relative_to(_PACKAGE) for path in imported_modules(STUDY_ROOTS + FE_ROOTS, _PACKAGE)}
+    missing = []
     for name in loaded:
-        parts = name.split(".")
-        if parts[1] in ("orchestration", "app", "reporting") or name == "nlupdate.core":  # not run by a step
-            continue
-        package = "/".join(parts[1:3]) if parts[1] == "core" else parts[1]
-        target = packages if (PACKAGE / package).is_dir() else modules
-        target.add(package if target is packages else f"{parts[1]}.py")
-    assert packages <= set(STUDY_PACKAGES), sorted(packages - set(STUDY_PACKAGES))
-    assert modules <= set(NUMERICS_MODULES) | {"__init__.py"}, sorted(modules - set(NUMERICS_MODULES))
+        parts = name.split(".")[1:]
+        candidates = [Path(*parts, "__init__.py"), Path(*parts).with_suffix(".py")] if parts else [Path("__init__.py")]
+        if not any(c in covered for c in candidates):
+            missing.append(name)
+    assert missing == []
+    assert not any(str(path).startswith(("reporting", "orchestration", "app")) for path in covered)

@@ -2,11 +2,12 @@
 
 A key is :func:`nlupdate.fingerprints.fingerprint` of everything the result depends on:
 
-* the code that computes it — :func:`numerics_code` (the packages a study step runs, not
-  the reporting, plots, CLI, flows or tasks: editing a plot or the report keeps every
-  cached identification and updating run) for the chain's steps and jobs,
-  :func:`fe_code` (adapters, built-in FE, linear models) for FE points, so editing a
-  report does not throw away hours of FE runs, :func:`discovery_code` for candidate fits;
+* the code that computes it — the modules it runs, found by following the imports from
+  where it starts (:func:`imported_modules`; nothing kept by hand): :func:`numerics_code`
+  for the chain's steps and jobs (not the reporting, plots, CLI, flows or tasks: editing a
+  plot or the report keeps every cached identification and updating run), :func:`fe_code`
+  for FE points, so editing a report does not throw away hours of FE runs,
+  :func:`discovery_code` for candidate fits;
 * for the archive's figures (:mod:`nlupdate.orchestration.tasks.figures`) :func:`reporting_code` and
   matplotlib's version, the whole study file and every step's key;
 * the inputs: the study sections the step's entry in :data:`nlupdate.study.chain.CHAIN`
@@ -18,6 +19,7 @@ The code hashes are computed once per process, when first needed.
 """
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 from pathlib import Path
@@ -29,14 +31,12 @@ from nlupdate.fingerprints import fingerprint, path_hash
 from nlupdate.study.chain import Step
 from nlupdate.study.spec import Study
 
-#: The subpackages a study step runs (not the CLI, flows, tasks, reporting or discovery).
-STUDY_PACKAGES = ("core/model", "core/response", "core/measurement", "core/identification", "core/updating",
-                  "core/prediction", "core/correlation", "core/validation", "study", "fe")
-#: The subpackages a discovery candidate fit runs.
-DISCOVERY_PACKAGES = ("core/discovery", "core/model", "core/response", "core/identification", "core/measurement",
-                      "core/correlation")
-#: Single modules of the numerics the steps use besides their packages.
-NUMERICS_MODULES = ("fingerprints.py", "input_files.py", "files.py", "notices.py", "progress.py")
+#: Where the code of each kind of cached result starts: the result depends on these
+#: modules and on every nlupdate module they import, directly or inside a function
+#: (:func:`imported_modules`) — derived, so no list of packages can fall behind the code.
+STUDY_ROOTS = ("nlupdate.study.chain", "nlupdate.study.steps")
+DISCOVERY_ROOTS = ("nlupdate.core.discovery",)
+FE_ROOTS = ("nlupdate.fe.adapters.registry",)
 
 
 def source_hash(paths: Iterable[Path]) -> str:
@@ -53,23 +53,87 @@ def source_hash(paths: Iterable[Path]) -> str:
 _PACKAGE = Path(nlupdate.__file__).parent
 
 
+def _module_file(name: str, package: Path) -> Path | None:
+    """The source of module ``name`` (``nlupdate.…``) under ``package``, or None."""
+    parts = name.split(".")[1:]
+    folder = package.joinpath(*parts)
+    for path in (folder / "__init__.py", folder.with_suffix(".py")):
+        if path.is_file():
+            return path
+    return None
+
+
+def _imports(path: Path, package: Path) -> frozenset[str]:
+    stat = path.stat()
+    return _parsed_imports(path, package, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.cache
+def _parsed_imports(path: Path, package: Path, mtime_ns: int, size: int) -> frozenset[str]:
+    """The nlupdate modules a source imports: its import statements (function bodies
+    included, ``TYPE_CHECKING`` blocks not) and — when it imports by name at run time
+    (``importlib.import_module``) — every module of its folder."""
+    found: set[str] = set()
+    tree = ast.parse(path.read_text())
+    skipped = {id(node) for block in ast.walk(tree) if isinstance(block, ast.If)
+               and isinstance(block.test, ast.Name) and block.test.id == "TYPE_CHECKING" for node in block.body}
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names if alias.name.startswith("nlupdate"))
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nlupdate"):
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+            found.add(node.module)
+        elif isinstance(node, ast.Attribute) and node.attr == "import_module":
+            folder = path.parent.relative_to(package.parent)
+            found.update(".".join([*folder.parts, sibling.stem]) for sibling in path.parent.glob("*.py")
+                         if sibling.stem != "__main__")
+    return frozenset(found)
+
+
+def imported_modules(roots: Sequence[str], package: Path) -> list[Path]:
+    """The sources of ``roots`` and of every nlupdate module they import, transitively,
+    with the packages whose ``__init__`` an import runs (sorted)."""
+    seen: dict[str, Path] = {}
+    waiting = list(roots)
+    while waiting:
+        name = waiting.pop()
+        parts = name.split(".")
+        for depth in range(1, len(parts) + 1):  # importing a.b.c runs a and a.b first
+            module = ".".join(parts[:depth])
+            path = _module_file(module, package)
+            if module in seen or path is None:
+                continue
+            seen[module] = path
+            waiting.extend(_imports(path, package))
+    return sorted(seen.values())
+
+
+def _code_hash(roots: Sequence[str]) -> str:
+    digest = hashlib.sha256()
+    for path in imported_modules(roots, _PACKAGE):
+        digest.update(str(path.relative_to(_PACKAGE)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 @functools.cache
 def numerics_code() -> str:
-    """Hash of the code the study's steps run (:data:`STUDY_PACKAGES`, FE models and adapters included, and
-    :data:`NUMERICS_MODULES`)."""
-    return source_hash([_PACKAGE / name for name in STUDY_PACKAGES + NUMERICS_MODULES])
+    """Hash of the code the study's steps run (:data:`STUDY_ROOTS` and all they import)."""
+    return _code_hash(STUDY_ROOTS)
 
 
 @functools.cache
 def discovery_code() -> str:
-    """Hash of the code a discovery candidate fit depends on."""
-    return source_hash([_PACKAGE / name for name in DISCOVERY_PACKAGES + NUMERICS_MODULES])
+    """Hash of the code a discovery candidate fit depends on (:data:`DISCOVERY_ROOTS`, …)."""
+    return _code_hash(DISCOVERY_ROOTS)
 
 
 @functools.cache
 def fe_code() -> str:
-    """Hash of the code an FE evaluation depends on (adapters, built-in FE, linear models)."""
-    return source_hash([_PACKAGE / "fe", _PACKAGE / "core/model", _PACKAGE / "fingerprints.py"])
+    """Hash of the code an FE evaluation depends on (the adapters' registry and all it imports)."""
+    return _code_hash(FE_ROOTS)
 
 
 @functools.cache
