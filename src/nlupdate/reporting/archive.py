@@ -49,7 +49,7 @@ from nlupdate.reporting.report import hidden_truth, report_markdown
 from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
 from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
-from nlupdate.reporting.validation_plots import held_out_figure, summary_figure
+from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
 
 MANIFEST = "manifest.json"
 #: The kind of output folder an archive is (:func:`nlupdate.files.check_replaceable`).
@@ -228,6 +228,9 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
     validation = result.validation
     if validation is not None:
         plots.append(("validation", "validation.png", lambda: summary_figure(validation)))
+        if validation.response_controlled:
+            plots.append(("response_controlled", "response_controlled.png",
+                          lambda: response_controlled_figure(validation)))
         for held in validation.held_out:
             name = f"held_out_{held.level:g}_{held.requested}".replace(".", "p")
             plots.append((name, f"{re.sub(r'[^A-Za-z0-9_]+', '-', name)}.png",

@@ -473,21 +473,28 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
              f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
              f"{_number(repeat.resonance_hz, 3)} Hz, damping ratio {_number(100 * repeat.damping_ratio, 3)} % "
              "(points) — no model can be expected to do better than that.", ""]
-    rows = []
-    for r in validation.held_out:
-        c, b = r.compared, r.baseline
-        res = c["resonance_hz"]
-        rows.append({f"level ({unit})": _number(r.level), "model": r.label,
-                     "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, "
-                                             f"{res.high - res.measured:+.2f}]",
-                     "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
-                     "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
-                     "baseline: resonance (Hz), damping (%), peak (%)":
-                         f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
-                         f"{100 * b['peak_abs'].relative_error:+.1f}",
-                     "residual / noise (model, baseline)": f"{_number(r.residual_to_noise, 3)}, "
-                                                           f"{_number(r.baseline_residual_to_noise, 3)}"})
+    rows = [{f"level ({unit})": _number(r.level), **_errors(r)} for r in validation.held_out]
     lines += [_table(pd.DataFrame(rows)), ""]
     if "validation" in plots:
         lines += [f"![held-out levels]({plots['validation']})", ""]
-    return lines
+    if validation.response_controlled:
+        rows = [{"run": r.run, "held amplitude (m)": _number(r.held_m, 3), **_errors(r)} for r in validation.response_controlled]
+        lines += ["Response-controlled runs predicted from all force-controlled levels at their held amplitude:", "",
+                  _table(pd.DataFrame(rows)), ""]
+        lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
+            else []
+    return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
+
+
+def _errors(r) -> dict[str, str]:
+    """One prediction's errors (a held-out level or a response-controlled run) beside the baseline's."""
+    c, b = r.compared, r.baseline
+    res = c["resonance_hz"]
+    return {"model": r.label,
+            "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, {res.high - res.measured:+.2f}]",
+            "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
+            "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
+            "baseline: resonance (Hz), damping (%), peak (%)":
+                f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+                f"{100 * b['peak_abs'].relative_error:+.1f}",
+            "residual / noise (model, baseline)": f"{_number(r.residual_to_noise, 3)}, {_number(r.baseline_residual_to_noise, 3)}"}

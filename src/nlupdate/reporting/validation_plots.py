@@ -5,7 +5,8 @@ Per held-out level (:func:`held_out_figure`): |H| measured (points), the model's
 the log-amplitude baseline (dashed). Summary (:func:`summary_figure`): per held-out level
 and model, the resonance error (Hz) and the damping and peak errors (%), each with the
 band as an error bar and the baseline's error beside it (open markers), and the test's
-repeatability (±1σ, grey) behind the resonance and damping panels.
+repeatability (±1σ, grey) behind the resonance and damping panels. The response-controlled
+runs (:func:`response_controlled_figure`) the same, per run.
 """
 from __future__ import annotations
 
@@ -49,20 +50,41 @@ def _levels(levels, unit: str) -> str:
 def summary_figure(validation) -> Figure:
     """Errors per held-out level and model (:class:`~nlupdate.core.validation.held_out.Validation`)."""
     unit = validation.reference_unit
-    results = validation.held_out
+    levels = sorted({r.level for r in validation.held_out})
+    figure = _error_panels(validation.held_out, lambda r: levels.index(r.level), [f"{v:g}" for v in levels],
+                           f"held-out level ({unit})", validation.repeatability)
+    figure.suptitle("prediction errors at held-out levels (bars: 95 % bands; squares: log-amplitude baseline)",
+                    fontsize=10)
+    return figure
+
+
+def response_controlled_figure(validation) -> Figure:
+    """Errors per response-controlled run and model, predicted from every force-controlled
+    level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`)."""
+    held = sorted({r.held_m for r in validation.response_controlled})
+    figure = _error_panels(validation.response_controlled, lambda r: held.index(r.held_m),
+                           [f"{1e6 * v:.0f}" for v in held], "held response amplitude (µm)", validation.repeatability)
+    figure.suptitle("response-controlled runs predicted from the force-controlled levels (bars: 95 % bands; "
+                    "squares: log-amplitude baseline)", fontsize=10)
+    return figure
+
+
+def _error_panels(results, position, ticks: list[str], xlabel: str, repeatability) -> Figure:
+    """Resonance, damping and peak errors of ``results`` (each with ``compared``,
+    ``baseline`` and ``requested``) at ``position(result)`` on the x axis, one colour per
+    model, the test's repeatability behind."""
     models = list(dict.fromkeys(r.requested for r in results))
-    levels = sorted({r.level for r in results})
     figure = Figure(figsize=(11, 3.8), layout="constrained")
     axes = figure.subplots(1, 3)
-    panels = (("resonance_hz", "resonance error (Hz)", 1.0, validation.repeatability.resonance_hz, False),
-              ("damping_ratio", "damping ratio error (%)", 100.0, validation.repeatability.damping_ratio, True),
+    panels = (("resonance_hz", "resonance error (Hz)", 1.0, repeatability.resonance_hz, False),
+              ("damping_ratio", "damping ratio error (%)", 100.0, repeatability.damping_ratio, True),
               ("peak_abs", "peak |H| error (%)", 100.0, float("nan"), True))
-    x = np.arange(len(levels), dtype=float)
+    x = np.arange(len(ticks), dtype=float)
     offsets = np.linspace(-0.2, 0.2, len(models)) if len(models) > 1 else np.zeros(1)
     for ax, (name, label, scale, repeat, relative) in zip(axes, panels):
         for k, model in enumerate(models):
             rows = [r for r in results if r.requested == model]
-            xs = np.array([x[levels.index(r.level)] for r in rows]) + offsets[k]
+            xs = np.array([x[position(r)] for r in rows]) + offsets[k]
             c = [r.compared[name] for r in rows]
             b = [r.baseline[name] for r in rows]
             if relative:
@@ -87,11 +109,9 @@ def summary_figure(validation) -> Figure:
                 span = 100 * repeat / mean_measured
             ax.axhspan(-span, span, color="0.85", zorder=0, label="test repeatability ±1σ")
         ax.axhline(0.0, color="k", lw=0.8)
-        ax.set_xticks(x, [f"{v:g}" for v in levels])
-        ax.set_xlabel(f"held-out level ({unit})")
+        ax.set_xticks(x, ticks)
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].legend(fontsize=7)
-    figure.suptitle("prediction errors at held-out levels (bars: 95 % bands; squares: log-amplitude baseline)",
-                    fontsize=10)
     return figure

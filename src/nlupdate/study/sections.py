@@ -61,7 +61,7 @@ ALLOWED: dict[str, set[str]] = {
     "comparison": {"user_weights", "damping_ratios", "loss_factors", "band_fraction", "frf"},
     "prediction": {"force_levels_n", "candidates", "loss_factor", "sweep", "adapter_options", "method", "harmonics",
                    "samples", "stability"},
-    "validation": {"hold_out", "models", "input_dof"},
+    "validation": {"hold_out", "models", "input_dof", "response_controlled"},
 }
 MOVED = {
     ("updating", "max_workers"): "parallel runs are chosen when running: nlupdate run STUDY --workers N",
@@ -689,4 +689,5 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
             except ValueError as error:
                 raise read.fail(where, "models", str(error).split(": expected ", 1)[1], name) from None
     return ValidationSpec(hold_out=hold_out, models=models or ("auto",),
-                          input_dof=read.string(table, where, "input_dof") if "input_dof" in table else None)
+                          input_dof=read.string(table, where, "input_dof") if "input_dof" in table else None,
+                          response_controlled=read.boolean(table, where, "response_controlled", True))

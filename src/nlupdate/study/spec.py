@@ -118,11 +118,13 @@ class ValidationSpec:
     ``nlupdate validate`` does (docs/methods.md §10): ``hold_out`` (``"each"``, ``"top"`` or
     levels in the reference unit), ``models`` (:mod:`nlupdate.core.validation.models` names or
     ``"auto"``), ``input_dof`` (default: the identification's input, else the table's only
-    one)."""
+    one), ``response_controlled`` (predict the response-controlled runs of the measured
+    MATLAB files from all force-controlled levels; default true)."""
 
     hold_out: str | tuple[float, ...] = "each"
     models: tuple[str, ...] = ("auto",)
     input_dof: str | None = None
+    response_controlled: bool = True
 
 
 @dataclass(frozen=True)

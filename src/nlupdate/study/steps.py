@@ -46,6 +46,7 @@ from nlupdate.core.updating.sensitivity import FORMULA_LABELS
 from nlupdate.core.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
 from nlupdate.core.updating.target_uncertainty import ParameterUncertainty, propagate_target_uncertainty
 from nlupdate.core.validation.held_out import Validation, validate
+from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
 
 
 @dataclass(frozen=True, eq=False)
@@ -551,8 +552,18 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
         or (inputs[0] if len(inputs) == 1 else None)
     if input_dof is None:
         raise StudyError(f"{study.path}: [validation] input_dof: the measured table has input dofs {inputs}; name one")
+    measured = study.measured
+    paths = [measured.file] if measured.file is not None else [path for path, _ in measured.files]
     try:
         data = FRFLevels.from_table(table, input_dof, input_dof)
-        return validate(data, spec.hold_out, spec.models)
+        validation = validate(data, spec.hold_out, spec.models)
+        if spec.response_controlled and paths:
+            runs, notes = held_runs_of(paths, measured.read_options(), data)
+            if runs:
+                validation = with_held_runs(validation, data, runs, spec.models)
+            if notes:
+                validation = dataclasses.replace(
+                    validation, response_controlled_notes=validation.response_controlled_notes + tuple(notes))
+        return validation
     except ValueError as error:
         raise StudyError(f"{study.path}: [validation]: {error}") from None

@@ -10,6 +10,10 @@ the kept levels plus the test's repeatability, stated beside every error). Write
 DIR/predicted_frf.parquet (the first model's curves in the measured-FRF table schema plus
 h_abs_low and h_abs_high; predicted_frf_<model>.parquet for the others), DIR/validation.json (held_out: one entry per level and model),
 DIR/held_out_<level>.png per level and DIR/validation.png (errors per level and model).
+Response-controlled runs in a MATLAB stepped-sine file (--response-controlled auto, the
+default) are predicted from all force-controlled levels at their held amplitude and
+compared the same way: validation.json's response_controlled list and
+DIR/response_controlled.png.
 """
 from __future__ import annotations
 
@@ -20,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError, add_command
-from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes
+from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, read_options
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.files import atomic_directory
@@ -28,8 +32,9 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.reporting.validation_plots import held_out_figure, summary_figure
+from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
 from nlupdate.core.validation.held_out import validate
+from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
 from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
 
 
@@ -44,6 +49,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
                              f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
                              f"from each other best)")
+    parser.add_argument("--response-controlled", choices=("auto", "off"), default="auto",
+                        help="auto (default): predict the response-controlled runs of the --measured MATLAB files from "
+                             "all force-controlled levels; off: do not")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
     parser.set_defaults(run=run)
@@ -100,6 +108,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         with terminal_progress() as progress:
             validation = validate(data, args.hold_out, models, progress=progress)
+        if args.response_controlled == "auto":
+            runs, skipped = held_runs_of(args.measured, read_options(args), data)
+            print_notes(skipped)
+            if runs:
+                print(f"predicting {len(runs)} response-controlled run(s) from the {data.levels.size} force-controlled "
+                      f"levels")
+                validation = with_held_runs(validation, data, runs, models)
     except ValueError as error:
         raise CliError(str(error)) from None
     unit = data.reference_unit
@@ -115,6 +130,8 @@ def run(args: argparse.Namespace) -> int:
         for result in validation.held_out:
             save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))
         save_figure(summary_figure(validation), folder / "validation.png")
+        if validation.response_controlled:
+            save_figure(response_controlled_figure(validation), folder / "response_controlled.png")
     print(f"test repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
           f"{repeat.resonance_hz:.3g} Hz, damping ratio {100 * repeat.damping_ratio:.3g} % (points)")
     print(f"{'level':>8} {'model':<22} {'resonance error (Hz)':>30} {'damping error (%)':>22} {'peak error (%)':>16} "
@@ -133,6 +150,17 @@ def run(args: argparse.Namespace) -> int:
                   f"is poorly resolved")
         if r.note:
             print(f"{'':>8} note: {r.note}")
+    if validation.response_controlled:
+        print(f"{'response-controlled run':<28} {'X (m)':>9} {'model':<22} {'resonance error (Hz)':>20} "
+              f"{'damping error (%)':>18} {'peak error (%)':>15}  baseline f, ζ, peak")
+    for r in validation.response_controlled:
+        c, b = r.compared, r.baseline
+        print(f"{r.run:<28} {r.held_m:9.3g} {r.label:<22} {c['resonance_hz'].error:+20.3f} "
+              f"{100 * c['damping_ratio'].relative_error:+18.1f} {100 * c['peak_abs'].relative_error:+15.1f}  "
+              f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+              f"{100 * b['peak_abs'].relative_error:+.1f}")
+    for note in validation.response_controlled_notes:
+        print(f"response-controlled runs: {note}")
     for level, choice in validation.choices.items():
         print(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
     print(f"wrote {out / 'validation.json'}, {out / 'predicted_frf.parquet'} and the plots")

@@ -23,6 +23,7 @@ changes it by a few per cent, which scales every amplitude alike).
 from __future__ import annotations
 
 import numpy as np
+import scipy.optimize
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.data import FRFLevels
@@ -42,9 +43,11 @@ def lowest_level_fit(data: FRFLevels) -> ModalFit:
     return fit_mode_near(f, h, near, band_fraction=fraction)
 
 
-def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None) -> tuple[ModalSamples, ModalFit]:
+def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None,
+                       background: complex = 0.0) -> tuple[ModalSamples, ModalFit]:
     """(one sample per usable line of every level, the one-mode fit that gave φ_f and the
-    residual terms) from driving-point FRFs (module docstring)."""
+    residual terms) from driving-point FRFs (module docstring); ``background`` (m/N) is a
+    constant receptance removed with the residual terms (:func:`background_for_lines`)."""
     if data.response_dof != data.input_dof:
         raise AmplitudeModelError(f"FRFs of response {data.response_dof!r} / input {data.input_dof!r}: line samples "
                                   "need the driving-point FRF")
@@ -56,7 +59,7 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None) -> tuple[Mo
     phi = float(np.sqrt(constant.real))
     amplitude, frequency, damping, force, response = [], [], [], [], []
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
-        modal = h - fit.residual_receptance(f)
+        modal = h - fit.residual_receptance(f) - background
         near = np.abs(modal) >= PEAK_FRACTION * np.max(np.abs(modal))
         omega = 2 * np.pi * f[near]
         d = phi**2 / modal[near]
@@ -76,3 +79,37 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None) -> tuple[Mo
         raise AmplitudeModelError(f"{samples.amplitude.size} line samples, {bad} with zero or negative damping: "
                                   f"the curves do not show one resonance of the driving point")
     return samples, fit
+
+
+def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float = 2.5e-4,
+                         damping_std: float = 0.05) -> tuple[complex, ModalFit]:
+    """(the constant complex receptance B (m/N) beside the residual terms of the lowest
+    level's one-mode fit that makes the line samples of every level one curve, that fit).
+
+    Single-mode theory gives every line the same ω(a), ζ(a) whichever flank of whichever
+    level it lies on; an error in the other modes' share shows as samples that disagree (the
+    flanks of one level at equal amplitude). B minimises the scatter of the samples about
+    polynomials of ``order`` in a/a_ref (least squares of the relative misfits of the
+    frequency over ``frequency_std`` and of the damping ratio over ``damping_std``), by
+    Nelder–Mead from B = 0 in units of the residual terms' size at the lowest level's peak."""
+    fit = lowest_level_fit(data)
+    f_low, h_low = data.frequencies[0], data.receptances[0]
+    peak = float(f_low[int(np.argmax(np.abs(h_low)))])
+    unit = abs(complex(fit.residual_receptance(np.array([peak]))[0])) + 1e-3 * float(np.max(np.abs(h_low)))
+
+    def scatter(x: np.ndarray) -> float:
+        try:
+            samples, _ = samples_from_lines(data, fit, unit * complex(x[0], x[1]))
+        except AmplitudeModelError:
+            return 1e12
+        design = (samples.amplitude / samples.amplitude.max())[:, None] ** np.arange(order + 1)[None, :]
+        total = 0.0
+        for values, std in ((samples.frequency_hz, frequency_std), (samples.damping_ratio, damping_std)):
+            misfit = values - design @ np.linalg.lstsq(design, values, rcond=None)[0]
+            total += float(np.mean((misfit / (std * values)) ** 2))
+        return total if np.isfinite(total) else 1e12
+
+    best = scipy.optimize.minimize(scatter, np.zeros(2), method="Nelder-Mead",
+                                   options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 600})
+    x = best.x if best.fun < scatter(np.zeros(2)) else np.zeros(2)
+    return unit * complex(x[0], x[1]), fit

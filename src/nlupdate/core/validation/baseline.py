@@ -117,3 +117,12 @@ def baseline_frf(fits: list[LevelFit], level: float, frequency_hz: ArrayLike) ->
         nearest = min(fits, key=lambda fit: abs(np.log(fit.level / float(level))))
         log_a = float(np.log(nearest.amplitude * float(level) / nearest.level))
     return _interpolated(fits, log_a)(f)
+
+
+def baseline_at_response(fits: list[LevelFit], amplitude_m: float, frequency_hz: ArrayLike) -> NDArray[np.complex128]:
+    """The baseline's receptance of a run that holds the response amplitude at
+    ``amplitude_m`` (m, every line): the one-mode curve interpolated at that amplitude
+    (module docstring; no self-consistency to solve)."""
+    if len(fits) < 2:
+        raise ValueError(f"the log-amplitude baseline needs two or more levels, got {len(fits)}")
+    return _interpolated(fits, float(np.log(amplitude_m)))(np.asarray(frequency_hz, dtype=float))

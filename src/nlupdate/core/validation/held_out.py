@@ -135,16 +135,25 @@ class Validation:
     repeatability: Repeatability
     choices: dict[float, ModelChoice] = field(default_factory=dict)
     reference_unit: str = "N"
+    #: response-controlled runs predicted from all force-controlled levels
+    #: (:func:`nlupdate.core.validation.held_response.with_held_runs`), and what could not be
+    response_controlled: tuple = ()
+    response_controlled_notes: tuple[str, ...] = ()
 
     def summary(self) -> dict:
         """The ``validation.json`` content: the reference unit, the repeatability, auto's
-        choices and one entry per held-out level and model (:meth:`HeldOut.as_dict`)."""
+        choices, one entry per held-out level and model (:meth:`HeldOut.as_dict`) and, where
+        predicted, one per response-controlled run and model."""
         return {"reference_unit": self.reference_unit, "repeatability": self.repeatability.as_dict(),
                 "auto_choices": {f"{level:g}": {"model": c.name, "reason": c.reason, "scores": c.scores}
                                  for level, c in self.choices.items()},
                 "bands": "95 %: jackknife over the kept levels and the test's repeatability "
                          "(nlupdate.core.validation.held_out)",
-                "held_out": [r.as_dict() for r in self.held_out]}
+                "held_out": [r.as_dict() for r in self.held_out],
+                **({"response_controlled": [r.as_dict() for r in self.response_controlled]}
+                   if self.response_controlled else {}),
+                **({"response_controlled_notes": list(self.response_controlled_notes)}
+                   if self.response_controlled_notes else {})}
 
     def table(self) -> pd.DataFrame:
         """One row per held-out level and model: each quantity measured, predicted, its band
@@ -218,34 +227,16 @@ def _residual_to_noise(measured: NDArray, predicted: NDArray, noise: float) -> f
     return float(np.sqrt(np.mean(ratio**2))) if ratio.size else float("nan")
 
 
-def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatability, requested: str = "") -> HeldOut:
-    """One held-out level under one model (module docstring)."""
-    kept_levels = tuple(float(v) for v in data.levels if not np.isclose(v, level, rtol=1e-9))
-    kept = data.subset(list(kept_levels))
-    f, h = data.curve(level)
-    fit = model_fitter(model)
-    predicted = fit(kept)(f, level)
+def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray, curves: list, repeat: Repeatability,
+          noise: float) -> tuple[dict[str, Compared], NDArray, NDArray]:
+    """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
+    prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring)."""
+    f = frequency_hz
     values = _metrics(f, predicted)
-    measured = _metrics(f, h)
-    noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
-    note = ""
-    jack_abs, jack_values, failures = [], [], {}
-    if len(kept_levels) >= 3:
-        for dropped in kept_levels:
-            inner = data.subset([v for v in kept_levels if v != dropped])
-            try:
-                curve = fit(inner)(f, level)
-            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
-                failures.setdefault(str(error), []).append(dropped)
-                continue
-            jack_abs.append(np.abs(curve))
-            jack_values.append(_metrics(f, curve))
-    n = len(jack_abs)
+    jack_values = [_metrics(f, curve) for curve in curves]
+    jack_abs = [np.abs(curve) for curve in curves]
+    n = len(curves)
     t = float(scipy.stats.t.ppf(0.975, n - 1)) if n >= 3 else float("nan")
-    for message, dropped in failures.items():
-        note += f"the model could not be refitted without {', '.join(f'{v:g}' for v in dropped)} ({message}); "
-    if n < 3:
-        note += "no band: fewer than three jackknife fits (three kept levels needed)"
 
     def spread(samples: NDArray) -> NDArray:
         """Jackknife standard deviation over the finite samples (NaN with fewer than three)."""
@@ -265,8 +256,46 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
         compared[name] = Compared(measured[name], values[name], values[name] - half, values[name] + half)
     abs_half = t * np.sqrt(spread(np.array(jack_abs)) ** 2 + (noise * np.abs(predicted)) ** 2) if n >= 3 \
         else np.full(f.shape, np.nan)
-    fits = [fit_level(v, *data.curve(v), data.force_at(v, data.curve(v)[0])) for v in kept_levels]
-    base = baseline_frf(fits, level, f)
+    return compared, np.maximum(np.abs(predicted) - abs_half, 0.0), np.abs(predicted) + abs_half
+
+
+def refits(fit, levels: Sequence[float], data: FRFLevels, predict) -> tuple[list, str]:
+    """(the curves ``predict(fit(kept))`` of the jackknife over ``levels`` — each left out of
+    them in turn, the fit on the rest — a note naming the fits that failed, and that there is
+    no band with fewer than three)."""
+    curves, failures, note = [], {}, ""
+    if len(levels) >= 3:
+        for dropped in levels:
+            inner = data.subset([v for v in levels if v != dropped])
+            try:
+                curves.append(predict(fit(inner)))
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
+                failures.setdefault(str(error), []).append(dropped)
+    for message, dropped in failures.items():
+        note += f"the model could not be refitted without {', '.join(f'{v:g}' for v in dropped)} ({message}); "
+    if len(curves) < 3:
+        note += "no band: fewer than three jackknife fits (three kept levels needed)"
+    return curves, note.rstrip("; ")
+
+
+def baseline_fits(data: FRFLevels, levels: Sequence[float]) -> list:
+    """The log-amplitude baseline's description of each of ``levels``
+    (:func:`~nlupdate.core.validation.baseline.fit_level`, the force of each line)."""
+    return [fit_level(v, *data.curve(v), data.force_at(v, data.curve(v)[0])) for v in levels]
+
+
+def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatability, requested: str = "") -> HeldOut:
+    """One held-out level under one model (module docstring)."""
+    kept_levels = tuple(float(v) for v in data.levels if not np.isclose(v, level, rtol=1e-9))
+    kept = data.subset(list(kept_levels))
+    f, h = data.curve(level)
+    fit = model_fitter(model)
+    predicted = fit(kept)(f, level)
+    measured = _metrics(f, h)
+    noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
+    curves, note = refits(fit, kept_levels, data, lambda fitted: fitted(f, level))
+    compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise)
+    base = baseline_frf(baseline_fits(data, kept_levels), level, f)
     base_values = _metrics(f, base)
     return HeldOut(
         level=float(level), model=model, kept=kept_levels, compared=compared,
@@ -274,8 +303,7 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
         residual_to_noise=_residual_to_noise(h, predicted, noise),
         baseline_residual_to_noise=_residual_to_noise(h, base, noise),
         half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
-        abs_low=np.maximum(np.abs(predicted) - abs_half, 0.0), abs_high=np.abs(predicted) + abs_half,
-        baseline_frf=base, note=note.rstrip("; "), requested=requested or model)
+        abs_low=abs_low, abs_high=abs_high, baseline_frf=base, note=note, requested=requested or model)
 
 
 def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: Sequence[str] = ("auto",),

@@ -8,12 +8,18 @@ and returns a predictor of the receptance at any level over any grid:
   each resonance (:mod:`nlupdate.core.identification.line_samples`) and continued beyond the
   largest fitted amplitude until they would turn back; the other modes' share is the
   lowest level's residual terms;
+* ``lines-background`` — ``lines`` with a constant complex receptance added to those
+  residual terms, the one that makes every level's line samples one curve
+  (:func:`~nlupdate.core.identification.line_samples.background_for_lines`);
 * ``amplitude-polynomial``, ``amplitude-iwan`` — the same single-mode model fitted to one
   sample per level, the resonance peak (:func:`~nlupdate.core.identification.amplitude_modal_fit.amplitude_model_from_frfs`,
   ``nlupdate amplitude``);
 * ``prd:ELEMENTS`` (e.g. ``prd:cubic,jenkins``) — PRD identification of the elements at the
   driving point, the linear FRF extracted from the kept levels, and the held-out level
   regenerated from both (:func:`~nlupdate.core.identification.regenerate.regenerate_frf`).
+
+A fitted model (:class:`Fitted`) predicts at a force level and, the amplitude models, at a
+held response amplitude too (a response-controlled run: :func:`held_receptance`).
 
 ``auto`` is the tool's own choice, made on the kept levels alone: the candidate
 (:data:`AUTO_CANDIDATES`) whose leave-one-kept-level-out predictions miss least (RMS of
@@ -29,7 +35,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.line_samples import lowest_level_fit, samples_from_lines
+from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 
 #: frequency (Hz), level → receptance (m/N, or per volt)
@@ -37,6 +43,59 @@ Predictor = Callable[[NDArray, float], NDArray[np.complex128]]
 
 #: The polynomial order of the ``lines`` backbone and damping curve.
 LINES_ORDER = 2
+#: How far (a factor either way) from X/|φ_f| the modal amplitude of a held response is sought
+#: (:func:`held_receptance`)
+HELD_RANGE = 10.0
+
+
+@dataclass(frozen=True)
+class Fitted:
+    """A model fitted on kept levels: called as ``fitted(frequency_hz, level)``, the
+    receptance at a force level; ``at_response(frequency_hz, amplitude_m)``, the receptance
+    of a run that holds the response amplitude (m) at the driving point — None where the
+    model cannot say (PRD)."""
+
+    at_force: Predictor
+    at_response: Predictor | None = None
+
+    def __call__(self, frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
+        return self.at_force(frequency_hz, level)
+
+
+def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str,
+                    frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
+    """The driving-point receptance of ``model`` plus the other modes' ``background`` when
+    the response amplitude is held at ``amplitude_m`` (m) at every line: the force there is
+    ``X/|H|``, so the modal amplitude solves ``a = X·|H_mode(a)|/(|H(a)|·|φ_f|)`` with
+    ``H_mode = φ_f²/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω)``, ``H = H_mode + background``. Per line the
+    root nearest ``X/|φ_f|`` within a factor :data:`HELD_RANGE` either way, bracketed on a
+    grid and bisected in log a (a plain fixed-point iteration diverges at resonance where the
+    backbone is steep: the BRB's continued quadratic above its largest fitted amplitude)."""
+    f = np.asarray(frequency_hz, dtype=float)
+    w, shape = 2 * np.pi * f[:, None], model.shape(dof)
+    rest = background(f)[:, None]
+    centre = float(amplitude_m) / abs(shape)
+
+    def mismatch(log_a: NDArray) -> NDArray:
+        omega, zeta = model.omega_zeta(np.exp(log_a))
+        h_mode = shape**2 / (omega**2 - w**2 + 2j * zeta * omega * w)
+        return log_a - np.log(float(amplitude_m) * np.abs(h_mode) / (np.abs(h_mode + rest) * abs(shape)))
+
+    grid = np.log(centre) + np.linspace(-np.log(HELD_RANGE), np.log(HELD_RANGE), 241)[None, :]
+    g = mismatch(grid + 0 * w)
+    change = np.sign(g[:, :-1]) != np.sign(g[:, 1:])
+    nearest = np.argmin(np.where(change, np.abs(grid[:, :-1] - np.log(centre)), np.inf), axis=1)
+    rows = np.arange(f.size)
+    low, high = grid[0, nearest], grid[0, nearest + 1]
+    g_low = g[rows, nearest]
+    for _ in range(50):
+        mid = 0.5 * (low + high)
+        g_mid = mismatch(mid[:, None])[:, 0]
+        same = np.sign(g_mid) == np.sign(g_low)
+        low, g_low, high = np.where(same, mid, low), np.where(same, g_mid, g_low), np.where(same, high, mid)
+    a = np.where(change.any(axis=1), np.exp(0.5 * (low + high)), centre)
+    omega, zeta = model.omega_zeta(a)
+    return shape**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f) + background(f)
 
 
 def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER) -> AmplitudeModalModel:
@@ -54,34 +113,41 @@ def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER)
                                note=f"line samples: polynomials of order {order} in a/a_ref, a_ref = {a_ref:.4g}")
 
 
-def _lines(kept: FRFLevels) -> Predictor:
-    samples, fit = samples_from_lines(kept)
-    model = lines_model(samples, kept.input_dof)
-
-    def predict(frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
+def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str) -> Fitted:
+    """:class:`Fitted` of a single-mode model plus the other modes' share ``background``."""
+    def at_force(frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
         f = np.asarray(frequency_hz, dtype=float)
-        return model.frf(f, level, kept.input_dof, kept.input_dof) + fit.residual_receptance(f)
+        return model.frf(f, level, dof, dof) + background(f)
 
-    return predict
+    def at_response(frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
+        return held_receptance(model, background, dof, frequency_hz, amplitude_m)
+
+    return Fitted(at_force, at_response)
 
 
-def _amplitude(backbone: str) -> Callable[[FRFLevels], Predictor]:
-    def fit_on(kept: FRFLevels) -> Predictor:
+def _lines(kept: FRFLevels) -> Fitted:
+    samples, fit = samples_from_lines(kept)
+    return _single_mode(lines_model(samples, kept.input_dof), fit.residual_receptance, kept.input_dof)
+
+
+def _lines_background(kept: FRFLevels) -> Fitted:
+    background, fit = background_for_lines(kept, LINES_ORDER)
+    samples, _ = samples_from_lines(kept, fit, background)
+    return _single_mode(lines_model(samples, kept.input_dof), lambda f: fit.residual_receptance(f) + background,
+                        kept.input_dof)
+
+
+def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
+    def fit_on(kept: FRFLevels) -> Fitted:
         order = min(2, kept.levels.size - 1)  # a polynomial through one sample per level
         model = amplitude_model_from_frfs(kept, backbone, order=order)
-        residual = lowest_level_fit(kept)
-
-        def predict(frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
-            f = np.asarray(frequency_hz, dtype=float)
-            return model.frf(f, level, kept.input_dof, kept.input_dof) + residual.residual_receptance(f)
-
-        return predict
+        return _single_mode(model, lowest_level_fit(kept).residual_receptance, kept.input_dof)
 
     return fit_on
 
 
-def _prd(elements: tuple[str, ...]) -> Callable[[FRFLevels], Predictor]:
-    def fit_on(kept: FRFLevels) -> Predictor:
+def _prd(elements: tuple[str, ...]) -> Callable[[FRFLevels], Fitted]:
+    def fit_on(kept: FRFLevels) -> Fitted:
         from nlupdate.core.identification.pipeline import IdentificationSettings, identify
         from nlupdate.core.identification.regenerate import regenerate_frf
 
@@ -95,14 +161,15 @@ def _prd(elements: tuple[str, ...]) -> Callable[[FRFLevels], Predictor]:
             return np.interp(f, f_linear, h.real, left=np.nan, right=np.nan) + \
                 1j * np.interp(f, f_linear, h.imag, left=np.nan, right=np.nan)
 
-        return predict
+        return Fitted(predict)
 
     return fit_on
 
 
 #: Models by name (``prd:ELEMENTS`` is parsed by :func:`model_fitter`).
-MODELS: dict[str, Callable[[FRFLevels], Predictor]] = {
-    "lines": _lines, "amplitude-polynomial": _amplitude("polynomial"), "amplitude-iwan": _amplitude("iwan"),
+MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
+    "lines": _lines, "lines-background": _lines_background, "amplitude-polynomial": _amplitude("polynomial"),
+    "amplitude-iwan": _amplitude("iwan"),
 }
 AUTO_CANDIDATES = ("lines", "amplitude-polynomial", "amplitude-iwan")
 
@@ -117,7 +184,7 @@ class ModelChoice:
     reason: str
 
 
-def model_fitter(name: str) -> Callable[[FRFLevels], Predictor]:
+def model_fitter(name: str) -> Callable[[FRFLevels], Fitted]:
     """The fitting function of model ``name`` (module docstring); ValueError naming the
     models for an unknown one."""
     if name in MODELS:

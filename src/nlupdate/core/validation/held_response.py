@@ -1,0 +1,151 @@
+"""Response-controlled runs predicted from the force-controlled fit (docs/validation.md).
+
+A response-controlled stepped-sine run holds the response amplitude X at the driving point
+while the force varies (:mod:`nlupdate.core.identification.response_controlled` reads
+them); it samples the mode at one amplitude. Each model is fitted on **every**
+force-controlled level and predicts the run's receptance at the held X
+(:attr:`~nlupdate.core.validation.models.Fitted.at_response`); the run's resonance,
+half-power damping ratio and peak |H| — and the force needed at resonance, X/peak — are
+compared with the measured ones (the estimator of :mod:`nlupdate.core.validation.resonance`
+on both curves) and with the log-amplitude baseline at X
+(:func:`~nlupdate.core.validation.baseline.baseline_at_response`). Bands as for a held-out
+level (:func:`~nlupdate.core.validation.held_out.bands`): the jackknife over the
+force-controlled levels and the test's repeatability.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
+from nlupdate.core.measurement.frf_table import MeasurementTableError
+from nlupdate.core.measurement.units import ReadOptions
+from nlupdate.core.validation.baseline import baseline_at_response
+from nlupdate.core.validation.held_out import (
+    QUANTITIES, Compared, Repeatability, Validation, _metrics, _noise, _residual_to_noise, baseline_fits, bands, refits,
+)
+from nlupdate.core.validation.models import choose_model, model_fitter
+from nlupdate.core.validation.resonance import resonance
+
+
+@dataclass(frozen=True, eq=False)
+class HeldPrediction:
+    """One response-controlled run under one model: the compared quantities (as
+    :class:`~nlupdate.core.validation.held_out.Compared`), the baseline's, residuals over the
+    noise and the curves."""
+
+    run: str
+    held_m: float
+    model: str
+    requested: str
+    levels: tuple[float, ...]
+    compared: dict
+    baseline: dict
+    residual_to_noise: float
+    baseline_residual_to_noise: float
+    half_power_lines: int
+    frequency_hz: NDArray[np.float64]
+    measured: NDArray[np.complex128]
+    predicted: NDArray[np.complex128]
+    abs_low: NDArray[np.float64]
+    abs_high: NDArray[np.float64]
+    baseline_frf: NDArray[np.complex128]
+    note: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"auto → {self.model}" if self.requested == "auto" else self.model
+
+    def force_needed(self) -> dict[str, float]:
+        """The force at resonance X/peak (measured, predicted and its band; N or V)."""
+        peak = self.compared["peak_abs"]
+        return {"measured": self.held_m / peak.measured, "predicted": self.held_m / peak.predicted,
+                "low": self.held_m / peak.high if peak.high > 0 else float("nan"),
+                "high": self.held_m / peak.low if peak.low > 0 else float("nan")}
+
+    def as_dict(self) -> dict:
+        return {"run": self.run, "held_amplitude_m": self.held_m, "model": self.model, "requested": self.requested,
+                "fitted_levels": list(self.levels), **{name: c.as_dict() for name, c in self.compared.items()},
+                "force_at_resonance": self.force_needed(), "residual_to_noise": self.residual_to_noise,
+                "half_power_lines": self.half_power_lines,
+                "baseline": {**{name: {"measured": c.measured, "predicted": c.predicted}
+                                for name, c in self.baseline.items()},
+                             "residual_to_noise": self.baseline_residual_to_noise},
+                "note": self.note}
+
+
+def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repeat: Repeatability, requested: str = ""
+                      ) -> list[HeldPrediction]:
+    """Every run of ``runs`` at ``data``'s driving point predicted by ``model`` fitted on all
+    of ``data``'s levels (module docstring); ValueError when the model cannot predict a held
+    response (PRD) or a run is at another coordinate."""
+    fit = model_fitter(model)
+    fitted = fit(data)
+    if fitted.at_response is None:
+        raise ValueError(f"model {model}: predicts force levels only, not a held response amplitude")
+    levels = tuple(float(v) for v in data.levels)
+    fits = baseline_fits(data, levels)
+    out = []
+    for run in runs:
+        if (run.response_dof, run.input_dof) != (data.response_dof, data.input_dof):
+            raise ValueError(f"response-controlled run {run.name}: at {run.response_dof}/{run.input_dof}, not the "
+                             f"driving point {data.input_dof} of the force-controlled curve")
+        f, h = run.frequency_hz, run.h
+        predicted = fitted.at_response(f, run.held_m)
+        measured = _metrics(f, h)
+        noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
+        curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, run.held_m))
+        compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise)
+        base = baseline_at_response(fits, run.held_m, f)
+        base_values = _metrics(f, base)
+        out.append(HeldPrediction(
+            run=run.name, held_m=run.held_m, model=model, requested=requested or model, levels=levels,
+            compared=compared, baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
+            residual_to_noise=_residual_to_noise(h, predicted, noise),
+            baseline_residual_to_noise=_residual_to_noise(h, base, noise),
+            half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
+            abs_low=abs_low, abs_high=abs_high, baseline_frf=base, note=note))
+    return out
+
+
+def with_held_runs(validation: Validation, data: FRFLevels, runs: Sequence[HeldRun],
+                   models: Sequence[str]) -> Validation:
+    """``validation`` with every run of ``runs`` predicted by every model of ``models``
+    (``auto``: :func:`~nlupdate.core.validation.models.choose_model` on all force-controlled
+    levels); a model that cannot predict them is named in ``response_controlled_notes``."""
+    results, notes = [], []
+    for requested in models:
+        name = choose_model(data).name if requested == "auto" else requested
+        try:
+            results += predict_held_runs(data, runs, name, validation.repeatability, requested)
+        except ValueError as error:
+            notes.append(f"{requested}: {error}")
+    return replace(validation, response_controlled=tuple(results), response_controlled_notes=tuple(notes))
+
+
+def held_runs_of(paths: Sequence[str | Path], options: ReadOptions, data: FRFLevels) -> tuple[list[HeldRun], list[str]]:
+    """(the response-controlled runs of the MATLAB files among ``paths`` at ``data``'s
+    driving point, lowest held amplitude first; notes on the runs left out and why). A file
+    without such runs adds nothing."""
+    runs, notes = [], []
+    for path in paths:
+        if Path(path).suffix.lower() != ".mat":
+            continue
+        try:
+            found = read_response_controlled(path, options)
+        except MeasurementTableError as error:
+            if "holds no response-controlled run" not in str(error):
+                notes.append(f"response-controlled runs not read: {error}")
+            continue
+        for run in found:
+            if (run.response_dof, run.input_dof) == (data.response_dof, data.input_dof):
+                runs.append(run)
+            else:
+                notes.append(f"{path}: response-controlled run {run.name} at {run.response_dof}/{run.input_dof} left "
+                             f"out: the force-controlled curve is at {data.response_dof}/{data.input_dof}")
+    return sorted(runs, key=lambda run: run.held_m), notes
