@@ -38,7 +38,8 @@ from nlupdate.core.identification.amplitude_modal_fit import (
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.backbone_samples import (
-    DISAGREEMENT, backbone_curve, backbone_points, consistency, join_samples, source_noise,
+    DISAGREEMENT, TEST_TYPES, backbone_curve, backbone_points, consistency, held_out_errors, join_samples,
+    source_noise,
 )
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
@@ -58,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                  "the spectrum's largest peak)",
                          modal=True, required=False)
     add_source_options(parser)
+    parser.add_argument("--hold-out", choices=TEST_TYPES, metavar="TYPE",
+                        help="fit without the sources of this test type and predict them (DIR/held_out.csv: each "
+                             f"sample's frequency and damping, a phase-resonance point's amplitude): {', '.join(TEST_TYPES)}")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--response-dof", help="response coordinate of FRFs (default: the input, the driving point, "
                                                "if measured; else the table's only response: a transfer FRF)")
@@ -161,10 +165,20 @@ def run(args: argparse.Namespace) -> int:
             model = amplitude_model_from_frfs(data, args.backbone, shapes.get(input_dof), args.order, mode=args.mode)
             if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
                 samples = samples.with_shape(model.shapes[0][1])
-        points = [(sources(args), samples, None, "stepped sine" if data is not None else "modal table")] + rings
+        points = [(sources(args), samples, None, "stepped-sine" if data is not None else "modal-table")] + rings
         shapes_fit = model.shapes
         if rings:  # the measured samples and the other sources, fitted together at the given shape
             samples = join_samples([s for _, s, _, _ in points])
+    held = [p for p in points if p[3] == args.hold_out]
+    if held:
+        points = [p for p in points if p[3] != args.hold_out]
+        if not points:
+            raise CliError(f"--hold-out {args.hold_out}: every source is of that type; give another to fit")
+        samples = join_samples([s for _, s, _, _ in points])
+        if len(points) == 1:
+            model = fit_amplitude_model(samples, shapes_fit, args.backbone, args.order, mode=args.mode)
+    elif args.hold_out:
+        raise CliError(f"--hold-out {args.hold_out}: no source of that type is given")
     # several sources: one backbone fitted jointly, each source weighted by its own noise
     noises = [source_noise(s, stated) for _, s, stated, _ in points]
 
@@ -200,6 +214,10 @@ def run(args: argparse.Namespace) -> int:
         plot_sources(model, [(f"{name} ({kind})", s) for name, s, _, kind in points], curve, folder)
         if agreement is not None:
             agreement.to_csv(folder / "consistency.csv", index=False)
+        if held:
+            predicted_held = held_out_errors(model, [(name, s, kind) for name, s, _, kind in held],
+                                             (float(samples.amplitude.min()), float(samples.amplitude.max())))
+            predicted_held.to_csv(folder / "held_out.csv", index=False)
         if predicted is not None:
             write_frf_table(predicted, folder / "predicted_frf.parquet")
             if data is not None:
@@ -231,7 +249,16 @@ def run(args: argparse.Namespace) -> int:
             print(f"warning: {', '.join(odd)} disagree(s) with the joint fit by more than {DISAGREEMENT:g} standard "
                   f"errors (consistency.csv): a test-type effect (e.g. shaker–structure interaction, a drift between "
                   f"tests) or a wrong shape or unit")
+    if held:
+        for source, all_rows in predicted_held.groupby("source", sort=False):
+            for inside, rows in all_rows.groupby("within_fit", sort=False):
+                worst = rows[["frequency_error", "damping_error", "amplitude_error"]].abs().max()
+                print(f"held out {source} ({rows['test_type'].iloc[0]}): predicted within "
+                      f"{100 * worst['frequency_error']:.3g} % in frequency and {100 * worst['damping_error']:.3g} % in "
+                      f"damping ratio" + (f", {100 * worst['amplitude_error']:.3g} % in amplitude at its forces"
+                                          if np.isfinite(worst["amplitude_error"]) else "")
+                      + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)")
     print(f"wrote {out / 'amplitude_model.json'}, backbone.png, damping.png, backbone.csv and backbone_points.csv"
-          + (", consistency.csv" if agreement is not None else "")
+          + (", consistency.csv" if agreement is not None else "") + (", held_out.csv" if held else "")
           + (" and the predicted FRFs" if predicted is not None else ""))
     return 0

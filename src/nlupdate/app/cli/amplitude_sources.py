@@ -100,6 +100,6 @@ def read_sources(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[li
         samples = samples_from_phase_resonance(points, shapes[points.response_dof], shapes[points.input_dof])
         print(f"{path}: {samples.amplitude.size} phase-resonance point(s) at {points.response_dof} (force at "
               f"{points.input_dof}), {points.force_n.min():.4g}–{points.force_n.max():.4g} N")
-        out.append((path, samples, None, "phase resonance"))
+        out.append((path, samples, None, "phase-resonance"))
         channel = points.input_dof
     return out, channel

@@ -176,3 +176,34 @@ def consistency(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples,
     for i, row in enumerate(rows):
         row["consistent"] = i in kept
     return pd.DataFrame(rows)
+
+
+#: the test types of ``nlupdate amplitude``'s sources (``test_type`` of backbone_points.csv)
+TEST_TYPES = ("stepped-sine", "modal-table", "ring-down", "impact", "response-controlled", "phase-resonance")
+
+
+def held_out_errors(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples, str]],
+                    fitted: tuple[float, float]) -> pd.DataFrame:
+    """What a model fitted without these sources predicts for them, one row per sample:
+    ``source``, ``test_type``, ``modal_amplitude``, ``within_fit`` (the amplitude inside the
+    ``fitted`` range of the samples the model was fitted to: interpolated, not extrapolated),
+    measured and predicted natural frequency and damping ratio at that amplitude and their
+    relative errors (``*_error``, predicted / measured − 1); for a phase-resonance sample also
+    the amplitude the model holds at its force (``predicted_amplitude``, ``amplitude_error``;
+    NaN for the others)."""
+    frames = []
+    for name, samples, kind in parts:
+        a = samples.amplitude
+        f, z = model.frequency_hz(a), model.damping(a)
+        inside = (a >= fitted[0] * (1 - 1e-9)) & (a <= fitted[1] * (1 + 1e-9))
+        frame = pd.DataFrame({"source": name, "test_type": kind, "modal_amplitude": a, "within_fit": inside,
+                              "natural_frequency_hz": samples.frequency_hz, "predicted_frequency_hz": f,
+                              "frequency_error": f / samples.frequency_hz - 1, "damping_ratio": samples.damping_ratio,
+                              "predicted_damping_ratio": z, "damping_error": z / samples.damping_ratio - 1,
+                              "predicted_amplitude": np.nan, "amplitude_error": np.nan})
+        if kind == "phase-resonance":  # the force's modal share as the model's first coordinate sees it
+            force = samples.force_n * samples.input_shape / abs(model.shape(0))
+            _, held = model.phase_resonance_point(force, 0)
+            frame["predicted_amplitude"], frame["amplitude_error"] = held, held / a - 1
+        frames.append(frame)
+    return pd.concat(frames, ignore_index=True)
