@@ -19,19 +19,23 @@ of a gap). Each effect is one small frozen class that states
   ``values(c, s)`` — the parameters from scale and shape;
 * ``apply(system, dofs, values)`` — the model with the effect added.
 
-``nu(values, A, ω)`` is the DF at given parameters. Nonlinear effects reuse the elements of
-:mod:`nlupdate.core.model.elements` (their DFs are verified there); the linear ones (stiffness,
-mass, damping errors) are a spring ``ν = Δk``, a mass ``ν = −ω²Δm`` and a viscous damper
-``ν = iωΔc`` that edit the linear model (:mod:`nlupdate.core.discovery.linear_edits`).
+``nu(values, A, ω)`` is the DF at given parameters. The nonlinear effects are generated from
+the element registry (:data:`nlupdate.core.model.elements.ELEMENT_TYPES`): each element class
+declares its forms (``effects``: name, signs, whether it is a joint whose stuck stiffness may
+already be in the model) and its shapes and start values, and its DF is the element's (verified
+there). The linear ones (stiffness, mass, damping errors) are a spring ``ν = Δk``, a mass
+``ν = −ω²Δm`` and a viscous damper ``ν = iωΔc`` that edit the linear model
+(:mod:`nlupdate.core.discovery.linear_edits`).
 
-A new effect is one subclass of :class:`ElementEffect` or :class:`LinearEffect` passed in
-:class:`~nlupdate.core.discovery.workflow.DiscoveryOptions` ``effects``; nothing else changes.
+A new nonlinear effect is declared by its element class, so a new element module brings it;
+a linear one is a subclass of :class:`LinearEffect`; any :class:`Effect` instance may also be
+passed in :class:`~nlupdate.core.discovery.workflow.DiscoveryOptions` ``effects``.
 """
 from __future__ import annotations
 
 import functools
 
-from dataclasses import dataclass
+from dataclasses import dataclass, make_dataclass
 from typing import ClassVar, Sequence
 
 import numpy as np
@@ -39,13 +43,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.discovery.errors import DiscoveryError
 from nlupdate.core.discovery.linear_edits import add_linear_correction
-from nlupdate.core.model.elements import (
-    CoulombFriction, CubicStiffness, IwanJoint, JenkinsFriction, QuadraticDamping, SymmetricGap,
-)
+from nlupdate.core.model.elements import ELEMENT_TYPES, EffectForm
 from nlupdate.core.model.system import NonlinearSystem
 
 POSITIVE, NEGATIVE, SIGNED = 1, -1, 0
-SHAPE_POINTS = 24
 
 
 @dataclass(frozen=True)
@@ -55,13 +56,6 @@ class EffectParameter:
     name: str
     unit: str
     sign: int = POSITIVE
-
-
-def _element_parameter(element: type, name: str, sign: int = POSITIVE) -> EffectParameter:
-    """Parameter ``name`` of an element class, its unit as the element declares it; the sign
-    is the effect's (a softening cubic is an element with k3 < 0)."""
-    unit = next(p.unit for p in element.parameters if p.name == name)
-    return EffectParameter(name, unit, sign)
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,166 +121,86 @@ def _element_at_origin(effect: "ElementEffect", values: tuple[float, ...]):
 
 @dataclass(frozen=True)
 class ElementEffect(Effect):
-    """An effect that is one element of :mod:`nlupdate.core.model.elements`."""
+    """An effect that is one element of :mod:`nlupdate.core.model.elements`, as the element
+    class declares it (its ``effects``: name, signs; ``effect_shapes``, ``effect_values``).
 
-    def element(self, dofs: Sequence[int], values: ArrayLike):
-        raise NotImplementedError
+    ``stuck_in_model=True`` (a joint's form only): the model's linear stiffness at the place
+    already holds the joint's stuck stiffness, the first value (a model tuned to a low-force
+    test), so the model's stiffness there is reduced by it and the DF added is
+    ``ν_joint(A) − k_stuck`` (zero while stuck, softening and damping once it slips)."""
 
-    def nu(self, values, amplitude, omega):
-        element = _element_at_origin(self, tuple(np.atleast_1d(np.asarray(values, dtype=float)).tolist()))
-        return _broadcast(element.describing_function(amplitude, omega), amplitude, omega)
-
-    def basis(self, shape, amplitude, omega):
-        return self.nu(self.values(1.0, shape), amplitude, omega)
-
-    def apply(self, system, dofs, values):
-        return system.with_elements(system.elements + (self.element(tuple(dofs), values),))
-
-
-@dataclass(frozen=True)
-class CubicHardening(ElementEffect):
-    """Cubic spring ``k3·x³``, k3 > 0 (N/m³): ``ν = ¾k3A²``."""
-
-    name: ClassVar[str] = "cubic_stiffness"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CubicStiffness, "k3"),)
-
-    def element(self, dofs, values):
-        return CubicStiffness(tuple(dofs), float(values[0]))
-
-
-@dataclass(frozen=True)
-class CubicSoftening(CubicHardening):
-    """Softening cubic spring ``k3·x³``, k3 < 0 (N/m³): ``ν = ¾k3A²``."""
-
-    name: ClassVar[str] = "softening_stiffness"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CubicStiffness, "k3", NEGATIVE),)
-    scale_sign: ClassVar[int] = NEGATIVE
-
-
-@dataclass(frozen=True)
-class JointEffect(ElementEffect):
-    """A joint whose stuck stiffness is the first value. ``stuck_in_model=True``: the model's
-    linear stiffness at the place already holds it (a model tuned to a low-force test), so the
-    model's stiffness there is reduced by it and the DF added is ``ν_joint(A) − k_stuck``
-    (zero while stuck, softening and damping once it slips)."""
-
+    kind: ClassVar[type]
+    form: ClassVar[EffectForm]
     stuck_in_model: bool = False
+
+    def __post_init__(self) -> None:
+        if self.stuck_in_model and not self.form.joint:
+            raise DiscoveryError(f"effect {self.name}: stuck_in_model applies to joints only")
 
     @property
     def variant(self) -> str:
         return "stuck_in_model" if self.stuck_in_model else ""
 
+    def parameter_dict(self, values):
+        return self.kind.effect_clip(super().parameter_dict(values))
+
+    def element(self, dofs: Sequence[int], values: ArrayLike):
+        names = self.kind.effect_parameter_names()
+        return self.kind(tuple(dofs), **self.kind.effect_clip({n: float(v) for n, v in zip(names, np.atleast_1d(values))}))
+
+    def shapes(self, amplitude):
+        return self.kind.effect_shapes(amplitude)
+
+    def values(self, scale, shape):
+        return self.kind.effect_values(scale, shape)
+
     def nu(self, values, amplitude, omega):
-        return super().nu(values, amplitude, omega) - (float(values[0]) if self.stuck_in_model else 0.0)
+        element = _element_at_origin(self, tuple(np.atleast_1d(np.asarray(values, dtype=float)).tolist()))
+        nu = _broadcast(element.describing_function(amplitude, omega), amplitude, omega)
+        return nu - float(np.atleast_1d(values)[0]) if self.stuck_in_model else nu
+
+    def basis(self, shape, amplitude, omega):
+        return self.nu(self.values(1.0, shape), amplitude, omega)
 
     def apply(self, system, dofs, values):
-        with_joint = super().apply(system, dofs, values)
+        with_joint = system.with_elements(system.elements + (self.element(tuple(dofs), values),))
         if not self.stuck_in_model:
             return with_joint
         return NonlinearSystem(add_linear_correction(with_joint.model, dofs, stiffness=-float(values[0])), with_joint.elements)
 
 
-@dataclass(frozen=True)
-class DryFriction(JointEffect):
-    """Jenkins element: spring kf (N/m) in series with a slider of slip force Fs (N).
-
-    Shape: the slip amplitude ``a0 = Fs/kf``; scale: kf. ``stuck_in_model``: the model's
-    stiffness already holds kf (:class:`JointEffect`, docs/methods.md §2).
-    """
-
-    name: ClassVar[str] = "dry_friction"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (
-        _element_parameter(JenkinsFriction, "kf"), _element_parameter(JenkinsFriction, "slip_force"),
-    )
-
-    def element(self, dofs, values):
-        return JenkinsFriction(tuple(dofs), kf=float(values[0]), slip_force=float(values[1]))
-
-    def shapes(self, amplitude):
-        return tuple(np.geomspace(amplitude.min() / 10, amplitude.max() * 3, SHAPE_POINTS))
-
-    def values(self, scale, shape):
-        return np.array([scale, scale * shape])
+def _element_effect_class(kind: type, form: EffectForm) -> type:
+    """The effect class of one form an element class declares."""
+    signs = dict(form.signs)
+    units = {p.name: p.unit for p in kind.parameters}
+    parameters = tuple(EffectParameter(name, units[name], signs.get(name, POSITIVE))
+                       for name in kind.effect_parameter_names())
+    title = "".join(part.title() for part in form.name.split("_"))
+    namespace = {"name": form.name, "kind": kind, "form": form, "parameters": parameters, "scale_sign": form.sign,
+                 "__doc__": f"{kind.__name__} as the discovery effect {form.name!r}: {(kind.__doc__ or '').strip().splitlines()[0]}"}
+    return make_dataclass(f"{title}Effect", (), bases=(ElementEffect,), frozen=True, namespace=namespace)
 
 
-@dataclass(frozen=True)
-class Microslip(JointEffect):
-    """Segalman's four-parameter Iwan joint (:class:`~nlupdate.core.model.elements.IwanJoint`):
-    tangential stiffness K_T (N/m, the scale), macroslip force F_S (N), exponent χ ∈ (−1, 0)
-    and share β ≥ 0 of its concentrated part.
-
-    Shape: φ_max, the displacement of macroslip, with χ = −0.5 and β = 0.5 to start (the fit
-    refines all four; χ is held inside (−1, 0)). ``stuck_in_model``: the model's stiffness
-    already holds K_T (:class:`JointEffect`): softening and damping then grow from zero with
-    the amplitude as more of the contact slips.
-    """
-
-    name: ClassVar[str] = "microslip"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (
-        _element_parameter(IwanJoint, "kt"), _element_parameter(IwanJoint, "slip_force"),
-        _element_parameter(IwanJoint, "chi", NEGATIVE), _element_parameter(IwanJoint, "beta"),
-    )
-    start_chi: ClassVar[float] = -0.5
-    start_beta: ClassVar[float] = 0.5
-
-    @staticmethod
-    def _chi(value: float) -> float:
-        return float(np.clip(value, -1.0 + 1e-6, -1e-9))
-
-    def parameter_dict(self, values):
-        out = super().parameter_dict(values)
-        out["chi"] = self._chi(out["chi"])
-        return out
-
-    def element(self, dofs, values):
-        kt, slip_force, chi, beta = (float(v) for v in values)
-        return IwanJoint(tuple(dofs), slip_force=slip_force, kt=kt, chi=self._chi(chi), beta=beta)
-
-    def shapes(self, amplitude):
-        return tuple(np.geomspace(amplitude.min() / 3, amplitude.max() * 3, SHAPE_POINTS))
-
-    def values(self, scale, shape):
-        chi, beta = self.start_chi, self.start_beta
-        return np.array([scale, shape * scale * (beta + (chi + 1) / (chi + 2)) / (1 + beta), chi, beta])
+def _element_effects() -> tuple[dict[str, type], tuple[Effect, ...]]:
+    """Every element class's effect forms: classes by effect name, and the library entries
+    (joint forms twice: with and without the stuck stiffness in the model), in form order."""
+    forms = sorted(((form, kind) for kind in ELEMENT_TYPES.values() for form in kind.effects),
+                   key=lambda pair: (pair[0].order, pair[0].name))
+    classes = {form.name: _element_effect_class(kind, form) for form, kind in forms}
+    entries = []
+    for form, _ in forms:
+        entries.append(classes[form.name]())
+        if form.joint:
+            entries.append(classes[form.name](stuck_in_model=True))
+    return classes, tuple(entries)
 
 
-@dataclass(frozen=True)
-class CoulombSlider(ElementEffect):
-    """Coulomb friction ``Fs·sign(ẋ)`` (Fs in N): ``ν = i·4Fs/(πA)``."""
-
-    name: ClassVar[str] = "coulomb_friction"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(CoulombFriction, "slip_force"),)
-
-    def element(self, dofs, values):
-        return CoulombFriction(tuple(dofs), float(values[0]))
-
-
-@dataclass(frozen=True)
-class QuadraticDamper(ElementEffect):
-    """Quadratic damper ``cq·ẋ|ẋ|`` (cq in N·s²/m²): ``ν = i·8cqω²A/(3π)``."""
-
-    name: ClassVar[str] = "quadratic_damping"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(QuadraticDamping, "cq"),)
-
-    def element(self, dofs, values):
-        return QuadraticDamping(tuple(dofs), float(values[0]))
-
-
-@dataclass(frozen=True)
-class Clearance(ElementEffect):
-    """Symmetric gap: contact stiffness kc (N/m, the scale) beyond a clearance ±g (m, the shape)."""
-
-    name: ClassVar[str] = "gap"
-    parameters: ClassVar[tuple[EffectParameter, ...]] = (_element_parameter(SymmetricGap, "gap"), _element_parameter(SymmetricGap, "kc"))
-
-    def element(self, dofs, values):
-        return SymmetricGap(tuple(dofs), gap=float(values[0]), kc=float(values[1]))
-
-    def shapes(self, amplitude):
-        return tuple(np.geomspace(amplitude.min() / 10, amplitude.max() * 0.95, SHAPE_POINTS))
-
-    def values(self, scale, shape):
-        return np.array([shape, scale])
+#: The element effects' classes by effect name (read from the element registry).
+ELEMENT_EFFECTS, _ELEMENT_LIBRARY = _element_effects()
+CubicHardening, CubicSoftening = ELEMENT_EFFECTS["cubic_stiffness"], ELEMENT_EFFECTS["softening_stiffness"]
+DryFriction, Microslip = ELEMENT_EFFECTS["dry_friction"], ELEMENT_EFFECTS["microslip"]
+CoulombSlider, QuadraticDamper = ELEMENT_EFFECTS["coulomb_friction"], ELEMENT_EFFECTS["quadratic_damping"]
+Clearance = ELEMENT_EFFECTS["gap"]
 
 
 @dataclass(frozen=True)
@@ -347,20 +261,7 @@ class DampingError(LinearEffect):
         return 1j * np.asarray(omega, dtype=float)
 
 
-LIBRARY: tuple[Effect, ...] = (
-    CubicHardening(),
-    CubicSoftening(),
-    DryFriction(),
-    DryFriction(stuck_in_model=True),
-    Microslip(),
-    Microslip(stuck_in_model=True),
-    CoulombSlider(),
-    QuadraticDamper(),
-    Clearance(),
-    StiffnessError(),
-    MassError(),
-    DampingError(),
-)
+LIBRARY: tuple[Effect, ...] = _ELEMENT_LIBRARY + (StiffnessError(), MassError(), DampingError())
 EFFECT_NAMES: tuple[str, ...] = tuple(dict.fromkeys(effect.name for effect in LIBRARY))
 
 

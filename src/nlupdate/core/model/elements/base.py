@@ -73,12 +73,13 @@ class EffectForm:
     """A discovery candidate an element class offers: its user-facing ``name``, the sign of
     its scale (+1, −1), ``joint``: a stuck stiffness that may already be
     in the model, the first effect parameter (a ``stuck_in_model`` variant is offered too), ``signs``: the signs of
-    the other effect parameters by name where not positive."""
+    the effect parameters by name where not positive; ``order``: its place in the library."""
 
     name: str
     sign: int = 1
     joint: bool = False
     signs: tuple[tuple[str, int], ...] = ()
+    order: int = 1000  # place in the discovery library
 
 
 @dataclass(frozen=True)

@@ -62,7 +62,7 @@ class CoulombFriction(ElementBase):
     type_name: ClassVar[str] = "coulomb"
     order: ClassVar[int] = 30
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("slip_force", "N"),)
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("coulomb_friction"),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("coulomb_friction", order=30),)
     slip_force: float
 
     def __post_init__(self) -> None:

@@ -17,7 +17,9 @@ class CubicStiffness(ElementBase):
     type_name: ClassVar[str] = "cubic"
     order: ClassVar[int] = 10
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("k3", "N/m^3", positive=False),)
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("cubic_stiffness"), EffectForm("softening_stiffness", -1))
+    effects: ClassVar[tuple[EffectForm, ...]] = (
+        EffectForm("cubic_stiffness", order=10), EffectForm("softening_stiffness", -1, signs=(("k3", -1),), order=11),
+    )
     k3: float
 
     def __post_init__(self) -> None:

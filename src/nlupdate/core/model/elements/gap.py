@@ -25,7 +25,7 @@ class SymmetricGap(ElementBase):
     type_name: ClassVar[str] = "gap"
     order: ClassVar[int] = 50
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("gap", "m"), ElementParameter("kc", "N/m"))
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("gap"),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("gap", order=50),)
     gap: float
     kc: float
 

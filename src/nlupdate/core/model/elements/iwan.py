@@ -116,7 +116,7 @@ class IwanJoint(ElementBase):
         ElementParameter("sliders", "1", fitted=False, optional=True),
     )
     alternatives: ClassVar[dict[str, str]] = {"phi_max": "slip_force"}
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("microslip", joint=True, signs=(("chi", -1),)),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("microslip", joint=True, signs=(("chi", -1),), order=25),)
     effect_parameters: ClassVar[tuple[str, ...]] = ("kt", "slip_force", "chi", "beta")
     slip_force: float
     kt: float

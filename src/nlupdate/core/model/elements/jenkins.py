@@ -36,7 +36,7 @@ class JenkinsFriction(ElementBase):
     order: ClassVar[int] = 20
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("kf", "N/m"), ElementParameter("slip_force", "N"))
     stick_slip: ClassVar[tuple[str, str]] = ("kf", "slip_force")
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("dry_friction", joint=True),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("dry_friction", joint=True, order=20),)
     kf: float
     slip_force: float
 

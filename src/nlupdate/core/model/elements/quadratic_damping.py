@@ -18,7 +18,7 @@ class QuadraticDamping(ElementBase):
     type_name: ClassVar[str] = "quadratic_damping"
     order: ClassVar[int] = 40
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("cq", "N s^2/m^2"),)
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("quadratic_damping"),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("quadratic_damping", order=40),)
     cq: float
 
     def __post_init__(self) -> None:
