@@ -30,12 +30,13 @@ Whatever the parts, the band always contains θ̂.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import scipy.stats
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 #: A value within this share of its interval's width from an end sits on that end.
 INTERVAL_END_TOLERANCE = 1e-3
@@ -62,39 +63,56 @@ class Bound:
         return {"side": self.side, "limit": self.limit, "far": self.far, "why": self.why, "open": self.open}
 
 
-def jackknife_std(values: ArrayLike) -> float:
-    """``√((n−1)/n·Σ(θⱼ − θ̄)²)`` over the finite leave-one-out values (NaN with fewer than
-    :data:`MIN_JACKKNIFE`)."""
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size < MIN_JACKKNIFE:
-        return float("nan")
-    return float(np.sqrt((v.size - 1) / v.size * np.sum((v - v.mean()) ** 2)))
+def band_arrays(value: ArrayLike, samples: ArrayLike, residual_ratio: float | None = None,
+                jackknife: ArrayLike | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The 95 % band (low, high) of each entry of ``value`` (shape (m,); module docstring)
+    from its Monte-Carlo ``samples`` (n, m), the fit's ``residual_ratio`` R (None or ≤ 1:
+    at the noise) and its leave-one-level-out refits ``jackknife`` (k, m). NaN where fewer
+    than two samples are finite and no refits widen it."""
+    value = np.atleast_1d(np.asarray(value, dtype=float))
+    m = value.size
+    samples = np.asarray(samples, dtype=float).reshape(-1, m)
+    jack = np.full((0, m), np.nan) if jackknife is None else np.asarray(jackknife, dtype=float).reshape(-1, m)
+    ratio = float(residual_ratio) if residual_ratio is not None and np.isfinite(residual_ratio) else 1.0
+    excess = 1.0 - 1.0 / ratio**2 if ratio > 1 else 0.0
+    finite = np.isfinite(samples)
+    has = finite.sum(axis=0) >= 2
+    with warnings.catch_warnings(), np.errstate(invalid="ignore", over="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: NaN, as documented
+        low_q, median, high_q = (np.nanpercentile(np.where(finite, samples, np.nan), [2.5, 50.0, 97.5], axis=0)
+                                 if samples.shape[0] else np.full((3, m), np.nan))
+        centre = np.where(has, 2 * value - median, value)
+        below, above = np.where(has, high_q - median, np.nan), np.where(has, median - low_q, np.nan)
+        count = np.isfinite(jack).sum(axis=0)
+        mean = np.nanmean(np.where(np.isfinite(jack), jack, np.nan), axis=0) if jack.shape[0] else np.full(m, np.nan)
+        sigma = np.sqrt((count - 1) / np.maximum(count, 1) * np.nansum((jack - mean) ** 2, axis=0))
+        sigma = np.where(count >= MIN_JACKKNIFE, sigma, np.nan)
+        if excess:
+            birge = ~np.isfinite(sigma)  # no jackknife: the residual-scaled noise band
+            below, above = np.where(birge, ratio * below, below), np.where(birge, ratio * above, above)
+            model = scipy.stats.t.ppf(0.975, np.maximum(count - 1, 1)) * sigma * np.sqrt(excess)
+            use = np.isfinite(model)
+            below = np.where(use, np.where(np.isnan(below), model, np.hypot(below, model)), below)
+            above = np.where(use, np.where(np.isnan(above), model, np.hypot(above, model)), above)
+        low, high = centre - below, centre + above
+    return np.where(np.isfinite(low), np.minimum(low, value), np.nan), \
+        np.where(np.isfinite(high), np.maximum(high, value), np.nan)
 
 
 def band(value: float, samples: ArrayLike, residual_ratio: float | None = None,
-         jackknife: ArrayLike = (), bound: Bound | None = None) -> tuple[float, float]:
+         jackknife: ArrayLike = (), bound: Bound | None = None, positive: bool = False) -> tuple[float, float]:
     """The 95 % band (low, high) of ``value`` (module docstring): ``samples`` its
     Monte-Carlo re-identifications, ``residual_ratio`` R the fit's residual over the noise
     (None or ≤ 1: at the noise), ``jackknife`` its leave-one-level-out refits, ``bound`` the
-    limit it sits on (``side`` empty: the side the samples leave free). NaN without samples
-    or refits to draw it from."""
+    limit it sits on (``side`` empty: the side the samples leave free); ``positive``: the
+    value cannot be negative (a stiffness, a slip force, a frequency), the band stops at 0.
+    NaN without samples or refits to draw it from."""
     values = np.asarray(samples, dtype=float)
     values = values[np.isfinite(values)]
-    ratio = float(residual_ratio) if residual_ratio is not None and np.isfinite(residual_ratio) else 1.0
-    excess = 1.0 - 1.0 / ratio**2 if ratio > 1 else 0.0
-    jack = np.asarray(jackknife, dtype=float)
-    sigma = jackknife_std(jack)
-    centre, below, above = float(value), float("nan"), float("nan")
-    if values.size >= 2 and np.isfinite(value):
-        low, median, high = np.percentile(values, [2.5, 50.0, 97.5])
-        centre, below, above = 2 * value - median, high - median, median - low
-        if excess and not np.isfinite(sigma):  # no jackknife: the residual-scaled noise band
-            below, above = ratio * below, ratio * above
-    if excess and np.isfinite(sigma):
-        model = float(scipy.stats.t.ppf(0.975, np.isfinite(jack).sum() - 1)) * sigma * np.sqrt(excess)
-        below, above = (model, model) if np.isnan(below) else (float(np.hypot(below, model)), float(np.hypot(above, model)))
-    low, high = min(centre - below, value), max(centre + above, value)
+    lows, highs = band_arrays([value], values[:, None], residual_ratio, np.asarray(jackknife, dtype=float)[:, None])
+    low, high = float(lows[0]), float(highs[0])
+    if positive and low < 0 <= value:
+        low = 0.0
     if bound is not None and np.isfinite(value):
         side = bound.side or ("upper" if values.size and np.max(values) <= value and np.min(values) < value else "lower")
         far = bound.far if not np.isnan(bound.far) else (np.inf if side == "lower" else 0.0)
@@ -165,3 +183,14 @@ def leave_one_level_out(refit: Callable[[float], Mapping[str, Any]],
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             failures.setdefault(f"{type(error).__name__}: {error}".splitlines()[0], []).append(float(level))
     return values, failures
+
+
+def positive_names(model: Any, values: Mapping[str, float]) -> set[str]:
+    """The names among ``values`` that cannot be negative: the positive parameters of a
+    physical ``model`` and the linear modes' ``linear_f<i>_hz`` and ``linear_eta<i>``."""
+    from nlupdate.core.identification.dfmodels import PhysicalModel
+
+    out = {name for name in values if name.startswith(("linear_f", "linear_eta"))}
+    if isinstance(model, PhysicalModel):
+        out |= {name for _, name, positive in model._all_slots() if positive and name in values}
+    return out

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.bands import MIN_JACKKNIFE, leave_one_level_out, parameter_bounds
+from nlupdate.core.identification.bands import MIN_JACKKNIFE, leave_one_level_out, parameter_bounds, positive_names
 from nlupdate.core.identification.data import MIN_SWEEP_LINES, FRFLevels
 from nlupdate.core.identification.ddf import DDFResult
 from nlupdate.core.identification.dfmodels import PhysicalModel, PolynomialModel, iwan_identifiability, parse_elements
@@ -284,10 +284,11 @@ def _sample_values(
 
 
 def _level_jackknife(data: FRFLevels, settings: IdentificationSettings, result: PRDResult | DDFResult,
-                     frequency_hz: float | None, modes_hz: tuple[float, ...], model: Any) -> list[dict[str, Any]]:
-    """The values of each PRD refit with one high level left out (the model-form part of the
-    intervals, :mod:`nlupdate.core.identification.bands`); none for DDF (two levels) or fewer
-    than :data:`~nlupdate.core.identification.bands.MIN_JACKKNIFE` high levels."""
+                     frequency_hz: float | None, modes_hz: tuple[float, ...], model: Any,
+                     amplitude_grid: NDArray) -> list[dict[str, Any]]:
+    """The values and curves of each PRD refit with one high level left out (the model-form
+    part of the intervals, :mod:`nlupdate.core.identification.bands`); none for DDF (two
+    levels) or fewer than :data:`~nlupdate.core.identification.bands.MIN_JACKKNIFE` high levels."""
     if settings.method != "prd" or len(result.setup.high_forces) < MIN_JACKKNIFE:
         return []
     highs = tuple(float(level) for level in result.setup.high_forces)
@@ -295,7 +296,7 @@ def _level_jackknife(data: FRFLevels, settings: IdentificationSettings, result: 
     def refit(level: float) -> dict[str, Any]:
         kept = [v for v in data.levels if not np.isclose(v, level, rtol=1e-9)]
         fewer = dataclasses.replace(settings, high_forces_n=tuple(h for h in highs if h != level))
-        return _sample_values(data.subset(kept), fewer, frequency_hz, modes_hz, model=model)
+        return _sample_values(data.subset(kept), fewer, frequency_hz, modes_hz, amplitude_grid, model)
 
     return leave_one_level_out(refit, highs)[0]
 
@@ -364,11 +365,13 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     estimate = functools.partial(_sample_values, settings=settings, frequency_hz=frequency, modes_hz=modes_hz,
                                  amplitude_grid=grid, model=fitted)
     ratio = fit_verdict(result.residual_noise_fraction, noise)[1]
-    jackknife = _level_jackknife(data, settings, result, frequency, modes_hz, fitted) if (ratio or 0) > 1 else []
+    jackknife = _level_jackknife(data, settings, result, frequency, modes_hz, fitted, grid) if (ratio or 0) > 1 \
+        else []
     uncertainty = monte_carlo(estimate, data, point, noise, settings.samples, settings.seed, progress,
                               curves={"fit": (grid, result.fitted_y(grid)), "linear_frf": (f_linear, h_linear)},
                               residual_ratio=ratio, jackknife=jackknife,
-                              bounds=parameter_bounds(fitted, point, getattr(result, "at_bound", ())))
+                              bounds=parameter_bounds(fitted, point, getattr(result, "at_bound", ())),
+                              positive=positive_names(fitted, point))
     consistency = level_consistency(level_terms(data, result.df_for_force), noise) if settings.elements else None
     model = getattr(result, "physical", None) or getattr(result, "model", None) or parse_elements(settings.elements)
     description = model.description() if model is not None else (

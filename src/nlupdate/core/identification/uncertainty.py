@@ -31,15 +31,14 @@ get a 95 % band the same way (:class:`CurveBand`).
 """
 from __future__ import annotations
 
-import warnings
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Collection, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.bands import Bound, band
+from nlupdate.core.identification.bands import Bound, band, band_arrays
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.progress import ProgressCallback, no_progress
 
@@ -78,14 +77,16 @@ Pair = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 @dataclass(frozen=True, eq=False)
 class CurveBand:
-    """The spread of a complex curve z(x) over the Monte-Carlo samples.
+    """The 95 % band of a complex curve z(x) (:func:`~nlupdate.core.identification.bands.band_arrays`
+    on every x: the Monte-Carlo samples reflected about the point curve, widened by the
+    leave-one-level-out curves when the fit is not at the noise, holding the point curve).
 
     Each of ``real``, ``imag``, ``magnitude`` and ``phase_offset_deg`` is a (low, high)
-    pair of arrays on ``x``: the 2.5 and 97.5 % percentiles over the samples (a 95 %
-    band) of Re z, Im z, |z| and of the phase of z relative to the point estimate
-    (degrees, in (−180, 180]: add it to the point curve's phase). NaN where fewer than two
-    samples have a finite value. ``n_samples``: the curves that went into it. Units: those
-    of z and x (N/m over m for a describing function, m/N over Hz for a receptance).
+    pair of arrays on ``x``: the band of Re z, Im z, |z| and of the phase of z relative to
+    the point estimate (degrees, in (−180, 180]: add it to the point curve's phase). NaN
+    where fewer than two samples have a finite value. ``n_samples``: the curves that went
+    into it. Units: those of z and x (N/m over m for a describing function, m/N over Hz for
+    a receptance).
     """
 
     x: NDArray[np.float64]
@@ -96,23 +97,25 @@ class CurveBand:
     n_samples: int
 
     @classmethod
-    def of(cls, x: NDArray, point: NDArray, samples: NDArray) -> "CurveBand":
-        """The band of ``samples`` (one complex curve per row) around the ``point`` curve."""
-        samples = np.asarray(samples, dtype=complex).reshape(-1, np.size(x))
+    def of(cls, x: NDArray, point: NDArray, samples: NDArray, residual_ratio: float | None = None,
+           jackknife: NDArray | None = None) -> "CurveBand":
+        """The band of ``samples`` (one complex curve per row) around the ``point`` curve;
+        ``residual_ratio`` and ``jackknife`` (the leave-one-level-out curves, one per row)
+        as for a value (:func:`~nlupdate.core.identification.bands.band_arrays`)."""
+        size = np.size(x)
+        point = np.asarray(point, dtype=complex).reshape(size)
+        samples = np.asarray(samples, dtype=complex).reshape(-1, size)
+        jack = np.zeros((0, size), dtype=complex) if jackknife is None else \
+            np.asarray(jackknife, dtype=complex).reshape(-1, size)
         with np.errstate(divide="ignore", invalid="ignore"):
-            offset = np.degrees(np.angle(samples / np.asarray(point, dtype=complex)[None, :]))
+            offset, jack_offset = (np.degrees(np.angle(c / point[None, :])) for c in (samples, jack))
 
-        def percentiles(values: NDArray) -> Pair:
-            values = np.where(np.isfinite(values), values, np.nan)
-            enough = np.sum(np.isfinite(values), axis=0) >= 2
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: NaN, as documented
-                low, high = np.nanpercentile(values, [2.5, 97.5], axis=0) if values.size else (
-                    np.full(np.size(x), np.nan), np.full(np.size(x), np.nan))
-            return np.where(enough, low, np.nan), np.where(enough, high, np.nan)
+        def part(value: NDArray, values: NDArray, refits: NDArray) -> Pair:
+            return band_arrays(value, np.where(np.isfinite(values), values, np.nan), residual_ratio, refits)
 
-        return cls(np.asarray(x, dtype=float), percentiles(samples.real), percentiles(samples.imag),
-                   percentiles(np.abs(samples)), percentiles(offset), int(samples.shape[0]))
+        return cls(np.asarray(x, dtype=float), part(point.real, samples.real, jack.real),
+                   part(point.imag, samples.imag, jack.imag), part(np.abs(point), np.abs(samples), np.abs(jack)),
+                   part(np.zeros(size), offset, jack_offset), int(samples.shape[0]))
 
 
 @dataclass(frozen=True)
@@ -175,6 +178,7 @@ def monte_carlo(
     residual_ratio: float | None = None,
     jackknife: Sequence[Mapping[str, Any]] = (),
     bounds: Mapping[str, Bound] | None = None,
+    positive: Collection[str] = (),
 ) -> Uncertainty:
     """Statistics of ``estimate(perturbed data)`` over ``n_samples`` noise draws.
 
@@ -186,7 +190,8 @@ def monte_carlo(
 
     ``residual_ratio`` (the fit's residual over the noise), ``jackknife`` (the values of
     each leave-one-level-out refit) and ``bounds`` (the limits values sit on, by name) set
-    each parameter's interval beside the samples (:func:`~nlupdate.core.identification.bands.band`).
+    each parameter's interval beside the samples (:func:`~nlupdate.core.identification.bands.band`);
+    the intervals of the ``positive`` names stop at 0.
 
     Samples are drawn from ``seed`` and identified in order (``progress("Monte-Carlo
     samples", done, n_samples)`` after each). Samples whose identification
@@ -219,7 +224,7 @@ def monte_carlo(
     for name, value in point.items():
         values = np.array([s[name] for s in good if name in s and np.isfinite(s[name])])
         refits = [float(j[name]) for j in jackknife if name in j]
-        interval = band(float(value), values, residual_ratio, refits, bounds.get(name))
+        interval = band(float(value), values, residual_ratio, refits, bounds.get(name), name in positive)
         if values.size >= 2:
             with np.errstate(over="ignore", invalid="ignore"):
                 mean, std = float(values.mean()), float(values.std(ddof=1))
@@ -228,7 +233,9 @@ def monte_carlo(
         else:
             stats[name] = ParameterStatistics(float(value), float("nan"), float("nan"), interval,
                                               bound=bounds.get(name))
-    bands = {name: CurveBand.of(x, point_curve, np.array(sample_curves[name]).reshape(-1, np.size(x)))
+    bands = {name: CurveBand.of(x, point_curve, np.array(sample_curves[name]).reshape(-1, np.size(x)), residual_ratio,
+                                np.array([j[name] for j in jackknife if np.shape(j.get(name)) == np.shape(point_curve)])
+                                .reshape(-1, np.size(x)))
              for name, (x, point_curve) in curves.items()}
     return Uncertainty(stats, float(noise_fraction), n_samples, n_samples - len(good), seed,
                        dict(failures.most_common()), bands, residual_ratio, len(jackknife))
