@@ -224,7 +224,7 @@ def _fs_column(values: object, source: str) -> float:
 
 
 def _uff_record(data: bytes, path: Path) -> TimeRecord:
-    from nlupdate.core.measurement.uff import _name_from_node, check_directions, uff_datasets
+    from nlupdate.core.measurement.uff import check_directions, name_from_node, uff_datasets
 
     indices, datasets = uff_datasets(data, path)
     records = [(i, d) for i, d in zip(indices, datasets) if d.get("func_type") == 1]
@@ -252,7 +252,7 @@ def _uff_record(data: bytes, path: Path) -> TimeRecord:
             name, values = "voltage", values * (1e-3 if label == "mV" else 1.0)
         elif ordinate in (8, 11, 12):
             sign = -1.0 if dataset["rsp_dir"] < 0 else 1.0
-            name, values = _name_from_node(dataset["rsp_node"], dataset["rsp_dir"]), sign * values
+            name, values = name_from_node(dataset["rsp_node"], dataset["rsp_dir"]), sign * values
         else:
             raise TimeHistoryError(f"{where}: ordinate specific data type {ordinate} (label {label!r}); expected a "
                                    f"force (13), a voltage (label 'V') or a response (8, 11, 12)")
