@@ -1,6 +1,8 @@
 """Built-in finite-element surrogate: 3D frame elements and the thesis case models.
 
-* :mod:`nlupdate.fe.models.frame` — frame elements, assembly, constraints, modal solution.
+* :mod:`nlupdate.fe.models.frame` — the frame model builder (nodes, elements, constraints, naming);
+  its elements in :mod:`~nlupdate.fe.models.frame_elements`, its assembly and constraints in
+  :mod:`~nlupdate.fe.models.frame_assembly`, its modal solution in :mod:`~nlupdate.fe.models.frame_modal`.
 * :mod:`nlupdate.fe.models.tbeam` — the T-beam test structure (thesis §3.3, §4).
 * :mod:`nlupdate.fe.models.gunbarrel` — the gun barrel (thesis §5.11), with assumed dimensions.
 * :mod:`nlupdate.fe.models.mesh_study` — frequency convergence with mesh refinement.
