@@ -373,12 +373,8 @@ def mesh_study(
 def from_options(model: str | None, options: dict) -> CalculixAdapter:
     """The adapter of a study's ``[adapter] kind = "calculix"`` (:mod:`nlupdate.fe.adapters.registry`):
     the solid T-beam deck in CalculiX."""
-    if model == "brb":
-        from nlupdate.fe.adapters.calculix_brb import from_options as brb_options
-
-        return brb_options(options)
     if model != "tbeam":
-        raise ValueError(f"calculix adapter: model must be 'tbeam' or 'brb', got {model!r}")
+        raise ValueError(f"calculix adapter: model must be 'tbeam', got {model!r}")
     mesh = TBeamMesh(**options.pop("mesh", {}))
     deck_options = {k: options.pop(k) for k in ("element_type", "stations") if k in options}
     deck = TBeamDeck(mesh, **deck_options)

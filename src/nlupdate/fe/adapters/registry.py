@@ -48,7 +48,7 @@ from nlupdate.fingerprints import fingerprint
 ADAPTERS: dict[str, str] = {
     "lumped": "nlupdate.fe.adapters.lumped",
     "surrogate": "nlupdate.fe.adapters.surrogate",
-    "calculix": "nlupdate.fe.adapters.calculix_tbeam",
+    "calculix": "nlupdate.fe.adapters.calculix_models",
     "mapdl": "nlupdate.fe.adapters.mapdl",
 }
 ADAPTER_KINDS = tuple(ADAPTERS)
