@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from nlupdate.app.cli import CliError
 from nlupdate.app.cli.measured import parse_band, read_options
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
-from nlupdate.core.identification.backbone_samples import displacement_samples
-from nlupdate.core.identification.impact import fit_linear_limit, split_force
+from nlupdate.core.identification.backbone_samples import displacement_samples, join_samples
+from nlupdate.core.identification.impact import decay_segments, fit_linear_limit, split_force
 from nlupdate.core.identification.phase_resonance import read_phase_resonance, samples_from_phase_resonance
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import RingDownError, estimate_ring_down, read_channels, read_ring_down
@@ -26,6 +28,10 @@ Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
 def add_source_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
                         help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
+    parser.add_argument("--ring-down-fit", choices=("envelope", "segments"), default="envelope",
+                        help="how a ring-down is read: envelope (differentiated envelope and phase, default) or "
+                             "segments (a complex exponential fit of each part over which the envelope falls by 1.5: "
+                             "fewer samples, robust to noise)")
     parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
                         help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
                              "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
@@ -58,6 +64,19 @@ def read_sources(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[li
     unit = args.response_unit
     for path in args.ring_down:
         record = read_ring_down(path, args.channel)
+        if args.ring_down_fit == "segments":
+            parts = decay_segments(record.time_s, {record.channel: record.response}, band, shapes.get(record.channel),
+                                   source=path)
+            samples = displacement_samples(join_samples([part.samples() for part in parts]), unit)
+            stated = (float(np.median([p.frequency_std_hz / p.frequency_hz for p in parts])),
+                      float(np.median([p.damping_std / p.damping_ratio for p in parts])))
+            print(f"{path}: channel {record.channel}, {len(parts)} segment(s) over {parts[0].window_s[0]:.3g}–"
+                  f"{parts[-1].window_s[1]:.3g} s, each a complex exponential fit (median standard errors "
+                  f"{stated[0]:.2g} in frequency, {100 * stated[1]:.2g} % in damping)"
+                  f"{_units_note(record.channel, shapes, unit)}")
+            out.append((path, samples, stated, "ring-down"))
+            channel = record.channel
+            continue
         estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(record.channel), source=path)
         samples = displacement_samples(estimate.samples(), unit)
         print(f"{path}: channel {record.channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "

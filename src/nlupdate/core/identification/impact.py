@@ -69,7 +69,8 @@ class LinearLimit:
     """One mode's pole from a free decay: natural frequency (Hz), damping ratio and their
     standard errors; ``amplitude`` the envelope of the fitted part, mean weighted by its square (modal,
     m·√kg, or the response's units without a shape) and its range ``amplitude_range``;
-    ``window_s`` the fitted part (s); ``band_hz``; ``channels`` fitted; ``order`` p."""
+    ``window_s`` the fitted part (s); ``band_hz``; ``channels`` fitted; ``order`` p; ``shape``
+    |φ| (1/√kg) at the first channel (1 when not given)."""
 
     frequency_hz: float
     damping_ratio: float
@@ -82,11 +83,12 @@ class LinearLimit:
     channels: tuple[str, ...]
     order: int
     source: str = "<impact>"
+    shape: float = 1.0
 
     def samples(self) -> ModalSamples:
-        """The linear limit as one backbone sample (no force)."""
+        """The linear limit as one backbone sample (no force; ``input_shape`` the |φ| given)."""
         return ModalSamples(np.array([self.amplitude]), np.array([self.frequency_hz]), np.array([self.damping_ratio]),
-                            np.zeros(1), 1.0)
+                            np.zeros(1), self.shape)
 
 
 def _lsce(signals: list[NDArray], order: int) -> tuple[NDArray, NDArray, NDArray]:
@@ -116,14 +118,27 @@ def _energies(signals: list[NDArray], roots: NDArray) -> NDArray[np.float64]:
     return out
 
 
-def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tuple[float, float] | None = None,
-                     shape: float | None = None, force: NDArray | None = None, order: int = 1, span: float = 3.0,
-                     snr: float = 20.0, source: str = "<impact>") -> LinearLimit:
-    """The linear limit of the mode in ``band_hz`` (module docstring) from response channels
-    (name → values at ``time_s``, s, uniform; any unit), optionally the hammer's ``force``;
-    ``shape`` |φ| (1/√kg) at the first channel makes the amplitude modal. The fitted part
-    is the first channel's quietest (module docstring, 3); the other channels join it there
-    as far as their own noise and the filter's ends allow."""
+@dataclass(frozen=True)
+class _Decay:
+    """A record made ready for the fits: baseband signals, envelopes and usable spans per channel."""
+
+    t: NDArray
+    fs: float
+    band: tuple[float, float]
+    baseband: list[NDArray]
+    envelopes: list[NDArray]
+    ends: list[tuple[int, int]]
+    names: tuple[str, ...]
+
+    @property
+    def centre(self) -> float:
+        return 0.5 * (self.band[0] + self.band[1])
+
+
+def _decay(time_s: NDArray, responses: dict[str, NDArray], band_hz: tuple[float, float] | None,
+           force: NDArray | None, snr: float, source: str) -> _Decay:
+    """Module docstring, steps 1–2: each channel after the blow, band-passed to baseband, with
+    the span (first, last index) where it is clear of the filter's ends and of the noise."""
     t = np.asarray(time_s, dtype=float).ravel()
     fs = _uniform_rate(t, source)
     names = list(responses)
@@ -135,7 +150,6 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
         if x.shape != t.shape or not np.all(np.isfinite(x)):
             raise RingDownError(f"{source}: channel {name!r} must hold one finite value per time ({t.size})")
         xs.append(x - x.mean())
-    start = 0
     if force is not None:
         f = np.abs(np.asarray(force, dtype=float).ravel())
         loud = np.flatnonzero(f > FORCE_END * f.max())
@@ -147,8 +161,7 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
     if not 0 < low < high < fs / 2:
         raise RingDownError(f"{source}: band {low:g}–{high:g} Hz: expected 0 < low < high < the Nyquist frequency "
                             f"{fs / 2:g} Hz")
-    centre = 0.5 * (low + high)
-    bandwidth, index = high - low, np.arange(t.size)
+    centre, bandwidth, index = 0.5 * (low + high), high - low, np.arange(t.size)
     baseband, envelopes, ends = [], [], []
     for name, x in zip(names, xs):
         z, sos = analytic_band_pass(t, x, (low, high), fs)
@@ -164,20 +177,25 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
                                 f"ends and dropping the envelope below {snr:g} × the noise ({noise:.3g}): give the "
                                 f"band, a longer record, or leave the channel out (--channel)")
         ends.append((head, int(np.flatnonzero(usable)[-1])))
-    head, last = ends[0]
-    envelope0 = envelopes[0]
-    first = int(np.flatnonzero((index >= head) & (index <= last) & (envelope0 <= span * envelope0[last]))[0])
-    step = max(int(round(fs / bandwidth)), 1)
-    window = slice(first, last + 1, step)
-    # every channel over the first one's quiet part, as far as its own noise allows
-    parts = [u[max(first, h):min(last, e) + 1:step] for u, (h, e) in zip(baseband, ends)]
+    return _Decay(t, fs, (low, high), baseband, envelopes, ends, tuple(names))
+
+
+def _fit_window(decay: _Decay, first: int, last: int, order: int, shape: float | None, per_bandwidth: float,
+                source: str) -> LinearLimit:
+    """The pole of the mode over ``first`` … ``last`` (indices) of the first channel, the
+    others joining as far as their own spans allow (module docstring, steps 4–5), values
+    1/(``per_bandwidth`` × bandwidth) apart."""
+    low, high = decay.band
+    step = max(int(round(decay.fs / (per_bandwidth * (high - low)))), 1)
+    parts = [u[max(first, h):min(last, e) + 1:step] for u, (h, e) in zip(decay.baseband, decay.ends)]
     parts = [part for part in parts if part.size >= 4 * order]
+    t = decay.t
     if not parts:
-        raise RingDownError(f"{source}: the quiet part of the decay ({t[first]:.4g}–{t[last]:.4g} s) holds fewer than "
+        raise RingDownError(f"{source}: the part of the decay fitted ({t[first]:.4g}–{t[last]:.4g} s) holds fewer than "
                             f"{4 * order} values a 1/bandwidth apart: give a wider band, a larger span or a lower order")
     roots, alpha, covariance = _lsce(parts, order)
-    delta = step / fs
-    poles = np.log(roots.astype(complex)) / delta + 2j * np.pi * centre
+    delta = step / decay.fs
+    poles = np.log(roots.astype(complex)) / delta + 2j * np.pi * decay.centre
     decaying = poles.real < 0
     if not decaying.any():
         raise RingDownError(f"{source}: no decaying pole in {low:g}–{high:g} Hz (order {order})")
@@ -189,10 +207,52 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
     omega = abs(s)
     std_s = np.sqrt(var_lambda / 2) / abs(lam) / delta  # of Re s and of Im s (ds = dλ/(λΔ))
     phi = 1.0 if shape is None else abs(float(shape))
-    part = envelope0[first:last + 1] / phi
+    part = decay.envelopes[0][first:last + 1] / phi
     return LinearLimit(omega / (2 * np.pi), float(-s.real / omega), float(std_s / (2 * np.pi)), float(std_s / omega),
                        float(np.sum(part**3) / np.sum(part**2)), (float(part.min()), float(part.max())),
-                       (float(t[first]), float(t[last])), (low, high), tuple(names), order, source)
+                       (float(t[first]), float(t[last])), (low, high), decay.names, order, source, phi)
+
+
+def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tuple[float, float] | None = None,
+                     shape: float | None = None, force: NDArray | None = None, order: int = 1, span: float = 3.0,
+                     snr: float = 20.0, source: str = "<impact>") -> LinearLimit:
+    """The linear limit of the mode in ``band_hz`` (module docstring) from response channels
+    (name → values at ``time_s``, s, uniform; any unit), optionally the hammer's ``force``;
+    ``shape`` |φ| (1/√kg) at the first channel makes the amplitude modal. The fitted part
+    is the first channel's quietest (module docstring, 3); the other channels join it there
+    as far as their own noise and the filter's ends allow."""
+    decay = _decay(time_s, responses, band_hz, force, snr, source)
+    (head, last), envelope = decay.ends[0], decay.envelopes[0]
+    index = np.arange(envelope.size)
+    first = int(np.flatnonzero((index >= head) & (index <= last) & (envelope <= span * envelope[last]))[0])
+    return _fit_window(decay, first, last, order, shape, 1.0, source)
+
+
+def decay_segments(time_s: NDArray, responses: dict[str, NDArray], band_hz: tuple[float, float] | None = None,
+                   shape: float | None = None, span: float = 1.5, snr: float = 20.0,
+                   source: str = "<ring-down>") -> list[LinearLimit]:
+    """A ring-down as successive linear fits: the usable decay of the first channel cut into
+    parts over each of which its envelope falls by ``span``, each fitted as the quiet part
+    is (order 1, values 1/(4 × bandwidth) apart: a part holds few independent values) and
+    placed at its amplitude weighted by the squared envelope. Noise-robust where
+    differentiating the envelope is not (docs/ring-down.md, "Noisy ring-downs")."""
+    decay = _decay(time_s, responses, band_hz, None, snr, source)
+    (head, last), envelope = decay.ends[0], decay.envelopes[0]
+    out, first = [], head
+    while first < last:
+        below = np.flatnonzero(envelope[first:last + 1] <= envelope[first] / span)
+        if below.size == 0:
+            break
+        end = first + int(below[0])
+        try:
+            out.append(_fit_window(decay, first, end, 1, shape, 4.0, source))
+        except RingDownError:
+            pass  # too short a part (a fast stretch of the decay): the next one starts after it
+        first = end
+    if not out:
+        raise RingDownError(f"{source}: no part of the decay falls by a factor {span:g} clear of the noise and the "
+                            f"filter's ends")
+    return out
 
 
 def split_force(columns: dict[str, NDArray], channel: str | None) -> tuple[NDArray, dict[str, NDArray], NDArray | None]:
