@@ -130,3 +130,22 @@ def test_an_iwan_fit_keeps_the_measured_damping_where_the_joint_cannot_follow_it
     assert abs(held["damping_ratio"].relative_error) < 0.2  # measured −18 %; −93 % before
     assert abs(held["peak_abs"].relative_error) < 0.02  # measured +0.4 %
     assert abs(held["resonance_hz"].error) < 0.05  # measured +0.034 Hz
+
+
+def test_the_linear_damping_of_the_brb_stays_at_or_below_its_lowest_level():
+    """A joint only adds damping as it slips: ζ₀ ≤ the lowest level's damping. The polynomial
+    fit to the public Brake–Reuss beam's four peaks (tests/data/brb) put ζ₀ at 0.763 % for a
+    lowest level measured at 0.139 % (its damping falling from the linear limit, unflagged);
+    the reference is that measured sample (ζ = φ²F/(2ω²x) at the 0.19 N peak)."""
+    from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
+    from nlupdate.core.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.units import ReadOptions
+    from test_real_measurements import BRB
+
+    table = read_frf_table(BRB, options=ReadOptions(coordinates={str(BRB): ("acc3:-y", "acc3:y")}))
+    data = FRFLevels.from_table(table, "acc3:y", "acc3:y")
+    lowest = float(samples_from_frfs(data).damping_ratio[0])
+    assert lowest == pytest.approx(0.00139, rel=0.01)
+    model = amplitude_model_from_frfs(data, "polynomial", order=2)
+    assert model.damping_ratio <= lowest * 1.15 * (1 + 1e-9)
+    assert all(model.damping(a) >= 0 for a in np.linspace(0.0, model.reference_amplitude, 11))

@@ -30,9 +30,12 @@ held physical: the joint only softens, so f₀ lies at or above every sample (wi
 3 ``frequency_std``), and no higher above the lowest-amplitude sample f_ref than the
 softening measured over all samples, ``f₀ ≤ f_ref(1 + max((f_max − f_min)/f_ref,
 3·frequency_std))`` — an Iwan joint fitted with χ → −1 (it would slip at any amplitude)
-otherwise puts f₀ anywhere above the data. A fit that ends on that bound, or with ζ₀ below
-1 % of the lowest sample's damping ratio (the joint then takes all the damping and the
-linear damping is not determined), gets a warning on the model.
+otherwise puts f₀ anywhere above the data. Likewise the linear damping: a joint only adds
+damping as it slips, so ζ₀ lies at or below the lowest-amplitude sample's damping ratio
+(within 3 ``damping_std``: :func:`damping_cap`; a polynomial fit to the BRB's peaks put it
+at 5.8 × that, its damping falling from the linear limit). A fit that ends on either bound,
+or with ζ₀ below 1 % of the lowest sample's damping ratio (the joint then takes all the
+damping and the linear damping is not determined), gets a warning on the model.
 
 * ``polynomial`` of ``order`` (linear least squares for f₀, c_k and ζ₀, d_k);
 * ``iwan``: ω₀, ζ₀ and the modal joint (K_T < ω₀², F_S, χ, β), from several starts, with
@@ -226,7 +229,9 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
         return min(fits, key=lambda fit: fit[0])
 
     chi2_f, p_f, coefficients_f = best(samples.frequency_hz, wf, limits)
-    chi2_z, p_z, coefficients_z = best(samples.damping_ratio, wz, (checks, np.zeros(len(checks))))
+    z_cap = damping_cap(samples, damping_std)  # ζ₀ no higher than the lowest sample's damping
+    chi2_z, p_z, coefficients_z = best(samples.damping_ratio, wz, (np.vstack([checks, -first]),
+                                                                   np.concatenate([np.zeros(len(checks)), [-z_cap]])))
     f0, z0 = float(coefficients_f[0]), float(coefficients_z[0])
     model = AmplitudeModalModel(f0, max(z0, 0.0), shapes, frequency_coefficients=tuple(coefficients_f[1:] / f0),
                                 damping_coefficients=tuple(coefficients_z[1:]), reference_amplitude=a_ref, mode=mode,
@@ -235,14 +240,15 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
                                      f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for "
                                      f"{samples.amplitude.size} values each), fitted to amplitudes up to a_ref = "
                                      f"{a_ref:.4g} m·√kg and held at their values there beyond")
-    return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0))
+    return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
 
 
 def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float,
-                          fitted_zeta: float | None = None) -> tuple[str, ...]:
+                          fitted_zeta: float | None = None, damping_std: float | NDArray = 0.05) -> tuple[str, ...]:
     """What is unphysical or undetermined about a fitted model's linear limit (module
-    docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0 or
-    below 1 % of the damping ratio of the lowest-amplitude sample."""
+    docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0,
+    below 1 % of the damping ratio of the lowest-amplitude sample or at or above
+    :func:`damping_cap`."""
     out = []
     low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
     f0 = model.natural_frequency_hz
@@ -261,7 +267,19 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
         out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is below 1 % of the damping measured at the lowest "
                    f"level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data do not "
                    f"determine the linear damping" + (" (kept at 0)" if zeta <= 0 else ""))
+    elif zeta >= 0.999 * damping_cap(samples, damping_std):
+        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is at or above the damping measured at the lowest "
+                   f"level ({100 * z_ref:.3g} %, its bound): the damping curve falls with amplitude from the linear "
+                   f"limit, which a joint (it only adds damping as it slips) does not do; the samples do not determine "
+                   f"ζ₀")
     return tuple(out)
+
+
+def damping_cap(samples: ModalSamples, damping_std: float | NDArray = 0.05) -> float:
+    """The highest physical linear damping ratio ζ₀: the lowest-amplitude sample's damping
+    ratio plus three of its relative standard deviations (a joint only adds damping)."""
+    z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
+    return z_ref * (1 + 3 * float(np.median(damping_std)))
 
 
 def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[float, float]:
@@ -412,7 +430,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
     out = AmplitudeModalModel(model.natural_frequency_hz, model.damping_ratio, shapes, joint=model.joint, mode=mode,
                               linear_damping=law, note=note)
-    warnings = linear_limit_warnings(out, samples, frequency_std)
+    warnings = linear_limit_warnings(out, samples, frequency_std, damping_std=damping_std)
     ratio = shapes[0][1] / stuck_shape
     if fitted_shape and abs(np.log(ratio)) >= 0.99 * np.log(SHAPE_RANGE):
         warnings += (f"the Iwan fit ends with the mode shape at the excited coordinate on its bound, {shapes[0][1]:.4g} "

@@ -171,7 +171,7 @@ MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
     "lines": _lines, "lines-background": _lines_background, "amplitude-polynomial": _amplitude("polynomial"),
     "amplitude-iwan": _amplitude("iwan"),
 }
-AUTO_CANDIDATES = ("lines", "amplitude-polynomial", "amplitude-iwan")
+AUTO_CANDIDATES = ("lines", "lines-background", "amplitude-polynomial", "amplitude-iwan")
 
 
 @dataclass(frozen=True)
