@@ -33,22 +33,27 @@ def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str,
               "(%) [band] | in band (f, ζ, peak) | baseline: f (Hz), ζ (%), peak (%) |")
         print("|---|---|---|---|---|---|---|")
         for r in result.held_out:
-            c, b = r.compared, r.baseline
-
-            def rel(q):
-                return (f"{100 * q.relative_error:+.1f} [{100 * (q.low / q.measured - 1):+.0f}, "
-                        f"{100 * (q.high / q.measured - 1):+.0f}]")
-
-            res = c["resonance_hz"]
-            inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
-            resonance_hz = (f"{res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
-                            f"{res.high - res.measured:+.{hz_digits - 1}f}]")
-            print(f"| {r.level:g} | {r.label} | {resonance_hz} | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | "
-                  f"{inside} | {b['resonance_hz'].error:+.{hz_digits}f}, "
-                  f"{100 * b['damping_ratio'].relative_error:+.1f}, {100 * b['peak_abs'].relative_error:+.1f} |")
+            print(f"| {r.level:g} | {r.label} | {error_cells(r, hz_digits)} |")
         if hold_out == "each":
             repeat = result.repeatability
             print(f"\ntest repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
                   f"{repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio "
                   f"{100 * repeat.damping_ratio:.{hz_digits}f} % (points)")
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
+
+
+def error_cells(r, hz_digits: int = 3) -> str:
+    """The table cells of one prediction (a held-out level or a response-controlled run):
+    resonance, damping and peak errors with their 95 % bands, in band or not, the baseline's."""
+    c, b = r.compared, r.baseline
+
+    def rel(q):
+        return f"{100 * q.relative_error:+.1f} [{100 * (q.low / q.measured - 1):+.0f}, {100 * (q.high / q.measured - 1):+.0f}]"
+
+    res = c["resonance_hz"]
+    inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
+    resonance_hz = (f"{res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
+                    f"{res.high - res.measured:+.{hz_digits - 1}f}]")
+    return (f"{resonance_hz} | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | {inside} | "
+            f"{b['resonance_hz'].error:+.{hz_digits}f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
+            f"{100 * b['peak_abs'].relative_error:+.1f}")
