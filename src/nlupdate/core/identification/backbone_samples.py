@@ -15,8 +15,9 @@ apart, so their misfits are about independent). Without resamples the band colum
 
 Joint fit of several sources (stepped sine, response-controlled runs, phase resonance,
 ring-downs, impacts). Each source is weighted by its own noise: the relative standard
-deviations of its frequencies and damping ratios are the scatter of its samples about a
-quadratic in ln a fitted to that source alone (``√(Σr²/(n − 3))``, n ≥ 5 samples), or the
+deviations of its frequencies and damping ratios are the scatter of their logarithms about a
+quadratic in ln a fitted to that source alone (``√(Σr²/(n − 3))``, n ≥ 5 samples; in ln ζ, as
+damping that grows as a power of a is no quadratic in ln a), or the
 standard errors a source states (an impact's pole), or, for fewer samples, the fit's defaults
 (1e-3 and 5 %); floors of :data:`NOISE_FLOOR` keep one smooth source from taking all the
 weight. Consistency: each source's mean relative misfit in frequency and in damping is
@@ -128,9 +129,9 @@ def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = Non
     elif samples.amplitude.size >= 5:
         x = np.log(samples.amplitude)
         spreads = []
-        for y in (samples.frequency_hz, samples.damping_ratio):
-            fitted = np.polyval(np.polyfit(x, y, 2), x)
-            spreads.append(float(np.sqrt(np.sum((y / fitted - 1) ** 2) / (y.size - 3))))
+        for y in (samples.frequency_hz, samples.damping_ratio):  # relative scatter: about ln y's own quadratic
+            residual = np.log(y) - np.polyval(np.polyfit(x, np.log(y), 2), x)
+            spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - 3))))
         f_std, z_std = spreads
     else:
         f_std, z_std = DEFAULT_NOISE
