@@ -1,8 +1,10 @@
 """Nonlinear frequency responses of a model (docs/methods.md §3).
 
 * :mod:`~nlupdate.core.response.balance` — what the solvers need from a balance problem (the protocol);
-* :mod:`~nlupdate.core.response.continuation` — Newton + pseudo-arclength continuation, its options,
-  with :mod:`~nlupdate.core.response.arclength` (corrections and tangents of many points at once),
+* :mod:`~nlupdate.core.response.continuation` — Newton + pseudo-arclength continuation, with its
+  options (:mod:`~nlupdate.core.response.continuation_options`), its predictor–corrector steps
+  (:mod:`~nlupdate.core.response.continuation_steps`),
+  :mod:`~nlupdate.core.response.arclength` (corrections and tangents of many points at once),
   :mod:`~nlupdate.core.response.curve_fill` (the points between long continuation steps, all at
   once) and :mod:`~nlupdate.core.response.folds` (turning points located all at once);
 * :mod:`~nlupdate.core.response.sweep` — a stepped-sine test on a grid by the fastest exact route;
