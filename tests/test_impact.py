@@ -8,6 +8,7 @@ same record (a different method: its lowest-amplitude samples must lie on the sa
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -137,3 +138,22 @@ def test_a_noisy_ring_down_read_in_segments(seed, tmp_path, iwan_record):
                  "7:13", "--shape", f"x={1 / np.sqrt(M)}", "--backbone", "polynomial", "--order", "1",
                  "--bootstrap", "0", "--out", str(tmp_path / "amm")]) == 0
     assert len(pd.read_csv(tmp_path / "amm" / "backbone_points.csv")) == len(parts)
+
+
+def test_an_impact_alone_gives_a_linear_limit_model_with_its_band(tmp_path):
+    """``nlupdate amplitude --impact`` alone: the model is the linear limit (no amplitude
+    dependence, usable as an updating target), backbone.csv carries the pole's 95 % interval."""
+    out = tmp_path / "amm"
+    assert main(["amplitude", "--impact", str(BRB / "HammerImpact.mat"), "--channel", "acc3", "--band", "60:100",
+                 "--response-unit", "m/s^2", "--shape", "acc3=0.7271", "--out", str(out)]) == 0
+    columns = read_channels(BRB / "HammerImpact.mat")
+    fit = fit_linear_limit(*split_force(columns, "acc3")[:2], (60, 100))
+    model = json.loads((out / "amplitude_model.json").read_text())
+    assert model["natural_frequency_hz"] == pytest.approx(fit.frequency_hz, rel=1e-12)
+    assert model["damping_ratio"] == pytest.approx(fit.damping_ratio, rel=1e-12)
+    row = pd.read_csv(out / "backbone.csv").iloc[0]
+    assert row["natural_frequency_hz_low"] < fit.frequency_hz < row["natural_frequency_hz_high"]
+    assert row["damping_ratio_high"] - row["damping_ratio_low"] == pytest.approx(2 * 1.96 * fit.damping_std, rel=1e-6)
+    # the amplitude is displacement: acceleration / ω², over the shape
+    assert row["modal_amplitude"] == pytest.approx(fit.amplitude / (2 * np.pi * fit.frequency_hz) ** 2 / 0.7271,
+                                                   rel=1e-9)

@@ -54,5 +54,6 @@ def test_held_amplitude_sweep_predicted_against_the_joint_law(held_m):
     f = model.frequency_hz(held_m * np.sqrt(rd.M)) * np.linspace(0.98, 1.02, 41)
     run = held_sweep(held_m, f, element=rd.IWAN)
     h = model.held_frf(f, held_m, "mass", "mass")
-    # measured 1.7e-3 at 0.2 mm, 3.8e-3 at 1 mm: the time-domain joint has 200 sliders, the describing function the continuum
+    # measured 1.7e-3 at 0.2 mm, 3.8e-3 at 1 mm: the time-domain joint has 200 sliders, the describing
+    # function the continuum
     assert np.max(np.abs(h / run.h - 1)) < 1e-2

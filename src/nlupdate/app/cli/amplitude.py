@@ -45,7 +45,7 @@ from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.core.measurement.units import table_reference_unit
-from nlupdate.core.model.amplitude_modal import BACKBONES, write_amplitude_model
+from nlupdate.core.model.amplitude_modal import BACKBONES, AmplitudeModalModel, write_amplitude_model
 from nlupdate.reporting.backbone_plots import plot_sources
 from nlupdate.reporting.figures import level_colours, save_figure
 from nlupdate.app.cli.simulate import force_levels, frequency_grid
@@ -61,7 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_source_options(parser)
     parser.add_argument("--hold-out", choices=TEST_TYPES, metavar="TYPE",
                         help="fit without the sources of this test type and predict them (DIR/held_out.csv: each "
-                             f"sample's frequency and damping, a phase-resonance point's amplitude): {', '.join(TEST_TYPES)}")
+                             "sample's frequency and damping, a phase-resonance point's amplitude): "
+                             f"{', '.join(TEST_TYPES)}")
     parser.add_argument("--input-dof", help="excited coordinate (default: the table's only one)")
     parser.add_argument("--response-dof", help="response coordinate of FRFs (default: the input, the driving point, "
                                                "if measured; else the table's only response: a transfer FRF)")
@@ -119,6 +120,17 @@ def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") ->
     return save_figure(fig, path)
 
 
+def _one_source_model(samples, shapes, args: argparse.Namespace) -> AmplitudeModalModel:
+    """The fit to one source's samples; one sample (an impact's pole) is the linear limit
+    alone, with no amplitude dependence (a polynomial of no terms)."""
+    if samples.amplitude.size > 1:
+        return fit_amplitude_model(samples, shapes, args.backbone, args.order, mode=args.mode)
+    return AmplitudeModalModel(float(samples.frequency_hz[0]), float(samples.damping_ratio[0]), shapes,
+                               reference_amplitude=float(samples.amplitude[0]), mode=args.mode,
+                               note="the linear limit of one impact or low-level record: no amplitude dependence "
+                                    "(join it with other test types for a backbone)")
+
+
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if (args.forces is None) != (args.freqs is None):
@@ -132,9 +144,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.measured:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
         samples, input_dof = join_samples([s for _, s, _, _ in rings]), channel
         shapes_fit = ((channel, samples.input_shape),)
-        model = None if len(rings) > 1 else fit_amplitude_model(samples, shapes_fit, args.backbone, args.order,
-                                                                mode=args.mode)
-        unit, points = "N", rings
+        model, unit, points = None, "N", rings  # fitted below
     else:
         table, notes = measured_table(args, modal=True, find_band=True)
         print_notes(notes)
@@ -175,10 +185,10 @@ def run(args: argparse.Namespace) -> int:
         if not points:
             raise CliError(f"--hold-out {args.hold_out}: every source is of that type; give another to fit")
         samples = join_samples([s for _, s, _, _ in points])
-        if len(points) == 1:
-            model = fit_amplitude_model(samples, shapes_fit, args.backbone, args.order, mode=args.mode)
     elif args.hold_out:
         raise CliError(f"--hold-out {args.hold_out}: no source of that type is given")
+    if len(points) == 1 and (model is None or held):
+        model = _one_source_model(samples, shapes_fit, args)
     # several sources: one backbone fitted jointly, each source weighted by its own noise
     noises = [source_noise(s, stated) for _, s, stated, _ in points]
 
@@ -197,6 +207,8 @@ def run(args: argparse.Namespace) -> int:
         model = joint_fit(everything)
         agreement = consistency(model, [(name, s, kind) for name, s, _, kind in points], noises, joint_fit)
     resamples = (200 if args.backbone == "polynomial" else 0) if args.bootstrap is None else args.bootstrap
+    if samples.amplitude.size == 1:
+        resamples = 0  # one linear limit: nothing to resample
     if resamples < 0:
         raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
     predicted = None
@@ -209,8 +221,13 @@ def run(args: argparse.Namespace) -> int:
         write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
         curve = backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
             draw, model.shapes, args.backbone, args.order, f_std, z_std, mode=args.mode), resamples=resamples)
+        if samples.amplitude.size == 1 and points[0][2] is not None:  # an impact's pole: its own 95 % interval
+            for column, relative in zip(("natural_frequency_hz", "damping_ratio"), points[0][2]):
+                curve[f"{column}_low"], curve[f"{column}_high"] = (curve[column] * (1 + k * 1.96 * relative)
+                                                                   for k in (-1, 1))
         curve.to_csv(folder / "backbone.csv", index=False)
-        backbone_points([(name, s, kind) for name, s, _, kind in points]).to_csv(folder / "backbone_points.csv", index=False)
+        backbone_points([(name, s, kind) for name, s, _, kind in points]).to_csv(folder / "backbone_points.csv",
+                                                                                 index=False)
         plot_sources(model, [(f"{name} ({kind})", s) for name, s, _, kind in points], curve, folder)
         if agreement is not None:
             agreement.to_csv(folder / "consistency.csv", index=False)
@@ -240,7 +257,8 @@ def run(args: argparse.Namespace) -> int:
               "--bootstrap N refits N resamples for them")
     if agreement is not None:
         for row in agreement.itertuples():
-            print(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit {100 * row.frequency_offset:+.3g} % in frequency "
+            print(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit "
+                  f"{100 * row.frequency_offset:+.3g} % in frequency "
                   f"({row.frequency_score:+.2g} standard errors), {100 * row.damping_offset:+.3g} % in damping "
                   f"({row.damping_score:+.2g})" + ("" if row.consistent else
                                                   " — DISAGREES with the other sources beyond its uncertainty"))
@@ -254,7 +272,8 @@ def run(args: argparse.Namespace) -> int:
             for inside, rows in all_rows.groupby("within_fit", sort=False):
                 worst = rows[["frequency_error", "damping_error", "amplitude_error"]].abs().max()
                 print(f"held out {source} ({rows['test_type'].iloc[0]}): predicted within "
-                      f"{100 * worst['frequency_error']:.3g} % in frequency and {100 * worst['damping_error']:.3g} % in "
+                      f"{100 * worst['frequency_error']:.3g} % in frequency and "
+                      f"{100 * worst['damping_error']:.3g} % in "
                       f"damping ratio" + (f", {100 * worst['amplitude_error']:.3g} % in amplitude at its forces"
                                           if np.isfinite(worst["amplitude_error"]) else "")
                       + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)")

@@ -26,12 +26,13 @@ is the hammer's):
    then about independent from one value to the next) and fitted jointly (one set of poles
    for all channels) by linear prediction of order p (default 1: the band-passed analytic
    signal holds the one mode; a higher order takes noise or a second mode in the band, but on
-   a decay whose frequency drifts, as a joint's does, it splits the drift between two poles), ``u_{n+p} + Σ_{j<p} α_j u_{n+j} = 0`` in least squares; the
+   a decay whose frequency drifts, as a joint's does, it splits the drift between two poles),
+   ``u_{n+p} + Σ_{j<p} α_j u_{n+j} = 0`` in least squares; the
    roots λ of ``λ^p + Σ α_j λ^j`` are ``e^{(s − 2πi f_c)Δ}``. The mode's pole is the decaying
    one that carries most of the fitted signal (amplitudes c_r of ``u_n = Σ c_r λ_r^n`` by
    least squares over all channels; energy ``Σ|c_r|²|λ_r|^{2n}``): the extra poles take
    noise and whatever else is in the band; ``ω = |s|``, ``ζ = −Re s/|s|``;
-   The noise in the regressors biases ζ up (errors in variables): two-channel records with
+   The noise in the regressors biases ζ up (errors in variables): three-channel records with
    white noise of 2 % of each channel's peak gave ζ 0.4–8.6 % high (8 seeds; stated standard
    error 19 %, conservative: the band-passed noise is not quite independent a 1/B apart);
    0.5 % gave 0.3–5.9 % (stated 10 %): the fit ends where the envelope reaches 20 × the noise,
@@ -192,7 +193,8 @@ def _fit_window(decay: _Decay, first: int, last: int, order: int, shape: float |
     t = decay.t
     if not parts:
         raise RingDownError(f"{source}: the part of the decay fitted ({t[first]:.4g}–{t[last]:.4g} s) holds fewer than "
-                            f"{4 * order} values a 1/bandwidth apart: give a wider band, a larger span or a lower order")
+                            f"{4 * order} values a 1/bandwidth apart: give a wider band, a larger span or a lower "
+                            f"order")
     roots, alpha, covariance = _lsce(parts, order)
     delta = step / decay.fs
     poles = np.log(roots.astype(complex)) / delta + 2j * np.pi * decay.centre

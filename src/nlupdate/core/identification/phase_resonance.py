@@ -100,15 +100,16 @@ def _read_csv(data: bytes, path: Path, options: ReadOptions) -> PhaseResonancePo
     missing = [c for c in CSV_COLUMNS if c not in frame.columns]
     if missing:
         raise MeasurementTableError(f"{path}: no column {', '.join(repr(m) for m in missing)}; a phase-resonance table "
-                                    f"holds {', '.join(CSV_COLUMNS)} (optional response_unit, response_dof, input_dof), "
+                                    f"holds {', '.join(CSV_COLUMNS)} (optional response_unit, response_dof, "
+                                    f"input_dof), "
                                     f"one row per level")
     values = {}
     for name in CSV_COLUMNS:
         column = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=float)
         if np.any(~np.isfinite(column)):
             row = int(np.argmax(~np.isfinite(column)))
-            raise MeasurementTableError(f"{path}: row {row}, column {name!r}: {frame[name].iloc[row]!r} is not a finite "
-                                        f"number")
+            raise MeasurementTableError(f"{path}: row {row}, column {name!r}: {frame[name].iloc[row]!r} is not a "
+                                        f"finite number")
         values[name] = column
     units = sorted(set(frame["response_unit"].astype(str).str.strip())) if "response_unit" in frame.columns else ["m"]
     if len(units) != 1 or units[0] not in RESPONSE_UNIT_LABELS:
