@@ -18,8 +18,10 @@ numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporti
   "identified DF", constant term ``−Δ_f1``) and ``delta_f1`` (real, imag);
 * ``elements`` (physical models): type, dofs and parameters, ready for
   :data:`nlupdate.core.model.elements.ELEMENT_TYPES`;
-* ``parameters``: per parameter ``{"value", "mean", "std", "ci95"}`` and ``uncertainty``
-  (how the statistics were made); ``noise_fraction`` (the noise level used) and
+* ``parameters``: per parameter ``{"value", "mean", "std", "ci95", "mc_median"}`` (and
+  ``bound``, the limit a value sits on, its ``ci95`` then one-sided; docs/methods.md §4,
+  Intervals) and ``uncertainty`` (how the statistics were made, ``residual_ratio``,
+  ``jackknife_fits``); ``noise_fraction`` (the noise level used) and
   ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
 * ``fit``: ``"poor"`` when that ratio exceeds 5 or the placement check failed (the model
   does not describe the data; the fit plot shows the residual against amplitude),
