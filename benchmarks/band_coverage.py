@@ -1,6 +1,6 @@
 """Coverage of the 95 % bands when the model is the wrong form (issue 34, "honest bands").
 
-    python benchmarks/band_coverage.py [--seeds 20] [--samples 10] [--processes 2] [--write-docs]
+    python benchmarks/band_coverage.py [--seeds 20] [--samples 10] [--processes 2] [--write-docs] [--rows CSV]
 
 Two cases, each a 1 kg SDOF at 80 Hz whose joint the fitted model cannot describe:
 
@@ -228,6 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", type=int, default=10, help="Monte-Carlo samples per identification")
     parser.add_argument("--processes", type=int, default=2)
     parser.add_argument("--write-docs", action="store_true", help="write the table into docs/validation.md")
+    parser.add_argument("--rows", type=Path, help="also write every band with its truth to this CSV file")
     args = parser.parse_args(argv)
     jobs = [(case, seed, args.samples) for seed in range(args.seeds) for case in CASES]
     started, cpu = time.perf_counter(), time.process_time()
@@ -239,6 +240,10 @@ def main(argv: list[str] | None = None) -> int:
     else:
         parts = [_run(job) for job in jobs]
     rows = [row for part in parts for row in part]
+    if args.rows:
+        import pandas as pd
+
+        pd.DataFrame(rows).to_csv(args.rows, index=False)
     table = coverage_table(rows)
     footer = (f"{time.perf_counter() - started:.0f} s wall, {time.process_time() - cpu:.0f} s CPU in the "
               f"main process (the work runs in {args.processes} processes)")

@@ -9,9 +9,12 @@ source's samples and ``backbone.csv`` the fitted model over their range.
 Bands of ``backbone.csv``. The backbone fits give no covariance; the band is a residual
 bootstrap: the samples' relative misfits ``f_i/f(a_i) − 1`` and ``ζ_i/ζ(a_i) − 1`` are drawn
 with replacement onto the fitted curves at the same amplitudes, the model is refitted to
-each draw, and ``*_low``/``*_high`` are the 2.5th and 97.5th percentiles of the refitted
-curves (a 95 % interval of the fit, given the model; ring-down samples are a smoothing window
-apart, so their misfits are about independent). Without resamples the band columns are NaN.
+each draw, and ``*_low``/``*_high`` are the basic bootstrap interval of the refitted curves
+(their 2.5–97.5 % deviations reflected about the fitted curve, which the band always holds:
+:func:`~nlupdate.core.identification.bands.band_arrays`; a 95 % interval of the fit, given
+the model; the misfits drawn carry any model-form error; ring-down samples are a smoothing
+window apart, so their misfits are about independent). Without resamples the band columns
+are NaN.
 
 Joint fit of several sources (stepped sine, response-controlled runs, phase resonance,
 ring-downs, impacts). Each source is weighted by its own noise: the relative standard
@@ -36,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.bands import band_arrays
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 
@@ -83,7 +87,7 @@ def backbone_curve(model: AmplitudeModalModel, samples: ModalSamples, count: int
     if refit is not None and resamples > 0:
         curves = _bootstrap(model, samples, a, refit, resamples, seed)
         (bands["f_low"], bands["f_high"]), (bands["z_low"], bands["z_high"]) = (
-            np.percentile(c, [2.5, 97.5], axis=0) for c in curves)
+            band_arrays(point, c) for point, c in zip((f, z), curves))
     return pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": f, "natural_frequency_hz_low": bands["f_low"],
                          "natural_frequency_hz_high": bands["f_high"], "damping_ratio": z,
                          "damping_ratio_low": bands["z_low"], "damping_ratio_high": bands["z_high"]})
