@@ -118,3 +118,29 @@ def test_validate_predicts_the_brb_response_controlled_runs(tmp_path, capsys):
                            "--model", "lines", "--response-controlled", "off", "--out", tmp_path / "off")
     assert code == 0, err
     assert "response_controlled" not in json.loads((tmp_path / "off" / "validation.json").read_text())
+
+
+@pytest.mark.parametrize("flag", [True, False])
+def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, flag):
+    """[validation] response_controlled (default true): the runs in validation.json, the
+    plot and the report's table — the same numbers as the command's — or none when false."""
+    from test_validate import _brb_study
+
+    study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"], "response_controlled": flag})
+    code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "run", "--quiet")
+    assert code == 0, err
+    run = tmp_path / "run"
+    summary = json.loads((run / "validation.json").read_text())
+    if not flag:
+        assert "response_controlled" not in summary and not (run / "plots" / "response_controlled.png").exists()
+        return
+    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
+                           "--model", "lines", "--out", tmp_path / "cli")
+    assert code == 0, err
+    command = json.loads((tmp_path / "cli" / "validation.json").read_text())["response_controlled"]
+    assert len(summary["response_controlled"]) == 8
+    for ours, theirs in zip(summary["response_controlled"], command):
+        assert ours["run"] == theirs["run"]
+        assert ours["resonance_hz"]["predicted"] == pytest.approx(theirs["resonance_hz"]["predicted"], rel=1e-12)
+    assert (run / "plots" / "response_controlled.png").is_file()
+    assert "Response-controlled runs predicted from all force-controlled levels" in (run / "report.md").read_text()
