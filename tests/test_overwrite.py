@@ -155,17 +155,28 @@ def test_an_identification_output_is_replaced_but_not_with_a_file_of_the_user_in
 # ----------------------------------------------------------------------------- the rule itself
 
 
-def test_an_output_written_before_markers_is_recognised_by_its_files(tmp_path):
+@pytest.mark.parametrize("kind, files", [
+    ("identification", {"identification.json": "{}", "fit.png": "png"}),
+    ("archive", {"manifest.json": "{}", "report.md": "# notes", "plots/mine.png": "the user's"}),
+])
+def test_a_folder_without_the_marker_is_never_replaced_even_holding_an_outputs_files(tmp_path, kind, files):
+    # the files such an output holds, but no .nlupdate-output.json: nothing says nlupdate wrote
+    # them (a copy, a folder of the user's named alike, files under plots/), so nothing is removed
     old = tmp_path / "old"
-    old.mkdir()
-    (old / "identification.json").write_text("{}")
-    (old / "fit.png").write_bytes(b"png")
-    check_replaceable(old, "identification")
-    (old / "thesis.tex").write_text("x")
-    with pytest.raises(NotAnOutputError, match="holds files nlupdate did not write there \\(thesis.tex\\)"):
-        check_replaceable(old, "identification")
-    with pytest.raises(NotAnOutputError, match="is not an nlupdate archive output"):
-        check_replaceable(old, "archive")
+    for name, text in files.items():
+        (old / name).parent.mkdir(parents=True, exist_ok=True)
+        (old / name).write_text(text)
+    before = snapshot(old)
+    top = ", ".join(sorted({name.split("/")[0] for name in files}))
+    with pytest.raises(NotAnOutputError) as refused:
+        check_replaceable(old, kind)
+    assert str(refused.value) == (f"{old}: is not an nlupdate {kind} output (it holds {top}); --overwrite replaces "
+                                  f"only a folder nlupdate wrote; choose a new or empty folder")
+    with pytest.raises(NotAnOutputError, match=f"is not an nlupdate {kind} output"):
+        with atomic_directory(old, on_exists="replace", kind=kind) as out:
+            (out.path / "new.json").write_text("{}")
+    assert snapshot(old) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old"]  # no new output left beside it
 
 
 def test_an_output_of_another_kind_is_not_replaced(tmp_path):

@@ -231,17 +231,8 @@ def _rename_to_free_name(folder: Path, final: Path) -> Path:
 
 
 #: The file that marks a folder as an output nlupdate wrote (and lists what it wrote there).
+#: A folder without it is never replaced, whatever files it holds.
 OUTPUT_MARKER = ".nlupdate-output.json"
-#: What each kind of output held before folders carried :data:`OUTPUT_MARKER`: its main
-#: file and every entry it could have.
-LEGACY_OUTPUTS = {
-    "archive": ("manifest.json", {"manifest.json", "report.md", "study.toml", "tables", "plots", "inputs",
-                                  "identification.json"}),
-    "identification": ("identification.json", {"identification.json", "linear_frf.parquet", "fit.png",
-                                               "linear_frf.png"}),
-    "discovery": ("discovery.json", {"discovery.json", "augmented_model.toml", "frf_levels.png",
-                                     "describing_function.png", "gap_per_level.png"}),
-}
 
 
 class NotAnOutputError(FileExistsError):
@@ -267,8 +258,7 @@ def _listing(names: list[str], limit: int = 4) -> str:
 def check_replaceable(folder: str | os.PathLike, kind: str | None) -> None:
     """:class:`NotAnOutputError` unless ``folder`` is empty or an output of ``kind`` that
     nlupdate wrote and that holds nothing else: its :data:`OUTPUT_MARKER` lists every
-    entry (or, for outputs written before markers, its main file is there and every entry
-    is one such an output has, :data:`LEGACY_OUTPUTS`)."""
+    entry, at any depth."""
     folder = Path(folder)
     present = sorted(entry.name for entry in folder.iterdir())
     if not present:
@@ -289,13 +279,6 @@ def check_replaceable(folder: str | os.PathLike, kind: str | None) -> None:
             raise NotAnOutputError(f"{folder}: holds files nlupdate did not write there ({_listing(foreign)}); "
                                    f"not replaced")
         return
-    legacy = LEGACY_OUTPUTS.get(kind or "")
-    if legacy is not None and legacy[0] in present:
-        foreign = [name for name in present if name not in legacy[1]]
-        if not foreign:
-            return
-        raise NotAnOutputError(f"{folder}: holds files nlupdate did not write there ({_listing(foreign)}); "
-                               f"not replaced")
     raise NotAnOutputError(f"{folder}: is not {what} (it holds {_listing(present)}); --overwrite replaces only "
                            f"a folder nlupdate wrote; choose a new or empty folder")
 
