@@ -3,7 +3,8 @@
 References independent of the fit: the exact response of two modal oscillators to a
 half-sine hammer pulse (scipy's LTI simulation), the RK4 free decay of an SDOF with an Iwan
 joint against its describing-function backbone (tests/test_ring_down.py), and, on the
-Brake–Reuss beam's public HammerImpact.mat, the ring-down estimator's envelope method on the
+Brake–Reuss beam's public hammer-impact record (tests/data/brb/HammerImpact_1600Hz.mat,
+a decimated excerpt of HammerImpact.mat), the ring-down estimator's envelope method on the
 same record (a different method: its lowest-amplitude samples must lie on the same backbone).
 """
 from __future__ import annotations
@@ -82,7 +83,7 @@ def test_iwan_decay_gives_the_backbone_at_its_quietest_part(iwan_record):
 
 
 def test_brb_hammer_impact_continues_the_ring_down_backbone():
-    columns = read_channels(BRB / "HammerImpact.mat")
+    columns = read_channels(BRB / "HammerImpact_1600Hz.mat")
     assert list(columns) == ["time_s", "acc1", "acc2", "acc3"]
     t, responses, force = split_force(columns, "acc3")
     assert force is None and t[0] == pytest.approx(-0.01)
@@ -95,8 +96,12 @@ def test_brb_hammer_impact_continues_the_ring_down_backbone():
     assert ring.frequency_hz[lowest] < fit.frequency_hz < ring.frequency_hz[lowest] * 1.002
     assert 0.7 * ring.damping_ratio[lowest] < fit.damping_ratio < ring.damping_ratio[lowest]
     assert fit.frequency_std_hz < 0.01 and fit.damping_std < 1e-4
-    every = fit_linear_limit(*split_force(columns, None)[:2], (60, 100))  # acc2's decay ends early: left out
-    assert every.frequency_hz == pytest.approx(fit.frequency_hz, abs=3 * fit.frequency_std_hz + 3e-3)
+    # all channels (acc2's decay ends early: left out): their quietest common part is no
+    # quieter than acc3's alone, so it sits on the same softening backbone at or below
+    # acc3's linear limit and above the ring-down's quietest sample
+    every = fit_linear_limit(*split_force(columns, None)[:2], (60, 100))
+    assert every.amplitude_range[1] >= fit.amplitude_range[1]
+    assert ring.frequency_hz[lowest] < every.frequency_hz <= fit.frequency_hz + 3 * fit.frequency_std_hz
 
 
 def test_bad_impact_records_are_refused(tmp_path):
@@ -144,9 +149,9 @@ def test_an_impact_alone_gives_a_linear_limit_model_with_its_band(tmp_path):
     """``nlupdate amplitude --impact`` alone: the model is the linear limit (no amplitude
     dependence, usable as an updating target), backbone.csv carries the pole's 95 % interval."""
     out = tmp_path / "amm"
-    assert main(["amplitude", "--impact", str(BRB / "HammerImpact.mat"), "--channel", "acc3", "--band", "60:100",
+    assert main(["amplitude", "--impact", str(BRB / "HammerImpact_1600Hz.mat"), "--channel", "acc3", "--band", "60:100",
                  "--response-unit", "m/s^2", "--shape", "acc3=0.7271", "--out", str(out)]) == 0
-    columns = read_channels(BRB / "HammerImpact.mat")
+    columns = read_channels(BRB / "HammerImpact_1600Hz.mat")
     fit = fit_linear_limit(*split_force(columns, "acc3")[:2], (60, 100))
     model = json.loads((out / "amplitude_model.json").read_text())
     assert model["natural_frequency_hz"] == pytest.approx(fit.frequency_hz, rel=1e-12)
