@@ -25,16 +25,19 @@ from nlupdate.core.identification.ring_down import RingDownError, estimate_ring_
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
 
 
-def add_source_options(parser: argparse.ArgumentParser) -> None:
+def add_source_options(parser: argparse.ArgumentParser, response_controlled: bool = True) -> None:
+    """The test-type options; ``response_controlled`` False leaves out ``--response-controlled``
+    (``nlupdate validate`` reads those runs from its ``--measured`` MATLAB files)."""
     parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
                         help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
     parser.add_argument("--ring-down-fit", choices=("envelope", "segments"), default="envelope",
                         help="how a ring-down is read: envelope (differentiated envelope and phase, default) or "
                              "segments (a complex exponential fit of each part over which the envelope falls by 1.5: "
                              "fewer samples, robust to noise)")
-    parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
-                        help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
-                             "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
+    if response_controlled:
+        parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
+                            help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
+                                 "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
     parser.add_argument("--phase-resonance", action="append", default=[], metavar="FILE",
                         help="phase-resonance points (.csv: frequency_hz, force_n, response_amplitude, "
                              "response_phase_deg, optional response_unit, response_dof, input_dof; or .mat runs): one "

@@ -13,7 +13,10 @@ DIR/held_out_<level>.png per level and DIR/validation.png (errors per level and 
 Response-controlled runs in a MATLAB stepped-sine file (--response-controlled auto, the
 default) are predicted from all force-controlled levels at their held amplitude and
 compared the same way: validation.json's response_controlled list and
-DIR/response_controlled.png.
+DIR/response_controlled.png. --hold-out-type TYPE holds out a whole test type instead
+(stepped sine, ring-down, phase resonance, …: the sources of ``nlupdate amplitude``):
+the amplitude-dependent modal model fitted on the others predicts it
+(:mod:`nlupdate.app.cli.validate_type`).
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ from nlupdate.app.cli import CliError, add_command
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, read_options
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
+from nlupdate.app.cli.validate_type import add_type_options, run_held_type
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
@@ -40,7 +44,8 @@ from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "validate", __doc__)
-    add_measured_options(parser, "the curves are cut to before any fit (default: every measured line)")
+    add_measured_options(parser, "the curves are cut to before any fit (default: every measured line); of a ring-down, "
+                                 "its band-pass", required=False)
     parser.add_argument("--input-dof", help="excited coordinate of the driving-point curve (default: the only one)")
     parser.add_argument("--hold-out", default="each", metavar="LEVELS",
                         help="each (default: every level in turn), top (the highest: extrapolation) or levels, "
@@ -52,6 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--response-controlled", choices=("auto", "off"), default="auto",
                         help="auto (default): predict the response-controlled runs of the --measured MATLAB files from "
                              "all force-controlled levels; off: do not")
+    add_type_options(parser)
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
     parser.set_defaults(run=run)
@@ -101,6 +107,10 @@ def _plot_name(level: float, model: str, several: bool) -> str:
 
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
+    if args.hold_out_type:
+        return run_held_type(args, out, _curve)
+    if not args.measured:
+        raise CliError("--measured FILE: the measured FRFs whose levels are held out (or --hold-out-type TYPE)")
     models = _models(args.model)
     table, notes = measured_table(args, find_band=True)
     print_notes(notes)

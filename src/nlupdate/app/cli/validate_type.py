@@ -1,0 +1,93 @@
+"""``nlupdate validate --hold-out-type TYPE``: a whole test type held out.
+
+The amplitude-dependent modal model (``nlupdate amplitude``'s) is fitted on every other test
+type given and predicts the held-out type's own observables
+(:mod:`nlupdate.core.validation.held_type`): a ring-down's frequency and damping against
+amplitude, the amplitude each phase-resonance force holds, each stepped-sine level's
+resonance, damping and peak. The sources are read as ``nlupdate amplitude`` reads them
+(:mod:`nlupdate.app.cli.amplitude_sources`); the stepped sine is ``--measured``, and with
+``--response-controlled auto`` the response-controlled runs of its MATLAB files are a source
+too. Writes DIR/validation.json (``held_out_type``) and DIR/held_out_type.png.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nlupdate.app.cli import CliError
+from nlupdate.app.cli.amplitude import _shapes
+from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
+from nlupdate.app.cli.measured import measured_table, print_notes
+from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
+from nlupdate.core.identification.backbone_samples import TEST_TYPES
+from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+from nlupdate.core.validation.held_type import hold_out_type
+from nlupdate.files import atomic_directory
+from nlupdate.reporting.figures import save_figure
+from nlupdate.reporting.held_type_plots import held_type_figure
+from nlupdate.reporting.jsonfile import write_json
+
+#: the test types a whole of which can be held out (a modal table is no test)
+HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
+#: --model names the type hold-out takes, and the amplitude backbone each fits
+BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polynomial": "polynomial"}
+
+
+def add_type_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--hold-out-type", choices=HELD_TYPES, metavar="TYPE",
+                        help="hold out a whole test type instead of levels: fit the amplitude-dependent modal model on "
+                             f"the other types and predict this one ({', '.join(HELD_TYPES)}); --model "
+                             "amplitude-iwan (auto) or amplitude-polynomial; needs --shape at the sensors")
+    add_source_options(parser, response_controlled=False)
+    parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
+                        help="with --hold-out-type: mass-normalised mode shape (1/√kg) at a coordinate (the stepped "
+                             "sine's input, a ring-down's channel), for one modal amplitude across the types")
+
+
+def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
+    """The type hold-out (module docstring); ``curve``: validate's reader of the driving-point
+    curves from a measured table (table, input dof, sources) → FRFLevels."""
+    backbone = BACKBONE_OF_MODEL.get(args.model)
+    if backbone is None:
+        raise CliError(f"--model {args.model}: with --hold-out-type, one of {', '.join(BACKBONE_OF_MODEL)}")
+    shapes = _shapes(args.shape)
+    sources, data = [], None
+    if args.measured:
+        table, notes = measured_table(args, find_band=True)
+        print_notes(notes)
+        data = curve(table, args.input_dof, ", ".join(args.measured))
+        if data.input_dof not in shapes:
+            raise CliError(f"--shape {data.input_dof}=VALUE: the stepped sine's modal amplitude needs the "
+                           f"mass-normalised shape (1/√kg) at its input {data.input_dof!r}")
+        sources.append((", ".join(args.measured), samples_from_frfs(data, shapes[data.input_dof]), None,
+                        "stepped-sine"))
+    reader = argparse.Namespace(**vars(args))
+    reader.response_controlled = ([p for p in args.measured or [] if p.lower().endswith(".mat")]
+                                  if args.response_controlled == "auto" else [])
+    try:
+        rings, _ = read_sources(reader, shapes)
+        result = hold_out_type(sources + rings, args.hold_out_type, tuple(shapes.items()), data, backbone)
+    except (AmplitudeModelError, ValueError) as error:
+        raise CliError(str(error)) from None
+    unit = data.reference_unit if data is not None else "N"
+    with atomic_directory(out, on_exists="replace") as archive:
+        write_json({"held_out_type": result.summary()}, archive.path / "validation.json")
+        save_figure(held_type_figure(result, unit), archive.path / "held_out_type.png")
+    kinds = ", ".join(f"{name} ({kind}, {n})" for name, kind, n in result.fitted_on)
+    print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: linear limit "
+          f"{result.model.natural_frequency_hz:.6g} Hz, {100 * result.model.damping_ratio:.4g} %")
+    if len(result.levels):
+        print(f"{'level':>10} {'resonance (Hz) meas/pred':>26} {'damping (%) meas/pred':>24} {'peak error (%)':>15}")
+        for row in result.levels.itertuples():
+            print(f"{row.level:>6.4g} {unit:<3} {row.resonance_hz_measured:12.5g} {row.resonance_hz_predicted:12.5g} "
+                  f"{100 * row.damping_ratio_measured:11.4g} {100 * row.damping_ratio_predicted:11.4g} "
+                  f"{100 * (row.peak_abs_predicted / row.peak_abs_measured - 1):+14.1f}"
+                  + ("" if row.within_fit else "  (outside the fitted amplitudes)"))
+    else:
+        inside = int(result.samples["within_fit"].sum())
+        print(f"{len(result.samples)} held-out samples, {inside} within the fitted amplitudes "
+              f"{result.fitted_range[0]:.3g}–{result.fitted_range[1]:.3g} m·√kg")
+    worst = ", ".join(f"{name} {100 * value:.3g} %" for name, value in result.worst().items())
+    print(f"largest relative error within the fitted amplitudes: {worst or 'none within'}")
+    print(f"wrote {out / 'validation.json'} and {out / 'held_out_type.png'}")
+    return 0

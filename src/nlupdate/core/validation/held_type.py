@@ -1,0 +1,171 @@
+"""Hold out a whole test type: fit the amplitude-dependent modal model on the other types and
+predict the held-out type's own observables (docs/validation.md, "A whole test type held out").
+
+The sources are those of ``nlupdate amplitude`` (stepped sine, response-controlled runs, phase
+resonance, ring-downs, impacts), each a list of backbone samples
+(:class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`). The kept sources are
+fitted jointly, each weighted by its own noise
+(:func:`~nlupdate.core.identification.backbone_samples.source_noise`; one source alone with the
+fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
+
+* ring-down, response-controlled, impact: each sample's natural frequency and damping ratio at
+  its modal amplitude (the amplitude-dependent model's backbone and damping curve);
+* phase resonance: the same, and the modal amplitude the model holds at each point's force
+  (``2ζ(a)ω(a)²a = |φ_f|F``);
+* stepped sine: each force level's FRF over its measured lines (single-nonlinear-mode theory,
+  :meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.frf`, the mode alone: the other
+  modes' share is not added), read by the same resonance estimator as the measured curve
+  (:mod:`nlupdate.core.validation.resonance`: resonance frequency, half-power damping ratio,
+  peak |H|).
+
+Errors are relative (predicted / measured − 1); a resonance frequency's also in Hz. A sample
+is ``within_fit`` when its modal amplitude lies inside the range the kept sources cover
+(interpolated, not extrapolated); a stepped-sine level when its predicted peak amplitude does.
+Bands: the test's repeatability (:func:`~nlupdate.core.validation.held_out.repeatability`, the
+scatter of every level's resonance and damping about a line in log amplitude) around a
+stepped-sine level's measured resonance and damping ratio — the band a prediction within the
+test's own scatter falls in; the fits of the other types give no covariance, so sample
+predictions have none (``low``/``high`` absent).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.backbone_samples import held_out_errors, join_samples, source_noise
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+from nlupdate.core.validation.held_out import repeatability
+from nlupdate.core.validation.resonance import resonance
+
+#: (source name, samples, stated relative (frequency, damping) standard deviations or None, test type)
+Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
+
+
+@dataclass(frozen=True, eq=False)
+class HeldType:
+    """One held-out test type: the model fitted without it, the modal amplitudes (m·√kg) the
+    kept sources cover, per-sample predictions (:func:`held_out_errors`' table; empty for
+    stepped sine) and per-level predictions of a held stepped sine (one row per level:
+    ``level``, ``within_fit``, and measured/predicted/low/high of ``resonance_hz``,
+    ``damping_ratio``, ``peak_abs``; empty otherwise)."""
+
+    test_type: str
+    model: AmplitudeModalModel
+    fitted_on: tuple[tuple[str, str, int], ...]
+    fitted_range: tuple[float, float]
+    samples: pd.DataFrame
+    levels: pd.DataFrame
+
+    def summary(self) -> dict:
+        """validation.json's ``held_out_type`` entry."""
+        out = {"test_type": self.test_type,
+               "fitted_on": [{"source": s, "test_type": t, "samples": n} for s, t, n in self.fitted_on],
+               "fitted_modal_amplitude": list(self.fitted_range),
+               "model": self.model.to_dict(), "samples": [], "levels": []}
+        for row in self.samples.itertuples():
+            entry = {"source": row.source, "modal_amplitude": row.modal_amplitude, "within_fit": bool(row.within_fit),
+                     "natural_frequency_hz": _compared(row.natural_frequency_hz, row.predicted_frequency_hz),
+                     "damping_ratio": _compared(row.damping_ratio, row.predicted_damping_ratio)}
+            if np.isfinite(row.predicted_amplitude):
+                entry["modal_amplitude_held"] = _compared(row.modal_amplitude, row.predicted_amplitude)
+            out["samples"].append(entry)
+        for row in self.levels.to_dict("records"):
+            entry = {"level": row["level"], "within_fit": bool(row["within_fit"]),
+                     "half_power_lines": int(row["half_power_lines"])}
+            for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+                entry[name] = _compared(row[f"{name}_measured"], row[f"{name}_predicted"], row.get(f"{name}_low"),
+                                        row.get(f"{name}_high"))
+            out["levels"].append(entry)
+        out["worst_within_fit"] = self.worst()
+        return out
+
+    def worst(self) -> dict[str, float]:
+        """Largest |relative error| of each predicted quantity over what lies within the fit."""
+        worst: dict[str, float] = {}
+        inside = self.samples[self.samples["within_fit"]] if len(self.samples) else self.samples
+        for name, column in (("natural_frequency_hz", "frequency_error"), ("damping_ratio", "damping_error"),
+                             ("modal_amplitude_held", "amplitude_error")):
+            if len(inside) and inside[column].notna().any():
+                worst[name] = float(inside[column].abs().max())
+        levels = self.levels[self.levels["within_fit"]] if len(self.levels) else self.levels
+        for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+            if len(levels):
+                errors = levels[f"{name}_predicted"] / levels[f"{name}_measured"] - 1
+                if errors.notna().any():
+                    worst[name] = float(errors.abs().max())
+        return worst
+
+
+def _compared(measured: float, predicted: float, low: float | None = None, high: float | None = None) -> dict:
+    out = {"measured": float(measured), "predicted": float(predicted),
+           "error": float(predicted - measured), "relative_error": float(predicted / measured - 1)}
+    if low is not None and high is not None and np.isfinite(low) and np.isfinite(high):
+        out.update(low=float(low), high=float(high), inside=bool(low <= predicted <= high))
+    return out
+
+
+def fit_sources(kept: Sequence[Source], shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
+                order: int = 2, mode: int = 1) -> AmplitudeModalModel:
+    """The amplitude model of the kept sources jointly, each weighted by its noise (module
+    docstring)."""
+    samples = join_samples([s for _, s, _, _ in kept])
+    if samples.amplitude.size < 2:
+        raise AmplitudeModelError("the sources kept give one sample (an impact's linear limit): a backbone needs "
+                                  "more; keep another test type")
+    if len(kept) == 1:
+        return fit_amplitude_model(samples, shapes, backbone, order, mode=mode)
+    noises = [source_noise(s, stated) for _, s, stated, _ in kept]
+    stds = [np.concatenate([np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(kept, noises)])
+            for k in (0, 1)]
+    return fit_amplitude_model(samples, shapes, backbone, order, *stds, mode=mode)
+
+
+def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_range: tuple[float, float]) -> pd.DataFrame:
+    """Each level's measured and predicted resonance (module docstring), with the test's
+    repeatability band about the measured resonance and damping ratio (needs ≥ 3 levels)."""
+    repeat = repeatability(data)
+    rows = []
+    for level in data.levels:
+        f, h = data.curve(level)
+        measured = resonance(f, h)
+        predicted = resonance(f, model.frf(f, float(level), data.response_dof, data.input_dof))
+        amplitude = predicted.peak_abs * float(level) / abs(model.shape(data.response_dof))  # a = |X_r|/|φ_r|
+        row = {"level": float(level), "half_power_lines": measured.half_power_lines,
+               "within_fit": bool(fitted_range[0] * (1 - 1e-9) <= amplitude <= fitted_range[1] * (1 + 1e-9))}
+        for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+            row[f"{name}_measured"], row[f"{name}_predicted"] = getattr(measured, name), getattr(predicted, name)
+        if np.isfinite(repeat.resonance_hz):
+            for name, sigma in (("resonance_hz", repeat.resonance_hz), ("damping_ratio", repeat.damping_ratio)):
+                row[f"{name}_low"], row[f"{name}_high"] = (getattr(measured, name) - 1.96 * sigma,
+                                                           getattr(measured, name) + 1.96 * sigma)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tuple[str, float]],
+                  data: FRFLevels | None = None, backbone: str = "iwan", order: int = 2) -> HeldType:
+    """Fit on every source not of ``test_type`` and predict those of it (module docstring);
+    ``data``: the stepped-sine curves, needed when ``test_type`` is ``stepped-sine``."""
+    held = [s for s in sources if s[3] == test_type]
+    kept = [s for s in sources if s[3] != test_type]
+    if not held:
+        raise AmplitudeModelError(f"hold-out type {test_type}: no source of that type is given")
+    if not kept:
+        raise AmplitudeModelError(f"hold-out type {test_type}: every source is of that type; give another to fit")
+    model = fit_sources(kept, shapes, backbone, order)
+    fitted = join_samples([s for _, s, _, _ in kept]).amplitude
+    fitted_range = (float(fitted.min()), float(fitted.max()))
+    if test_type == "stepped-sine":
+        if data is None:
+            raise AmplitudeModelError("hold-out type stepped-sine: the measured curves are needed")
+        samples, levels = pd.DataFrame(), stepped_sine_levels(model, data, fitted_range)
+    else:
+        samples = held_out_errors(model, [(name, s, kind) for name, s, _, kind in held], fitted_range)
+        levels = pd.DataFrame()
+    return HeldType(test_type, model, tuple((name, kind, int(s.amplitude.size)) for name, s, _, kind in kept),
+                    fitted_range, samples, levels)

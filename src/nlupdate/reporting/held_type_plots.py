@@ -1,0 +1,51 @@
+"""The figure of ``nlupdate validate --hold-out-type``: the held-out test type measured
+against what the model fitted on the other types predicts."""
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
+
+from nlupdate.core.validation.held_type import HeldType
+
+
+def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
+    """Two panels, natural frequency (or resonance) and damping ratio: for held-out samples
+    against modal amplitude (measured marks, the model's curve, the fitted sources' range
+    shaded); for held-out stepped-sine levels against force level (measured and predicted,
+    the repeatability band about the measured values where there is one)."""
+    fig = Figure(figsize=(10, 4.2))
+    axes = fig.subplots(1, 2)
+    fitted = ", ".join(sorted({kind for _, kind, _ in result.fitted_on}))
+    if len(result.levels):
+        rows = result.levels
+        for ax, name, scale, label in ((axes[0], "resonance_hz", 1.0, "resonance (Hz)"),
+                                       (axes[1], "damping_ratio", 100.0, "half-power damping ratio (%)")):
+            x = rows["level"].to_numpy()
+            if f"{name}_low" in rows:
+                ax.fill_between(x, scale * rows[f"{name}_low"], scale * rows[f"{name}_high"], color="0.85",
+                                label="measured ± 95 % repeatability")
+            ax.semilogx(x, scale * rows[f"{name}_measured"], "o", mfc="none", label="measured (held out)")
+            ax.semilogx(x, scale * rows[f"{name}_predicted"], "x-", label=f"predicted from {fitted}")
+            ax.set_xlabel(f"force level ({unit})")
+            ax.set_ylabel(label)
+    else:
+        rows = result.samples
+        a = rows["modal_amplitude"].to_numpy()
+        grid = np.geomspace(min(a.min(), result.fitted_range[0]), max(a.max(), result.fitted_range[1]), 200)
+        for ax, measured, curve, scale, label in (
+                (axes[0], "natural_frequency_hz", result.model.frequency_hz(grid), 1.0, "natural frequency (Hz)"),
+                (axes[1], "damping_ratio", result.model.damping(grid), 100.0, "damping ratio (%)")):
+            ax.axvspan(*result.fitted_range, color="0.9", label="amplitudes of the fitted types")
+            ax.semilogx(a, scale * rows[measured], "o", ms=4, mfc="none", label=f"{result.test_type} (held out)")
+            ax.semilogx(grid, scale * curve, "-", color="black", label=f"predicted from {fitted}")
+            ax.set_xlabel("modal amplitude (m·√kg)")
+            ax.set_ylabel(label)
+    for ax in axes:
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{result.test_type} held out, predicted by the {result.model.backbone} model of {fitted}",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
