@@ -65,6 +65,7 @@ def pytest_unconfigure(config):
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
 #: leave long modules of few tests for the end), so the two workers finish together.
 LONGEST_MODULES = (
+    "test_brb_example.py", "test_reduction_nonlinear.py",
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
     "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
@@ -80,8 +81,7 @@ LONGEST_MODULES = (
     "test_reporting_plots.py", "test_frf_speed_benchmark.py", "test_identification_prd.py",
     "test_reporting_archive.py", "test_updating_stops.py", "test_time_integration.py", "test_input_expansion.py",
     "test_identification_single_frequency.py", "test_server_app.py", "test_weak_messages.py", "test_partition.py",
-    "test_discovery_places.py", "test_calculix_reduction.py", "test_bands.py", "test_brb_example.py",
-    "test_reduction_nonlinear.py",
+    "test_discovery_places.py", "test_calculix_reduction.py", "test_bands.py",
 )
 
 

@@ -94,7 +94,8 @@ def test_the_example_runs_from_its_readme(tmp_path):
     path.write_text(study)
     archive = tmp_path / "out"
     subprocess.run([sys.executable, "-m", "nlupdate", "update", str(path), "--out", str(archive)], check=True, timeout=1200)
-    subprocess.run([sys.executable, str(ROOT / "examples" / "brb" / "predict_runs.py"), str(archive)], check=True, timeout=1800)
+    subprocess.run([sys.executable, str(ROOT / "examples" / "brb" / "predict_runs.py"), str(archive), "--fit-evaluations", "4"],
+                   check=True, timeout=1800)
     modes = pd.read_parquet(archive / "tables" / "fe_modes.parquet")
     paired = modes.dropna(subset=["frequency_hz_measured"])
     error = (paired.frequency_hz / paired.frequency_hz_measured - 1).abs().groupby(paired.model).max()

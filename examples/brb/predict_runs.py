@@ -176,7 +176,7 @@ def shaker_mass(adapter: BRBAdapter, parameters: dict, forced_low: dict, impact_
     return max(((impact_hz / forced_hz) ** 2 - 1) / phi**2, 0.0)
 
 
-def identify_joint(adapter, parameters, damping_ratio, runs, mass: float) -> tuple[dict, dict]:
+def identify_joint(adapter, parameters, damping_ratio, runs, mass: float, max_evaluations: int = 60) -> tuple[dict, dict]:
     """Slip force F_S (N) and χ of the three identical Iwan elements (β = 0), and the linear damping
     ratio with the shaker attached, from the force-controlled runs: least squares of the relative
     peak and half-power damping errors of every run."""
@@ -194,14 +194,14 @@ def identify_joint(adapter, parameters, damping_ratio, runs, mass: float) -> tup
 
     fit = scipy.optimize.least_squares(residuals, x0=[np.log(1000.0), -0.3, np.log(damping_ratio)],
                                        bounds=([np.log(10.0), -0.95, np.log(1e-4)], [np.log(1e6), 0.0, np.log(0.05)]),
-                                       x_scale=[1.0, 0.2, 0.3], diff_step=[1e-3, 1e-2, 1e-3], max_nfev=60)
+                                       x_scale=[1.0, 0.2, 0.3], diff_step=[1e-3, 1e-2, 1e-3], max_nfev=max_evaluations)
     joint = {"slip_force": float(np.exp(fit.x[0])), "chi": float(fit.x[1]), "beta": 0.0,
              "damping_ratio_forced": float(np.exp(fit.x[2]))}
     return joint, {"rms_residual": float(np.sqrt(np.mean(fit.fun**2))), "residuals": fit.fun.tolist(),
                    "evaluations": int(fit.nfev), "status": fit.message}
 
 
-def run(archive: Path, data: Path = DATA) -> dict:
+def run(archive: Path, data: Path = DATA, max_evaluations: int = 60) -> dict:
     started, cpu = time.perf_counter(), time.process_time()
     study = tomllib.loads((archive / "study.toml").read_text())
     adapter = from_options(dict(study["adapter"].get("options", {})))
@@ -222,7 +222,7 @@ def run(archive: Path, data: Path = DATA) -> dict:
     runs = measured_runs(data / "ForcedFrequencyResponses.mat")
     impact_hz = float(pairing[min(pairing)])
     mass = shaker_mass(adapter, updated, runs[0], impact_hz)
-    joint, fit = identify_joint(adapter, updated, damping_ratio, runs, mass)
+    joint, fit = identify_joint(adapter, updated, damping_ratio, runs, mass, max_evaluations)
 
     rows = []
     for label, parameters in (("initial", initial), ("updated", updated)):
@@ -256,13 +256,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("archive", type=Path, help="the archive of `nlupdate run examples/brb/brb.toml --out DIR`")
     parser.add_argument("--data", type=Path, default=DATA, help="folder of ForcedFrequencyResponses.mat (and HammerImpact.mat)")
+    parser.add_argument("--fit-evaluations", type=int, default=60, help="limit on the joint fit's model evaluations (default 60)")
     args = parser.parse_args(argv)
     args.archive = find_archive(args.archive)
     if not (args.archive / "study.toml").is_file() or not (args.archive / "tables" / "runs.parquet").is_file():
         print(f"predict_runs.py: error: {args.archive}: not the archive of an updating study (no study.toml or "
               "tables/runs.parquet); run `nlupdate run examples/brb/brb.toml --out DIR` first", file=sys.stderr)
         return 2
-    result = run(args.archive, args.data)
+    if args.fit_evaluations < 1:
+        print(f"predict_runs.py: error: --fit-evaluations must be ≥ 1, got {args.fit_evaluations}", file=sys.stderr)
+        return 2
+    result = run(args.archive, args.data, args.fit_evaluations)
     pd.set_option("display.width", 200)
     print(result["modes"].to_string(index=False))
     j = result["joint"]
