@@ -109,18 +109,22 @@ def _run_ccx(folder: Path, deck: str) -> str:
 def _ssd(text: str, node_set: str, column: int) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies (Hz) and complex displacement of ``node_set`` (one node) from a steady-state ``.dat``:
     ccx prints each frequency's real part, then its imaginary part."""
-    rows = re.findall(rf"displacements \(vx,vy,vz\) for set {node_set} and time\s+(\S+)\s*\n\s*\n\s*\d+\s+(\S+)\s+(\S+)\s+(\S+)", text)
+    pattern = rf"displacements \(vx,vy,vz\) for set {node_set} and time\s+(\S+)\s*\n\s*\n\s*\d+\s+(\S+)\s+(\S+)\s+(\S+)"
+    rows = re.findall(pattern, text)
     table = np.array([[float(value) for value in row] for row in rows])
     return table[0::2, 0], table[0::2, column] + 1j * table[1::2, column]
 
 
 def test_matrices_give_ccx_own_eigenvalues(jointed, matrices, tmp_path):
-    """The springs' deck through MATRIXSTORAGE and through ccx's *FREQUENCY: the same 8 eigenvalues (ccx prints 7 digits)."""
+    """The springs' deck through MATRIXSTORAGE and through ccx's *FREQUENCY: the same 8 eigenvalues
+    (ccx prints 7 digits)."""
     model, springs, _, _ = jointed
     with_springs = CalculixMatrices().assemble(model + springs, "with-springs")
     text = _run_ccx(tmp_path, model + springs + "*STEP\n*FREQUENCY\n8\n*END STEP\n")
-    ccx = np.array([float(row) for row in re.findall(r"^\s+\d+\s+(\S+)\s+\S+\s+\S+\s+\S+\s*$", text, flags=re.MULTILINE)[:8]])
-    ours = scipy.linalg.eigh(with_springs.stiffness.toarray(), with_springs.mass.toarray(), eigvals_only=True, subset_by_index=[0, 7])
+    rows = re.findall(r"^\s+\d+\s+(\S+)\s+\S+\s+\S+\s+\S+\s*$", text, flags=re.MULTILINE)[:8]
+    ccx = np.array([float(row) for row in rows])
+    ours = scipy.linalg.eigh(with_springs.stiffness.toarray(), with_springs.mass.toarray(), eigvals_only=True,
+                             subset_by_index=[0, 7])
     np.testing.assert_allclose(ours, ccx, rtol=2e-6)
 
 
@@ -165,7 +169,8 @@ def test_reduced_frf_matches_ccx_steady_state_dynamics(jointed, matrices, tmp_pa
     truncation_error = np.max(np.abs(truncated / exact - 1))
     reduction_error = np.max(np.abs(reduced_grid / exact - 1))
     print(f"\nmax |H/H_full − 1| at the tip, {BAND_HZ[0]}–{BAND_HZ[1]} Hz: Craig–Bampton (20 modes) "
-          f"{reduction_error:.2e}, modal truncation (6 modes, up to {np.sqrt(values[-1]) / 2 / np.pi:.0f} Hz) {truncation_error:.2e}")
+          f"{reduction_error:.2e}, modal truncation (6 modes, up to {np.sqrt(values[-1]) / 2 / np.pi:.0f} Hz) "
+          f"{truncation_error:.2e}")
     assert truncation_error > 20 * reduction_error
 
 
@@ -193,9 +198,11 @@ def test_free_free_bar_first_bending_against_euler_bernoulli():
     lines = ["*NODE"] + [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(mesh.nodes)]
     lines.append("*ELEMENT, TYPE=C3D20, ELSET=EALL")
     _elements(lines, mesh.elements + 1, 1)
-    lines += ["*MATERIAL, NAME=S", "*ELASTIC", "193e9, 0.29", "*DENSITY", "8000", "*SOLID SECTION, ELSET=EALL, MATERIAL=S"]
+    lines += ["*MATERIAL, NAME=S", "*ELASTIC", "193e9, 0.29", "*DENSITY", "8000",
+              "*SOLID SECTION, ELSET=EALL, MATERIAL=S"]
     bar = CalculixMatrices().assemble("\n".join(lines) + "\n", "bar")
-    values, vectors = scipy.sparse.linalg.eigsh(bar.stiffness, k=10, M=bar.mass, sigma=-1e4)  # a shift well clear of the six zero eigenvalues
+    # a shift well clear of the six zero eigenvalues (σ = −1 converged to the wrong values)
+    values, vectors = scipy.sparse.linalg.eigsh(bar.stiffness, k=10, M=bar.mass, sigma=-1e4)
     y_share = np.array([np.sum(vectors[bar.directions == 2, j] ** 2) / np.sum(vectors[:, j] ** 2) for j in range(10)])
     elastic = (values > 1.0) & (y_share > 0.5)
     first_y = np.sqrt(np.min(values[elastic])) / (2 * np.pi)

@@ -77,7 +77,8 @@ def nonlinear_model(adapter: BRBAdapter, parameters: dict, damping_ratio: float,
     mass = reduced.mass.copy()
     drive = reduced.index(DRIVE)
     mass[drive, drive] += shaker_mass
-    stiffness = reduced.stiffness + joint_stiffness(reduced, springs["kt"], springs["kn"], springs["kr"], tangential_x=False)
+    stiffness = reduced.stiffness + joint_stiffness(reduced, springs["kt"], springs["kn"], springs["kr"],
+                                                    tangential_x=False)
     elements = [{"type": "iwan", "dofs": [f"{bolt}_a:ux", f"{bolt}_b:ux"], "kt": springs["kt"],
                  "slip_force": joint["slip_force"], "chi": joint["chi"], "beta": joint["beta"]} for bolt in BOLTS]
     return system_from_dict({"model": {"kind": "lumped", "mass": mass.tolist(), "stiffness": stiffness.tolist(),
@@ -158,7 +159,8 @@ def predict(system, run: dict, margin_hz: float = 0.0) -> dict[str, float]:
     frequency = run["frequency_hz"]
     step = float(np.median(np.diff(frequency)))
     extra = int(round(margin_hz / step))
-    grid = np.concatenate([frequency[0] - step * np.arange(extra, 0, -1), frequency, frequency[-1] + step * np.arange(1, extra + 1)])
+    below, above = frequency[0] - step * np.arange(extra, 0, -1), frequency[-1] + step * np.arange(1, extra + 1)
+    grid = np.concatenate([below, frequency, above])
     if run["control"] == "force":
         h, _ = harmonic_response(system, grid, force_n=np.interp(grid, frequency, run["force_n"]))
     else:
@@ -176,7 +178,8 @@ def shaker_mass(adapter: BRBAdapter, parameters: dict, forced_low: dict, impact_
     return max(((impact_hz / forced_hz) ** 2 - 1) / phi**2, 0.0)
 
 
-def identify_joint(adapter, parameters, damping_ratio, runs, mass: float, max_evaluations: int = 60) -> tuple[dict, dict]:
+def identify_joint(adapter, parameters, damping_ratio, runs, mass: float,
+                   max_evaluations: int = 60) -> tuple[dict, dict]:
     """Slip force F_S (N) and χ of the three identical Iwan elements (β = 0), and the linear damping
     ratio with the shaker attached, from the force-controlled runs: least squares of the relative
     peak and half-power damping errors of every run."""
@@ -230,7 +233,8 @@ def run(archive: Path, data: Path = DATA, max_evaluations: int = 60) -> dict:
         for test in runs:
             measured, predicted = features(test["frequency_hz"], test["h"]), predict(system, test, margin_hz=2.5)
             rows.append({"run": test["run"], "control": test["control"], "level": test["level"], "model": label,
-                         **{f"{q}_measured": measured[q] for q in measured}, **{f"{q}_predicted": predicted[q] for q in predicted}})
+                         **{f"{q}_measured": measured[q] for q in measured},
+                         **{f"{q}_predicted": predicted[q] for q in predicted}})
     validation = pd.DataFrame(rows)
     (archive / "tables").mkdir(exist_ok=True)
     pd.DataFrame(modes).to_parquet(archive / "tables" / "fe_modes.parquet", index=False)
@@ -255,8 +259,10 @@ def find_archive(folder: Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("archive", type=Path, help="the archive of `nlupdate run examples/brb/brb.toml --out DIR`")
-    parser.add_argument("--data", type=Path, default=DATA, help="folder of ForcedFrequencyResponses.mat (and HammerImpact.mat)")
-    parser.add_argument("--fit-evaluations", type=int, default=60, help="limit on the joint fit's model evaluations (default 60)")
+    parser.add_argument("--data", type=Path, default=DATA,
+                        help="folder of ForcedFrequencyResponses.mat (and HammerImpact.mat)")
+    parser.add_argument("--fit-evaluations", type=int, default=60,
+                        help="limit on the joint fit's model evaluations (default 60)")
     args = parser.parse_args(argv)
     args.archive = find_archive(args.archive)
     if not (args.archive / "study.toml").is_file() or not (args.archive / "tables" / "runs.parquet").is_file():
@@ -271,7 +277,8 @@ def main(argv: list[str] | None = None) -> int:
     print(result["modes"].to_string(index=False))
     j = result["joint"]
     print(f"\njoint: one Iwan element per bolt, F_S = {j['slip_force']:.4g} N, chi = {j['chi']:.3f}, beta = 0; linear "
-          f"damping ratio with the shaker {j['damping_ratio_forced']:.5f} (impact record: {result['linear_damping_ratio']:.5f}, "
+          f"damping ratio with the shaker {j['damping_ratio_forced']:.5f} "
+          f"(impact record: {result['linear_damping_ratio']:.5f}, "
           f"{result['linear_damping_source']}); shaker mass at acc3 {1e3 * result['shaker_mass_kg']:.1f} g; "
           f"fit rms {result['fit']['rms_residual']:.3f} over {len(result['fit']['residuals'])} residuals")
     v = result["validation"]

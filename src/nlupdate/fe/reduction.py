@@ -23,8 +23,8 @@ Craig–Bampton keeps those coordinates (the *boundary* set ``b``) as physical d
 * The coordinates the test measures (and drives) are boundary dofs too, so their FRF is
   read without any mode-shape recovery.
 
-Damping is not reduced here: the reduced model takes a loss factor or a damping matrix
-on the reduced coordinates (:meth:`ReducedModel.lumped`).
+Damping is not reduced here: a :class:`~nlupdate.core.model.linear.LumpedModel` of the
+reduced matrices takes a loss factor or a damping matrix on the reduced coordinates.
 
 Units: stiffness N/m (N/rad for rotations), mass kg; frequencies Hz.
 """
@@ -38,7 +38,6 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from nlupdate.core.model.linear import LumpedModel
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,19 +55,12 @@ class ReducedModel:
     n_boundary: int
     fixed_interface_hz: np.ndarray
 
-    def lumped(self, loss_factor: float = 0.0, damping: np.ndarray | None = None,
-               extra_stiffness: np.ndarray | None = None) -> LumpedModel:
-        """Lumped linear model on the reduced coordinates, structural damping ``D = loss_factor·K``
-        (K including ``extra_stiffness``, e.g. the joint's linear springs)."""
-        stiffness = self.stiffness if extra_stiffness is None else self.stiffness + extra_stiffness
-        structural = loss_factor * stiffness if loss_factor else None
-        return LumpedModel(self.mass, stiffness, damping, structural, self.dof_names)
-
     def index(self, name: str) -> int:
         try:
             return self.dof_names.index(name)
         except ValueError:
-            raise ValueError(f"{name!r} is not a coordinate of the reduced model; it has {list(self.dof_names[:self.n_boundary])}") from None
+            boundary = list(self.dof_names[: self.n_boundary])
+            raise ValueError(f"{name!r} is not a coordinate of the reduced model; it has {boundary}") from None
 
 
 def _fixed_interface_modes(k_ii, m_ii, solve, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -191,8 +183,3 @@ def rigid_patches(stiffness, mass, nodes: np.ndarray, directions: np.ndarray, co
     k = (transform.T @ scipy.sparse.csr_matrix(stiffness) @ transform).tocsr()
     m = (transform.T @ scipy.sparse.csr_matrix(mass) @ transform).tocsr()
     return k, m, kept, tuple(names)
-
-
-def receptance(model: LumpedModel, frequencies_hz: np.ndarray, rows: Sequence[int], columns: Sequence[int]) -> np.ndarray:
-    """H[rows, columns] (m/N) of a dense lumped model at each frequency: (P, len(rows), len(columns))."""
-    return model.receptance(2 * np.pi * np.asarray(frequencies_hz, dtype=float), list(rows), list(columns))

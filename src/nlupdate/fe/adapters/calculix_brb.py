@@ -120,7 +120,8 @@ class BRBModel:
         self.n_modes = int(n_modes)
 
     def fingerprint(self) -> str:
-        return fingerprint({"version": "brb-1", "mesh": self.mesh, "modes": self.n_modes, "defaults": BRB_DEFAULTS}, length=16)
+        return fingerprint({"version": "brb-1", "mesh": self.mesh, "modes": self.n_modes, "defaults": BRB_DEFAULTS},
+                           length=16)
 
     def build(self, parameters: Mapping[str, float] | None = None):
         """``(model_text, nodes (n, 3) m, sets)``: the CalculiX model data (two unconnected
@@ -183,12 +184,14 @@ class BRBModel:
                 distance = np.hypot(nodes[members - 1, 0] - point[0], nodes[members - 1, 2])
                 chosen = members[distance <= p["patch_radius"] * (1 + 1e-9)]
                 if chosen.size < 3:
-                    raise ValueError(f"BRB mesh: bolt {k + 1}'s patch holds {chosen.size} nodes of beam {side.upper()}; "
+                    raise ValueError(f"BRB mesh: bolt {k + 1}'s patch holds {chosen.size} nodes of beam "
+                                     f"{side.upper()}; "
                                      "refine the lap (n_lap, n_width) or widen patch_radius")
                 patches[f"{name}_{side}"] = (point, chosen)
         return patches
 
-    def reduced(self, parameters: Mapping[str, float] | None = None, matrices: CalculixMatrices | None = None) -> ReducedModel:
+    def reduced(self, parameters: Mapping[str, float] | None = None,
+                matrices: CalculixMatrices | None = None) -> ReducedModel:
         """Craig–Bampton model on the bolts' dofs (``bolt<k>_<a|b>:ux … :rz``), ``acc<i>:uy`` and
         ``n_modes`` fixed-interface modes (one ccx run for the matrices)."""
         model, nodes, sets = self.build(parameters)
@@ -196,7 +199,8 @@ class BRBModel:
         full = solver.assemble(model, fingerprint(self.fingerprint(), brb_parameters(parameters), length=16))
         positions = np.vstack([np.zeros(3), nodes])
         patches = self.bolt_patches(parameters, nodes, sets)
-        k, m, kept, patch_names = rigid_patches(full.stiffness, full.mass, full.nodes, full.directions, positions, patches)
+        k, m, kept, patch_names = rigid_patches(full.stiffness, full.mass, full.nodes, full.directions, positions,
+                                                patches)
         rows = list(range(kept.size, kept.size + len(patch_names)))
         names = list(patch_names)
         lookup = {(int(n), int(d)): i for i, (n, d) in enumerate(zip(full.nodes[kept], full.directions[kept]))}
@@ -212,7 +216,8 @@ def joint_stiffness(reduced: ReducedModel, kt: float, kn: float, kr: float, tang
     n = len(reduced.dof_names)
     springs = np.zeros((n, n))
     for bolt in BOLTS:
-        for axis, value in (("ux", kt if tangential_x else 0.0), ("uy", kn), ("uz", kt), ("rx", kr), ("ry", kr), ("rz", kr)):
+        for axis, value in (("ux", kt if tangential_x else 0.0), ("uy", kn), ("uz", kt),
+                            ("rx", kr), ("ry", kr), ("rz", kr)):
             if value:
                 i, j = reduced.index(f"{bolt}_a:{axis}"), reduced.index(f"{bolt}_b:{axis}")
                 springs[[i, j], [i, j]] += value
@@ -247,7 +252,8 @@ class BRBAdapter(FEAdapter):
             raise ValueError(f"n_modes must be a positive integer, got {n_modes!r}")
         self.model = BRBModel(mesh, fixed_interface_modes)
         self.n_modes = n_modes
-        self.matrices = CalculixMatrices(work_root=work_root, executable=executable, timeout_s=timeout_s, threads=threads)
+        self.matrices = CalculixMatrices(work_root=work_root, executable=executable, timeout_s=timeout_s,
+                                         threads=threads)
 
     def check_available(self) -> None:
         self.matrices.check_available()
@@ -296,13 +302,15 @@ class BRBAdapter(FEAdapter):
         elastic = np.flatnonzero(frequencies >= RIGID_BODY_HZ)[: self.n_modes]
         if elastic.size < self.n_modes:
             raise ValueError(f"BRB: {elastic.size} elastic modes in the reduced model, {self.n_modes} asked for")
-        coordinates = [f"{name}:uy" for name in ACCELEROMETERS] + [f"{bolt}_{side}:ux" for bolt in BOLTS for side in "ab"]
+        coordinates = [f"{name}:uy" for name in ACCELEROMETERS]
+        coordinates += [f"{bolt}_{side}:ux" for bolt in BOLTS for side in "ab"]
         rows = [reduced.index(name) for name in coordinates]
         return ModalResult(
             natural_frequencies_hz=frequencies[elastic],
             mode_shapes=vectors[np.ix_(rows, elastic)],
             coordinates=tuple(coordinates),
-            metadata={"solver": "calculix+craig-bampton", "mesh_size": None, "wall_time_s": time.perf_counter() - started,
+            metadata={"solver": "calculix+craig-bampton", "mesh_size": None,
+                      "wall_time_s": time.perf_counter() - started,
                       "log_path": None, "reduced_dofs": len(reduced.dof_names),
                       "rigid_body_hz": frequencies[:6].tolist()},
         )

@@ -20,7 +20,6 @@ import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import scipy.sparse
@@ -162,15 +161,3 @@ class CalculixMatrices:
         if self.runner.work_root is None:
             shutil.rmtree(run_dir, ignore_errors=True)
         return matrices
-
-
-def named_rows(matrices: FullMatrices, coordinates: Mapping[str, tuple[int, str]]) -> dict[str, int]:
-    """``{name: row}`` for ``{name: (node, "ux" | "uy" | "uz")}``."""
-    axes = {"ux": 1, "uy": 2, "uz": 3}
-    rows = {}
-    for name, (node, direction) in coordinates.items():
-        if direction not in axes:
-            raise ValueError(f"coordinate {name!r}: direction {direction!r} is not one of {sorted(axes)}")
-        rows[name] = matrices.index(int(node), axes[direction])
-    return rows
-
