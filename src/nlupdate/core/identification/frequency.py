@@ -46,7 +46,8 @@ from numpy.typing import ArrayLike
 from nlupdate.core.correlation.metrics import peak
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.modal_fit import fit_mode_near, resonance_crossings
-from nlupdate.core.identification.prd import DEFAULT_HALF_WINDOW, IdentificationError, Model, identify_prd, prd_setup
+from nlupdate.core.identification.prd import (DEFAULT_HALF_WINDOW, IdentificationError, Model, PRDResult, identify_prd,
+                                              prd_setup)
 
 
 @dataclass(frozen=True)
@@ -70,8 +71,11 @@ def recommend_frequency(
     half_window: float = DEFAULT_HALF_WINDOW,
     max_iterations: int = 8,
     tolerance: float = 0.005,
+    fits: dict[float, PRDResult] | None = None,
 ) -> FrequencyChoice:
-    """Measured frequency nearest to the natural frequency of the extracted linear FRF."""
+    """Measured frequency nearest to the natural frequency of the extracted linear FRF.
+    ``fits``, when given, receives the identification made at each visited frequency (Hz →
+    result): the caller fits at the chosen one again otherwise (a free Iwan fit: 2 s)."""
     first = prd_setup(data, _any_common(data, low_force, high_forces), low_force, high_forces)
     levels = (first.low_force,) + first.high_forces
     candidates = data.common_frequencies(levels)
@@ -87,6 +91,8 @@ def recommend_frequency(
         try:
             result = identify_prd(data, visited[-1], model, low_force=first.low_force, high_forces=first.high_forces,
                                   estimator=estimator, half_window=half_window)
+            if fits is not None:
+                fits[visited[-1]] = result
         except (IdentificationError, ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             return FrequencyChoice(visited[-1], tuple(visited), natural,
                                    f"stopped: identification failed at {visited[-1]:g} Hz ({error})")

@@ -228,18 +228,20 @@ def _model(settings: IdentificationSettings) -> PhysicalModel | PolynomialModel:
 
 
 def _fit(data: FRFLevels, settings: IdentificationSettings, frequency_hz: float | None,
-         model: PhysicalModel | PolynomialModel | None = None) -> PRDResult | DDFResult:
+         model: PhysicalModel | PolynomialModel | None = None,
+         first: PRDResult | DDFResult | None = None) -> PRDResult | DDFResult:
     """The nonlinearity fit alone (also each Monte-Carlo sample's, given the point estimate's
     ``model``); an Iwan joint no level drives into macroslip is refitted with what the data
     cannot show fixed (:func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`). A
     sample given such a refit model fits it at once, its φ_max moved to the sample's own
     largest amplitude — the refit its free fit would have led to; that free fit runs into
     the directions the data do not show (1000 evaluations, 1.8 s on the BRB) to be thrown
-    away."""
+    away. ``first``: the free fit of the settings' own model at ``frequency_hz``, when
+    already made (the PRD frequency choice fits there)."""
     def fit(model):
         return METHODS[settings.method].fit(data, settings, frequency_hz, model)
 
-    result = fit(model or _model(settings))
+    result = first if first is not None and model is None else fit(model or _model(settings))
     refit = iwan_identifiability(getattr(result, "physical", None) or getattr(result, "model", None), result.p,
                                  float(np.max(result.amplitude)))
     return result if refit is None else fit(refit)
@@ -318,13 +320,14 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     _check_levels(data, settings)
     choice = None
     frequency = settings.frequency_hz
+    visited: dict[float, PRDResult] = {}  # the choice's fits, by frequency: the fit at the chosen one is reused
     if settings.method == "prd" and frequency is None:
         choice = recommend_frequency(data, _model(settings), low_force=settings.low_force_n,
                                      high_forces=settings.high_forces_n, estimator=settings.estimator,
-                                     half_window=settings.half_window)
+                                     half_window=settings.half_window, fits=visited)
         frequency = choice.frequency_hz
         defaults["frequency_hz"] = f"{frequency:g} ({choice.reason}; visited {list(choice.visited_hz)} Hz)"
-    result = _fit(data, settings, frequency)
+    result = _fit(data, settings, frequency, first=visited.get(frequency))
     if settings.method == "ddf" and settings.band_hz is None:
         defaults["band_hz"] = list(result.setup.band_hz)
     linear = _linear_frf(data, settings, result)
