@@ -8,7 +8,9 @@ from RK4 time integration of the joint's own force law; its stepped sine (six fo
 predict the ring-down's frequency and damping against amplitude; fit the ring-down and
 predict each level's resonance, half-power damping and peak as the resonance estimator reads
 the simulated curve: within the issue's 0.2 % (frequency) and 5 % (damping; peak) where the
-predicted amplitudes lie inside those of the fitted type.
+predicted amplitudes lie inside those of the fitted type. And both jointly predict
+phase-resonance points from the multi-harmonic balance at 90° (tests/test_phase_resonance.py):
+each point's frequency, damping and the amplitude its force holds.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.simulate import simulate_frf_table
+from test_phase_resonance import locked_points, write_csv
 from test_ring_down import C, IWAN, K, M, free_decay
 
 PHI = 1 / np.sqrt(M)
@@ -37,6 +40,9 @@ def two_tests(tmp_path_factory):
     write_frf_table(table, folder / "stepped.parquet")
     t, x = free_decay(IWAN, 3e-3, 60)
     pd.DataFrame({"time_s": t, "0": x}).to_csv(folder / "decay.csv", index=False)
+    omega, force, xs = locked_points(IWAN, np.geomspace(0.01, 0.25, 7), mkc=(M, K, C))
+    frame = pd.read_csv(write_csv(folder / "pr.csv", omega, force, xs))
+    frame.assign(response_dof="0", input_dof="0").to_csv(folder / "pr.csv", index=False)
     return folder
 
 
@@ -75,6 +81,17 @@ def test_ring_down_predicts_the_stepped_sine(two_tests, capsys):
         assert abs(level["peak_abs"]["relative_error"]) < 0.05, level["level"]
         assert level["resonance_hz"]["inside"]  # within the test's own repeatability band
     assert not entry["samples"]
+
+
+def test_stepped_sine_and_ring_down_predict_the_phase_resonance_points(two_tests, capsys):
+    entry, _ = hold_out(capsys, two_tests, "phase-resonance", "--phase-resonance", two_tests / "pr.csv")
+    assert sorted(s["test_type"] for s in entry["fitted_on"]) == ["ring-down", "stepped-sine"]
+    inside = [s for s in entry["samples"] if s["within_fit"]]
+    assert len(inside) >= 5
+    for sample in inside:
+        assert abs(sample["natural_frequency_hz"]["relative_error"]) < 2e-3
+        assert abs(sample["damping_ratio"]["relative_error"]) < 0.05
+        assert abs(sample["modal_amplitude_held"]["relative_error"]) < 0.05
 
 
 def test_a_type_not_given_or_no_shape_is_one_clear_line(two_tests, capsys):
