@@ -27,6 +27,10 @@ the relative receptance error), or ``lines`` with fewer than three kept levels.
 """
 from __future__ import annotations
 
+import hashlib
+import pickle
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
 
@@ -184,17 +188,51 @@ class ModelChoice:
     reason: str
 
 
+#: The most fits :func:`model_fitter` keeps (a validation of n levels needs about n²/2 distinct ones).
+FIT_CACHE_SIZE = 64
+_fits: OrderedDict[tuple[str, bytes], Fitted | Exception] = OrderedDict()
+_fits_lock = threading.Lock()
+
+
+def _remembered(name: str, fit: Callable[[FRFLevels], Fitted]) -> Callable[[FRFLevels], Fitted]:
+    """``fit`` that fits each set of curves once per process: a validation asks for the
+    same kept levels again and again (the jackknife of one held-out level drops the level
+    another one keeps; ``auto``'s choice, the held runs' refits and the held-out fits share
+    subsets), and every fit is deterministic. Keyed by the model and the curves' whole
+    content; a fit that failed raises the same error again."""
+    def fit_on(kept: FRFLevels) -> Fitted:
+        key = (name, hashlib.sha256(pickle.dumps(kept, protocol=pickle.HIGHEST_PROTOCOL)).digest())
+        with _fits_lock:
+            known = _fits.get(key)
+            if known is not None:
+                _fits.move_to_end(key)
+        if known is None:
+            try:
+                known = fit(kept)
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
+                known = error
+            with _fits_lock:
+                _fits[key] = known
+                while len(_fits) > FIT_CACHE_SIZE:
+                    _fits.popitem(last=False)
+        if isinstance(known, Exception):
+            raise known
+        return known
+
+    return fit_on
+
+
 def model_fitter(name: str) -> Callable[[FRFLevels], Fitted]:
-    """The fitting function of model ``name`` (module docstring); ValueError naming the
-    models for an unknown one."""
+    """The fitting function of model ``name`` (module docstring), remembering its fits
+    (:func:`_remembered`); ValueError naming the models for an unknown one."""
     if name in MODELS:
-        return MODELS[name]
+        return _remembered(name, MODELS[name])
     if name.startswith("prd:"):
         from nlupdate.core.identification.dfmodels import parse_elements
 
         elements = tuple(e.strip() for e in name[4:].split(",") if e.strip())
         parse_elements(elements)  # unknown element names fail here
-        return _prd(elements)
+        return _remembered(name, _prd(elements))
     raise ValueError(f"model {name!r}: expected one of {', '.join([*MODELS, 'prd:ELEMENTS', 'auto'])}")
 
 
@@ -215,7 +253,7 @@ def choose_model(kept: FRFLevels) -> ModelChoice:
         try:
             for level, f, h in zip(kept.levels, kept.frequencies, kept.receptances):
                 inner = kept.subset([lv for lv in kept.levels if lv != level])
-                errors.append(relative_error(h, MODELS[name](inner)(f, float(level))))
+                errors.append(relative_error(h, model_fitter(name)(inner)(f, float(level))))
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):
             scores[name] = float("nan")
