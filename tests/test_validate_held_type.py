@@ -66,6 +66,9 @@ def test_stepped_sine_predicts_the_ring_down(two_tests, capsys):
         assert abs(sample["natural_frequency_hz"]["relative_error"]) < 2e-3
         assert abs(sample["damping_ratio"]["relative_error"]) < 0.05
     assert entry["worst_within_fit"]["damping_ratio"] < 0.05
+    # the 95 % bands (the fit's bootstrap with the ring-down's own scatter) hold the samples
+    covered = [sample[name]["inside"] for sample in inside for name in ("natural_frequency_hz", "damping_ratio")]
+    assert np.mean(covered) >= 0.9
     assert "ring-down held out" in printed
 
 

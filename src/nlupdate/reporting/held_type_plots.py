@@ -12,8 +12,9 @@ from nlupdate.core.validation.held_type import HeldType
 def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     """Two panels, natural frequency (or resonance) and damping ratio: for held-out samples
     against modal amplitude (measured marks, the model's curve, the fitted sources' range
-    shaded); for held-out stepped-sine levels against force level (measured and predicted,
-    the repeatability band about the measured values where there is one)."""
+    shaded, the prediction's bootstrap band where there is one); for held-out stepped-sine
+    levels against force level (measured and predicted, the repeatability band about the
+    prediction)."""
     fig = Figure(figsize=(10, 4.2))
     axes = fig.subplots(1, 2)
     fitted = ", ".join(sorted({kind for _, kind, _ in result.fitted_on}))
@@ -24,7 +25,7 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
             x = rows["level"].to_numpy()
             if f"{name}_low" in rows:
                 ax.fill_between(x, scale * rows[f"{name}_low"], scale * rows[f"{name}_high"], color="0.85",
-                                label="measured ± 95 % repeatability")
+                                label="predicted ± 95 % repeatability")
             ax.semilogx(x, scale * rows[f"{name}_measured"], "o", mfc="none", label="measured (held out)")
             ax.semilogx(x, scale * rows[f"{name}_predicted"], "x-", label=f"predicted from {fitted}")
             ax.set_xlabel(f"force level ({unit})")
@@ -39,6 +40,12 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
             ax.axvspan(*result.fitted_range, color="0.9", label="amplitudes of the fitted types")
             ax.semilogx(a, scale * rows[measured], "o", ms=4, mfc="none", label=f"{result.test_type} (held out)")
             ax.semilogx(grid, scale * curve, "-", color="black", label=f"predicted from {fitted}")
+            column = "predicted_frequency_hz" if measured == "natural_frequency_hz" else "predicted_damping_ratio"
+            if f"{column}_low" in rows:
+                order = np.argsort(a)
+                ax.fill_between(a[order], scale * rows[f"{column}_low"].to_numpy()[order],
+                                scale * rows[f"{column}_high"].to_numpy()[order], color="tab:orange", alpha=0.3,
+                                label="95 % band (fit bootstrap ⊕ test scatter)")
             ax.set_xlabel("modal amplitude (m·√kg)")
             ax.set_ylabel(label)
     for ax in axes:

@@ -39,6 +39,10 @@ def add_type_options(parser: argparse.ArgumentParser) -> None:
                              f"the other types and predict this one ({', '.join(HELD_TYPES)}); --model "
                              "amplitude-iwan (auto) or amplitude-polynomial; needs --shape at the sensors")
     add_source_options(parser, response_controlled=False)
+    parser.add_argument("--bootstrap", type=int, metavar="N",
+                        help="with --hold-out-type: refits of a residual bootstrap for the 95 %% bands of the held "
+                             "samples' predictions (default 200 for amplitude-polynomial, 0 for amplitude-iwan: "
+                             "about a second per refit; 0: no bands)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="with --hold-out-type: mass-normalised mode shape (1/√kg) at a coordinate (the stepped "
                              "sine's input, a ring-down's channel), for one modal amplitude across the types")
@@ -50,6 +54,9 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
     backbone = BACKBONE_OF_MODEL.get(args.model)
     if backbone is None:
         raise CliError(f"--model {args.model}: with --hold-out-type, one of {', '.join(BACKBONE_OF_MODEL)}")
+    resamples = (200 if backbone == "polynomial" else 0) if args.bootstrap is None else args.bootstrap
+    if resamples < 0:
+        raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
     shapes = _shapes(args.shape)
     sources, data = [], None
     if args.measured:
@@ -66,7 +73,8 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
                                   if args.response_controlled == "auto" else [])
     try:
         rings, _ = read_sources(reader, shapes)
-        result = hold_out_type(sources + rings, args.hold_out_type, tuple(shapes.items()), data, backbone)
+        result = hold_out_type(sources + rings, args.hold_out_type, tuple(shapes.items()), data, backbone,
+                               resamples=resamples)
     except (AmplitudeModelError, ValueError) as error:
         raise CliError(str(error)) from None
     unit = data.reference_unit if data is not None else "N"

@@ -21,11 +21,16 @@ fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
 Errors are relative (predicted / measured − 1); a resonance frequency's also in Hz. A sample
 is ``within_fit`` when its modal amplitude lies inside the range the kept sources cover
 (interpolated, not extrapolated); a stepped-sine level when its predicted peak amplitude does.
-Bands: the test's repeatability (:func:`~nlupdate.core.validation.held_out.repeatability`, the
-scatter of every level's resonance and damping about a line in log amplitude) around a
-stepped-sine level's measured resonance and damping ratio — the band a prediction within the
-test's own scatter falls in; the fits of the other types give no covariance, so sample
-predictions have none (``low``/``high`` absent).
+95 % bands (``low``, ``high``; ``inside``: the measured value within), where one exists:
+about a stepped-sine level's predicted resonance and damping ratio, ± 1.96 × the test's
+repeatability (:func:`~nlupdate.core.validation.held_out.repeatability`: the scatter of every
+measured level's resonance and damping about a line in log amplitude — the test's own scatter
+no model follows); about a sample's predicted frequency and damping, the residual bootstrap
+of the kept sources' fit (``backbone.csv``'s band of ``nlupdate amplitude``) widened on each
+side, in quadrature, by 1.96 × the held source's own noise
+(:func:`~nlupdate.core.identification.backbone_samples.source_noise`: its scatter, at least
+1e-5 in frequency and 1 % in damping), where the sample lies within the fitted amplitudes.
+Without resamples, or outside, there is none (absent).
 """
 from __future__ import annotations
 
@@ -36,7 +41,9 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
-from nlupdate.core.identification.backbone_samples import held_out_errors, join_samples, source_noise
+from nlupdate.core.identification.backbone_samples import (
+    backbone_curve, held_out_errors, join_samples, source_noise,
+)
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.validation.held_out import repeatability
@@ -69,8 +76,12 @@ class HeldType:
                "model": self.model.to_dict(), "samples": [], "levels": []}
         for row in self.samples.itertuples():
             entry = {"source": row.source, "modal_amplitude": row.modal_amplitude, "within_fit": bool(row.within_fit),
-                     "natural_frequency_hz": _compared(row.natural_frequency_hz, row.predicted_frequency_hz),
-                     "damping_ratio": _compared(row.damping_ratio, row.predicted_damping_ratio)}
+                     "natural_frequency_hz": _compared(row.natural_frequency_hz, row.predicted_frequency_hz,
+                                                       getattr(row, "predicted_frequency_hz_low", None),
+                                                       getattr(row, "predicted_frequency_hz_high", None)),
+                     "damping_ratio": _compared(row.damping_ratio, row.predicted_damping_ratio,
+                                                getattr(row, "predicted_damping_ratio_low", None),
+                                                getattr(row, "predicted_damping_ratio_high", None))}
             if np.isfinite(row.predicted_amplitude):
                 entry["modal_amplitude_held"] = _compared(row.modal_amplitude, row.predicted_amplitude)
             out["samples"].append(entry)
@@ -105,8 +116,18 @@ def _compared(measured: float, predicted: float, low: float | None = None, high:
     out = {"measured": float(measured), "predicted": float(predicted),
            "error": float(predicted - measured), "relative_error": float(predicted / measured - 1)}
     if low is not None and high is not None and np.isfinite(low) and np.isfinite(high):
-        out.update(low=float(low), high=float(high), inside=bool(low <= predicted <= high))
+        out.update(low=float(low), high=float(high), inside=bool(low <= measured <= high))
     return out
+
+
+def _weights(kept: Sequence[Source]) -> tuple:
+    """Per-sample relative standard deviations (frequency, damping) of the kept sources: each
+    source's own noise; one source alone: the fit's defaults, as ``nlupdate amplitude``."""
+    if len(kept) == 1:
+        return 1e-3, 0.05
+    noises = [source_noise(s, stated) for _, s, stated, _ in kept]
+    return tuple(np.concatenate([np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(kept, noises)])
+                 for k in (0, 1))
 
 
 def fit_sources(kept: Sequence[Source], shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
@@ -117,17 +138,32 @@ def fit_sources(kept: Sequence[Source], shapes: Sequence[tuple[str, float]], bac
     if samples.amplitude.size < 2:
         raise AmplitudeModelError("the sources kept give one sample (an impact's linear limit): a backbone needs "
                                   "more; keep another test type")
-    if len(kept) == 1:
-        return fit_amplitude_model(samples, shapes, backbone, order, mode=mode)
-    noises = [source_noise(s, stated) for _, s, stated, _ in kept]
-    stds = [np.concatenate([np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(kept, noises)])
-            for k in (0, 1)]
-    return fit_amplitude_model(samples, shapes, backbone, order, *stds, mode=mode)
+    return fit_amplitude_model(samples, shapes, backbone, order, *_weights(kept), mode=mode)
+
+
+def sample_bands(model: AmplitudeModalModel, kept: Sequence[Source], shapes: Sequence[tuple[str, float]],
+                 backbone: str, order: int, amplitude: np.ndarray, resamples: int) -> dict[str, tuple]:
+    """95 % bands (low, high) of the predicted natural frequency and damping ratio at
+    ``amplitude`` (m·√kg): the residual bootstrap of ``backbone.csv``
+    (:func:`~nlupdate.core.identification.backbone_samples.backbone_curve`, ``resamples``
+    refits of the kept sources) interpolated in log a; NaN outside the fitted amplitudes."""
+    fitted = join_samples([s for _, s, _, _ in kept])
+    stds = _weights(kept)
+    curve = backbone_curve(model, fitted, count=100, resamples=resamples,
+                           refit=lambda draw: fit_amplitude_model(draw, shapes, backbone, order, *stds,
+                                                                  mode=model.mode))
+    x, at = np.log(curve["modal_amplitude"].to_numpy()), np.log(amplitude)
+    out = {}
+    for name in ("natural_frequency_hz", "damping_ratio"):
+        out[name] = tuple(np.interp(at, x, curve[f"{name}_{side}"].to_numpy(), left=np.nan, right=np.nan)
+                          for side in ("low", "high"))
+    return out
 
 
 def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_range: tuple[float, float]) -> pd.DataFrame:
     """Each level's measured and predicted resonance (module docstring), with the test's
-    repeatability band about the measured resonance and damping ratio (needs ≥ 3 levels)."""
+    repeatability band about the predicted resonance and damping ratio (NaN with fewer than
+    three levels)."""
     repeat = repeatability(data)
     rows = []
     for level in data.levels:
@@ -141,16 +177,18 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
             row[f"{name}_measured"], row[f"{name}_predicted"] = getattr(measured, name), getattr(predicted, name)
         if np.isfinite(repeat.resonance_hz):
             for name, sigma in (("resonance_hz", repeat.resonance_hz), ("damping_ratio", repeat.damping_ratio)):
-                row[f"{name}_low"], row[f"{name}_high"] = (getattr(measured, name) - 1.96 * sigma,
-                                                           getattr(measured, name) + 1.96 * sigma)
+                row[f"{name}_low"], row[f"{name}_high"] = (getattr(predicted, name) - 1.96 * sigma,
+                                                           getattr(predicted, name) + 1.96 * sigma)
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tuple[str, float]],
-                  data: FRFLevels | None = None, backbone: str = "iwan", order: int = 2) -> HeldType:
+                  data: FRFLevels | None = None, backbone: str = "iwan", order: int = 2,
+                  resamples: int = 0) -> HeldType:
     """Fit on every source not of ``test_type`` and predict those of it (module docstring);
-    ``data``: the stepped-sine curves, needed when ``test_type`` is ``stepped-sine``."""
+    ``data``: the stepped-sine curves, needed when ``test_type`` is ``stepped-sine``;
+    ``resamples``: bootstrap refits for the bands of sample predictions (0: none)."""
     held = [s for s in sources if s[3] == test_type]
     kept = [s for s in sources if s[3] != test_type]
     if not held:
@@ -167,5 +205,16 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
     else:
         samples = held_out_errors(model, [(name, s, kind) for name, s, _, kind in held], fitted_range)
         levels = pd.DataFrame()
+        if resamples > 0:
+            bands = sample_bands(model, kept, shapes, backbone, order, samples["modal_amplitude"].to_numpy(),
+                                 resamples)
+            noise = [source_noise(s, stated) for _, s, stated, _ in held]  # the held test's own scatter
+            for k, (name, column) in enumerate((("natural_frequency_hz", "predicted_frequency_hz"),
+                                                ("damping_ratio", "predicted_damping_ratio"))):
+                test = 1.96 * samples[column].to_numpy() * np.concatenate(
+                    [np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(held, noise)])
+                predicted, (low, high) = samples[column].to_numpy(), bands[name]
+                samples[f"{column}_low"] = predicted - np.hypot(predicted - low, test)
+                samples[f"{column}_high"] = predicted + np.hypot(high - predicted, test)
     return HeldType(test_type, model, tuple((name, kind, int(s.amplitude.size)) for name, s, _, kind in kept),
                     fitted_range, samples, levels)
