@@ -39,7 +39,7 @@ import pandas as pd
 import scipy.optimize
 
 from nlupdate.core.identification.response_controlled import read_response_controlled
-from nlupdate.core.identification.ring_down import estimate_ring_down
+from nlupdate.core.identification.impact import fit_linear_limit
 from nlupdate.core.measurement.frf_files import read_frf_table
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.model.model_file import system_from_dict
@@ -51,21 +51,23 @@ ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "brb"
 DRIVE = "acc3:uy"
 #: The impact record's modes (Hz) and mode 1's damping ratio when HammerImpact.mat is not in DATA
-#: (the values brb.toml quotes: the quietest tenth of each mode's ring-down).
-IMPACT_FALLBACK = {"frequencies_hz": (80.517, 297.62), "damping_ratio": 0.00156}
+#: (the values brb.toml quotes: each mode's linear limit, LSCE).
+IMPACT_FALLBACK = {"frequencies_hz": (80.569, 297.683), "damping_ratio": 0.001435}
 
 
 def impact_damping(folder: Path) -> tuple[float, str]:
-    """Mode 1's linear damping ratio: the quietest tenth of acc3's ring-down in 72–88 Hz."""
-    path = folder / "HammerImpact.mat"
-    if not path.is_file():
-        return IMPACT_FALLBACK["damping_ratio"], "brb.toml's value (HammerImpact.mat not in tests/data/brb)"
-    import scipy.io
+    """Mode 1's linear damping ratio from the impact record: the linear limit of acc3 in 72–88 Hz
+    (:func:`nlupdate.core.identification.impact.fit_linear_limit`)."""
+    for name in ("HammerImpact_1600Hz.mat", "HammerImpact.mat"):
+        path = folder / name
+        if path.is_file():
+            import scipy.io
 
-    record = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)["HIdata"]
-    estimate = estimate_ring_down(record.time, record.acc3, band_hz=(72.0, 88.0))
-    quiet = slice(int(0.9 * estimate.damping_ratio.size), None)
-    return float(np.median(estimate.damping_ratio[quiet])), f"{path.name}, acc3 ring-down, quietest tenth"
+            record = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)["HIdata"]
+            limit = fit_linear_limit(np.asarray(record.time, float), {"acc3": np.asarray(record.acc3, float)},
+                                     band_hz=(72.0, 88.0))
+            return float(limit.damping_ratio), f"{name}, acc3, linear limit (LSCE)"
+    return IMPACT_FALLBACK["damping_ratio"], "brb.toml's value (no impact record in the data folder)"
 
 
 def nonlinear_model(adapter: BRBAdapter, parameters: dict, damping_ratio: float, joint: dict, shaker_mass: float = 0.0):
