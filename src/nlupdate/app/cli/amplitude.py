@@ -32,6 +32,7 @@ from matplotlib.figure import Figure
 
 from nlupdate.app.cli import CliError, add_command, positive_int
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
+from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.amplitude_modal_fit import (
     amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
@@ -219,8 +220,10 @@ def run(args: argparse.Namespace) -> int:
     with atomic_directory(out, on_exists="replace") as archive:
         folder = archive.path
         write_amplitude_model(dataclasses.replace(model, reference_unit=unit), folder / "amplitude_model.json")
-        curve = backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
-            draw, model.shapes, args.backbone, args.order, f_std, z_std, mode=args.mode), resamples=resamples)
+        with terminal_progress() as progress:
+            curve = backbone_curve(model, samples, refit=lambda draw: fit_amplitude_model(
+                draw, model.shapes, args.backbone, args.order, f_std, z_std, mode=args.mode), resamples=resamples,
+                progress=progress)
         if samples.amplitude.size == 1 and points[0][2] is not None:  # an impact's pole: its own 95 % interval
             for column, relative in zip(("natural_frequency_hz", "damping_ratio"), points[0][2]):
                 curve[f"{column}_low"], curve[f"{column}_high"] = (curve[column] * (1 + k * 1.96 * relative)

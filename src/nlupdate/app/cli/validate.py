@@ -124,7 +124,8 @@ def run(args: argparse.Namespace) -> int:
             if runs:
                 print(f"predicting {len(runs)} response-controlled run(s) from the {data.levels.size} force-controlled "
                       f"levels")
-                validation = with_held_runs(validation, data, runs, models)
+                with terminal_progress() as progress:
+                    validation = with_held_runs(validation, data, runs, models, progress)
     except ValueError as error:
         raise CliError(str(error)) from None
     unit = data.reference_unit

@@ -42,6 +42,7 @@ from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.bands import band_arrays
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+from nlupdate.progress import ProgressCallback, no_progress
 
 #: smallest relative standard deviation a source is given, (frequency, damping ratio)
 NOISE_FLOOR = (1e-5, 0.01)
@@ -76,16 +77,16 @@ def backbone_points(parts: list[tuple[str, ModalSamples] | tuple[str, ModalSampl
 
 def backbone_curve(model: AmplitudeModalModel, samples: ModalSamples, count: int = 50,
                    refit: Callable[[ModalSamples], AmplitudeModalModel] | None = None, resamples: int = 0,
-                   seed: int = 0) -> pd.DataFrame:
+                   seed: int = 0, progress: ProgressCallback = no_progress) -> pd.DataFrame:
     """The fitted model's backbone at ``count`` modal amplitudes spaced geometrically over the
     samples' range: ``modal_amplitude``, ``natural_frequency_hz``, ``damping_ratio`` and their
     band columns ``*_low``/``*_high`` from ``resamples`` bootstrap refits by ``refit`` (module
-    docstring; NaN without them)."""
+    docstring; NaN without them); ``progress("bootstrap refits", done, resamples)`` after each."""
     a = np.geomspace(float(samples.amplitude.min()), float(samples.amplitude.max()), count)
     f, z = model.frequency_hz(a), model.damping(a)
     bands = {name: np.full(a.size, np.nan) for name in ("f_low", "f_high", "z_low", "z_high")}
     if refit is not None and resamples > 0:
-        curves = _bootstrap(model, samples, a, refit, resamples, seed)
+        curves = _bootstrap(model, samples, a, refit, resamples, seed, progress)
         (bands["f_low"], bands["f_high"]), (bands["z_low"], bands["z_high"]) = (
             band_arrays(point, c) for point, c in zip((f, z), curves))
     return pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": f, "natural_frequency_hz_low": bands["f_low"],
@@ -95,20 +96,21 @@ def backbone_curve(model: AmplitudeModalModel, samples: ModalSamples, count: int
 
 def _bootstrap(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.ndarray,
                refit: Callable[[ModalSamples], AmplitudeModalModel], resamples: int,
-               seed: int) -> tuple[np.ndarray, np.ndarray]:
+               seed: int, progress: ProgressCallback = no_progress) -> tuple[np.ndarray, np.ndarray]:
     """(frequency, damping ratio) of the refitted curves at ``amplitude``, one row per resample."""
     rng = np.random.default_rng(seed)
     f_fit, z_fit = model.frequency_hz(samples.amplitude), model.damping(samples.amplitude)
     misfit_f, misfit_z = samples.frequency_hz / f_fit - 1, samples.damping_ratio / z_fit - 1
     n = samples.amplitude.size
     frequencies, dampings = [], []
-    for _ in range(resamples):
+    for done in range(1, resamples + 1):
         pick = rng.integers(0, n, n)  # a sample's two misfits together
         draw = ModalSamples(samples.amplitude, f_fit * (1 + misfit_f[pick]), z_fit * (1 + misfit_z[pick]),
                             samples.force_n, samples.input_shape)
         refitted = refit(draw)
         frequencies.append(refitted.frequency_hz(amplitude))
         dampings.append(refitted.damping(amplitude))
+        progress("bootstrap refits", done, resamples)
     return np.array(frequencies), np.array(dampings)
 
 

@@ -31,6 +31,7 @@ from nlupdate.core.validation.held_out import (
 )
 from nlupdate.core.validation.models import choose_model, model_fitter
 from nlupdate.core.validation.resonance import resonance
+from nlupdate.progress import ProgressCallback, no_progress
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,17 +115,19 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
 
 
 def with_held_runs(validation: Validation, data: FRFLevels, runs: Sequence[HeldRun],
-                   models: Sequence[str]) -> Validation:
+                   models: Sequence[str], progress: ProgressCallback = no_progress) -> Validation:
     """``validation`` with every run of ``runs`` predicted by every model of ``models``
     (``auto``: :func:`~nlupdate.core.validation.models.choose_model` on all force-controlled
-    levels); a model that cannot predict them is named in ``response_controlled_notes``."""
+    levels); a model that cannot predict them is named in ``response_controlled_notes``.
+    ``progress("response-controlled runs: models", done, len(models))`` after each model."""
     results, notes = [], []
-    for requested in models:
+    for done, requested in enumerate(models, start=1):
         name = choose_model(data).name if requested == "auto" else requested
         try:
             results += predict_held_runs(data, runs, name, validation.repeatability, requested)
         except ValueError as error:
             notes.append(f"{requested}: {error}")
+        progress("response-controlled runs: models", done, len(models))
     return replace(validation, response_controlled=tuple(results), response_controlled_notes=tuple(notes))
 
 
