@@ -110,6 +110,7 @@ def _error_panels(results, position, ticks: list[str], xlabel: str, repeatabilit
             ax.axhspan(-span, span, color="0.85", zorder=0, label="test repeatability ±1σ")
         ax.axhline(0.0, color="k", lw=0.8)
         ax.set_xticks(x, ticks)
+        ax.set_xlim(-0.5, len(ticks) - 0.5)  # one slot per level, also for a single one
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         ax.grid(True, axis="y", alpha=0.3)
