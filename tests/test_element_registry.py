@@ -22,6 +22,7 @@ NOT_ELEMENTS = {
     "core/model/amplitude_modal.py": "the modal backbone kinds 'iwan' and 'polynomial' (BACKBONES), a model setting",
     "core/identification/amplitude_modal_fit.py": "the modal backbone kinds (BACKBONES)",
     "app/cli/amplitude.py": "the --backbone choice (BACKBONES)",
+    "app/cli/validate_type.py": "the backbone of the held-out type's amplitude model (BACKBONES)",
 }
 
 

@@ -84,6 +84,7 @@ class Effect:
     parameters: ClassVar[tuple[EffectParameter, ...]]
     scale_sign: ClassVar[int] = POSITIVE
     to_ground_only: ClassVar[bool] = False
+    in_default_library: ClassVar[bool] = True  # fitted when no effects are named
 
     @property
     def variant(self) -> str:
@@ -177,8 +178,11 @@ def _element_effect_class(kind: type, form: EffectForm) -> type:
                        for name in kind.effect_parameter_names())
     title = "".join(part.title() for part in form.name.split("_"))
     namespace = {"name": form.name, "kind": kind, "form": form, "parameters": parameters, "scale_sign": form.sign,
+                 "in_default_library": form.default,
                  "__doc__": f"{kind.__name__} as the discovery effect {form.name!r}: {(kind.__doc__ or '').strip().splitlines()[0]}"}
-    return make_dataclass(f"{title}Effect", (), bases=(ElementEffect,), frozen=True, namespace=namespace)
+    cls = make_dataclass(f"{title}Effect", (), bases=(ElementEffect,), frozen=True, namespace=namespace)
+    cls.__module__ = __name__  # pickled by reference (candidate jobs run in other processes)
+    return cls
 
 
 def _element_effects() -> tuple[dict[str, type], tuple[Effect, ...]]:
@@ -197,6 +201,7 @@ def _element_effects() -> tuple[dict[str, type], tuple[Effect, ...]]:
 
 #: The element effects' classes by effect name (read from the element registry).
 ELEMENT_EFFECTS, _ELEMENT_LIBRARY = _element_effects()
+globals().update({cls.__name__: cls for cls in ELEMENT_EFFECTS.values()})  # where pickle looks them up
 CubicHardening, CubicSoftening = ELEMENT_EFFECTS["cubic_stiffness"], ELEMENT_EFFECTS["softening_stiffness"]
 DryFriction, Microslip = ELEMENT_EFFECTS["dry_friction"], ELEMENT_EFFECTS["microslip"]
 CoulombSlider, QuadraticDamper = ELEMENT_EFFECTS["coulomb_friction"], ELEMENT_EFFECTS["quadratic_damping"]
@@ -261,12 +266,15 @@ class DampingError(LinearEffect):
         return 1j * np.asarray(omega, dtype=float)
 
 
-LIBRARY: tuple[Effect, ...] = _ELEMENT_LIBRARY + (StiffnessError(), MassError(), DampingError())
-EFFECT_NAMES: tuple[str, ...] = tuple(dict.fromkeys(effect.name for effect in LIBRARY))
+#: Every effect discovery knows, in order (those named in ``options.effects`` come from here).
+ALL_EFFECTS: tuple[Effect, ...] = _ELEMENT_LIBRARY + (StiffnessError(), MassError(), DampingError())
+#: The effects fitted when none are named (an element form with ``default=False`` is left out).
+LIBRARY: tuple[Effect, ...] = tuple(e for e in ALL_EFFECTS if e.in_default_library)
+EFFECT_NAMES: tuple[str, ...] = tuple(dict.fromkeys(effect.name for effect in ALL_EFFECTS))
 
 
 def library(selection: Sequence[str | Effect] | None = None) -> tuple[Effect, ...]:
-    """Effects by name (all forms of a name) or as instances; None → the whole library."""
+    """Effects by name (all forms of a name, from :data:`ALL_EFFECTS`) or as instances; None → :data:`LIBRARY`."""
     if selection is None:
         return LIBRARY
     chosen: list[Effect] = []
@@ -274,7 +282,7 @@ def library(selection: Sequence[str | Effect] | None = None) -> tuple[Effect, ..
         if isinstance(item, Effect):
             chosen.append(item)
             continue
-        matches = [effect for effect in LIBRARY if effect.name == str(item).strip()]
+        matches = [effect for effect in ALL_EFFECTS if effect.name == str(item).strip()]
         if not matches:
             raise DiscoveryError(f"options.effects: unknown effect {item!r}; the library has {', '.join(EFFECT_NAMES)}")
         chosen.extend(matches)

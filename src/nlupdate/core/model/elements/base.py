@@ -73,13 +73,16 @@ class EffectForm:
     """A discovery candidate an element class offers: its user-facing ``name``, the sign of
     its scale (+1, −1), ``joint``: a stuck stiffness that may already be
     in the model, the first effect parameter (a ``stuck_in_model`` variant is offered too), ``signs``: the signs of
-    the effect parameters by name where not positive; ``order``: its place in the library."""
+    the effect parameters by name where not positive; ``order``: its place in the library;
+    ``default``: fitted when no effects are named (False: only when named, so that a new element
+    does not change what discovery finds by default)."""
 
     name: str
     sign: int = 1
     joint: bool = False
     signs: tuple[tuple[str, int], ...] = ()
     order: int = 1000  # place in the discovery library
+    default: bool = True  # in the library discovery fits when no effects are named (else: by name only)
 
 
 @dataclass(frozen=True)

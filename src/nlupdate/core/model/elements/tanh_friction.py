@@ -59,7 +59,9 @@ class TanhFriction(ElementBase):
     """Smooth dry friction ``f = Fs·tanh(ẋ/ε)``: slip force Fs (N), regularisation velocity ε (m/s).
 
     ``ν = i·(4Fs/(πA))·J(Aω/ε)`` (module docstring): viscous (``iωFs/ε``) for ``Aω ≪ ε``,
-    Coulomb (``i·4Fs/(πA)``) for ``Aω ≫ ε``. Discovery (``smooth_friction``): Fs the scale, ε the shape.
+    Coulomb (``i·4Fs/(πA)``) for ``Aω ≫ ε``. Discovery (``smooth_friction``, fitted when named:
+    it nests Coulomb friction and a viscous damper, which the default library holds): Fs the
+    scale, ε the shape.
     """
 
     dofs: tuple[int, ...]
@@ -67,7 +69,7 @@ class TanhFriction(ElementBase):
     order: ClassVar[int] = 35
     parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("slip_force", "N"),
                                                           ElementParameter("epsilon", "m/s"))
-    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("smooth_friction", order=35),)
+    effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("smooth_friction", order=35, default=False),)
     slip_force: float
     epsilon: float
 
