@@ -5,7 +5,8 @@ table), :func:`discover` measures the gap, localises it, fits every effect of an
 library there, picks one by an information criterion (or answers ``none``), adds it and
 shows the gap shrink, and repeats. See :mod:`nlupdate.core.discovery.workflow`.
 
-Modules: ``effects`` (the library), ``workflow`` (the loop), ``gap``, ``localisation``,
+Modules: ``effects`` (the library), ``workflow`` (the loop and its restarts), ``search`` (one
+greedy search), ``reconsider`` (joint refit and reconsideration), ``options``, ``result``, ``gap``, ``localisation``,
 ``frf_data`` / ``frf_evidence`` / ``frf_fit`` (stepped-sine FRFs), ``modal_data`` /
 ``modal_evidence`` / ``modal_fit`` (modal tables), ``candidates`` (criterion and
 significance), ``fitting`` and ``starts`` (least squares from variable-projection starts),
