@@ -15,6 +15,7 @@ rule). The continuation is a generator that asks for each evaluation it needs, s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, Generator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,8 +60,8 @@ def trace_points(problem: BalanceProblem, omega_start: float, omega_end: float, 
             return done.value
 
 
-def trace_in_lockstep(problems, evaluate_batch, omega_start: float, omega_end: float,
-                      o: ContinuationOptions) -> list[Curve]:
+def trace_in_lockstep(problems: Sequence[BalanceProblem], evaluate_batch: Callable, omega_start: float,
+                      omega_end: float, o: ContinuationOptions) -> list[Curve]:
     """Every problem's :func:`continuation_steps`, their evaluations made together by
     ``evaluate_batch(indices, y, omega)`` → (R, ∂R/∂y, ∂R/∂ω) stacked."""
     band = omega_end - omega_start
@@ -80,7 +81,8 @@ def trace_in_lockstep(problems, evaluate_batch, omega_start: float, omega_end: f
     return curves
 
 
-def continuation_steps(problem, omega_start: float, omega_end: float, o: ContinuationOptions):
+def continuation_steps(problem: BalanceProblem, omega_start: float, omega_end: float,
+                       o: ContinuationOptions) -> Generator[NDArray, tuple[NDArray, NDArray, NDArray], Curve]:
     """The continuation as a generator: it yields each point z = (y, ω̃) it needs evaluated and
     receives (R, ∂R/∂y, ∂R/∂ω̃); its return value is the :class:`Curve`. Newton at the start and
     at the band edge evaluates ``problem`` directly."""
