@@ -22,6 +22,8 @@ from typing import Mapping
 
 import pandas as pd
 
+from nlupdate.core.model.elements import ELEMENT_TYPES
+
 REFERENCE_UNITS: tuple[str, ...] = ("N", "V")
 REFERENCE_QUANTITY = {"N": "force", "V": "voltage"}
 # unit labels of a reference (lower case) → (unit, factor from the label's unit to the table's)
@@ -183,8 +185,14 @@ def calibrated(table: pd.DataFrame, newtons_per_volt: float, source: str) -> pd.
 
 
 # ------------------------------------------------------------------------------ unit strings
+def _printed(unit: str) -> str:
+    """An element parameter's unit as reports print it: ``"N s^2/m^2"`` → ``"N·s²/m²"``; "1" → ""."""
+    return "" if unit == "1" else unit.replace(" ", "·").replace("^2", "²").replace("^3", "³")
+
+
+#: Units of identified parameters: every element parameter as its class declares it, and Δ_f1's.
 _PARAMETER_UNITS = {
-    "k3": "N/m³", "kf": "N/m", "kc": "N/m", "slip_force": "N", "cq": "N·s²/m²", "gap": "m",
+    **{p.name: _printed(p.unit) for kind in ELEMENT_TYPES.values() for p in kind.parameters if p.fitted},
     "delta_f1_imag": "N/m",
 }
 _COEFFICIENT = re.compile(r"^(re|im)_c(\d+)$")
