@@ -115,7 +115,7 @@ def test_prd_identifies_slip_force_and_epsilon_from_time_integration():
     table = time_integration_table([0.01] + list(np.geomspace(0.2, 3.0, 6)), np.linspace(700.0, 722.0, 12))
     data = FRFLevels.from_table(add_table_noise(table, 0.005, 3), "0", "0")
     p = identify_prd(data, 710.0, PhysicalModel(("tanh_friction",)), estimator="improved", half_window=0.01).parameters()
-    assert abs(p["slip_force"] / 0.2 - 1) < 0.05 and abs(p["epsilon"] / 0.02 - 1) < 0.1, p
+    assert abs(p["slip_force"] / 0.2 - 1) < 0.01 and abs(p["epsilon"] / 0.02 - 1) < 0.02, p  # measured 2.3e-4, 1.8e-3
 
 
 def test_discovery_offers_the_element_and_finds_it_at_its_place():
