@@ -62,7 +62,7 @@ import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.model.elements import ELEMENT_TYPES, PolynomialDF
-from nlupdate.core.model.elements.iwan import MACROSLIP_REACH
+from nlupdate.core.model.elements.iwan import MACROSLIP_REACH  # noqa: F401 (the amplitude model's fit reads it here)
 
 #: Fitted parameter names of each physical element (constructor keyword order) and whether
 #: they are positive (fitted as log) or signed; those in INTERVAL_PARAMETERS are fitted
