@@ -71,7 +71,7 @@ LONGEST_MODULES = (
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
     "test_validate.py", "test_demo_identification.py", "test_linear_frf_consistency.py", "test_time_history.py",
     "test_bolted_beam_example.py", "test_runner.py", "test_doc_snippets.py", "test_optional_dask.py",
-    "test_result_reprs.py", "test_tanh_friction.py",
+    "test_result_reprs.py", "test_tanh_friction.py", "test_element_registry.py",
     "test_amplitude_modal.py", "test_phase_resonance.py", "test_impact.py", "test_joint_sources.py",
     "test_discovery_cli.py", "test_archive_compare_studies.py",
     "test_readme_identify.py",

@@ -8,6 +8,7 @@ tables keyed by class) and no source branches on an element's name (a comparison
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import nlupdate
@@ -26,10 +27,15 @@ NOT_ELEMENTS = {
 }
 
 
+@functools.cache
+def _parsed() -> tuple[tuple[str, ast.AST], ...]:
+    return tuple((path.relative_to(PACKAGE).as_posix(), ast.parse(path.read_text(), str(path)))
+                 for path in sorted(PACKAGE.rglob("*.py")) if ELEMENTS not in path.parents)
+
+
 def _sources():
-    for path in sorted(PACKAGE.rglob("*.py")):
-        if ELEMENTS not in path.parents:
-            yield path.relative_to(PACKAGE).as_posix(), ast.parse(path.read_text(), str(path))
+    """(path below the package, syntax tree) of every source outside the element package."""
+    return _parsed()
 
 
 def _names(node: ast.AST) -> set[str]:
