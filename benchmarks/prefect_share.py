@@ -10,7 +10,11 @@ Per round, in rotated order (load hits every contender alike), each as a fresh p
 * **cached rerun** — the same command again in that folder (every task cached);
 * **two at once** — two cold demos started together in two empty folders;
 * **server start** — the run's Prefect server alone (:class:`nlupdate.orchestration.flows.server.RunServer`)
-  until ``/api/health`` answers, then stopped.
+  until ``/api/health`` answers, then stopped;
+* **cold / cached, server running** — the cold demo and its rerun against a server that
+  was already running (``PREFECT_API_URL``, as with ``prefect server start``): what the
+  runs would cost if they shared one server. That server's CPU during each run is
+  counted (read from ``/proc`` before and after); its start is not.
 
 CPU is user + system time of the benchmarked process and all its descendants, read from
 ``getrusage(RUSAGE_CHILDREN)`` after they were waited for (the server is a child of the
@@ -155,6 +159,13 @@ def main(argv: list[str] | None = None) -> int:
     warm = folder()
     for command in (demo, demo, [args.python, "-c", IN_PROCESS], [args.python, "-c", SERVER_START]):
         measure([(command, warm)], env)  # untimed: Prefect's database, bytecode, the cache secret
+    from nlupdate.orchestration.flows.environment import prepare_environment
+    from nlupdate.orchestration.flows.server import RunServer
+
+    os.environ.update(env)  # the shared server: this benchmark's Prefect home and bytecode
+    prepare_environment()
+    running = RunServer()
+    running.wait(300)
     rows: dict[str, list[tuple[float, float]]] = {}
     extra: dict[str, list[float]] = {"server ready (s into the demo)": [], "server CPU in cold demo": [],
                                      "server CPU in cached rerun": [], "server start wall": []}
@@ -199,7 +210,17 @@ def main(argv: list[str] | None = None) -> int:
         record("server start alone (CPU: both processes)", cpu, wall)
         extra["server start wall"].append(float(run.lines[-1][1].split()[-1]))
 
-    contenders = [in_process, cold_and_cached, two_at_once, server_start]
+    def against_running_server() -> None:
+        import psutil
+
+        place, server = folder(), psutil.Process(running.process.pid)
+        for name in ("cold demo, server running", "cached rerun, server running"):
+            before = sum(server.cpu_times()[:2])
+            cpu, wall, (run,) = measure([(demo, place)], {**env, "PREFECT_API_URL": running.api_url})
+            record(name, cpu + sum(server.cpu_times()[:2]) - before, wall)
+            check(run)
+
+    contenders = [in_process, cold_and_cached, two_at_once, server_start, against_running_server]
     for number in range(args.rounds):
         order = contenders[number % len(contenders):] + contenders[:number % len(contenders)]
         load = os.getloadavg()[0]
@@ -223,8 +244,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"goals: cold {cold / base:.2f} × in process (≤ 1.3: {'met' if cold <= 1.3 * base else 'NOT met'}); "
           f"cached {cached / base:.2f} × (≤ 0.25: {'met' if cached <= 0.25 * base else 'NOT met'}); "
           f"two at once {pair / cold:.2f} × one cold demo (≤ 2: {'met' if pair <= 2 * cold else 'NOT met'})")
+    shared = medians["cached rerun, server running"][0]
+    print(f"with one server for the runs: cold {medians['cold demo, server running'][0] / base:.2f} ×, "
+          f"cached {shared / base:.2f} × in process")
     print(f"result lines of every demo: {'the same' if same else 'DIFFER'}")
     print(f"load at the end {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    running.stop()
     if args.keep:
         print(f"work folder: {work}")
     else:
