@@ -7,7 +7,11 @@ the linear FRF comes from, and its own part of ``identification.json``.
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.ddf import DDF_ESTIMATORS, DDFResult, identify_ddf
@@ -21,9 +25,29 @@ class Method(Protocol):
 
     estimators: tuple[str, ...]
     default_estimator: str
+    #: Does the fit take one excitation frequency (chosen by the program when not given)?
+    uses_excitation_frequency: bool
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
         """(changes to the settings, the defaults to list) for its own settings."""
+
+    def defaults_after_fit(self, settings: Any, result: Any) -> dict[str, Any]:
+        """Defaults the fit chose (to list)."""
+
+    def check_settings(self, settings: Any) -> None:
+        """Its rules on the settings (``ValueError``: keys that belong to the other method)."""
+
+    def sweeps_needed(self, settings: Any, data: FRFLevels) -> dict[float, str]:
+        """The levels that must be sweeps, each with its role (``ValueError`` when none can be chosen)."""
+
+    def refit_levels(self, result: Any) -> tuple[float, ...]:
+        """The levels a refit may leave out one at a time (the model-form part of the bands)."""
+
+    def point_forces(self, result: Any) -> NDArray[np.float64]:
+        """The force level of each fitted point (in the order of ``result.amplitude``)."""
+
+    def amplitude_grid(self, low: float, high: float) -> NDArray[np.float64]:
+        """Amplitudes to draw the fitted curve over (``low``, ``high``: the fitted range)."""
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult | DDFResult:
         """The nonlinearity fit."""
@@ -40,6 +64,7 @@ class PRD:
 
     estimators = ESTIMATORS
     default_estimator = "improved"
+    uses_excitation_frequency = True
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
         changes: dict[str, Any] = {}
@@ -78,6 +103,33 @@ class PRD:
             return "low force", (f"low force (the source's eq. 2.55; {len(single)} high level(s) measured at single "
                                  f"frequencies)")
         return "all levels", "all levels (each line weighted by its noise; physical elements give the DF everywhere)"
+
+    def defaults_after_fit(self, settings: Any, result: PRDResult) -> dict[str, Any]:
+        return {}
+
+    def check_settings(self, settings: Any) -> None:
+        if settings.force_pair_n is not None:
+            raise ValueError("force_pair_n applies to the DDF method")
+        if settings.linear_from == "all levels" and not settings.elements:
+            raise ValueError("linear_from = 'all levels' needs physical elements (a polynomial DF is known only "
+                             "over the amplitudes it was fitted to); use 'low force'")
+        if settings.linear_from == "all levels" and (settings.smoothing_window or settings.amplitude_dependent_delta):
+            raise ValueError("smoothing_window and amplitude_dependent_delta apply to linear_from = 'low force'")
+
+    def sweeps_needed(self, settings: Any, data: FRFLevels) -> dict[float, str]:
+        return {float(settings.low_force_n): "the PRD low force: the linear FRF comes from its sweep"}
+
+    def refit_levels(self, result: PRDResult) -> tuple[float, ...]:
+        return tuple(float(level) for level in result.setup.high_forces)
+
+    def point_forces(self, result: PRDResult) -> NDArray[np.float64]:
+        forces = np.asarray(result.setup.high_forces, dtype=float)
+        size = np.size(result.amplitude)
+        return np.tile(forces, max(size // forces.size, 1))[:size]
+
+    def amplitude_grid(self, low: float, high: float) -> NDArray[np.float64]:
+        # from 0 (y(0) = −Δ_f1), denser towards 0 where friction's DF turns fastest
+        return np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(min(1e-3 * high, 0.1 * low), low, 120)])
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> PRDResult:
         return identify_prd(data, frequency_hz, model, low_force=settings.low_force_n,
@@ -127,6 +179,10 @@ class DDF:
 
     estimators = DDF_ESTIMATORS
     default_estimator = "naive"
+    uses_excitation_frequency = False
+    #: PRD's keys, refused with DDF.
+    PRD_KEYS = ("frequency_hz", "low_force_n", "high_forces_n", "smoothing_window", "amplitude_dependent_delta",
+                "linear_from", "half_window", "imag_order", "complex_delta_f1")
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
         sweeps = data.sweep_levels()  # default pair: the lowest and the highest sweep
@@ -134,6 +190,29 @@ class DDF:
             return {}, {}
         pair = (sweeps[0], sweeps[-1])
         return {"force_pair_n": pair}, {"force_pair_n": list(pair)}
+
+    def defaults_after_fit(self, settings: Any, result: DDFResult) -> dict[str, Any]:
+        return {"band_hz": list(result.setup.band_hz)} if settings.band_hz is None else {}
+
+    def check_settings(self, settings: Any) -> None:
+        defaults = {f.name: f.default for f in dataclasses.fields(settings)}
+        given = [name for name in self.PRD_KEYS if getattr(settings, name) != defaults[name]]
+        if given:
+            raise ValueError(f"{', '.join(given)} apply to the PRD method")
+
+    def sweeps_needed(self, settings: Any, data: FRFLevels) -> dict[float, str]:
+        if settings.force_pair_n is None:
+            raise ValueError(f"DDF compares two sweeps; the swept levels are {list(data.sweep_levels())}")
+        return {float(level): "a DDF level: DDF compares two sweeps" for level in settings.force_pair_n}
+
+    def refit_levels(self, result: DDFResult) -> tuple[float, ...]:
+        return ()  # two levels: none to spare
+
+    def point_forces(self, result: DDFResult) -> NDArray[np.float64]:
+        return np.full(np.size(result.amplitude), float(result.setup.force_pair[1]))
+
+    def amplitude_grid(self, low: float, high: float) -> NDArray[np.float64]:
+        return np.linspace(0.5 * low, 1.1 * high, 301)
 
     def fit(self, data: FRFLevels, settings: Any, frequency_hz: float | None, model: Any) -> DDFResult:
         return identify_ddf(data, settings.force_pair_n, settings.band_hz, settings.order,

@@ -258,10 +258,7 @@ def fit_amplitude_grid(result: PRDResult | DDFResult) -> NDArray[np.float64]:
     describing function turns fastest. Outside ``result.amplitude_range``
     the curve is an extrapolation."""
     low, high = result.amplitude_range
-    if result.method == "prd":
-        grid = np.concatenate([np.linspace(0.0, 1.1 * high, 301), np.geomspace(min(1e-3 * high, 0.1 * low), low, 120)])
-    else:
-        grid = np.linspace(0.5 * low, 1.1 * high, 301)
+    grid = METHODS[result.method].amplitude_grid(low, high)
     return np.unique(np.concatenate([grid, [low, high]]))
 
 
@@ -291,9 +288,9 @@ def _level_jackknife(data: FRFLevels, settings: IdentificationSettings, result: 
     """The values and curves of each PRD refit with one high level left out (the model-form
     part of the intervals, :mod:`nlupdate.core.identification.bands`); none for DDF (two
     levels) or fewer than :data:`~nlupdate.core.identification.bands.MIN_JACKKNIFE` high levels."""
-    if settings.method != "prd" or len(result.setup.high_forces) < MIN_JACKKNIFE:
+    highs = METHODS[settings.method].refit_levels(result)
+    if len(highs) < MIN_JACKKNIFE:
         return []
-    highs = tuple(float(level) for level in result.setup.high_forces)
 
     def refit(level: float) -> dict[str, Any]:
         kept = [v for v in data.levels if not np.isclose(v, level, rtol=1e-9)]
@@ -321,15 +318,14 @@ def identify(data: FRFLevels, settings: IdentificationSettings, progress: Progre
     choice = None
     frequency = settings.frequency_hz
     visited: dict[float, PRDResult] = {}  # the choice's fits, by frequency: the fit at the chosen one is reused
-    if settings.method == "prd" and frequency is None:
+    if METHODS[settings.method].uses_excitation_frequency and frequency is None:
         choice = recommend_frequency(data, _model(settings), low_force=settings.low_force_n,
                                      high_forces=settings.high_forces_n, estimator=settings.estimator,
                                      half_window=settings.half_window, fits=visited)
         frequency = choice.frequency_hz
         defaults["frequency_hz"] = f"{frequency:g} ({choice.reason}; visited {list(choice.visited_hz)} Hz)"
     result = _fit(data, settings, frequency, first=visited.get(frequency))
-    if settings.method == "ddf" and settings.band_hz is None:
-        defaults["band_hz"] = list(result.setup.band_hz)
+    defaults.update(METHODS[settings.method].defaults_after_fit(settings, result))
     linear = _linear_frf(data, settings, result)
     f_linear, h_linear = linear.frequency_hz, linear.receptance
     modes = locate_linear_modes(f_linear, h_linear, linear.inverse_noise, settings.linear_modes_hz,
@@ -437,13 +433,10 @@ def _check_levels(data: FRFLevels, settings: IdentificationSettings) -> None:
         if f.size == 0:
             raise IdentificationError(f"level {level:g} {unit}: no line in {where}; widen the band, lower the "
                                       f"coherence threshold or leave the level out")
-    if settings.method == "prd":
-        needed = {float(settings.low_force_n): "the PRD low force: the linear FRF comes from its sweep"}
-    elif settings.force_pair_n is None:
-        raise IdentificationError(f"DDF compares two sweeps; the swept levels are {list(data.sweep_levels())} {unit} "
-                                  f"(a sweep has at least {MIN_SWEEP_LINES} lines in {where})")
-    else:
-        needed = {float(level): "a DDF level: DDF compares two sweeps" for level in settings.force_pair_n}
+    try:
+        needed = METHODS[settings.method].sweeps_needed(settings, data)
+    except ValueError as error:
+        raise IdentificationError(f"{error} {unit} (a sweep has at least {MIN_SWEEP_LINES} lines in {where})") from None
     sweeps = data.sweep_levels()
     for level, role in needed.items():
         if level not in sweeps:

@@ -122,23 +122,7 @@ class IdentificationSettings:
             raise ValueError(f"coherence_threshold must be between 0 and 1, got {self.coherence_threshold}")
         if self.linear_from is not None and self.linear_from not in LINEAR_FROM:
             raise ValueError(f"linear_from must be one of {list(LINEAR_FROM)}, got {self.linear_from!r}")
-        if self.method == "prd":
-            if self.force_pair_n is not None:
-                raise ValueError("force_pair_n applies to the DDF method")
-            if self.linear_from == "all levels" and not self.elements:
-                raise ValueError("linear_from = 'all levels' needs physical elements (a polynomial DF is known only "
-                                 "over the amplitudes it was fitted to); use 'low force'")
-            if self.linear_from == "all levels" and (self.smoothing_window or self.amplitude_dependent_delta):
-                raise ValueError("smoothing_window and amplitude_dependent_delta apply to linear_from = 'low force'")
-        else:
-            prd_only = {"frequency_hz": self.frequency_hz, "low_force_n": self.low_force_n,
-                        "high_forces_n": self.high_forces_n, "smoothing_window": self.smoothing_window or None,
-                        "amplitude_dependent_delta": self.amplitude_dependent_delta or None,
-                        "linear_from": self.linear_from, "half_window": self.half_window,
-                        "imag_order": self.imag_order, "complex_delta_f1": self.complex_delta_f1 or None}
-            given = [name for name, value in prd_only.items() if value is not None]
-            if given:
-                raise ValueError(f"{', '.join(given)} apply to the PRD method")
+        method.check_settings(self)
         parse_elements(self.elements)  # unknown element names fail here
         if not 0 < self.modal_band_fraction < 0.5:
             raise ValueError(f"modal_band_fraction must be in (0, 0.5), got {self.modal_band_fraction}")

@@ -82,11 +82,7 @@ def residual_in_noise_units(result: Any, noise_fraction: float) -> np.ndarray:
     about ``σ·√2·F_i/A_i`` (σ: relative noise; ``F_i/A_i = |1/H_i|``, and the reference
     level's ``|1/H|`` taken as the same size) — about 1 where the model fits."""
     amplitude = np.asarray(result.amplitude, dtype=float)
-    if result.method == "prd":
-        forces = np.asarray(result.setup.high_forces, dtype=float)
-        force = np.tile(forces, max(amplitude.size // forces.size, 1))[: amplitude.size]
-    else:
-        force = np.full(amplitude.size, float(result.setup.force_pair[1]))
+    force = METHODS[result.method].point_forces(result)
     misfit = np.abs(np.asarray(result.y) - result.fitted_y(amplitude))
     return misfit / (max(float(noise_fraction), 1e-12) * np.sqrt(2) * force / amplitude)
 

@@ -141,7 +141,7 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str, uni
     if not isinstance(model, PhysicalModel):
         return []
     out = []
-    a_low = getattr(result, "amplitude_low_max", None) if result.method == "prd" else None
+    a_low = getattr(result, "amplitude_low_max", None)  # PRD: the low level's largest amplitude
     a_high = float(np.max(result.amplitude)) if np.size(result.amplitude) else None
     for kf_name, slip_name in _stick_slip_slots(model):
         kf, slip = values[kf_name], values[slip_name]
