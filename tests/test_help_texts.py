@@ -14,8 +14,8 @@ from nlupdate.app.cli import COMMANDS, main
 ROOT = Path(__file__).resolve().parents[1]
 #: module names of the code: "(steps)", "(outputs)" in a help text are leftovers of
 #: references to them
-MODULES = {path.stem for folder in ("nlupdate", "flows", "tasks", "adapters")
-           for path in (ROOT / folder).rglob("*.py")} - {"__init__"}
+MODULES = {path.stem for path in (ROOT / "src" / "nlupdate").rglob("*.py")} - {"__init__"}
+assert len(MODULES) > 100, "the package's modules were not found: the check would pass vacuously"
 CODE_WORDS = re.compile(r"nlupdate\.[a-z_]+|\bthis module\b|\bThe work is\b|:(?:func|mod|class|meth):")
 
 COMMAND_LINES = [[name] for name in COMMANDS] + [["archive", action] for action in ("list", "show", "compare", "rerun")]

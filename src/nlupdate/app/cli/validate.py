@@ -15,8 +15,8 @@ default) are predicted from all force-controlled levels at their held amplitude 
 compared the same way: validation.json's response_controlled list and
 DIR/response_controlled.png. --hold-out-type TYPE holds out a whole test type instead
 (stepped sine, ring-down, phase resonance, …: the sources of ``nlupdate amplitude``):
-the amplitude-dependent modal model fitted on the others predicts it
-(:mod:`nlupdate.app.cli.validate_type`).
+the amplitude-dependent modal model fitted on the others predicts it (docs/validation.md,
+"A whole test type held out").
 """
 from __future__ import annotations
 
