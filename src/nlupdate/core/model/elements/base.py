@@ -282,3 +282,20 @@ class ElementBase:
 def nonlinear_dofs(elements: Sequence[NonlinearElement]) -> tuple[int, ...]:
     """Sorted coordinates touched by any element (the ``a`` set of docs/methods.md §3)."""
     return tuple(sorted({d for element in elements for d in element.dofs}))
+
+
+class CycleElement(ElementBase):
+    """An element whose harmonic-balance force is followed one motion at a time over its own
+    cycle (hysteresis: Jenkins, Iwan's Masing rules; Coulomb's crossings): a subclass writes
+    :meth:`one_period`. Rate-independent unless it says otherwise (no tangent damping)."""
+
+    def one_period(self, c: NDArray, fourier: Any) -> PeriodForces:
+        """Harmonics of the force, its Jacobian and ω-derivative along one motion ``c`` (2H+1) (m)."""
+        raise NotImplementedError
+
+    def period_forces(self, c: NDArray, omega: NDArray, fourier: Any) -> PeriodForces:
+        return each_motion(lambda ci, wi: self.one_period(ci, fourier), c, omega, fourier.size)
+
+    def damping_harmonics(self, c: NDArray, omega: NDArray, fourier: Any) -> NDArray[np.complex128]:
+        """Zero: the force does not depend on the rate of the motion."""
+        return np.zeros((np.size(omega), 4 * fourier.harmonics + 1), complex)

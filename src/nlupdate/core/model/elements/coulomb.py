@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.core.model.elements.base import (
-    EffectForm, ElementBase, ElementParameter, PeriodForces, amplitude_array, check_dofs, each_motion, positive,
+    CycleElement, EffectForm, ElementParameter, PeriodForces, amplitude_array, check_dofs, positive,
 )
 
 
@@ -55,7 +55,7 @@ def velocity_crossings(c: NDArray, fourier) -> tuple[NDArray, NDArray, NDArray]:
 
 
 @dataclass(frozen=True)
-class CoulombFriction(ElementBase):
+class CoulombFriction(CycleElement):
     """Coulomb friction ``f = Fs·sign(ẋ)``; ``ν = i·4Fs/(πA)``."""
 
     dofs: tuple[int, ...]
@@ -84,7 +84,7 @@ class CoulombFriction(ElementBase):
     def stiffness_bound(self, amplitude: float) -> float:
         return 0.0
 
-    def _one_period(self, c: NDArray, fourier) -> PeriodForces:
+    def one_period(self, c: NDArray, fourier) -> PeriodForces:
         fs = self.slip_force
         size = fourier.size
         theta, d1, slope = velocity_crossings(c, fourier)
@@ -105,9 +105,6 @@ class CoulombFriction(ElementBase):
         dg_dtheta[1::2], dg_dtheta[2::2] = d.real, d.imag
         dtheta_dc = -d1 / slope[:, None]
         return PeriodForces(g, dg_dtheta @ dtheta_dc, np.zeros(size))
-
-    def period_forces(self, c, omega, fourier):
-        return each_motion(lambda ci, wi: self._one_period(ci, fourier), c, omega, fourier.size)
 
     def damping_harmonics(self, c, omega, fourier):
         """``∂f/∂u̇ = 2Fs Σ_c δ(t − t_c)``, whose coefficients in θ are

@@ -21,7 +21,7 @@ import scipy.special
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.model.elements.base import (
-    SHAPE_POINTS, EffectForm, ElementBase, ElementParameter, PeriodForces, amplitude_array, check_dofs, each_motion,
+    SHAPE_POINTS, CycleElement, EffectForm, ElementParameter, PeriodForces, amplitude_array, check_dofs,
     positive,
 )
 
@@ -67,7 +67,7 @@ def _iwan_sliders(phi_max: float, continuous: float, chi: float, concentrated: f
 
 
 @dataclass(frozen=True)
-class IwanJoint(ElementBase):
+class IwanJoint(CycleElement):
     """Segalman's four-parameter Iwan model of a bolted (lap) joint: a continuum of Jenkins
     elements (unit-stiffness springs in series with sliders) with slip displacements φ
     distributed as ``ρ(φ) = R φ^χ [H(φ) − H(φ − φ_max)] + S δ(φ − φ_max)``.
@@ -244,7 +244,7 @@ class IwanJoint(ElementBase):
         return self.kt
 
     # -- harmonic balance: Masing's rules on the samples ------------------------------------
-    def _one_period(self, c: NDArray, fourier) -> PeriodForces:
+    def one_period(self, c: NDArray, fourier) -> PeriodForces:
         u = fourier.to_time(c)
         origin, force_at, gradient_at = masing_branches(self, u, fourier)
         keys = np.array(sorted(force_at))
@@ -256,13 +256,6 @@ class IwanJoint(ElementBase):
         force = turning_force[slot] + 2.0 * f_bb
         tangent = turning_gradient[slot] + t_bb[:, None] * (fourier.E - fourier.E[origin])
         return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
-
-    def period_forces(self, c, omega, fourier):
-        return each_motion(lambda ci, wi: self._one_period(ci, fourier), c, omega, fourier.size)
-
-    def damping_harmonics(self, c, omega, fourier):
-        """None: the force is rate-independent."""
-        return np.zeros((np.size(omega), 4 * fourier.harmonics + 1), complex)
 
     # -- identification ---------------------------------------------------------------------
     @classmethod

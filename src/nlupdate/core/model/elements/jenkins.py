@@ -16,13 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.core.model.elements.base import (
-    SHAPE_POINTS, EffectForm, ElementBase, ElementParameter, PeriodForces, amplitude_array, check_dofs, each_motion,
+    SHAPE_POINTS, CycleElement, EffectForm, ElementParameter, PeriodForces, amplitude_array, check_dofs,
     positive,
 )
 
 
 @dataclass(frozen=True)
-class JenkinsFriction(ElementBase):
+class JenkinsFriction(CycleElement):
     """Jenkins element: spring kf (N/m) in series with a Coulomb slider of slip force Fs (N).
 
     Stuck below ``A = Fs/kf`` (ν = kf); above, with ``β = arccos(1 − 2Fs/(kf A))``:
@@ -115,7 +115,7 @@ class JenkinsFriction(ElementBase):
                 break
         return np.array(force), np.array(anchor)
 
-    def _one_period(self, c: NDArray, fourier) -> PeriodForces:
+    def one_period(self, c: NDArray, fourier) -> PeriodForces:
         u = fourier.to_time(c)
         force, anchor = self.cycle(u)
         if anchor[0] == -2:
@@ -126,13 +126,6 @@ class JenkinsFriction(ElementBase):
             tangent = np.zeros_like(fourier.E)
             tangent[stick] = self.kf * (fourier.E[stick] - fourier.E[anchor[stick]])
         return PeriodForces(fourier.to_harmonics(force), fourier.to_harmonics(tangent), np.zeros(fourier.size))
-
-    def period_forces(self, c, omega, fourier):
-        return each_motion(lambda ci, wi: self._one_period(ci, fourier), c, omega, fourier.size)
-
-    def damping_harmonics(self, c, omega, fourier):
-        """None: the force is rate-independent."""
-        return np.zeros((np.size(omega), 4 * fourier.harmonics + 1), complex)
 
     # -- discovery ----------------------------------------------------------------------------
     @classmethod
