@@ -21,8 +21,8 @@ from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, 
 from nlupdate.core.response.method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
-                    "propagated through the updating sensitivities for updated parameters); the interval given as "
-                    "'3σ' has coverage ≈ 99.7 % for a normal spread")
+                    "propagated through the updating sensitivities for updated parameters); the identified values' "
+                    "95 % intervals, which also carry model-form error, are in the identification section")
 
 
 def _number(value: float, digits: int = 4) -> str:
@@ -270,10 +270,15 @@ def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[st
     lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
                   + monte_carlo_note(ident.uncertainty), ""]
     stats = ident.uncertainty.parameters
-    rows = [{"parameter": name, "value": st.value, "std": st.std, "3σ interval": f"[{_number(st.value - 3 * st.std)}, "
-             f"{_number(st.value + 3 * st.std)}]", **({"truth": truth.get(name, float("nan"))} if truth else {})}
+    rows = [{"parameter": name, "value": st.value, "Monte-Carlo std": st.std,
+             "95 % interval": f"[{_number(st.ci95[0])}, {_number(st.ci95[1])}]"
+                              + (f" (one-sided: {st.bound.why})" if st.bound is not None else ""),
+             **({"truth": truth.get(name, float("nan"))} if truth else {})}
             for name, st in stats.items() if name in ident.parameters()]
-    lines += [_table(pd.DataFrame(rows)), ""]
+    lines += [_table(pd.DataFrame(rows)), "",
+              "The 95 % interval holds the value: the Monte-Carlo deviations reflected about it (basic bootstrap), "
+              "widened by the spread of refits with one level left out when the fit's residual is above the noise "
+              "(model-form error), one-sided for a value on a limit (docs/methods.md §4, Intervals).", ""]
     if "fit" in plots:
         covered = covered_intervals(r.amplitude)
         gaps = (f", dashed across the gap{'s' if len(covered) > 2 else ''} between them (no point within a factor "
@@ -316,8 +321,8 @@ def monte_carlo_note(uncertainty) -> str:
     """What the Monte-Carlo sample count means, how many failed and why."""
     n, failed = uncertainty.n_samples, uncertainty.n_failed
     text = (f"Uncertainty: {n} Monte-Carlo samples — the measured curves perturbed {n} times with fresh noise of "
-            f"that level and identified again (excitation frequency or band, force levels and model held fixed); the ± below and the bands "
-            f"in the plots are the spread of the {n - failed} results")
+            f"that level and identified again (excitation frequency or band, force levels and model held fixed); the std below is "
+            f"the spread of the {n - failed} results, and the intervals and the plots' bands are built from them")
     if not failed:
         return text + " (none failed)."
     grouped: dict[str, int] = {}
