@@ -184,3 +184,27 @@ def test_a_bad_validation_table_is_one_line(tmp_path, capsys, validation, messag
     code, _, err = run_cli(capsys, "update", _brb_study(tmp_path, validation), "--out", tmp_path / "run")
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "run").exists()
+
+
+def test_the_frf_band_holds_the_tests_own_scatter_where_the_refits_cross():
+    """Refitted curves that all cross at one line gave a band of (almost) zero width there
+    (seen on the Brake–Reuss beam's top level); the test's resonance scatter moves the
+    curve along f, so the band at that line is at least t·|d|H|/df|·σ_f (a curve shifted by
+    σ_f, independently of the refits)."""
+    from nlupdate.core.validation.held_out import Repeatability, bands
+
+    f = np.linspace(78.0, 82.0, 401)
+
+    def curve(fn: float) -> np.ndarray:  # one mode, 0.5 % damping
+        return 1 / (fn**2 - f**2 + 2j * 0.005 * fn * f)
+
+    predicted = curve(80.0)
+    crossing = np.argmin(np.abs(f - 80.4))
+    refits = [predicted * (1 + 0.1 * k * (f - f[crossing])) for k in (-1, 0, 1)]  # equal at the crossing
+    measured = {"resonance_hz": 80.0, "damping_ratio": 0.005, "peak_abs": float(np.abs(predicted).max())}
+    sigma_f = 0.15
+    _, low, high = bands(f, measured, predicted, refits, Repeatability(sigma_f, 0.001, 4), noise=0.0)
+    shifted = np.abs(curve(80.0 + sigma_f))
+    slope = abs(np.abs(predicted)[crossing + 1] - np.abs(predicted)[crossing - 1]) / (f[crossing + 1] - f[crossing - 1])
+    assert high[crossing] - np.abs(predicted)[crossing] >= 0.9 * 4.30 * slope * sigma_f
+    assert low[crossing] <= shifted[crossing] <= high[crossing]  # the shifted curve lies inside there
