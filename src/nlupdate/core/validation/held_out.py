@@ -254,10 +254,12 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
         repeat_std = test_std[name] if np.isfinite(test_std[name]) else 0.0
         half = t * np.sqrt(jack**2 + repeat_std**2)
         compared[name] = Compared(measured[name], values[name], values[name] - half, values[name] + half)
-    # the test's own scatter of the resonance moves the curve along f: |d|H|/df|·σ_f at each line,
-    # so the band does not pinch to nothing where the refitted curves happen to cross
-    shift = np.abs(np.gradient(np.abs(predicted), f)) * (repeat.resonance_hz if np.isfinite(repeat.resonance_hz)
-                                                         else 0.0) if f.size > 1 else np.zeros(f.shape)
+    # the test's own scatter of the resonance moves the curve along f by σ_f: the larger change of
+    # |H| at each line when the curve is shifted either way (a jump moves, it does not grow), so
+    # the band does not pinch to nothing where the refitted curves happen to cross
+    sigma_f = repeat.resonance_hz if np.isfinite(repeat.resonance_hz) else 0.0
+    size = np.abs(predicted)
+    shift = np.maximum(np.abs(np.interp(f - sigma_f, f, size) - size), np.abs(np.interp(f + sigma_f, f, size) - size))
     abs_half = t * np.sqrt(spread(np.array(jack_abs)) ** 2 + (noise * np.abs(predicted)) ** 2 + shift**2) \
         if n >= 3 else np.full(f.shape, np.nan)
     return compared, np.maximum(np.abs(predicted) - abs_half, 0.0), np.abs(predicted) + abs_half
