@@ -14,6 +14,8 @@
   :mod:`~nlupdate.core.response.aft` (element forces over a period) and
   :mod:`~nlupdate.core.response.hill` (Floquet multipliers);
 * :mod:`~nlupdate.core.response.fixed_point` — the source's relaxed fixed-point iteration;
-* :mod:`~nlupdate.core.response.time_integration` — the time-domain reference;
+* :mod:`~nlupdate.core.response.time_integration` — the time-domain reference (its operators and
+  step bound in :mod:`~nlupdate.core.response.time_operators`, its stepping loop in
+  :mod:`~nlupdate.core.response.time_stepping`);
 * :mod:`~nlupdate.core.response.simulate` — responses at several force levels as a measured-FRF table.
 """
