@@ -26,7 +26,7 @@ freedom). With fewer than three kept levels there is no jackknife and the band i
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
@@ -71,15 +71,14 @@ class Compared:
         return {"measured": self.measured, "predicted": self.predicted, "low": self.low, "high": self.high}
 
 
-@dataclass(frozen=True, eq=False)
-class HeldOut:
-    """One held-out level predicted by one model: the compared quantities, the baseline's
-    (``baseline``: measured and predicted only), the residual over the noise, and the
+@dataclass(frozen=True, eq=False, kw_only=True)
+class CurveComparison:
+    """A predicted curve against its measurement: the compared quantities, the baseline's
+    (``baseline``: measured and predicted only), the residuals over the noise, and the
     curves (frequency_hz, measured, predicted, its |H| band, the baseline's curve)."""
 
-    level: float
     model: str
-    kept: tuple[float, ...]
+    requested: str = ""
     compared: dict[str, Compared]
     baseline: dict[str, Compared]
     residual_to_noise: float
@@ -92,12 +91,19 @@ class HeldOut:
     abs_high: NDArray[np.float64]
     baseline_frf: NDArray[np.complex128]
     note: str = ""
-    requested: str = ""
 
     @property
     def label(self) -> str:
         """The model as asked for (``auto → lines`` when auto chose it)."""
         return f"auto → {self.model}" if self.requested == "auto" else self.model
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class HeldOut(CurveComparison):
+    """One held-out level predicted by one model (``kept``: the levels it was fitted on)."""
+
+    level: float
+    kept: tuple[float, ...]
 
     def as_dict(self) -> dict:
         return {"level": self.level, "model": self.model, "requested": self.requested or self.model,
@@ -297,19 +303,27 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
     f, h = data.curve(level)
     fit = model_fitter(model)
     predicted = fit(kept)(f, level)
+    curves, note = refits(fit, kept_levels, data, lambda fitted: fitted(f, level))
+    base = baseline_frf(baseline_fits(data, kept_levels), level, f)
+    return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model,
+                   **curve_comparison(data, f, h, predicted, curves, base, repeat), note=note)
+
+
+def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray, curves: list, base: NDArray,
+                     repeat: Repeatability) -> dict[str, Any]:
+    """The comparison fields of a :class:`CurveComparison`: measured ``h`` against
+    ``predicted`` (with the band of the refitted ``curves``) and against the baseline's
+    curve ``base`` over the lines ``f`` (Hz); the noise from ``h`` itself, or from the
+    lowest level of ``data`` when ``h`` is too short to tell."""
     measured = _metrics(f, h)
     noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
-    curves, note = refits(fit, kept_levels, data, lambda fitted: fitted(f, level))
     compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise)
-    base = baseline_frf(baseline_fits(data, kept_levels), level, f)
     base_values = _metrics(f, base)
-    return HeldOut(
-        level=float(level), model=model, kept=kept_levels, compared=compared,
-        baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
-        residual_to_noise=_residual_to_noise(h, predicted, noise),
-        baseline_residual_to_noise=_residual_to_noise(h, base, noise),
-        half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
-        abs_low=abs_low, abs_high=abs_high, baseline_frf=base, note=note, requested=requested or model)
+    return dict(compared=compared, baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
+                residual_to_noise=_residual_to_noise(h, predicted, noise),
+                baseline_residual_to_noise=_residual_to_noise(h, base, noise),
+                half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
+                abs_low=abs_low, abs_high=abs_high, baseline_frf=base)
 
 
 def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: Sequence[str] = ("auto",),

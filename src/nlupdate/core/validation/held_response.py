@@ -18,49 +18,26 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
-import numpy as np
-from numpy.typing import NDArray
-
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response
 from nlupdate.core.validation.held_out import (
-    QUANTITIES, Compared, Repeatability, Validation, _metrics, _noise, _residual_to_noise, baseline_fits, bands, refits,
+    CurveComparison, Repeatability, Validation, baseline_fits, curve_comparison, refits,
 )
 from nlupdate.core.validation.models import choose_model, model_fitter
-from nlupdate.core.validation.resonance import resonance
 from nlupdate.progress import ProgressCallback, no_progress
 
 
-@dataclass(frozen=True, eq=False)
-class HeldPrediction:
-    """One response-controlled run under one model: the compared quantities (as
-    :class:`~nlupdate.core.validation.held_out.Compared`), the baseline's, residuals over the
-    noise and the curves."""
+@dataclass(frozen=True, eq=False, kw_only=True)
+class HeldPrediction(CurveComparison):
+    """One response-controlled run (``run``, held amplitude ``held_m`` in m) under one model
+    fitted on the force-controlled ``levels``."""
 
     run: str
     held_m: float
-    model: str
-    requested: str
     levels: tuple[float, ...]
-    compared: dict
-    baseline: dict
-    residual_to_noise: float
-    baseline_residual_to_noise: float
-    half_power_lines: int
-    frequency_hz: NDArray[np.float64]
-    measured: NDArray[np.complex128]
-    predicted: NDArray[np.complex128]
-    abs_low: NDArray[np.float64]
-    abs_high: NDArray[np.float64]
-    baseline_frf: NDArray[np.complex128]
-    note: str = ""
-
-    @property
-    def label(self) -> str:
-        return f"auto → {self.model}" if self.requested == "auto" else self.model
 
     def force_needed(self) -> dict[str, float]:
         """The force at resonance X/peak (measured, predicted and its band; N or V)."""
@@ -98,19 +75,11 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
                              f"driving point {data.input_dof} of the force-controlled curve")
         f, h = run.frequency_hz, run.h
         predicted = fitted.at_response(f, run.held_m)
-        measured = _metrics(f, h)
-        noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
         curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, run.held_m))
-        compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise)
         base = baseline_at_response(fits, run.held_m, f)
-        base_values = _metrics(f, base)
-        out.append(HeldPrediction(
-            run=run.name, held_m=run.held_m, model=model, requested=requested or model, levels=levels,
-            compared=compared, baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
-            residual_to_noise=_residual_to_noise(h, predicted, noise),
-            baseline_residual_to_noise=_residual_to_noise(h, base, noise),
-            half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
-            abs_low=abs_low, abs_high=abs_high, baseline_frf=base, note=note))
+        out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
+                                  requested=requested or model,
+                                  **curve_comparison(data, f, h, predicted, curves, base, repeat), note=note))
     return out
 
 
