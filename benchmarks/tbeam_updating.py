@@ -25,7 +25,7 @@ from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions, inv
 from nlupdate.core.updating.sensitivity import FORMULA_LABELS
 from nlupdate.study import load_study
 from nlupdate.study import run_study
-from nlupdate.study.steps import study_targets, updating_runs
+from nlupdate.study.steps.updating import study_targets, updating_runs
 from nlupdate.core.updating.targets import UpdatingTargets
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -21,7 +21,7 @@ import pytest
 from nlupdate.app.cli import main
 from nlupdate.files import HOST
 from nlupdate.study import load_study
-from nlupdate.study.steps import measured_table
+from nlupdate.study.steps.measured import measured_table
 
 from cli_runs import run_cli
 

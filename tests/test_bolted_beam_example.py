@@ -13,7 +13,7 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.study import load_study
 from nlupdate.core.measurement.noise import add_table_noise
 from nlupdate.core.response.simulate import simulate_frf_table
-from nlupdate.study.steps import measured_table, truth_system
+from nlupdate.study.steps.measured import measured_table, truth_system
 from nlupdate.fe.adapters.registry import AdapterSpec, build_adapter
 
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "bolted_beam" / "study.toml"

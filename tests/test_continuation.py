@@ -253,7 +253,7 @@ def test_a_large_step_never_carries_the_trace_over_a_fold_onto_the_other_branch(
     from nlupdate.app.cli.demo import demo_study_text
     from nlupdate.core.model.linear import dof_index
     from nlupdate.study import study_from_text
-    from nlupdate.study.steps import truth_system
+    from nlupdate.study.steps.measured import truth_system
 
     study = study_from_text(demo_study_text(1), Path("demo.toml"))
     system = truth_system(study, study.measured.simulate)

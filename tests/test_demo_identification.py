@@ -28,7 +28,7 @@ from nlupdate.app.cli.demo import demo_study_text
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.pipeline import identify
 from nlupdate.study import study_from_text
-from nlupdate.study.steps import measured_table, truth_system
+from nlupdate.study.steps.measured import measured_table, truth_system
 
 
 @pytest.mark.parametrize("seed", range(1, 9))

@@ -249,10 +249,10 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
     prediction of both models are called with the file's settings, and the report names
     the method."""
     from nlupdate.core.prediction import predict as prediction
-    from nlupdate.study import steps
+    from nlupdate.study.steps import prediction as prediction_step
 
     calls = []
-    for module, name in ((steps, "predict_measured"), (prediction, "fit_loss_factor")):
+    for module, name in ((prediction_step, "predict_measured"), (prediction, "fit_loss_factor")):
         original = getattr(module, name)
 
         def recording(*args, _original=original, _name=name, **kwargs):
@@ -277,7 +277,7 @@ def test_the_prediction_step_gets_the_settings_and_the_report_names_them(monkeyp
 
 def test_the_prediction_cache_key_follows_the_method_and_its_settings():
     from nlupdate.study.chain import STEPS
-    from nlupdate.study.steps import PredictionJob
+    from nlupdate.study.steps.prediction import PredictionJob
     from nlupdate.orchestration.tasks import keys
 
     def key(extra: str) -> str:

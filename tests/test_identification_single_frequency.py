@@ -33,7 +33,7 @@ from nlupdate.core.identification.prd import IdentificationError
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.study import study_from_text
-from nlupdate.study.steps import truth_system
+from nlupdate.study.steps.measured import truth_system
 
 ELEMENTS = ("cubic", "jenkins")
 

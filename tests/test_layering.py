@@ -178,7 +178,7 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
 
     from nlupdate.study import load_study
     from nlupdate.study.chain import STEPS
-    from nlupdate.study.steps import study_targets, updating_runs
+    from nlupdate.study.steps.updating import study_targets, updating_runs
     from nlupdate.orchestration.tasks import keys
 
     package = tmp_path / "nlupdate"

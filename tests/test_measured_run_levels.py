@@ -175,7 +175,7 @@ def test_z_axis_level_typed_as_force_with_a_voltage_reference_is_used_with_a_not
 # ---------------------------------------------------------------- the study takes the same mapping
 def test_study_levels_per_run_and_per_file(tmp_path):
     from nlupdate.study.loading import load_study
-    from nlupdate.study.steps import measured_table
+    from nlupdate.study.steps.measured import measured_table
 
     names = [f"Run {chr(65 + k)}" for k in range(len(LEVELS))]
     multi_run_export(tmp_path / "export.uff", names)

@@ -16,7 +16,7 @@ from test_time_history import sdof_receptance, stepped_record  # noqa: E402
 from nlupdate.core.measurement.frf_table import select_frf  # noqa: E402
 from nlupdate.study.reader import StudyError  # noqa: E402
 from nlupdate.study.loading import load_study  # noqa: E402
-from nlupdate.study.steps import measured_table  # noqa: E402
+from nlupdate.study.steps.measured import measured_table  # noqa: E402
 
 
 def test_files_with_levels_per_volt_and_a_calibration(tmp_path):

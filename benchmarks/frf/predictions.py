@@ -15,7 +15,8 @@ from pathlib import Path
 
 from nlupdate.app.cli.demo import demo_study_text
 from nlupdate.study.loading import study_from_text
-from nlupdate.study.steps import identification_step, measured_table, predict_model, prediction_adapter
+from nlupdate.study.steps.measured import identification_step, measured_table
+from nlupdate.study.steps.prediction import predict_model, prediction_adapter
 from nlupdate.fe.adapters.registry import build_adapter
 from nlupdate.core.updating.evaluation import MemoisedEvaluator
 

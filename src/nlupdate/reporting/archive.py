@@ -6,7 +6,7 @@
                       commit, seeds, adapter and solver versions, start/end, how the run was
                       orchestrated (flow-run id, tasks computed vs cached), failures and
                       warnings (results not to be trusted as they stand, each
-                      {"subject", "kind", "message", "source"}: nlupdate.study.steps.study_warnings)
+                      {"subject", "kind", "message", "source"}: nlupdate.study.steps.trust.study_warnings)
     study.toml        the study file as run
     inputs/           a copy of every file the study reads (measured data, model files,
                       decks, identification outputs) as ``inputs/<sha256[:12]>/<name>``,

@@ -2,7 +2,7 @@
 
 It opens with a line saying so when no updating run converged (and why each stopped),
 then the warnings about results that should not be trusted as they stand
-(:func:`nlupdate.study.steps.study_warnings`, a best model that predicts worse than the
+(:func:`nlupdate.study.steps.trust.study_warnings`, a best model that predicts worse than the
 initial one first; the CLI prints the summary, so they reach the terminal too) and the
 answer (identified nonlinearity, updated parameters with their
 uncertainty, how well the updated nonlinear model predicts every force level), then

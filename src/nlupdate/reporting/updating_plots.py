@@ -198,7 +198,7 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
                           reference_label: str = "extracted linear FRF") -> Figure:
     """|H| (log, m/N) of the reference linear FRF (``reference_label``; with its 95 % band
     when it has one) and of every candidate model
-    (:class:`~nlupdate.study.steps.CandidateFRFs`), with what modal truncation does to the
+    (:class:`~nlupdate.study.steps.updating.CandidateFRFs`), with what modal truncation does to the
     models' curves said on the plot."""
     f = np.asarray(frfs.frequency_hz, dtype=float)
     figure = Figure(figsize=(12, 5.4), layout="constrained")

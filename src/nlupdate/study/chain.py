@@ -26,12 +26,15 @@ import pandas as pd
 from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.identification.trust import TrustWarning
 from nlupdate.study.spec import Study
-from nlupdate.study.steps import (
-    CandidateFRFs, Comparison, Prediction, PredictionJob, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs,
-    compare_runs, identification_step, measured_description, measured_table, models_used, predict_job,
-    prediction_adapter, prediction_jobs, run_update, run_verdict, study_targets, study_warnings, updating_model,
-    updating_runs, validation_step,
+from nlupdate.study.steps.measured import identification_step, measured_description, measured_table
+from nlupdate.study.steps.prediction import Prediction, PredictionJob, predict_job, prediction_adapter, prediction_jobs
+from nlupdate.study.steps.record import models_used
+from nlupdate.study.steps.trust import study_warnings
+from nlupdate.study.steps.updating import (
+    CandidateFRFs, Comparison, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs, compare_runs, run_update,
+    run_verdict, study_targets, updating_model, updating_runs,
 )
+from nlupdate.study.steps.validation import validation_step
 from nlupdate.core.validation.held_out import Validation
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.target_uncertainty import ParameterUncertainty
@@ -52,7 +55,7 @@ class Step:
     jobs: fan-out: ``(study, *inputs) -> jobs``; each: ``(study, job, evaluator, *inputs)``;
     model: fan-out: the FE model (:class:`~nlupdate.fe.adapters.registry.AdapterSpec`) its
         jobs evaluate points of; keep_going: a failing job is recorded as a
-        :class:`~nlupdate.study.steps.RunFailure` and the others go on;
+        :class:`~nlupdate.study.steps.updating.RunFailure` and the others go on;
     label: fan-out: ``(job, outcome) -> str``, a computed job's progress detail (the line
         already names the job);
     jobs_describe_themselves: fan-out: a job holds everything its result depends on (an

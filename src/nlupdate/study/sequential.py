@@ -14,7 +14,7 @@ from typing import Any, Callable
 from nlupdate.fe.adapters.registry import build_adapter
 from nlupdate.study.chain import CHAIN, Step, StudyResult, study_result
 from nlupdate.study.spec import Study, inputs_read_once
-from nlupdate.study.steps import RunFailure
+from nlupdate.study.steps.updating import RunFailure
 from nlupdate.core.updating.evaluation import MemoisedEvaluator
 
 

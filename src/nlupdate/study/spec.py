@@ -173,7 +173,7 @@ class EigensensitivitySpec:
 class ComparisonSpec:
     """``[comparison]``: the user's weights of the target modes (a list, or label → weight;
     None: the target weights), the modal damping of the candidates' FRFs (None: see
-    :func:`nlupdate.study.steps.comparison_damping`), the FRAC band around each mode
+    :func:`nlupdate.study.steps.updating.comparison_damping`), the FRAC band around each mode
     (fraction of its frequency) and an FRF to compare with (path, or None)."""
 
     user_weights: tuple[float, ...] | Mapping[str, float] | None = None

@@ -34,7 +34,7 @@ from nlupdate.orchestration.flows.status_lines import current_progress
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
 from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
-from nlupdate.study.steps import RunFailure
+from nlupdate.study.steps.updating import RunFailure
 from nlupdate.orchestration.tasks import cached, keys
 from nlupdate.orchestration.tasks.figures import FigureStore
 from nlupdate.orchestration.tasks.names import job_run_name, step_run_name
