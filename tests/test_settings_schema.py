@@ -79,7 +79,7 @@ def test_the_three_doors_build_the_same_settings(tmp_path):
     ("samples", 1, "an integer in [2, 100000]"),
     ("samples", 2.5, "an integer in [2, 100000]"),
     ("seed", True, "an integer ≥ 0"),
-    ("method", "magic", '"prd" | "ddf"'),
+    ("method", "magic", "one of ['prd', 'ddf']"),
     ("force_pair_n", [1, 2, 3], "a list of 2 numbers ≥ 0"),
     ("modal_band_fraction", 0.5, "a number in (0, 0.5)"),
     ("coherence_threshold", float("nan"), "a number in [0, 1]"),

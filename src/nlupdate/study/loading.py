@@ -8,8 +8,12 @@ from typing import Mapping
 from nlupdate.files import MAX_NAME, name_problem
 from nlupdate.input_files import parse_toml, read_input_text
 from nlupdate.study import sections
+from nlupdate.study.declared import build, read_declared
+from nlupdate.study.measured_section import read_measured
+from nlupdate.study.model_sections import check_parameter_domain, read_adapter, read_parameters, read_targets
+from nlupdate.study.fe_validation import read_fe_validation
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.study.spec import Study
+from nlupdate.study.spec import Study, StudyInfo
 
 def load_study(path: str | os.PathLike) -> Study:
     """Read and check a study file; raises :class:`StudyError` or FileNotFoundError."""
@@ -31,7 +35,8 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
             raise read.fail(table, key, f"nothing: this key was removed ({hint})", data[table][key])
     read.check_keys(data, "")
     meta = read.table(data, "study") or {}
-    name = read.string(meta, "study", "name", default=path.stem)
+    info = build(read, "study", StudyInfo, read_declared(read, meta, "study"))
+    name = info.name if info.name is not None else path.stem
     problem = name_problem(name)
     if problem is not None:
         if "name" in meta:
@@ -39,20 +44,20 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
                                              f"or '\\', not starting with '.'), not {problem}", name)
         raise StudyError(f"{path}: the study is named after its file, {name!r}, which is {problem}; give it a "
                          f"[study] name")
-    description = read.string(meta, "study", "description", default="")
+    description = info.description
 
     adapter, fixed, parameters = None, {}, ()
     if "adapter" in data:
-        adapter, fixed = sections.read_adapter(read, data)
-        parameters = sections.read_parameters(read, data)
+        adapter, fixed = read_adapter(read, data)
+        parameters = read_parameters(read, data)
         overlap = sorted({p.name for p in parameters} & set(fixed))
         if overlap:
             raise read.fail("adapter.fixed", overlap[0], "parameters that are not also updated ([[parameters]])")
-        sections.check_parameter_domain(read, adapter, parameters, fixed)
+        check_parameter_domain(read, adapter, parameters, fixed)
     elif "parameters" in data or "targets" in data:
         raise StudyError(f"{path}: [[parameters]] and [targets] need an [adapter] table (the FE model to update)")
 
-    measured = sections.read_measured(read, data, adapter)
+    measured = read_measured(read, data, adapter)
     identification = sections.read_identification(read, data)
     names = [p.name for p in parameters]
 
@@ -61,7 +66,7 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
     if adapter is not None:
         if table is None:
             raise StudyError(f"{path}: missing table [targets] (what the updated model must match)")
-        targets, n_targets = sections.read_targets(read, table, identification)
+        targets, n_targets = read_targets(read, table, identification)
     labels = list(targets.labels) if targets is not None and targets.labels else [
         f"mode{i + 1}" for i in range(max(n_targets, 0))]
 
@@ -73,6 +78,7 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
     comparison = sections.read_comparison(read, data, labels, n_targets)
     prediction = sections.read_prediction(read, data, identification, adapter)
     validation = sections.read_validation(read, data, measured)
+    fe_validation = read_fe_validation(read, data, adapter, validation)
     if measured is None and identification is not None:
         raise StudyError(f"{path}: [identification] needs measured data: a [measured] table (file or simulate)")
     if adapter is None and measured is None:
@@ -81,5 +87,6 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
         path=path, name=name, description=description, text=text, measured=measured, identification=identification,
         adapter=adapter, fixed=fixed, parameters=parameters, targets=targets, updating=updating,
         eigensensitivity=eigensensitivity, optimisation=optimisation, candidates=candidates, comparison=comparison,
-        prediction=prediction, validation=validation, input_files=dict(read.files),
+        prediction=prediction, validation=validation, fe_validation=fe_validation,
+        input_files=dict(read.files),
     )

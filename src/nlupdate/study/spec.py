@@ -1,10 +1,13 @@
 """A study as read from its TOML file: :class:`Study` and one typed section per table.
 
-What each table and key means — type, unit, default, allowed values, with an example per
-table — is documented once, in docs/study-files.md. Reading and checking the tables is
-:mod:`nlupdate.study.sections`; loading a file, :mod:`nlupdate.study.loading`. Defaults
-live with the settings they configure (:class:`~nlupdate.core.updating.eigensensitivity.EigensensitivityOptions`,
+The keys of a table whose values are plain settings are declared once, on the class the
+table becomes (:func:`nlupdate.settings.setting`: form, unit, default, meaning): the study
+reader checks the table from the declaration (:mod:`nlupdate.study.declared` lists which
+classes declare which table) and docs/study-files.md's tables of keys are generated from it.
+Defaults live with the settings they configure (:class:`~nlupdate.core.updating.eigensensitivity.EigensensitivityOptions`,
 :class:`~nlupdate.core.identification.pipeline.IdentificationSettings`, …) and are not repeated.
+Rules across keys (which keys go together, a length set by another table) are the readers'
+(:mod:`nlupdate.study.sections` and its siblings); loading a file, :mod:`nlupdate.study.loading`.
 """
 from __future__ import annotations
 
@@ -14,8 +17,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
+from nlupdate.core.response.method import HARMONICS_FORM, MAX_HARMONICS, RESPONSE_METHODS
+from nlupdate.core.updating.sensitivity import FORMULAS
+from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES
 from nlupdate.fe.adapters.base import Parameter
-from nlupdate.fe.adapters.registry import AdapterSpec
+from nlupdate.fe.adapters.registry import ADAPTER_KINDS, AdapterSpec
 from nlupdate.fingerprints import text_hash
 from nlupdate.core.identification.pipeline import IdentificationSettings
 from nlupdate.input_files import pinned, snapshot
@@ -24,13 +30,93 @@ from nlupdate.study.reader import StudyError
 from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions
 from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
+from nlupdate.core.validation.fe_settings import FEValidationSettings
+from nlupdate.settings import setting
 
 __all__ = [
-    "CandidateEntry", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
+    "AdapterTable", "CandidateEntry", "EigensensitivityKeys", "ParameterEntry", "StudyAdapterTable", "StudyInfo", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
     "Study", "StudyError", "TargetsSpec", "inputs_read_once",
 ]
 
 LOSS_FACTOR_SOURCES = ("low_force_fit", "identified")
+
+
+@dataclass(frozen=True)
+class StudyInfo:
+    """``[study]``: the study's name (None: the file's name) and description."""
+
+    name: str | None = setting(
+        None, kind="string", default_text="the file's name without `.toml`",
+        meaning="names the run: archive folder `results/<name>/`, report title, Prefect flow-run name (one folder "
+                "name: printable, no `/` or `\\`, not starting with `.`)")
+    description: str = setting("", kind="string", meaning="one line for the report and `manifest.json`")
+
+
+@dataclass(frozen=True)
+class AdapterTable:
+    """An FE model as a study names it (``[adapter]``, ``[measured.simulate.adapter]``)."""
+
+    kind: str = setting(kind="choice", choices=ADAPTER_KINDS, required=True, meaning="FE code, options below")
+    model: str | None = setting(None, kind="string", default_text="—",
+                                meaning='**required** for `surrogate` (`"tbeam"` | `"gunbarrel"`) and `calculix` '
+                                        '(`"tbeam"` | `"brb"`); not used by `lumped` and `mapdl`')
+    options: dict[str, Any] = setting(default_factory=dict, kind="table",
+                                      meaning="constructor options of that kind (below); `[adapter.options]` or inline "
+                                              "`options = {…}`")
+
+    def spec(self) -> AdapterSpec:
+        return AdapterSpec(self.kind, self.model, self.options)
+
+
+@dataclass(frozen=True)
+class StudyAdapterTable(AdapterTable):
+    """``[adapter]``: the FE model to update, and parameters held at other values."""
+
+    fixed: dict[str, float] = setting(
+        default_factory=dict, kind="number_table", unit="parameter units",
+        meaning="adapter parameters set to a value other than the adapter's default but not updated; merged into "
+                "every FE evaluation and every prediction; must not name a `[[parameters]]` entry")
+
+
+@dataclass(frozen=True)
+class ParameterEntry:
+    """One ``[[parameters]]`` table: an updating parameter
+    (:class:`~nlupdate.fe.adapters.base.Parameter`)."""
+
+    name: str = setting(kind="string", required=True,
+                        meaning="a parameter the adapter accepts (lumped `m1`, `k1`, …; surrogate/CalculiX field "
+                                "names; MAPDL `parameter_names`); distinct")
+    start: float = setting(kind="number", required=True, unit="parameter unit",
+                           meaning="initial value, lower ≤ start ≤ upper; also the normalisation scale (the bound "
+                                   "width when 0)")
+    lower: float = setting(kind="number", required=True, unit="parameter unit",
+                           meaning="lower bound of the updated value")
+    upper: float = setting(kind="number", required=True, unit="parameter unit", meaning="upper bound, > lower")
+    unit: str = setting("", kind="string", meaning="label for tables and reports")
+    relative_step: float = setting(
+        Parameter.relative_step, kind="number", minimum=0, maximum=1, above_minimum=True, below_maximum=True,
+        meaning="finite-difference step h = relative_step·|p| (relative_step·(upper − lower) when p = 0)")
+
+    def parameter(self) -> Parameter:
+        return Parameter(self.name, self.unit, self.start, self.lower, self.upper, self.relative_step)
+
+
+@dataclass(frozen=True)
+class EigensensitivityKeys:
+    """The keys of ``[eigensensitivity]`` besides the iteration's settings
+    (:class:`~nlupdate.core.updating.eigensensitivity.EigensensitivityOptions`)."""
+
+    formulas: tuple[str, ...] = setting(
+        ("forward",), kind="strings", min_length=1,
+        form_text=f"a list of distinct names from {list(FORMULAS)}",
+        meaning="finite-difference sensitivities: O(h) one-sided (1 new point per parameter), central O(h²) (2), "
+                "central O(h⁴) (4)")
+    parameter_sets: tuple[tuple[str, ...], ...] | None = setting(
+        None, kind="string_rows", default_text="one set of all `[[parameters]]`",
+        meaning="distinct sets, each updated separately")
+    parameters: tuple[str, ...] | None = setting(
+        None, kind="strings", min_length=1, default_text="all",
+        meaning="shorthand for one set; not together with `parameter_sets`")
 
 
 @dataclass(frozen=True)
@@ -92,39 +178,111 @@ class MeasuredSpec:
 class CandidateEntry:
     """One ``[[optimisation.candidates]]`` entry."""
 
-    name: str
-    parameters: tuple[str, ...]
-    weights: tuple[float, ...] | None
-    start: Mapping[str, float]
+    name: str = setting(kind="string", default_text='`"candidate <i>"`', meaning='run name; distinct, not `"initial"`')
+    parameters: tuple[str, ...] = setting(kind="strings", required=True, min_length=1,
+                                          meaning="distinct names from `[[parameters]]`")
+    weights: tuple[float, ...] | None = setting(
+        None, kind="numbers", default_text="the `[targets]` weights",
+        meaning="mode weights of this candidate, one per target mode (needs the number of targets known: not with "
+                "`from_identification` without `modes`)")
+    start: Mapping[str, float] = setting(
+        default_factory=dict, kind="number_table", unit="parameter units", default_text="each parameter's `start`",
+        meaning="other start values for this candidate; names from its `parameters`, within bounds")
 
 
 @dataclass(frozen=True)
 class PredictionSpec:
-    """``[prediction]`` (see the module docstring). ``harmonic_balance``: None for the
-    describing-function continuation (``method = "continuation"``), else the harmonic
+    """``[prediction]``: each key's declaration says its meaning. ``harmonic_balance``: None
+    for the describing-function continuation (``method = "continuation"``), else the harmonic
     balance settings of ``method = "hb"``."""
 
-    force_levels_n: tuple[float, ...] | None = None
-    candidates: str | tuple[str, ...] = "best"
-    loss_factor: str | float = "low_force_fit"
-    sweep: str = "up"
-    adapter_options: Mapping[str, Any] = field(default_factory=dict)
-    harmonic_balance: HarmonicSettings | None = None
+    force_levels_n: tuple[float, ...] | None = setting(
+        None, kind="numbers", min_length=1, minimum=0, above_minimum=True, unit="N",
+        default_text="every level of the measured curve",
+        meaning="levels to predict. At present it must list exactly the measured levels of the curve: a measured "
+                "level left out stops the correlation and an unmeasured level stops the archive's plots, both with "
+                "`no measured FRF for … force_level_n=…`")
+    candidates: str | tuple[str, ...] = setting(
+        "best", kind="choice|strings", choices=("best", "all"), min_length=1,
+        form_text='"best", "all" or a list of run names',
+        meaning="runs to predict with besides `initial`: the best-ranked run, every run, or named runs "
+                "(eigensensitivity names as above, candidate names)")
+    loss_factor: str | float = setting(
+        "low_force_fit", kind="choice|number", choices=LOSS_FACTOR_SOURCES, minimum=0,
+        meaning="modal loss factor η of every mode: fitted to the lowest predicted level's measurement, the mean of "
+                "the identified modes' loss factors, or this value")
+    sweep: str = setting("up", kind="choice", choices=("up", "down"), meaning="stepped-sine direction of the prediction")
+    adapter_options: Mapping[str, Any] = setting(
+        default_factory=dict, kind="table",
+        meaning="overrides of `[adapter.options]` for the prediction model (e.g. more modes, local ones included); "
+                "its coordinates must include the prediction coordinates")
+    method: str = setting(
+        "continuation", kind="choice", choices=RESPONSE_METHODS,
+        meaning="how the nonlinear response is computed, for the prediction and the `low_force_fit` of the loss "
+                "factor: the describing-function continuation, or multi-harmonic balance (its first harmonic, read as "
+                "the same stepped-sine test; stability by Floquet multipliers). The keys below apply to `\"hb\"` "
+                "only, and are an error otherwise")
+    harmonics: int | str = setting(
+        HarmonicSettings.harmonics, kind="integer|choice", choices=("auto",), minimum=1, maximum=MAX_HARMONICS,
+        form_text=HARMONICS_FORM,
+        meaning='harmonics H of the balance; `"auto"` takes the first of 3, 5, 7, 9, 11, 15, … 31 whose two highest '
+                "harmonics carry ≤ 0.1 % of the response. `1` gives the describing-function result for elements "
+                "symmetric in displacement (no constant term)")
+    samples: int | None = setting(
+        HarmonicSettings.samples, kind="integer", minimum=1, unit="per period",
+        default_text="power of two ≥ max(64, 8·(H+1))",
+        form_text='an integer > 2·harmonics (> 62 with "auto")',
+        meaning="time samples per period of the element forces (alternating frequency–time)")
+    stability: bool = setting(
+        HarmonicSettings.stability, kind="boolean",
+        meaning="Floquet multipliers at every curve point (Hill's method); `false`: stability from the sign of the "
+                "Jacobian (folds only)")
+
+    @property
+    def harmonic_balance(self) -> HarmonicSettings | None:
+        """The harmonic balance settings of ``method = "hb"`` (None: the continuation)."""
+        if self.method != "hb":
+            return None
+        return HarmonicSettings(harmonics=self.harmonics, samples=self.samples, stability=self.stability)
 
 
 @dataclass(frozen=True)
 class ValidationSpec:
     """``[validation]``: the measured driving-point curve judged on held-out levels, as
-    ``nlupdate validate`` does (docs/methods.md §10): ``hold_out`` (``"each"``, ``"top"`` or
-    levels in the reference unit), ``models`` (:mod:`nlupdate.core.validation.models` names or
-    ``"auto"``), ``input_dof`` (default: the identification's input, else the table's only
-    one), ``response_controlled`` (predict the response-controlled runs of the measured
-    MATLAB files from all force-controlled levels; default true)."""
+    ``nlupdate validate`` does (docs/methods.md §10), and a whole test type held out, as
+    ``nlupdate validate --hold-out-type`` does (each key: its declaration; the command's
+    options of the same meaning are made from it)."""
 
-    hold_out: str | tuple[float, ...] = "each"
-    models: tuple[str, ...] = ("auto",)
-    input_dof: str | None = None
-    response_controlled: bool = True
+    hold_out: str | tuple[float, ...] = setting(
+        "each", kind="choice|numbers", choices=("each", "top"), minimum=0, above_minimum=True, min_length=1,
+        unit="reference unit", form_text='"each", "top" or a list of measured levels > 0',
+        meaning="every level in turn, the highest (an extrapolation), or these measured levels")
+    models: tuple[str, ...] = setting(
+        ("auto",), kind="strings", min_length=1, flag="",
+        meaning="`lines`, `lines-background`, `amplitude-polynomial`, `amplitude-iwan`, `prd:ELEMENTS` (e.g. "
+                "`prd:cubic,jenkins`) or `auto` (the one of the first four that predicts the kept levels from each "
+                f"other best); with `hold_out_type`, the first is one of {', '.join(BACKBONE_OF_MODEL)}")
+    input_dof: str | None = setting(
+        None, kind="string", default_text="the identification's input, else the table's only one",
+        meaning="the driving point whose curve is judged")
+    response_controlled: bool = setting(
+        True, kind="boolean", flag="",
+        meaning="predict the response-controlled runs of the measured MATLAB files at their held amplitude from all "
+                "force-controlled levels (with `hold_out_type`: those runs are a source)")
+    hold_out_type: str | None = setting(
+        None, kind="choice", choices=HELD_TYPES, default_text="none",
+        meaning="hold out a whole test type as well: the amplitude-dependent modal model fitted on the other "
+                "sources (the measured stepped sine, its response-controlled runs, `ring_down` records) predicts it "
+                "(validation.json's `held_out_type`); needs `shapes`")
+    shapes: Mapping[str, float] = setting(
+        default_factory=dict, kind="number_table", unit="1/√kg", flag="",
+        meaning="with `hold_out_type`: the mass-normalised mode shape at each coordinate a source is measured at "
+                "(the stepped sine's input, a ring-down's channel), for one modal amplitude across the test types")
+    ring_down: tuple[str, ...] = setting(
+        (), kind="strings", flag="", default_text="`[]`",
+        meaning="with `hold_out_type`: free-decay records of the mode (.csv: `time_s` and one column per channel; "
+                "or .mat), read as `nlupdate amplitude --ring-down` reads them (displacement, m), band-passed in "
+                "the measured band")
 
 
 @dataclass(frozen=True)
@@ -176,11 +334,24 @@ class ComparisonSpec:
     :func:`nlupdate.study.steps.updating.comparison_damping`), the FRAC band around each mode
     (fraction of its frequency) and an FRF to compare with (path, or None)."""
 
-    user_weights: tuple[float, ...] | Mapping[str, float] | None = None
-    damping_ratios: float | tuple[float, ...] | None = None
-    loss_factors: float | tuple[float, ...] | None = None
-    band_fraction: float = 0.1
-    frf: str | None = None
+    user_weights: tuple[float, ...] | Mapping[str, float] | None = setting(
+        None, kind="numbers|number_table", min_length=1, default_text="the `[targets]` weights",
+        form_text="a list of numbers (one per target mode) or a table {label = weight}",
+        meaning="ranking weights, ≥ 0, not all 0; modes missing from a table weigh 0")
+    damping_ratios: float | tuple[float, ...] | None = setting(
+        None, kind="number|numbers", minimum=0, min_length=1, unit="fraction", default_text="`0`",
+        meaning="viscous modal damping of the candidates' modal FRFs (a list: one per target mode)")
+    loss_factors: float | tuple[float, ...] | None = setting(
+        None, kind="number|numbers", minimum=0, min_length=1,
+        default_text="the identified modes' loss factors with `from_identification` (when `damping_ratios` is not "
+                     "given), else `0`",
+        meaning="structural modal damping of the candidates' FRFs (a list: one per target mode)")
+    band_fraction: float = setting(0.1, kind="number", minimum=0, above_minimum=True, unit="fraction of f",
+                                   meaning="FRAC band ±band_fraction·f_target around each target")
+    frf: str | None = setting(
+        None, kind="path", default_text="none",
+        meaning="reference FRF instead of the default one (an identify folder, its JSON, or an FRF table); needs the "
+                "measured curve (`[targets] response_dof`/`input_dof` or `[identification]`)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,6 +377,7 @@ class Study:
     comparison: ComparisonSpec
     prediction: PredictionSpec | None
     validation: ValidationSpec | None = None
+    fe_validation: FEValidationSettings | None = None
     input_files: Mapping[str, Path] = field(default_factory=dict)
     snapshots: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 

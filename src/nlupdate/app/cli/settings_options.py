@@ -31,13 +31,16 @@ def add_setting_options(parser: argparse.ArgumentParser, cls: type, skip: Iterab
         default = default_text(field, declaration).replace("`", "")
         help_text = f"{method}{declaration.meaning}{unit} (default: {default})".replace("%", "%%")
         options: dict[str, Any] = {"dest": name, "default": None, "help": help_text}
+        if {"table", "number_table"} & set(declaration.kinds):
+            raise TypeError(f"{cls.__name__}.{name}: a table has no command-line option (declare flag=\"\")")
         if declaration.kind == "boolean":
             options.update(action="store_const", const=True)
         elif declaration.kind == "choice":
             options["choices"] = declaration.choices
         else:
             options["type"] = _parser(declaration)
-            options["metavar"] = {"strings": "A,B", "numbers": "X,Y", "integer": "N"}.get(declaration.kind, "VALUE")
+            options["metavar"] = {"strings": "A,B", "numbers": "X,Y", "integer": "N", "path": "FILE"}.get(
+                declaration.kind, "VALUE")
         parser.add_argument(flag_of(name, declaration), **options)
 
 
@@ -56,22 +59,28 @@ def with_flags(message: str, cls: type) -> str:
     return message
 
 
+def _value(kind: str, text: str) -> Any:
+    """The text of an option as the value of one form (``ValueError`` when it is not one)."""
+    if kind in ("strings", "numbers"):
+        items = [item.strip() for item in text.split(",") if item.strip()]
+        return items if kind == "strings" else [float(item) for item in items]
+    if kind == "integer":
+        return int(text)
+    if kind == "number":
+        return float(text)
+    return text
+
+
 def _parser(declaration: Setting) -> Callable[[str], Any]:
+    """The option's converter: the first of the declared forms the text is (a union such as
+    ``choice|numbers`` takes ``top`` or ``0.5,1``)."""
     def parse(text: str) -> Any:
-        try:
-            if declaration.kind in ("strings", "numbers"):
-                items = [item.strip() for item in text.split(",") if item.strip()]
-                value: Any = items if declaration.kind == "strings" else [float(item) for item in items]
-            elif declaration.kind == "integer":
-                value = int(text)
-            elif declaration.kind == "number":
-                value = float(text)
-            else:
-                value = text
-            return declaration.parse(value)
-        except ValueError:
-            form = declaration.form()
-            if declaration.kind in ("strings", "numbers"):
-                form = form.replace("a list of", "comma-separated")
-            raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}") from None
+        for kind in declaration.kinds:
+            try:
+                return declaration.parse(_value(kind, text))
+            except ValueError:
+                continue
+        form = declaration.form().replace("a list of", "comma-separated").replace("a non-empty list of",
+                                                                                   "comma-separated")
+        raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}")
     return parse

@@ -19,18 +19,12 @@ from nlupdate.app.cli.amplitude import _shapes
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
 from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
-from nlupdate.core.identification.backbone_samples import TEST_TYPES
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
-from nlupdate.core.validation.held_type import hold_out_type
+from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, hold_out_type
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
 from nlupdate.reporting.jsonfile import write_json
-
-#: the test types a whole of which can be held out (a modal table is no test)
-HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
-#: --model names the type hold-out takes, and the amplitude backbone each fits
-BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polynomial": "polynomial"}
 
 
 def add_type_options(parser: argparse.ArgumentParser) -> None:

@@ -66,6 +66,7 @@ from nlupdate.core.updating.residuals import ModalResponse, ResponseOptions
 from nlupdate.core.updating.evaluation import PointEvaluator, as_evaluator
 from nlupdate.core.updating.stopping import bound_reason, cycle_period
 from nlupdate.core.updating.targets import UpdatingTargets
+from nlupdate.settings import setting
 
 #: ``step_control`` settings (module docstring).
 STEP_CONTROLS = ("trust_region", "none")
@@ -84,14 +85,28 @@ class EigensensitivityOptions(ResponseOptions):
     max_step: largest normalised change of any parameter per iteration.
     step_control: ``"trust_region"`` (steps that do not lower the residual are shortened)
         or ``"none"`` (every Gauss–Newton step is taken).
+
+    The fields declared here are keys of the study's ``[eigensensitivity]`` table.
     """
 
-    max_iterations: int = 20
-    frequency_tolerance: float = 1e-4
-    parameter_tolerance: float = 1e-6
-    regularisation: float = 0.0
-    max_step: float = 0.5
-    step_control: str = "trust_region"
+    max_iterations: int = setting(20, kind="integer", minimum=1, meaning="iteration limit")
+    frequency_tolerance: float = setting(
+        1e-4, kind="number", minimum=0, above_minimum=True, unit="relative",
+        meaning="converged when the largest paired relative frequency error is below it")
+    parameter_tolerance: float = setting(
+        1e-6, kind="number", minimum=0, above_minimum=True, unit="normalised",
+        meaning="converged when the largest normalised parameter change of a step is below it (inside the bounds: a "
+                'run at rest on a bound stops as "parameter at bound", not converged)')
+    regularisation: float = setting(0.0, kind="number", minimum=0, meaning="Tikhonov weight λ on the normalised step")
+    max_step: float = setting(
+        0.5, kind="number", minimum=0, above_minimum=True, unit="normalised",
+        meaning="largest change of any parameter per iteration, as a fraction of its scale (|start|)")
+    step_control: str = setting(
+        "trust_region", kind="choice", choices=STEP_CONTROLS,
+        meaning="`trust_region`: a step that does not lower the weighted residual is shortened (Levenberg–Marquardt "
+                "trust radius, at most `max_step`), so the iteration cannot jump back and forth; `none`: every "
+                'Gauss–Newton step is taken (the classic iteration; a run whose iterates return to an earlier point '
+                'stops with "cycle detected")')
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -28,7 +28,9 @@ from nlupdate.core.updating.eigensensitivity import UpdatingResult, history_colu
 from nlupdate.core.updating.residuals import ModalResponse, ResponseOptions
 from nlupdate.core.updating.evaluation import PointEvaluator, as_evaluator
 from nlupdate.core.updating.stopping import bound_reason
+from nlupdate.core.updating.sensitivity import FORMULAS
 from nlupdate.core.updating.targets import UpdatingTargets
+from nlupdate.settings import setting
 
 OPTIMISATION_METHODS = ("trf", "dogbox")
 
@@ -42,13 +44,20 @@ class OptimisationOptions(ResponseOptions):
         on a bound in fewer evaluations) or ``trf``.
     max_evaluations: limit on objective calls (``max_nfev``).
     ftol, xtol, gtol: ``least_squares`` tolerances (x in normalised parameters).
+
+    The fields declared here are keys of the study's ``[optimisation]`` table.
     """
 
-    method: str = "dogbox"
-    max_evaluations: int = 100
-    ftol: float = 1e-10
-    xtol: float = 1e-10
-    gtol: float = 1e-10
+    method: str = setting("dogbox", kind="choice", choices=OPTIMISATION_METHODS, meaning="least-squares method")
+    formula: str = setting("forward", kind="choice", choices=tuple(FORMULAS), meaning="finite-difference Jacobian")
+    max_evaluations: int = setting(100, kind="integer", minimum=1,
+                                   meaning="limit on objective calls (`max_nfev`)")
+    ftol: float = setting(1e-10, kind="number", minimum=0, above_minimum=True,
+                          meaning="`least_squares` tolerance on the cost (x normalised)")
+    xtol: float = setting(1e-10, kind="number", minimum=0, above_minimum=True,
+                          meaning="`least_squares` tolerance on the step (x normalised)")
+    gtol: float = setting(1e-10, kind="number", minimum=0, above_minimum=True,
+                          meaning="`least_squares` tolerance on the gradient (x normalised)")
 
     def __post_init__(self) -> None:
         super().__post_init__()

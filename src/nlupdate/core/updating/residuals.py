@@ -29,6 +29,7 @@ from nlupdate.core.updating.pairing import PAIRING_METHODS, ModePairing, model_s
 from nlupdate.core.updating.evaluation import PointEvaluator
 from nlupdate.core.updating.sensitivity import assemble_jacobian, stencil, stencil_points
 from nlupdate.core.updating.targets import UpdatingTargets
+from nlupdate.settings import setting
 
 
 @dataclass(frozen=True)
@@ -38,13 +39,18 @@ class ResponseOptions:
     formula: finite-difference formula of the sensitivities (see
     :mod:`nlupdate.core.updating.sensitivity`); pairing, min_mac: see
     :mod:`nlupdate.core.updating.pairing`; use_mode_shapes, mode_shape_weight: see this module.
+    The declared fields are the study's ``[updating]`` table (:mod:`nlupdate.settings`).
     """
 
     formula: str = "forward"
-    pairing: str = "order"
-    min_mac: float = 0.0
-    use_mode_shapes: bool = False
-    mode_shape_weight: float = 1.0
+    pairing: str = setting(
+        "order", kind="choice", choices=PAIRING_METHODS,
+        meaning="target i ↔ model mode i (or `model_modes`); one-to-one by least relative frequency distance; "
+                "one-to-one by largest MAC (needs `mode_shapes` at ≥ 2 coordinates)")
+    min_mac: float = setting(0.0, kind="number", minimum=0, meaning='with `"mac"`: a pair below it is an error')
+    use_mode_shapes: bool = setting(False, kind="boolean",
+                                    meaning="add scaled mode-shape residuals to the frequency residuals")
+    mode_shape_weight: float = setting(1.0, kind="number", minimum=0, meaning="weight of the mode-shape residuals")
 
     def __post_init__(self) -> None:
         stencil(self.formula)

@@ -42,12 +42,17 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import (
-    backbone_curve, held_out_errors, join_samples, source_noise,
+    TEST_TYPES, backbone_curve, held_out_errors, join_samples, source_noise,
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.validation.held_out import repeatability
 from nlupdate.core.validation.resonance import resonance
+
+#: the test types a whole of which can be held out (a modal table is no test)
+HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
+#: the model names a type hold-out takes, and the amplitude backbone each fits
+BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polynomial": "polynomial"}
 
 #: (source name, samples, stated relative (frequency, damping) standard deviations or None, test type)
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
