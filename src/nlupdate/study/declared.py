@@ -54,6 +54,11 @@ def declared_keys(table: str) -> dict[str, tuple[dataclasses.Field, Setting]]:
     return keys
 
 
+def classes(table: str) -> tuple[type, ...]:
+    """The classes declaring a study table, in order (its reader builds them)."""
+    return tuple(cls for cls, _ in TABLES[table])
+
+
 def read_declared(read: Reader, mapping: Mapping[str, Any], where: str, table: str | None = None) -> dict[str, Any]:
     """The values of the keys given in a study table (``where`` names it in messages;
     ``table``: its entry in :data:`TABLES`, default ``where``), each checked by its

@@ -8,12 +8,12 @@ from typing import Mapping
 from nlupdate.files import MAX_NAME, name_problem
 from nlupdate.input_files import parse_toml, read_input_text
 from nlupdate.study import sections
-from nlupdate.study.declared import build, read_declared
+from nlupdate.study.declared import build, classes, read_declared
 from nlupdate.study.measured_section import read_measured
 from nlupdate.study.model_sections import check_parameter_domain, read_adapter, read_parameters, read_targets
 from nlupdate.study.fe_validation import read_fe_validation
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.study.spec import Study, StudyInfo
+from nlupdate.study.spec import Study
 
 def load_study(path: str | os.PathLike) -> Study:
     """Read and check a study file; raises :class:`StudyError` or FileNotFoundError."""
@@ -35,7 +35,8 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
             raise read.fail(table, key, f"nothing: this key was removed ({hint})", data[table][key])
     read.check_keys(data, "")
     meta = read.table(data, "study") or {}
-    info = build(read, "study", StudyInfo, read_declared(read, meta, "study"))
+    (info_class,) = classes("study")
+    info = build(read, "study", info_class, read_declared(read, meta, "study"))
     name = info.name if info.name is not None else path.stem
     problem = name_problem(name)
     if problem is not None:

@@ -10,9 +10,9 @@ from nlupdate.core.identification.settings import IdentificationSettings
 from nlupdate.core.updating.targets import FRF_METHODS
 from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import AdapterSpec, build_adapter
-from nlupdate.study.declared import build, read_declared
+from nlupdate.study.declared import build, classes, read_declared
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.study.spec import ParameterEntry, TargetsSpec
+from nlupdate.study.spec import TargetsSpec
 
 #: The most [[parameters]] and target modes a study may hold: updating solves the FE model once
 #: per parameter and step, and pairs every target with the model's modes (more is a mistake).
@@ -52,11 +52,12 @@ def read_parameters(read: Reader, data: Mapping[str, Any]) -> tuple[Parameter, .
     if len(entries) > MAX_PARAMETERS:
         raise StudyError(f"{read.path}: {len(entries)} [[parameters]] tables; expected at most {MAX_PARAMETERS} (each "
                          f"costs one FE solve per sensitivity step)")
+    (entry_class,) = classes("parameters")
     parameters = []
     for i, entry in enumerate(entries):
         where = f"parameters #{i + 1}"
         read.check_keys(entry, where, "parameters")
-        values = build(read, where, ParameterEntry, read_declared(read, entry, where, "parameters"))
+        values = build(read, where, entry_class, read_declared(read, entry, where, "parameters"))
         if not values.lower < values.upper:
             raise read.fail(where, "upper", f"a value above lower = {values.lower}", values.upper)
         try:

@@ -15,18 +15,15 @@ from typing import Any, Mapping
 
 from nlupdate.core.identification.settings import IdentificationSettings
 from nlupdate.core.response.method import samples_form, valid_samples
-from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions
 from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
 from nlupdate.core.updating.sensitivity import FORMULAS
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL
 from nlupdate.core.validation.models import model_fitter
 from nlupdate.fe.adapters.registry import AdapterSpec
-from nlupdate.study.declared import TABLES, build, declared_keys, read_declared
-from nlupdate.study.reader import Reader, StudyError
-from nlupdate.study.spec import (
-    CandidateEntry, ComparisonSpec, EigensensitivityKeys, EigensensitivitySpec, PredictionSpec, ValidationSpec,
-)
+from nlupdate.study.declared import TABLES, build, classes, declared_keys, read_declared
+from nlupdate.study.reader import Reader
+from nlupdate.study.spec import CandidateEntry, ComparisonSpec, EigensensitivitySpec, PredictionSpec, ValidationSpec
 
 ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
@@ -57,13 +54,15 @@ def read_identification(read: Reader, data: Mapping[str, Any]) -> Identification
     table = read.table(data, "identification")
     if table is None:
         return None
-    return build(read, "identification", IdentificationSettings, read_declared(read, table, "identification"))
+    (cls,) = classes("identification")
+    return build(read, "identification", cls, read_declared(read, table, "identification"))
 
 
 def read_updating(read: Reader, data: Mapping[str, Any]) -> ResponseOptions:
     """``[updating]``: pairing and mode-shape settings shared by every run."""
     table = read.table(data, "updating") or {}
-    return build(read, "updating", ResponseOptions, read_declared(read, table, "updating"))
+    (cls,) = classes("updating")
+    return build(read, "updating", cls, read_declared(read, table, "updating"))
 
 
 def _shared(updating: ResponseOptions) -> dict[str, Any]:
@@ -84,7 +83,8 @@ def read_eigensensitivity(read: Reader, data: Mapping[str, Any], names: list[str
         return None
     where = "eigensensitivity"
     values = read_declared(read, table, where)
-    keys = build(read, where, EigensensitivityKeys, values)
+    keys_class, options_class = classes(where)
+    keys = build(read, where, keys_class, values)
     formulas = keys.formulas
     if [f for f in formulas if f not in FORMULAS] or len(set(formulas)) != len(formulas):
         raise read.fail(where, "formulas", f"distinct names from {list(FORMULAS)}", list(formulas))
@@ -95,7 +95,7 @@ def read_eigensensitivity(read: Reader, data: Mapping[str, Any], names: list[str
         _check_subset(read, where, "parameter_sets" if keys.parameter_sets is not None else "parameters", subset, names)
     if len(set(sets)) != len(sets):
         raise read.fail(where, "parameter_sets", "distinct parameter sets", [list(s) for s in sets])
-    options = build(read, where, EigensensitivityOptions, {**values, **_shared(updating)})
+    options = build(read, where, options_class, {**values, **_shared(updating)})
     return EigensensitivitySpec(formulas, sets, options)
 
 
@@ -107,7 +107,8 @@ def read_optimisation(read: Reader, data: Mapping[str, Any], names: list[str], n
         return None, ()
     where = "optimisation"
     values = read_declared(read, {k: v for k, v in table.items() if k != "candidates"}, where)
-    options = build(read, where, OptimisationOptions, {**values, **_shared(updating)})
+    (options_class,), (candidate_class,) = classes(where), classes("optimisation.candidates")
+    options = build(read, where, options_class, {**values, **_shared(updating)})
     entries = table.get("candidates")
     if not isinstance(entries, list) or not entries or any(not isinstance(e, dict) for e in entries):
         raise read.fail(where, "candidates", "one or more [[optimisation.candidates]] tables (name, parameters)")
@@ -116,7 +117,7 @@ def read_optimisation(read: Reader, data: Mapping[str, Any], names: list[str], n
         at = f"optimisation.candidates #{i + 1}"
         read.check_keys(entry, at, "optimisation.candidates")
         values = read_declared(read, entry, at, "optimisation.candidates")
-        candidate = build(read, at, CandidateEntry, {"name": f"candidate {i + 1}", **values})
+        candidate = build(read, at, candidate_class, {"name": f"candidate {i + 1}", **values})
         _check_subset(read, at, "parameters", candidate.parameters, names)
         if candidate.weights is not None and n_targets < 0:
             raise read.fail(at, "weights", "a [targets] modes = [...] list first (the number of target modes)")
@@ -147,7 +148,8 @@ def read_comparison(read: Reader, data: Mapping[str, Any], labels: list[str], n_
         if isinstance(values.get(key), tuple) and len(values[key]) != length:
             raise read.fail(where, key, f"a number ≥ 0 or a list of {length} numbers ≥ 0", table[key])
     values["frf"] = str(read.path_of(values["frf"])) if values.get("frf") else None
-    return build(read, where, ComparisonSpec, values)
+    (cls,) = classes(where)
+    return build(read, where, cls, values)
 
 
 def read_prediction(read: Reader, data: Mapping[str, Any], identification: IdentificationSettings | None,
@@ -164,7 +166,8 @@ def read_prediction(read: Reader, data: Mapping[str, Any], identification: Ident
     values = read_declared(read, table, where)
     if values.get("force_levels_n") is not None:
         values["force_levels_n"] = tuple(sorted(values["force_levels_n"]))
-    spec = build(read, where, PredictionSpec, values)
+    (cls,) = classes(where)
+    spec = build(read, where, cls, values)
     if spec.method != "hb":
         for key in ("harmonics", "samples", "stability"):
             if key in table:
@@ -189,7 +192,8 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
                 model_fitter(name)
             except ValueError as error:
                 raise read.fail(where, "models", str(error).split(": expected ", 1)[1], name) from None
-    spec = build(read, where, ValidationSpec, values)
+    (cls,) = classes(where)
+    spec = build(read, where, cls, values)
     typed = ("hold_out_type", "shapes", "ring_down")
     if spec.hold_out_type is None:
         for key in typed[1:]:

@@ -20,7 +20,7 @@ from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
 from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
-from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, hold_out_type
+from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, default_resamples, hold_out_type
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
@@ -48,7 +48,7 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
     backbone = BACKBONE_OF_MODEL.get(args.model)
     if backbone is None:
         raise CliError(f"--model {args.model}: with --hold-out-type, one of {', '.join(BACKBONE_OF_MODEL)}")
-    resamples = (200 if backbone == "polynomial" else 0) if args.bootstrap is None else args.bootstrap
+    resamples = default_resamples(backbone) if args.bootstrap is None else args.bootstrap
     if resamples < 0:
         raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
     shapes = _shapes(args.shape)

@@ -46,7 +46,7 @@ from nlupdate.core.identification.backbone_samples import (
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
-from nlupdate.core.validation.held_out import repeatability
+from nlupdate.core.validation.held_out import Validation, repeatability
 from nlupdate.core.validation.resonance import resonance
 
 #: the test types a whole of which can be held out (a modal table is no test)
@@ -56,6 +56,12 @@ BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polyno
 
 #: (source name, samples, stated relative (frequency, damping) standard deviations or None, test type)
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
+
+
+def default_resamples(backbone: str) -> int:
+    """Bootstrap refits for the held samples' bands when none are asked for: 200 for the
+    polynomial backbone, none for Iwan's (about a second per refit)."""
+    return 200 if backbone == "polynomial" else 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,3 +229,16 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
                 samples[f"{column}_high"] = predicted + np.hypot(high - predicted, test)
     return HeldType(test_type, model, tuple((name, kind, int(s.amplitude.size)) for name, s, _, kind in kept),
                     fitted_range, samples, levels)
+
+
+@dataclass(frozen=True, eq=False)
+class TypedValidation(Validation):
+    """A study's ``[validation]`` with a whole test type held out as well
+    (``hold_out_type``): ``validation.json`` gains ``held_out_type`` (:meth:`HeldType.summary`),
+    as ``nlupdate validate --hold-out-type`` writes it."""
+
+    held_type: HeldType | None = None
+
+    def summary(self) -> dict:
+        out = super().summary()
+        return out if self.held_type is None else {**out, "held_out_type": self.held_type.summary()}

@@ -5,9 +5,17 @@ import dataclasses
 
 import pandas as pd
 
+from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
+from nlupdate.core.identification.backbone_samples import displacement_samples
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
+from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
+from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation, validate
 from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
+from nlupdate.core.validation.held_type import (
+    BACKBONE_OF_MODEL, HeldType, Source, TypedValidation, default_resamples, hold_out_type,
+)
 from nlupdate.study.spec import Study, StudyError
 
 
@@ -32,6 +40,35 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
             if notes:
                 validation = dataclasses.replace(
                     validation, response_controlled_notes=validation.response_controlled_notes + tuple(notes))
+        if spec.hold_out_type is not None:
+            validation = TypedValidation(**{f.name: getattr(validation, f.name) for f in dataclasses.fields(validation)},
+                                         held_type=held_type(study, data, paths))
         return validation
-    except ValueError as error:
+    except (AmplitudeModelError, ValueError) as error:
         raise StudyError(f"{study.path}: [validation]: {error}") from None
+
+
+def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
+    """``[validation] hold_out_type``: the sources ``nlupdate validate --hold-out-type`` reads
+    — the measured stepped sine, the response-controlled runs of its MATLAB files (with
+    ``response_controlled``), the ``ring_down`` records (displacement, m; band found from
+    the record) — one held out by the amplitude-dependent modal model of the others
+    (:func:`~nlupdate.core.validation.held_type.hold_out_type`)."""
+    spec = study.validation
+    shapes = dict(spec.shapes)
+    if data.input_dof not in shapes:
+        raise StudyError(f"{study.path}: [validation] key 'shapes': expected the mode shape at the stepped sine's input "
+                         f"{data.input_dof!r} (1/√kg), got {sorted(shapes)}")
+    sources: list[Source] = [(", ".join(paths) or "[measured]", samples_from_frfs(data, shapes[data.input_dof]), None,
+                              "stepped-sine")]
+    for path in [p for p in paths if p.lower().endswith(".mat")] if spec.response_controlled else []:
+        runs = read_response_controlled(path, study.measured.read_options())
+        sources.append((path, samples_from_held_runs(runs, shapes.get(runs[0].response_dof)), None,
+                        "response-controlled"))
+    for path in spec.ring_down:
+        record = read_ring_down(path)
+        estimate = estimate_ring_down(record.time_s, record.response, None, shapes.get(record.channel), source=path)
+        sources.append((path, displacement_samples(estimate.samples(), "m"), None, "ring-down"))
+    backbone = BACKBONE_OF_MODEL[spec.models[0]]
+    return hold_out_type(sources, spec.hold_out_type, tuple(shapes.items()), data, backbone,
+                         resamples=default_resamples(backbone))
