@@ -11,27 +11,12 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, NullFormatter
 from numpy.typing import ArrayLike
 
+from nlupdate.core.identification.methods import METHODS
 from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.reporting.figures import (
     BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, THIN_BAND_NOTE, band_fill, label_thin_bands,
     level_colours, unwrapped_phase_deg,
 )
-
-
-def _points_caption(result: Any, unit: str) -> str:
-    """Where the points come from: how many, from which force levels, at which frequencies."""
-    n = len(result.amplitude)
-    if result.method == "prd":
-        setup = result.setup
-        levels = sorted(setup.high_forces)
-        span = f"{levels[0]:g}–{levels[-1]:g} {unit}" if len(levels) > 1 else f"{levels[0]:g} {unit}"
-        window = result.extras.get("half_window") if result.estimator == "improved" else None
-        where = f"within ±{100 * window:g} % of {setup.frequency_hz:g} Hz" if window else f"at {setup.frequency_hz:g} Hz"
-        return (f"{n} points: {len(levels)} force level{'s' if len(levels) > 1 else ''} ({span}) against "
-                f"{setup.low_force:g} {unit}, {where}")
-    low, high = result.setup.force_pair
-    band = result.setup.band_hz
-    return f"{n} points: {high:g} {unit} against {low:g} {unit}, {band[0]:g}–{band[1]:g} Hz"
 
 
 def _level_colouring(result: Any, unit: str):
@@ -144,12 +129,12 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
                 c.set_label(f"{BAND_LABEL} ({band.n_samples} fits): {THIN_BAND_NOTE} over the data in {part}")
     handles, labels = axes[0].get_legend_handles_labels()  # beside the panels: inside it would hide points
     figure.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=7)
-    what = "y = 1/H_i − 1/H_1" if result.method == "prd" else "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
+    method = METHODS[result.method]
     where = f"the fit is solid where the data lie ({describe_intervals(covered)})"
     if gaps:
         where += (f", dashed across the gap{'s' if len(gaps) > 1 else ''} between them (no point within a factor "
                   f"{AMPLITUDE_GAP_RATIO:g})")
-    figure.suptitle(f"{title}: {what}\n{_points_caption(result, unit)}; {where}", fontsize=9)
+    figure.suptitle(f"{title}: {method.fitted_quantity}\n{method.describe_points(result, unit)}; {where}", fontsize=9)
     return figure
 
 

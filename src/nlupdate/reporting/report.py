@@ -17,6 +17,8 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+from nlupdate.core.identification.methods import METHODS
+from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.core.response.method import describe
 
@@ -128,6 +130,8 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
         lines += _prediction_section(result, plots)
     if result.validation is not None:
         lines += _validation_section(result.validation, plots)
+    if result.fe_validation is not None:
+        lines += fe_validation_section(result.fe_validation)
 
     lines += ["## Files", "",
               "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
@@ -197,6 +201,8 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    + _single_frequency_levels(c))
     if result.validation is not None:
         out += _validation_summary(result.validation)
+    if result.fe_validation is not None:
+        out += fe_validation_summary(result.fe_validation)
     return out
 
 
@@ -246,27 +252,20 @@ def _untrustworthy_lines(ident) -> list[str]:
 def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     s = ident.settings
     r = ident.result
-    lines = ["## Identification", ""] + _untrustworthy_lines(ident)
-    if s.method == "prd":
-        lines += [f"PRD at **{r.setup.frequency_hz:g} Hz** from the {r.setup.low_force:g} N (low) and "
-                  f"{len(r.setup.high_forces)} high levels ({min(r.setup.high_forces):g}–{max(r.setup.high_forces):g} N), "
-                  f"{r.estimator} estimator."]
-        if ident.frequency_choice is not None:
-            choice = ident.frequency_choice
-            final = ""
-            if ident.modes and choice.linear_natural_frequency_hz is not None:
-                nearest = min(range(len(ident.modes)), key=lambda i: abs(
-                    ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
-                final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
-                         f"{_number(ident.natural_frequencies_hz[nearest])} ± "
-                         f"{_number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")
-            lines += [f"Why this frequency: {choice.reason} (visited "
-                      f"{', '.join(f'{f:g}' for f in choice.visited_hz)} Hz{final}). The identification is "
-                      f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
-                      f"because the stuck friction stiffens it."]
-    else:
-        lines += [f"DDF between {r.setup.force_pair[0]:g} and {r.setup.force_pair[1]:g} N over "
-                  f"{r.setup.band_hz[0]:g}–{r.setup.band_hz[1]:g} Hz, {r.estimator} estimator."]
+    lines = ["## Identification", ""] + _untrustworthy_lines(ident) + [METHODS[s.method].describe_fit(r)]
+    if ident.frequency_choice is not None:  # the method fits at one excitation frequency, chosen by the program
+        choice = ident.frequency_choice
+        final = ""
+        if ident.modes and choice.linear_natural_frequency_hz is not None:
+            nearest = min(range(len(ident.modes)), key=lambda i: abs(
+                ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
+            final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
+                     f"{_number(ident.natural_frequencies_hz[nearest])} ± "
+                     f"{_number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")
+        lines += [f"Why this frequency: {choice.reason} (visited "
+                  f"{', '.join(f'{f:g}' for f in choice.visited_hz)} Hz{final}). The identification is "
+                  f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
+                  f"because the stuck friction stiffens it."]
     lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
                   + monte_carlo_note(ident.uncertainty), ""]
     stats = ident.uncertainty.parameters

@@ -3,7 +3,9 @@
 :func:`nlupdate.core.identification.pipeline.identify` runs the same steps for both — fit the
 nonlinearity, extract the linear FRF, locate its modes, Monte Carlo — and asks the
 method (:data:`METHODS`) only what differs: its settings' defaults, the fit, which level
-the linear FRF comes from, and its own part of ``identification.json``.
+the linear FRF comes from, and its own part of ``identification.json``. The report and the
+fit figure (:mod:`nlupdate.reporting`) take their method-specific wording from here too, so
+nothing outside this module branches on a method's name.
 """
 from __future__ import annotations
 
@@ -27,6 +29,8 @@ class Method(Protocol):
     default_estimator: str
     #: Does the fit take one excitation frequency (chosen by the program when not given)?
     uses_excitation_frequency: bool
+    #: What the fit figure plots against the response amplitude (its title).
+    fitted_quantity: str
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
         """(changes to the settings, the defaults to list) for its own settings."""
@@ -58,6 +62,14 @@ class Method(Protocol):
     def summary(self, result: Any, settings: Any, real: list, imag: list, order: int) -> dict[str, Any]:
         """Its own part of ``identification.json``."""
 
+    def describe_fit(self, result: Any) -> str:
+        """The report's sentence on the fit: the levels and frequencies it used, its estimator
+        (forces in N)."""
+
+    def describe_points(self, result: Any, unit: str) -> str:
+        """The fit figure's caption: how many points, from which levels (``unit``: N, or V
+        for a voltage reference), at which frequencies."""
+
 
 class PRD:
     """Pseudo receptance difference at one excitation frequency."""
@@ -65,6 +77,7 @@ class PRD:
     estimators = ESTIMATORS
     default_estimator = "improved"
     uses_excitation_frequency = True
+    fitted_quantity = "y = 1/H_i − 1/H_1"
 
     def defaults(self, settings: Any, data: FRFLevels) -> tuple[dict[str, Any], dict[str, Any]]:
         changes: dict[str, Any] = {}
@@ -173,6 +186,21 @@ class PRD:
             out["estimator_details"] = dict(result.extras, noise_fraction_from_fit=result.noise_fraction)
         return out
 
+    def describe_fit(self, result: PRDResult) -> str:
+        setup = result.setup
+        return (f"PRD at **{setup.frequency_hz:g} Hz** from the {setup.low_force:g} N (low) and "
+                f"{len(setup.high_forces)} high levels ({min(setup.high_forces):g}–{max(setup.high_forces):g} N), "
+                f"{result.estimator} estimator.")
+
+    def describe_points(self, result: PRDResult, unit: str) -> str:
+        setup = result.setup
+        levels = sorted(setup.high_forces)
+        span = f"{levels[0]:g}–{levels[-1]:g} {unit}" if len(levels) > 1 else f"{levels[0]:g} {unit}"
+        window = result.extras.get("half_window") if result.estimator == "improved" else None
+        where = f"within ±{100 * window:g} % of {setup.frequency_hz:g} Hz" if window else f"at {setup.frequency_hz:g} Hz"
+        return (f"{len(result.amplitude)} points: {len(levels)} force level{'s' if len(levels) > 1 else ''} ({span}) "
+                f"against {setup.low_force:g} {unit}, {where}")
+
 
 class DDF:
     """Direct describing function from two force levels over many frequencies."""
@@ -180,6 +208,7 @@ class DDF:
     estimators = DDF_ESTIMATORS
     default_estimator = "naive"
     uses_excitation_frequency = False
+    fitted_quantity = "Δ(x₂) implied by 1/H₂ − 1/H₁ + Δ(x₁)"
     #: PRD's keys, refused with DDF.
     PRD_KEYS = ("frequency_hz", "low_force_n", "high_forces_n", "smoothing_window", "amplitude_dependent_delta",
                 "linear_from", "half_window", "imag_order", "complex_delta_f1")
@@ -234,6 +263,16 @@ class DDF:
                               "coefficients highest order first (m -> N/m)",
             },
         }
+
+    def describe_fit(self, result: DDFResult) -> str:
+        low, high = result.setup.force_pair
+        band = result.setup.band_hz
+        return f"DDF between {low:g} and {high:g} N over {band[0]:g}–{band[1]:g} Hz, {result.estimator} estimator."
+
+    def describe_points(self, result: DDFResult, unit: str) -> str:
+        low, high = result.setup.force_pair
+        band = result.setup.band_hz
+        return f"{len(result.amplitude)} points: {high:g} {unit} against {low:g} {unit}, {band[0]:g}–{band[1]:g} Hz"
 
 
 #: The methods by name.
