@@ -15,6 +15,8 @@
                       repeated from the archive alone (:mod:`nlupdate.reporting.catalogue`)
     report.md         the report (:mod:`nlupdate.reporting.report`), plots linked
     identification.json   the identification summary (when the study identifies)
+    fe_validation.json    ``[fe_validation]``: the joint identified per bolt, its fit, the shaker's
+                      mass, the test's repeatability, the FE points
     tables/*.parquet  :func:`nlupdate.reporting.tables.study_tables`
     plots/*.png       measured FRFs, DF fit, extracted linear FRF, convergence, candidate
                       errors and FRFs, predictions per level, correlation per level
@@ -287,6 +289,8 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
             write_json(result.identification.summary(), folder / "identification.json")
         if result.validation is not None:
             write_json(result.validation.summary(), folder / "validation.json")
+        if result.fe_validation is not None:
+            write_json(result.fe_validation.summary(), folder / "fe_validation.json")
         manifest = build_manifest(result, final.name, run, sorted(tables), plots, inputs)
         write_json(manifest, folder / MANIFEST)
         (folder / "report.md").write_text(report_markdown(result, manifest, plots))

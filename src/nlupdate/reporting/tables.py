@@ -15,6 +15,10 @@ ranking              runs scored for the user's mode weights (``converged``: con
 failures             updating runs that failed, with the error
 predictions          predicted FRFs of every predicted model (column ``model``)
 correlation          per model and force level: FRAC, normalised error, peak errors
+fe_modes             ``[fe_validation]``: each elastic FE mode of the initial and the updated model,
+                     with the test's frequency where paired (``frequency_hz_measured``)
+validation           ``[validation]``: held-out levels; ``[fe_validation]``: one row per forced run
+                     and model, measured and predicted resonance, damping ratio and peak
 ===================  ==========================================================================
 """
 from __future__ import annotations
@@ -95,4 +99,7 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
             [p.correlation.assign(model=p.name, loss_factor=p.loss_factor) for p in result.predictions], ignore_index=True)
     if result.validation is not None:
         tables["validation"] = result.validation.table()
+    if result.fe_validation is not None:  # the study reader allows one of [validation] and [fe_validation]
+        tables["fe_modes"] = result.fe_validation.modes
+        tables["validation"] = result.fe_validation.table
     return tables

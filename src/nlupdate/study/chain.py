@@ -1,7 +1,7 @@
 """The chain of a study, declared once.
 
     measured data → identification → targets → updating → comparison → candidate FRFs
-    → predictions → validation → warnings
+    → predictions → validation → FE validation → warnings
 
 :data:`CHAIN` lists the steps in order. Each :class:`Step` names the function that
 computes it (:mod:`nlupdate.study.steps`), the earlier results it takes, the study
@@ -34,8 +34,10 @@ from nlupdate.study.steps.updating import (
     CandidateFRFs, Comparison, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs, compare_runs, run_update,
     run_verdict, study_targets, updating_model, updating_runs,
 )
+from nlupdate.study.steps.fe_validation import fe_validation_step
 from nlupdate.study.steps.validation import validation_step
 from nlupdate.core.validation.held_out import Validation
+from nlupdate.fe.joint_validation import FEValidation
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.target_uncertainty import ParameterUncertainty
 
@@ -122,6 +124,12 @@ CHAIN: tuple[Step, ...] = (
          applies=lambda study, results: study.validation is not None,
          describe=lambda study, validation: f"{len({r.level for r in validation.held_out})} held-out level(s), "
                                             f"{', '.join(study.validation.models)}"),
+    Step("FE validation", fe_validation_step, inputs=("targets", "updating", "comparison"),
+         sections=("fe_validation", "adapter", "fixed", "parameters", "targets"),
+         applies=lambda study, results: study.fe_validation is not None and _has_runs(study, results),
+         describe=lambda study, found: f"{len(found.table)} run prediction(s), {found.element} joint per bolt, "
+                                       f"fit rms {found.fit['rms_residual']:.3f} after {found.fit['evaluations']} "
+                                       "evaluation(s)"),
     Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions"),
          sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
@@ -147,6 +155,7 @@ class StudyResult:
     warnings: tuple[TrustWarning, ...] = ()
     models: Mapping[str, Any] = field(default_factory=dict)
     validation: Validation | None = None
+    fe_validation: FEValidation | None = None
 
     @property
     def best(self) -> str | None:
@@ -193,7 +202,7 @@ def study_result(study: Study, results: Results) -> StudyResult:
         uncertainties={} if compared is None else dict(compared.uncertainties),
         candidate_frfs=results.get("candidate FRFs"), predictions=tuple(results.get("predictions") or ()),
         warnings=tuple(results.get("warnings") or ()), models=models_used(study),
-        validation=results.get("validation"),
+        validation=results.get("validation"), fe_validation=results.get("FE validation"),
     )
 
 

@@ -1,0 +1,124 @@
+"""``[fe_validation]``: the reduced FE model with a joint element per bolt against every forced
+run (issue 38).
+
+References independent of the code under test: the measured file read directly with
+scipy.io and put through the resonance estimator; the FE model's own eigenvalue solution for
+the linear limit of the harmonic balance (a stuck joint is the FE model's tangential spring);
+the study file's rules as docs/study-files.md states them. The whole study on the example's
+data runs in tests/test_brb_example.py.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+
+from nlupdate.core.validation.fe_settings import FEValidationSettings
+from nlupdate.core.validation.forced_runs import ForcedRun, features, harmonic_response, predict_run, read_forced_runs
+from nlupdate.core.validation.resonance import resonance
+from nlupdate.study.loading import study_from_text
+from nlupdate.study.reader import StudyError
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "brb"
+FORCED = DATA / "ForcedFrequencyResponses.mat"
+
+
+def _raw_runs() -> dict[str, list]:
+    """Each run's (frequency, |receptance|) straight from the file: |amplitude / force| / ω²."""
+    runs = scipy.io.loadmat(FORCED, squeeze_me=True, struct_as_record=False)["FRdata"]
+    out = {}
+    for group in ("ForceControl", "ResponseControl"):
+        out[group] = []
+        for run in np.atleast_1d(getattr(runs, group)):
+            f = np.asarray(run.frequency, float)
+            out[group].append((f, np.abs(run.amplitude / run.force) / (2 * np.pi * f) ** 2))
+    return out
+
+
+def test_measured_runs_are_the_files_curves():
+    """Every run of the file, in order, its resonance, half-power damping and peak as the estimator
+    gives them on the raw curve (force-controlled runs ascending in force)."""
+    runs = read_forced_runs(FORCED, ("acc3:-y", "acc3:y"))
+    raw = _raw_runs()
+    assert [r.control for r in runs] == ["force"] * len(raw["ForceControl"]) + ["response"] * len(raw["ResponseControl"])
+    order = np.argsort([np.mean(np.abs(run.force)) for run in
+                        np.atleast_1d(scipy.io.loadmat(FORCED, squeeze_me=True, struct_as_record=False)["FRdata"].ForceControl)])
+    expected = [raw["ForceControl"][i] for i in order] + raw["ResponseControl"]
+    for run, (frequency, magnitude) in zip(runs, expected):
+        reference = resonance(frequency, magnitude)
+        found = features(run.frequency_hz, run.h)
+        assert found["resonance_hz"] == pytest.approx(reference.resonance_hz, rel=1e-12)
+        assert found["damping_ratio"] == pytest.approx(reference.damping_ratio, rel=1e-9)
+        assert found["peak"] == pytest.approx(reference.peak_abs, rel=1e-9)
+    held = [run.level for run in runs if run.control == "response"]
+    assert held == sorted(held) and 1e-5 < held[0] < held[-1] < 1e-3  # metres of held displacement
+
+
+@pytest.mark.calculix
+def test_a_stuck_joint_is_the_fe_models_spring():
+    """At a slip force no run reaches, a Jenkins element per bolt is the FE model's tangential
+    spring: the harmonic balance's curve of a force-controlled run around mode 1 is the reduced
+    matrices' direct linear solve (the joint's x springs undamped, η = 2ζ on the rest), and its
+    resonance the adapter's eigenvalue (within the 3e-5 the other modes' background moves a peak
+    of |H|); an Iwan element there slips a little (microslip at every amplitude): softer, never stiffer."""
+    from nlupdate.fe.adapters.calculix_brb import BRBAdapter, BRBMesh, joint_stiffness
+    from nlupdate.fe.joint_validation import nonlinear_model
+
+    adapter = BRBAdapter(BRBMesh(n_full=8, n_lap=8), n_modes=1, fixed_interface_modes=12)
+    point = {"h": 0.0125, "kt": 5e8}
+    mode1 = float(adapter.evaluate(point).natural_frequencies_hz[0])
+    frequency = mode1 + np.linspace(-0.6, 0.6, 61)
+    run = ForcedRun("synthetic", "force", 0.5, frequency, np.zeros(61, complex), np.full(61, 0.5))
+    joint = {"slip_force": 1e7, "chi": -0.5, "beta": 0.0}
+    jenkins = nonlinear_model(adapter, point, 0.002, joint, "jenkins", "acc3:uy")
+    h, _ = harmonic_response(jenkins, "acc3:uy", frequency, force_n=run.force_n)
+
+    deck, springs = adapter.split(point)
+    reduced = adapter.reduced(deck)
+    elastic = reduced.stiffness + joint_stiffness(reduced, springs["kt"], springs["kn"], springs["kr"], tangential_x=False)
+    stuck = joint_stiffness(reduced, springs["kt"], 0.0, 0.0) - joint_stiffness(reduced, springs["kt"], 0.0, 0.0,
+                                                                               tangential_x=False)
+    drive = reduced.index("acc3:uy")
+    unit = np.eye(len(reduced.dof_names))[:, drive]
+    direct = np.array([np.linalg.solve(elastic * (1 + 0.004j) + stuck - (2 * np.pi * f) ** 2 * reduced.mass, unit)[drive]
+                       for f in frequency])
+    np.testing.assert_allclose(h, direct, rtol=1e-6)
+    found = predict_run(jenkins, "acc3:uy", run)
+    assert found["resonance_hz"] == pytest.approx(mode1, rel=1e-4)
+    iwan = predict_run(nonlinear_model(adapter, point, 0.002, joint, "iwan", "acc3:uy"), "acc3:uy", run)
+    assert found["resonance_hz"] * (1 - 1e-4) < iwan["resonance_hz"] <= found["resonance_hz"]
+
+
+def _study(extra: str, adapter: str = 'kind = "calculix"\nmodel = "brb"', parameter: str = "h") -> str:
+    return (f'[study]\nname = "brbcheck"\n[adapter]\n{adapter}\n'
+            f'[[parameters]]\nname = "{parameter}"\nstart = 0.0127\nlower = 0.011\nupper = 0.0145\n'
+            '[targets]\nfrequencies_hz = [80.569]\n[eigensensitivity]\nformulas = ["central2"]\n' + extra)
+
+
+def test_the_table_is_read_by_its_declaration(tmp_path):
+    """The table's keys and defaults; every mistake one line naming the file, table and key."""
+    study_path = ROOT / "examples" / "brb" / "study_check.toml"
+    table = '[fe_validation]\nfile = "../../tests/data/brb/ForcedFrequencyResponses.mat"\n'
+    study = study_from_text(_study(table + "fit_evaluations = 5\n"), study_path)
+    assert study.fe_validation == FEValidationSettings(file="../../tests/data/brb/ForcedFrequencyResponses.mat",
+                                                       fit_evaluations=5)
+    assert study.input_files["../../tests/data/brb/ForcedFrequencyResponses.mat"] == study_path.parent / \
+        "../../tests/data/brb/ForcedFrequencyResponses.mat"  # archived with the run and part of its key
+    mistakes = {
+        table + 'element = "coulomb"\n': "key 'element': expected one of ['iwan', 'jenkins']",
+        table + 'runs = ["sine"]\n': "runs: expected a non-empty list of ['force', 'response']",
+        table + "fit_evaluations = 0\n": "key 'fit_evaluations': expected an integer ≥ 1",
+        table + "slip_force = 3\n": "key 'slip_force': expected one of the keys",
+        '[fe_validation]\nfile = "missing.mat"\n': "key 'file': expected an existing file",
+        '[fe_validation]\nfile = "runs.csv"\n': "key 'file': expected a MATLAB file (.mat)",
+        '[fe_validation]\nfit_evaluations = 5\n': "key 'file': expected a string (required)",
+    }
+    for text, message in mistakes.items():
+        with pytest.raises(StudyError) as raised:
+            study_from_text(_study(text), study_path)
+        assert str(raised.value).startswith(f"{study_path}: [fe_validation]") and message in str(raised.value)
+    with pytest.raises(StudyError, match=r"\[fe_validation\]: expected an \[adapter\] kind = \"calculix\", model = \"brb\""):
+        study_from_text(_study(table, 'kind = "calculix"\nmodel = "tbeam"', "h1"), study_path)
