@@ -24,7 +24,7 @@ from nlupdate.settings import Setting, SettingError, parse_mapping, settings_of
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import (
     AdapterTable, CandidateEntry, ComparisonSpec, EigensensitivityKeys, ParameterEntry, PredictionSpec,
-    StudyAdapterTable, StudyInfo, ValidationSpec,
+    StudyAdapterTable, StudyInfo, TargetsSpec, ValidationSpec,
 )
 
 #: Study table (dotted; an array of tables by its name) → the classes declaring its keys,
@@ -36,6 +36,7 @@ TABLES: dict[str, tuple[tuple[type, bool], ...]] = {
     "adapter": ((StudyAdapterTable, False),),
     "measured.simulate.adapter": ((AdapterTable, False),),
     "parameters": ((ParameterEntry, False),),
+    "targets": ((TargetsSpec, False),),
     "updating": ((ResponseOptions, False),),
     "eigensensitivity": ((EigensensitivityKeys, False), (EigensensitivityOptions, True)),
     "optimisation": ((OptimisationOptions, True),),

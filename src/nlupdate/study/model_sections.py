@@ -7,7 +7,6 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from nlupdate.core.identification.settings import IdentificationSettings
-from nlupdate.core.updating.targets import FRF_METHODS
 from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import AdapterSpec, build_adapter
 from nlupdate.study.declared import build, classes, read_declared
@@ -104,8 +103,9 @@ def check_parameter_domain(read: Reader, spec: AdapterSpec, parameters: tuple[Pa
 
 def read_targets(read: Reader, targets: Mapping[str, Any],
                  identification: IdentificationSettings | None) -> tuple[TargetsSpec, int]:
-    """The [targets] table, checked, and the number of target modes (−1: all modes the
-    identification finds, known only after it ran)."""
+    """The [targets] table — each key by its declaration (:class:`~nlupdate.study.spec.TargetsSpec`),
+    then its one source and the keys that go with it — and the number of target modes (−1:
+    all modes the identification finds, known only after it ran)."""
     where = "targets"
     sources = [key for key in ("frequencies_hz", "identification", "from_identification", "amplitude_models")
                if key in targets]
@@ -116,54 +116,10 @@ def read_targets(read: Reader, targets: Mapping[str, Any],
     source = sources[0]
     if source != "frequencies_hz" and "std_hz" in targets:
         raise read.fail(where, "std_hz", "nothing: target uncertainties come from the identification")
-    if source == "frequencies_hz":
-        if isinstance(targets["frequencies_hz"], list) and len(targets["frequencies_hz"]) > MAX_TARGETS:
-            raise read.fail(where, "frequencies_hz", f"at most {MAX_TARGETS} target modes, "
-                                                     f"found {len(targets['frequencies_hz'])}")
-        frequencies = read.numbers(targets, where, "frequencies_hz", required=True)
-        n = len(frequencies)
-        if any(f <= 0 for f in frequencies) or any(b <= a for a, b in zip(frequencies, frequencies[1:])):
-            raise read.fail(where, "frequencies_hz", "increasing natural frequencies > 0 Hz, each once (mode by mode; "
-                                                     "pair them with model modes through model_modes)", frequencies)
-        read.numbers(targets, where, "std_hz", length=n)
-    elif source == "amplitude_models":
-        paths = read.strings(targets, where, "amplitude_models")
-        if not paths:
-            raise read.fail(where, "amplitude_models", "a list of amplitude-dependent modal model files (JSON), one per "
-                                                       "target mode", targets["amplitude_models"])
-        for written in paths:
-            if not read.path_of(written).is_file():
-                raise read.fail(where, "amplitude_models", "existing amplitude-dependent modal model files (JSON)",
-                                written)
-        n = len(paths)
-    elif source == "from_identification":
-        if read.boolean(targets, where, "from_identification", False) is not True:
-            raise read.fail(where, "from_identification", "true (or leave the key out)", False)
-        if identification is None:
-            raise read.fail(where, "from_identification", "an [identification] table to take the targets from")
-        modes = targets.get("modes")
-        if modes is not None and (not isinstance(modes, list) or not modes
-                                  or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes)
-                                  or any(b <= a for a, b in zip(modes, modes[1:]))):
-            raise read.fail(where, "modes", "a list of mode numbers ≥ 1 (of the extracted linear FRF, ascending, "
-                                            "each once)", modes)
-        n = len(modes) if modes is not None else -1
-    else:
-        written = read.string(targets, where, "identification", required=True)
-        if not read.path_of(written).exists():
-            raise read.fail(where, "identification", "an existing identify output (folder, .json or FRF table)",
-                            written)
-        n = read.integer(targets, where, "n_modes")
-        if n is None:
-            raise read.fail(where, "n_modes", "the number of peaks to pick from the identified FRF (integer ≥ 1)")
-        for key in ("response_dof", "input_dof"):
-            read.string(targets, where, key, required=True)
-        if "band_hz" in targets:
-            low, high = read.numbers(targets, where, "band_hz", length=2)
-            if not 0 <= low < high:
-                raise read.fail(where, "band_hz", "[low, high] with 0 ≤ low < high (Hz)", targets["band_hz"])
-        read.number(targets, where, "force_level_n", positive=True)
-        read.string(targets, where, "frf_method", choices=FRF_METHODS)
+    if isinstance(targets[source], list) and len(targets[source]) > MAX_TARGETS:
+        raise read.fail(where, source, f"at most {MAX_TARGETS} target modes, found {len(targets[source])}")
+    values = read_declared(read, targets, where)
+    n = _source_modes(read, values, source, identification)
     if n > MAX_TARGETS:
         key = {"from_identification": "modes", "identification": "n_modes"}.get(source, source)
         raise read.fail(where, key, f"at most {MAX_TARGETS} target modes, found {n}")
@@ -173,49 +129,72 @@ def read_targets(read: Reader, targets: Mapping[str, Any],
                 raise read.fail(where, key, "nothing: it applies to identification = \"<identify output>\"")
     if source != "from_identification" and "modes" in targets:
         raise read.fail(where, "modes", "nothing: it applies to from_identification = true")
-    for key in ("response_dof", "input_dof", "model_response_dof", "model_input_dof"):
-        read.string(targets, where, key)
+    _per_mode(read, values, n)
+    return build(read, where, TargetsSpec, values), n
+
+
+def _source_modes(read: Reader, values: Mapping[str, Any], source: str,
+                  identification: IdentificationSettings | None) -> int:
+    """The number of target modes ``[targets]``'s source gives (−1: not known before the
+    identification ran), its own keys checked."""
+    where = "targets"
+    if source == "frequencies_hz":
+        frequencies = values["frequencies_hz"]
+        if any(f <= 0 for f in frequencies) or any(b <= a for a, b in zip(frequencies, frequencies[1:])):
+            raise read.fail(where, "frequencies_hz", "increasing natural frequencies > 0 Hz, each once (mode by mode; "
+                                                     "pair them with model modes through model_modes)",
+                            list(frequencies))
+        if values.get("std_hz") is not None and len(values["std_hz"]) != len(frequencies):
+            raise read.fail(where, "std_hz", f"a list of {len(frequencies)} numbers", list(values["std_hz"]))
+        return len(frequencies)
+    if source == "amplitude_models":
+        for written in values["amplitude_models"]:
+            if not read.path_of(written).is_file():
+                raise read.fail(where, "amplitude_models", "existing amplitude-dependent modal model files (JSON)",
+                                written)
+        return len(values["amplitude_models"])
+    if source == "from_identification":
+        if values["from_identification"] is not True:
+            raise read.fail(where, "from_identification", "true (or leave the key out)", False)
+        if identification is None:
+            raise read.fail(where, "from_identification", "an [identification] table to take the targets from")
+        modes = values.get("modes")
+        if modes is not None and any(b <= a for a, b in zip(modes, modes[1:])):
+            raise read.fail(where, "modes", "a list of mode numbers ≥ 1 (of the extracted linear FRF, ascending, "
+                                            "each once)", list(modes))
+        return len(modes) if modes is not None else -1
+    written = values["identification"]
+    if not read.path_of(written).exists():
+        raise read.fail(where, "identification", "an existing identify output (folder, .json or FRF table)", written)
+    if values.get("n_modes") is None:
+        raise read.fail(where, "n_modes", "the number of peaks to pick from the identified FRF (integer ≥ 1)")
+    for key in ("response_dof", "input_dof"):
+        if values.get(key) is None:
+            raise read.fail(where, key, "a string (required)")
+    if "band_hz" in values and not values["band_hz"][0] < values["band_hz"][1]:
+        raise read.fail(where, "band_hz", "[low, high] with 0 ≤ low < high (Hz)", list(values["band_hz"]))
+    return values["n_modes"]
+
+
+def _per_mode(read: Reader, values: Mapping[str, Any], n: int) -> None:
+    """The keys given per target mode: one entry per mode (``n`` of them; none known when
+    ``n`` < 0), and shapes at every coordinate."""
+    where = "targets"
     if n > 0:
-        read.numbers(targets, where, "weights", length=n)
-        labels = read.strings(targets, where, "labels")
-        if labels is not None and len(labels) != n:
-            raise read.fail(where, "labels", f"{n} names", labels)
-    elif any(key in targets for key in ("weights", "labels", "model_modes", "mode_shapes")):
+        if values.get("weights") is not None and len(values["weights"]) != n:
+            raise read.fail(where, "weights", f"a list of {n} numbers", list(values["weights"]))
+        if "labels" in values and len(values["labels"]) != n:
+            raise read.fail(where, "labels", f"{n} names", list(values["labels"]))
+    elif any(key in values for key in ("weights", "labels", "model_modes", "mode_shapes")):
         raise read.fail(where, "modes", "the list of modes to take (weights, labels, model_modes and mode_shapes "
                                         "are given per target mode)")
-    if "model_modes" in targets:
-        modes = targets["model_modes"]
-        if (not isinstance(modes, list) or len(modes) != n
-                or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes)
-                or len(set(modes)) != len(modes)):
-            raise read.fail(where, "model_modes", f"a list of {n} distinct mode numbers ≥ 1", modes)
-    if ("coordinates" in targets) != ("mode_shapes" in targets):
+    modes = values.get("model_modes")
+    if modes is not None and (len(modes) != n or len(set(modes)) != len(modes)):
+        raise read.fail(where, "model_modes", f"a list of {n} distinct mode numbers ≥ 1", list(modes))
+    if ("coordinates" in values) != ("mode_shapes" in values):
         raise read.fail(where, None, "'coordinates' and 'mode_shapes' together")
-    if "coordinates" in targets:
-        coordinates = read.strings(targets, where, "coordinates")
-        shapes = targets["mode_shapes"]
-        if (not isinstance(shapes, list) or len(shapes) != n
-                or any(not isinstance(s, list) or len(s) != len(coordinates) for s in shapes)):
-            raise read.fail(where, "mode_shapes", f"{n} lists (one per target mode) of {len(coordinates)} numbers", shapes)
-        for row in shapes:
-            if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in row):
-                raise read.fail(where, "mode_shapes", "numbers", row)
-
-    def numbers(key: str) -> tuple | None:
-        return None if key not in targets else tuple(float(v) for v in targets[key])
-
-    spec = TargetsSpec(
-        frequencies_hz=numbers("frequencies_hz"), std_hz=numbers("std_hz"),
-        from_identification=bool(targets.get("from_identification", False)),
-        modes=None if "modes" not in targets else tuple(targets["modes"]), identification=targets.get("identification"),
-        n_modes=targets.get("n_modes"), band_hz=numbers("band_hz"),
-        force_level_n=None if "force_level_n" not in targets else float(targets["force_level_n"]),
-        frf_method=targets.get("frf_method", TargetsSpec.frf_method),
-        amplitude_models=tuple(targets.get("amplitude_models", ())),
-        **{key: targets.get(key) for key in ("response_dof", "input_dof", "model_response_dof", "model_input_dof")},
-        weights=numbers("weights"), labels=tuple(targets.get("labels", ())), model_modes=tuple(targets.get("model_modes", ())),
-        coordinates=tuple(targets.get("coordinates", ())),
-        mode_shapes=None if "mode_shapes" not in targets else tuple(tuple(float(v) for v in row)
-                                                                     for row in targets["mode_shapes"]),
-    )
-    return spec, n
+    if "coordinates" in values:
+        size, shapes = len(values["coordinates"]), values["mode_shapes"]
+        if len(shapes) != n or any(len(row) != size for row in shapes):
+            raise read.fail(where, "mode_shapes", f"{n} lists (one per target mode) of {size} numbers",
+                            [list(row) for row in shapes])

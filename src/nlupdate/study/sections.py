@@ -34,12 +34,6 @@ ALLOWED: dict[str, set[str]] = {
                  "excitation", "response_quantity"},
     "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
                           "frequencies_hz", "noise", "seed", "sweep"},
-    "targets": {
-        "frequencies_hz", "std_hz", "from_identification", "modes", "identification", "amplitude_models", "n_modes",
-        "band_hz",
-        "force_level_n", "frf_method", "response_dof", "input_dof", "model_response_dof", "model_input_dof", "weights",
-        "labels", "model_modes", "coordinates", "mode_shapes",
-    },
 }
 ALLOWED["optimisation"] |= {"candidates"}  # the [[optimisation.candidates]] tables
 MOVED = {

@@ -19,6 +19,7 @@ from typing import Any, Iterator, Mapping
 
 from nlupdate.core.response.method import HARMONICS_FORM, MAX_HARMONICS, RESPONSE_METHODS
 from nlupdate.core.updating.sensitivity import FORMULAS
+from nlupdate.core.updating.targets import FRF_METHODS
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES
 from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import ADAPTER_KINDS, AdapterSpec
@@ -287,34 +288,72 @@ class ValidationSpec:
 
 @dataclass(frozen=True)
 class TargetsSpec:
-    """``[targets]``: what the updated model must match — ``frequencies_hz`` (Hz, with
-    ``std_hz``), the modes of the study's extracted linear FRF (``from_identification``,
-    ``modes``), the peaks of an earlier identification's linear FRF (``identification``:
-    the path as written; ``n_modes``, ``band_hz``, ``force_level_n``, ``frf_method``), or
-    the linear limits of amplitude-dependent modal models (``amplitude_models``, paths as
-    written); the measured pair (``response_dof``, ``input_dof``) and its coordinates in
-    the FE model; per target mode ``weights``, ``labels``, ``model_modes`` and mode shapes
-    (``mode_shapes``, one row per mode, at ``coordinates``)."""
+    """``[targets]``: what the updated model must match — exactly one source: frequencies,
+    the modes of the study's extracted linear FRF, the peaks of an earlier identification's
+    linear FRF (the path as written) or the linear limits of amplitude-dependent modal models
+    (paths as written); then the measured pair and its coordinates in the FE model, and per
+    target mode weights, labels, model modes and mode shapes. Each key: its declaration."""
 
-    frequencies_hz: tuple[float, ...] | None = None
-    std_hz: tuple[float, ...] | None = None
-    from_identification: bool = False
-    modes: tuple[int, ...] | None = None
-    identification: str | None = None
-    n_modes: int | None = None
-    band_hz: tuple[float, float] | None = None
-    force_level_n: float | None = None
-    frf_method: str = "peak"
-    amplitude_models: tuple[str, ...] = ()
-    response_dof: str | None = None
-    input_dof: str | None = None
-    model_response_dof: str | None = None
-    model_input_dof: str | None = None
-    weights: tuple[float, ...] | None = None
-    labels: tuple[str, ...] = ()
-    model_modes: tuple[int, ...] = ()
-    coordinates: tuple[str, ...] = ()
-    mode_shapes: tuple[tuple[float, ...], ...] | None = None
+    frequencies_hz: tuple[float, ...] | None = setting(
+        None, kind="numbers", min_length=1, unit="Hz", default_text="—",
+        meaning="source 1: the target natural frequencies, increasing, > 0 (at most 1000 target modes, whatever the "
+                "source)")
+    std_hz: tuple[float, ...] | None = setting(
+        None, kind="numbers", min_length=1, unit="Hz", default_text="none",
+        meaning="only with `frequencies_hz`, one per target: standard deviations, propagated to parameter "
+                "uncertainties")
+    from_identification: bool = setting(
+        False, kind="boolean", default_text="—",
+        meaning="source 2 (`true`): the modes of the linear FRF extracted by this study's `[identification]` (needs "
+                "that table); their Monte-Carlo std and loss factors come along")
+    modes: tuple[int, ...] | None = setting(
+        None, kind="integers", min_length=1, minimum=1, default_text="all modes found",
+        meaning="only with `from_identification`: which modes (numbered in ascending frequency, each once)")
+    identification: str | None = setting(
+        None, kind="path", default_text="—",
+        meaning="source 3: an `nlupdate identify` output folder (its `linear_frf.parquet`), its "
+                "`identification.json` (entry `linear_frf`), or any FRF table")
+    n_modes: int | None = setting(None, kind="integer", minimum=1, default_text="—",
+                                  meaning="**required** with source 3: number of peaks to pick")
+    band_hz: tuple[float, float] | None = setting(
+        None, kind="numbers", length=2, minimum=0, unit="Hz", default_text="whole FRF",
+        meaning="source 3: search band [low, high], low < high")
+    force_level_n: float | None = setting(
+        None, kind="number", minimum=0, above_minimum=True, unit="N", default_text="the curve's only level",
+        meaning="source 3: which curve when the table has several levels")
+    frf_method: str = setting(
+        "peak", kind="choice", choices=FRF_METHODS,
+        meaning="source 3: parabola-refined |H| peaks, or line fit of Re(1/H) in ω² (±1 %)")
+    amplitude_models: tuple[str, ...] = setting(
+        (), kind="strings", min_length=1, default_text="—",
+        meaning="source 4: amplitude-dependent modal models (`amplitude_model.json` of `nlupdate amplitude`, "
+                "docs/iwan.md), one per target mode; the target is each one's linear limit f(a → 0) — the joint "
+                "stuck, as an FE model with tied contact has it; `model_modes` defaults to their `mode`")
+    response_dof: str | None = setting(
+        None, kind="string", default_text="`[identification]`'s",
+        meaning="the measured curve's response: **required** with source 3; otherwise the curve used for FRAC and "
+                "prediction")
+    input_dof: str | None = setting(None, kind="string", default_text="`[identification]`'s",
+                                    meaning="the measured curve's input (as `response_dof`)")
+    model_response_dof: str | None = setting(None, kind="string", default_text="`response_dof`",
+                                             meaning="the same response coordinate named as in the FE model")
+    model_input_dof: str | None = setting(None, kind="string", default_text="`input_dof`",
+                                          meaning="the same input coordinate named as in the FE model")
+    weights: tuple[float, ...] | None = setting(
+        None, kind="numbers", min_length=1, default_text="`1` each",
+        meaning="mode weights, one per target, ≥ 0, not all 0; residual i is multiplied by √w_i")
+    labels: tuple[str, ...] = setting((), kind="strings", min_length=1, default_text="`mode1`, `mode2`, …",
+                                      meaning="names of the target modes, distinct, one per target")
+    model_modes: tuple[int, ...] = setting(
+        (), kind="integers", min_length=1, minimum=1, default_text="1, 2, …, n",
+        meaning='with `pairing = "order"`: model modes paired with the targets, distinct, one per target')
+    coordinates: tuple[str, ...] = setting(
+        (), kind="strings", min_length=1, default_text="—",
+        meaning="model coordinate names of measured mode shapes; together with `mode_shapes`")
+    mode_shapes: tuple[tuple[float, ...], ...] | None = setting(
+        None, kind="number_rows", unit="any scaling", default_text="—",
+        meaning="measured shapes, one list per target of one value per coordinate, for MAC pairing and "
+                "`use_mode_shapes`")
 
 
 @dataclass(frozen=True)
