@@ -65,7 +65,7 @@ def pytest_unconfigure(config):
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
 #: leave long modules of few tests for the end), so the two workers finish together.
 LONGEST_MODULES = (
-    "test_brb_example.py", "test_reduction_nonlinear.py",
+    "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py",
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
     "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",

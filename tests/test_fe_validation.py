@@ -114,7 +114,7 @@ def test_the_table_is_read_by_its_declaration(tmp_path):
         table + "slip_force = 3\n": "key 'slip_force': expected one of the keys",
         '[fe_validation]\nfile = "missing.mat"\n': "key 'file': expected an existing file",
         '[fe_validation]\nfile = "runs.csv"\n': "key 'file': expected a MATLAB file (.mat)",
-        '[fe_validation]\nfit_evaluations = 5\n': "key 'file': expected a string (required)",
+        '[fe_validation]\nfit_evaluations = 5\n': "key 'file': expected a file name (string) (required)",
     }
     for text, message in mistakes.items():
         with pytest.raises(StudyError) as raised:
@@ -122,3 +122,10 @@ def test_the_table_is_read_by_its_declaration(tmp_path):
         assert str(raised.value).startswith(f"{study_path}: [fe_validation]") and message in str(raised.value)
     with pytest.raises(StudyError, match=r"\[fe_validation\]: expected an \[adapter\] kind = \"calculix\", model = \"brb\""):
         study_from_text(_study(table, 'kind = "calculix"\nmodel = "tbeam"', "h1"), study_path)
+
+
+def test_the_docs_table_is_the_declaration():
+    """docs/validation.md's table of `[fe_validation]` keys is generated from the declaration."""
+    from nlupdate.settings import docs_table
+
+    assert docs_table(FEValidationSettings) in (ROOT / "docs" / "validation.md").read_text()

@@ -64,7 +64,8 @@ def runs_table(found) -> pd.DataFrame:
 def joint_line(found) -> str:
     """The identified joint, the damping it started from and the shaker's mass, in one sentence."""
     joint, fit = found.joint, found.fit
-    chi = f", χ = {joint['chi']:.3f}, β = 0" if "chi" in joint else ""
+    chi = "" if "chi" not in joint else \
+        f", χ = {joint['chi']:.3f}, β = 0" if abs(joint["chi"]) >= 5e-4 else ", χ = 0 (its upper bound), β = 0"
     return (f"Joint: one {found.element} element per bolt along the interface (stuck stiffness: the FE model's `kt`), "
             f"identified on the updated model from the force-controlled runs: F_S = {_g(joint['slip_force'])} N{chi}, "
             f"linear damping ratio with the shaker attached {_g(100 * joint['damping_ratio_forced'], 3)} % (started "

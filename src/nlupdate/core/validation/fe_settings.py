@@ -22,7 +22,7 @@ JOINT_ELEMENTS = ("iwan", "jenkins")
 class FEValidationSettings:
     """Which runs, which joint element and how hard to fit it (each field: its declaration)."""
 
-    file: str = setting(kind="string", required=True, flag="",
+    file: str = setting(kind="path", required=True, flag="",
                         meaning="the MATLAB stepped-sine file of the forced runs (force- and response-controlled)")
     coordinates: tuple[str, ...] = setting(
         ("acc3:-y", "acc3:y"), kind="strings", length=2, flag="",
@@ -38,7 +38,7 @@ class FEValidationSettings:
     fit_evaluations: int = setting(60, kind="integer", minimum=1, unit="model evaluations",
                                    meaning="most evaluations of the joint fit (each predicts every force-controlled run)")
     impact_file: str | None = setting(
-        None, kind="string", flag="", default_text="none: `damping_ratio`",
+        None, kind="path", flag="", default_text="none: `damping_ratio`",
         meaning="hammer-impact record (.mat, struct HIdata with time and one field per channel) whose free decay "
                 "gives the starting linear damping ratio (output-only linear limit)")
     impact_channel: str = setting("acc3", kind="string", flag="", meaning="the impact record's channel to fit")
