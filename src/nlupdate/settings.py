@@ -25,10 +25,11 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 #: The forms a setting can take, as a reader would write them: ``path`` is a string naming a
-#: file (the reader resolves it), ``table`` a table of options, ``number_table`` a table of
-#: name = number, ``string_rows``/``number_rows`` a list of non-empty lists. A union of forms joins them with ``|`` (tried in order).
+#: file (the reader resolves it), ``table`` a table of options (``tables``: an array of them),
+#: ``number_table`` a table of name = number, ``string_rows``/``number_rows`` a list of
+#: non-empty lists. A union of forms joins them with ``|`` (tried in order).
 KINDS = ("string", "strings", "choice", "integer", "integers", "number", "numbers", "boolean", "path", "table",
-         "number_table", "string_rows", "number_rows")
+         "tables", "number_table", "string_rows", "number_rows")
 
 
 class SettingError(ValueError):
@@ -108,7 +109,8 @@ class Setting:
             return f"a number {bounds}" if bounds else "a finite number"
         if kind == "number_table":
             return f"a table of name = number{' ' + bounds if bounds else ''}"
-        return {"boolean": "true or false", "path": "a file name (string)", "table": "a table"}.get(kind, "a string")
+        return {"boolean": "true or false", "path": "a file name (string)", "table": "a table",
+                "tables": "an array of tables"}.get(kind, "a string")
 
     def _bounds(self) -> str:
         low, high = self.minimum, self.maximum
@@ -147,6 +149,10 @@ class Setting:
             if not isinstance(value, bool):
                 raise wrong
             return value
+        if kind == "tables":
+            if not isinstance(value, (list, tuple)) or not all(isinstance(v, Mapping) for v in value):
+                raise wrong
+            return tuple(dict(v) for v in value)
         if kind in ("table", "number_table"):
             if not isinstance(value, Mapping):
                 raise wrong

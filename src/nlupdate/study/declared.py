@@ -22,9 +22,9 @@ from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
 from nlupdate.settings import Setting, SettingError, parse_mapping, settings_of
 from nlupdate.study.reader import Reader, StudyError
-from nlupdate.study.spec import (
-    AdapterTable, CandidateEntry, ComparisonSpec, EigensensitivityKeys, ParameterEntry, PredictionSpec,
-    StudyAdapterTable, StudyInfo, TargetsSpec, ValidationSpec,
+from nlupdate.study.spec import CandidateEntry, ComparisonSpec, PredictionSpec, TargetsSpec, ValidationSpec
+from nlupdate.study.table_keys import (
+    AdapterTable, EigensensitivityKeys, MeasuredTable, ParameterEntry, SimulationTable, StudyAdapterTable, StudyInfo,
 )
 
 #: Study table (dotted; an array of tables by its name) → the classes declaring its keys,
@@ -32,6 +32,8 @@ from nlupdate.study.spec import (
 #: ``[updating]`` keys are the updating methods' base class, not their tables').
 TABLES: dict[str, tuple[tuple[type, bool], ...]] = {
     "study": ((StudyInfo, False),),
+    "measured": ((MeasuredTable, False),),
+    "measured.simulate": ((SimulationTable, False),),
     "identification": ((IdentificationSettings, False),),
     "adapter": ((StudyAdapterTable, False),),
     "measured.simulate.adapter": ((AdapterTable, False),),

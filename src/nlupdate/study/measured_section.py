@@ -11,6 +11,7 @@ import numpy as np
 
 from nlupdate.core.response.method import MAX_FREQUENCIES
 from nlupdate.fe.adapters.registry import AdapterSpec
+from nlupdate.study.declared import read_declared
 from nlupdate.study.model_sections import adapter_from
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import MeasuredSpec, SimulationSpec
@@ -42,6 +43,9 @@ MEASURED_SUFFIXES = (".parquet", ".csv", ".uff", ".unv", ".mat")
 
 
 def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterSpec | None) -> MeasuredSpec | None:
+    """``[measured]``: each key by its declaration (:class:`~nlupdate.study.table_keys.MeasuredTable`),
+    then its one source, the files it names (existing, of a format the readers take) and the
+    statements that go with that source."""
     table = read.table(data, "measured")
     if table is None:
         return None
@@ -50,92 +54,76 @@ def read_measured(read: Reader, data: Mapping[str, Any], study_adapter: AdapterS
         raise read.fail("measured", None, "exactly one of file = \"<FRF table>\", files = {\"<file>\" = level, …}, "
                                           "time_histories = [\"<time record>\", …] or a [measured.simulate] table",
                         sources or None)
-    statements = _measured_statements(read, table, sources[0])
-    if "file" in table:
-        file = read.path_of(read.string(table, "measured", "file", required=True))
+    values = read_declared(read, table, "measured")
+    statements = _measured_statements(read, values, sources[0])
+    if "file" in values:
+        file = read.path_of(values["file"])
         if not file.is_file() or file.suffix.lower() not in MEASURED_SUFFIXES:
             raise read.fail("measured", "file", f"an existing FRF table ({', '.join(MEASURED_SUFFIXES)})", str(file))
         return MeasuredSpec(file=str(file), **statements)
-    if "files" in table:
-        files = _measured_files(read, table["files"])
+    if "files" in values:
+        files = _measured_files(read, values["files"])
         in_files = {path: level for path, level in files if level is not None}
-        for (key, level), name in zip(statements.get("levels", ()), table.get("levels", {})):
+        for (key, level), name in zip(statements.get("levels", ()), values.get("levels", {})):
             if in_files.get(key, level) != level:
                 raise read.fail("measured.levels", name, f"the level [measured] files gives the file "
                                                          f"({in_files[key]:g}), or none", level)
         return MeasuredSpec(files=files, **statements)
-    if "time_histories" in table:
-        written = read.strings(table, "measured", "time_histories", required=True)
+    if "time_histories" in values:
         paths = []
-        for name in written:
+        for name in values["time_histories"]:
             path = read.path_of(name)
             if not path.is_file() or path.suffix.lower() not in MEASURED_SUFFIXES:
                 raise read.fail("measured", "time_histories",
                                 f"existing time-record files ({', '.join(MEASURED_SUFFIXES)})", name)
             paths.append(str(path))
-        if not paths:
-            raise read.fail("measured", "time_histories", "at least one time-record file", written)
         return MeasuredSpec(time_histories=tuple(paths), **statements)
+    return MeasuredSpec(simulate=_read_simulation(read, table, study_adapter))
+
+
+def _read_simulation(read: Reader, table: Mapping[str, Any], study_adapter: AdapterSpec | None) -> SimulationSpec:
+    """``[measured.simulate]``: each key by its declaration (:class:`~nlupdate.study.table_keys.SimulationTable`),
+    then the truth — a model file, or an FE model (its own table, else the study's) — and the
+    test's forces and frequency grid."""
     where = "measured.simulate"
     sim = read.table(table, where, required=True)
-    has_model = "model" in sim
-    if has_model and ({"adapter", "parameters", "loss_factor", "nonlinear"} & set(sim)):
+    values = read_declared(read, sim, where)
+    if "model" in values and ({"adapter", "parameters", "loss_factor", "nonlinear"} & set(sim)):
         raise read.fail(where, "model", "either a model file or adapter/parameters/loss_factor/nonlinear, not both")
-    forces = read.numbers(sim, where, "forces_n", required=True)
+    forces = values["forces_n"]
     if min(forces) <= 0 or len(set(forces)) != len(forces):
         raise read.fail(where, "forces_n", "distinct force amplitudes > 0 (N)", sim["forces_n"])
-    noise = read.number(sim, where, "noise", 0.0, nonnegative=True)
-    common = dict(
-        input_dof=read.string(sim, where, "input_dof", required=True), forces_n=tuple(sorted(forces)),
-        frequencies_hz=_grid(read, sim, where), noise=noise,
-        seed=read.integer(sim, where, "seed", 0, minimum=0), sweep=read.string(sim, where, "sweep", "up", choices=("up", "down")),
-    )
-    if has_model:
-        model = read.path_of(read.string(sim, where, "model", required=True))
+    common = dict(input_dof=values["input_dof"], forces_n=tuple(sorted(forces)), frequencies_hz=_grid(read, sim, where),
+                  **{key: values[key] for key in ("noise", "seed", "sweep") if key in values})
+    if "model" in values:
+        model = read.path_of(values["model"])
         if not model.is_file() or model.suffix.lower() != ".toml":
             raise read.fail(where, "model", "an existing model file (.toml)", str(model))
-        return MeasuredSpec(simulate=SimulationSpec(model_file=str(model), **common))
+        return SimulationSpec(model_file=str(model), **common)
     adapter_table = read.table(sim, f"{where}.adapter")
     adapter = adapter_from(read, adapter_table, f"{where}.adapter")[0] if adapter_table is not None else study_adapter
     if adapter is None:
         raise read.fail(where, None, "model = \"<model file>\", or the truth's FE model: a [measured.simulate.adapter] "
                                      "table or the study's [adapter]")
-    elements = sim.get("nonlinear", [])
-    if not isinstance(elements, list) or any(not isinstance(e, dict) for e in elements):
-        raise read.fail(where, "nonlinear", "[[measured.simulate.nonlinear]] tables", elements)
-    return MeasuredSpec(simulate=SimulationSpec(
-        adapter=adapter, parameters=read.number_table(sim, where, "parameters"),
-        loss_factor=read.number(sim, where, "loss_factor", 0.0, nonnegative=True), elements=tuple(elements), **common,
-    ))
+    return SimulationSpec(adapter=adapter, elements=values.get("nonlinear", ()), **common,
+                          **{key: values[key] for key in ("parameters", "loss_factor") if key in values})
 
 
-def _measured_statements(read: Reader, table: Mapping[str, Any], source: str) -> dict[str, Any]:
-    """reference_unit, reference_calibration and the time-history keys of ``[measured]``."""
-    out: dict[str, Any] = {}
-    if "reference_unit" in table:
-        out["reference_unit"] = read.string(table, "measured", "reference_unit", choices=("N", "V"))
-    if "reference_calibration" in table:
-        value = read.number(table, "measured", "reference_calibration", nonnegative=True)
-        if not value > 0:
-            raise read.fail("measured", "reference_calibration", "newtons per volt, a number > 0", value)
-        if out.get("reference_unit", "V") != "V":
-            raise read.fail("measured", "reference_calibration", "a voltage reference (reference_unit = \"V\")", value)
-        out["reference_calibration"] = value
-    if "coordinates" in table:
-        out["coordinates"] = _measured_coordinates(read, table["coordinates"], source)
-    if "levels" in table:
-        out["levels"] = _measured_levels(read, table["levels"], source)
-    history_keys = {"input_dof", "excitation", "response_quantity"} & set(table)
+def _measured_statements(read: Reader, values: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """reference_unit, reference_calibration, coordinates, levels and the time-history keys
+    of ``[measured]`` (its declared values), each where its source takes it."""
+    out: dict[str, Any] = {key: values[key] for key in ("reference_unit", "reference_calibration") if key in values}
+    if "reference_calibration" in out and out.get("reference_unit", "V") != "V":
+        raise read.fail("measured", "reference_calibration", "a voltage reference (reference_unit = \"V\")",
+                        out["reference_calibration"])
+    if "coordinates" in values:
+        out["coordinates"] = _measured_coordinates(read, values["coordinates"], source)
+    if "levels" in values:
+        out["levels"] = _measured_levels(read, values["levels"], source)
+    history_keys = {"input_dof", "excitation", "response_quantity"} & set(values)
     if history_keys and source != "time_histories":
         raise read.fail("measured", sorted(history_keys)[0], "nothing: it applies to time_histories = [...]")
-    if "input_dof" in table:
-        out["input_dof"] = read.string(table, "measured", "input_dof")
-    if "excitation" in table:
-        out["excitation"] = read.string(table, "measured", "excitation",
-                                        choices=("auto", "stepped_sine", "sine_sweep", "random", "burst"))
-    if "response_quantity" in table:
-        out["response_quantity"] = read.string(table, "measured", "response_quantity",
-                                               choices=("displacement", "velocity", "acceleration"))
+    out.update({key: values[key] for key in history_keys})
     return out
 
 
@@ -190,18 +178,16 @@ def _existing_file(read: Reader, name: str):
     return path if path.is_file() else None
 
 
-def _measured_files(read: Reader, value: Any) -> tuple[tuple[str, float | None], ...]:
-    """``files = ["a.uff", …]`` (levels in the files) or ``{"a.uff" = 0.1, …}`` (levels given)."""
-    if isinstance(value, list) and all(isinstance(v, str) for v in value) and value:
-        entries = [(name, None) for name in value]
-    elif isinstance(value, dict) and value:
-        entries = []
-        for name, level in value.items():
-            if isinstance(level, bool) or not isinstance(level, (int, float)) or not level > 0:
-                raise read.fail("measured.files", name, "a level > 0 in the reference unit", level)
-            entries.append((name, float(level)))
-    else:
+def _measured_files(read: Reader, value: tuple[str, ...] | Mapping[str, float]) -> tuple[tuple[str, float | None], ...]:
+    """``files = ["a.uff", …]`` (levels in the files) or ``{"a.uff" = 0.1, …}`` (levels given),
+    as declared: each level > 0, each file existing and of a format the readers take."""
+    if not value:
         raise read.fail("measured", "files", "a list of files, or a table \"<file>\" = level", value)
+    if isinstance(value, Mapping):
+        for name, level in value.items():
+            if not level > 0:
+                raise read.fail("measured.files", name, "a level > 0 in the reference unit", level)
+    entries = list(value.items()) if isinstance(value, Mapping) else [(name, None) for name in value]
     out = []
     for name, level in entries:
         path = read.path_of(name)

@@ -29,11 +29,6 @@ ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
          "optimisation", "comparison", "prediction", "validation", "fe_validation"},
     **{table: set(declared_keys(table)) for table in TABLES},
-    "measured": {"file", "files", "time_histories", "simulate", "reference_unit", "reference_calibration", "coordinates",
-                 "levels", "input_dof",
-                 "excitation", "response_quantity"},
-    "measured.simulate": {"model", "adapter", "parameters", "loss_factor", "nonlinear", "input_dof", "forces_n",
-                          "frequencies_hz", "noise", "seed", "sweep"},
 }
 ALLOWED["optimisation"] |= {"candidates"}  # the [[optimisation.candidates]] tables
 MOVED = {

@@ -1,7 +1,8 @@
 """A study as read from its TOML file: :class:`Study` and one typed section per table.
 
 The keys of a table whose values are plain settings are declared once, on the class the
-table becomes (:func:`nlupdate.settings.setting`: form, unit, default, meaning): the study
+table becomes (:func:`nlupdate.settings.setting`: form, unit, default, meaning; the keys of tables the
+reader turns into something else, on :mod:`nlupdate.study.table_keys`): the study
 reader checks the table from the declaration (:mod:`nlupdate.study.declared` lists which
 classes declare which table) and docs/study-files.md's tables of keys are generated from it.
 Defaults live with the settings they configure (:class:`~nlupdate.core.updating.eigensensitivity.EigensensitivityOptions`,
@@ -18,11 +19,10 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 from nlupdate.core.response.method import HARMONICS_FORM, MAX_HARMONICS, RESPONSE_METHODS
-from nlupdate.core.updating.sensitivity import FORMULAS
 from nlupdate.core.updating.targets import FRF_METHODS
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES
 from nlupdate.fe.adapters.base import Parameter
-from nlupdate.fe.adapters.registry import ADAPTER_KINDS, AdapterSpec
+from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.fingerprints import text_hash
 from nlupdate.core.identification.pipeline import IdentificationSettings
 from nlupdate.input_files import pinned, snapshot
@@ -35,89 +35,11 @@ from nlupdate.core.validation.fe_settings import FEValidationSettings
 from nlupdate.settings import setting
 
 __all__ = [
-    "AdapterTable", "CandidateEntry", "EigensensitivityKeys", "ParameterEntry", "StudyAdapterTable", "StudyInfo", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
+    "CandidateEntry", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
     "Study", "StudyError", "TargetsSpec", "inputs_read_once",
 ]
 
 LOSS_FACTOR_SOURCES = ("low_force_fit", "identified")
-
-
-@dataclass(frozen=True)
-class StudyInfo:
-    """``[study]``: the study's name (None: the file's name) and description."""
-
-    name: str | None = setting(
-        None, kind="string", default_text="the file's name without `.toml`",
-        meaning="names the run: archive folder `results/<name>/`, report title, Prefect flow-run name (one folder "
-                "name: printable, no `/` or `\\`, not starting with `.`)")
-    description: str = setting("", kind="string", meaning="one line for the report and `manifest.json`")
-
-
-@dataclass(frozen=True)
-class AdapterTable:
-    """An FE model as a study names it (``[adapter]``, ``[measured.simulate.adapter]``)."""
-
-    kind: str = setting(kind="choice", choices=ADAPTER_KINDS, required=True, meaning="FE code, options below")
-    model: str | None = setting(None, kind="string", default_text="—",
-                                meaning='**required** for `surrogate` (`"tbeam"` | `"gunbarrel"`) and `calculix` '
-                                        '(`"tbeam"` | `"brb"`); not used by `lumped` and `mapdl`')
-    options: dict[str, Any] = setting(default_factory=dict, kind="table",
-                                      meaning="constructor options of that kind (below); `[adapter.options]` or inline "
-                                              "`options = {…}`")
-
-    def spec(self) -> AdapterSpec:
-        return AdapterSpec(self.kind, self.model, self.options)
-
-
-@dataclass(frozen=True)
-class StudyAdapterTable(AdapterTable):
-    """``[adapter]``: the FE model to update, and parameters held at other values."""
-
-    fixed: dict[str, float] = setting(
-        default_factory=dict, kind="number_table", unit="parameter units",
-        meaning="adapter parameters set to a value other than the adapter's default but not updated; merged into "
-                "every FE evaluation and every prediction; must not name a `[[parameters]]` entry")
-
-
-@dataclass(frozen=True)
-class ParameterEntry:
-    """One ``[[parameters]]`` table: an updating parameter
-    (:class:`~nlupdate.fe.adapters.base.Parameter`)."""
-
-    name: str = setting(kind="string", required=True,
-                        meaning="a parameter the adapter accepts (lumped `m1`, `k1`, …; surrogate/CalculiX field "
-                                "names; MAPDL `parameter_names`); distinct")
-    start: float = setting(kind="number", required=True, unit="parameter unit",
-                           meaning="initial value, lower ≤ start ≤ upper; also the normalisation scale (the bound "
-                                   "width when 0)")
-    lower: float = setting(kind="number", required=True, unit="parameter unit",
-                           meaning="lower bound of the updated value")
-    upper: float = setting(kind="number", required=True, unit="parameter unit", meaning="upper bound, > lower")
-    unit: str = setting("", kind="string", meaning="label for tables and reports")
-    relative_step: float = setting(
-        Parameter.relative_step, kind="number", minimum=0, maximum=1, above_minimum=True, below_maximum=True,
-        meaning="finite-difference step h = relative_step·|p| (relative_step·(upper − lower) when p = 0)")
-
-    def parameter(self) -> Parameter:
-        return Parameter(self.name, self.unit, self.start, self.lower, self.upper, self.relative_step)
-
-
-@dataclass(frozen=True)
-class EigensensitivityKeys:
-    """The keys of ``[eigensensitivity]`` besides the iteration's settings
-    (:class:`~nlupdate.core.updating.eigensensitivity.EigensensitivityOptions`)."""
-
-    formulas: tuple[str, ...] = setting(
-        ("forward",), kind="strings", min_length=1,
-        form_text=f"a list of distinct names from {list(FORMULAS)}",
-        meaning="finite-difference sensitivities: O(h) one-sided (1 new point per parameter), central O(h²) (2), "
-                "central O(h⁴) (4)")
-    parameter_sets: tuple[tuple[str, ...], ...] | None = setting(
-        None, kind="string_rows", default_text="one set of all `[[parameters]]`",
-        meaning="distinct sets, each updated separately")
-    parameters: tuple[str, ...] | None = setting(
-        None, kind="strings", min_length=1, default_text="all",
-        meaning="shorthand for one set; not together with `parameter_sets`")
 
 
 @dataclass(frozen=True)

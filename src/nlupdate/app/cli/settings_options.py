@@ -31,7 +31,7 @@ def add_setting_options(parser: argparse.ArgumentParser, cls: type, skip: Iterab
         default = default_text(field, declaration).replace("`", "")
         help_text = f"{method}{declaration.meaning}{unit} (default: {default})".replace("%", "%%")
         options: dict[str, Any] = {"dest": name, "default": None, "help": help_text}
-        if {"table", "number_table"} & set(declaration.kinds):
+        if {"table", "tables", "number_table", "string_rows", "number_rows"} & set(declaration.kinds):
             raise TypeError(f"{cls.__name__}.{name}: a table has no command-line option (declare flag=\"\")")
         if declaration.kind == "boolean":
             options.update(action="store_const", const=True)
