@@ -18,7 +18,8 @@ balance of :mod:`nlupdate.core.model.system`.
 The curve is traced by the same pseudo-arclength continuation
 (:func:`nlupdate.core.response.continuation.trace_curve`); stability comes from Floquet
 multipliers by Hill's method (:mod:`nlupdate.core.response.hill`), which also flags branch
-points, period doublings and Neimark–Sacker points.
+points, period doublings and Neimark–Sacker points; a large dense model is reduced to its
+joint coordinates and retained modes first (:mod:`nlupdate.core.response.hill_reduction`).
 
 Truncation check. The share of a harmonic is ``‖X_k‖ / (Σ_{j≥1} ‖X_j‖²)^{1/2}`` over the
 nonlinear coordinates; :attr:`FrequencyResponse.harmonic_share` is the largest share of the
@@ -46,7 +47,8 @@ from nlupdate.core.response.continuation import (
     default_x_scale,
     trace_curve,
 )
-from nlupdate.core.response.hill import HillModel, classify, floquet_batch
+from nlupdate.core.response.hill import classify, floquet_batch
+from nlupdate.core.response.hill_reduction import hill_model
 
 DEFAULT_SHARE_LIMIT = 1e-3
 AUTO_HARMONICS = (3, 5, 7, 9, 11, 15, 19, 25, 31)
@@ -276,7 +278,7 @@ def harmonic_shares(states: NDArray) -> NDArray[np.float64]:
 
 
 def _stability(problem: HarmonicBalanceProblem, omega, states, turning):
-    hill = HillModel.of(problem.model, problem.a)
+    hill = hill_model(problem.model, problem.a, problem.element_index, float(np.max(omega)), problem.harmonics)
     coefficients = problem.coefficients(states)
     _, force_jacobians, _ = problem.forces_batch(coefficients, omega, jacobian=True)
     _, multipliers = floquet_batch(hill, problem.element_index, coefficients, omega, problem.fourier, force_jacobians)

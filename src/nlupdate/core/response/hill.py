@@ -15,7 +15,8 @@ quadratic eigenvalue problem ``(L₀ + λL₁ + λ²L₂) p = 0`` with blocks
 
 where ``K̂_m, Ĉ_m`` are the Fourier coefficients of the tangents. Of its 2·n_q(2H+1)
 eigenvalues, the 2·n_q whose eigenvectors are centred on the harmonic index (the mean of
-m weighted by ``‖p_m‖²`` closest to 0) approximate the Floquet exponents; the others are
+m weighted by ``‖p_m‖²`` closest to 0; among those within ½ of 0 the least damped first,
+see :func:`_centred`) approximate the Floquet exponents; the others are
 copies shifted by ``imω``, centred on m. (Centring, not the weight of m = 0: along an orbit
 of a symmetric system the perturbations split into even and odd families, and an odd one
 has no m = 0 component at all.) The
@@ -24,9 +25,11 @@ A real multiplier leaving through +1 is a turning point (or a branch point where
 curve does not turn), through −1 a period doubling, a complex pair a Neimark–Sacker
 bifurcation.
 
-Coordinates: a dense :class:`~nlupdate.core.model.linear.LumpedModel` is used as it is, a
-:class:`~nlupdate.core.model.linear.ModalModel` in its modal coordinates; a sparse lumped model
-in its lowest ``SPARSE_MODES`` modes (a truncation that affects stability only).
+Coordinates (:meth:`HillModel.of`): a dense :class:`~nlupdate.core.model.linear.LumpedModel` is
+used as it is, a :class:`~nlupdate.core.model.linear.ModalModel` in its modal coordinates; a
+sparse lumped model in its lowest ``SPARSE_MODES`` modes (a truncation that affects stability
+only). The harmonic balance asks :func:`nlupdate.core.response.hill_reduction.hill_model`, which
+reduces a large dense model to its joint coordinates and retained modes first.
 """
 from __future__ import annotations
 
@@ -190,8 +193,19 @@ def _floquet_exponents(hill, element_index, x_coefficients, omega, fourier, forc
     exponential = np.einsum("mc,pcqv->pmqv", to_exp, vectors[:, :size].reshape(points, n_h, n_q, -1))
     power = (np.abs(exponential) ** 2).sum(axis=2)  # (P, n_h over m = −H … H, 2·size)
     centroid = np.einsum("m,pmv->pv", orders.astype(float), power) / np.maximum(power.sum(axis=1), 1e-300)
-    chosen = np.argsort(np.abs(centroid), axis=1, kind="stable")[:, : 2 * n_q]
-    return np.take_along_axis(values, chosen, axis=1)
+    return np.take_along_axis(values, _centred(values, centroid, 2 * n_q), axis=1)
+
+
+def _centred(values: NDArray, centroid: NDArray, count: int) -> NDArray:
+    """Indices (P, count) of the exponents: those centred within ½ of harmonic index 0, the
+    least damped first, then the rest by centring. Every family λ + imω has one such copy;
+    when more than ``count`` are (a family resolved poorly by H harmonics — a mode far above
+    Hω, or a residual coordinate of :mod:`~nlupdate.core.response.hill_reduction` — spreads
+    its copies over the harmonics, several near 0), ordering by centring alone could push
+    out the least damped family, the one that decides stability; this order keeps it."""
+    outside = np.abs(centroid) > 0.5 + 1e-9
+    within = np.where(outside, np.abs(centroid), -values.real)
+    return np.lexsort((within, outside), axis=-1)[:, :count]
 
 
 def _exponential_maps(harmonics: int) -> tuple[NDArray, NDArray]:
