@@ -167,3 +167,42 @@ def test_an_impact_alone_gives_a_linear_limit_model_with_its_band(tmp_path):
     # the amplitude is displacement: acceleration / ω², over the shape
     assert row["modal_amplitude"] == pytest.approx(fit.amplitude / (2 * np.pi * fit.frequency_hz) ** 2 / 0.7271,
                                                    rel=1e-9)
+
+
+def test_impact_and_ring_down_read_from_a_universal_file(tmp_path, iwan_record):
+    """A test system's export: UFF datasets 58 of function type 1 written by pyuff — the hammer's
+    force (ordinate type 13, N) and three accelerometers (type 12, m/s², one along −z) — read into
+    the same table as CSV and MAT (a response named NODE:DIR, the hammer's record ``force``):
+    the linear mode's pole; and a ring-down through ``nlupdate amplitude --ring-down FILE.uff``."""
+    import pyuff
+
+    t, channels, force = hammer_record(0.005, 0)
+    common = dict(binary=0, func_type=1, abscissa_spacing=1, orddenom_spec_data_type=0, abscissa_spec_data_type=17,
+                  abscissa_axis_units_lab="s", x=t, ref_node=1, ref_dir=3)
+    sets = [pyuff.prepare_58(data=force, rsp_node=1, rsp_dir=3, ordinate_spec_data_type=13,
+                             ordinate_axis_units_lab="N", **common)]
+    for node, (name, values) in enumerate(channels.items(), start=2):
+        direction = -3 if name == "a2" else 3  # a2 mounted along −z: its record holds −a2
+        sets.append(pyuff.prepare_58(data=np.sign(direction) * values, rsp_node=node, rsp_dir=direction,
+                                     ordinate_spec_data_type=12, ordinate_axis_units_lab="m/s^2", **common))
+    pyuff.UFF(str(tmp_path / "hammer.uff")).write_sets(sets, mode="add")
+    columns = read_channels(tmp_path / "hammer.uff", "impact file")
+    assert list(columns) == ["time_s", "force", "2:uz", "3:uz", "4:uz"]
+    np.testing.assert_allclose(columns["3:uz"], channels["a2"], rtol=1e-5, atol=1e-5 * np.abs(channels["a2"]).max())
+    time_s, responses, hammer = split_force(columns, None)
+    fit = fit_linear_limit(time_s, responses, (60, 100), force=hammer)
+    assert fit.channels == ("2:uz", "3:uz", "4:uz") and fit.window_s[0] > 0.101
+    assert abs(fit.frequency_hz / F1 - 1) < 1e-4 and abs(fit.damping_ratio / Z1 - 1) < 0.05
+    t, x = iwan_record  # and a ring-down: the Iwan SDOF's displacement (ordinate type 8, m)
+    common.update(x=t)
+    pyuff.UFF(str(tmp_path / "decay.uff")).write_sets(
+        [pyuff.prepare_58(data=x, rsp_node=5, rsp_dir=3, ordinate_spec_data_type=8, ordinate_axis_units_lab="m",
+                          **common)], mode="add")
+    out = tmp_path / "amm"
+    assert main(["amplitude", "--ring-down", str(tmp_path / "decay.uff"), "--band", "7:13", "--shape",
+                 f"5:uz={1 / np.sqrt(M)}", "--backbone", "polynomial", "--bootstrap", "0", "--out", str(out)]) == 0
+    points = pd.read_csv(out / "backbone_points.csv")
+    f, z = df_backbone(IWAN, points["modal_amplitude"].to_numpy() / np.sqrt(M))
+    assert len(points) >= 5
+    assert np.abs(points["natural_frequency_hz"] / f - 1).max() < 2e-3
+    assert np.abs(points["damping_ratio"] / z - 1).max() < 0.05

@@ -339,10 +339,15 @@ def read_channels(path: str | Path, what: str = "ring-down file") -> dict[str, N
     one numeric column per channel) or a MATLAB file (v5 or v7.3: vector variables ``time_s``
     and one per channel, at the top level or in the only struct; ``time`` stands for
     ``time_s`` when a text variable ``units`` starts with ``s``, as in the Brake–Reuss beam's
-    ``HammerImpact.mat``: ``'s, m/s^2'``)."""
+    ``HammerImpact.mat``: ``'s, m/s^2'``) or a universal file (``.uff``/``.unv``: datasets 58
+    of function type 1, time records, as test systems export them; a response is named
+    ``NODE:DIR`` and the hammer's record ``force``:
+    :func:`~nlupdate.core.measurement.time_history.records.uff_time_columns`)."""
     path = Path(path)
     data = read_input_bytes(path, what)
     kind = sniff(data[:4096])
+    if kind == "binary" and data.lstrip(b"\r\n ").startswith(b"-1"):
+        kind = "uff"  # binary datasets 58 (58b)
     suffix = path.suffix.lower()
     if suffix == ".csv" and kind == "text":
         frame = csv_frame(data, path, what, RingDownError)
@@ -364,8 +369,12 @@ def read_channels(path: str | Path, what: str = "ring-down file") -> dict[str, N
                 and units.split(",")[0].strip() == "s":
             columns = {"time_s": columns.pop("time"), **columns}
         return columns
+    if suffix in (".uff", ".unv") and kind in ("uff", "text"):
+        from nlupdate.core.measurement.time_history.records import uff_time_columns
+
+        return uff_time_columns(data, path)
     raise RingDownError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; {what}s are read from .csv "
-                        f"(time_s and one column per channel) or .mat")
+                        f"(time_s and one column per channel), .mat or .uff/.unv (dataset 58, function type 1)")
 
 
 def read_ring_down(path: str | Path, channel: str | None = None) -> RingDownRecord:

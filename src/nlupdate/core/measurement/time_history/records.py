@@ -138,8 +138,12 @@ def _fs_column(values: object, source: str) -> float:
     return float(array[0])
 
 
-def _uff_record(data: bytes, path: Path) -> TimeRecord:
-    """A record from the time records (function type 1) of a UFF file's datasets 58."""
+def uff_time_columns(data: bytes, path: Path) -> dict[str, np.ndarray]:
+    """The time records (function type 1) of a UFF file's datasets 58 as columns: ``time_s``
+    (s, shared by all), ``force`` (N; ordinate type 9 or 13, or label ``N``), ``voltage`` (V;
+    label ``V`` or ``mV``) and one column per response (ordinate type 8, 11 or 12), named by
+    its node and direction (``NODE:DIR``, e.g. ``3:z``), the sign of a negative direction
+    applied: the table the CSV and MATLAB readers give."""
     from nlupdate.core.measurement.uff import check_directions, name_from_node, uff_datasets
 
     indices, datasets = uff_datasets(data, path)
@@ -175,7 +179,12 @@ def _uff_record(data: bytes, path: Path) -> TimeRecord:
         if name in columns:
             raise TimeHistoryError(f"{where}: a second '{name}' record")
         columns[name] = values
-    return _record_from_columns({"time_s": time, **columns}, str(path))
+    return {"time_s": time, **columns}
+
+
+def _uff_record(data: bytes, path: Path) -> TimeRecord:
+    """A record from the time records (function type 1) of a UFF file's datasets 58."""
+    return _record_from_columns(uff_time_columns(data, path), str(path))
 
 
 def read_time_record(path: str | Path, sample_rate_hz: float | None = None, reference: str | None = None) -> TimeRecord:
