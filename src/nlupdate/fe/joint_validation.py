@@ -14,6 +14,7 @@ force-controlled run (evaluations bounded). Units SI; frequencies in Hz.
 """
 from __future__ import annotations
 
+import io
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +33,7 @@ from nlupdate.core.validation.fe_settings import FEValidationSettings
 from nlupdate.core.validation.forced_runs import ForcedRun, features, predict_run, runs_repeatability
 from nlupdate.core.validation.held_out import Repeatability
 from nlupdate.fe.adapters.calculix_brb import BOLTS, BRBAdapter, joint_stiffness
+from nlupdate.input_files import read_input_bytes
 
 #: The columns of the validation table, in order (one row per run and model).
 VALIDATION_COLUMNS = ("run", "control", "level", "model", "resonance_hz_measured", "resonance_hz_predicted",
@@ -41,8 +43,9 @@ VALIDATION_COLUMNS = ("run", "control", "level", "model", "resonance_hz_measured
 def impact_damping(path: Path, channel: str, band_hz: Sequence[float]) -> float:
     """Mode 1's linear damping ratio from a hammer-impact record (``HIdata`` with ``time`` and one
     field per channel): the linear limit of ``channel`` in ``band_hz``
-    (:func:`nlupdate.core.identification.impact.fit_linear_limit`)."""
-    record = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+    (:func:`nlupdate.core.identification.impact.fit_linear_limit`). Read as the run pinned it."""
+    record = scipy.io.loadmat(io.BytesIO(read_input_bytes(path, "hammer-impact record")), squeeze_me=True,
+                              struct_as_record=False)
     if "HIdata" not in record or not hasattr(record["HIdata"], channel):
         raise ValueError(f"{path}: expected a struct HIdata with fields time and {channel}")
     data = record["HIdata"]
