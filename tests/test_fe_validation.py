@@ -129,3 +129,38 @@ def test_the_docs_table_is_the_declaration():
     from nlupdate.settings import docs_table
 
     assert docs_table(FEValidationSettings) in (ROOT / "docs" / "validation.md").read_text()
+
+
+@pytest.mark.calculix
+def test_the_step_on_two_runs_and_a_short_fit():
+    """The step's numerics on a coarse mesh, one force- and one response-controlled run and a
+    one-evaluation fit (the whole study on every run: tests/test_brb_example.py, slow): the two
+    tables' columns and rows, the measured columns the estimator's on the raw file, the paired
+    FE modes the adapter's own, and a predicted resonance below the stuck structure's."""
+    from nlupdate.fe.adapters.calculix_brb import BRBAdapter, BRBMesh
+    from nlupdate.fe.joint_validation import VALIDATION_COLUMNS, validate_fe
+
+    runs = read_forced_runs(FORCED, ("acc3:-y", "acc3:y"))
+    chosen = [runs[0], next(run for run in runs if run.control == "response")]
+    adapter = BRBAdapter(BRBMesh(n_full=8, n_lap=8), n_modes=3, fixed_interface_modes=12)
+    initial, updated = {"h": 0.0127, "kt": 3e8}, {"h": 0.0122, "kt": 7e8}
+    settings = FEValidationSettings(file=str(FORCED), fit_evaluations=1, shaker_mass=False)
+    found = validate_fe(adapter, initial, updated, {1: 80.569}, chosen, settings, 0.0015, "test")
+    assert list(found.modes.columns) == ["model", "mode", "frequency_hz", "frequency_hz_measured"]
+    assert list(found.table.columns) == list(VALIDATION_COLUMNS)
+    assert [(r.model, r.control) for r in found.table.itertuples()] == [
+        ("initial", "force"), ("initial", "response"), ("updated", "force"), ("updated", "response")]
+    for point, name in ((initial, "initial"), (updated, "updated")):
+        modes = found.modes[found.modes.model == name]
+        np.testing.assert_allclose(modes.frequency_hz, adapter.evaluate(point).natural_frequencies_hz, rtol=1e-12)
+        assert modes.frequency_hz_measured.iloc[0] == 80.569 and modes.frequency_hz_measured.iloc[1:].isna().all()
+        rows = found.table[found.table.model == name]
+        # no shaker mass: the stuck joint is the stiffest the model can be, so no resonance above mode 1
+        assert (rows.resonance_hz_predicted < modes.frequency_hz.iloc[0] * (1 + 1e-4)).all()
+    raw = _raw_runs()
+    for row, (frequency, magnitude) in zip(found.table.itertuples(),
+                                           [raw["ForceControl"][0], raw["ResponseControl"][0]] * 2):
+        reference = resonance(frequency, magnitude)
+        assert (row.resonance_hz_measured, row.peak_measured) == pytest.approx(
+            (reference.resonance_hz, reference.peak_abs), rel=1e-12)
+    assert found.fit["evaluations"] >= 1 and set(found.joint) == {"slip_force", "chi", "beta", "damping_ratio_forced"}
