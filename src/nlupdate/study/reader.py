@@ -1,5 +1,7 @@
-"""Typed, checked reading of TOML study files: every mistake is one line naming the file,
-the table, the key, the expected form and what was found."""
+"""Checked reading of TOML study files: every mistake is one line naming the file, the
+table, the key, the expected form and what was found. The keys' forms are their
+declarations' (:mod:`nlupdate.study.declared`); the reader holds the tables, the allowed
+keys, the paths a study names and the few values a rule reads before any declaration does."""
 from __future__ import annotations
 
 import math
@@ -12,8 +14,8 @@ class StudyError(ValueError):
 
 
 class Reader:
-    """Typed access to a parsed TOML document; every failure names the file, the table,
-    the key and the expected form. ``allowed`` maps table names (dotted) to their keys.
+    """Access to a parsed TOML document; every failure names the file, the table, the key
+    and the expected form. ``allowed`` maps table names (dotted) to their keys.
 
     ``redirect`` maps paths as written in the file to the files to read instead (a rerun
     reads the copies kept in its archive); :attr:`files` records every path the file
@@ -53,29 +55,6 @@ class Reader:
             place = f"[{where}]" if where else "the top level"
             raise StudyError(f"{self.path}: unknown key(s) {unknown} in {place}; allowed: {sorted(allowed)}")
 
-    def number(self, table: Mapping[str, Any], where: str, key: str, default: float | None = None,
-               required: bool = False, positive: bool = False, nonnegative: bool = False) -> float | None:
-        if key not in table:
-            if required:
-                raise self.fail(where, key, "a number (required)")
-            return default
-        value = table[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(where, key, "a finite number", value)
-        if positive and not value > 0:
-            raise self.fail(where, key, "a number > 0", value)
-        if nonnegative and value < 0:
-            raise self.fail(where, key, "a number ≥ 0", value)
-        return float(value)
-
-    def integer(self, table: Mapping[str, Any], where: str, key: str, default: int | None = None, minimum: int = 1) -> int | None:
-        if key not in table:
-            return default
-        value = table[key]
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.fail(where, key, f"an integer ≥ {minimum}", value)
-        return value
-
     def string(self, table: Mapping[str, Any], where: str, key: str, default: str | None = None,
                required: bool = False, choices: tuple[str, ...] | None = None) -> str | None:
         if key not in table:
@@ -86,12 +65,6 @@ class Reader:
         value = table[key]
         if not isinstance(value, str) or (choices is not None and value not in choices):
             raise self.fail(where, key, f"one of {list(choices)}" if choices else "a string", value)
-        return value
-
-    def boolean(self, table: Mapping[str, Any], where: str, key: str, default: bool) -> bool:
-        value = table.get(key, default)
-        if not isinstance(value, bool):
-            raise self.fail(where, key, "true or false", value)
         return value
 
     def numbers(self, table: Mapping[str, Any], where: str, key: str, length: int | None = None,
@@ -106,36 +79,6 @@ class Reader:
                 or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value)):
             raise self.fail(where, key, expected, value)
         return [float(v) for v in value]
-
-    def strings(self, table: Mapping[str, Any], where: str, key: str, required: bool = False) -> list[str] | None:
-        if key not in table:
-            if required:
-                raise self.fail(where, key, "a list of strings (required)")
-            return None
-        value = table[key]
-        if not isinstance(value, list) or not value or any(not isinstance(v, str) for v in value):
-            raise self.fail(where, key, "a non-empty list of strings", value)
-        return list(value)
-
-    def scalar_or_numbers(self, table: Mapping[str, Any], where: str, key: str, default: float, length: int) -> float | list[float]:
-        if key not in table:
-            return default
-        value = table[key]
-        if isinstance(value, list):
-            values = self.numbers(table, where, key, length=length)
-            if min(values) < 0:
-                raise self.fail(where, key, f"a number ≥ 0 or a list of {length} numbers ≥ 0", value)
-            return values
-        return self.number(table, where, key, nonnegative=True)
-
-    def number_table(self, table: Mapping[str, Any], where: str, key: str) -> dict[str, float]:
-        value = table.get(key, {})
-        if not isinstance(value, dict):
-            raise self.fail(where, key, "a table of name = number", value)
-        for name, v in value.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise self.fail(f"{where}.{key}" if where else key, name, "a finite number", v)
-        return {name: float(v) for name, v in value.items()}
 
     def path_of(self, written: str, record: bool = True) -> Path:
         """A path given in the file (relative to the file's directory), or its redirect;
