@@ -13,7 +13,9 @@ DIR/held_out_<level>.png per level and DIR/validation.png (errors per level and 
 Response-controlled runs in a MATLAB stepped-sine file (--response-controlled auto, the
 default) are predicted from all force-controlled levels at their held amplitude and
 compared the same way: validation.json's response_controlled list and
-DIR/response_controlled.png. --hold-out-type TYPE holds out a whole test type instead
+DIR/response_controlled.png; --response-controlled kept adds them to the evidence every
+fit keeps instead (a different test at the amplitudes it holds; the held-out levels are
+still force-controlled ones). --hold-out-type TYPE holds out a whole test type instead
 (stepped sine, ring-down, phase resonance, …: the sources of ``nlupdate amplitude``):
 the amplitude-dependent modal model fitted on the others predicts it (docs/validation.md,
 "A whole test type held out").
@@ -54,9 +56,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
                              f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
                              f"from each other best)")
-    parser.add_argument("--response-controlled", choices=("auto", "off"), default="auto",
+    parser.add_argument("--response-controlled", choices=("auto", "off", "kept"), default="auto",
                         help="auto (default): predict the response-controlled runs of the --measured MATLAB files from "
-                             "all force-controlled levels; off: do not")
+                             "all force-controlled levels; off: do not; kept: keep them beside the levels as backbone "
+                             "evidence of every fit (models lines, lines-background; they are then not predicted)")
     add_type_options(parser)
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
@@ -116,8 +119,16 @@ def run(args: argparse.Namespace) -> int:
     print_notes(notes)
     data = _curve(table, args.input_dof, ", ".join(args.measured))
     try:
+        kept_runs = []
+        if args.response_controlled == "kept":
+            kept_runs, skipped = held_runs_of(args.measured, read_options(args), data)
+            print_notes(skipped)
+            if not kept_runs:
+                raise CliError(f"--response-controlled kept: {', '.join(args.measured)} holds no response-controlled "
+                               f"run at {data.input_dof}")
+            print(f"keeping {len(kept_runs)} response-controlled run(s) beside the force-controlled levels")
         with terminal_progress() as progress:
-            validation = validate(data, args.hold_out, models, progress=progress)
+            validation = validate(data, args.hold_out, models, progress=progress, runs=kept_runs)
         if args.response_controlled == "auto":
             runs, skipped = held_runs_of(args.measured, read_options(args), data)
             print_notes(skipped)

@@ -19,8 +19,15 @@ A line far from resonance carries little: D is large there and its noise (a frac
 of the level's peak are used (the half-power band and a little beyond). φ_f comes from the
 one-mode fit of the lowest level, ``√Re A`` (the stuck mode's shape; a joint that slips
 changes it by a few per cent, which scales every amplitude alike).
+
+Response-controlled runs (``runs``: :class:`~nlupdate.core.identification.response_controlled.HeldRun`,
+the same driving point) obey the same equation line by line with the force the controller
+needed there, so their lines are samples of the same curves — at the run's held amplitude,
+which a force-controlled sweep only passes through; a different test, added as evidence.
 """
 from __future__ import annotations
+
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 import scipy.optimize
@@ -29,6 +36,9 @@ from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_near
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+
+if TYPE_CHECKING:
+    from nlupdate.core.identification.response_controlled import HeldRun
 
 #: Lines whose modal |H| is below this fraction of their level's peak are left out.
 PEAK_FRACTION = 0.5
@@ -43,11 +53,27 @@ def lowest_level_fit(data: FRFLevels) -> ModalFit:
     return fit_mode_near(f, h, near, band_fraction=fraction)
 
 
-def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None,
-                       background: complex = 0.0) -> tuple[ModalSamples, ModalFit]:
-    """(one sample per usable line of every level, the one-mode fit that gave φ_f and the
-    residual terms) from driving-point FRFs (module docstring); ``background`` (m/N) is a
-    constant receptance removed with the residual terms (:func:`background_for_lines`)."""
+def _curve_samples(f: np.ndarray, modal: np.ndarray, force: np.ndarray, phi: float) -> tuple[np.ndarray, ...]:
+    """(a, natural frequency Hz, ζ, force, response amplitude) of the usable lines of one
+    curve whose modal receptance is ``modal`` under ``force`` per line (module docstring)."""
+    near = np.abs(modal) >= PEAK_FRACTION * np.max(np.abs(modal))
+    omega = 2 * np.pi * f[near]
+    d = phi**2 / modal[near]
+    w_sq = d.real + omega**2
+    good = w_sq > 0
+    w = np.sqrt(np.where(good, w_sq, np.nan))
+    line_force = force[near]
+    response = np.abs(modal[near]) * line_force
+    return ((response / phi)[good], (w / (2 * np.pi))[good], (d.imag / (2 * w * omega))[good], line_force[good],
+            response[good])
+
+
+def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None, background: complex = 0.0,
+                       runs: Sequence["HeldRun"] = ()) -> tuple[ModalSamples, ModalFit]:
+    """(one sample per usable line of every level and of every response-controlled run of
+    ``runs``, the one-mode fit that gave φ_f and the residual terms) from driving-point FRFs
+    (module docstring); ``background`` (m/N) is a constant receptance removed with the
+    residual terms (:func:`background_for_lines`)."""
     if data.response_dof != data.input_dof:
         raise AmplitudeModelError(f"FRFs of response {data.response_dof!r} / input {data.input_dof!r}: line samples "
                                   "need the driving-point FRF")
@@ -57,23 +83,16 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None,
         raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} curve gives a "
                                   f"modal constant {constant:.4g}: no driving-point resonance to take φ_f from")
     phi = float(np.sqrt(constant.real))
-    amplitude, frequency, damping, force, response = [], [], [], [], []
-    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
-        modal = h - fit.residual_receptance(f) - background
-        near = np.abs(modal) >= PEAK_FRACTION * np.max(np.abs(modal))
-        omega = 2 * np.pi * f[near]
-        d = phi**2 / modal[near]
-        w_sq = d.real + omega**2
-        good = w_sq > 0
-        w = np.sqrt(np.where(good, w_sq, np.nan))
-        line_force = data.force_at(float(level), f[near])
-        amplitude.append((np.abs(modal[near]) * line_force / phi)[good])
-        frequency.append((w / (2 * np.pi))[good])
-        damping.append((d.imag / (2 * w * omega))[good])
-        force.append(line_force[good])
-        response.append((np.abs(modal[near]) * line_force)[good])
-    samples = ModalSamples(np.concatenate(amplitude), np.concatenate(frequency), np.concatenate(damping),
-                           np.concatenate(force), phi, np.concatenate(response), shape_free=False)
+    curves = [(f, h, data.force_at(float(level), f)) for level, f, h in
+              zip(data.levels, data.frequencies, data.receptances)]
+    for run in runs:
+        if (run.response_dof, run.input_dof) != (data.response_dof, data.input_dof):
+            raise AmplitudeModelError(f"response-controlled run {run.name}: at {run.response_dof}/{run.input_dof}, "
+                                      f"not the driving point {data.input_dof} of the force-controlled curves")
+        curves.append((run.frequency_hz, run.h, np.asarray(run.force_n, dtype=float)))
+    parts = [_curve_samples(f, h - fit.residual_receptance(f) - background, force, phi) for f, h, force in curves]
+    amplitude, frequency, damping, force, response = (np.concatenate(column) for column in zip(*parts))
+    samples = ModalSamples(amplitude, frequency, damping, force, phi, response, shape_free=False)
     if samples.amplitude.size < 3 or not np.all(samples.damping_ratio > 0):
         bad = int(np.count_nonzero(samples.damping_ratio <= 0))
         raise AmplitudeModelError(f"{samples.amplitude.size} line samples, {bad} with zero or negative damping: "
@@ -82,13 +101,13 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None,
 
 
 def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float = 2.5e-4,
-                         damping_std: float = 0.05) -> tuple[complex, ModalFit]:
+                         damping_std: float = 0.05, runs: Sequence["HeldRun"] = ()) -> tuple[complex, ModalFit]:
     """(the constant complex receptance B (m/N) beside the residual terms of the lowest
     level's one-mode fit that makes the line samples of every level one curve, that fit).
 
     Single-mode theory gives every line the same ω(a), ζ(a) whichever flank of whichever
-    level it lies on; an error in the other modes' share shows as samples that disagree (the
-    flanks of one level at equal amplitude). B minimises the scatter of the samples about
+    level (or response-controlled run of ``runs``) it lies on; an error in the other modes'
+    share shows as samples that disagree (the flanks of one level at equal amplitude). B minimises the scatter of the samples about
     polynomials of ``order`` in a/a_ref (least squares of the relative misfits of the
     frequency over ``frequency_std`` and of the damping ratio over ``damping_std``), by
     Nelder–Mead from B = 0 in units of the residual terms' size at the lowest level's peak."""
@@ -99,7 +118,7 @@ def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float =
 
     def scatter(x: np.ndarray) -> float:
         try:
-            samples, _ = samples_from_lines(data, fit, unit * complex(x[0], x[1]))
+            samples, _ = samples_from_lines(data, fit, unit * complex(x[0], x[1]), runs)
         except AmplitudeModelError:
             return 1e12
         design = (samples.amplitude / samples.amplitude.max())[:, None] ** np.arange(order + 1)[None, :]

@@ -13,15 +13,21 @@ taken from the data, nothing assumed:
 * model: the jackknife over the kept levels — the model refitted with each kept level left
   out, ``σ_J² = (n−1)/n · Σ (x_j − x̄)²`` for every predicted quantity and every line of
   |H| (it carries model-form error: a model that fits some levels and not others moves
-  when they are dropped);
-* test: the repeatability — the scatter of the measured resonance and damping ratio of
-  every measured level about a straight line in log amplitude (``σ_R``, residual standard
-  deviation, n − 2 degrees of freedom; the test's own run-to-run and level-to-level
-  variation no smooth model can follow); for |H| the measurement noise ε|H|.
+  when they are dropped), n − 1 degrees of freedom. A model that cannot be refitted
+  without a kept level (``amplitude-iwan`` on three) takes its misfit at the kept levels
+  instead (RMS, in-sample: :func:`kept_misfit`);
+* test: the repeatability — the scatter of the measured levels about a trend in log
+  amplitude (``σ_R``, residual standard deviation, N − 2 degrees of freedom: the test's
+  own run-to-run and level-to-level variation no smooth model can follow): of the
+  resonance about a straight line, of the damping ratio and the peak, relative, about a
+  power law (:class:`Repeatability`); for |H| the measurement noise ε|H|.
 
-The band is ``x̂ ± t₀.₉₇₅,ₙ₋₁ · √(σ_J² + σ_R²)`` (Student's t for n − 1 jackknife degrees of
-freedom). With fewer than three kept levels there is no jackknife and the band is NaN
-(said so in the result). Coverage is measured, not assumed (tests/test_validate.py).
+The resonance's band is ``x̂ ± t·√(σ_J² + σ_R²)``; the damping ratio and the peak, positive
+and scattering by a fraction of themselves, take the same in their logarithm,
+``x̂·exp(±t·√(σ_J² + σ_R²))`` — never below 0, wider above than below. t is Student's
+two-sided 95 % factor at the Welch–Satterthwaite degrees of freedom of the two parts (few
+levels, few degrees of freedom: t = 4.3 at two). Coverage is measured, not assumed
+(benchmarks/validate_band_coverage.py, docs/validation.md).
 """
 from __future__ import annotations
 
@@ -118,17 +124,31 @@ class HeldOut(CurveComparison):
 
 @dataclass(frozen=True)
 class Repeatability:
-    """The test's own scatter (1σ) of resonance (Hz) and damping ratio about a straight line
-    in log amplitude over ``levels`` measured levels (NaN with fewer than three)."""
+    """The test's own scatter (1σ) over ``levels`` measured curves (NaN with fewer than
+    three): of the resonance (Hz) and the damping ratio (points) about a trend in log
+    amplitude (:func:`repeatability`), and, relative (1σ of the natural log, a fraction), of the damping ratio and the
+    peak |H| about the same trend in log amplitude (a power law) — joint damping grows as a power of amplitude, and
+    a positive quantity scatters by a fraction of itself."""
 
     resonance_hz: float
     damping_ratio: float
     levels: int
+    damping_relative: float = float("nan")
+    peak_relative: float = float("nan")
+    #: the trend's polynomial degree in log amplitude (its degrees of freedom: levels − degree − 1)
+    degree: int = 1
+
+    @property
+    def dof(self) -> int:
+        return max(self.levels - self.degree - 1, 0)
 
     def as_dict(self) -> dict:
-        return {"resonance_hz_std": self.resonance_hz, "damping_ratio_std": self.damping_ratio, "levels": self.levels,
-                "method": "residual standard deviation of each level's measured resonance and half-power damping "
-                          "ratio about a straight line in log(response amplitude at resonance), n - 2 degrees of "
+        return {"resonance_hz_std": self.resonance_hz, "damping_ratio_std": self.damping_ratio,
+                "damping_ratio_relative_std": self.damping_relative, "peak_abs_relative_std": self.peak_relative,
+                "levels": self.levels, "trend_degree": self.degree,
+                "method": "residual standard deviation of each measured curve's resonance and half-power damping "
+                          "ratio about a polynomial of trend_degree in log(response amplitude at resonance), and of "
+                          "log(damping ratio) and log(peak |H|) about the same, levels - degree - 1 degrees of "
                           "freedom"}
 
 
@@ -145,6 +165,8 @@ class Validation:
     #: (:func:`nlupdate.core.validation.held_response.with_held_runs`), and what could not be
     response_controlled: tuple = ()
     response_controlled_notes: tuple[str, ...] = ()
+    #: the response-controlled runs kept beside the levels as backbone evidence (names)
+    kept_runs: tuple[str, ...] = ()
 
     def summary(self) -> dict:
         """The ``validation.json`` content: the reference unit, the repeatability, auto's
@@ -156,6 +178,7 @@ class Validation:
                 "bands": "95 %: jackknife over the kept levels and the test's repeatability "
                          "(nlupdate.core.validation.held_out)",
                 "held_out": [r.as_dict() for r in self.held_out],
+                **({"kept_response_controlled_runs": list(self.kept_runs)} if self.kept_runs else {}),
                 **({"response_controlled": [r.as_dict() for r in self.response_controlled]}
                    if self.response_controlled else {}),
                 **({"response_controlled_notes": list(self.response_controlled_notes)}
@@ -198,21 +221,31 @@ def hold_out_levels(data: FRFLevels, hold_out: str | Sequence[float]) -> tuple[f
     return tuple(picked)
 
 
-def repeatability(data: FRFLevels) -> Repeatability:
-    """:class:`Repeatability` of the measured levels."""
-    shown = [resonance(f, h) for f, h in zip(data.frequencies, data.receptances)]
-    amplitude = np.array([r.peak_abs * level for r, level in zip(shown, data.levels)])
+#: From this many measured curves on, the repeatability's trend in log amplitude is a parabola
+#: (a joint's backbone may turn: the BRB's falls, then rises), not a straight line.
+PARABOLA_FROM = 6
+
+
+def repeatability(data: FRFLevels, runs: Sequence = ()) -> Repeatability:
+    """:class:`Repeatability` of the measured levels and of the response-controlled ``runs``
+    (each at its held amplitude), pooled: the trend a straight line in log amplitude, a
+    parabola from :data:`PARABOLA_FROM` curves on (N − 3 degrees of freedom then)."""
+    curves = [(resonance(f, h), level) for level, f, h in zip(data.levels, data.frequencies, data.receptances)]
+    shown = [r for r, _ in curves] + [resonance(run.frequency_hz, run.h) for run in runs]
+    amplitude = np.array([r.peak_abs * level for r, level in curves] + [run.held_m for run in runs])
+    degree = 2 if len(shown) >= PARABOLA_FROM else 1
     out = []
-    for values in ([r.resonance_hz for r in shown], [r.damping_ratio for r in shown]):
+    for values in ([r.resonance_hz for r in shown], [r.damping_ratio for r in shown],
+                   np.log([r.damping_ratio for r in shown]), np.log([r.peak_abs for r in shown])):
         y = np.array(values)
-        good = np.isfinite(y) & np.isfinite(amplitude)
-        if good.sum() < 3:
+        good = np.isfinite(y) & np.isfinite(amplitude) & (amplitude > 0)
+        if good.sum() < degree + 2:
             out.append(float("nan"))
             continue
         x = np.log(amplitude[good])
-        residual = y[good] - np.polyval(np.polyfit(x, y[good], 1), x)
-        out.append(float(np.sqrt(np.sum(residual**2) / (good.sum() - 2))))
-    return Repeatability(out[0], out[1], len(shown))
+        residual = y[good] - np.polyval(np.polyfit(x, y[good], degree), x)
+        out.append(float(np.sqrt(np.sum(residual**2) / (good.sum() - degree - 1))))
+    return Repeatability(out[0], out[1], len(shown), out[2], out[3], degree)
 
 
 def _metrics(frequency_hz: NDArray, h: NDArray) -> dict[str, float]:
@@ -233,16 +266,30 @@ def _residual_to_noise(measured: NDArray, predicted: NDArray, noise: float) -> f
     return float(np.sqrt(np.mean(ratio**2))) if ratio.size else float("nan")
 
 
+def _t95(parts: Sequence[tuple[float, float]]) -> tuple[float, float]:
+    """(the combined standard deviation of independent parts (σ, degrees of freedom), the
+    two-sided 95 % Student factor at their Welch–Satterthwaite degrees of freedom); parts
+    with σ NaN or 0 are left out, (0, NaN) when none is left."""
+    kept = [(sigma, dof) for sigma, dof in parts if np.isfinite(sigma) and sigma > 0 and dof > 0]
+    if not kept:
+        return 0.0, float("nan")
+    total = float(np.sqrt(sum(sigma**2 for sigma, _ in kept)))
+    dof = total**4 / sum(sigma**4 / dof for sigma, dof in kept)
+    return total, float(scipy.stats.t.ppf(0.975, dof))
+
+
 def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray, curves: list, repeat: Repeatability,
-          noise: float) -> tuple[dict[str, Compared], NDArray, NDArray]:
+          noise: float, misfit: dict[str, tuple[float, int]] | None = None
+          ) -> tuple[dict[str, Compared], NDArray, NDArray]:
     """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
-    prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring)."""
+    prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring);
+    ``misfit`` (quantity → (σ, degrees of freedom)): the model's own misfit at the kept
+    levels, the model term where there is no jackknife."""
     f = frequency_hz
     values = _metrics(f, predicted)
     jack_values = [_metrics(f, curve) for curve in curves]
     jack_abs = [np.abs(curve) for curve in curves]
     n = len(curves)
-    t = float(scipy.stats.t.ppf(0.975, n - 1)) if n >= 3 else float("nan")
 
     def spread(samples: NDArray) -> NDArray:
         """Jackknife standard deviation over the finite samples (NaN with fewer than three)."""
@@ -253,28 +300,63 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(count >= 3, np.sqrt((count - 1) / np.maximum(count, 1) * square), np.nan)
 
-    test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_ratio, "peak_abs": 0.0}
+    # resonance in Hz; damping ratio and peak, positive, in log (a band that never reaches 0,
+    # asymmetric as a relative scatter is)
+    test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
+                "peak_abs": repeat.peak_relative}
+    test_dof = repeat.dof
     compared = {}
     for name in QUANTITIES:
-        jack = float(spread(np.array([v[name] for v in jack_values]))) if n >= 3 else np.nan
-        repeat_std = test_std[name] if np.isfinite(test_std[name]) else 0.0
-        half = t * np.sqrt(jack**2 + repeat_std**2)
-        compared[name] = Compared(measured[name], values[name], values[name] - half, values[name] + half)
+        log = name != "resonance_hz"
+        jack = np.array([v[name] for v in jack_values], dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            jack = np.log(jack) if log else jack
+        model = (float(spread(jack)), n - 1) if n >= 3 else (misfit or {}).get(name, (np.nan, 0))
+        total, t = _t95([model, (test_std[name], test_dof)])
+        half = t * total if (n >= 3 or misfit) and np.isfinite(t) else float("nan")
+        centre = values[name]
+        low, high = (centre * np.exp(-half), centre * np.exp(half)) if log else (centre - half, centre + half)
+        compared[name] = Compared(measured[name], centre, low, high)
     # the test's own scatter of the resonance moves the curve along f by σ_f: the larger change of
     # |H| at each line when the curve is shifted either way (a jump moves, it does not grow), so
     # the band does not pinch to nothing where the refitted curves happen to cross
     sigma_f = repeat.resonance_hz if np.isfinite(repeat.resonance_hz) else 0.0
     size = np.abs(predicted)
     shift = np.maximum(np.abs(np.interp(f - sigma_f, f, size) - size), np.abs(np.interp(f + sigma_f, f, size) - size))
-    abs_half = t * np.sqrt(spread(np.array(jack_abs)) ** 2 + (noise * np.abs(predicted)) ** 2 + shift**2) \
-        if n >= 3 else np.full(f.shape, np.nan)
-    return compared, np.maximum(np.abs(predicted) - abs_half, 0.0), np.abs(predicted) + abs_half
+    if n >= 3:
+        t = float(scipy.stats.t.ppf(0.975, n - 1))
+        abs_half = t * np.sqrt(spread(np.array(jack_abs)) ** 2 + (noise * size) ** 2 + shift**2)
+    elif misfit and test_dof > 0:  # no jackknife: the model's relative misfit of the peak, the test's scatter
+        relative, dof = misfit.get("peak_abs", (0.0, 0))
+        t = float(scipy.stats.t.ppf(0.975, max(min(dof, test_dof), 1)))
+        abs_half = t * np.sqrt((relative * size) ** 2 + (noise * size) ** 2 + shift**2)
+    else:
+        abs_half = np.full(f.shape, np.nan)
+    return compared, np.maximum(size - abs_half, 0.0), size + abs_half
+
+
+def kept_misfit(fitted, data: FRFLevels, levels: Sequence[float]) -> dict[str, tuple[float, int]]:
+    """The model's misfit at the levels it was fitted on: per quantity the RMS difference of
+    its prediction from the measurement (Hz; for the damping ratio and the peak, of their
+    logs) and the number of levels — in-sample, so at most optimistic, the model term of a
+    band where there is no jackknife (a model that needs every kept level)."""
+    errors: dict[str, list[float]] = {name: [] for name in QUANTITIES}
+    for level in levels:
+        f, h = data.curve(level)
+        predicted = _metrics(f, fitted(f, level, data.force_at(level, f)))
+        measured = _metrics(f, h)
+        for name in QUANTITIES:
+            log = name != "resonance_hz"
+            d = np.log(predicted[name] / measured[name]) if log else predicted[name] - measured[name]
+            if np.isfinite(d):
+                errors[name].append(float(d))
+    return {name: (float(np.sqrt(np.mean(np.square(e)))), len(e)) for name, e in errors.items() if e}
 
 
 def refits(fit, levels: Sequence[float], data: FRFLevels, predict) -> tuple[list, str]:
     """(the curves ``predict(fit(kept))`` of the jackknife over ``levels`` — each left out of
     them in turn, the fit on the rest — a note naming the fits that failed, and that there is
-    no band with fewer than three)."""
+    no jackknife with fewer than three)."""
     curves, failures, note = [], {}, ""
     if len(levels) >= 3:
         for dropped in levels:
@@ -286,7 +368,8 @@ def refits(fit, levels: Sequence[float], data: FRFLevels, predict) -> tuple[list
     for message, dropped in failures.items():
         note += f"the model could not be refitted without {', '.join(f'{v:g}' for v in dropped)} ({message}); "
     if len(curves) < 3:
-        note += "no band: fewer than three jackknife fits (three kept levels needed)"
+        note += ("no jackknife (fewer than three refits): the band's model term is the model's misfit at the "
+                 "levels it was fitted on")
     return curves, note.rstrip("; ")
 
 
@@ -296,28 +379,34 @@ def baseline_fits(data: FRFLevels, levels: Sequence[float]) -> list:
     return [fit_level(v, *data.curve(v), data.force_at(v, data.curve(v)[0])) for v in levels]
 
 
-def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatability, requested: str = "") -> HeldOut:
-    """One held-out level under one model (module docstring)."""
+def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatability, requested: str = "",
+                     runs: Sequence = ()) -> HeldOut:
+    """One held-out level under one model (module docstring), ``runs`` (response-controlled,
+    :class:`~nlupdate.core.identification.response_controlled.HeldRun`) kept beside the levels."""
     kept_levels = tuple(float(v) for v in data.levels if not np.isclose(v, level, rtol=1e-9))
     kept = data.subset(list(kept_levels))
     f, h = data.curve(level)
-    fit = model_fitter(model)
-    predicted = fit(kept)(f, level)
-    curves, note = refits(fit, kept_levels, data, lambda fitted: fitted(f, level))
+    fit = model_fitter(model, runs)
+    force = data.force_at(level, f)  # the force achieved at each line: measured, an input like Ω
+    fitted = fit(kept)
+    predicted = fitted(f, level, force)
+    curves, note = refits(fit, kept_levels, data, lambda inner: inner(f, level, force))
+    misfit = kept_misfit(fitted, data, kept_levels) if len(curves) < 3 else None
     base = baseline_frf(baseline_fits(data, kept_levels), level, f)
     return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model,
-                   **curve_comparison(data, f, h, predicted, curves, base, repeat), note=note)
+                   **curve_comparison(data, f, h, predicted, curves, base, repeat, misfit), note=note)
 
 
 def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray, curves: list, base: NDArray,
-                     repeat: Repeatability) -> dict[str, Any]:
+                     repeat: Repeatability, misfit: dict[str, tuple[float, int]] | None = None) -> dict[str, Any]:
     """The comparison fields of a :class:`CurveComparison`: measured ``h`` against
-    ``predicted`` (with the band of the refitted ``curves``) and against the baseline's
+    ``predicted`` (with the band of the refitted ``curves``, or of the model's ``misfit`` at
+    its kept levels without them: :func:`bands`) and against the baseline's
     curve ``base`` over the lines ``f`` (Hz); the noise from ``h`` itself, or from the
     lowest level of ``data`` when ``h`` is too short to tell."""
     measured = _metrics(f, h)
     noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
-    compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise)
+    compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise, misfit)
     base_values = _metrics(f, base)
     return dict(compared=compared, baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
                 residual_to_noise=_residual_to_noise(h, predicted, noise),
@@ -327,14 +416,16 @@ def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray
 
 
 def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: Sequence[str] = ("auto",),
-             progress: ProgressCallback = no_progress) -> Validation:
+             progress: ProgressCallback = no_progress, runs: Sequence = ()) -> Validation:
     """Every level ``hold_out`` names, predicted by every model of ``models`` (``auto``:
     :func:`~nlupdate.core.validation.models.choose_model` on that level's kept levels) from the
-    others. Needs at least two kept levels per held-out level."""
+    others, and from the response-controlled ``runs`` when given (a different test, kept as
+    backbone evidence: :data:`~nlupdate.core.validation.models.WITH_RUNS`). Needs at least two
+    kept levels per held-out level."""
     levels = hold_out_levels(data, hold_out)
     if data.levels.size - 1 < 2:
         raise ValueError(f"validation needs at least three measured levels (two kept); there are {data.levels.size}")
-    repeat = repeatability(data)
+    repeat = repeatability(data, runs)
     results, choices = [], {}
     total = len(levels) * len(models)
     for level in levels:
@@ -342,8 +433,9 @@ def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: 
             name = requested
             if requested == "auto":
                 kept = data.subset([v for v in data.levels if not np.isclose(v, level, rtol=1e-9)])
-                choices[level] = choose_model(kept)
+                choices[level] = choose_model(kept, runs)
                 name = choices[level].name
-            results.append(predict_held_out(data, level, name, repeat, requested))
+            results.append(predict_held_out(data, level, name, repeat, requested, runs))
             progress("held-out levels", len(results), total)
-    return Validation(tuple(results), repeat, choices, data.reference_unit)
+    return Validation(tuple(results), repeat, choices, data.reference_unit,
+                      kept_runs=tuple(run.name for run in runs))

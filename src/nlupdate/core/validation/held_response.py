@@ -24,7 +24,7 @@ from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response
 from nlupdate.core.validation.held_out import (
-    CurveComparison, Repeatability, Validation, baseline_fits, curve_comparison, refits,
+    CurveComparison, Repeatability, Validation, baseline_fits, curve_comparison, kept_misfit, refits,
 )
 from nlupdate.core.validation.models import choose_model, model_fitter
 from nlupdate.progress import ProgressCallback, no_progress
@@ -76,10 +76,11 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
         f, h = run.frequency_hz, run.h
         predicted = fitted.at_response(f, run.held_m)
         curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, run.held_m))
+        misfit = kept_misfit(fitted, data, levels) if len(curves) < 3 else None
         base = baseline_at_response(fits, run.held_m, f)
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
                                   requested=requested or model,
-                                  **curve_comparison(data, f, h, predicted, curves, base, repeat), note=note))
+                                  **curve_comparison(data, f, h, predicted, curves, base, repeat, misfit), note=note))
     return out
 
 

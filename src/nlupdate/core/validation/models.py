@@ -19,7 +19,10 @@ and returns a predictor of the receptance at any level over any grid:
   regenerated from both (:func:`~nlupdate.core.identification.regenerate.regenerate_frf`).
 
 A fitted model (:class:`Fitted`) predicts at a force level and, the amplitude models, at a
-held response amplitude too (a response-controlled run: :func:`held_receptance`).
+held response amplitude too (a response-controlled run: :func:`held_receptance`). The
+single-mode models take the force achieved at each line when it is known (a
+force-controlled sweep does not hold its nominal level: on the BRB the force at resonance
+is 27 % below it at 0.19 N, :func:`frf_at_forces`); PRD regenerates at the nominal level.
 
 ``auto`` is the tool's own choice, made on the kept levels alone: the candidate
 (:data:`AUTO_CANDIDATES`) whose leave-one-kept-level-out predictions miss least (RMS of
@@ -32,13 +35,14 @@ import pickle
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 
@@ -61,9 +65,32 @@ class Fitted:
 
     at_force: Predictor
     at_response: Predictor | None = None
+    #: whether ``at_force`` takes one force per line (else the nominal level only)
+    per_line_force: bool = False
 
-    def __call__(self, frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
+    def __call__(self, frequency_hz: NDArray, level: float, force: NDArray | None = None) -> NDArray[np.complex128]:
+        """The receptance at ``level``; ``force`` (one per line of ``frequency_hz``, the
+        reference unit) the force achieved at each line, used where the model can."""
+        if force is not None and self.per_line_force:
+            return self.at_force(frequency_hz, np.asarray(force, dtype=float))
         return self.at_force(frequency_hz, level)
+
+
+def frf_at_forces(model: AmplitudeModalModel, frequency_hz: NDArray, force: float | NDArray,
+                  dof: str) -> NDArray[np.complex128]:
+    """The driving-point receptance of ``model`` when line k is excited by ``force[k]`` (or
+    one force at every line): line k read from the stepped-sine sweep (upward) over the lines
+    up to it at that line's force (:meth:`AmplitudeModalModel.frf`), so the amplitude at each
+    line is the one its own force drives."""
+    f = np.asarray(frequency_hz, dtype=float)
+    forces = np.broadcast_to(np.asarray(force, dtype=float), f.shape)
+    if np.all(forces == forces.flat[0]):
+        return model.frf(f, float(forces.flat[0]), dof, dof)
+    order = np.argsort(f)
+    out = np.empty(f.shape, dtype=complex)
+    for rank, k in enumerate(order):
+        out[k] = model.frf(f[order[:rank + 1]], float(forces[k]), dof, dof)[-1]
+    return out
 
 
 def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str,
@@ -119,24 +146,24 @@ def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER)
 
 def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str) -> Fitted:
     """:class:`Fitted` of a single-mode model plus the other modes' share ``background``."""
-    def at_force(frequency_hz: NDArray, level: float) -> NDArray[np.complex128]:
+    def at_force(frequency_hz: NDArray, force: float | NDArray) -> NDArray[np.complex128]:
         f = np.asarray(frequency_hz, dtype=float)
-        return model.frf(f, level, dof, dof) + background(f)
+        return frf_at_forces(model, f, force, dof) + background(f)
 
     def at_response(frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
         return held_receptance(model, background, dof, frequency_hz, amplitude_m)
 
-    return Fitted(at_force, at_response)
+    return Fitted(at_force, at_response, per_line_force=True)
 
 
-def _lines(kept: FRFLevels) -> Fitted:
-    samples, fit = samples_from_lines(kept)
+def _lines(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
+    samples, fit = samples_from_lines(kept, runs=runs)
     return _single_mode(lines_model(samples, kept.input_dof), fit.residual_receptance, kept.input_dof)
 
 
-def _lines_background(kept: FRFLevels) -> Fitted:
-    background, fit = background_for_lines(kept, LINES_ORDER)
-    samples, _ = samples_from_lines(kept, fit, background)
+def _lines_background(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
+    background, fit = background_for_lines(kept, LINES_ORDER, runs=runs)
+    samples, _ = samples_from_lines(kept, fit, background, runs)
     return _single_mode(lines_model(samples, kept.input_dof), lambda f: fit.residual_receptance(f) + background,
                         kept.input_dof)
 
@@ -176,6 +203,8 @@ MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
     "amplitude-iwan": _amplitude("iwan"),
 }
 AUTO_CANDIDATES = ("lines", "lines-background", "amplitude-polynomial", "amplitude-iwan")
+#: The models that take response-controlled runs as kept evidence (their every line a sample)
+WITH_RUNS = ("lines", "lines-background")
 
 
 @dataclass(frozen=True)
@@ -194,21 +223,23 @@ _fits: OrderedDict[tuple[str, bytes], Fitted | Exception] = OrderedDict()
 _fits_lock = threading.Lock()
 
 
-def _remembered(name: str, fit: Callable[[FRFLevels], Fitted]) -> Callable[[FRFLevels], Fitted]:
+def _remembered(name: str, fit: Callable[[FRFLevels], Fitted], runs: Sequence[HeldRun] = ()
+                ) -> Callable[[FRFLevels], Fitted]:
     """``fit`` that fits each set of curves once per process: a validation asks for the
     same kept levels again and again (the jackknife of one held-out level drops the level
     another one keeps; ``auto``'s choice, the held runs' refits and the held-out fits share
-    subsets), and every fit is deterministic. Keyed by the model and the curves' whole
-    content; a fit that failed raises the same error again."""
+    subsets), and every fit is deterministic. Keyed by the model and the curves' (and kept
+    ``runs``') whole content; a fit that failed raises the same error again."""
     def fit_on(kept: FRFLevels) -> Fitted:
-        key = (name, hashlib.sha256(pickle.dumps(kept, protocol=pickle.HIGHEST_PROTOCOL)).digest())
+        content = pickle.dumps((kept, tuple(runs)), protocol=pickle.HIGHEST_PROTOCOL)
+        key = (name, hashlib.sha256(content).digest())
         with _fits_lock:
             known = _fits.get(key)
             if known is not None:
                 _fits.move_to_end(key)
         if known is None:
             try:
-                known = fit(kept)
+                known = fit(kept, runs) if runs else fit(kept)
             except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
                 known = error
             with _fits_lock:
@@ -222,11 +253,16 @@ def _remembered(name: str, fit: Callable[[FRFLevels], Fitted]) -> Callable[[FRFL
     return fit_on
 
 
-def model_fitter(name: str) -> Callable[[FRFLevels], Fitted]:
+def model_fitter(name: str, runs: Sequence[HeldRun] = ()) -> Callable[[FRFLevels], Fitted]:
     """The fitting function of model ``name`` (module docstring), remembering its fits
-    (:func:`_remembered`); ValueError naming the models for an unknown one."""
+    (:func:`_remembered`), with the response-controlled ``runs`` as kept evidence beside the
+    force-controlled levels (:data:`WITH_RUNS` only); ValueError naming the models for an
+    unknown one, or for runs given to a model that cannot take them."""
+    if runs and name not in WITH_RUNS:
+        raise ValueError(f"model {name}: cannot fit response-controlled runs as kept data (only "
+                         f"{', '.join(WITH_RUNS)} can: their every line is a backbone sample)")
     if name in MODELS:
-        return _remembered(name, MODELS[name])
+        return _remembered(name, MODELS[name], runs)
     if name.startswith("prd:"):
         from nlupdate.core.identification.dfmodels import parse_elements
 
@@ -243,17 +279,19 @@ def relative_error(measured: NDArray, predicted: NDArray) -> float:
     return float(np.sqrt(np.mean(np.where(np.isfinite(error), error, 1.0) ** 2)))
 
 
-def choose_model(kept: FRFLevels) -> ModelChoice:
-    """``auto`` (module docstring)."""
+def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> ModelChoice:
+    """``auto`` (module docstring); with response-controlled ``runs`` kept, among the
+    candidates that can take them."""
     if kept.levels.size < 3:
         return ModelChoice("lines", {}, f"{kept.levels.size} kept levels: too few to compare models on them")
     scores = {}
-    for name in AUTO_CANDIDATES:
+    for name in [c for c in AUTO_CANDIDATES if not runs or c in WITH_RUNS]:
         errors = []
         try:
             for level, f, h in zip(kept.levels, kept.frequencies, kept.receptances):
                 inner = kept.subset([lv for lv in kept.levels if lv != level])
-                errors.append(relative_error(h, model_fitter(name)(inner)(f, float(level))))
+                predicted = model_fitter(name, runs)(inner)(f, float(level), kept.force_at(level, f))
+                errors.append(relative_error(h, predicted))
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):
             scores[name] = float("nan")
