@@ -19,7 +19,8 @@ is the hammer's):
 3. **the linear limit**: a joint makes the decay amplitude-dependent, so only the quietest
    part of the record is fitted — where the envelope of the first channel is at most
    ``span`` (3) times its value at the fit's end, widened by factors of 1.5 until the damping
-   ratio's standard error from the noise alone is at most ``precision`` (1 %) of it — and the
+   ratio's standard error is at most ``precision`` (1 %) of it (the smaller of the error from
+   the noise estimate alone and the one from the residual, step 6) — and the
    sample is placed at the amplitude the fit belongs to: the envelope averaged with the
    kernel by which a least-squares slope of ln a (each value weighted by a², as the fit of
    step 5 weighs it) averages the local decay rates, ``K_j = Σ_{i≥j} a_i²(t_i − t̄)``. A truly
@@ -268,7 +269,9 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
     ``shape`` |φ| (1/√kg) at the first channel makes the amplitude modal. The fitted part
     is the first channel's quietest (module docstring, 3): the envelope within ``span`` of its
     end, widened by factors of 1.5 until the damping ratio's standard error is at most
-    ``precision`` of it (or the whole usable decay is fitted); the other channels join it there
+    ``precision`` of it (or the whole usable decay is fitted) — the smaller of the error from
+    the noise estimate alone (which out-of-band content can inflate) and the stated one (from
+    the residual, which a nonlinear decay's misfit inflates); the other channels join it there
     as far as their own noise and the filter's ends allow."""
     decay = _decay(time_s, responses, band_hz, force, snr, source)
     (head, last), envelope = decay.ends[0], decay.envelopes[0]
@@ -276,7 +279,7 @@ def fit_linear_limit(time_s: NDArray, responses: dict[str, NDArray], band_hz: tu
     while True:
         first = int(np.flatnonzero((index >= head) & (index <= last) & (envelope <= span * envelope[last]))[0])
         fit, noise_std = _fit_window(decay, first, last, order, shape, 1.0, source)
-        if noise_std <= precision * fit.damping_ratio or first == head:
+        if min(noise_std, fit.damping_std) <= precision * fit.damping_ratio or first == head:
             return fit
         span *= 1.5
 
