@@ -109,13 +109,10 @@ def identify_joint(adapter: BRBAdapter, parameters: Mapping[str, float], damping
         joint, zeta = _joint_of(x, element)
         system = nonlinear_model(adapter, parameters, zeta, joint, element, drive_dof, mass)
         out = []
-        # a trial point at a bound (χ → 0, a slip force far below the runs' forces) may overflow
-        # in the element's law; its residual is then NaN and penalised, not a failure
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            for run, m in zip(forced, measured):
-                p = predict_run(system, drive_dof, run)
-                out += [np.log(p["peak"] / m["peak"]), (p["damping_ratio"] - m["damping_ratio"]) / m["damping_ratio"]]
-        return np.nan_to_num(np.array(out), nan=10.0)
+        for run, m in zip(forced, measured):
+            p = predict_run(system, drive_dof, run)
+            out += [np.log(p["peak"] / m["peak"]), (p["damping_ratio"] - m["damping_ratio"]) / m["damping_ratio"]]
+        return np.nan_to_num(np.array(out), nan=10.0)  # a curve without a half-power band: penalised
 
     if element == "iwan":  # log F_S, χ, log ζ
         x0, low, high = [np.log(1000.0), -0.3, np.log(damping_ratio)], [np.log(10.0), -0.95, np.log(1e-4)], \

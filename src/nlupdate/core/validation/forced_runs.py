@@ -95,7 +95,10 @@ def harmonic_response(system: NonlinearSystem, drive_dof: str, frequency_hz: NDA
             problem = CondensedProblem(system, {drive: amplitude}, x_scale)
             guesses = ([start] if start is not None else []) + list(problem.initial_guesses(omega))
             for guess in guesses:
-                solution, converged, _ = newton_fixed_frequency(problem, omega, guess, tol=1e-10, max_iter=80)
+                # a guess at zero joint amplitude overflows in a hysteretic law's derivative (Iwan:
+                # 1/a); Newton then fails from it and the next guess is tried
+                with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+                    solution, converged, _ = newton_fixed_frequency(problem, omega, guess, tol=1e-10, max_iter=80)
                 if converged:
                     return solution, complex(problem.response_at(omega, problem.to_complex(solution), [drive])[0, 0])
             raise RuntimeError(f"harmonic balance at {frequency:.3f} Hz, force {amplitude:.4g} N did not converge")
