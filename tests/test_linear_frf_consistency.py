@@ -33,7 +33,7 @@ from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.model.elements import CubicStiffness
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
-from nlupdate.reporting.report import _identification_section
+from nlupdate.reporting.identification_report import identification_section
 from nlupdate.core.response.sweep import frequency_sweep
 from nlupdate.core.response.time_integration import steady_state_response
 
@@ -93,7 +93,7 @@ def test_nonlinearity_at_the_measured_coordinate_passes_and_gives_the_linear_mod
         summary = ident.summary()
         assert summary["trustworthy"] is True and summary["linear_frf_consistency"]["passed"] is True
         assert ident.natural_frequencies_hz == pytest.approx(TRUTH_HZ, rel=0.005)
-        assert "NOT TRUSTWORTHY" not in "\n".join(_identification_section(ident, {}, {}))
+        assert "NOT TRUSTWORTHY" not in "\n".join(identification_section(ident, {}, {}))
 
 
 def _assert_flagged(ident, seed: int) -> None:
@@ -108,7 +108,7 @@ def _assert_flagged(ident, seed: int) -> None:
     assert list(summary)[:2] == ["trustworthy", "not_trustworthy_because"]
     assert summary["trustworthy"] is False and summary["not_trustworthy_because"] == [message]
     assert summary["fit"] == "poor" and summary["linear_frf_consistency"]["passed"] is False
-    section = _identification_section(ident, {}, {})  # a study's report.md
+    section = identification_section(ident, {}, {})  # a study's report.md
     assert section[:3] == ["## Identification", "", f"**{message}**"]
 
 

@@ -220,7 +220,7 @@ def test_report_mentions_no_frac_when_the_comparison_has_none(result, tmp_path):
 
 def test_report_says_what_the_monte_carlo_samples_are_and_why_some_failed():
     from nlupdate.core.identification.uncertainty import Uncertainty
-    from nlupdate.reporting.report import monte_carlo_note
+    from nlupdate.reporting.identification_report import monte_carlo_note
 
     edge = "ValueError: modal fit near 43.37 Hz ran to the edge of its band ({} Hz): no clear resonance there"
     note = monte_carlo_note(Uncertainty({}, 0.05, 40, 6, 1, {edge.format(47.7): 4, edge.format(39.1): 2}))

@@ -5,7 +5,7 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from nlupdate.reporting.report import _number, _table
+from nlupdate.reporting.markdown import markdown_table, number
 
 
 def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
@@ -13,18 +13,18 @@ def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
     run = manifest.get("run", {})
     lines = [f"# Discovery: `{manifest['inputs']['model']['file']}` against `{manifest['inputs']['measured']['file']}`", "",
              f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
-             f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", "", "## Summary", ""]
+             f"{number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", "", "## Summary", ""]
     if result.effects:
         for i, effect in enumerate(result.effects, start=1):
-            values = ", ".join(f"{k} = {_number(v)}" for k, v in effect.parameters.items())
+            values = ", ".join(f"{k} = {number(v)}" for k, v in effect.parameters.items())
             lines.append(f"{i}. **{effect.name}** on {result.place(effect.dofs)}: {values}")
     else:
         lines.append("**none**: no effect of the library explains the disagreement significantly better than the "
                      "measurement noise; the model is left unchanged.")
     fit = result.summary()
     lines += ["", f"**{fit}**." if result.fit == "poor" else f"{fit[0].upper()}{fit[1:]}.", "",
-              f"Gap (mean over force levels of 1 − FRAC): before **{_number(result.gap_before.gap, 3)}**, after "
-              f"**{_number(result.gap_after.gap, 3)}**; stopped: {result.stop_reason}.", ""]
+              f"Gap (mean over force levels of 1 − FRAC): before **{number(result.gap_before.gap, 3)}**, after "
+              f"**{number(result.gap_after.gap, 3)}**; stopped: {result.stop_reason}.", ""]
     if result.warnings:
         lines += ["Warnings (results not to be taken as they stand):", ""]
         lines += [f"* {warning}" for warning in result.warnings] + [""]
@@ -39,7 +39,7 @@ def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
              b.resonance_shift_percent, "after (%)": a.resonance_shift_percent, "unsolved points after":
              a.unsolved_points, "points on another branch than the sweep": a.other_branch_points}
             for b, a in zip(result.gap_before.levels, result.gap_after.levels)]
-    lines += [_table(pd.DataFrame(rows), 3), "", "![gap per level](gap_per_level.png)", "",
+    lines += [markdown_table(pd.DataFrame(rows), 3), "", "![gap per level](gap_per_level.png)", "",
               "![measured vs before vs after](frf_levels.png)", "",
               "![residual against amplitude](residual_amplitude.png)", "",
               "![describing function vs candidates](describing_function.png)", "",

@@ -11,38 +11,19 @@ simulated study the hidden truth is printed beside every estimate.
 """
 from __future__ import annotations
 
-import re
 from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.methods import METHODS
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
-from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
+from nlupdate.reporting.identification_report import identification_section
+from nlupdate.reporting.markdown import markdown_table, number
 from nlupdate.core.response.method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
                     "propagated through the updating sensitivities for updated parameters); the identified values' "
                     "95 % intervals, which also carry model-form error, are in the identification section")
-
-
-def _number(value: float, digits: int = 4) -> str:
-    if value is None or not np.isfinite(value):
-        return "–"
-    return f"{value:.{digits}g}"
-
-
-def _table(frame: pd.DataFrame, digits: int = 4) -> str:
-    """A markdown table of ``frame`` (numbers to ``digits`` significant digits)."""
-    def cell(value: Any) -> str:
-        if isinstance(value, (float, np.floating)):
-            return _number(float(value), digits)
-        return str(value).replace("|", "/")
-    header = "| " + " | ".join(str(c).replace("|", "/") for c in frame.columns) + " |"
-    rule = "|" + "---|" * len(frame.columns)
-    rows = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([header, rule, *rows])
 
 
 def hidden_truth(study) -> dict[str, float]:
@@ -67,12 +48,12 @@ def _with_truth(value: float, std: float | None, truth: float | None, scale: flo
     """``value ± std unit`` with the truth and how many σ off it; without a std (None or NaN)
     the value alone and ``missing`` (why there is none) — never "± –"."""
     known = std is not None and bool(np.isfinite(std))
-    text = (f"{_number(value / scale)} ± {_number(std / scale, 2)} {unit}" if known
-            else f"{_number(value / scale)} {unit}").rstrip()
+    text = (f"{number(value / scale)} ± {number(std / scale, 2)} {unit}" if known
+            else f"{number(value / scale)} {unit}").rstrip()
     notes = [] if known else [missing]
     if truth is not None:
-        truth_text = f"truth {_number(truth / scale)}{' ' + unit if unit else ''}"
-        notes.insert(0, f"{truth_text}; {_number(abs(value - truth) / std, 2)}σ off" if known and std > 0 else truth_text)
+        truth_text = f"truth {number(truth / scale)}{' ' + unit if unit else ''}"
+        notes.insert(0, f"{truth_text}; {number(abs(value - truth) / std, 2)}σ off" if known and std > 0 else truth_text)
     notes = [note for note in notes if note]
     return text + (f" ({'; '.join(notes)})" if notes else "")
 
@@ -87,7 +68,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
     if study.description:
         lines += [study.description, ""]
     lines += [f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
-              f"{_number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
+              f"{number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
 
     lines += ["## Summary", ""]
     headline = none_converged_line(result.runs)
@@ -121,7 +102,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
             lines += [f"![measured FRFs]({plots['measured']})", ""]
 
     if result.identification is not None:
-        lines += _identification_section(result.identification, truth, plots)
+        lines += identification_section(result.identification, truth, plots)
     if result.targets is not None:
         lines += _targets_section(result)
     if result.runs:
@@ -153,7 +134,7 @@ def none_converged_line(runs) -> tuple[str, str] | None:
 
 def _not_converged(value: float, truth: float | None) -> str:
     """A value where a run stopped: no ±, since it is no result."""
-    return f"{_number(value)} (not converged{f'; truth {_number(truth)}' if truth is not None else ''})"
+    return f"{number(value)} (not converged{f'; truth {number(truth)}' if truth is not None else ''})"
 
 
 def _warning_lines(result) -> list[str]:
@@ -195,9 +176,9 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
             out.append(f"  ({u.note})")
     for prediction in result.predictions:
         c = prediction.correlation
-        out.append(f"* **Prediction** `{prediction.name}` (loss factor {_number(prediction.loss_factor, 3)}, "
-                   f"{prediction.loss_factor_source}): FRAC per level min {_number(c['frac'].min(), 3)}, "
-                   f"mean {_number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
+        out.append(f"* **Prediction** `{prediction.name}` (loss factor {number(prediction.loss_factor, 3)}, "
+                   f"{prediction.loss_factor_source}): FRAC per level min {number(c['frac'].min(), 3)}, "
+                   f"mean {number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
                    + _single_frequency_levels(c))
     if result.validation is not None:
         out += _validation_summary(result.validation)
@@ -219,14 +200,14 @@ def _validation_summary(validation) -> list[str]:
 
         inside = [r.compared["resonance_hz"].inside for r in rows if r.compared["resonance_hz"].inside is not None]
         out.append(f"* **Held-out levels** `{requested}` ({len(rows)} level{'s' if len(rows) > 1 else ''}): resonance "
-                   f"within {_number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
-                   f"{_number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
-                   f"{_number(100 * worst(rows, 'damping_ratio', True), 3)} % (baseline "
-                   f"{_number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
-                   f"{_number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
-                   f"{_number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
+                   f"within {number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
+                   f"{number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
+                   f"{number(100 * worst(rows, 'damping_ratio', True), 3)} % (baseline "
+                   f"{number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
+                   f"{number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
+                   f"{number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
                    f"95 % band at {sum(inside)} of {len(inside)}; test repeatability "
-                   f"{_number(validation.repeatability.resonance_hz, 3)} Hz")
+                   f"{number(validation.repeatability.resonance_hz, 3)} Hz")
     return out
 
 
@@ -240,100 +221,7 @@ def _single_frequency_levels(correlation) -> str:
     if single.empty:
         return ""
     return (f"; {_count(len(single), 'single-frequency level')} (no FRAC): relative FRF error up to "
-            f"{_number(single['normalised_error'].max(), 3)}")
-
-
-def _untrustworthy_lines(ident) -> list[str]:
-    """The failed placement check (:mod:`nlupdate.core.identification.consistency`) in bold, first."""
-    return [f"**{w.message}**" for w in ident.warnings if w.kind == "levels_disagree"] + \
-        ([""] if not ident.trustworthy else [])
-
-
-def _identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
-    s = ident.settings
-    r = ident.result
-    lines = ["## Identification", ""] + _untrustworthy_lines(ident) + [METHODS[s.method].describe_fit(r)]
-    if ident.frequency_choice is not None:  # the method fits at one excitation frequency, chosen by the program
-        choice = ident.frequency_choice
-        final = ""
-        if ident.modes and choice.linear_natural_frequency_hz is not None:
-            nearest = min(range(len(ident.modes)), key=lambda i: abs(
-                ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
-            final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
-                     f"{_number(ident.natural_frequencies_hz[nearest])} ± "
-                     f"{_number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")
-        lines += [f"Why this frequency: {choice.reason} (visited "
-                  f"{', '.join(f'{f:g}' for f in choice.visited_hz)} Hz{final}). The identification is "
-                  f"most accurate near a resonance of the *linear* structure; the low-force resonance is not one, "
-                  f"because the stuck friction stiffens it."]
-    lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
-                  + monte_carlo_note(ident.uncertainty), ""]
-    stats = ident.uncertainty.parameters
-    rows = [{"parameter": name, "value": st.value, "Monte-Carlo std": st.std,
-             "95 % interval": f"[{_number(st.ci95[0])}, {_number(st.ci95[1])}]"
-                              + (f" (one-sided: {st.bound.why})" if st.bound is not None else ""),
-             **({"truth": truth.get(name, float("nan"))} if truth else {})}
-            for name, st in stats.items() if name in ident.parameters()]
-    lines += [_table(pd.DataFrame(rows)), "",
-              "The 95 % interval holds the value: the Monte-Carlo deviations reflected about it (basic bootstrap), "
-              "widened by the spread of refits with one level left out when the fit's residual is above the noise "
-              "(model-form error), one-sided for a value on a limit (docs/methods.md §4, Intervals).", ""]
-    if "fit" in plots:
-        covered = covered_intervals(r.amplitude)
-        gaps = (f", dashed across the gap{'s' if len(covered) > 2 else ''} between them (no point within a factor "
-                f"{AMPLITUDE_GAP_RATIO:g} in amplitude: an interpolation no measurement checks)" if len(covered) > 1
-                else "")
-        lines += [f"![{s.method.upper()} fit]({plots['fit']})", "",
-                  f"The points are the data ({len(r.amplitude)} of them, coloured by force level), the line the fitted "
-                  f"model, solid where the data lie ({describe_intervals(covered)}){gaps} and dotted beyond them: an "
-                  f"extrapolation no measurement supports, though predictions at other levels and frequencies use it. "
-                  f"Grey regions hold no data. The shaded band holds 95 % of the Monte-Carlo fits; where the legend "
-                  f"calls it narrower than the line, the fits agree within the line's width there. Right: "
-                  f"each point's misfit in units of its noise (about 1 where the model fits).", ""]
-    if ident.modes:
-        rows = [{"mode": i + 1, "natural frequency (Hz)": stats[f"linear_f{i + 1}_hz"].value,
-                 "std (Hz)": stats[f"linear_f{i + 1}_hz"].std, "loss factor": stats[f"linear_eta{i + 1}"].value,
-                 "std": stats[f"linear_eta{i + 1}"].std} for i in range(len(ident.modes))]
-        lines += [f"The extracted linear FRF (from {ident.linear_source}) has these modes "
-                  f"(one-mode fits over ±{100 * s.modal_band_fraction:g} % around each resonance):", "",
-                  _table(pd.DataFrame(rows)), ""]
-    if "linear_frf" in plots:
-        combined = len(ident.linear_from_levels_n) > 1
-        lines += [f"![extracted linear FRF]({plots['linear_frf']})", "",
-                  f"The extracted linear FRF (red, from {ident.linear_source}) with the band holding 95 % of the "
-                  f"Monte-Carlo extractions, the one-mode fits (dashed) and the {ident.linear_from_level_n:g} "
-                  f"{ident.reference_unit} measurement (grey); right, around each mode (a few half-power bandwidths, within "
-                  f"the frequencies the FRF covers). Where the legend calls the band narrower than the line, the "
-                  f"extractions agree within the line's width. "
-                  + ("Each level gives 1/H_L = 1/H − ν(|X|); near a linear resonance a level that the nonlinearity "
-                     "stiffens (a stuck joint) subtracts two nearly equal dynamic stiffnesses and carries much more "
-                     "noise than one near its own resonance, so the levels are weighted by their noise line by line. "
-                     "Where" if combined else
-                     "Near a resonance of the linear structure the extraction subtracts two nearly equal dynamic "
-                     "stiffnesses (1/H_L = 1/H_1 − Δ_f1), so the noise grows there: where")
-                  + " the band is wide, the modes' values and every FRF comparison against this curve carry that "
-                    "uncertainty.", ""]
-    return lines
-
-
-def monte_carlo_note(uncertainty) -> str:
-    """What the Monte-Carlo sample count means, how many failed and why."""
-    n, failed = uncertainty.n_samples, uncertainty.n_failed
-    text = (f"Uncertainty: {n} Monte-Carlo samples — the measured curves perturbed {n} times with fresh noise of "
-            f"that level and identified again (excitation frequency or band, force levels and model held fixed); the std below is "
-            f"the spread of the {n - failed} results, and the intervals and the plots' bands are built from them")
-    if not failed:
-        return text + " (none failed)."
-    grouped: dict[str, int] = {}
-    for message, count in uncertainty.failures.items():  # one reason, whatever the numbers in parentheses
-        reason = re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])
-        grouped[reason] = grouped.get(reason, 0) + count
-    reasons = "; ".join(f"{count} × {reason}" for reason, count in sorted(grouped.items(), key=lambda g: -g[1])[:3])
-    more = len(grouped) - 3
-    reasons += f"; {more} other reason{'s' if more > 1 else ''}" if more > 0 else ""
-    return (text + f". {failed} sample{'s' if failed > 1 else ''} failed and {'are' if failed > 1 else 'is'} left "
-            f"out as a whole ({reasons}): these are the perturbed data hardest to identify, so the ± of what "
-            f"failed there may be understated.")
+            f"{number(single['normalised_error'].max(), 3)}")
 
 
 def _targets_section(result) -> list[str]:
@@ -341,7 +229,7 @@ def _targets_section(result) -> list[str]:
     std = result.targets.std_hz
     frame = pd.DataFrame({"mode": list(t.labels), "target (Hz)": t.frequencies_hz,
                           "std (Hz)": std if std is not None else float("nan"), "weight": t.weights})
-    return ["## Updating targets", "", _table(frame, 6), ""]
+    return ["## Updating targets", "", markdown_table(frame, 6), ""]
 
 
 def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
@@ -362,7 +250,7 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
                       else _not_converged(v, None)) for name, v in run.parameters.items()},
         })
     frame = pd.DataFrame(rows).fillna("–")
-    lines += [_table(frame), ""]
+    lines += [markdown_table(frame), ""]
     if without_std:
         lines += ["No ± on the updated values: the targets state no std_hz (`[targets] std_hz`, "
                   "docs/study-files.md), so there is no uncertainty to propagate."
@@ -371,7 +259,7 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
     if truth:
         known = {k: v for k, v in truth.items() if any(k in r.parameters for r in result.runs)}
         if known:
-            lines += ["Hidden truth: " + ", ".join(f"{k} = {_number(v)}" for k, v in known.items()), ""]
+            lines += ["Hidden truth: " + ", ".join(f"{k} = {number(v)}" for k, v in known.items()), ""]
     notes = {u.note for u in result.uncertainties.values() if u.note}
     lines += [f"* {note}" for note in sorted(notes)] + ([""] if notes else [])
     if "convergence" in plots:
@@ -388,7 +276,7 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
         fracs = comparison.pivot_table(index="candidate", columns="mode", values="frac", sort=False, dropna=False)
         fracs.columns = [f"FRAC {c}" for c in fracs.columns]
         table = errors.join(fracs)
-    lines += [_table(table.reset_index()), ""]
+    lines += [markdown_table(table.reset_index()), ""]
     if has_frac:
         lines += [_frac_explanation(result), ""]
     if "frequency_errors" in plots:
@@ -413,7 +301,7 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
               "where they stopped: the first is the best updated model"
               + (". Weighted FRAC (Σ w·FRAC / Σ w, higher is better) is shown beside it; read it against what the "
                  "extracted FRF's own fits reach (above)." if has_frac else "."), "",
-              _table(ranking), ""]
+              markdown_table(ranking), ""]
     return lines
 
 
@@ -426,7 +314,7 @@ def _frac_explanation(result) -> str:
     reachable = result.targets.reference_fit_frac if result.targets is not None else None
     if reachable is None:
         return text + "."
-    values = ", ".join(f"{_number(v, 3)} ({label})" for label, v in zip(result.targets.targets.labels, reachable))
+    values = ", ".join(f"{number(v, 3)} ({label})" for label, v in zip(result.targets.targets.labels, reachable))
     return (text + f": the extracted FRF's own one-mode fits — curves fitted to these very data — reach {values} in "
             f"the same bands. A candidate near those values agrees with the reference as well as its noise lets "
             f"any curve agree, however low the number; a low value there says the reference is noisy, not that the "
@@ -451,7 +339,7 @@ def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
     table = table[list(columns)].rename(columns=columns)
     lines += ["Per level, against the measurement itself over the whole measured band: FRAC (0–1, 1 = the "
               "measured shape), the relative FRF error, and the error of the highest peak's frequency and "
-              "amplitude.", "", _table(table, 3), ""]
+              "amplitude.", "", markdown_table(table, 3), ""]
     if "correlation" in plots:
         lines += [f"![correlation per level]({plots['correlation']})", ""]
     return lines
@@ -475,16 +363,16 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
              "Resonance, half-power damping ratio and peak come from one estimator for the measured and predicted "
              "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability. The test's own "
              f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
-             f"{_number(repeat.resonance_hz, 3)} Hz, damping ratio {_number(100 * repeat.damping_ratio, 3)} % "
+             f"{number(repeat.resonance_hz, 3)} Hz, damping ratio {number(100 * repeat.damping_ratio, 3)} % "
              "(points) — no model can be expected to do better than that.", ""]
-    rows = [{f"level ({unit})": _number(r.level), **_errors(r)} for r in validation.held_out]
-    lines += [_table(pd.DataFrame(rows)), ""]
+    rows = [{f"level ({unit})": number(r.level), **_errors(r)} for r in validation.held_out]
+    lines += [markdown_table(pd.DataFrame(rows)), ""]
     if "validation" in plots:
         lines += [f"![held-out levels]({plots['validation']})", ""]
     if validation.response_controlled:
-        rows = [{"run": r.run, "held amplitude (m)": _number(r.held_m, 3), **_errors(r)} for r in validation.response_controlled]
+        rows = [{"run": r.run, "held amplitude (m)": number(r.held_m, 3), **_errors(r)} for r in validation.response_controlled]
         lines += ["Response-controlled runs predicted from all force-controlled levels at their held amplitude:", "",
-                  _table(pd.DataFrame(rows)), ""]
+                  markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
     return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
@@ -501,4 +389,4 @@ def _errors(r) -> dict[str, str]:
             "baseline: resonance (Hz), damping (%), peak (%)":
                 f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
                 f"{100 * b['peak_abs'].relative_error:+.1f}",
-            "residual / noise (model, baseline)": f"{_number(r.residual_to_noise, 3)}, {_number(r.baseline_residual_to_noise, 3)}"}
+            "residual / noise (model, baseline)": f"{number(r.residual_to_noise, 3)}, {number(r.baseline_residual_to_noise, 3)}"}
