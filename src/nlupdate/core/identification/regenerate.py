@@ -2,10 +2,12 @@
 
 Single nonlinear coordinate (driving point): at every frequency of the extracted linear
 receptance ``H^L(ω)`` the scalar balance ``(1/H^L + ν(A, ω))·X = F`` is solved for all
-its amplitude roots (:func:`nlupdate.core.identification.scalar_balance.all_amplitudes`), and a
-stepped-sine test is emulated: the sweep stays on the stable root nearest (in log A) to
-the previous frequency's amplitude and jumps to the nearest remaining stable root when
-its branch ends at a fold. This works directly on noisy samples (no interpolation).
+its amplitude roots (:func:`nlupdate.core.identification.scalar_balance.all_amplitudes`), and read
+as a stepped-sine test by the response package's rule for roots found per frequency
+(:func:`nlupdate.core.response.steady_state.sweep_stable_roots`: the sweep stays on the stable root
+nearest in log A to the previous frequency's, and jumps to the nearest remaining stable root when
+its branch ends at a fold). This works directly on noisy samples (no interpolation; a continuation
+over the interpolated samples stalls at the spurious folds noise makes).
 
 Several nonlinear coordinates: :class:`SampledReceptance` turns a sampled receptance
 matrix (e.g. an extracted ``H^L_aa``) into a linear model for the project's solvers
@@ -23,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.fingerprints import fingerprint
 from nlupdate.core.identification.scalar_balance import all_amplitudes
+from nlupdate.core.response.steady_state import sweep_stable_roots
 
 
 def regenerate_frf(
@@ -55,19 +58,10 @@ def regenerate_frf(
         w, nu, float(force), omega, amplitude_span[0] * linear_amplitude, amplitude_span[1] * linear_amplitude,
         grid_points=grid_points,
     )
-    order = range(f.size) if direction == "up" else range(f.size - 1, -1, -1)
+    amplitude = sweep_stable_roots(roots, direction)
     out = np.full(f.size, np.nan + 0j)
-    previous = None
-    for k in order:
-        stable = [a for a, is_stable in roots[k] if is_stable]
-        if not stable:
-            continue
-        if previous is None:
-            a = min(stable)
-        else:
-            a = min(stable, key=lambda value: abs(np.log(value / previous)))
-        previous = a
-        out[k] = 1.0 / (w[k] + nu(np.array([a]), np.array([omega[k]]))[0])
+    read = np.flatnonzero(np.isfinite(amplitude))
+    out[read] = 1.0 / (w[read] + nu(amplitude[read], omega[read]))
     return out
 
 

@@ -18,4 +18,6 @@
   step bound in :mod:`~nlupdate.core.response.time_operators`, its stepping loop in
   :mod:`~nlupdate.core.response.time_stepping`);
 * :mod:`~nlupdate.core.response.simulate` — responses at several force levels as a measured-FRF table.
+* :mod:`~nlupdate.core.response.steady_state` — the canonical entry point: one force vector's
+  steady-state response read as a stepped sine or as the stable solution nearest to measurements.
 """

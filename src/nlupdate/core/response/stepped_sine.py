@@ -98,12 +98,18 @@ def stepped_sine(
     return SweepResult(problem, grid, result, direction, jumps)
 
 
+def stable_segments(stable: NDArray[np.bool_], turning: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per segment k of a curve (its points k and k + 1): stable when its ends that are not
+    folds are stable (a segment's fold end does not count against it) and it is not fold to fold."""
+    ends_ok = stable | turning
+    return ends_ok[:-1] & ends_ok[1:] & ~(turning[:-1] & turning[1:])
+
+
 def _walk(w: NDArray, turning: NDArray, stable: NDArray, targets: NDArray) -> tuple[NDArray, NDArray]:
     """The curve segment each target frequency is read from, walking the curve (points ``w``
     in sweep order) with the targets: for each target the first stable segment at or after
     the previous target's that contains it (−1: none), and whether a fold lies between."""
-    ends_ok = stable | turning  # a segment's fold end does not count against it
-    segment_stable = ends_ok[:-1] & ends_ok[1:] & ~(turning[:-1] & turning[1:])
+    segment_stable = stable_segments(stable, turning)
     low, high = np.minimum(w[:-1], w[1:]), np.maximum(w[:-1], w[1:])
     cover = (targets[:, None] >= low) & (targets[:, None] <= high) & segment_stable
     found = np.full(targets.size, -1)
