@@ -4,7 +4,7 @@ run (issue 38).
 References independent of the code under test: the measured file read directly with
 scipy.io and put through the resonance estimator; the FE model's own eigenvalue solution for
 the linear limit of the harmonic balance (a stuck joint is the FE model's tangential spring);
-the study file's rules as docs/study-files.md states them. The whole study on the example's
+the table's rules as docs/validation.md states them. The whole study on the example's
 data runs in tests/test_brb_example.py.
 """
 from __future__ import annotations
