@@ -46,6 +46,11 @@ def test_each_method_words_its_own_fit():
                                                 "(0.3–1 N), improved estimator.")
     assert METHODS["prd"].describe_points(prd, "V") == ("12 points: 3 force levels (0.3–1 V) against 0.01 V, "
                                                         "within ±2 % of 712.5 Hz")
+    one = SimpleNamespace(method="prd", estimator="naive", extras={}, amplitude=np.ones(3),
+                          setup=SimpleNamespace(frequency_hz=700.0, low_force=0.05, high_forces=(2.0,)))
+    assert METHODS["prd"].describe_fit(one) == "PRD at **700 Hz** from the 0.05 N (low) and 1 high level (2 N), " \
+                                               "naive estimator."
+    assert METHODS["prd"].describe_points(one, "N") == "3 points: 1 force level (2 N) against 0.05 N, at 700 Hz"
     assert METHODS["ddf"].describe_fit(ddf) == "DDF between 0.01 and 1.5 N over 600–850 Hz, naive estimator."
     assert METHODS["ddf"].describe_points(ddf, "N") == "40 points: 1.5 N against 0.01 N, 600–850 Hz"
     assert {name: method.fitted_quantity for name, method in METHODS.items()} == {

@@ -188,9 +188,11 @@ class PRD:
 
     def describe_fit(self, result: PRDResult) -> str:
         setup = result.setup
-        return (f"PRD at **{setup.frequency_hz:g} Hz** from the {setup.low_force:g} N (low) and "
-                f"{len(setup.high_forces)} high levels ({min(setup.high_forces):g}–{max(setup.high_forces):g} N), "
-                f"{result.estimator} estimator.")
+        low, high = min(setup.high_forces), max(setup.high_forces)
+        levels = f"{len(setup.high_forces)} high levels ({low:g}–{high:g} N)" if len(setup.high_forces) > 1 \
+            else f"1 high level ({high:g} N)"
+        return f"PRD at **{setup.frequency_hz:g} Hz** from the {setup.low_force:g} N (low) and {levels}, " \
+               f"{result.estimator} estimator."
 
     def describe_points(self, result: PRDResult, unit: str) -> str:
         setup = result.setup
