@@ -28,7 +28,8 @@ EXAMPLES = ROOT / "examples"
 #: barrel's discover (tests/test_discovery_examples.py, as examples/discovery/README.md gives it).
 SLOW = {"bolted_beam/study.toml", "discovery/brb_mode1.toml", "discovery/sdof_linear.toml",
         "discovery/gunbarrel_mode1.toml",
-        "two_dof_study.toml"}  # the same study runs in the default suite: tests/test_examples_py.py
+        "two_dof_study.toml",  # the same study runs in the default suite: tests/test_examples_py.py
+        "brb/brb.toml"}  # ~3 min with its [fe_validation]; a coarse version: tests/test_fe_validation.py
 
 
 def header_commands(path: Path) -> list[list[str]]:
