@@ -5,18 +5,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-import numpy as np
 import pandas as pd
 
-
-def _g(value: float, digits: int = 4) -> str:
-    return "–" if value is None or not np.isfinite(value) else f"{value:.{digits}g}"
-
-
-def _markdown(frame: pd.DataFrame) -> str:
-    header = "| " + " | ".join(frame.columns) + " |"
-    rows = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([header, "|" + "---|" * len(frame.columns), *rows])
+from nlupdate.reporting.markdown import markdown_table as _markdown
+from nlupdate.reporting.markdown import number as _g
 
 
 def modes_table(found) -> pd.DataFrame:
