@@ -208,21 +208,23 @@ def validate_options() -> dict[str, argparse.Action]:
 
 
 def test_validate_takes_the_validation_keys_it_shares_with_the_study():
-    """The ``[validation]`` keys declared with a command-line option are ``nlupdate validate``'s
-    options of the same name, taking the same values."""
+    """``nlupdate validate``'s options for the ``[validation]`` keys declared with one are made
+    from the declaration (``--hold-out``, ``--input-dof``); its ``--hold-out-type`` (a type held
+    out instead of levels, where a study does both) takes the same types."""
     options = validate_options()
     for name, (_, declaration) in settings_of(ValidationSpec).items():
         if declaration.flag == "":  # the command's own forms: --model a,b; --response-controlled auto|off|kept; --shape
             continue
         assert options[name].option_strings[0] == flag_of(name, declaration), name
-        if declaration.kind == "choice":
-            assert tuple(options[name].choices) == declaration.choices, name
-    made = argparse.ArgumentParser()
-    add_setting_options(made, ValidationSpec)
-    args = made.parse_args(["--hold-out", "0.49,0.97", "--hold-out-type", "ring-down", "--input-dof", "0"])
-    assert setting_values(args, ValidationSpec) == {"hold_out": (0.49, 0.97), "input_dof": "0",
-                                                     "hold_out_type": "ring-down"}
-    assert made.parse_args(["--hold-out", "top"]).hold_out == "top"
+    assert tuple(options["hold_out_type"].choices) == settings_of(ValidationSpec)["hold_out_type"][1].choices
+    parser = build_parser(["validate"])
+    args = parser.parse_args(["validate", "--hold-out", "0.49,0.97", "--input-dof", "0", "--out", "x"])
+    assert ValidationSpec(**setting_values(args, ValidationSpec)) == ValidationSpec(hold_out=(0.49, 0.97), input_dof="0")
+    args = parser.parse_args(["validate", "--out", "x"])
+    assert ValidationSpec(**setting_values(args, ValidationSpec)).hold_out == "each"
+    assert parser.parse_args(["validate", "--hold-out", "top", "--out", "x"]).hold_out == "top"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["validate", "--hold-out", "middle", "--out", "x"])
 
 
 @dataclasses.dataclass(frozen=True)

@@ -186,14 +186,14 @@ class ValidationSpec:
                 "`prd:cubic,jenkins`) or `auto` (the one of the first four that predicts the kept levels from each "
                 f"other best); with `hold_out_type`, the first is one of {', '.join(BACKBONE_OF_MODEL)}")
     input_dof: str | None = setting(
-        None, kind="string", default_text="the identification's input, else the table's only one",
+        None, kind="string", default_text="the identification's input (in a study), else the table's only one",
         meaning="the driving point whose curve is judged")
     response_controlled: bool = setting(
         True, kind="boolean", flag="",
         meaning="predict the response-controlled runs of the measured MATLAB files at their held amplitude from all "
                 "force-controlled levels (with `hold_out_type`: those runs are a source)")
     hold_out_type: str | None = setting(
-        None, kind="choice", choices=HELD_TYPES, default_text="none",
+        None, kind="choice", choices=HELD_TYPES, default_text="none", flag="",
         meaning="hold out a whole test type as well: the amplitude-dependent modal model fitted on the other "
                 "sources (the measured stepped sine, its response-controlled runs, `ring_down` records) predicts it "
                 "(validation.json's `held_out_type`); needs `shapes`")

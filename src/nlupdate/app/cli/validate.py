@@ -32,6 +32,7 @@ from nlupdate.app.cli import CliError, add_command
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, read_options
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
+from nlupdate.app.cli.settings_options import add_setting_options, setting_values
 from nlupdate.app.cli.validate_type import add_type_options, run_held_type
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
@@ -42,16 +43,14 @@ from nlupdate.reporting.validation_plots import held_out_figure, response_contro
 from nlupdate.core.validation.held_out import validate
 from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
 from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
+from nlupdate.study.spec import ValidationSpec
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "validate", __doc__)
     add_measured_options(parser, "the curves are cut to before any fit (default: every measured line); of a ring-down, "
                                  "its band-pass", required=False)
-    parser.add_argument("--input-dof", help="excited coordinate of the driving-point curve (default: the only one)")
-    parser.add_argument("--hold-out", default="each", metavar="LEVELS",
-                        help="each (default: every level in turn), top (the highest: extrapolation) or levels, "
-                             "comma-separated, in the reference unit")
+    add_setting_options(parser, ValidationSpec)  # --hold-out, --input-dof: the study's [validation] keys
     parser.add_argument("--model", default="auto", metavar="NAMES",
                         help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
                              f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
@@ -128,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
                                f"run at {data.input_dof}")
             print(f"keeping {len(kept_runs)} response-controlled run(s) beside the force-controlled levels")
         with terminal_progress() as progress:
-            validation = validate(data, args.hold_out, models, progress=progress, runs=kept_runs)
+            validation = validate(data, ValidationSpec(**setting_values(args, ValidationSpec)).hold_out, models,
+                                  progress=progress, runs=kept_runs)
         if args.response_controlled == "auto":
             runs, skipped = held_runs_of(args.measured, read_options(args), data)
             print_notes(skipped)
