@@ -1,0 +1,161 @@
+"""Issue 37's time-integration truth table: every test type of an SDOF and a 2-DOF, each with a
+Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with each type held out.
+
+    python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan]
+
+Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
+closed-form single-nonlinear-mode backbone). Per test type and seed:
+
+* ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: SDOF 3 mm, 2-DOF 240 ×), white
+  noise 2 % of the record's peak, read in segments (``decay_segments``);
+* impact: an RK4 tap (Jenkins stuck, 0.5 × slip; Iwan 0.05 ×), 2 % noise, ``fit_linear_limit``;
+* phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels; 2 % noise on the
+  force and on the response amplitude;
+* force-controlled stepped sine: multi-harmonic-balance FRFs at the same six levels on 301
+  lines over 0.9–1.05 f₀, 2 % noise (``add_table_noise``), one sample per level
+  (``samples_from_frfs``).
+
+Printed per system × type: the largest error of the samples themselves and of that type's own
+fitted backbone (``--backbone``, over the amplitudes its samples cover), over the seeds; then
+the joint fit of all types (each weighted by its own noise, as ``nlupdate amplitude`` does)
+and, with each type held out, the prediction of that type's amplitudes within the others'
+range — all against the truth.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth  # noqa: E402
+
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
+from nlupdate.core.identification.backbone_samples import join_samples, source_noise  # noqa: E402
+from nlupdate.core.identification.data import FRFLevels  # noqa: E402
+from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
+from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
+from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
+from nlupdate.core.model.linear import LumpedModel  # noqa: E402
+from nlupdate.core.model.system import NonlinearSystem  # noqa: E402
+from nlupdate.core.response.harmonic_balance import trace_harmonic_balance  # noqa: E402
+from nlupdate.core.response.simulate import simulate_frf_table  # noqa: E402
+
+TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
+
+
+def records(s: dict, kind: str, dofs: int) -> dict:
+    """The noise-free records of every test type of one system."""
+    psi, slip = s["phi"][0], s["slip"]
+    start = 30 * slip if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip
+    amplitude = (np.geomspace(0.5, 15, 6) * slip if kind == "jenkins"
+                 else np.geomspace(0.05, 1.0, 6) * (3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
+    f, z = truth(s, amplitude)
+    levels = 2 * z * (2 * np.pi * f) ** 2 * amplitude / psi  # the force that holds that amplitude at resonance
+    model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
+    points = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for force in levels:
+            curve = trace_harmonic_balance(model, {0: force}, 0.85 * s["w0"], 1.1 * s["w0"], harmonics=5,
+                                           stability=False)
+            x = curve.response([0])[:, 0]
+            phase = np.unwrap(np.angle(x)) + np.pi / 2
+            i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
+            w = phase[i] / (phase[i] - phase[i + 1])
+            points.append((curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i]), force,
+                           x[i] + w * (x[i + 1] - x[i])))
+        table, _ = simulate_frf_table(model, 0, s["w0"] / (2 * np.pi) * np.linspace(0.9, 1.05, 301), list(levels),
+                                      method="hb")
+    return {"decay": free_decay(s, start, 80), "tap": free_decay(s, (0.5 if kind == "jenkins" else 0.05) * slip, 40),
+            "points": [np.array(v) for v in zip(*points)], "table": table}
+
+
+def samples(s: dict, made: dict, seed: int) -> dict[str, tuple[ModalSamples, tuple[float, float] | None]]:
+    """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by)."""
+    psi, rng = s["phi"][0], np.random.default_rng(1000 + seed)
+    t, x = made["decay"]
+    parts = decay_segments(t, {"x": noisy(x, seed)}, band(s), shape=psi)
+    ring = (join_samples([p.samples() for p in parts]),
+            (float(np.median([p.frequency_std_hz / p.frequency_hz for p in parts])),
+             float(np.median([p.damping_std / p.damping_ratio for p in parts]))))
+    t, x = made["tap"]
+    tap = fit_linear_limit(t, {"x": noisy(x, seed)}, band(s), shape=psi)
+    omega, force, response = made["points"]
+    pr = samples_from_phase_resonance(PhaseResonancePoints(
+        "pr", "m1", "m1", omega / (2 * np.pi), force * (1 + 0.02 * rng.standard_normal(force.size)),
+        response * (1 + 0.02 * rng.standard_normal(force.size))), psi, psi)
+    table = add_table_noise(made["table"], 0.02, seed)
+    frfs = samples_from_frfs(FRFLevels.from_table(table, str(table["response_dof"].iloc[0]),
+                                                  str(table["input_dof"].iloc[0])), psi)
+    return {"ring-down": ring, "impact": (tap.samples(), (tap.frequency_std_hz / tap.frequency_hz,
+                                                          tap.damping_std / tap.damping_ratio)),
+            "phase-resonance": (pr, None), "stepped-sine": (frfs, None)}
+
+
+def curve_errors(s: dict, model, low: float, high: float) -> tuple[float, float]:
+    """Largest relative errors of a fitted model against the truth over [low, high] (modal amplitude)."""
+    a = np.geomspace(low, high, 60)
+    f, z = truth(s, a)
+    return float(np.max(np.abs(model.frequency_hz(a) / f - 1))), float(np.max(np.abs(model.damping(a) / z - 1)))
+
+
+def sample_errors(s: dict, smp: ModalSamples) -> tuple[float, float]:
+    f, z = truth(s, smp.amplitude)
+    return float(np.max(np.abs(smp.frequency_hz / f - 1))), float(np.max(np.abs(smp.damping_ratio / z - 1)))
+
+
+def fit(s: dict, chosen: list[tuple[ModalSamples, tuple[float, float] | None]], backbone: str):
+    joined = join_samples([c[0] for c in chosen])
+    noise = [source_noise(smp, stated) for smp, stated in chosen]
+    f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen, noise)])
+    z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen, noise)])
+    return fit_amplitude_model(joined, (("m1", float(s["phi"][0])),), backbone, 2, frequency_std=f_std,
+                               damping_std=z_std)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--backbone", default="polynomial", choices=("polynomial", "iwan"))
+    args = parser.parse_args()
+    print(f"{'system':16s} {'type':16s} {'samples f':>9s} {'samples ζ':>9s} {'own fit f':>9s} {'own fit ζ':>9s} "
+          f"{'a/slip':>12s}   held out: f, ζ")
+    for dofs, kind in SYSTEMS:
+        s, started = system(dofs, kind), time.process_time()
+        made = records(s, kind, dofs)
+        rows = {name: [] for name in TYPES + ("joint",)}
+        for seed in range(args.seeds):
+            every = samples(s, made, seed)
+            for name, (smp, stated) in every.items():
+                own = (curve_errors(s, fit(s, [(smp, stated)], args.backbone), smp.amplitude.min(), smp.amplitude.max())
+                       if smp.amplitude.size >= 3 else (np.nan, np.nan))
+                rest = [every[other] for other in TYPES if other != name]
+                model = fit(s, rest, args.backbone)
+                low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest))
+                high = min(smp.amplitude.max(), max(r[0].amplitude.max() for r in rest))
+                held = curve_errors(s, model, low, high) if low < high else (np.nan, np.nan)
+                rows[name].append((*sample_errors(s, smp), *own, smp.amplitude.min() / s["slip"],
+                                   smp.amplitude.max() / s["slip"], *held))
+            joined = join_samples([smp for smp, _ in every.values()])
+            rows["joint"].append((np.nan, np.nan, *curve_errors(s, fit(s, list(every.values()), args.backbone),
+                                                                joined.amplitude.min(), joined.amplitude.max()),
+                                  joined.amplitude.min() / s["slip"], joined.amplitude.max() / s["slip"], np.nan,
+                                  np.nan))
+        for name, values in rows.items():
+            v = np.array(values, dtype=float)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                worst = [np.nanmax(v[:, j]) if np.isfinite(v[:, j]).any() else np.nan for j in range(v.shape[1])]
+            print(f"{dofs}-DOF {kind:10s} {name:16s} {worst[0]:9.1e} {worst[1]:9.3f} {worst[2]:9.1e} {worst[3]:9.3f} "
+                  f"{np.nanmin(v[:, 4]):5.2f}–{np.nanmax(v[:, 5]):5.1f}   {worst[6]:.1e}, {worst[7]:.3f}")
+        print(f"  ({args.seeds} seeds, {time.process_time() - started:.0f} s CPU)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
