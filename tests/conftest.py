@@ -65,7 +65,7 @@ def pytest_unconfigure(config):
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
 #: leave long modules of few tests for the end), so the two workers finish together.
 LONGEST_MODULES = (
-    "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py",
+    "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py", "test_hill_reduction.py",
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
     "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
@@ -75,7 +75,7 @@ LONGEST_MODULES = (
     "test_amplitude_modal.py", "test_phase_resonance.py", "test_impact.py", "test_joint_sources.py",
     "test_test_type_truth.py",
     "test_discovery_cli.py", "test_archive_compare_studies.py",
-    "test_readme_identify.py",
+    "test_readme_identify.py", "test_answer_from_cache.py",
     "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_amplitude_limits.py",
     "test_progress.py", "test_validate_response_controlled.py", "test_validate_held_type.py",
     "test_full_band_export.py", "test_calculix.py", "test_identification_cli.py", "test_solver_vs_time_integration.py",
