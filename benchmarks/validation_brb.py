@@ -20,7 +20,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.validation_table import error_cells, print_validation_tables  # noqa: E402
+from benchmarks.validation_table import error_cells, print_validation_tables, repeatability_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BRB = ROOT / "tests" / "data" / "brb" / "ForcedFrequencyResponses.mat"
@@ -77,6 +77,7 @@ def print_with_runs_kept(data, models) -> None:
         print("|---|---|---|---|---|---|---|")
         for r in result.held_out:
             print(f"| {r.level:g} | {r.label} | {error_cells(r)} |")
+    print("\n" + repeatability_line(result.repeatability) + " (levels and runs pooled)")
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 
@@ -100,6 +101,7 @@ def print_response_controlled(data, models) -> None:
         print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {error_cells(r)} |")
     for note in result.response_controlled_notes:
         print(f"note: {note}")
+    print("\n" + repeatability_line(result.runs_repeatability) + " (levels and runs pooled: the runs' bands)")
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 

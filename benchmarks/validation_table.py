@@ -35,11 +35,17 @@ def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str,
         for r in result.held_out:
             print(f"| {r.level:g} | {r.label} | {error_cells(r, hz_digits)} |")
         if hold_out == "each":
-            repeat = result.repeatability
-            print(f"\ntest repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
-                  f"{repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio "
-                  f"{100 * repeat.damping_ratio:.{hz_digits}f} % (points)")
+            print("\n" + repeatability_line(result.repeatability, hz_digits))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
+
+
+def repeatability_line(repeat, hz_digits: int = 3) -> str:
+    """The test's repeatability as the tables state it beside every error."""
+    trend = "a line" if repeat.degree == 1 else "a parabola"
+    return (f"test repeatability (1σ about {trend} in log amplitude, {repeat.levels} curves, {repeat.dof} degrees of "
+            f"freedom): resonance {repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio "
+            f"{100 * repeat.damping_ratio:.{hz_digits}f} % (points) or {100 * repeat.damping_relative:.0f} % of "
+            f"itself, peak {100 * repeat.peak_relative:.0f} % of itself")
 
 
 def error_cells(r, hz_digits: int = 3) -> str:

@@ -167,6 +167,8 @@ class Validation:
     response_controlled_notes: tuple[str, ...] = ()
     #: the response-controlled runs kept beside the levels as backbone evidence (names)
     kept_runs: tuple[str, ...] = ()
+    #: the repeatability the response-controlled runs' bands use (levels and runs pooled)
+    runs_repeatability: Repeatability | None = None
 
     def summary(self) -> dict:
         """The ``validation.json`` content: the reference unit, the repeatability, auto's
@@ -179,6 +181,8 @@ class Validation:
                          "(nlupdate.core.validation.held_out)",
                 "held_out": [r.as_dict() for r in self.held_out],
                 **({"kept_response_controlled_runs": list(self.kept_runs)} if self.kept_runs else {}),
+                **({"response_controlled_repeatability": self.runs_repeatability.as_dict()}
+                   if self.runs_repeatability is not None else {}),
                 **({"response_controlled": [r.as_dict() for r in self.response_controlled]}
                    if self.response_controlled else {}),
                 **({"response_controlled_notes": list(self.response_controlled_notes)}
