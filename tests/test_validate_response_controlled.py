@@ -120,6 +120,35 @@ def test_validate_predicts_the_brb_response_controlled_runs(tmp_path, capsys):
     assert "response_controlled" not in json.loads((tmp_path / "off" / "validation.json").read_text())
 
 
+def test_validate_keeps_the_brb_response_controlled_runs_as_evidence(tmp_path, capsys):
+    """--response-controlled kept: the eight runs kept beside the three lower levels predict
+    the BRB's measured 1.46 N level within the issue's bounds in resonance (0.15 Hz) and
+    peak (15 %), closer than the log-amplitude baseline in both (measured −0.017 Hz and
+    −4.7 % against +0.078 Hz and +11.1 %); the runs are not predicted then."""
+    out = tmp_path / "kept"
+    code, text, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out",
+                              "top", "--model", "lines-background", "--response-controlled", "kept", "--out", out)
+    assert code == 0, err
+    summary = json.loads((out / "validation.json").read_text())
+    assert summary["kept_response_controlled_runs"] == [f"FRdata.ResponseControl({k})" for k in range(1, 9)]
+    assert "response_controlled" not in summary and "keeping 8 response-controlled run(s)" in text
+    assert summary["repeatability"]["levels"] == 12 and summary["repeatability"]["trend_degree"] == 2
+    top = summary["held_out"][0]
+    for name, bound in (("resonance_hz", 0.15), ("peak_abs", 0.15)):
+        c, b = top[name], top["baseline"][name]
+        error = c["predicted"] - c["measured"]
+        if name != "resonance_hz":
+            error, baseline = error / c["measured"], b["predicted"] / b["measured"] - 1
+        else:
+            baseline = b["predicted"] - b["measured"]
+        assert abs(error) < bound and abs(error) < abs(baseline), name
+        assert c["low"] <= c["measured"] <= c["high"], name
+    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out",
+                           "top", "--model", "amplitude-iwan", "--response-controlled", "kept", "--out", tmp_path / "no")
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert code == 2 and len(errors) == 1 and "only lines, lines-background can" in errors[0], err
+
+
 @pytest.mark.parametrize("flag", [True, False])
 def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, flag):
     """[validation] response_controlled (default true): the runs in validation.json, the
