@@ -174,3 +174,23 @@ def test_held_out_bands_cover_the_measured_level_on_simulated_tests():
     for quantity in ("resonance_hz", "damping_ratio", "peak_abs"):
         inside = [row["inside"] for row in rows if row["quantity"] == quantity and row["inside"] is not None]
         assert len(inside) >= 70 and 0.85 <= np.mean(inside) <= 0.99, (quantity, np.mean(inside))
+
+
+@pytest.mark.parametrize("stiffening", [0.0, 0.02])
+def test_the_force_per_line_is_the_sweep_read_line_by_line(stiffening):
+    """frf_at_forces is, by definition, line k of the upward stepped-sine sweep at force[k];
+    its direct root (one root per line) and its sweep (a fold: several) give that exactly,
+    without a fold and with one (a 4.5 % stiffening at 0.2 % damping jumps down)."""
+    from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+    from nlupdate.core.validation.models import frf_at_forces
+
+    model = AmplitudeModalModel(80.0, 0.002, (("0", 1.0),), frequency_coefficients=(0.0, stiffening),
+                                damping_coefficients=(0.0, 0.001), reference_amplitude=1e-3,
+                                beyond_reference="continued")
+    f = np.linspace(78.0, 86.0, 161)
+    force = 1.5 * (1 - 0.3 * np.exp(-(((f - 81.0) / 1.0) ** 2)))
+    reference = np.array([model.frf(f[:k + 1], float(force[k]), "0", "0")[-1] for k in range(f.size)])
+    ours = frf_at_forces(model, f, force, "0")
+    np.testing.assert_allclose(ours, reference, rtol=1e-9)
+    jump = np.max(np.abs(reference[:-1]) / np.abs(reference[1:]))
+    assert (jump > 3) == (stiffening > 0)  # the fold is there, and read as the sweep reads it
