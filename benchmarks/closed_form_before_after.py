@@ -7,7 +7,10 @@ loaded beside the working tree's in one process. Both ``frequency_sweep`` up + d
 10,000-point Duffing grid, the vectorised trigonometric solve of the cubic and batched
 companion eigenvalues at the same frequencies are timed interleaved; printed: CPU time
 (process and children) per frequency, medians, wall beside, the ratios, the load average,
-and the largest relative difference between the two codes' responses.
+the largest relative difference between the two codes' responses, and the goal (issue 39: the
+working tree's ``frequency_sweep`` ≤ 2× the trigonometric limit per frequency) met or not, on
+CPU time. ``--write-docs``: the output becomes its block of docs/performance.md
+(benchmarks/docs_block.py).
 """
 from __future__ import annotations
 
@@ -23,9 +26,10 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 
 import numpy as np  # noqa: E402
 
+from benchmarks import docs_block  # noqa: E402
 from benchmarks.frf.common import BAND, FORCE, duffing, interleaved, load_average, timed  # noqa: E402
 from benchmarks.frf.cubic_reference import companion_roots, trigonometric_roots  # noqa: E402
-from benchmarks.frf.grid import GRID_POINTS, cubic_coefficients  # noqa: E402
+from benchmarks.frf.grid import DF_LIMIT_GOAL, GRID_POINTS, cubic_coefficients  # noqa: E402
 from nlupdate.core.model.system import CondensedProblem  # noqa: E402
 from nlupdate.core.response.sweep import frequency_sweep  # noqa: E402
 
@@ -51,15 +55,22 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--commit", default="b86565c")
     parser.add_argument("--repeats", type=int, default=41)
+    docs_block.add_option(parser)
     args = parser.parse_args(argv)
-    old_module("closed_form_before", args.commit, "src/nlupdate/core/response/closed_form.py")
-    sweep_before = old_module("sweep_before", args.commit, "src/nlupdate/core/response/sweep.py",
+    with docs_block.writing_docs(args.write_docs, "closed_form_before_after.py", argv):
+        measure(args.commit, args.repeats)
+
+
+def measure(commit: str, repeats: int) -> None:
+    """Time the code of ``commit`` against the working tree's and print the table."""
+    old_module("closed_form_before", commit, "src/nlupdate/core/response/closed_form.py")
+    sweep_before = old_module("sweep_before", commit, "src/nlupdate/core/response/sweep.py",
                               ("from nlupdate.core.response import closed_form\n", "import closed_form_before as closed_form\n"))
     grid = np.linspace(*BAND, GRID_POINTS)
     system, forcing = duffing(), {0: FORCE}
     coefficients = cubic_coefficients(CondensedProblem(system, forcing), grid)
     tasks = {
-        f"before ({args.commit}): frequency_sweep up + down": timed(
+        f"before ({commit}): frequency_sweep up + down": timed(
             lambda: [sweep_before.frequency_sweep(system, forcing, grid, d) for d in ("up", "down")]),
         "after (working tree): frequency_sweep up + down": timed(
             lambda: [frequency_sweep(system, forcing, grid, d) for d in ("up", "down")]),
@@ -71,14 +82,17 @@ def main(argv: list[str] | None = None) -> None:
     difference = max(float(np.max(np.abs(a.x_nonlinear - b.x_nonlinear) / np.abs(b.x_nonlinear)))
                      for a, b in zip(after, before))
     print(f"closed_form_before_after.py — {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; "
-          f"load average {load_average()}; {GRID_POINTS} frequencies, medians of {args.repeats} interleaved repeats\n"
+          f"load average {load_average()}; {GRID_POINTS} frequencies, medians of {repeats} interleaved repeats\n"
           f"largest relative difference of the responses, after against before: {difference:.1e}")
-    timing = interleaved(tasks, args.repeats)
+    timing = interleaved(tasks, repeats)
     limit = timing["trigonometric limit, one solve"].cpu_median
     companion = timing["companion eigenvalues, one solve"].cpu_median
     for name, t in timing.items():
         print(f"  {name:52s} CPU {1e6 * t.cpu_median / GRID_POINTS:6.3f} µs per frequency (wall {1e6 * t.median / GRID_POINTS:6.3f});"
               f" {t.cpu_median / limit:5.2f}× the trigonometric limit, {t.cpu_median / companion:5.2f}× companion")
+    after_ratio = timing["after (working tree): frequency_sweep up + down"].cpu_median / limit
+    print(f"goal: frequency_sweep up + down ≤ {DF_LIMIT_GOAL:g}× the trigonometric limit per frequency (CPU): "
+          f"{after_ratio:.2f}× — {'met' if after_ratio <= DF_LIMIT_GOAL else 'NOT met'}")
     print(f"load average at the end {load_average()}")
 
 

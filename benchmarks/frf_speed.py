@@ -6,7 +6,8 @@ each part is one module there. ``--parts`` picks some (``1a,1b,1c,2,3,4``), ``--
 children) beside wall time, medians of interleaved repeats, and the load average; ratios and
 the goals' met / NOT met are on CPU time, which other work on a shared machine does not
 inflate as it does wall time. Pin to one core with one BLAS thread for stable figures:
-``OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/frf_speed.py``.
+``OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/frf_speed.py``. ``--write-docs``: the
+output becomes its block of docs/performance.md (benchmarks/docs_block.py).
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 import numpy as np  # noqa: E402
 import scipy  # noqa: E402
 
+from benchmarks import docs_block  # noqa: E402
 from benchmarks.frf.common import cpu_seconds, load_average, machine_description  # noqa: E402
 from benchmarks.frf.grid import grid_benchmark  # noqa: E402
 from benchmarks.frf.harmonic_balance import harmonic_balance_benchmark  # noqa: E402
@@ -45,24 +47,26 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short run: 3 repeats, no sequential time integration")
     parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated parts to run (default: all)")
+    docs_block.add_option(parser)
     args = parser.parse_args(argv)
     parts = [part.strip() for part in args.parts.split(",") if part.strip()]
     unknown = [part for part in parts if part not in PARTS]
     if unknown:
         parser.error(f"--parts: unknown {unknown}; known: {', '.join(PARTS)}")
-    started, cpu = time.perf_counter(), cpu_seconds()
-    now = datetime.datetime.now(datetime.timezone.utc)
-    version = pyharm_version()
-    print(
-        f"frf_speed.py {'--quick' if args.quick else '(full run)'} parts {', '.join(parts)} — {now:%Y-%m-%d %H:%M} UTC\n"
-        f"machine: {machine_description()}; load average at start {load_average()}\n"
-        f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}, "
-        f"pyHarm-os {version or 'not installed'}"
-    )
-    for part in parts:
-        PARTS[part](args.quick)
-    print(f"\nCPU time {cpu_seconds() - cpu:.0f} s (process and children), wall time {time.perf_counter() - started:.0f} s; "
-          f"load average at end {load_average()}")
+    with docs_block.writing_docs(args.write_docs, "frf_speed.py", argv):
+        started, cpu = time.perf_counter(), cpu_seconds()
+        now = datetime.datetime.now(datetime.timezone.utc)
+        version = pyharm_version()
+        print(
+            f"frf_speed.py {'--quick' if args.quick else '(full run)'} parts {', '.join(parts)} — {now:%Y-%m-%d %H:%M} UTC\n"
+            f"machine: {machine_description()}; load average at start {load_average()}\n"
+            f"Python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}, "
+            f"pyHarm-os {version or 'not installed'}"
+        )
+        for part in parts:
+            PARTS[part](args.quick)
+        print(f"\nCPU time {cpu_seconds() - cpu:.0f} s (process and children), wall time {time.perf_counter() - started:.0f} s; "
+              f"load average at end {load_average()}")
 
 
 if __name__ == "__main__":

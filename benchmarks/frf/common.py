@@ -2,9 +2,6 @@
 relation and the project's fixed-grid Newton sweep."""
 from __future__ import annotations
 
-import os
-import platform
-import resource
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -12,6 +9,7 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import brentq
 
+from benchmarks.docs_block import cpu_seconds, load_average, machine_description  # noqa: F401 (shared with the parts)
 from nlupdate.core.model.elements import CubicStiffness
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import CondensedProblem, NonlinearSystem, newton_fixed_frequency
@@ -67,12 +65,6 @@ class Timing:
     @property
     def cpu_best(self) -> float:
         return float(self.cpu.min())
-
-
-def cpu_seconds() -> float:
-    """CPU time (s) of this process (all threads) and of its finished, waited-for children."""
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def timed(function: Callable[[], object]) -> Callable[[], tuple[float, object]]:
@@ -140,27 +132,6 @@ def fmt_ratio(ratio: float) -> str:
 def fmt_list(values) -> str:
     values = list(values)
     return ", ".join(f"{v:.4f}" for v in values) if values else "—"
-
-
-def machine_description() -> str:
-    try:
-        with open("/proc/cpuinfo") as handle:
-            cpu = next((line.split(":", 1)[1].strip() for line in handle if line.startswith("model name")), "")
-    except OSError:
-        cpu = ""
-    cpu = cpu or platform.processor() or platform.machine()
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        cores = os.cpu_count()
-    return f"{cpu}, {cores} cores available to this process, {platform.system()} {platform.release()}"
-
-
-def load_average() -> str:
-    try:
-        return ", ".join(f"{value:.2f}" for value in os.getloadavg())
-    except OSError:  # pragma: no cover
-        return "n/a"
 
 
 def duffing() -> NonlinearSystem:
