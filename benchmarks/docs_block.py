@@ -89,8 +89,7 @@ def rerun_command(script: str, argv: list[str]) -> str:
             words += ["taskset", "-c", ",".join(map(str, allowed))]
     except AttributeError:  # pragma: no cover - not Linux
         pass
-    python = sys.executable
-    words.append("python" if Path(python).resolve().parent == Path(sys.base_prefix, "bin").resolve() else python)
+    words.append(sys.executable if sys.prefix != sys.base_prefix else "python")  # a venv: its interpreter
     words += [f"benchmarks/{script}", *argv]
     return " ".join(shlex.quote(word) if "=" not in word else word for word in words)
 
