@@ -15,8 +15,8 @@ from importlib import resources
 from pathlib import Path
 
 from nlupdate.app.cli import add_command, non_negative_int
-from nlupdate.app.cli.run import (add_execution_options, exit_code_for_failures, prefect_errors, print_summary,
-                              run_with_prefect)
+from nlupdate.app.cli.run import (add_execution_options, exit_code_for_failures, may_answer_from_cache, prefect_errors,
+                                  print_summary, run_with_prefect)
 
 DEMO_STUDY = "data/demo.toml"
 
@@ -36,7 +36,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    with prefect_errors(args, start_server=True):  # the server boots while the study is read
+    # the server boots while the study is read, unless the cache may answer the run without it
+    with prefect_errors(args, start_server=not may_answer_from_cache(args)):
         from nlupdate.study import study_from_text
 
         study = study_from_text(demo_study_text(args.seed), Path("demo.toml"))

@@ -119,13 +119,23 @@ def exit_code_for_failures(failures: list[dict]) -> int:
 
 def run_with_prefect(study, results_root: str, args: argparse.Namespace, annotations: dict[str, str] | None = None) -> Path:
     """Run ``study`` under Prefect with the execution options of ``args``; one-line errors.
-    ``annotations`` go into the manifest's ``run`` record."""
+    ``annotations`` go into the manifest's ``run`` record. A study whose every result is in
+    the cache is answered from it without Prefect (:mod:`nlupdate.orchestration.flows.from_cache`;
+    not with ``--no-cache``)."""
     from nlupdate.orchestration.flows.run import cache_directory
 
     check_dask_address(args)
     writable_folder(Path(results_root), "--out" if hasattr(args, "out") else "--results")
     writable_folder(cache_directory(args.cache_dir), "--cache-dir")
     args.interrupt_note = f"no archive was written to {results_root}; finished tasks stay in the cache"
+    if not args.no_cache:
+        from nlupdate.orchestration.flows.from_cache import answer_from_cache
+        from nlupdate.orchestration.flows.status_lines import Progress
+
+        archive = answer_from_cache(study, results_root, cache_directory(args.cache_dir), Progress(quiet=args.quiet),
+                                    annotations)
+        if archive is not None:
+            return archive
     with prefect_errors(args, start_server=True):
         from nlupdate.orchestration.flows.status_lines import Progress
         from nlupdate.orchestration.flows.run import run_study_flow
@@ -141,6 +151,15 @@ def print_summary(archive: Path) -> None:
 
     print(summary_section((archive / "report.md").read_text()))
     print(f"archive: {archive}\nreport:  {archive / 'report.md'}")
+
+
+def may_answer_from_cache(args: argparse.Namespace) -> bool:
+    """Whether the cache folder of ``args`` has records a run could be answered from (then
+    the run's server is not started before the cache is looked at)."""
+    from nlupdate.orchestration.flows.run import cache_directory
+    from nlupdate.orchestration.tasks.signing import RECORDS_FOLDER
+
+    return not args.no_cache and (cache_directory(args.cache_dir) / RECORDS_FOLDER).is_dir()
 
 
 def run(args: argparse.Namespace) -> int:

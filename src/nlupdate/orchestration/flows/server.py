@@ -96,6 +96,16 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
         worker.drain_all(timeout=timeout_s)
 
 
+#: Settings of the run's own server, unless the user's environment sets them. Its event
+#: persister is off: it writes every event of the run (three or more per task run) into the
+#: database's event table, for Prefect's event feed and automations; the flow run, its task
+#: runs with their states, its subflows and its logs are recorded without it (by the task-run
+#: recorder and the API), and the UI shows the run as before. Measured on cold demos against
+#: a running server (two A/B rounds, load 10–14): the server's CPU 5.6–5.7 s with it,
+#: 4.0–4.7 s without (docs/performance.md, "Prefect's share of the demo").
+RUN_SERVER_SETTINGS = {"PREFECT_SERVER_SERVICES_EVENT_PERSISTER_ENABLED": "false"}
+
+
 class RunServer:
     """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
     3.8's own command line; the app wrapped by :mod:`nlupdate.orchestration.flows.server_app`), started
@@ -131,7 +141,7 @@ class RunServer:
             args=[sys.executable, "-P", "-m", "nlupdate.orchestration.flows.server_process", str(os.getpid()),
                   "--app-dir", str(app_dir), "--factory", "nlupdate.orchestration.flows.server_app:create_app",
                   "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
-            env={**os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
+            env={**RUN_SERVER_SETTINGS, **os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
                  "PREFECT__SERVER_FINAL": "1", **settings},
             # a session of its own: a signal to the run's process group (timeout, kill -- -PGID,
             # a batch scheduler) reaches the run, which then stops its server after reporting to it

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import logging
+import sys
 import threading
 from collections import Counter, defaultdict
 from typing import Iterator
@@ -104,7 +105,10 @@ def _run_log() -> logging.Logger:
 
 
 def _log_to_flow_run(message: str) -> None:
-    """Send ``message`` to the current flow run's log, if there is one."""
+    """Send ``message`` to the current flow run's log, if there is one (none while Prefect
+    is not imported: a run answered from the cache, :mod:`nlupdate.orchestration.flows.from_cache`)."""
+    if "prefect.context" not in sys.modules:
+        return
     from prefect.context import FlowRunContext
 
     context = FlowRunContext.get()

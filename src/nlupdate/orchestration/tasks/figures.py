@@ -8,7 +8,7 @@ the study file (titles, names) and the plotting code, so it is kept under
 code and matplotlib's version — and any change of one draws it afresh.
 
 A kept figure is data like a task record: signed with the user's cache secret
-(:func:`nlupdate.orchestration.tasks.store.sign`) under its key and name, and written atomically. One
+(:func:`nlupdate.orchestration.tasks.signing.sign`) under its key and name, and written atomically. One
 that fails its check is named in one line and drawn again; one that cannot be written is
 simply not kept.
 """
@@ -19,7 +19,7 @@ from pathlib import Path
 
 from nlupdate.files import write_bytes_atomic
 from nlupdate.notices import NlupdateWarning
-from nlupdate.orchestration.tasks.store import sign, signed_payload
+from nlupdate.orchestration.tasks.signing import sign, signed_payload
 
 FOLDER = "figures-v1"
 

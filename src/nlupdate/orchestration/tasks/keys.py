@@ -22,8 +22,9 @@ from __future__ import annotations
 import ast
 import functools
 import hashlib
+import re
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 import nlupdate
 from nlupdate.fe.adapters.registry import AdapterSpec
@@ -68,16 +69,30 @@ def _imports(path: Path, package: Path) -> frozenset[str]:
     return _parsed_imports(path, package, stat.st_mtime_ns, stat.st_size)
 
 
+def _statements(nodes: list) -> Iterator[ast.AST]:
+    """Every statement of ``nodes`` and of the blocks inside them (function and class
+    bodies, branches, handlers, match cases): where import statements can be — a walk of
+    statements only, not of every expression (a fifth of the nodes, and most of the time)."""
+    for node in nodes:
+        yield node
+        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
+            inner = getattr(node, field, None)
+            if isinstance(inner, list):
+                yield from _statements(inner)
+
+
 @functools.cache
 def _parsed_imports(path: Path, package: Path, mtime_ns: int, size: int) -> frozenset[str]:
     """The nlupdate modules a source imports: its import statements (function bodies
     included, ``TYPE_CHECKING`` blocks not) and — when it imports by name at run time
     (``importlib.import_module``) — every module of its folder."""
     found: set[str] = set()
-    tree = ast.parse(path.read_text())
-    skipped = {id(node) for block in ast.walk(tree) if isinstance(block, ast.If)
+    text = path.read_text()
+    tree = ast.parse(text)
+    statements = list(_statements(tree.body))
+    skipped = {id(node) for block in statements if isinstance(block, ast.If)
                and isinstance(block.test, ast.Name) and block.test.id == "TYPE_CHECKING" for node in block.body}
-    for node in ast.walk(tree):
+    for node in statements:
         if id(node) in skipped:
             continue
         if isinstance(node, ast.Import):
@@ -85,10 +100,10 @@ def _parsed_imports(path: Path, package: Path, mtime_ns: int, size: int) -> froz
         elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("nlupdate"):
             found.update(f"{node.module}.{alias.name}" for alias in node.names)
             found.add(node.module)
-        elif isinstance(node, ast.Attribute) and node.attr == "import_module":
-            folder = path.parent.relative_to(package.parent)
-            found.update(".".join([*folder.parts, sibling.stem]) for sibling in path.parent.glob("*.py")
-                         if sibling.stem != "__main__")
+    if re.search(r"\.import_module\(", text):  # a module imported by name: any module of the folder
+        folder = path.parent.relative_to(package.parent)
+        found.update(".".join([*folder.parts, sibling.stem]) for sibling in path.parent.glob("*.py")
+                     if sibling.stem != "__main__")
     return frozenset(found)
 
 

@@ -16,16 +16,14 @@ run's cache). So every record
   or the new one, never a part (Prefect's own ``LocalFileSystem`` truncates and rewrites
   in place, which made concurrent readers fail and left truncated records after kills).
 
-Records live in ``<cache>/records-v1``; records of earlier versions (pickles) are never
-read. A disk that fills up stops caching with one warning, not silently.
+Signing and verifying (and reading a result without Prefect) are in
+:mod:`nlupdate.orchestration.tasks.signing`. Records live in ``<cache>/records-v1``;
+records of earlier versions (pickles) are never read. A disk that fills up stops caching with one warning, not silently.
 """
 from __future__ import annotations
 
 import base64
 import errno
-import hashlib
-import hmac
-import json
 import threading
 import warnings
 from pathlib import Path
@@ -38,11 +36,11 @@ from pydantic import Field
 from nlupdate.files import clean_leftovers, write_bytes_atomic
 from nlupdate.notices import NlupdateWarning
 from nlupdate.orchestration.tasks import records
-from nlupdate.user_config import cache_secret
+from nlupdate.orchestration.tasks.signing import (MAGIC, RECORDS_FOLDER, SERIALIZER_TYPE, records_schema_ok, sign,
+                                                  signed_payload, verified)
 
-MAGIC = b"nlupdate-record 1\n"
-RECORDS_FOLDER = "records-v1"
-SERIALIZER_TYPE = "nlupdate-data"
+__all__ = ["MAGIC", "RECORDS_FOLDER", "SERIALIZER_TYPE", "DataSerializer", "SignedLocalFileSystem", "record_store",
+           "records_schema_ok", "sign", "signed_payload", "verified"]
 
 
 class DataSerializer(Serializer):
@@ -55,40 +53,6 @@ class DataSerializer(Serializer):
 
     def loads(self, blob: bytes) -> Any:
         return records.loads(base64.b64decode(blob, validate=True))
-
-
-def _signature(secret: bytes, key: str, payload: bytes) -> bytes:
-    message = MAGIC + key.encode() + b"\0" + payload
-    return hmac.new(secret, message, hashlib.sha256).hexdigest().encode()
-
-
-def sign(key: str, payload: bytes, secret: bytes | None = None) -> bytes:
-    """The stored form of ``payload`` under ``key``."""
-    return MAGIC + _signature(secret or cache_secret(), key, payload) + b"\n" + payload
-
-
-def signed_payload(key: str, content: bytes, secret: bytes | None = None) -> bytes:
-    """The payload of what :func:`sign` stored under ``key``, or ``ValueError`` saying why it
-    cannot be trusted (whatever the payload holds)."""
-    if not content.startswith(MAGIC):
-        raise ValueError("not a signed nlupdate record (written by an older version or by something else)")
-    signature, _, payload = content[len(MAGIC):].partition(b"\n")
-    if not hmac.compare_digest(signature, _signature(secret or cache_secret(), key, payload)):
-        raise ValueError("its signature does not match (edited, copied from another key, or signed with another "
-                         "cache secret)")
-    return payload
-
-
-def verified(key: str, content: bytes, secret: bytes | None = None) -> bytes:
-    """The payload of a stored task record, or ``ValueError`` saying why it cannot be trusted."""
-    payload = signed_payload(key, content, secret)
-    try:
-        serializer = json.loads(payload)["metadata"]["serializer"]["type"]
-    except (ValueError, KeyError, TypeError):
-        raise ValueError("not a Prefect result record") from None
-    if serializer != SERIALIZER_TYPE:
-        raise ValueError(f"written with serializer {serializer!r}, not {SERIALIZER_TYPE!r}")
-    return payload
 
 
 _REPORTED: set[str] = set()
@@ -150,20 +114,6 @@ class SignedLocalFileSystem(LocalFileSystem):
 
     async def awrite_path(self, path: str, content: bytes) -> str:
         return self.write_path(path, content)
-
-
-def records_schema_ok(payload: bytes) -> None:
-    """``ValueError`` when the result inside a verified record is not data of this
-    version's schema (:func:`nlupdate.orchestration.tasks.records.check`)."""
-    try:
-        result = json.loads(payload)["result"]
-        blob = base64.b64decode(result, validate=True)
-    except (ValueError, KeyError, TypeError):
-        raise ValueError("its result is not stored as data") from None
-    try:
-        records.check(blob)
-    except records.RecordError as error:
-        raise ValueError(str(error)) from None
 
 
 _CLEANED: set[Path] = set()
