@@ -1,5 +1,6 @@
 """What Prefect costs the demo, in CPU seconds of every process of the run:
-``python benchmarks/prefect_share.py [--rounds N] [--python PYTHON]``.
+``python benchmarks/prefect_share.py [--rounds N] [--python PYTHON [--python PYTHON2]]``
+(two interpreters — two checkouts, before and after a change — are interleaved in every round).
 
 Per round, in rotated order (load hits every contender alike), each as a fresh process:
 
@@ -7,14 +8,16 @@ Per round, in rotated order (load hits every contender alike), each as a fresh p
   (:func:`nlupdate.study.run_study`, then the archive with its figures), imports included;
 * **cold demo** — ``python -m nlupdate demo`` in an empty folder (no task cache): the CLI,
   the Prefect server it starts, everything;
-* **cached rerun** — the same command again in that folder (every task cached);
+* **cached rerun** — the same command again in that folder (every result in the cache: answered
+  from it without Prefect, :mod:`nlupdate.orchestration.flows.from_cache`, when the code has that);
 * **two at once** — two cold demos started together in two empty folders;
 * **server start** — the run's Prefect server alone (:class:`nlupdate.orchestration.flows.server.RunServer`)
   until ``/api/health`` answers, then stopped;
 * **cold / cached, server running** — the cold demo and its rerun against a server that
-  was already running (``PREFECT_API_URL``, as with ``prefect server start``): what the
-  runs would cost if they shared one server. That server's CPU during each run is
-  counted (read from ``/proc`` before and after); its start is not.
+  was already running (``PREFECT_API_URL``, as with ``prefect server start``; started by a
+  helper process of the same interpreter): what the runs would cost if they shared one
+  server. That server's CPU during each run is counted (read from ``/proc`` before and
+  after); its start is not.
 
 CPU is user + system time of the benchmarked process and all its descendants, read from
 ``getrusage(RUSAGE_CHILDREN)`` after they were waited for (the server is a child of the
@@ -26,7 +29,8 @@ Every process gets one BLAS thread and a fresh ``PREFECT_HOME`` for the whole be
 (Prefect's database made by an untimed warm-up run, which also fills a bytecode cache
 under the work folder: an installed package has its bytecode, and this machine sets
 ``PYTHONDONTWRITEBYTECODE``). The demo's result lines (``* …``) of every demo must be the
-same; the script says so. Goals (issue 39): cold ≤ 1.3 × in process, cached ≤ 0.25 × in
+same; the script says so. ``--write-docs``: the output becomes its block of docs/performance.md
+(benchmarks/docs_block.py). Goals (issue 39): cold ≤ 1.3 × in process, cached ≤ 0.25 × in
 process, two at once ≤ 2 × one cold demo.
 """
 from __future__ import annotations
@@ -42,6 +46,10 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make the repository root importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks import docs_block  # noqa: E402
 
 IN_PROCESS = """
 import sys
@@ -135,18 +143,59 @@ def measure(commands: list[tuple[list[str], Path]], env: dict[str, str]) -> tupl
     return _children_cpu() - before, time.perf_counter() - started, runs
 
 
+SERVE = """
+import sys
+from nlupdate.orchestration.flows.environment import prepare_environment
+prepare_environment()
+from nlupdate.orchestration.flows.server import RunServer
+server = RunServer()
+server.wait(300)
+print(server.api_url, server.process.pid, flush=True)
+sys.stdin.read()
+server.stop()
+"""
+
+
+class SharedServer:
+    """A server kept running for the rounds' "server running" runs, started by ``python``
+    (its own nlupdate) in a helper process; stopped when the helper's stdin closes."""
+
+    def __init__(self, python: str, env: dict[str, str]) -> None:
+        self.helper = subprocess.Popen([python, "-c", SERVE], env=env, text=True, stdin=subprocess.PIPE,
+                                       stdout=subprocess.PIPE)
+        self.api_url, pid = self.helper.stdout.readline().split()
+        self.pid = int(pid)
+
+    def cpu(self) -> float:
+        import psutil
+
+        return sum(psutil.Process(self.pid).cpu_times()[:2])
+
+    def stop(self) -> None:
+        self.helper.stdin.close()
+        self.helper.wait()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="rounds of every contender (default 3)")
-    parser.add_argument("--python", default=sys.executable, help="interpreter with nlupdate installed")
+    parser.add_argument("--python", action="append",
+                        help="interpreter with nlupdate installed (default: this one); given twice or more, "
+                             "their contenders are interleaved in every round (before/after)")
     parser.add_argument("--keep", action="store_true", help="keep the work folder (its path is printed)")
+    docs_block.add_option(parser)
     args = parser.parse_args(argv)
+    with docs_block.writing_docs(args.write_docs, "prefect_share.py", argv):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    pythons = args.python or [sys.executable]
     work = Path(tempfile.mkdtemp(prefix="prefect-share-"))
     env = {key: value for key, value in os.environ.items()
            if key not in ("PREFECT_API_URL", "PYTHONDONTWRITEBYTECODE", "NLUPDATE_CACHE_DIR")}
     env.update({"PREFECT_HOME": str(work / "prefect-home"), "PYTHONPYCACHEPREFIX": str(work / "bytecode"),
                 "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"})
-    demo = [args.python, "-m", "nlupdate", "demo"]
     counter = iter(range(1, 10_000))
 
     def folder() -> Path:
@@ -154,107 +203,117 @@ def main(argv: list[str] | None = None) -> int:
         path.mkdir()
         return path
 
-    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, {args.python}; "
+    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, {', '.join(pythons)}; "
           f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    warm = folder()
-    for command in (demo, demo, [args.python, "-c", IN_PROCESS], [args.python, "-c", SERVER_START]):
-        measure([(command, warm)], env)  # untimed: Prefect's database, bytecode, the cache secret
-    from nlupdate.orchestration.flows.environment import prepare_environment
-    from nlupdate.orchestration.flows.server import RunServer
-
-    os.environ.update(env)  # the shared server: this benchmark's Prefect home and bytecode
-    prepare_environment()
-    running = RunServer()
-    running.wait(300)
-    rows: dict[str, list[tuple[float, float]]] = {}
-    extra: dict[str, list[float]] = {"server ready (s into the demo)": [], "server CPU in cold demo": [],
-                                     "server CPU in cached rerun": [], "server start wall": []}
+    for python in pythons:
+        warm = folder()
+        for command in ([python, "-m", "nlupdate", "demo"], [python, "-m", "nlupdate", "demo"],
+                        [python, "-c", IN_PROCESS], [python, "-c", SERVER_START]):
+            measure([(command, warm)], env)  # untimed: Prefect's database, bytecode, the cache secret
+    running = {python: SharedServer(python, env) for python in pythons}
+    rows: dict[str, dict[str, list[tuple[float, float]]]] = {python: {} for python in pythons}
+    extra: dict[str, dict[str, list[float]]] = {
+        python: {"server ready (s into the demo)": [], "server CPU in cold demo": [],
+                 "server CPU in cached rerun": [], "server start wall": []} for python in pythons}
     first_results: list[str] | None = None
     same = True
-
-    def record(name: str, cpu: float, wall: float) -> None:
-        rows.setdefault(name, []).append((cpu, wall))
-
-    def server_cpu(run: Run) -> float:
-        return sum(run.descendants.values())
 
     def check(run: Run) -> None:
         nonlocal first_results, same
         first_results = first_results or run.results()
         same = same and run.results() == first_results and bool(first_results)
 
-    def in_process() -> None:
-        cpu, wall, _ = measure([([args.python, "-c", IN_PROCESS], folder())], env)
-        record("in process (run_study + archive)", cpu, wall)
+    def contenders(python: str) -> list:
+        demo = [python, "-m", "nlupdate", "demo"]
+        mine, more = rows[python], extra[python]
 
-    def cold_and_cached() -> None:
-        place = folder()
-        cpu, wall, (run,) = measure([(demo, place)], env)
-        record("cold demo (Prefect)", cpu, wall)
-        extra["server CPU in cold demo"].append(server_cpu(run))
-        extra["server ready (s into the demo)"].append(run.mark("Prefect server:"))
-        check(run)
-        cpu, wall, (run,) = measure([(demo, place)], env)
-        record("cached rerun (Prefect)", cpu, wall)
-        extra["server CPU in cached rerun"].append(server_cpu(run))
-        check(run)
+        def record(name: str, cpu: float, wall: float) -> None:
+            mine.setdefault(name, []).append((cpu, wall))
 
-    def two_at_once() -> None:
-        cpu, wall, runs = measure([(demo, folder()), (demo, folder())], env)
-        record("two cold demos at once", cpu, wall)
-        for run in runs:
+        def in_process() -> None:
+            cpu, wall, _ = measure([([python, "-c", IN_PROCESS], folder())], env)
+            record("in process (run_study + archive)", cpu, wall)
+
+        def cold_and_cached() -> None:
+            place = folder()
+            cpu, wall, (run,) = measure([(demo, place)], env)
+            record("cold demo", cpu, wall)
+            more["server CPU in cold demo"].append(sum(run.descendants.values()))
+            more["server ready (s into the demo)"].append(run.mark("Prefect server:"))
+            check(run)
+            cpu, wall, (run,) = measure([(demo, place)], env)
+            record("cached rerun", cpu, wall)
+            more["server CPU in cached rerun"].append(sum(run.descendants.values()))
             check(run)
 
-    def server_start() -> None:
-        cpu, wall, (run,) = measure([([args.python, "-c", SERVER_START], folder())], env)
-        record("server start alone (CPU: both processes)", cpu, wall)
-        extra["server start wall"].append(float(run.lines[-1][1].split()[-1]))
+        def two_at_once() -> None:
+            cpu, wall, runs = measure([(demo, folder()), (demo, folder())], env)
+            record("two cold demos at once", cpu, wall)
+            for run in runs:
+                check(run)
 
-    def against_running_server() -> None:
-        import psutil
+        def server_start() -> None:
+            cpu, wall, (run,) = measure([([python, "-c", SERVER_START], folder())], env)
+            record("server start alone (CPU: both processes)", cpu, wall)
+            more["server start wall"].append(float(run.lines[-1][1].split()[-1]))
 
-        place, server = folder(), psutil.Process(running.process.pid)
-        for name in ("cold demo, server running", "cached rerun, server running"):
-            before = sum(server.cpu_times()[:2])
-            cpu, wall, (run,) = measure([(demo, place)], {**env, "PREFECT_API_URL": running.api_url})
-            record(name, cpu + sum(server.cpu_times()[:2]) - before, wall)
-            check(run)
+        def against_running_server() -> None:
+            place, server = folder(), running[python]
+            for name in ("cold demo, server running", "cached rerun, server running"):
+                before = server.cpu()
+                cpu, wall, (run,) = measure([(demo, place)], {**env, "PREFECT_API_URL": server.api_url})
+                record(name, cpu + server.cpu() - before, wall)
+                check(run)
 
-    contenders = [in_process, cold_and_cached, two_at_once, server_start, against_running_server]
+        return [in_process, cold_and_cached, two_at_once, server_start, against_running_server]
+
+    every = [contender for python in pythons for contender in contenders(python)]
     for number in range(args.rounds):
-        order = contenders[number % len(contenders):] + contenders[:number % len(contenders)]
+        shift = number % len(every)
         load = os.getloadavg()[0]
-        for contender in order:
+        for contender in every[shift:] + every[:shift]:
             contender()
         print(f"round {number + 1}: load {load:.2f} → {os.getloadavg()[0]:.2f}; " + "; ".join(
-            f"{name} {values[-1][0]:.1f} s CPU / {values[-1][1]:.1f} s" for name, values in rows.items()), flush=True)
+            f"{label(python, pythons)}{name} {values[-1][0]:.1f} s CPU / {values[-1][1]:.1f} s"
+            for python in pythons for name, values in rows[python].items()), flush=True)
 
-    medians = {name: (statistics.median(c for c, _ in values), statistics.median(w for _, w in values))
-               for name, values in rows.items()}
-    base = medians["in process (run_study + archive)"][0]
-    cold = medians["cold demo (Prefect)"][0]
-    print(f"\nmedians of {args.rounds} rounds (CPU: every process of the run)")
-    print(f"| run | CPU (s) | wall (s) | CPU ÷ in process |\n|---|---|---|---|")
-    for name, (cpu, wall) in medians.items():
-        print(f"| {name} | {cpu:.2f} | {wall:.2f} | {cpu / base:.2f} |")
-    for name, values in extra.items():
-        print(f"{name}: median {statistics.median(values):.2f} s (" + ", ".join(f"{v:.2f}" for v in values) + ")")
-    cached = medians["cached rerun (Prefect)"][0]
-    pair = medians["two cold demos at once"][0]
-    print(f"goals: cold {cold / base:.2f} × in process (≤ 1.3: {'met' if cold <= 1.3 * base else 'NOT met'}); "
-          f"cached {cached / base:.2f} × (≤ 0.25: {'met' if cached <= 0.25 * base else 'NOT met'}); "
-          f"two at once {pair / cold:.2f} × one cold demo (≤ 2: {'met' if pair <= 2 * cold else 'NOT met'})")
-    shared = medians["cached rerun, server running"][0]
-    print(f"with one server for the runs: cold {medians['cold demo, server running'][0] / base:.2f} ×, "
-          f"cached {shared / base:.2f} × in process")
+    for python in pythons:
+        report(python, rows[python], extra[python], args.rounds)
     print(f"result lines of every demo: {'the same' if same else 'DIFFER'}")
     print(f"load at the end {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    running.stop()
+    for server in running.values():
+        server.stop()
     if args.keep:
         print(f"work folder: {work}")
     else:
         shutil.rmtree(work, ignore_errors=True)
     return 0 if same else 1
+
+
+def label(python: str, pythons: list[str]) -> str:
+    """``python``'s name in the round lines when several are compared, else nothing."""
+    return f"[{python}] " if len(pythons) > 1 else ""
+
+
+def report(python: str, rows: dict[str, list[tuple[float, float]]], extra: dict[str, list[float]], rounds: int) -> None:
+    """The medians of one interpreter's contenders and the goals."""
+    medians = {name: (statistics.median(c for c, _ in values), statistics.median(w for _, w in values))
+               for name, values in rows.items()}
+    base = medians["in process (run_study + archive)"][0]
+    cold = medians["cold demo"][0]
+    print(f"\n{python}: medians of {rounds} rounds (CPU: every process of the run)")
+    print("| run | CPU (s) | wall (s) | CPU ÷ in process |\n|---|---|---|---|")
+    for name, (cpu, wall) in medians.items():
+        print(f"| {name} | {cpu:.2f} | {wall:.2f} | {cpu / base:.2f} |")
+    for name, values in extra.items():
+        print(f"{name}: median {statistics.median(values):.2f} s (" + ", ".join(f"{v:.2f}" for v in values) + ")")
+    cached = medians["cached rerun"][0]
+    pair = medians["two cold demos at once"][0]
+    print(f"goals: cold {cold / base:.2f} × in process (≤ 1.3: {'met' if cold <= 1.3 * base else 'NOT met'}); "
+          f"cached {cached / base:.2f} × (≤ 0.25: {'met' if cached <= 0.25 * base else 'NOT met'}); "
+          f"two at once {pair / cold:.2f} × one cold demo (≤ 2: {'met' if pair <= 2 * cold else 'NOT met'})")
+    print(f"with one server for the runs: cold {medians['cold demo, server running'][0] / base:.2f} ×, "
+          f"cached {medians['cached rerun, server running'][0] / base:.2f} × in process")
 
 
 if __name__ == "__main__":
