@@ -89,7 +89,8 @@ def residual_basis(model: LumpedModel, nonlinear_dofs: Sequence[int], directions
     residual = static - phi @ ((phi.T @ loads) / omega_sq[:, None])
     residual -= phi @ (phi.T @ (m @ residual))  # M-orthogonal to the modes (rounding)
     gram_values, gram_vectors = np.linalg.eigh(residual.T @ m @ residual)
-    keep = gram_values > 1e-12 * max(gram_values.max(initial=0.0), 1e-300)
+    scale = np.einsum("ij,ij->", static, m @ static)  # the whole static response's M-norm²
+    keep = gram_values > 1e-12 * max(scale, 1e-300)  # what the modes leave of it, not rounding
     residual = residual @ (gram_vectors[:, keep] / np.sqrt(gram_values[keep]))
     basis = np.hstack([phi, residual])
     _, rotation = scipy.linalg.eigh(basis.T @ k @ basis, basis.T @ m @ basis, check_finite=False)
@@ -99,9 +100,8 @@ def residual_basis(model: LumpedModel, nonlinear_dofs: Sequence[int], directions
 def reduced_hill_model(model: LumpedModel, nonlinear_dofs: Sequence[int], basis: NDArray) -> HillModel:
     """:class:`HillModel` of the dense ``model`` projected on ``basis`` (n_dof, n_q): every matrix
     ``TᵀXT``, the map to the nonlinear coordinates ``T[a]``."""
-    m, k, c, d = model._dense_mkcd
-    project = lambda matrix: basis.T @ matrix @ basis  # noqa: E731
-    return HillModel(project(m), project(c), project(d), project(k), basis[list(nonlinear_dofs)])
+    m, k, c, d = (basis.T @ matrix @ basis for matrix in model._dense_mkcd)
+    return HillModel(m, c, d, k, basis[list(nonlinear_dofs)])
 
 
 def hill_model(model, nonlinear_dofs: Sequence[int], element_index: Sequence[tuple], omega_max: float,
