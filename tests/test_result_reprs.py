@@ -50,7 +50,7 @@ def test_updating_result_prints_one_line_and_a_summary(chain):
     _, updated, _ = chain
     assert numbers_after(short(updated), "k1") == pytest.approx(1e6, rel=1e-3)
     lines = updated.summary().splitlines()
-    assert lines[0].startswith("eigensensitivity central2: k1 = ") and lines[1].startswith("converged")
+    assert lines[0].startswith("eigensensitivity forward: k1 = ") and lines[1].startswith("converged")
     before, after, target = map(float, re.fullmatch(r"mode1: (\S+) → (\S+) Hz \(target (\S+) Hz\)", lines[-1]).groups())
     # the chain's mode 2 with k1 = 0.8e6 N/m, from its matrices
     mass, stiffness = np.diag([0.1, 0.5]), np.array([[1.8e6, -1e6], [-1e6, 2e6]])

@@ -183,15 +183,16 @@ def test_the_prediction_keywords_of_the_api_are_the_declared_defaults():
 
 def test_the_update_api_takes_every_declared_option_of_the_methods():
     """``nlupdate.update``'s further keywords are the updating methods' declared settings:
-    each one, given at its declared default, is taken by the run. Two differ, by the API's
-    own design: its ``method`` chooses the updating method (so ``[optimisation] method``, the
-    least-squares method, keeps its default there) and its ``formula`` defaults to
-    ``"central2"``."""
+    each one, given at its declared default, is taken by the run, and ``formula`` left out is
+    the declared default. One differs, by the API's own design: its ``method`` chooses the
+    updating method (so ``[optimisation] method``, the least-squares method, keeps its
+    default there)."""
     from nlupdate.fe.adapters.base import Parameter
 
     model = api.fe_model("lumped", masses=[0.1, 0.5], stiffnesses=[0.8e6, 1.2e6, 1.0e6])
     parameters = [Parameter("k1", "N/m", 0.8e6, 0.5e6, 1.5e6)]
-    assert inspect.signature(api.update).parameters["formula"].default == "central2"
+    study_formulas = TABLES["eigensensitivity"][0][0]().formulas
+    assert api.update(model, parameters, [267.97]).history["formula"].iloc[0] == study_formulas[0]
     for method, tables in (("eigensensitivity", ("updating", "eigensensitivity")),
                            ("optimisation", ("updating", "optimisation"))):
         options = {name: field.default for table in tables for cls, own in TABLES[table]

@@ -223,7 +223,7 @@ def update(
     targets_hz: Sequence[float] | UpdatingTargets,
     *,
     method: str = "eigensensitivity",
-    formula: str = "central2",
+    formula: str | None = None,
     weights: Sequence[float] | None = None,
     model_modes: Sequence[int] = (),
     fixed: Mapping[str, float] | None = None,
@@ -237,7 +237,7 @@ def update(
     upper bound, relative finite-difference step), in the model's units (SI: E in Pa, k in N/m).
     ``method``: ``"eigensensitivity"`` (inverse eigensensitivity, iterations of a
     finite-difference Jacobian: ``formula`` ``forward``, ``backward``, ``central2`` or
-    ``central4``) or ``"optimisation"`` (bounded weighted least squares). ``weights``:
+    ``central4``; default the one the study's ``[updating]`` table declares, ``forward``) or ``"optimisation"`` (bounded weighted least squares). ``weights``:
     per target mode; ``model_modes``: 1-based model modes paired with the targets (default
     1, 2, …); ``fixed``: values of other model parameters; further keywords are the fields
     of the method's options (``max_iterations``, ``frequency_tolerance``, ``pairing``, …).
@@ -259,8 +259,11 @@ def update(
     kinds = {"eigensensitivity": EigensensitivityOptions, "optimisation": OptimisationOptions}
     if method not in kinds:
         raise ValueError(f"updating method must be one of {list(kinds)}, got {method!r}")
-    return run_method(method, adapter, tuple(parameters), targets, kinds[method](formula=formula, **options),
-                      fixed, name or f"{method} {formula}")
+    if formula is not None:
+        options["formula"] = formula
+    method_options = kinds[method](**options)
+    return run_method(method, adapter, tuple(parameters), targets, method_options,
+                      fixed, name or f"{method} {method_options.formula}")
 
 
 # ----------------------------------------------------------------------------- predict
