@@ -36,14 +36,35 @@ from nlupdate.core.response.sweep import frequency_sweep  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 
 
+# Before 16a321a the package was not under src/ and had no core/ layer: the old code's own
+# path and its imports of the modules that still exist, moved.
+MOVED = (("src/nlupdate/core/", "nlupdate/"),)
+MOVED_IMPORTS = (("nlupdate.model.", "nlupdate.core.model."), ("nlupdate.response.", "nlupdate.core.response."))
+
+
+def old_source(commit: str, path: str) -> tuple[str, str]:
+    """(path as of ``commit``, its text): ``path`` or, for a commit before the move, its old path."""
+    candidates = [path] + [path.replace(new, old, 1) for new, old in MOVED if path.startswith(new)]
+    for candidate in candidates:
+        shown = subprocess.run(["git", "show", f"{commit}:{candidate}"], cwd=ROOT, capture_output=True, text=True)
+        if shown.returncode == 0:
+            return candidate, shown.stdout
+    raise FileNotFoundError(f"--commit {commit}: none of {', '.join(candidates)} exists there")
+
+
 def old_module(name: str, commit: str, path: str, replace: tuple[str, str] | None = None) -> types.ModuleType:
-    """The module at ``path`` as of ``commit``, loaded under ``name`` (``replace``: one text substitution)."""
-    source = subprocess.run(["git", "show", f"{commit}:{path}"], cwd=ROOT, capture_output=True, text=True,
-                            check=True).stdout
+    """The module at ``path`` as of ``commit``, loaded under ``name`` (``replace``: one text substitution;
+    then its imports of moved modules follow them)."""
+    path, source = old_source(commit, path)
     if replace:
+        replace = (replace[0].replace("nlupdate.core.", "nlupdate.") if replace[0] not in source else replace[0],
+                   replace[1])
         if source.count(replace[0]) != 1:
             raise ValueError(f"{commit}:{path}: expected one {replace[0]!r}")
         source = source.replace(*replace)
+    for before, after in MOVED_IMPORTS:
+        source = source.replace(f"from {before}", f"from {after}").replace(f"from {before[:-1]} import",
+                                                                           f"from {after[:-1]} import")
     module = types.ModuleType(name)
     module.__file__ = f"{commit}:{path}"
     sys.modules[name] = module  # dataclasses look their module up
