@@ -58,7 +58,7 @@ def machine_description() -> str:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
         cores = os.cpu_count()
-    return f"{cpu}, {cores} cores available to this process, {platform.system()} {platform.release()}"
+    return f"{cpu}, {cores} of {os.cpu_count()} cores available to this process, {platform.system()} {platform.release()}"
 
 
 def load_average() -> str:
