@@ -214,7 +214,7 @@ def test_validate_takes_the_validation_keys_it_shares_with_the_study():
     out instead of levels, where a study does both) takes the same types."""
     options = validate_options()
     for name, (_, declaration) in settings_of(ValidationSpec).items():
-        if declaration.flag == "":  # the command's own forms: --model a,b; --response-controlled auto|off|kept; --shape
+        if declaration.flag == "":  # the command's own forms: --model a,b; --shape
             continue
         assert options[name].option_strings[0] == flag_of(name, declaration), name
     assert tuple(options["hold_out_type"].choices) == settings_of(ValidationSpec)["hold_out_type"][1].choices
@@ -226,6 +226,30 @@ def test_validate_takes_the_validation_keys_it_shares_with_the_study():
     assert parser.parse_args(["validate", "--hold-out", "top", "--out", "x"]).hold_out == "top"
     with pytest.raises(SystemExit):
         parser.parse_args(["validate", "--hold-out", "middle", "--out", "x"])
+
+
+def test_response_controlled_takes_the_same_choices_in_the_study_and_the_command(tmp_path):
+    """``[validation] response_controlled`` and ``--response-controlled``: auto, off or kept
+    from one declaration; a study's earlier true/false still reads (as auto/off); anything
+    else is one line naming the key and the new form."""
+    choices = settings_of(ValidationSpec)["response_controlled"][1].choices
+    assert choices == ("auto", "off", "kept") and tuple(validate_options()["response_controlled"].choices) == choices
+    parser = build_parser(["validate"])
+    args = parser.parse_args(["validate", "--response-controlled", "kept", "--out", "x"])
+    assert ValidationSpec(**setting_values(args, ValidationSpec)).response_controlled == "kept"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["validate", "--response-controlled", "true", "--out", "x"])
+    for given, read in [("kept", "kept"), ("off", "off"), ("auto", "auto"), (True, "auto"), (False, "off")]:
+        data = base_of("validation")
+        data["validation"]["response_controlled"] = given
+        assert load(data, tmp_path).validation.response_controlled == read, given
+    assert load(base_of("validation"), tmp_path).validation.response_controlled == "auto"
+    data = base_of("validation")
+    data["validation"]["response_controlled"] = "yes"
+    with pytest.raises(StudyError) as error:
+        load(data, tmp_path)
+    message = str(error.value)
+    assert "\n" not in message and "[validation] key 'response_controlled'" in message and '"kept"' in message, message
 
 
 @dataclasses.dataclass(frozen=True)

@@ -149,10 +149,12 @@ def test_validate_keeps_the_brb_response_controlled_runs_as_evidence(tmp_path, c
     assert code == 2 and len(errors) == 1 and "only lines, lines-background can" in errors[0], err
 
 
-@pytest.mark.parametrize("flag", [True, False])
+@pytest.mark.parametrize("flag", [True, "off", "kept"])
 def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, flag):
-    """[validation] response_controlled (default true): the runs in validation.json, the
-    plot and the report's table — the same numbers as the command's — or none when false."""
+    """[validation] response_controlled (default "auto"; true, the earlier form, is auto): the
+    runs in validation.json, the plot and the report's table — the same numbers as the
+    command's — none with "off", and with "kept" the held-out level predicted with the runs
+    kept, as ``--response-controlled kept`` has it."""
     from test_validate import _brb_study
 
     study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"], "response_controlled": flag})
@@ -160,8 +162,18 @@ def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, 
     assert code == 0, err
     run = tmp_path / "run"
     summary = json.loads((run / "validation.json").read_text())
-    if not flag:
+    if flag == "off":
         assert "response_controlled" not in summary and not (run / "plots" / "response_controlled.png").exists()
+        return
+    if flag == "kept":
+        assert "response_controlled" not in summary and len(summary["kept_response_controlled_runs"]) == 8
+        code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out",
+                               "top", "--model", "lines", "--response-controlled", "kept", "--out", tmp_path / "cli")
+        assert code == 0, err
+        command = json.loads((tmp_path / "cli" / "validation.json").read_text())
+        assert command["kept_response_controlled_runs"] == summary["kept_response_controlled_runs"]
+        ours, theirs = summary["held_out"][0], command["held_out"][0]
+        assert ours["resonance_hz"]["predicted"] == pytest.approx(theirs["resonance_hz"]["predicted"], rel=1e-12)
         return
     code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
                            "--model", "lines", "--out", tmp_path / "cli")

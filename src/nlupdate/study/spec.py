@@ -20,6 +20,7 @@ from typing import Any, Iterator, Mapping
 
 from nlupdate.core.response.method import HARMONICS_FORM, MAX_HARMONICS, RESPONSE_METHODS
 from nlupdate.core.updating.targets import FRF_METHODS
+from nlupdate.core.validation.held_response import RESPONSE_CONTROLLED
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES
 from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import AdapterSpec
@@ -188,10 +189,14 @@ class ValidationSpec:
     input_dof: str | None = setting(
         None, kind="string", default_text="the identification's input (in a study), else the table's only one",
         meaning="the driving point whose curve is judged")
-    response_controlled: bool = setting(
-        True, kind="boolean", flag="",
-        meaning="predict the response-controlled runs of the measured MATLAB files at their held amplitude from all "
-                "force-controlled levels (with `hold_out_type`: those runs are a source)")
+    response_controlled: str = setting(
+        "auto", kind="choice|boolean", choices=RESPONSE_CONTROLLED,
+        form_text='"auto", "off" or "kept" (true and false, the earlier form, are read as "auto" and "off")',
+        meaning="the response-controlled runs of the measured MATLAB files: `auto` predicts them at their held "
+                "amplitude from all force-controlled levels; `off` leaves them out; `kept` keeps them beside the "
+                "force-controlled levels as backbone evidence of every fit (models `lines`, `lines-background` and "
+                "`auto` among them; the held-out levels are still force-controlled ones). With `hold_out_type`, "
+                "`auto` and `kept` make them a source")
     hold_out_type: str | None = setting(
         None, kind="choice", choices=HELD_TYPES, default_text="none", flag="",
         meaning="hold out a whole test type as well: the amplitude-dependent modal model fitted on the other "
@@ -206,6 +211,10 @@ class ValidationSpec:
         meaning="with `hold_out_type`: free-decay records of the mode (.csv: `time_s` and one column per channel; "
                 "or .mat), read as `nlupdate amplitude --ring-down` reads them (displacement, m), band-passed in "
                 "the measured band")
+
+    def __post_init__(self) -> None:
+        if isinstance(self.response_controlled, bool):  # the earlier true/false form
+            object.__setattr__(self, "response_controlled", "auto" if self.response_controlled else "off")
 
 
 @dataclass(frozen=True)

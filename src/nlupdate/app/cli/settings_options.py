@@ -35,7 +35,7 @@ def add_setting_options(parser: argparse.ArgumentParser, cls: type, skip: Iterab
             raise TypeError(f"{cls.__name__}.{name}: a table has no command-line option (declare flag=\"\")")
         if declaration.kind == "boolean":
             options.update(action="store_const", const=True)
-        elif declaration.kind == "choice":
+        elif declaration.kind == "choice" or declaration.kind == "choice|boolean":  # true/false: a study file's form
             options["choices"] = declaration.choices
         else:
             options["type"] = _parser(declaration)

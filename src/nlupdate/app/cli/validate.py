@@ -25,14 +25,13 @@ from __future__ import annotations
 import argparse
 import re
 
-import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError, add_command
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, read_options
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
-from nlupdate.app.cli.settings_options import add_setting_options, setting_values
+from nlupdate.app.cli.settings_options import add_setting_options, setting_values, with_flags
 from nlupdate.app.cli.validate_type import add_type_options, run_held_type
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
@@ -40,8 +39,7 @@ from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
-from nlupdate.core.validation.held_out import validate
-from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
+from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
 from nlupdate.study.spec import ValidationSpec
 
@@ -50,15 +48,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = add_command(subparsers, "validate", __doc__)
     add_measured_options(parser, "the curves are cut to before any fit (default: every measured line); of a ring-down, "
                                  "its band-pass", required=False)
-    add_setting_options(parser, ValidationSpec)  # --hold-out, --input-dof: the study's [validation] keys
+    add_setting_options(parser, ValidationSpec)  # --hold-out, --input-dof, --response-controlled: [validation]'s
     parser.add_argument("--model", default="auto", metavar="NAMES",
                         help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
                              f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
                              f"from each other best)")
-    parser.add_argument("--response-controlled", choices=("auto", "off", "kept"), default="auto",
-                        help="auto (default): predict the response-controlled runs of the --measured MATLAB files from "
-                             "all force-controlled levels; off: do not; kept: keep them beside the levels as backbone "
-                             "evidence of every fit (models lines, lines-background; they are then not predicted)")
     add_type_options(parser)
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
@@ -117,28 +111,15 @@ def run(args: argparse.Namespace) -> int:
     table, notes = measured_table(args, find_band=True)
     print_notes(notes)
     data = _curve(table, args.input_dof, ", ".join(args.measured))
+    spec = ValidationSpec(**setting_values(args, ValidationSpec))
     try:
-        kept_runs = []
-        if args.response_controlled == "kept":
-            kept_runs, skipped = held_runs_of(args.measured, read_options(args), data)
-            print_notes(skipped)
-            if not kept_runs:
-                raise CliError(f"--response-controlled kept: {', '.join(args.measured)} holds no response-controlled "
-                               f"run at {data.input_dof}")
-            print(f"keeping {len(kept_runs)} response-controlled run(s) beside the force-controlled levels")
         with terminal_progress() as progress:
-            validation = validate(data, ValidationSpec(**setting_values(args, ValidationSpec)).hold_out, models,
-                                  progress=progress, runs=kept_runs)
-        if args.response_controlled == "auto":
-            runs, skipped = held_runs_of(args.measured, read_options(args), data)
-            print_notes(skipped)
-            if runs:
-                print(f"predicting {len(runs)} response-controlled run(s) from the {data.levels.size} force-controlled "
-                      f"levels")
-                with terminal_progress() as progress:
-                    validation = with_held_runs(validation, data, runs, models, progress)
+            validation = validate_measured(data, spec.hold_out, models, spec.response_controlled, args.measured,
+                                           read_options(args), progress)
     except ValueError as error:
-        raise CliError(str(error)) from None
+        raise CliError(with_flags(str(error), ValidationSpec)) from None
+    if validation.kept_runs:
+        print(f"keeping {len(validation.kept_runs)} response-controlled run(s) beside the force-controlled levels")
     unit = data.reference_unit
     several = len(models) > 1
     repeat = validation.repeatability

@@ -27,6 +27,7 @@ from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response
 from nlupdate.core.validation.held_out import (
     CurveComparison, Repeatability, Validation, baseline_fits, curve_comparison, kept_misfit, refits, repeatability,
+    validate,
 )
 from nlupdate.core.validation.models import choose_model, model_fitter
 from nlupdate.progress import ProgressCallback, no_progress
@@ -126,3 +127,30 @@ def held_runs_of(paths: Sequence[str | Path], options: ReadOptions, data: FRFLev
                 notes.append(f"{path}: response-controlled run {run.name} at {run.response_dof}/{run.input_dof} left "
                              f"out: the force-controlled curve is at {data.response_dof}/{data.input_dof}")
     return sorted(runs, key=lambda run: run.held_m), notes
+
+
+#: What is done with the response-controlled runs of the measured MATLAB files (``[validation]
+#: response_controlled``, ``nlupdate validate --response-controlled``): predicted from all
+#: force-controlled levels, left out, or kept beside the levels as backbone evidence.
+RESPONSE_CONTROLLED = ("auto", "off", "kept")
+
+
+def validate_measured(data: FRFLevels, hold_out, models: Sequence[str], response_controlled: str,
+                      paths: Sequence[str | Path], options: ReadOptions,
+                      progress: ProgressCallback = no_progress) -> Validation:
+    """:func:`~nlupdate.core.validation.held_out.validate` of ``data`` with the
+    response-controlled runs of the MATLAB files among ``paths`` treated as
+    ``response_controlled`` says (:data:`RESPONSE_CONTROLLED`): ``auto`` predicts them
+    (:func:`with_held_runs`), ``kept`` keeps them in every fit (ValueError when there are
+    none), ``off`` ignores them. The runs left out, and why, are in
+    ``response_controlled_notes``."""
+    if response_controlled not in RESPONSE_CONTROLLED:
+        raise ValueError(f"response_controlled {response_controlled!r}: expected one of {', '.join(RESPONSE_CONTROLLED)}")
+    runs, notes = held_runs_of(paths, options, data) if response_controlled != "off" else ([], [])
+    if response_controlled == "kept" and not runs:
+        raise ValueError(f"response_controlled kept: {', '.join(map(str, paths))} holds no response-controlled run at "
+                         f"{data.input_dof}")
+    validation = validate(data, hold_out, models, progress=progress, runs=runs if response_controlled == "kept" else ())
+    if response_controlled == "auto" and runs:
+        validation = with_held_runs(validation, data, runs, models, progress)
+    return replace(validation, response_controlled_notes=validation.response_controlled_notes + tuple(notes))

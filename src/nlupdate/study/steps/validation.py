@@ -11,8 +11,8 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
-from nlupdate.core.validation.held_out import Validation, validate
-from nlupdate.core.validation.held_response import held_runs_of, with_held_runs
+from nlupdate.core.validation.held_out import Validation
+from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.held_type import (
     BACKBONE_OF_MODEL, HeldType, Source, TypedValidation, default_resamples, hold_out_type,
 )
@@ -32,14 +32,8 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
     paths = [measured.file] if measured.file is not None else [path for path, _ in measured.files]
     try:
         data = FRFLevels.from_table(table, input_dof, input_dof)
-        validation = validate(data, spec.hold_out, spec.models)
-        if spec.response_controlled and paths:
-            runs, notes = held_runs_of(paths, measured.read_options(), data)
-            if runs:
-                validation = with_held_runs(validation, data, runs, spec.models)
-            if notes:
-                validation = dataclasses.replace(
-                    validation, response_controlled_notes=validation.response_controlled_notes + tuple(notes))
+        validation = validate_measured(data, spec.hold_out, spec.models, spec.response_controlled, paths,
+                                       measured.read_options())
         if spec.hold_out_type is not None:
             validation = TypedValidation(**{f.name: getattr(validation, f.name) for f in dataclasses.fields(validation)},
                                          held_type=held_type(study, data, paths))
@@ -51,7 +45,7 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
 def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
     """``[validation] hold_out_type``: the sources ``nlupdate validate --hold-out-type`` reads
     — the measured stepped sine, the response-controlled runs of its MATLAB files (with
-    ``response_controlled``), the ``ring_down`` records (displacement, m; band found from
+    ``response_controlled`` auto or kept), the ``ring_down`` records (displacement, m; band found from
     the record) — one held out by the amplitude-dependent modal model of the others
     (:func:`~nlupdate.core.validation.held_type.hold_out_type`)."""
     spec = study.validation
@@ -61,7 +55,7 @@ def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
                          f"{data.input_dof!r} (1/√kg), got {sorted(shapes)}")
     sources: list[Source] = [(", ".join(paths) or "[measured]", samples_from_frfs(data, shapes[data.input_dof]), None,
                               "stepped-sine")]
-    for path in [p for p in paths if p.lower().endswith(".mat")] if spec.response_controlled else []:
+    for path in [p for p in paths if p.lower().endswith(".mat")] if spec.response_controlled != "off" else []:
         runs = read_response_controlled(path, study.measured.read_options())
         sources.append((path, samples_from_held_runs(runs, shapes.get(runs[0].response_dof)), None,
                         "response-controlled"))
