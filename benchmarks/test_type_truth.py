@@ -9,8 +9,9 @@ closed-form single-nonlinear-mode backbone). Per test type and seed:
 * ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: SDOF 3 mm, 2-DOF 240 ×), white
   noise 2 % of the record's peak, read in segments (``decay_segments``);
 * impact: an RK4 tap (Jenkins stuck, 0.5 × slip; Iwan 0.05 ×), 2 % noise, ``fit_linear_limit``;
-* phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels; 2 % noise on the
-  force and on the response amplitude;
+* phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels (Jenkins 0.5–15 ×
+  its slip amplitude; Iwan from microslip to 3.3 × φ_max, SDOF, and 130 ×, 2-DOF); 2 % noise on
+  the force and on the response amplitude;
 * force-controlled stepped sine: multi-harmonic-balance FRFs at the same six levels on 301
   lines over 0.9–1.05 f₀, 2 % noise (``add_table_noise``), one sample per level
   (``samples_from_frfs``).
@@ -55,8 +56,10 @@ def records(s: dict, kind: str, dofs: int) -> dict:
     """The noise-free records of every test type of one system."""
     psi, slip = s["phi"][0], s["slip"]
     start = 30 * slip if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip
+    # levels: the Jenkins joint from stuck to 15 × its slip amplitude; the Iwan joint from
+    # microslip to past 2 × its φ_max (MACROSLIP_REACH: below it an Iwan fit fixes β = 0)
     amplitude = (np.geomspace(0.5, 15, 6) * slip if kind == "jenkins"
-                 else np.geomspace(0.05, 1.0, 6) * (3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
+                 else np.geomspace(0.05, 1.0, 6) * (6e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
     f, z = truth(s, amplitude)
     levels = 2 * z * (2 * np.pi * f) ** 2 * amplitude / psi  # the force that holds that amplitude at resonance
     model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
@@ -128,10 +131,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--backbone", default="polynomial", choices=("polynomial", "iwan"))
+    parser.add_argument("--system", action="append", choices=[f"{d}-{k}" for d, k in SYSTEMS],
+                        help="only these systems (repeatable; default all)")
     args = parser.parse_args()
     print(f"{'system':16s} {'type':16s} {'samples f':>9s} {'samples ζ':>9s} {'own fit f':>9s} {'own fit ζ':>9s} "
           f"{'a/slip':>12s}   held out: f, ζ")
     for dofs, kind in SYSTEMS:
+        if args.system and f"{dofs}-{kind}" not in args.system:
+            continue
         s, started = system(dofs, kind), time.process_time()
         made = records(s, kind, dofs)
         rows = {name: [] for name in TYPES + ("joint",)}
