@@ -69,9 +69,11 @@ Limits (measured, tests/test_ring_down.py; SDOF at 10 Hz, ζ_lin = 0.5 %, joint 
 (χ = −0.5, β = 0.5) within 0.004 % in frequency and 1.4 % in ζ over a factor 5 of
 amplitude in microslip; a Jenkins joint within 0.04 % and 3.4 % in macroslip (amplitude
 ≥ 2.5 × its slip amplitude), but up to 10 % in ζ within [1, 2.5] × the slip amplitude. There
-the describing function's slow flow (first-order averaging) is what misses: the record's own
-logarithmic decrement (turning points one period apart) differs from it by up to 9.6 %, and
-from this estimate by at most 2.3 % over 0.5–8.4 × the slip amplitude; the estimate does not
+the record itself differs from the periodic motion the backbone describes (harmonic balance
+with 15 harmonics lies on the closed form within 0.7 %): its own logarithmic decrement
+(turning points one period apart) is up to 9 % above it — a free decay through stick–slip
+dissipates more per cycle (tests/test_test_type_truth.py) — and differs from this estimate by
+at most 2.3 % over 0.5–8.4 × the slip amplitude; the estimate does not
 change with the window (½ to 2 periods) or the band (7.6–12.7 or 4–17 Hz), and its envelope
 matches the turning points within 0.1 %. With noise, longer windows are taken; without the
 frequency agreement they straddled that change (0.5 % noise: 26 % in ζ and 0.37 % in
