@@ -11,8 +11,8 @@ imports Prefect). The demo's result lines (``* …``) of every run are compared 
 Beside the wall times: the CPU time of the run (user + system of the demo and of every process
 it waited for, the Prefect server included), and the issue-24 targets met or not — cold ≤ 30 s
 and cached ≤ 10 s on CPU time (wall time on a shared machine counts the other work too), each
-prediction ≤ 1 s as the demo's own line reports it (wall, inside the run). Medians over the
-rounds. Nothing is extrapolated; the folders are made under a new temporary directory and
+prediction's time as the demo's own line reports it (wall, inside the run: no verdict, which
+``frf_speed.py`` Part 4 gives on CPU time). Medians over the rounds. Nothing is extrapolated; the folders are made under a new temporary directory and
 removed. ``--write-docs``: the output becomes its block of docs/performance.md
 (benchmarks/docs_block.py).
 """
@@ -76,11 +76,10 @@ def verdicts(runs: dict[str, list[dict]]) -> list[str]:
         lines.append(f"goal: demo {kind} ≤ {goal:.0f} s (CPU of every process): {cpu:.1f} s CPU "
                      f"(wall {wall:.1f} s) — {'met' if cpu <= goal else 'NOT met'}")
     seconds = [s for run in runs["cold"] for s in prediction_seconds(run["predictions"])]
-    if seconds:
-        lines.append(f"goal: each prediction ≤ {PREDICTION_GOAL_S:.0f} s (the cold demos' own lines, wall): "
-                     f"largest {max(seconds):.2f} s — {'met' if max(seconds) <= PREDICTION_GOAL_S else 'NOT met'}")
-    else:
-        lines.append("goal: each prediction ≤ 1 s: no prediction line found in the demo's output")
+    found = f"largest {max(seconds):.2f} s" if seconds else "no prediction line found in the demo's output"
+    lines.append(f"each prediction ≤ {PREDICTION_GOAL_S:.0f} s: inside the cold demos (their own lines, wall time "
+                 f"at this load) {found}; no verdict here: the demo prints no CPU time per prediction, "
+                 "frf_speed.py Part 4 decides it on CPU")
     return lines
 
 
