@@ -208,3 +208,40 @@ def test_the_frf_band_holds_the_tests_own_scatter_where_the_refits_cross():
     slope = abs(np.abs(predicted)[crossing + 1] - np.abs(predicted)[crossing - 1]) / (f[crossing + 1] - f[crossing - 1])
     assert high[crossing] - np.abs(predicted)[crossing] >= 0.8 * 4.30 * slope * sigma_f
     assert low[crossing] <= shifted[crossing] <= high[crossing]  # the shifted curve lies inside there
+
+
+def test_the_resonance_band_follows_refits_that_all_move_one_way():
+    """Refits skewed above the prediction (one refit puts the resonance 0.6 Hz later, as a
+    predicted jump would move) widen the band above more than below: each side is the
+    jackknife spread on that side of the refits' mean x̄, √(2·(n−1)/n·Σ_side (x_j − x̄)²),
+    with the test's scatter (Welch–Satterthwaite t); an even scatter gives both sides the
+    textbook jackknife σ_J = √((n−1)/n·Σ (x_j − x̄)²)."""
+    import scipy.stats
+
+    from nlupdate.core.validation.held_out import Repeatability, _sides, bands
+
+    f = np.linspace(78.0, 82.0, 801)
+
+    def curve(fn: float) -> np.ndarray:  # one mode, 0.5 % damping
+        return 1 / (fn**2 - f**2 + 2j * 0.005 * fn * f)
+
+    even = np.array([[1.0], [2.0], [3.0]])
+    below, above = _sides(even)
+    jackknife = np.sqrt(2 / 3 * np.sum((even - 2.0) ** 2))
+    assert below[0] == pytest.approx(jackknife) and above[0] == pytest.approx(jackknife)
+    predicted, shifts = curve(80.0), (0.0, 0.0, 0.6)
+    peaks = np.array([resonance(f, curve(80.0 + d)).resonance_hz for d in shifts])
+    centre, mean = resonance(f, predicted).resonance_hz, np.mean(peaks)
+    measured = {"resonance_hz": 80.0, "damping_ratio": 0.005, "peak_abs": float(np.abs(predicted).max())}
+    sigma_f, dof = 0.05, 10
+    compared, _, _ = bands(f, measured, predicted, [curve(80.0 + d) for d in shifts],
+                           Repeatability(sigma_f, 0.001, dof + 2), noise=0.0)
+    band = compared["resonance_hz"]
+    widths = {}
+    for side, chosen in (("below", peaks[peaks < mean]), ("above", peaks[peaks > mean])):
+        model = np.sqrt(2 * 2 / 3 * np.sum((chosen - mean) ** 2))
+        total = np.hypot(model, sigma_f)
+        t = scipy.stats.t.ppf(0.975, total**4 / (model**4 / 2 + sigma_f**4 / dof))
+        widths[side] = centre - band.low if side == "below" else band.high - centre
+        assert widths[side] == pytest.approx(t * total, rel=1e-9), side
+    assert widths["above"] > 1.3 * widths["below"]

@@ -109,8 +109,9 @@ def test_response_controlled_runs_kept_carry_the_top_level(data):
 
 def test_damping_and_peak_bands_are_relative_and_positive():
     """Refits whose damping ratios scatter by a factor: the band is the closed form
-    ζ̂·exp(±t·√(σ_J² + σ_R²)) in log ζ (Welch–Satterthwaite t), never below 0 and wider above;
-    the resonance band stays symmetric in Hz."""
+    ζ̂·exp(∓t·√(σ_J∓² + σ_R²)) in log ζ (Welch–Satterthwaite t; σ_J− and σ_J+ the jackknife
+    spread below and above the refits' mean, √(2·(n−1)/n·Σ_side d²)), never below 0 and
+    wider above; the resonance band, whose refits agree, stays symmetric in Hz."""
     w = 2 * np.pi * F
 
     def mode(fn, zeta):
@@ -124,16 +125,17 @@ def test_damping_and_peak_bands_are_relative_and_positive():
     measured = {"resonance_hz": 80.2, "damping_ratio": 0.004, "peak_abs": float(np.abs(predicted).max())}
     compared, low, high = bands(F, measured, predicted, curves, repeat, noise=0.0)
     shown = np.log([resonance(F, c).damping_ratio for c in curves])
-    sigma_j = np.sqrt(2 / 3 * np.sum((shown - shown.mean()) ** 2))
-    total = np.hypot(sigma_j, 0.2)
-    dof = total**4 / (sigma_j**4 / 2 + 0.2**4 / 4)
-    half = scipy.stats.t.ppf(0.975, dof) * total
+    d = shown - shown.mean()
     zeta = compared["damping_ratio"]
-    assert zeta.low == pytest.approx(zeta.predicted * np.exp(-half), rel=1e-9)
-    assert zeta.high == pytest.approx(zeta.predicted * np.exp(half), rel=1e-9)
+    for sign, edge in ((-1, zeta.low), (1, zeta.high)):
+        sigma_j = np.sqrt(2 * 2 / 3 * np.sum(d[sign * d > 0] ** 2))
+        total = np.hypot(sigma_j, 0.2)
+        dof = total**4 / (sigma_j**4 / 2 + 0.2**4 / 4)
+        assert edge == pytest.approx(zeta.predicted * np.exp(sign * scipy.stats.t.ppf(0.975, dof) * total), rel=1e-9)
     assert 0 < zeta.low and zeta.high - zeta.predicted > zeta.predicted - zeta.low
     res = compared["resonance_hz"]
-    assert res.high - res.predicted == pytest.approx(res.predicted - res.low, rel=1e-9)
+    # the refits' resonances differ only by the damping's shift of the peak: nearly symmetric
+    assert res.high - res.predicted == pytest.approx(res.predicted - res.low, rel=1e-3)
     assert np.all(low >= 0) and np.all(low <= np.abs(predicted)) and np.all(np.abs(predicted) <= high)
 
 

@@ -22,9 +22,13 @@ taken from the data, nothing assumed:
   resonance about a straight line, of the damping ratio and the peak, relative, about a
   power law (:class:`Repeatability`); for |H| the measurement noise ε|H|.
 
-The resonance's band is ``x̂ ± t·√(σ_J² + σ_R²)``; the damping ratio and the peak, positive
-and scattering by a fraction of themselves, take the same in their logarithm,
-``x̂·exp(±t·√(σ_J² + σ_R²))`` — never below 0, wider above than below. t is Student's
+The resonance's band is ``[x̂ − t·√(σ_J−² + σ_R²), x̂ + t·√(σ_J+² + σ_R²)]``, σ_J− and σ_J+
+the jackknife spread of the refits below and above their mean (:func:`_sides`: equal to
+σ_J for an even scatter; refits skewed one way, as the resonance of a predicted jump is,
+widen that side); the damping ratio and the peak, positive and scattering by a fraction
+of themselves, take the same in their logarithm, ``x̂·exp(−t·…)``, ``x̂·exp(+t·…)`` —
+never below 0. The |H| band takes the refits' spread of |H| below and above at each line
+the same way. t is Student's
 two-sided 95 % factor at the Welch–Satterthwaite degrees of freedom of the two parts (few
 levels, few degrees of freedom: t = 4.3 at two). Coverage is measured, not assumed
 (benchmarks/validate_band_coverage.py, docs/validation.md).
@@ -282,28 +286,38 @@ def _t95(parts: Sequence[tuple[float, float]]) -> tuple[float, float]:
     return total, float(scipy.stats.t.ppf(0.975, dof))
 
 
+def _sides(samples: NDArray) -> tuple[NDArray, NDArray]:
+    """(below, above): the jackknife standard deviation of the refits ``samples`` (along
+    axis 0) split by side of their mean x̄ — ``σ_below² = 2·(m−1)/m · Σ_{x_j < x̄} (x_j − x̄)²``
+    over the m finite refits, ``σ_above`` the same above, so ``(σ_below² + σ_above²)/2 = σ_J²``
+    and an even scatter gives both sides the jackknife's σ_J; refits skewed one way (a
+    predicted jump that one refit puts much later, a backbone that bends further without
+    one level) widen the band on that side. NaN with fewer than three. (Taken about the
+    prediction instead of x̄, the jackknife's bias enters the width: the simulated coverage
+    rose to 98–100 % at 1.3× the width, benchmarks/validate_band_coverage.py.)"""
+    finite = np.isfinite(samples)
+    count = finite.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nanmean(np.where(finite, samples, np.nan), axis=0)
+        deviation = np.where(finite, samples - mean, 0.0)
+        scale = np.where(count >= 3, 2 * (count - 1) / np.maximum(count, 1), np.nan)
+        return (np.sqrt(scale * np.sum(np.minimum(deviation, 0.0) ** 2, axis=0)),
+                np.sqrt(scale * np.sum(np.maximum(deviation, 0.0) ** 2, axis=0)))
+
+
 def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray, curves: list, repeat: Repeatability,
           noise: float, misfit: dict[str, tuple[float, int]] | None = None
           ) -> tuple[dict[str, Compared], NDArray, NDArray]:
     """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
     prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring);
     ``misfit`` (quantity → (σ, degrees of freedom)): the model's own misfit at the kept
-    levels, the model term where there is no jackknife."""
+    levels, the model term where there is no jackknife. Each side of a band takes the
+    refits' spread on that side (:func:`_sides`): the band follows the model where its
+    refits move one way."""
     f = frequency_hz
     values = _metrics(f, predicted)
     jack_values = [_metrics(f, curve) for curve in curves]
-    jack_abs = [np.abs(curve) for curve in curves]
     n = len(curves)
-
-    def spread(samples: NDArray) -> NDArray:
-        """Jackknife standard deviation over the finite samples (NaN with fewer than three)."""
-        finite = np.isfinite(samples)
-        count = finite.sum(axis=0)
-        mean = np.nanmean(np.where(finite, samples, np.nan), axis=0) if n else np.nan
-        square = np.nansum(np.where(finite, (samples - mean) ** 2, np.nan), axis=0) if n else np.nan
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(count >= 3, np.sqrt((count - 1) / np.maximum(count, 1) * square), np.nan)
-
     # resonance in Hz; damping ratio and peak, positive, in log (a band that never reaches 0,
     # asymmetric as a relative scatter is)
     test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
@@ -313,13 +327,16 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     for name in QUANTITIES:
         log = name != "resonance_hz"
         jack = np.array([v[name] for v in jack_values], dtype=float)
+        centre = values[name]
         with np.errstate(invalid="ignore", divide="ignore"):
             jack = np.log(jack) if log else jack
-        model = (float(spread(jack)), n - 1) if n >= 3 else (misfit or {}).get(name, (np.nan, 0))
-        total, t = _t95([model, (test_std[name], test_dof)])
-        half = t * total if (n >= 3 or misfit) and np.isfinite(t) else float("nan")
-        centre = values[name]
-        low, high = (centre * np.exp(-half), centre * np.exp(half)) if log else (centre - half, centre + half)
+        halves = []
+        for side in [float(x[0]) for x in _sides(jack[:, None])] if n >= 3 else [None, None]:
+            model = (side, n - 1) if side is not None else (misfit or {}).get(name, (np.nan, 0))
+            total, t = _t95([model, (test_std[name], test_dof)])
+            halves.append(t * total if (n >= 3 or misfit) and np.isfinite(t) else float("nan"))
+        low, high = ((centre * np.exp(-halves[0]), centre * np.exp(halves[1])) if log
+                     else (centre - halves[0], centre + halves[1]))
         compared[name] = Compared(measured[name], centre, low, high)
     # the test's own scatter of the resonance moves the curve along f by σ_f: the larger change of
     # |H| at each line when the curve is shifted either way (a jump moves, it does not grow), so
@@ -329,14 +346,16 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     shift = np.maximum(np.abs(np.interp(f - sigma_f, f, size) - size), np.abs(np.interp(f + sigma_f, f, size) - size))
     if n >= 3:
         t = float(scipy.stats.t.ppf(0.975, n - 1))
-        abs_half = t * np.sqrt(spread(np.array(jack_abs)) ** 2 + (noise * size) ** 2 + shift**2)
+        below, above = _sides(np.array([np.abs(curve) for curve in curves]))
+        abs_low = t * np.sqrt(below**2 + (noise * size) ** 2 + shift**2)
+        abs_high = t * np.sqrt(above**2 + (noise * size) ** 2 + shift**2)
     elif misfit and test_dof > 0:  # no jackknife: the model's relative misfit of the peak, the test's scatter
         relative, dof = misfit.get("peak_abs", (0.0, 0))
         t = float(scipy.stats.t.ppf(0.975, max(min(dof, test_dof), 1)))
-        abs_half = t * np.sqrt((relative * size) ** 2 + (noise * size) ** 2 + shift**2)
+        abs_low = abs_high = t * np.sqrt((relative * size) ** 2 + (noise * size) ** 2 + shift**2)
     else:
-        abs_half = np.full(f.shape, np.nan)
-    return compared, np.maximum(size - abs_half, 0.0), size + abs_half
+        abs_low = abs_high = np.full(f.shape, np.nan)
+    return compared, np.maximum(size - abs_low, 0.0), size + abs_high
 
 
 def kept_misfit(fitted, data: FRFLevels, levels: Sequence[float]) -> dict[str, tuple[float, int]]:
