@@ -238,7 +238,7 @@ WITH_RUNS = ("lines", "lines-background")
 
 @dataclass(frozen=True)
 class ModelChoice:
-    """The model ``auto`` chose and each candidate's leave-one-kept-level-out RMS relative
+    """The model ``auto`` chose and each candidate's leave-one-kept-out RMS relative
     error (NaN where a candidate failed on the kept levels)."""
 
     name: str
