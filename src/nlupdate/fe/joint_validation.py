@@ -14,6 +14,7 @@ force-controlled run (evaluations bounded). Units SI; frequencies in Hz.
 """
 from __future__ import annotations
 
+import dataclasses
 import io
 import time
 from dataclasses import dataclass, field
@@ -30,7 +31,8 @@ from nlupdate.core.identification.impact import fit_linear_limit
 from nlupdate.core.model.model_file import system_from_dict
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.validation.fe_settings import FEValidationSettings
-from nlupdate.core.validation.forced_runs import ForcedRun, features, predict_run, runs_repeatability
+from nlupdate.core.validation.forced_runs import (ForcedRun, RunErrors, features, predict_run, run_errors,
+                                                  runs_repeatability)
 from nlupdate.core.validation.held_out import Repeatability
 from nlupdate.fe.adapters.calculix_brb import BOLTS, BRBAdapter, joint_stiffness
 from nlupdate.input_files import read_input_bytes
@@ -151,11 +153,17 @@ class FEValidation:
     wall_time_s: float = float("nan")
     cpu_time_s: float = float("nan")
 
+    @property
+    def errors(self) -> dict[str, RunErrors]:
+        """Per model its errors over the runs, judged by the test's repeatability (:func:`run_errors`)."""
+        return run_errors(self.table, self.repeatability.resonance_hz)
+
     def summary(self) -> dict:
         """The ``fe_validation.json`` content."""
         return {"joint": {"element": self.element, "per_bolt": list(BOLTS), **self.joint}, "fit": self.fit,
                 "linear_damping_ratio": self.damping_ratio, "linear_damping_source": self.damping_source,
                 "shaker_mass_kg": self.shaker_mass_kg, "repeatability": self.repeatability.as_dict(),
+                "errors": {model: dataclasses.asdict(e) for model, e in self.errors.items()},
                 "points": self.points, "wall_time_s": self.wall_time_s, "cpu_time_s": self.cpu_time_s}
 
 

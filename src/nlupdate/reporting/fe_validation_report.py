@@ -86,12 +86,16 @@ def fe_validation_section(found) -> list[str]:
 
 
 def fe_validation_summary(found) -> list[str]:
-    """The summary's lines: per model the largest resonance error and the median damping error."""
+    """The summary's lines: per model how many runs miss their resonance beyond the test's
+    repeatability (bold when any does: a model that cannot be trusted says so first), the
+    largest resonance error and the median damping error."""
     lines = []
-    for model, rows in found.table.groupby("model", sort=False):
-        resonance = (rows.resonance_hz_predicted - rows.resonance_hz_measured).abs().max()
-        damping = (100 * (rows.damping_ratio_predicted / rows.damping_ratio_measured - 1)).abs().median()
-        lines.append(f"* FE validation, {model} model: {len(rows)} forced runs, largest resonance error "
-                     f"{resonance:.3f} Hz, median damping error {damping:.0f} % (test repeatability "
-                     f"{_g(found.repeatability.resonance_hz, 3)} Hz)")
+    for model, errors in found.errors.items():
+        verdict = (f"{errors.beyond_repeatability} of {errors.runs} forced runs miss their resonance by more than "
+                   f"{errors.factor:g}× the test's repeatability ({_g(errors.repeatability_hz, 3)} Hz)")
+        if errors.beyond_repeatability:
+            verdict = f"**{verdict}: the model does not predict them**"
+        lines.append(f"* FE validation, {model} model: {verdict}; largest resonance error "
+                     f"{errors.largest_resonance_error_hz:.3f} Hz, median damping error "
+                     f"{errors.median_damping_error_percent:.0f} %")
     return lines

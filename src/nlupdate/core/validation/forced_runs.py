@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
@@ -74,6 +75,32 @@ def runs_repeatability(runs: list[ForcedRun]) -> Repeatability:
     levels = FRFLevels("response", "input", np.array([run.level for run in forced]),
                        tuple(run.frequency_hz for run in forced), tuple(run.h for run in forced))
     return repeatability(levels)
+
+
+@dataclass(frozen=True)
+class RunErrors:
+    """One model's errors over the forced runs: the largest |resonance error| (Hz), the median
+    |damping-ratio error| (%), and how many of ``runs`` miss their resonance by more than
+    ``factor`` × the test's repeatability (1σ, Hz)."""
+
+    runs: int
+    largest_resonance_error_hz: float
+    median_damping_error_percent: float
+    beyond_repeatability: int
+    repeatability_hz: float
+    factor: float
+
+
+def run_errors(table: pd.DataFrame, repeatability_hz: float, factor: float = 2.0) -> dict[str, RunErrors]:
+    """Per ``model`` of a validation table (``resonance_hz_*``, ``damping_ratio_*`` columns,
+    ``_measured``/``_predicted``) its :class:`RunErrors`."""
+    out = {}
+    for model, rows in table.groupby("model", sort=False):
+        resonance = (rows.resonance_hz_predicted - rows.resonance_hz_measured).abs()
+        damping = (100 * (rows.damping_ratio_predicted / rows.damping_ratio_measured - 1)).abs()
+        out[str(model)] = RunErrors(len(rows), float(resonance.max()), float(damping.median()),
+                                    int((resonance > factor * repeatability_hz).sum()), repeatability_hz, factor)
+    return out
 
 
 def harmonic_response(system: NonlinearSystem, drive_dof: str, frequency_hz: NDArray,
