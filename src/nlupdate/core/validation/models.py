@@ -11,8 +11,8 @@ and returns a predictor of the receptance at any level over any grid:
 * ``lines-background`` — ``lines`` with a constant complex receptance added to those
   residual terms, the one that makes every level's line samples one curve
   (:func:`~nlupdate.core.identification.line_samples.background_for_lines`);
-* ``amplitude-polynomial``, ``amplitude-iwan`` — the same single-mode model fitted to one
-  sample per level, the resonance peak (:func:`~nlupdate.core.identification.amplitude_modal_fit.amplitude_model_from_frfs`,
+* ``amplitude-polynomial``, ``amplitude-iwan``, ``amplitude-jenkins`` (the Iwan joint in its
+  Jenkins limit) — the same single-mode model fitted to one sample per level, the resonance peak (:func:`~nlupdate.core.identification.amplitude_modal_fit.amplitude_model_from_frfs`,
   ``nlupdate amplitude``);
 * ``prd:ELEMENTS`` (e.g. ``prd:cubic,jenkins``) — PRD identification of the elements at the
   driving point, the linear FRF extracted from the kept levels, and the held-out level
@@ -158,43 +158,83 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
     return shape**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f) + background(f)
 
 
-def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER) -> AmplitudeModalModel:
+def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER, first_run: int | None = None
+                ) -> AmplitudeModalModel:
     """Natural frequency and damping ratio as polynomials of ``order`` in a/a_ref, fitted to
     line samples by least squares (equal weights: the lines near resonance carry equal
     relative noise, :mod:`nlupdate.core.identification.line_samples`), continued beyond a_ref as
-    fitted until they would turn back (a held-out top level lies there)."""
+    fitted until they would turn back (a held-out top level lies there). ``first_run``: the
+    samples from it on come from response-controlled runs, a different test of the mode —
+    one constant offset of the frequency and one of the damping ratio for that test type
+    are fitted beside the polynomials (a block effect: the BRB's runs resonate up to 0.05 Hz
+    higher and damp 5–17 % more than its force-controlled levels at equal modal amplitude),
+    so the runs shape the curves without shifting the force-controlled ones; the model
+    returned is the force-controlled one (:func:`run_model` the runs')."""
+    return _lines_models(samples, input_dof, order, first_run)[0]
+
+
+def run_model(samples: ModalSamples, input_dof: str, first_run: int, order: int = LINES_ORDER) -> AmplitudeModalModel:
+    """:func:`lines_model` of the response-controlled runs' test type: its polynomials with
+    the runs' offsets added."""
+    return _lines_models(samples, input_dof, order, first_run)[1]
+
+
+def _lines_models(samples: ModalSamples, input_dof: str, order: int, first_run: int | None
+                  ) -> tuple[AmplitudeModalModel, AmplitudeModalModel]:
     a_ref = float(np.max(samples.amplitude))
     design = (samples.amplitude / a_ref)[:, None] ** np.arange(order + 1)[None, :]
+    with_runs = first_run is not None and 0 < first_run < samples.amplitude.size
+    if with_runs:
+        design = np.column_stack([design, np.arange(samples.amplitude.size) >= first_run])
     f = np.linalg.lstsq(design, samples.frequency_hz, rcond=None)[0]
     zeta = np.linalg.lstsq(design, samples.damping_ratio, rcond=None)[0]
-    return AmplitudeModalModel(float(f[0]), max(float(zeta[0]), 0.0), ((input_dof, samples.input_shape),),
-                               frequency_coefficients=tuple(f[1:] / f[0]), damping_coefficients=tuple(zeta[1:]),
-                               reference_amplitude=a_ref, beyond_reference="continued",
-                               note=f"line samples: polynomials of order {order} in a/a_ref, a_ref = {a_ref:.4g}")
+    offsets = (float(f[-1]), float(zeta[-1])) if with_runs else (0.0, 0.0)
+    f, zeta = f[:order + 1], zeta[:order + 1]
+
+    def model(df: float, dzeta: float, note: str) -> AmplitudeModalModel:
+        f0 = float(f[0]) + df
+        return AmplitudeModalModel(f0, max(float(zeta[0]) + dzeta, 0.0), ((input_dof, samples.input_shape),),
+                                   frequency_coefficients=tuple(f[1:] / f0), damping_coefficients=tuple(zeta[1:]),
+                                   reference_amplitude=a_ref, beyond_reference="continued",
+                                   note=f"line samples: polynomials of order {order} in a/a_ref, a_ref = {a_ref:.4g}"
+                                        + note)
+
+    runs_note = (f"; the response-controlled runs' offsets {offsets[0]:+.4g} Hz, {offsets[1]:+.3g} in ζ"
+                 if with_runs else "")
+    return model(0.0, 0.0, runs_note), model(*offsets, runs_note + " (the runs' model)")
 
 
-def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str) -> Fitted:
-    """:class:`Fitted` of a single-mode model plus the other modes' share ``background``."""
+def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str,
+                 held_model: AmplitudeModalModel | None = None) -> Fitted:
+    """:class:`Fitted` of a single-mode model plus the other modes' share ``background``;
+    ``held_model`` the one response-controlled runs are predicted with (``model`` if None)."""
     def at_force(frequency_hz: NDArray, force: float | NDArray) -> NDArray[np.complex128]:
         f = np.asarray(frequency_hz, dtype=float)
         return frf_at_forces(model, f, force, dof) + background(f)
 
     def at_response(frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
-        return held_receptance(model, background, dof, frequency_hz, amplitude_m)
+        return held_receptance(held_model or model, background, dof, frequency_hz, amplitude_m)
 
     return Fitted(at_force, at_response, per_line_force=True)
 
 
+def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], fit, background: complex) -> Fitted:
+    """:func:`_single_mode` of the line samples of ``kept`` (and of the kept ``runs``, with
+    their test type's offsets: :func:`lines_model`) after ``fit``'s residual terms and the
+    constant ``background``."""
+    samples, _ = samples_from_lines(kept, fit, background, runs)
+    first_run = samples_from_lines(kept, fit, background)[0].amplitude.size if runs else None
+    models = _lines_models(samples, kept.input_dof, LINES_ORDER, first_run)
+    return _single_mode(models[0], lambda f: fit.residual_receptance(f) + background, kept.input_dof, models[1])
+
+
 def _lines(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
-    samples, fit = samples_from_lines(kept, runs=runs)
-    return _single_mode(lines_model(samples, kept.input_dof), fit.residual_receptance, kept.input_dof)
+    return _lines_fitted(kept, runs, lowest_level_fit(kept), 0.0)
 
 
 def _lines_background(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
     background, fit = background_for_lines(kept, LINES_ORDER, runs=runs)
-    samples, _ = samples_from_lines(kept, fit, background, runs)
-    return _single_mode(lines_model(samples, kept.input_dof), lambda f: fit.residual_receptance(f) + background,
-                        kept.input_dof)
+    return _lines_fitted(kept, runs, fit, background)
 
 
 def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
@@ -229,7 +269,7 @@ def _prd(elements: tuple[str, ...]) -> Callable[[FRFLevels], Fitted]:
 #: Models by name (``prd:ELEMENTS`` is parsed by :func:`model_fitter`).
 MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
     "lines": _lines, "lines-background": _lines_background, "amplitude-polynomial": _amplitude("polynomial"),
-    "amplitude-iwan": _amplitude("iwan"),
+    "amplitude-iwan": _amplitude("iwan"), "amplitude-jenkins": _amplitude("jenkins"),
 }
 AUTO_CANDIDATES = ("lines", "lines-background", "amplitude-polynomial", "amplitude-iwan")
 #: The models that take response-controlled runs as kept evidence (their every line a sample)
