@@ -5,7 +5,8 @@ From a modal table (CSV: force level, mode, natural frequency, damping ratio per
 mode's mass-normalised shape at the excited coordinate (--shape NAME=VALUE, 1/√kg), or from a
 measured-FRF table (driving point, several force levels; the shape then comes from a one-mode
 fit of the lowest level unless given), fit the natural frequency and damping ratio against
-modal amplitude (--backbone iwan: a modal Iwan joint; polynomial: of --order) and write
+modal amplitude (--backbone iwan: a modal Iwan joint; jenkins: its Jenkins limit; polynomial: of
+--order) and write
 DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its linear limit),
 DIR/backbone.png and DIR/damping.png. With --forces and --freqs it also writes the FRFs the
 model predicts at those levels (DIR/predicted_frf.parquet, single-nonlinear-mode theory) and,
@@ -35,7 +36,7 @@ from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.amplitude_modal_fit import (
-    amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
+    FIT_BACKBONES, amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.backbone_samples import (
@@ -46,7 +47,7 @@ from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.core.measurement.units import table_reference_unit
-from nlupdate.core.model.amplitude_modal import BACKBONES, AmplitudeModalModel, write_amplitude_model
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, write_amplitude_model
 from nlupdate.reporting.backbone_plots import plot_sources
 from nlupdate.reporting.figures import level_colours, save_figure
 from nlupdate.app.cli.simulate import force_levels, frequency_grid
@@ -70,7 +71,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="mass-normalised mode shape (1/√kg) at a coordinate; needed at the input for a modal table")
     parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
-    parser.add_argument("--backbone", choices=BACKBONES, default="iwan", help="backbone model (default iwan)")
+    parser.add_argument("--backbone", choices=FIT_BACKBONES, default="iwan",
+                        help="backbone model (default iwan; jenkins: the Iwan joint in its Jenkins limit, stuck below "
+                             "its slip amplitude, for a joint that sticks and slips at one force)")
     parser.add_argument("--order", type=positive_int, default=2, help="polynomial order (default 2)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="refits of a residual bootstrap for the bands of backbone.csv (default 200 for the "

@@ -31,12 +31,13 @@ def add_type_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hold-out-type", choices=HELD_TYPES, metavar="TYPE",
                         help="hold out a whole test type instead of levels: fit the amplitude-dependent modal model on "
                              f"the other types and predict this one ({', '.join(HELD_TYPES)}); --model "
-                             "amplitude-iwan (auto) or amplitude-polynomial; needs --shape at the sensors")
+                             "amplitude-iwan (auto), amplitude-polynomial or amplitude-jenkins; needs --shape at the "
+                             "sensors")
     add_source_options(parser, response_controlled=False)
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="with --hold-out-type: refits of a residual bootstrap for the 95 %% bands of the held "
-                             "samples' predictions (default 200 for amplitude-polynomial, 0 for amplitude-iwan: "
-                             "about a second per refit; 0: no bands)")
+                             "samples' predictions (default 200 for amplitude-polynomial, 0 for amplitude-iwan and "
+                             "-jenkins: about a second per refit; 0: no bands)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="with --hold-out-type: mass-normalised mode shape (1/√kg) at a coordinate (the stepped "
                              "sine's input, a ring-down's channel), for one modal amplitude across the types")

@@ -41,9 +41,15 @@ damping and the linear damping is not determined), gets a warning on the model.
 * ``iwan``: ω₀, ζ₀ and the modal joint (K_T < ω₀², F_S, χ, β), from several starts, with
   viscous and with structural linear damping (the better fit is kept; the note says). As for
   a PRD fit (:func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`), amplitudes
-  that stay below ``MACROSLIP_REACH × φ_max`` show only χ and R' of the joint; the fit is
+  that stay below ``MACROSLIP_REACH × φ_max`` may show only χ and R' of the joint; the fit is
   then repeated with β = 0 and φ_max at the largest amplitude (the smallest joint that
-  keeps every sample in microslip) and the model's ``note`` says so.
+  keeps every sample in microslip), and that fit is taken when it is as good within the
+  noise (:func:`microslip_test`, or too few samples to test) — the free fit is kept where
+  the samples reject it (noise-free phase resonance of an Iwan SDOF up to 1.7 φ_max: the
+  β = 0 fit missed the damping by 12 %, the free one recovers χ and β); the ``note`` says which;
+* ``jenkins``: the same fit with β fixed at :data:`JENKINS_BETA` (the Iwan joint's Jenkins
+  limit: stuck below φ_max = F_S/K_T, the closed hysteresis loop's energy above), for a
+  joint that sticks and slips at one force, whose kink neither other form follows.
 """
 from __future__ import annotations
 
@@ -54,6 +60,7 @@ import numpy as np
 import pandas as pd
 import scipy.optimize
 import scipy.special
+import scipy.stats
 from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
@@ -295,13 +302,13 @@ def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[flo
 
 def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
     """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
-    logit(−χ) (χ ∈ (−1, 0)), log β (or fixed)."""
+    logit(−χ) (χ ∈ (−1, 0), or fixed), log β (or fixed)."""
     values = iter(theta)
     w0 = float(np.exp(next(values)))
     z0 = float(np.exp(next(values)))
     kt = float(scipy.special.expit(next(values))) * w0**2
     slip = None if "phi_max" in fixed else float(np.exp(next(values)))
-    chi = -float(np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9))
+    chi = fixed["chi"] if "chi" in fixed else -float(np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9))
     beta = fixed["beta"] if "beta" in fixed else float(np.exp(next(values)))
     if slip is None:
         slip = fixed["phi_max"] * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
@@ -338,7 +345,7 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
         # φ_max from a tenth of the largest amplitude (FRFs into gross slip: a Jenkins SDOF
         # measured up to 0.08 N has it at 1.4 %) to four times it; one start where it is fixed
         for reach in ((0.1, 1.0, 4.0) if "phi_max" not in fixed else (1.0,)):
-            for chi in (-0.3, -0.7):
+            for chi in ((-0.3, -0.7) if "chi" not in fixed else (fixed["chi"],)):
                 for beta in ((0.1, 1.0) if "beta" not in fixed else (fixed["beta"],)):
                     kt = share * w0**2
                     phi_max = fixed.get("phi_max", reach * a_max)
@@ -347,7 +354,8 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
                              scipy.special.logit(share)]
                     if "phi_max" not in fixed:
                         theta.append(np.log(slip))
-                    theta.append(scipy.special.logit(-chi))
+                    if "chi" not in fixed:
+                        theta.append(scipy.special.logit(-chi))
                     if "beta" not in fixed:
                         theta.append(np.log(beta))
                     if free_shape:
@@ -372,6 +380,33 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
     return unpack(best.x)[0], float(2 * best.cost)
 
 
+#: β of the ``jenkins`` backbone: the Iwan joint's continuous part is K_T/(1+β), so its
+#: describing function is a Jenkins element's (k_f = K_T, F_s = F_S) within ~1/β
+JENKINS_BETA = 1e6
+#: χ of the ``jenkins`` backbone (it only shapes the continuous part, which β makes negligible)
+JENKINS_CHI = -0.5
+#: the backbones :func:`fit_amplitude_model` fits: the model's, and ``jenkins`` (an Iwan joint
+#: in its Jenkins limit, stored as an ``iwan`` backbone)
+FIT_BACKBONES = BACKBONES + ("jenkins",)
+#: below this p-value of :func:`microslip_test` the free Iwan fit is kept
+MICROSLIP_P = 0.05
+
+
+def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int) -> float:
+    """p-value of the F-test of the Iwan fit with β = 0 and φ_max fixed (2 parameters fewer)
+    against the free fit: ``F = ((χ²_0 − χ²)/2)/(χ²/ν)``, ν the free fit's degrees of freedom
+    (weighted residuals, so the noise level drops out). 1 where ν ≤ 0 (nothing to test: the
+    simpler fit is kept); a small p says the β = 0 fit misses the samples beyond their noise."""
+    if free_dof <= 0:
+        return 1.0
+    excess = max(chi2_reduced - chi2_free, 0.0) / 2
+    if excess == 0.0:
+        return 1.0
+    if chi2_free <= 0.0:
+        return 0.0
+    return float(scipy.stats.f.sf(excess / (chi2_free / free_dof), 2, free_dof))
+
+
 #: how far (a factor either way) an Iwan fit's mode shape may stray from the lowest level's
 #: one-mode fit (the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
 #: physics, not a convenience: a free shape let the fit shrink φ_f, which scales every
@@ -392,8 +427,8 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
 
     ``shapes``: the mode's mass-normalised shape (1/√kg) at named coordinates, the excited
     one included (its magnitude must be the samples' ``input_shape``)."""
-    if backbone not in BACKBONES:
-        raise AmplitudeModelError(f"backbone must be one of {list(BACKBONES)}, got {backbone!r}")
+    if backbone not in FIT_BACKBONES:
+        raise AmplitudeModelError(f"backbone must be one of {list(FIT_BACKBONES)}, got {backbone!r}")
     if np.any(np.asarray(frequency_std) <= 0) or np.any(np.asarray(damping_std) <= 0):
         raise AmplitudeModelError("frequency_std and damping_std must be > 0 (relative standard deviations)")
     shapes = tuple((str(n), float(v)) for n, v in shapes)
@@ -402,8 +437,9 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
             raise AmplitudeModelError(f"polynomial order {order}: need 1 ≤ order < {samples.amplitude.size} samples")
         return _polynomial(samples, shapes, int(order), frequency_std, damping_std, mode)
     if samples.amplitude.size < 3:
-        raise AmplitudeModelError(f"an Iwan backbone needs at least 3 samples, got {samples.amplitude.size}")
-    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law), law) for law in LINEAR_DAMPING]
+        raise AmplitudeModelError(f"an {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
+    jenkins = {"beta": JENKINS_BETA, "chi": JENKINS_CHI} if backbone == "jenkins" else {}
+    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins), law) for law in LINEAR_DAMPING]
     model, chi2, law = min(fits, key=lambda fit: fit[1])
     fitted_shape = samples.shape_free and samples.response_amplitude is not None
     stuck_shape = samples.input_shape  # the lowest level's one-mode fit (FRF samples)
@@ -414,13 +450,26 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         shapes = model.shapes
     a_max = float(np.max(samples.amplitude))
     n = 2 * samples.amplitude.size
-    if a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
+    if jenkins:
+        note = (f"modal Jenkins backbone: the Iwan joint in its Jenkins limit (beta = {JENKINS_BETA:g} fixed: stuck "
+                f"below phi_max = slip_force/kt, the closed hysteresis loop above)")
+    elif a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
         reach = a_max / model.joint.phi_max
-        model, chi2 = _iwan(samples, shapes, frequency_std, damping_std, mode, law, {"beta": 0.0, "phi_max": a_max})
-        note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
-                f"the φ_max of a free fit; {MACROSLIP_REACH:g} × needed) or too few samples: the data determine chi "
-                f"and R' only; fixed beta = 0 and phi_max = the largest amplitude, so kt and slip_force are lower "
-                f"bounds")
+        reduced, chi2_reduced = _iwan(samples, shapes, frequency_std, damping_std, mode, law,
+                                      {"beta": 0.0, "phi_max": a_max})
+        free_dof = n - (6 + int(fitted_shape))  # ω₀, ζ₀, K_T, F_S, χ, β (and φ_f)
+        p_value = microslip_test(chi2, chi2_reduced, free_dof)
+        if p_value >= MICROSLIP_P:
+            model, chi2 = reduced, chi2_reduced
+            why = ("too few samples to test it" if free_dof <= 0 else
+                   f"the fit with beta = 0 is as good within the noise: F-test p = {p_value:.2g} ≥ {MICROSLIP_P:g}")
+            note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
+                    f"the φ_max of a free fit; {MACROSLIP_REACH:g} × needed) and {why}: the data determine chi and R' "
+                    f"only; fixed beta = 0 and phi_max = the largest amplitude, so kt and slip_force are lower bounds")
+        else:
+            note = (f"modal Iwan backbone, all parameters fitted (the largest modal amplitude is {reach:.2g} × the "
+                    f"fit's φ_max, below {MACROSLIP_REACH:g} ×, but the fit with beta = 0 is worse beyond the noise: "
+                    f"chi² {chi2_reduced:.3g} against {chi2:.3g}, F-test p = {p_value:.2g})")
     else:
         note = "modal Iwan backbone, all parameters fitted"
     others = ", ".join(f"{other} {c:.3g}" for _, c, other in fits if other != law)

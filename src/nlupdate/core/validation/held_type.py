@@ -52,7 +52,8 @@ from nlupdate.core.validation.resonance import resonance
 #: the test types a whole of which can be held out (a modal table is no test)
 HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
 #: the model names a type hold-out takes, and the amplitude backbone each fits
-BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polynomial": "polynomial"}
+BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polynomial": "polynomial",
+                     "amplitude-jenkins": "jenkins"}
 
 #: (source name, samples, stated relative (frequency, damping) standard deviations or None, test type)
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
