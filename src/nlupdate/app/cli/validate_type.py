@@ -65,7 +65,7 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
                         "stepped-sine"))
     reader = argparse.Namespace(**vars(args))
     reader.response_controlled = ([p for p in args.measured or [] if p.lower().endswith(".mat")]
-                                  if args.response_controlled == "auto" else [])
+                                  if args.response_controlled != "off" else [])  # auto (None: the default), kept
     try:
         rings, _ = read_sources(reader, shapes)
         result = hold_out_type(sources + rings, args.hold_out_type, tuple(shapes.items()), data, backbone,
