@@ -206,3 +206,18 @@ def test_impact_and_ring_down_read_from_a_universal_file(tmp_path, iwan_record):
     assert len(points) >= 5
     assert np.abs(points["natural_frequency_hz"] / f - 1).max() < 2e-3
     assert np.abs(points["damping_ratio"] / z - 1).max() < 0.05
+
+
+def test_the_brb_example_targets_are_the_impact_records_linear_limits():
+    """examples/brb/brb.toml types its updating targets; they must be what this estimator
+    gives on the record it names (acc3 in 72–88 Hz, acc2 in 280–315 Hz), each within its
+    stated standard deviation, and that deviation the fit's own (to the typed rounding)."""
+    import tomllib
+
+    targets = tomllib.loads((BRB.parents[2] / "examples" / "brb" / "brb.toml").read_text())["targets"]
+    columns = read_channels(BRB / "HammerImpact_1600Hz.mat")
+    for (channel, band), typed, std in zip((("acc3", (72.0, 88.0)), ("acc2", (280.0, 315.0))),
+                                           targets["frequencies_hz"], targets["std_hz"]):
+        fit = fit_linear_limit(columns["time_s"], {channel: columns[channel]}, band_hz=band)
+        assert abs(fit.frequency_hz - typed) <= std, channel
+        assert fit.frequency_std_hz == pytest.approx(std, abs=5e-5), channel
