@@ -36,3 +36,16 @@ def test_a_model_missing_runs_beyond_the_repeatability_says_so_in_bold():
     assert "**2 of 2 forced runs miss their resonance by more than 2× the test's repeatability" in initial
     assert "does not predict them**" in initial
     assert "**" not in updated and "0 of 2 forced runs" in updated
+
+
+def test_the_figure_draws_every_run_measured_and_predicted():
+    from nlupdate.reporting.fe_validation_plots import fe_validation_figure
+
+    table = TABLE.assign(run=["F1", "R1"] * 2, control=["force", "response"] * 2, level=[0.2, 2e-5] * 2,
+                         peak_measured=[1e-3, 2e-3] * 2, peak_predicted=[1.1e-3, 1.9e-3, 0.9e-3, 2.1e-3])
+    found = SimpleNamespace(table=table, repeatability=SimpleNamespace(resonance_hz=0.1, damping_ratio=0.001))
+    resonance_axes = fe_validation_figure(found).axes[0]
+    drawn = {line.get_label(): list(line.get_ydata()) for line in resonance_axes.get_lines() if line.get_label()[0] != "_"}
+    assert drawn["measured"] == [80.0, 80.2]
+    assert drawn["initial model"] == [78.0, 78.5] and drawn["updated model"] == [80.05, 80.1]
+    assert [t.get_text() for t in resonance_axes.get_xticklabels()] == ["F 0.2 N", "R 20 µm"]

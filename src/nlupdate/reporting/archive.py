@@ -51,6 +51,7 @@ from nlupdate.reporting.report import hidden_truth, report_markdown
 from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
 from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
+from nlupdate.reporting.fe_validation_plots import fe_validation_figure
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
 
 MANIFEST = "manifest.json"
@@ -237,6 +238,8 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
             name = f"held_out_{held.level:g}_{held.requested}".replace(".", "p")
             plots.append((name, f"{re.sub(r'[^A-Za-z0-9_]+', '-', name)}.png",
                           lambda held=held: held_out_figure(held, validation.reference_unit)))
+    if result.fe_validation is not None:
+        plots.append(("fe_validation", "fe_validation.png", lambda: fe_validation_figure(result.fe_validation)))
     return plots
 
 

@@ -79,7 +79,7 @@ def fe_validation_section(found) -> list[str]:
              f"amplitude): resonance {_g(repeat.resonance_hz, 3)} Hz, damping ratio "
              f"{_g(100 * repeat.damping_ratio, 3)} % (points) — errors within these are within the test's "
              "repeatability.", "",
-             _markdown(runs_table(found)), "",
+             _markdown(runs_table(found)), "", "![FE model against every forced run](plots/fe_validation.png)", "",
              f"Tables `fe_modes` and `validation`; `fe_validation.json` (the joint and the fit). The step took "
              f"{_g(found.wall_time_s, 3)} s wall, {_g(found.cpu_time_s, 3)} s CPU.", ""]
     return lines
