@@ -35,6 +35,7 @@ PYHARM_HB_STEP = 0.175  # pyHarm constant ds → 81 points at nh = 1, 80 at nh =
 HB_REFERENCE_HARMONICS = 7  # harmonics taken from the time-integration reference
 HB_RESOLVED = 1e-3  # higher harmonics compared where they carry at least this share of |X1|
 HB_GOAL = 5.0  # issue 13: ≥ 5× faster than pyHarm-os at every H
+HB_HILL_GOAL = 1.0  # issue 13: with stability on (Hill) at least as fast as pyHarm-os without it
 HB_SCALING_HARMONICS = 5  # Part 2's multi-harmonic rows
 
 
