@@ -121,8 +121,8 @@ def test_the_jenkins_backbone_follows_the_stick_slip_kink(seed):
     """Phase resonance of the Jenkins SDOF at six levels, 0.5–15 × its slip amplitude a_s, 2 %
     noise on force and response: the modal Jenkins backbone within 0.2 % in frequency over the
     points' range and 5 % in damping at the points and over the curve outside [a_s/1.2, 1.5 a_s]
-    (within it the truth's ζ(a) rises from ζ₀ steeply, and a slip amplitude off by the 1–2 % the
-    points allow is ζ off by up to 15 %: measured 2.8–5.6 % at 1.2–1.4 a_s)."""
+    (within it the truth's ζ(a) rises from ζ₀ steeply, and a slip amplitude off by the few per
+    cent six noisy points allow is ζ off by up to 13 %: docs/ring-down.md)."""
     s = system(1, "jenkins")
     points = locked_points(s, np.geomspace(0.5, 15, 6) * s["slip"])
     samples = pr_samples(s, points, noise=0.02, seed=seed)

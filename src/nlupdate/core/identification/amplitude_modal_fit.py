@@ -32,8 +32,8 @@ softening measured over all samples, ``f₀ ≤ f_ref(1 + max((f_max − f_min)/
 3·frequency_std))`` — an Iwan joint fitted with χ → −1 (it would slip at any amplitude)
 otherwise puts f₀ anywhere above the data. Likewise the linear damping: a joint only adds
 damping as it slips, so ζ₀ lies at or below the lowest-amplitude sample's damping ratio
-(within 3 ``damping_std``: :func:`damping_cap`; a polynomial fit to the BRB's peaks put it
-at 5.8 × that, its damping falling from the linear limit). A fit that ends on either bound,
+(within 3 ``damping_std``: :func:`~nlupdate.core.identification.linear_limit.damping_cap`; a
+polynomial fit to the BRB's peaks put it at 5.8 × that, its damping falling from the linear limit). A fit that ends on either bound,
 or with ζ₀ below 1 % of the lowest sample's damping ratio (the joint then takes all the
 damping and the linear damping is not determined), gets a warning on the model.
 
@@ -65,6 +65,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
+from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
 from nlupdate.core.identification.modal_fit import fit_mode_near
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
@@ -248,56 +249,6 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
                                      f"{samples.amplitude.size} values each), fitted to amplitudes up to a_ref = "
                                      f"{a_ref:.4g} m·√kg and held at their values there beyond")
     return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
-
-
-def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float,
-                          fitted_zeta: float | None = None, damping_std: float | NDArray = 0.05) -> tuple[str, ...]:
-    """What is unphysical or undetermined about a fitted model's linear limit (module
-    docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0,
-    below 1 % of the damping ratio of the lowest-amplitude sample or at or above
-    :func:`damping_cap`."""
-    out = []
-    low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
-    f0 = model.natural_frequency_hz
-    f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
-    if f0 >= high - 1e-3 * (high - low):
-        out.append(f"the linear limit {f0:.5g} Hz sits at or above its physical bound {high:.5g} Hz (the lowest-amplitude "
-                   f"sample's {f_ref:.5g} Hz plus the softening measured over all samples): the samples do not show "
-                   f"the joint stuck at the lowest level, so they do not determine the linear limit; measure lower "
-                   f"levels")
-    elif f0 < low - 1e-3 * (high - low):
-        out.append(f"the linear limit {f0:.5g} Hz lies below the highest sample's frequency "
-                   f"{float(samples.frequency_hz.max()):.5g} Hz: the backbone stiffens, which a joint does not do")
-    zeta = model.damping_ratio if fitted_zeta is None else fitted_zeta
-    z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
-    if zeta < 0.01 * z_ref:
-        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is below 1 % of the damping measured at the lowest "
-                   f"level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data do not "
-                   f"determine the linear damping" + (" (kept at 0)" if zeta <= 0 else ""))
-    elif zeta >= 0.999 * damping_cap(samples, damping_std):
-        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is at or above the damping measured at the lowest "
-                   f"level ({100 * z_ref:.3g} %, its bound): the damping curve falls with amplitude from the linear "
-                   f"limit, which a joint (it only adds damping as it slips) does not do; the samples do not determine "
-                   f"ζ₀")
-    return tuple(out)
-
-
-def damping_cap(samples: ModalSamples, damping_std: float | NDArray = 0.05) -> float:
-    """The highest physical linear damping ratio ζ₀: the lowest-amplitude sample's damping
-    ratio plus three of its relative standard deviations (a joint only adds damping)."""
-    z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
-    return z_ref * (1 + 3 * float(np.median(damping_std)))
-
-
-def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[float, float]:
-    """(lowest, highest) linear limit ω₀ (rad/s) that is physical for these samples (module
-    docstring): at or above every sample, and above the lowest-amplitude one by no more than
-    the softening measured over all of them."""
-    f = samples.frequency_hz
-    f_ref = float(f[np.argmin(samples.amplitude)])
-    typical = float(np.median(frequency_std))  # one value, or the median of each sample's
-    margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * typical)
-    return 2 * np.pi * float(f.max()) * (1 - 3 * typical), 2 * np.pi * f_ref * (1 + margin)
 
 
 def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
