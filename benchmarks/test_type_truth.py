@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth  # noqa: E402
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
-from nlupdate.core.identification.backbone_samples import join_samples, source_noise  # noqa: E402
+from nlupdate.core.identification.backbone_samples import join_samples, own_fit_for, source_noise  # noqa: E402
 from nlupdate.core.identification.data import FRFLevels  # noqa: E402
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
@@ -132,7 +132,8 @@ def sample_errors(s: dict, smp: ModalSamples) -> tuple[float, float]:
 
 def fit(s: dict, chosen: list[tuple[ModalSamples, tuple[float, float] | None]], backbone: str):
     joined = join_samples([c[0] for c in chosen])
-    noise = [source_noise(smp, stated) for smp, stated in chosen]
+    own_fit = own_fit_for(backbone, (("m1", float(s["phi"][0])),))
+    noise = [source_noise(smp, stated, own_fit) for smp, stated in chosen]
     f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen, noise)])
     z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen, noise)])
     return fit_amplitude_model(joined, (("m1", float(s["phi"][0])),), backbone, 2, frequency_std=f_std,

@@ -41,7 +41,7 @@ from nlupdate.core.identification.amplitude_modal_fit import (
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.backbone_samples import (
     DISAGREEMENT, TEST_TYPES, backbone_curve, backbone_points, consistency, held_out_errors, join_samples,
-    source_noise,
+    own_fit_for, source_noise,
 )
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
@@ -194,7 +194,8 @@ def run(args: argparse.Namespace) -> int:
     if len(points) == 1 and (model is None or held):
         model = _one_source_model(samples, shapes_fit, args)
     # several sources: one backbone fitted jointly, each source weighted by its own noise
-    noises = [source_noise(s, stated) for _, s, stated, _ in points]
+    own_fit = own_fit_for(args.backbone, shapes_fit)
+    noises = [source_noise(s, stated, own_fit) for _, s, stated, _ in points]
 
     def joint_fit(chosen: list[int]):
         """The model of the sources at ``chosen``, each weighted by its noise."""

@@ -42,7 +42,7 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import (
-    TEST_TYPES, backbone_curve, held_out_errors, join_samples, source_noise,
+    TEST_TYPES, backbone_curve, held_out_errors, join_samples, own_fit_for, source_noise,
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
@@ -132,12 +132,12 @@ def _compared(measured: float, predicted: float, low: float | None = None, high:
     return out
 
 
-def _weights(kept: Sequence[Source]) -> tuple:
+def _weights(kept: Sequence[Source], backbone: str, shapes: Sequence[tuple[str, float]]) -> tuple:
     """Per-sample relative standard deviations (frequency, damping) of the kept sources: each
     source's own noise; one source alone: the fit's defaults, as ``nlupdate amplitude``."""
     if len(kept) == 1:
         return 1e-3, 0.05
-    noises = [source_noise(s, stated) for _, s, stated, _ in kept]
+    noises = [source_noise(s, stated, own_fit_for(backbone, shapes)) for _, s, stated, _ in kept]
     return tuple(np.concatenate([np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(kept, noises)])
                  for k in (0, 1))
 
@@ -150,7 +150,7 @@ def fit_sources(kept: Sequence[Source], shapes: Sequence[tuple[str, float]], bac
     if samples.amplitude.size < 2:
         raise AmplitudeModelError("the sources kept give one sample (an impact's linear limit): a backbone needs "
                                   "more; keep another test type")
-    return fit_amplitude_model(samples, shapes, backbone, order, *_weights(kept), mode=mode)
+    return fit_amplitude_model(samples, shapes, backbone, order, *_weights(kept, backbone, shapes), mode=mode)
 
 
 def sample_bands(model: AmplitudeModalModel, kept: Sequence[Source], shapes: Sequence[tuple[str, float]],
@@ -160,7 +160,7 @@ def sample_bands(model: AmplitudeModalModel, kept: Sequence[Source], shapes: Seq
     (:func:`~nlupdate.core.identification.backbone_samples.backbone_curve`, ``resamples``
     refits of the kept sources) interpolated in log a; NaN outside the fitted amplitudes."""
     fitted = join_samples([s for _, s, _, _ in kept])
-    stds = _weights(kept)
+    stds = _weights(kept, backbone, shapes)
     curve = backbone_curve(model, fitted, count=100, resamples=resamples,
                            refit=lambda draw: fit_amplitude_model(draw, shapes, backbone, order, *stds,
                                                                   mode=model.mode))
