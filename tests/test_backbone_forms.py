@@ -138,22 +138,29 @@ def test_the_jenkins_backbone_follows_the_stick_slip_kink(seed):
     assert away.size >= 4 and np.max(np.abs(model.damping(away) / z - 1)) < 0.05
 
 
-def test_nlupdate_amplitude_fits_the_jenkins_backbone_from_a_csv(tmp_path):
-    """``--backbone jenkins`` on noise-free phase-resonance points from a CSV: the model written
-    is the Iwan joint in its Jenkins limit with the truth's modal joint (k_t ψ², F_s ψ)."""
+def test_nlupdate_amplitude_fits_the_jenkins_backbone_from_csvs(tmp_path):
+    """``--backbone jenkins`` on two phase-resonance files of the Jenkins SDOF (noise-free, and
+    2 % noise on force and response), fitted jointly with each weighted by its scatter about its
+    own Jenkins fit: the model written is the Iwan joint in its Jenkins limit with the truth's
+    modal joint (k_t ψ², F_s ψ) within 1 %, and both sources agree."""
     s = system(1, "jenkins")
     omega, force, x = locked_points(s, np.geomspace(0.5, 15, 6) * s["slip"])
-    path = tmp_path / "pr.csv"
-    pd.DataFrame({"frequency_hz": omega / (2 * np.pi), "force_n": force, "response_amplitude": np.abs(x),
-                  "response_phase_deg": np.degrees(np.angle(x)), "response_dof": "m1", "input_dof": "m1"}
-                 ).to_csv(path, index=False)
+    rng = np.random.default_rng(5)
+    paths = [tmp_path / "pr.csv", tmp_path / "pr_noisy.csv"]
+    for path, noise in zip(paths, (0.0, 0.02)):
+        pd.DataFrame({"frequency_hz": omega / (2 * np.pi),
+                      "force_n": force * (1 + noise * rng.standard_normal(force.size)),
+                      "response_amplitude": np.abs(x) * (1 + noise * rng.standard_normal(force.size)),
+                      "response_phase_deg": np.degrees(np.angle(x)), "response_dof": "m1", "input_dof": "m1"}
+                     ).to_csv(path, index=False)
     psi = float(s["phi"][0])
-    assert main(["amplitude", "--phase-resonance", str(path), "--shape", f"m1={psi}", "--backbone", "jenkins",
-                 "--out", str(tmp_path / "amm")]) == 0
+    assert main(["amplitude", "--phase-resonance", str(paths[0]), "--phase-resonance", str(paths[1]),
+                 "--shape", f"m1={psi}", "--backbone", "jenkins", "--out", str(tmp_path / "amm")]) == 0
     joint = json.loads((tmp_path / "amm" / "amplitude_model.json").read_text())["joint"]
     assert joint["beta"] == JENKINS_BETA
     assert joint["kt"] == pytest.approx(psi**2 * s["kt"], rel=0.01)
     assert joint["slip_force"] == pytest.approx(psi * s["joint"].slip_force, rel=0.01)
+    assert pd.read_csv(tmp_path / "amm" / "consistency.csv")["consistent"].all()
 
 
 @pytest.mark.parametrize("seed", [0, 1])
