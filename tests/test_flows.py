@@ -129,9 +129,9 @@ async def _read_flow_run(flow_run_id: str):
 def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_server):
     """Every run of the study read back from the API has a name that says what it is —
     the study and its start time, the steps, each updating run and prediction by its name
-    in the archive's tables, each FE point by its parameter values — and none has a name
-    Prefect made up (``updating-0``, ``FE point-176``, ``stoic-marmoset``). The manifest's
-    entries are these names."""
+    in the archive's tables — and none has a name Prefect made up (``updating-0``,
+    ``stoic-marmoset``). FE points have no task runs. The manifest's entries are these
+    names and the tally of FE points."""
     import datetime as dt
     import re
 
@@ -167,23 +167,21 @@ def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, pr
     candidates = set(pd.read_parquet(archive / "tables" / "runs.parquet")["candidate"])
     assert len(candidates) == 9 and "optimisation {k1}" in candidates
     updating = [t.name for t in tasks["updating: two-dof"]]
-    jobs = {name for name in updating if not name.startswith("FE point ")}
+    jobs = set(updating)
     # in ASCII: the UI's run graph draws no other characters (O(h²) and O(h⁴) would both read O(h))
     assert jobs == {f"updating: {candidate}".replace("²", "^2").replace("⁴", "^4") for candidate in candidates}
     assert "updating: eigensensitivity central O(h^2) {k1}" in jobs and all(name.isascii() for name in updating)
-    points = sorted(name for name in updating if name.startswith("FE point "))
-    assert len(points) == len(set(points)) == tally(manifest, "FE point")["computed"], points  # one run per point
-    assert "FE point k1=8e5 k2=1.2e6" in points  # the study's start point
-    number = r"\d(?:\.\d+)?e\d+"  # short engineering form: 8e5, 8.008e5 (more digits only to tell points apart)
-    for name in points:
-        assert re.fullmatch(rf"FE point k1=({number}) k2=({number})", name), name
+    # FE points are computed inside their job's task (issue 39: a task run per point cost the
+    # server more than the point): no task run of their own, each still tallied in the manifest
+    assert len(updating) == len(jobs) == 9, updating
+    assert tally(manifest, "FE point")["computed"] > 0
 
     models = set(pd.read_parquet(archive / "tables" / "correlation.parquet")["model"])
     assert models >= {"initial"} and len(models) == 2
     assert {t.name for t in tasks["predictions: two-dof"]} == {f"prediction: {model}" for model in models}
 
     everything = [run.name for run in children] + [t.name for ts in tasks.values() for t in ts]
-    made_up = [name for name in everything if not (": " in name or name.startswith("FE point ")) or re.search(r"-\d+$", name)]
+    made_up = [name for name in everything if ": " not in name or re.search(r"-\d+$", name)]
     assert not made_up, made_up
     assert set(manifest["run"]["tasks"]) == steps | jobs | {f"prediction: {model}" for model in models} | {"FE point"}
 
@@ -441,3 +439,55 @@ def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(pre
         os.environ["PREFECT_API_URL"] = saved
     assert process.wait(30) is not None and not server._EARLY and early not in server._STARTED
     assert httpx.get(f"{prefect_server}/health").status_code == 200
+
+
+def test_an_fe_point_is_kept_as_a_record_of_its_own_and_an_edited_one_computed_again(tmp_path):
+    """FE points computed inside their job's task still persist one by one: a second run's
+    registry reads a kept point without computing it (the same modes as the lumped model
+    solved afresh), and a record edited without the cache secret is named in one line and
+    computed again."""
+    import base64
+    import warnings
+    from concurrent.futures import ThreadPoolExecutor
+
+    from nlupdate.fe.adapters.registry import build_adapter
+    from nlupdate.notices import NlupdateWarning
+    from nlupdate.orchestration.tasks import records
+    from nlupdate.orchestration.tasks.fe_points import PointRegistry, RegistryPointEvaluator
+    from nlupdate.orchestration.tasks.signing import RECORDS_FOLDER
+    from nlupdate.study.chain import STEPS
+
+    spec = STEPS["updating"].model(load_study(STUDY))
+    point = {"k1": 8e5, "k2": 1.2e6}
+    expected = build_adapter(spec).evaluate(point).natural_frequencies_hz  # solved afresh, no cache
+
+    def one_run() -> tuple[np.ndarray, dict[str, int], list[str]]:
+        with ThreadPoolExecutor(2) as pool:
+            registry = PointRegistry(pool.submit, str(tmp_path))
+            evaluate = RegistryPointEvaluator(spec, registry)
+            (modes,) = evaluate([point])
+            return modes.natural_frequencies_hz, evaluate.counts(), registry.states()
+
+    frequencies, counts, states = one_run()
+    np.testing.assert_allclose(frequencies, expected, rtol=1e-12)
+    assert counts == {"new": 1, "cached": 0} and states == ["Completed"]
+    (record,) = (tmp_path / RECORDS_FOLDER).iterdir()
+
+    frequencies, counts, states = one_run()
+    np.testing.assert_allclose(frequencies, expected, rtol=1e-12)
+    assert counts == {"new": 0, "cached": 1} and states == ["Cached"]
+
+    head, _, rest = record.read_bytes().partition(b"\n")  # the numbers scaled, the old signature kept
+    signature, _, payload = rest.partition(b"\n")
+    content = json.loads(payload)
+    modes = records.loads(base64.b64decode(content["result"]))
+    content["result"] = base64.b64encode(records.dumps(dataclasses.replace(
+        modes, natural_frequencies_hz=modes.natural_frequencies_hz * 1.37))).decode()
+    record.write_bytes(head + b"\n" + signature + b"\n" + json.dumps(content).encode())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        frequencies, counts, states = one_run()
+    np.testing.assert_allclose(frequencies, expected, rtol=1e-12)
+    assert counts == {"new": 1, "cached": 0} and states == ["Completed"]
+    named = [str(w.message) for w in caught if issubclass(w.category, NlupdateWarning)]
+    assert len(named) == 1 and "its signature does not match" in named[0] and record.name in named[0], named

@@ -6,8 +6,9 @@ chain (:func:`nlupdate.orchestration.tasks.keys.step_key`). A fan-out step — t
 predictions — is a subflow named after it. Its jobs start at once, each on a coordinator
 thread that runs its job task; jobs whose FE points are known beforehand (the
 predictions: :attr:`~nlupdate.study.chain.Step.points`) submit those at once and then run
-in turn. The FE evaluations are FE-point tasks submitted to the flow's task runner
-(threads or Dask workers) and shared between the jobs and the whole run
+in turn. The FE evaluations are not tasks: a job computes its points inside its task, on
+the run's threads (as many as the task runner has) or its Dask workers, each kept as a
+signed cache record of its own, and shares them with the other jobs of the run
 (:class:`~nlupdate.orchestration.tasks.fe_points.PointRegistry`), so the start point four difference
 formulas need — and the prediction of the initial model — is solved once. A failing
 updating run fails its own branch only; it is named in the report and the manifest.
@@ -16,12 +17,15 @@ the same numbers.
 """
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import datetime as dt
+import functools
+import os
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, Callable, Iterator
 
 from prefect import flow
 from prefect.context import FlowRunContext
@@ -38,7 +42,7 @@ from nlupdate.study.steps.updating import RunFailure
 from nlupdate.orchestration.tasks import cached, keys
 from nlupdate.orchestration.tasks.figures import FigureStore
 from nlupdate.orchestration.tasks.names import job_run_name, step_run_name
-from nlupdate.orchestration.tasks.fe_points import PointRegistry, TaskPointEvaluator, adapter_for, evaluating_with
+from nlupdate.orchestration.tasks.fe_points import PointRegistry, RegistryPointEvaluator, adapter_for, evaluating_with
 
 __all__ = ["Cache", "study_flow", "study_handle"]
 
@@ -84,7 +88,7 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
         name = job_run_name(step.name, _named(job))
         task = cache.task(cached.chain_job, step.name, name)
         started = time.perf_counter()
-        with evaluating_with(TaskPointEvaluator(spec, registry)):
+        with evaluating_with(RegistryPointEvaluator(spec, registry)):
             state = task(key, step.name, study, job, tuple(values), return_state=True)
         if state.is_completed():
             outcome = state.result()
@@ -138,8 +142,34 @@ def run_chain(study: Study, cache: Cache) -> tuple[StudyResult, dict[str, str]]:
     results: dict[str, Any] = {}
     result_keys: dict[str, str] = {}
     subflow_runner = FlowRunContext.get().task_runner
-    registry = PointRegistry(lambda name: cache.task(cached.evaluate_point, run_name=name))
-    points = handle(registry, "the FE points of this run")
+    with _point_executor(subflow_runner) as submit:
+        registry = PointRegistry(submit, cache.store, cache.refresh)
+        _run_steps(study, cache, subflow_runner, handle(registry, "the FE points of this run"), results, result_keys)
+        if any(step.fans_out and step.name in results for step in CHAIN):
+            _tally_points(registry.states())
+    return study_result(study, results), result_keys
+
+
+@contextlib.contextmanager
+def _point_executor(task_runner: Any) -> Iterator[Callable[..., Any]]:
+    """``submit(function, *arguments)`` for the run's FE points: the Dask client of a Dask
+    task runner, else a thread pool as wide as the runner's (closed with the context)."""
+    client = getattr(task_runner, "client", None)  # prefect-dask's runner; the thread pool has none
+    if client is not None:
+        yield functools.partial(client.submit, pure=False)
+        return
+    workers = getattr(task_runner, "_max_workers", None) or os.cpu_count() or 1
+    pool = ThreadPoolExecutor(max_workers=min(workers, 64), thread_name_prefix="FE-point")
+    try:
+        yield pool.submit
+    finally:  # a run stopped by an error or Ctrl-C computes no queued point
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _run_steps(study: Study, cache: Cache, subflow_runner: Any, points: Handle, results: dict[str, Any],
+               result_keys: dict[str, str]) -> None:
+    """Each step the study asks for in chain order, its result and key into ``results`` and
+    ``result_keys``."""
     for step in CHAIN:
         if not step.applies(study, results):
             continue
@@ -153,9 +183,6 @@ def run_chain(study: Study, cache: Cache) -> tuple[StudyResult, dict[str, str]]:
                 points, cache)
         else:
             results[step.name], result_keys[step.name] = _step_task(step, study, inputs, input_keys, cache)
-    if any(step.fans_out and step.name in results for step in CHAIN):
-        _tally_points(registry.states())
-    return study_result(study, results), result_keys
 
 
 def _tally_points(states: list[str]) -> None:

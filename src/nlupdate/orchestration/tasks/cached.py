@@ -1,5 +1,6 @@
-"""The Prefect tasks of a study: one per chain step, one per job of a fan-out step, one per
-FE evaluation (and one per discovery candidate fit).
+"""The Prefect tasks of a study: one per chain step, one per job of a fan-out step (and one
+per discovery candidate fit). A job computes its FE evaluations inside its task, each kept
+as a signed record of its own (:mod:`nlupdate.orchestration.tasks.fe_points`).
 
 Every task takes its cache ``key`` first (:mod:`nlupdate.orchestration.tasks.keys`) and is cached by it
 alone — never by the heavy or live arguments beside it (studies, tables, models), which
@@ -23,14 +24,12 @@ from typing import Any, Mapping
 
 from prefect import Task, task
 
-from nlupdate.fe.adapters.base import ModalResult
-from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.core.discovery.candidates import CandidateFit
 from nlupdate.core.discovery.workflow import fit_candidate
 from nlupdate.input_files import pinned
 from nlupdate.study.chain import STEPS
 from nlupdate.study.spec import Study
-from nlupdate.orchestration.tasks.fe_points import adapter_for, current_evaluator
+from nlupdate.orchestration.tasks.fe_points import current_evaluator
 from nlupdate.orchestration.tasks.store import DataSerializer, record_store
 
 
@@ -48,15 +47,9 @@ def chain_step(key: str, step: str, study: Study, inputs: tuple) -> Any:
 @task(name="job", cache_key_fn=_by_key, persist_result=True)
 def chain_job(key: str, step: str, study: Study, job: Any, inputs: tuple) -> Any:
     """One job of the fan-out step ``step``; its FE points go to the evaluator of the
-    context (FE-point tasks on the flow's task runner)."""
+    context (computed on the run's threads or Dask workers, each kept in the cache)."""
     with pinned(study.snapshots):
         return STEPS[step].each(study, job, current_evaluator(), *inputs)
-
-
-@task(name="FE point", cache_key_fn=_by_key, persist_result=True)
-def evaluate_point(key: str, spec: AdapterSpec, point: Mapping[str, float]) -> ModalResult:
-    """One FE evaluation: modes of the model ``spec`` at parameter values ``point``."""
-    return adapter_for(spec).evaluate(point)
 
 
 @task(name="candidate fit", cache_key_fn=_by_key, persist_result=True)

@@ -9,7 +9,6 @@ a step's task run      ``identification: two-dof``
 a fan-out subflow      ``updating: two-dof``
 a job's task run       ``updating: eigensensitivity central O(h²) {E, h2}``,
                        ``prediction: optimisation {E, h2} equal weights``
-an FE point            ``FE point E=1.97e11 h2=1.42e-3``
 a discovery candidate  ``candidate fit, round 2: dry_friction on [0]``
 =====================  ==========================================
 
@@ -20,17 +19,10 @@ bitmap font of the ASCII characters only and drops the others, so ``central O(h�
 from __future__ import annotations
 
 import datetime as dt
-import math
 import unicodedata
-from typing import Collection, Mapping
 
 #: What one job of a fan-out step is called (the step's name is plural).
 JOB_NOUNS = {"updating": "updating", "predictions": "prediction"}
-
-#: Significant digits of a parameter value in an FE point's name, at least: enough to tell
-#: apart the points a finite-difference formula needs at the default relative step 1e-3.
-POINT_DIGITS = 4
-
 
 _SUPERSCRIPTS = str.maketrans({"⁰": "^0", "¹": "^1", "²": "^2", "³": "^3", "⁴": "^4", "⁵": "^5", "⁶": "^6",
                                 "⁷": "^7", "⁸": "^8", "⁹": "^9", "⁻": "^-"})
@@ -41,21 +33,6 @@ def ascii_name(text: str) -> str:
     (``Träger`` → ``Trager``); what has no ASCII form is kept (the run's page shows it)."""
     text = unicodedata.normalize("NFKD", text.translate(_SUPERSCRIPTS))
     return "".join(c for c in text if not unicodedata.combining(c))
-
-
-def short_number(value: float, digits: int = POINT_DIGITS) -> str:
-    """``value`` in short engineering form: ``digits`` significant digits, trailing zeros
-    dropped, plain between 0.01 and 10⁴ (``0.35``, ``210``), else with a bare exponent
-    (``1.97e11``, ``1.42e-3``, ``8e5``)."""
-    value = float(value)
-    if value == 0 or not math.isfinite(value):
-        return f"{value:g}"
-    if 1e-2 <= abs(value) < 1e4:
-        return f"{value:.{digits}g}"
-    mantissa, exponent = f"{value:.{digits - 1}e}".split("e")
-    if "." in mantissa:
-        mantissa = mantissa.rstrip("0").rstrip(".")
-    return f"{mantissa}e{int(exponent)}"
 
 
 def study_run_name(study: str, started: dt.datetime) -> str:
@@ -72,18 +49,6 @@ def job_run_name(step: str, job: str) -> str:
     """One job of a fan-out step, by its own name: ``updating: central O(h^2) {E}``. Also
     its key in the progress lines and the manifest."""
     return ascii_name(f"{JOB_NOUNS.get(step, step)}: {job}")
-
-
-def fe_point_name(point: Mapping[str, float], taken: Collection[str] = ()) -> str:
-    """An FE evaluation by its parameter values, ``FE point E=1.97e11 h2=1.42e-3``, with
-    as many more digits as it takes to differ from the names ``taken`` by other points of
-    the run (iterates close to convergence: ``k1=7.446e5``, ``k1=7.4462e5``)."""
-    for digits in range(POINT_DIGITS, 18):
-        name = ascii_name("FE point " + " ".join(f"{key}={short_number(value, digits)}"
-                                                 for key, value in sorted(point.items())))
-        if name not in taken:
-            break
-    return name
 
 
 def candidate_fit_name(round_number: int, effect: str, dofs) -> str:
