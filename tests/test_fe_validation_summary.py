@@ -49,3 +49,14 @@ def test_the_figure_draws_every_run_measured_and_predicted():
     assert drawn["measured"] == [80.0, 80.2]
     assert drawn["initial model"] == [78.0, 78.5] and drawn["updated model"] == [80.05, 80.1]
     assert [t.get_text() for t in resonance_axes.get_xticklabels()] == ["F 0.2 N", "R 20 µm"]
+
+
+def test_every_joint_element_the_table_offers_has_a_fit_parametrisation():
+    from nlupdate.core.validation.fe_settings import JOINT_ELEMENTS
+    from nlupdate.fe.joint_validation import JOINT_LAWS
+
+    assert set(JOINT_LAWS) == set(JOINT_ELEMENTS)
+    for name, kind in JOINT_LAWS.items():
+        assert len({len(kind.shape), len(kind.start), len(kind.low), len(kind.high), len(kind.scale),
+                    len(kind.step)}) == 1, name
+        assert kind.law(1e8, {"slip_force": 10.0, "chi": -0.5, "beta": 0.0})["type"] == name

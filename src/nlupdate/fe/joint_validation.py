@@ -19,7 +19,7 @@ import io
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -69,11 +69,7 @@ def nonlinear_model(adapter: BRBAdapter, parameters: Mapping[str, float], dampin
     mass[drive, drive] += shaker_mass
     stiffness = reduced.stiffness + joint_stiffness(reduced, springs["kt"], springs["kn"], springs["kr"],
                                                     tangential_x=False)
-    if element == "iwan":
-        law = {"type": "iwan", "kt": springs["kt"], "slip_force": joint["slip_force"], "chi": joint["chi"],
-               "beta": joint["beta"]}
-    else:
-        law = {"type": "jenkins", "kf": springs["kt"], "slip_force": joint["slip_force"]}
+    law = JOINT_LAWS[element].law(springs["kt"], joint)
     elements = [{**law, "dofs": [f"{bolt}_a:ux", f"{bolt}_b:ux"]} for bolt in BOLTS]
     return system_from_dict({"model": {"kind": "lumped", "mass": mass.tolist(), "stiffness": stiffness.tolist(),
                                        "loss_factor": 2 * damping_ratio, "dof_names": list(reduced.dof_names)},
@@ -91,10 +87,39 @@ def shaker_mass(adapter: BRBAdapter, parameters: Mapping[str, float], drive_dof:
     return float(max(((impact_hz / forced_hz) ** 2 - 1) / phi**2, 0.0))
 
 
+@dataclass(frozen=True)
+class JointLaw:
+    """How the joint fit parametrises one element kind per bolt: the element's model-file entry
+    from the stuck stiffness ``kt`` (N/m) and the identified ``joint``; the fitted shape
+    parameters between log F_S and log ζ (their start, bounds, scale and finite-difference step);
+    the values held fixed."""
+
+    law: Callable[[float, Mapping[str, float]], dict]
+    shape: tuple[str, ...] = ()
+    start: tuple[float, ...] = ()
+    low: tuple[float, ...] = ()
+    high: tuple[float, ...] = ()
+    scale: tuple[float, ...] = ()
+    step: tuple[float, ...] = ()
+    fixed: Mapping[str, float] = field(default_factory=dict)
+
+
+#: The element kinds ``[fe_validation] element`` offers: Segalman's Iwan element (χ fitted in
+#: [−0.95, 0], β = 0: microslip only — one driving-point curve per level does not separate β)
+#: and the Jenkins element (slip force only).
+JOINT_LAWS: dict[str, JointLaw] = {
+    "iwan": JointLaw(lambda kt, joint: {"type": "iwan", "kt": kt, "slip_force": joint["slip_force"],
+                                        "chi": joint["chi"], "beta": joint["beta"]},
+                     shape=("chi",), start=(-0.3,), low=(-0.95,), high=(0.0,), scale=(0.2,), step=(1e-2,),
+                     fixed={"beta": 0.0}),
+    "jenkins": JointLaw(lambda kt, joint: {"type": "jenkins", "kf": kt, "slip_force": joint["slip_force"]}),
+}
+
+
 def _joint_of(x: np.ndarray, element: str) -> tuple[dict[str, float], float]:
-    joint = {"slip_force": float(np.exp(x[0]))}
-    if element == "iwan":
-        joint.update(chi=float(x[1]), beta=0.0)
+    """(joint, ζ) from the fit's vector [log F_S, shape parameters…, log ζ]."""
+    kind = JOINT_LAWS[element]
+    joint = {"slip_force": float(np.exp(x[0])), **dict(zip(kind.shape, map(float, x[1:-1]))), **kind.fixed}
     return joint, float(np.exp(x[-1]))
 
 
@@ -116,13 +141,10 @@ def identify_joint(adapter: BRBAdapter, parameters: Mapping[str, float], damping
             out += [np.log(p["peak"] / m["peak"]), (p["damping_ratio"] - m["damping_ratio"]) / m["damping_ratio"]]
         return np.nan_to_num(np.array(out), nan=10.0)  # a curve without a half-power band: penalised
 
-    if element == "iwan":  # log F_S, χ, log ζ
-        x0, low, high = [np.log(1000.0), -0.3, np.log(damping_ratio)], [np.log(10.0), -0.95, np.log(1e-4)], \
-            [np.log(1e6), 0.0, np.log(0.05)]
-        scale, step = [1.0, 0.2, 0.3], [1e-3, 1e-2, 1e-3]
-    else:  # log F_S, log ζ
-        x0, low, high = [np.log(1000.0), np.log(damping_ratio)], [np.log(10.0), np.log(1e-4)], [np.log(1e6), np.log(0.05)]
-        scale, step = [1.0, 0.3], [1e-3, 1e-3]
+    kind = JOINT_LAWS[element]  # x = [log F_S, shape parameters…, log ζ]
+    x0 = [np.log(1000.0), *kind.start, np.log(damping_ratio)]
+    low, high = [np.log(10.0), *kind.low, np.log(1e-4)], [np.log(1e6), *kind.high, np.log(0.05)]
+    scale, step = [1.0, *kind.scale, 0.3], [1e-3, *kind.step, 1e-3]
     x0 = np.clip(x0, low, high)
     fit = scipy.optimize.least_squares(residuals, x0=x0, bounds=(low, high), x_scale=scale, diff_step=step,
                                        max_nfev=max_evaluations)
