@@ -40,7 +40,8 @@ def _job_name(job: Any) -> str:
 def cached_chain(study: Study, store: Path) -> tuple[StudyResult, dict[str, str], list[tuple]] | None:
     """The study's result from the records in ``store`` (a study whose input files are
     pinned, :func:`nlupdate.study.spec.inputs_read_once`), every step's key, and the
-    progress lines to print, ``(name, detail, position)``; None when a record is missing."""
+    progress lines to print, ``(name, detail, position)``; None when a record is missing or a
+    step fails (the flow then runs and reports the failure with a failed archive)."""
     from nlupdate.fe.adapters.registry import build_adapter
     from nlupdate.input_files import pinned
 
@@ -70,6 +71,8 @@ def cached_chain(study: Study, store: Path) -> tuple[StudyResult, dict[str, str]
                 result_keys[step.name] = keys.gathered_key(step, job_keys)
     except Missing:
         return None
+    except Exception:  # noqa: BLE001 — e.g. a [prediction] candidate that is not a run: the flow
+        return None    # reports it, with a failed archive; this path only answers when all is well
     return study_result(study, results), result_keys, lines
 
 
