@@ -38,23 +38,15 @@ import numpy as np  # noqa: E402
 from benchmarks import docs_block  # noqa: E402
 
 from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction  # noqa: E402
-from nlupdate.core.model.linear import LumpedModel  # noqa: E402
 from nlupdate.core.model.system import NonlinearSystem  # noqa: E402
 from nlupdate.core.response import hill_reduction  # noqa: E402
 from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance  # noqa: E402
 from nlupdate.core.response.hill import HillModel, floquet_batch  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_hill_reduction import fixed_free_chain as chain  # noqa: E402  (the test's chain: one definition)
+
 H = 3
-
-
-def chain(n: int) -> LumpedModel:
-    """Fixed–free chain: total mass 1 kg, tip stiffness 1e4 N/m, C = 0.5 s⁻¹·M, D = 0.002 K."""
-    m, k = 1.0 / n, 1e4 * n
-    main = np.full(n, 2 * k)
-    main[-1] = k
-    stiffness = np.diag(main) - np.diag(np.full(n - 1, k), 1) - np.diag(np.full(n - 1, k), -1)
-    mass = np.eye(n) * m
-    return LumpedModel(mass, stiffness, 0.5 * mass, 0.002 * stiffness)
 
 
 def jointed(n: int, joints: int, jenkins: bool, k3: float = 1e11) -> NonlinearSystem:

@@ -36,6 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from test_backbone_forms import locked_points  # noqa: E402
 from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth  # noqa: E402
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
@@ -46,7 +47,6 @@ from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, s
 from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 from nlupdate.core.model.linear import LumpedModel  # noqa: E402
 from nlupdate.core.model.system import NonlinearSystem  # noqa: E402
-from nlupdate.core.response.harmonic_balance import trace_harmonic_balance  # noqa: E402
 from nlupdate.core.response.simulate import simulate_frf_table  # noqa: E402
 
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
@@ -54,31 +54,20 @@ TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
 
 def records(s: dict, kind: str, dofs: int) -> dict:
     """The noise-free records of every test type of one system."""
-    psi, slip = s["phi"][0], s["slip"]
+    slip = s["slip"]
     start = 30 * slip if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip
     # levels: the Jenkins joint from stuck to 15 × its slip amplitude; the Iwan joint from
     # microslip to past 2 × its φ_max (MACROSLIP_REACH: below it an Iwan fit fixes β = 0)
     amplitude = (np.geomspace(0.5, 15, 6) * slip if kind == "jenkins"
                  else np.geomspace(0.05, 1.0, 6) * (6e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
-    f, z = truth(s, amplitude)
-    levels = 2 * z * (2 * np.pi * f) ** 2 * amplitude / psi  # the force that holds that amplitude at resonance
+    points = locked_points(s, amplitude)  # (Ω, the force that holds the amplitude at resonance, x)
     model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
-    points = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for force in levels:
-            curve = trace_harmonic_balance(model, {0: force}, 0.85 * s["w0"], 1.1 * s["w0"], harmonics=5,
-                                           stability=False)
-            x = curve.response([0])[:, 0]
-            phase = np.unwrap(np.angle(x)) + np.pi / 2
-            i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
-            w = phase[i] / (phase[i] - phase[i + 1])
-            points.append((curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i]), force,
-                           x[i] + w * (x[i + 1] - x[i])))
-        table, _ = simulate_frf_table(model, 0, s["w0"] / (2 * np.pi) * np.linspace(0.9, 1.05, 301), list(levels),
-                                      method="hb")
+        table, _ = simulate_frf_table(model, 0, s["w0"] / (2 * np.pi) * np.linspace(0.9, 1.05, 301),
+                                      list(points[1]), method="hb")
     return {"decay": free_decay(s, start, 80), "tap": free_decay(s, (0.5 if kind == "jenkins" else 0.05) * slip, 40),
-            "points": [np.array(v) for v in zip(*points)], "table": table}
+            "points": points, "table": table}
 
 
 def samples(s: dict, made: dict, seed: int) -> dict[str, tuple[ModalSamples, tuple[float, float] | None]]:

@@ -21,7 +21,7 @@ from nlupdate.core.response.time_integration import steady_state_response
 H = 3
 
 
-def _chain(n: int) -> LumpedModel:
+def fixed_free_chain(n: int) -> LumpedModel:
     """Fixed–free chain, total mass 1 kg, tip stiffness 1e4 N/m, mass-proportional viscous
     damping 0.5 s⁻¹ and loss factor 0.002 (ω1 ≈ 157 rad/s)."""
     m, k = 1.0 / n, 1e4 * n
@@ -38,7 +38,7 @@ def _jointed(n: int = 18, joints: int = 3) -> NonlinearSystem:
     stride = n // joints
     elements = [CubicStiffness((j * stride, j * stride + 1), 1e11) for j in range(joints)]
     elements.append(JenkinsFriction((0, 1), kf=0.3e4 * n, slip_force=3.0))
-    return NonlinearSystem(_chain(n), tuple(elements))
+    return NonlinearSystem(fixed_free_chain(n), tuple(elements))
 
 
 SYSTEM = _jointed()
@@ -132,7 +132,7 @@ def test_the_basis_is_exact_statically_for_any_joint_stiffness():
 
 
 def test_small_and_modal_models_keep_their_coordinates():
-    small = NonlinearSystem(_chain(4), (CubicStiffness((0, 1), 1e9),))
+    small = NonlinearSystem(fixed_free_chain(4), (CubicStiffness((0, 1), 1e9),))
     assert hill_model(small.model, [0, 1], [(small.elements[0], 0, 1)], 1.2 * W1, H).mass.shape == (4, 4)
-    modal = _chain(60).to_modal(8, [0, 1])
+    modal = fixed_free_chain(60).to_modal(8, [0, 1])
     assert hill_model(modal, [0, 1], [(small.elements[0], 0, 1)], 1.2 * W1, H).mass.shape == (8, 8)

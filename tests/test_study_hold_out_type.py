@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 
 from cli_runs import run_cli
-from test_validate_held_type import PHI, two_tests  # noqa: F401  (the fixture: the two simulated tests)
+from test_validate_held_type import PHI, assert_ring_down_predicted, two_tests  # noqa: F401  (the fixture: the two simulated tests)
 
 STUDY = """
 [study]
@@ -43,16 +42,7 @@ def test_the_study_holds_out_the_ring_down_and_the_archive_carries_it(two_tests,
     assert code == 0, err
     summary = json.loads((tmp_path / "out" / "validation.json").read_text())
     assert summary["held_out"], "the levels are still held out beside the type"
-    entry = summary["held_out_type"]
-    assert entry["test_type"] == "ring-down"
-    assert [s["test_type"] for s in entry["fitted_on"]] == ["stepped-sine"]
-    inside = [s for s in entry["samples"] if s["within_fit"]]
-    assert len(inside) >= 10
-    for sample in inside:
-        assert abs(sample["natural_frequency_hz"]["relative_error"]) < 2e-3
-        assert abs(sample["damping_ratio"]["relative_error"]) < 0.05
-    covered = [sample[name]["inside"] for sample in inside for name in ("natural_frequency_hz", "damping_ratio")]
-    assert np.mean(covered) >= 0.9
+    assert_ring_down_predicted(summary["held_out_type"])
 
 
 @pytest.mark.parametrize("change, message", [
