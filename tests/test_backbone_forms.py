@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-from test_test_type_truth import system, truth
+from test_test_type_truth import phase_resonance_point, system, truth
 
 from nlupdate.app.cli import main
 from nlupdate.core.identification.amplitude_modal_fit import (
@@ -41,12 +41,8 @@ def locked_points(s: dict, amplitude: np.ndarray, harmonics: int = 5) -> list[np
         for force in 2 * z * (2 * np.pi * f) ** 2 * amplitude / psi:
             curve = trace_harmonic_balance(model, {0: force}, 0.85 * s["w0"], 1.1 * s["w0"], harmonics=harmonics,
                                            stability=False)
-            x = curve.response([0])[:, 0]
-            phase = np.unwrap(np.angle(x)) + np.pi / 2
-            i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
-            w = phase[i] / (phase[i] - phase[i + 1])
-            points.append((curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i]), force,
-                           x[i] + w * (x[i + 1] - x[i])))
+            omega, x1 = phase_resonance_point(curve)
+            points.append((omega, force, x1))
     return [np.array(v) for v in zip(*points)]
 
 

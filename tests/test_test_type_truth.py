@@ -89,6 +89,16 @@ def free_decay(s: dict, a0: float, periods: float, steps: int = 200, every: int 
     return np.arange(len(out)) * dt * every, np.array(out)
 
 
+def phase_resonance_point(curve) -> tuple[float, complex]:
+    """Where a traced curve's first harmonic at dof 0 lags its force by 90°: (Ω in rad/s, the
+    complex first harmonic), linearly interpolated between the two points either side."""
+    x = curve.response([0])[:, 0]
+    phase = np.unwrap(np.angle(x)) + np.pi / 2
+    i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
+    w = phase[i] / (phase[i] - phase[i + 1])
+    return curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i]), x[i] + w * (x[i + 1] - x[i])
+
+
 def noisy(x: np.ndarray, seed: int, level: float = 0.02) -> np.ndarray:
     return x + level * np.abs(x).max() * np.random.default_rng(seed).standard_normal(x.size)
 
@@ -120,12 +130,8 @@ def test_jenkins_reference_is_the_periodic_solution_with_many_harmonics():
             warnings.simplefilter("ignore", HarmonicTruncationWarning)
             curve = trace_harmonic_balance(model, {0: force}, 0.85 * s["w0"], 1.1 * s["w0"], harmonics=15,
                                            stability=False)
-        x = curve.response([0])[:, 0]
-        phase = np.unwrap(np.angle(x)) + np.pi / 2
-        i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
-        w = phase[i] / (phase[i] - phase[i + 1])
-        omega = curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i])
-        a = abs(x[i] + w * (x[i + 1] - x[i])) / psi
+        omega, x1 = phase_resonance_point(curve)
+        a = abs(x1) / psi
         f_true, z_true = truth(s, a)
         assert abs(omega / (2 * np.pi) / f_true - 1) < 1e-4
         assert abs(psi * force / (2 * omega**2 * a) / z_true - 1) < 0.01  # ζ = φF/(2Ω²a) at 90°
@@ -185,12 +191,7 @@ def two_dof_jenkins_records(tmp_path_factory):
             warnings.simplefilter("ignore", HarmonicTruncationWarning)
             curve = trace_harmonic_balance(model, {0: force}, 0.9 * s["w0"], 1.1 * s["w0"], harmonics=5,
                                            stability=False)
-        response = curve.response([0])[:, 0]
-        phase = np.unwrap(np.angle(response)) + np.pi / 2
-        i = int(np.flatnonzero(np.sign(phase[:-1]) != np.sign(phase[1:]))[0])
-        w = phase[i] / (phase[i] - phase[i + 1])
-        omega = curve.omega[i] + w * (curve.omega[i + 1] - curve.omega[i])
-        x1 = response[i] + w * (response[i + 1] - response[i])
+        omega, x1 = phase_resonance_point(curve)
         rows.append({"frequency_hz": omega / (2 * np.pi), "force_n": force, "response_amplitude": abs(x1),
                      "response_phase_deg": np.degrees(np.angle(x1)), "response_unit": "m", "response_dof": "m1",
                      "input_dof": "m1"})
