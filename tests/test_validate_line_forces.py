@@ -19,7 +19,7 @@ import scipy.stats
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
-from nlupdate.core.validation.held_out import Repeatability, bands, repeatability, validate
+from nlupdate.core.validation.held_out import Repeatability, bands, repeatability, resonance_amplitudes, validate
 from nlupdate.core.validation.models import model_fitter
 from nlupdate.core.validation.resonance import resonance
 
@@ -163,6 +163,18 @@ def test_the_repeatability_pools_the_runs_about_a_parabola():
     assert repeat.resonance_hz == pytest.approx(np.sqrt(np.sum(residual**2) / 4), rel=1e-6)
     assert repeat.resonance_hz == pytest.approx(np.std(offsets, ddof=3), rel=0.6)
 
+
+def test_a_level_sits_at_the_amplitude_it_reached_not_at_its_nominal_force(data):
+    """The repeatability's trend places each force-controlled curve at the response it
+    reached at resonance, as a response-controlled run at the amplitude it held: the closed
+    form at the resonance with the force achieved there (30 % below the level at 80.3 Hz),
+    not peak × nominal level (17–43 % above it here)."""
+    reached = resonance_amplitudes(data)
+    for level, x, (f, h) in zip(data.levels, reached, zip(data.frequencies, data.receptances)):
+        r = resonance(f, h)
+        truth = amplitude(float(np.interp(r.resonance_hz, F, shaker_force(level))), 2 * np.pi * r.resonance_hz)
+        assert x == pytest.approx(truth, rel=2e-3)
+        assert level * r.peak_abs > 1.15 * truth
 
 @pytest.mark.slow
 def test_held_out_bands_cover_the_measured_level_on_simulated_tests():

@@ -234,13 +234,27 @@ def hold_out_levels(data: FRFLevels, hold_out: str | Sequence[float]) -> tuple[f
 PARABOLA_FROM = 6
 
 
+def resonance_amplitudes(data: FRFLevels) -> NDArray[np.float64]:
+    """Per level of ``data`` the response amplitude its curve reached at resonance (m for a
+    receptance): the peak |H| times the force achieved at the resonance frequency (the level
+    where none is recorded) — what a response-controlled run's held amplitude is. At the
+    nominal level instead, the BRB's two lowest levels, whose shaker force sags 27 % and
+    19 % at resonance, were put that much above the amplitude they reached."""
+    out = []
+    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
+        r = resonance(f, h)
+        out.append(r.peak_abs * float(data.force_at(level, [r.resonance_hz])[0]))
+    return np.array(out)
+
+
 def repeatability(data: FRFLevels, runs: Sequence = ()) -> Repeatability:
     """:class:`Repeatability` of the measured levels and of the response-controlled ``runs``
     (each at its held amplitude), pooled: the trend a straight line in log amplitude, a
-    parabola from :data:`PARABOLA_FROM` curves on (N − 3 degrees of freedom then)."""
-    curves = [(resonance(f, h), level) for level, f, h in zip(data.levels, data.frequencies, data.receptances)]
-    shown = [r for r, _ in curves] + [resonance(run.frequency_hz, run.h) for run in runs]
-    amplitude = np.array([r.peak_abs * level for r, level in curves] + [run.held_m for run in runs])
+    parabola from :data:`PARABOLA_FROM` curves on (N − 3 degrees of freedom then); a level's
+    amplitude is :func:`resonance_amplitudes`'."""
+    shown = ([resonance(f, h) for f, h in zip(data.frequencies, data.receptances)]
+             + [resonance(run.frequency_hz, run.h) for run in runs])
+    amplitude = np.concatenate([resonance_amplitudes(data), [run.held_m for run in runs]])
     degree = 2 if len(shown) >= PARABOLA_FROM else 1
     out = []
     for values in ([r.resonance_hz for r in shown], [r.damping_ratio for r in shown],
