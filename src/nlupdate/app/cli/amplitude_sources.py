@@ -10,11 +10,12 @@ the shape at the channel when given, then made displacement.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 
 from nlupdate.app.cli import CliError
-from nlupdate.app.cli.measured import parse_band, read_options
+from nlupdate.app.cli.measured import parse_band, parse_levels, read_options
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.backbone_samples import displacement_samples, join_samples
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit, split_force
@@ -37,11 +38,19 @@ def add_source_options(parser: argparse.ArgumentParser, response_controlled: boo
     if response_controlled:
         parser.add_argument("--response-controlled", action="append", default=[], metavar="FILE",
                             help="response-controlled stepped-sine runs (.mat, as --measured's MATLAB runs; "
-                                 "--coordinates for a sensor along −DIR): one sample per held amplitude; repeatable")
+                                 "--coordinates for a sensor along −DIR; or .uff/.unv: an FRF or spectra of response "
+                                 "and force per run, the held amplitude in the run name, e.g. 'ResponseControl 20 "
+                                 "m/s2', 'Rc5ms2', 'a=0.5 g'): one sample per held amplitude; repeatable")
+        parser.add_argument("--held-amplitude", action="append", default=[], metavar="KEY=VALUE",
+                            help="held amplitude of a response-controlled UFF run whose name does not state it, in the "
+                                 "unit of its response record (m/s^2 for an accelerance): FILE#RUN=VALUE, RUN=VALUE, "
+                                 "or FILE=VALUE for a file of one run; repeat per run")
     parser.add_argument("--phase-resonance", action="append", default=[], metavar="FILE",
                         help="phase-resonance points (.csv: frequency_hz, force_n, response_amplitude, "
-                             "response_phase_deg, optional response_unit, response_dof, input_dof; or .mat runs): one "
-                             "sample per level; needs --shape at its response (and input) coordinate; repeatable")
+                             "response_phase_deg, optional response_unit, response_dof, input_dof; .mat runs; or "
+                             ".uff/.unv: per level one frequency line, spectra of response and force or an FRF and "
+                             "its force): one sample per level; needs --shape at its response (and input) coordinate; "
+                             "repeatable")
     parser.add_argument("--impact", action="append", default=[], metavar="FILE",
                         help="impact or low-level free decay (.csv or .mat: time_s, one column per channel, optional "
                              "force): the linear limit from the quietest part of the decay; all channels jointly, or "
@@ -103,8 +112,10 @@ def read_sources(args: argparse.Namespace, shapes: dict[str, float]) -> tuple[li
         out.append((path, samples, (fit.frequency_std_hz / fit.frequency_hz, fit.damping_std / fit.damping_ratio),
                     "impact"))
         channel = first
+    held = dataclasses.replace(read_options(args), levels=parse_levels(
+        getattr(args, "held_amplitude", []), "--held-amplitude", "the unit of the run's response record"))
     for path in args.response_controlled:
-        runs = read_response_controlled(path, read_options(args))
+        runs = read_response_controlled(path, held)
         channel = runs[0].response_dof
         samples = samples_from_held_runs(runs, shapes.get(channel))
         print(f"{path}: {len(runs)} response-controlled run(s) at {channel}, held {1e6 * runs[0].held_m:.3g}–"

@@ -82,21 +82,27 @@ def parse_band(text: str | None, option: str = "--band") -> tuple[float, float] 
     return low, high
 
 
-def read_options(args: argparse.Namespace) -> ReadOptions:
-    """The :class:`~nlupdate.core.measurement.units.ReadOptions` the options state."""
-    levels = {}
-    for entry in getattr(args, "level", []):
+def parse_levels(entries: Iterable[str], option: str = "--level", unit: str = "the reference unit") -> dict[str, float]:
+    """The ``KEY=VALUE`` entries of ``option`` (KEY: FILE, FILE#RUN or RUN; VALUE > 0 in ``unit``) as a dict."""
+    levels: dict[str, float] = {}
+    for entry in entries:
         name, sep, value = entry.rpartition("=")
         try:
             number = float(value)
         except ValueError:
             number = float("nan")
         if not sep or not name.strip() or not (math.isfinite(number) and number > 0):
-            raise CliError(f"--level {entry!r}: expected FILE=VALUE, FILE#RUN=VALUE or RUN=VALUE with a level > 0 "
-                           f"in the reference unit")
+            raise CliError(f"{option} {entry!r}: expected FILE=VALUE, FILE#RUN=VALUE or RUN=VALUE with a level > 0 "
+                           f"in {unit}")
         if name in levels and levels[name] != number:
-            raise CliError(f"--level {entry!r}: {name!r} was given the level {levels[name]:g} already")
+            raise CliError(f"{option} {entry!r}: {name!r} was given the level {levels[name]:g} already")
         levels[name] = number
+    return levels
+
+
+def read_options(args: argparse.Namespace) -> ReadOptions:
+    """The :class:`~nlupdate.core.measurement.units.ReadOptions` the options state."""
+    levels = parse_levels(getattr(args, "level", []))
     coordinates = {}
     for entry in getattr(args, "coordinates", []):
         name, sep, value = entry.rpartition("=")

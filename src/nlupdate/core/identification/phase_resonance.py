@@ -42,6 +42,16 @@ Files (docs/ring-down.md, "Phase resonance", states the layout):
 * MATLAB (.mat v5 or v7.3): struct(s) with the stepped-sine run fields ``frequency``,
   ``force``, ``amplitude``, ``phase`` (one value per level) and ``units`` (e.g.
   ``'Hz, N, m/s^2, rad'``), as :mod:`nlupdate.core.measurement.matfile` reads runs.
+* Universal file (.uff/.unv; :mod:`nlupdate.core.measurement.uff.run_records`): one run per
+  level (runs told apart by their ID lines, as for force-controlled exports), each of datasets
+  58 with **one frequency line**, the locked frequency Ω: a spectrum (function type 12,
+  complex) of the response and one of the force — the response's phase relative to the force
+  is ``arg X − arg F`` — or an FRF (type 4) at Ω with the force's spectrum (type 12, or auto
+  spectrum type 2 in N²) or, without one, its level as ``--measured`` finds it
+  (:mod:`nlupdate.core.measurement.uff.levels`: ``F=2.5N`` in the run name, a z-axis force,
+  ``--level FILE#RUN=VALUE``). The coordinates are the records' node and direction fields
+  (the force spectrum's node is the input), a negative direction applied. Any other record
+  (a time record, an auto spectrum of the response, several lines) is refused naming it.
 """
 from __future__ import annotations
 
@@ -58,6 +68,8 @@ from nlupdate.core.measurement.matfile import (
     _RUN_FIELDS, _raw_variables, _run_coordinates, _run_groups, _run_units, _run_vector, _signed,
 )
 from nlupdate.core.measurement.time_history import csv_frame
+from nlupdate.core.measurement.uff.levels import dataset_level
+from nlupdate.core.measurement.uff.run_records import RunRecord, by_run, run_records, uff_content
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS, ReadOptions
 from nlupdate.input_files import read_input_bytes, sniff
 
@@ -160,6 +172,59 @@ def _read_mat(data: bytes, path: Path, kind: str, options: ReadOptions) -> Phase
                                                                         for k in (2, 3, 4)))
 
 
+UFF_FORM = ("a phase-resonance point is one frequency line, the locked frequency, per level (run): a spectrum "
+            "(function type 12, complex) of the response and one of the force, or an FRF (type 4) with the force's "
+            "spectrum or level")
+
+
+def _uff_point(run: str, members: list[RunRecord], path: Path, options: ReadOptions, listing: str):
+    """(response, input, Ω Hz, F N, X complex m relative to the force) of one run's records."""
+    where = f"{path}, run {run!r}" if run else f"{path}, dataset {members[0].index}"
+    for record in members:
+        if record.frequency_hz.size != 1:
+            raise MeasurementTableError(f"{record.where}: {record.frequency_hz.size} frequency lines; {UFF_FORM} (a "
+                                        f"stepped-sine run is read with --measured or --response-controlled)")
+    mains = [r for r in members if r.kind in ("frf", "response")]
+    forces = [r for r in members if r.kind == "force"]
+    if len(mains) != 1 or len(forces) > 1:
+        raise MeasurementTableError(f"{where}: {len(mains)} FRF/response spectra and {len(forces)} force spectra "
+                                    f"(datasets {[r.index for r in members]}); {UFF_FORM}")
+    main, force = mains[0], forces[0] if forces else None
+    if force is not None and not np.isclose(force.frequency_hz[0], main.frequency_hz[0], rtol=1e-9):
+        raise MeasurementTableError(f"{force.where}: at {force.frequency_hz[0]:.8g} Hz, its response's record at "
+                                    f"{main.frequency_hz[0]:.8g} Hz; expected both at the locked frequency")
+    if main.kind == "frf":
+        if force is not None:
+            amplitude = float(abs(force.values[0]))
+        else:
+            given = options.level_of_run(str(path), run) if run else None
+            amplitude = dataset_level(main.dataset, main.where, "N", options.level_of(str(path)) if given is None
+                                      else given, listing)
+        return main.response_dof, main.input_dof, main.frequency_hz[0], amplitude, main.values[0] * amplitude
+    if force is None or not (force.has_phase and main.has_phase):
+        raise MeasurementTableError(f"{main.where}: a response spectrum without the force's complex spectrum (type "
+                                    f"12) in its run: no phase relative to the force; {UFF_FORM}")
+    f = complex(force.values[0])
+    return main.response_dof, force.response_dof, main.frequency_hz[0], abs(f), main.values[0] * f.conjugate() / abs(f)
+
+
+def _read_uff(data: bytes, path: Path, options: ReadOptions) -> PhaseResonancePoints:
+    records, others = run_records(data, path)
+    if others:
+        raise MeasurementTableError(f"{others[0][1]}: {others[0][2]}; {UFF_FORM}")
+    groups = by_run(records)
+    listing = f"; the file's runs: {', '.join(repr(r) for r in groups)}" if len(groups) > 1 else ""
+    points = [_uff_point(run, members, path, options, listing) for run, members in groups.items()]
+    if len({(r, i) for r, i, *_ in points}) != 1:
+        raise MeasurementTableError(f"{path}: its runs name {len({(r, i) for r, i, *_ in points})} coordinate pairs "
+                                    f"{sorted({(r, i) for r, i, *_ in points})}; a phase-resonance file is of one mode "
+                                    f"at one response and one force")
+    frequency, force, x = (np.array([p[k] for p in points]) for k in (2, 3, 4))
+    _checked(str(path), frequency, force, np.abs(x))
+    return PhaseResonancePoints(str(path), points[0][0], points[0][1], frequency.astype(float), force.astype(float),
+                                x.astype(complex))
+
+
 def read_phase_resonance(path: str | Path, options: ReadOptions | None = None) -> PhaseResonancePoints:
     """The points of a phase-resonance file (CSV or MATLAB; module docstring), read through
     the input gate; ``options`` carries ``--coordinates``. Lowest force first."""
@@ -172,9 +237,12 @@ def read_phase_resonance(path: str | Path, options: ReadOptions | None = None) -
         points = _read_csv(data, path, options)
     elif suffix == ".mat" and kind in ("mat5", "hdf5"):
         points = _read_mat(data, path, kind, options)
+    elif suffix in (".uff", ".unv") and uff_content(data, kind):
+        points = _read_uff(data, path, options)
     else:
         raise MeasurementTableError(f"{path}: a {suffix or 'suffix-less'} file holding {kind}; phase-resonance points "
-                                    f"are read from .csv ({', '.join(CSV_COLUMNS)}) or .mat")
+                                    f"are read from .csv ({', '.join(CSV_COLUMNS)}), .mat or .uff/.unv (datasets 58: "
+                                    f"one frequency line per level)")
     order = np.argsort(points.force_n, kind="stable")
     return PhaseResonancePoints(points.source, points.response_dof, points.input_dof, points.frequency_hz[order],
                                 points.force_n[order], points.x[order])

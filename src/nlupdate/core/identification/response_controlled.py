@@ -14,6 +14,21 @@ is converted to receptance (m/N) with the sign of ``--coordinates`` (a sensor al
 the held displacement amplitude is the median of ``|amplitude|/ω^p`` over the run (p = 0, 1, 2
 for displacement, velocity, acceleration).
 
+Universal files (``.uff``/``.unv``: docs/ring-down.md states the layouts): datasets 58 grouped
+into runs by their ID lines as for force-controlled exports
+(:mod:`nlupdate.core.measurement.uff.run_records`). A run holds an FRF (function type 4) or a
+response spectrum (type 12, complex), and optionally the force's spectrum (type 12, or auto
+spectrum type 2, N²). Its **held amplitude** (the controller's target) is the one the user
+gives, keyed as levels are (``options.levels``: ``nlupdate amplitude`` fills them from
+``--held-amplitude FILE#RUN=VALUE``, ``RUN=VALUE``, or ``FILE=VALUE`` for a file of one run),
+VALUE in the unit of the run's response record, else the amplitude its run name or ID lines name with a response unit
+(:func:`~nlupdate.core.measurement.run_levels.held_amplitudes_in_text`: ``ResponseControl 20
+m/s2``, ``Rc5ms2``, ``a=0.5 g``). The held displacement is the median of ``target/Ω^p`` over the
+run (p of the target's unit). The **force** at each line is the force spectrum's amplitude,
+else ``target/(Ω^p·|H|)``; with a force spectrum, the response it implies (``|H|·F``, or the
+response spectrum) is compared with the target and a median difference above 10 % is warned
+about (an RMS spectrum read as peak is 29 % low).
+
 Each run: one mode fitted by :func:`~nlupdate.core.identification.modal_fit.fit_mode_near` near
 the run's peak (residual terms for the other modes; structural damping, loss factor η, so
 ``ζ = η/2`` at resonance). The modal amplitude is ``a = X/|φ_r|`` with φ_r the shape at the
@@ -22,6 +37,7 @@ at a driving point (the held response collocated with the force).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +51,12 @@ from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.matfile import (
     _RUN_FIELDS, _raw_variables, _run_coordinates, _run_groups, _run_units, _run_vector, _spread,
 )
+from nlupdate.core.measurement.run_levels import held_amplitudes_in_text
+from nlupdate.core.measurement.uff.codes import field_label, id_lines
+from nlupdate.core.measurement.uff.levels import named_in_id_lines
+from nlupdate.core.measurement.uff.run_records import RunRecord, by_run, run_records, uff_content
 from nlupdate.core.measurement.units import ReadOptions
+from nlupdate.notices import NlupdateWarning
 
 
 @dataclass(frozen=True)
@@ -60,10 +81,13 @@ def read_response_controlled(path: str | Path, options: ReadOptions | None = Non
     options = options or ReadOptions()
     data = read_input_bytes(path, "response-controlled stepped-sine file")
     kind = sniff(data[:4096])
+    if path.suffix.lower() in (".uff", ".unv") and uff_content(data, kind):
+        return sorted(_read_uff(data, path, options), key=lambda r: r.held_m)
     if path.suffix.lower() != ".mat" or kind not in ("mat5", "hdf5"):
         raise MeasurementTableError(f"{path}: a {path.suffix or 'suffix-less'} file holding {kind}; response-controlled "
                                     f"runs are read from MATLAB stepped-sine files (.mat: runs with fields "
-                                    f"{', '.join(_RUN_FIELDS)}, units)")
+                                    f"{', '.join(_RUN_FIELDS)}, units) or universal files (.uff/.unv: datasets 58, "
+                                    f"an FRF or spectra per run)")
     runs = []
     for group, members in _run_groups(_raw_variables(data, path, kind, "response-controlled stepped-sine file")):
         for index, run in enumerate(members, start=1):
@@ -89,6 +113,92 @@ def read_response_controlled(path: str | Path, options: ReadOptions | None = Non
         raise MeasurementTableError(f"{path}: holds no response-controlled run (none holds its response amplitude "
                                     f"more steadily than its force)")
     return sorted(runs, key=lambda r: r.held_m)
+
+
+_HELD_FORMS = "'ResponseControl 20 m/s2', 'Rc5ms2', 'a=0.5 g', 'Target_0p1mm'"
+
+
+def _held_target(main: RunRecord, path: Path, options: ReadOptions, several: bool) -> tuple[float, int]:
+    """(value in SI, power of iΩ that makes it a displacement) of a run's held amplitude
+    (module docstring); one line naming the file, run and the forms expected when none."""
+    file_level = options.level_of(str(path))
+    if file_level is not None and several:
+        raise MeasurementTableError(f"{path}: holds several runs; a held amplitude given for the file ({file_level:g}) "
+                                    f"fits a file of one run: give each with --held-amplitude {path.name}#RUN=VALUE")
+    given = options.level_of_run(str(path), main.run) if main.run else None
+    given = file_level if given is None else given
+    if given is not None:
+        return given * main.to_si, main.power
+    named = sorted(named_in_id_lines(main.dataset, held_amplitudes_in_text))
+    if len(named) > 1:
+        raise MeasurementTableError(f"{main.where}: the ID lines name several held amplitudes {named} (SI value, power "
+                                    f"of iΩ); give it with --held-amplitude {path.name}#RUN=VALUE")
+    if named:
+        return named[0]
+    forces = sorted(named_in_id_lines(main.dataset))
+    hint = (f"; they name the force level {forces[0][0]:g} {forces[0][1] or ''}: a force-controlled run is read "
+            f"with --measured") if forces else ""
+    raise MeasurementTableError(
+        f"{main.where}: no held response amplitude: expected the controller's target with a response unit (m, mm, "
+        f"m/s, m/s^2, ms2, g …) in the run name or an ID line ({_HELD_FORMS}), or --held-amplitude "
+        f"{path.name}#{main.run or 'RUN'}=VALUE in the unit of the response record "
+        f"({field_label(main.dataset, 'ordinate_axis_units_lab') or 'unlabelled'}); found ID lines "
+        f"{[line.strip() for line in id_lines(main.dataset)]}{hint}")
+
+
+def _one(records: list[RunRecord], kind: str, where: str, what: str) -> RunRecord | None:
+    chosen = [r for r in records if r.kind == kind]
+    if len(chosen) > 1:
+        raise MeasurementTableError(f"{where}: {len(chosen)} {what} (datasets {[r.index for r in chosen]}); a "
+                                    f"response-controlled run holds one, at the controlled sensor")
+    return chosen[0] if chosen else None
+
+
+def _read_uff(data: bytes, path: Path, options: ReadOptions) -> list[HeldRun]:
+    """The runs of a universal file (module docstring)."""
+    records, others = run_records(data, path)
+    if others:
+        warnings.warn(f"{path}: skipped datasets that are no FRF nor spectrum: "
+                      f"{', '.join(what + f' (dataset {i})' for i, _, what in others)}", NlupdateWarning, stacklevel=3)
+    groups = by_run(records)
+    runs = []
+    for run, members in groups.items():
+        where = f"{path}, run {run!r}" if run else f"{path}, dataset {members[0].index}"
+        main = _one(members, "frf", where, "FRFs") or _one(members, "response", where, "response spectra")
+        if main is None:
+            raise MeasurementTableError(f"{where}: no FRF (function type 4) nor response spectrum (type 12); a "
+                                        f"response-controlled run holds an FRF, or spectra of the response and force")
+        forces = [r for r in members if r.kind == "force"]
+        at_input = [r for r in forces if r.response_dof == main.input_dof]
+        force = at_input[0] if len(at_input) == 1 else forces[0] if len(forces) == 1 else None
+        if len(forces) > 1 and force is None:
+            raise MeasurementTableError(f"{where}: {len(forces)} force spectra (datasets {[r.index for r in forces]}) "
+                                        f"and none at the FRF's input {main.input_dof!r}; expected one")
+        if main.kind == "response" and (force is None or not (main.has_phase and force.has_phase)):
+            raise MeasurementTableError(f"{main.where}: a response spectrum needs the force's complex spectrum "
+                                        f"(function type 12) in its run to make the FRF; expected that, or an FRF "
+                                        f"(type 4)")
+        frequency = main.frequency_hz
+        if force is not None and (force.frequency_hz.shape != frequency.shape
+                                  or not np.allclose(force.frequency_hz, frequency, rtol=1e-6)):
+            raise MeasurementTableError(f"{force.where}: its frequency lines differ from those of dataset "
+                                        f"{main.index}; expected the force at the same lines")
+        h = main.values if main.kind == "frf" else main.values / force.values
+        value, power = _held_target(main, path, options, len(groups) > 1)
+        target = value / (2 * np.pi * frequency) ** power  # displacement, m
+        if force is None:
+            force_n = target / np.abs(h)
+        else:
+            force_n = np.abs(force.values)
+            ratio = float(np.median(np.abs(h) * force_n / target))
+            if abs(ratio - 1) > 0.1:
+                warnings.warn(f"{where}: the response the force spectrum implies is {ratio:.3g} × the held amplitude "
+                              f"({value:.4g} SI, power {power}): an RMS spectrum read as peak (0.707), or another "
+                              f"target?", NlupdateWarning, stacklevel=3)
+        runs.append(HeldRun(run or f"dataset {main.index}", main.response_dof,
+                            main.input_dof if main.kind == "frf" else force.response_dof, frequency, h,
+                            float(np.median(target)), force_n))
+    return runs
 
 
 def samples_from_held_runs(runs: list[HeldRun], shape: float | None = None,

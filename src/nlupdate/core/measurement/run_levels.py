@@ -27,6 +27,15 @@ integer there (``Chirp2``, ``Sweep1``) is a run number, not a level — and is i
 reference unit. A number followed by another letter or digit run (``70to110Hz``,
 ``0-512Hz``) is a frequency range, never a level.
 
+**Held response amplitudes** (:func:`held_amplitudes_in_text`): the target of a
+response-controlled run, read by the same rules with response units instead of N and V —
+``m``, ``mm``, ``um``/``µm``, ``m/s``, ``mm/s``, ``m/s^2`` (also ``m/s2``, ``m/s²``,
+``m/s**2`` and, where a ``/`` cannot be typed, ``ms2``/``ms-2``), ``mm/s^2``, ``g`` — and the
+words ``rc``, ``response``/``resp``, ``responsecontrol``, ``control``/``controlled``,
+``target``, ``held``/``hold`` before a number glued to its unit: ``ResponseControl 20 m/s2``
+(20 m/s²), ``Rc5ms2`` (5 m/s²), ``a=0.5 g`` (0.5 g), ``Target_0p1mm`` (0.1 mm). A unit is
+required (a number alone is never a held amplitude).
+
 **Run names** (:func:`run_names`), for a file of several datasets: an ID line
 ``run=<name>`` names the run; otherwise the run name is the ID line (the first of lines
 1, 2, 4, 5 — line 3 holds the date by the UFF convention) whose text differs between
@@ -41,12 +50,28 @@ from __future__ import annotations
 import re
 from typing import Sequence
 
+from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
+
 # unit label → (reference unit, factor to it)
 _UNITS = {"V": ("V", 1.0), "mV": ("V", 1e-3), "N": ("N", 1.0), "kN": ("N", 1e3)}
+# response unit label → (power of iω that makes it a displacement, factor to SI)
+_RESPONSE_UNITS = {**RESPONSE_UNIT_LABELS, "ms2": RESPONSE_UNIT_LABELS["m/s^2"], "ms-2": RESPONSE_UNIT_LABELS["m/s^2"]}
 _NUMBER = r"(\d+(?:[.p]\d+)?|\.\d+)(?:[eE]([-+]?\d+))?"
-_WITH_UNIT = re.compile(rf"(?<![A-Za-z0-9.]){_NUMBER}\s*(mV|kN|V|N)(?![A-Za-z])")
 _EXCITATION_WORD = r"(?i:chirp|sweep|swept|sine|random|noise|burst|level|amplitude|amp|force|excitation|exc)"
-_AFTER_WORD = re.compile(rf"{_EXCITATION_WORD}[_=:]?{_NUMBER}(mV|kN|V|N)?(?![A-Za-z0-9.])")
+_HELD_WORD = r"(?i:responsecontrol|response|resp|controlled|control|target|held|hold|rc)"
+
+
+def _unit_pattern(labels: Sequence[str]) -> str:
+    """A regex alternation of unit labels, longest first (``m/s2`` before ``m``)."""
+    return "|".join(re.escape(label) for label in sorted(labels, key=len, reverse=True))
+
+
+_LEVEL_UNIT = _unit_pattern(list(_UNITS))
+_WITH_UNIT = re.compile(rf"(?<![A-Za-z0-9.]){_NUMBER}\s*({_LEVEL_UNIT})(?![A-Za-z])")
+_AFTER_WORD = re.compile(rf"{_EXCITATION_WORD}[_=:]?{_NUMBER}({_LEVEL_UNIT})?(?![A-Za-z0-9.])")
+_HELD_UNIT = _unit_pattern(list(_RESPONSE_UNITS))
+_HELD_WITH_UNIT = re.compile(rf"(?<![A-Za-z0-9.]){_NUMBER}\s*({_HELD_UNIT})(?![A-Za-z0-9^²*/])")
+_HELD_AFTER_WORD = re.compile(rf"{_HELD_WORD}[_=:]?{_NUMBER}({_HELD_UNIT})(?![A-Za-z0-9^²*/.])")
 _OWN_KEYS = ("response_dof=", "input_dof=", "force_level_n=", "abscissa_hz=", "run=", "nlupdate ")
 _RUN_POSITIONS = (0, 1, 3, 4)  # ID lines 1, 2, 4, 5 (line 3: date)
 _SINGLE_RUN_POSITIONS = (1, 3, 4, 0)
@@ -71,6 +96,19 @@ def levels_in_text(text: str) -> set[tuple[float, str | None]]:
             found.add((_number(mantissa, exponent) * factor, unit))
         elif "." in mantissa or "p" in mantissa:
             found.add((_number(mantissa, exponent), None))
+    return found
+
+
+def held_amplitudes_in_text(text: str) -> set[tuple[float, int]]:
+    """The held response amplitudes a text names, as (value in SI: m, m/s or m/s², power of
+    iω that makes it a displacement: 0, 1, 2), in the styles of the module docstring; an
+    empty set when it names none."""
+    found: set[tuple[float, int]] = set()
+    for pattern in (_HELD_WITH_UNIT, _HELD_AFTER_WORD):
+        for match in pattern.finditer(text):
+            mantissa, exponent, label = match.groups()
+            power, factor = _RESPONSE_UNITS[label]
+            found.add((_number(mantissa, exponent) * factor, power))
     return found
 
 

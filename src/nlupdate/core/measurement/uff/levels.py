@@ -14,21 +14,33 @@ looked for and the file's runs.
 """
 from __future__ import annotations
 
+from typing import Callable, TypeVar
+
 import numpy as np
 
 from nlupdate.core.measurement.frf_table import MeasurementTableError
-from nlupdate.core.measurement.run_levels import levels_in_text
+from nlupdate.core.measurement.run_levels import held_amplitudes_in_text, levels_in_text
 from nlupdate.core.measurement.uff.codes import FORCE, REACTION, field_label, id_floats, id_keys, id_lines
 from nlupdate.core.measurement.units import REFERENCE_UNIT_LABELS
+
+T = TypeVar("T")
+_SI = {0: "m", 1: "m/s", 2: "m/s²"}
+
+
+def named_in_id_lines(dataset: dict, find: Callable[[str], set[T]] = levels_in_text) -> set[T]:
+    """What ``find`` (a finder of :mod:`nlupdate.core.measurement.run_levels`) reads in the ID
+    lines (run name included) other than nlupdate's coordinate and abscissa keys."""
+    found: set[T] = set()
+    for line in id_lines(dataset):
+        if not line.strip().startswith(("response_dof=", "input_dof=", "abscissa_hz=")):
+            found |= find(line)
+    return found
+
 
 def _level_in_id_lines(dataset: dict, where: str, unit: str) -> tuple[float, str] | None:
     """(value, unit) of the level the ID lines name (run name included), in the styles of
     :mod:`nlupdate.core.measurement.run_levels`; a number without a unit is in ``unit``."""
-    found = set()
-    for line in id_lines(dataset):
-        if not line.strip().startswith(("response_dof=", "input_dof=", "abscissa_hz=")):
-            found |= {(value, named or unit) for value, named in levels_in_text(line)}
-    distinct = sorted(found)
+    distinct = sorted({(value, named or unit) for value, named in named_in_id_lines(dataset)})
     if len(distinct) > 1:
         raise MeasurementTableError(
             f"{where}: the ID lines name several levels {[f'{v:g} {u}' for v, u in distinct]}; give the level with "
@@ -103,6 +115,14 @@ def dataset_level(dataset: dict, where: str, unit: str, given: float | None, run
         f"data type 13) or labelled N or V, a level in an ID line or run name ('0.10 V', '0p10V', 'F=2.5N', "
         f"'Chirp0p05'), or the level given with --level FILE=VALUE, FILE#RUN=VALUE or RUN=VALUE (study: [measured] "
         f"levels); found ID lines {id_lines(dataset)} and z-axis specific data type "
-        f"{dataset.get('z_axis_spec_data_type')} (value {float(dataset.get('z_axis_value', 0.0) or 0.0):g}){runs}")
+        f"{dataset.get('z_axis_spec_data_type')} (value {float(dataset.get('z_axis_value', 0.0) or 0.0):g}){runs}"
+        f"{_held_hint(dataset)}")
+
+
+def _held_hint(dataset: dict) -> str:
+    """A note that the ID lines name a held response amplitude: a response-controlled run."""
+    held = sorted(named_in_id_lines(dataset, held_amplitudes_in_text))
+    return (f"; the ID lines name a held response amplitude ({', '.join(f'{v:g} {_SI[p]}' for v, p in held)}): a "
+            f"response-controlled run, read with 'nlupdate amplitude --response-controlled FILE'") if held else ""
 
 
