@@ -280,6 +280,9 @@ def test_records_that_cannot_be_phase_resonance_points_are_refused_in_one_line(t
          r"in its run"),
         ([record(-w**2 * x1 / f, w / (2 * np.pi), "PR 1")],
          r"pr\.uff, dataset 0 \(run 'PR 1'\): no level: expected an ID line 'force_level_n=<amplitude>'"),
+        ([record(-w**2 * x1, w / (2 * np.pi), "PR 1", func_type=12),
+          record(f, w / (2 * np.pi), "PR 1", func_type=12, ordinate_spec_data_type=0, ordinate_axis_units_lab="V")],
+         r"pr\.uff, dataset 1 \(run 'PR 1'\): a spectrum in volts \(label 'V'\); expected the force"),
     ]
     for datasets, expected in cases:
         path = export(tmp_path / "pr.uff", datasets)

@@ -14,9 +14,9 @@ for an FRF table, DIR/predicted_frf.png against the measured curves.
 
 Other test types, each repeatable and each enough on its own (docs/ring-down.md): a free
 decay (--ring-down FILE; --channel NAME when it holds several; --band the mode's band-pass),
-response-controlled stepped-sine runs (--response-controlled FILE.mat: one sample per held
-amplitude), phase-resonance points (--phase-resonance FILE: one sample per level, the damping
-from the force needed at resonance) and impact or low-level records (--impact FILE: the linear
+response-controlled stepped-sine runs (--response-controlled FILE, .mat or .uff: one sample per
+held amplitude), phase-resonance points (--phase-resonance FILE, .csv, .mat or .uff: one sample
+per level, the damping from the force needed at resonance) and impact or low-level records (--impact FILE: the linear
 limit by a complex exponential fit of the quietest part of the decay). Several sources are
 fitted jointly, each weighted by its own noise, and DIR/consistency.csv names those that
 disagree with the joint fit beyond their uncertainty. DIR/backbone_points.csv holds every
