@@ -263,6 +263,9 @@ def test_phase_resonance_one_line_frfs_with_the_force_in_the_run_name(tmp_path, 
     np.testing.assert_allclose(points.force_n, np.round(force, 6), rtol=1e-12)
     np.testing.assert_allclose(points.x, x / force * np.round(force, 6), rtol=1e-5)
     np.testing.assert_allclose(points.frequency_hz, omega / (2 * np.pi), rtol=5e-6)
+    with pytest.raises(MeasurementTableError, match=r"pr\.uff: holds several levels \(runs\); a level given for the "
+                                                    r"file fits a file of one: give each with --level pr\.uff#RUN"):
+        read_phase_resonance(path, ReadOptions(levels={"pr.uff": 0.1}))
 
 
 def test_records_that_cannot_be_phase_resonance_points_are_refused_in_one_line(tmp_path, duffing_points):

@@ -198,6 +198,9 @@ def _uff_point(run: str, members: list[RunRecord], path: Path, options: ReadOpti
             amplitude = float(abs(force.values[0]))
         else:
             given = options.level_of_run(str(path), run) if run else None
+            if given is None and listing and options.level_of(str(path)) is not None:
+                raise MeasurementTableError(f"{path}: holds several levels (runs); a level given for the file fits a "
+                                            f"file of one: give each with --level {path.name}#RUN=VALUE{listing}")
             amplitude = dataset_level(main.dataset, main.where, "N", options.level_of(str(path)) if given is None
                                       else given, listing)
         return main.response_dof, main.input_dof, main.frequency_hz[0], amplitude, main.values[0] * amplitude
