@@ -18,29 +18,35 @@ fit keeps instead (a different test at the amplitudes it holds; the held-out lev
 still force-controlled ones). --hold-out-type TYPE holds out a whole test type instead
 (stepped sine, ring-down, phase resonance, …: the sources of ``nlupdate amplitude``):
 the amplitude-dependent modal model fitted on the others predicts it (docs/validation.md,
-"A whole test type held out").
+"A whole test type held out"). --impact FILE with levels held out: the mode's linear limit
+from the impact's quietest decay is kept beside the levels as one more sample of the lines
+models' backbone and damping curve at zero amplitude (lines, lines-background; auto
+chooses between them).
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 
 import pandas as pd
 
 from nlupdate.app.cli import CliError, add_command
-from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, read_options
+from nlupdate.app.cli.measured import add_measured_options, measured_table, parse_band, print_notes, read_options
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.app.cli.settings_options import add_setting_options, setting_values, with_flags
 from nlupdate.app.cli.validate_type import add_type_options, run_held_type
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.impact import LinearLimit, fit_linear_limit, split_force
+from nlupdate.core.identification.ring_down import RingDownError, read_channels
 from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
 from nlupdate.core.validation.held_response import validate_measured
-from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
+from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS, WITH_RUNS
 from nlupdate.study.spec import ValidationSpec
 
 
@@ -101,6 +107,31 @@ def _plot_name(level: float, model: str, several: bool) -> str:
     return name.replace(".", "p") + ".png"
 
 
+def linear_limit(args: argparse.Namespace, data: FRFLevels, models: list[str]) -> LinearLimit:
+    """The linear limit of the one ``--impact`` record (``--channel``), fitted in ``--band``
+    or the measured lines' band, either widened to ±20 % about its centre (the decay's
+    band-pass needs room); CliError for several records or a model that cannot keep it."""
+    if len(args.impact) != 1:
+        raise CliError(f"--impact: give one record with held-out levels, got {len(args.impact)}")
+    refused = [m for m in models if m not in (*WITH_RUNS, "auto")]
+    if refused:
+        raise CliError(f"--impact: model {refused[0]} cannot keep a linear limit beside the levels (only "
+                       f"{', '.join(WITH_RUNS)} or auto)")
+    path = args.impact[0]
+    low, high = parse_band(args.band) or (min(f.min() for f in data.frequencies), max(f.max() for f in data.frequencies))
+    centre = 0.5 * (low + high)
+    try:
+        time_s, responses, force = split_force(read_channels(path, "impact record"), args.channel)
+        fit = fit_linear_limit(time_s, responses, (min(low, 0.8 * centre), max(high, 1.2 * centre)), None, force,
+                               source=path)
+    except RingDownError as error:
+        raise CliError(f"{path}: {error}") from None
+    print(f"{path}: linear limit {fit.frequency_hz:.6g} ± {fit.frequency_std_hz:.2g} Hz, damping ratio "
+          f"{100 * fit.damping_ratio:.4g} ± {100 * fit.damping_std:.2g} % ({', '.join(fit.channels)}, band "
+          f"{fit.band_hz[0]:.4g}–{fit.band_hz[1]:.4g} Hz), kept beside the levels")
+    return fit
+
+
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if args.hold_out_type:
@@ -111,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
     table, notes = measured_table(args, find_band=True)
     print_notes(notes)
     data = _curve(table, args.input_dof, ", ".join(args.measured))
+    if args.impact:
+        data = dataclasses.replace(data, linear_limit=linear_limit(args, data, models))
     spec = ValidationSpec(**setting_values(args, ValidationSpec))
     try:
         with terminal_progress() as progress:
@@ -129,7 +162,13 @@ def run(args: argparse.Namespace) -> int:
             rows = [r for r in validation.held_out if r.requested == model]
             name = "predicted_frf.parquet" if k == 0 else f"predicted_frf_{_slug(model)}.parquet"
             predicted_table(rows, data).to_parquet(folder / name, index=False)
-        write_json(validation.summary(), folder / "validation.json")
+        summary = validation.summary()
+        if data.linear_limit is not None:
+            limit = data.linear_limit
+            summary["linear_limit"] = {"source": limit.source, "frequency_hz": limit.frequency_hz,
+                                       "frequency_std_hz": limit.frequency_std_hz,
+                                       "damping_ratio": limit.damping_ratio, "damping_std": limit.damping_std}
+        write_json(summary, folder / "validation.json")
         for result in validation.held_out:
             save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))
         save_figure(summary_figure(validation), folder / "validation.png")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
@@ -39,6 +40,18 @@ def match_frequencies(available: NDArray, wanted: NDArray) -> NDArray[np.int64]:
     return out
 
 
+class LinearLimitLike(Protocol):
+    """A mode's linear limit from another test: natural frequency (Hz), damping ratio, their
+    standard errors and where it came from (:class:`~nlupdate.core.identification.impact.LinearLimit`
+    is one; a protocol, so that this module need not import the impact fit)."""
+
+    frequency_hz: float
+    damping_ratio: float
+    frequency_std_hz: float
+    damping_std: float
+    source: str
+
+
 @dataclass(frozen=True, eq=False)
 class FRFLevels:
     """Receptance curves of one coordinate pair, one per force level (ascending).
@@ -52,6 +65,9 @@ class FRFLevels:
     of a level was measured at the level itself). A controller that does not hold the
     force through a resonance leaves it lower there than the level: the response
     amplitude of a line is ``|H|·achieved``, not ``|H|·level`` (:meth:`force_at`).
+    linear_limit: the mode's linear limit measured by another test of the structure (an
+    impact's pole, :class:`LinearLimitLike`), kept with
+    the curves as evidence a model may fit beside them (None: none); every subset keeps it.
     """
 
     response_dof: str
@@ -65,6 +81,7 @@ class FRFLevels:
     averages: tuple[NDArray[np.float64], ...] | None = None
     h_stds: tuple[NDArray[np.float64], ...] | None = None
     achieved: tuple[NDArray[np.float64], ...] | None = None
+    linear_limit: LinearLimitLike | None = None
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, response_dof: str, input_dof: str) -> "FRFLevels":

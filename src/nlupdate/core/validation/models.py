@@ -28,6 +28,10 @@ is 27 % below it at 0.19 N, :func:`frf_at_forces`); PRD regenerates at the nomin
 (:data:`AUTO_CANDIDATES`) whose leave-one-kept-out predictions miss least (RMS of the
 relative receptance error over every kept level and every kept response-controlled run,
 each predicted from the others), or ``lines`` with fewer than three kept levels.
+
+A linear limit kept with the curves (:attr:`FRFLevels.linear_limit`, an impact's pole) is
+one more sample of the ``lines`` models' polynomials at a = 0 (:func:`lines_model`); the
+other models refuse it, and ``auto`` chooses among the ``lines`` models then.
 """
 from __future__ import annotations
 
@@ -42,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
-from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
@@ -158,8 +162,8 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
     return shape**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f) + background(f)
 
 
-def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER, first_run: int | None = None
-                ) -> AmplitudeModalModel:
+def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER, first_run: int | None = None,
+                limit: LinearLimitLike | None = None) -> AmplitudeModalModel:
     """Natural frequency and damping ratio as polynomials of ``order`` in a/a_ref, fitted to
     line samples by least squares (equal weights: the lines near resonance carry equal
     relative noise, :mod:`nlupdate.core.identification.line_samples`), continued beyond a_ref as
@@ -169,8 +173,12 @@ def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER,
     are fitted beside the polynomials (a block effect: the BRB's runs resonate up to 0.05 Hz
     higher and damp 5–17 % more than its force-controlled levels at equal modal amplitude),
     so the runs shape the curves without shifting the force-controlled ones; the model
-    returned is the force-controlled one (:func:`run_model` the runs')."""
-    return _lines_models(samples, input_dof, order, first_run)[0]
+    returned is the force-controlled one (:func:`run_model` the runs'). ``limit``: the mode's
+    linear limit from another test (an impact), one more sample of both polynomials at
+    a = 0 weighted by its own standard errors against the samples' scatter
+    (:func:`_anchored_fit`): the quadratics through the BRB's levels alone put ζ₀ at
+    0.05 %, a third of what its hammer impact measures (0.14 %)."""
+    return _lines_models(samples, input_dof, order, first_run, limit)[0]
 
 
 def run_model(samples: ModalSamples, input_dof: str, first_run: int, order: int = LINES_ORDER) -> AmplitudeModalModel:
@@ -179,15 +187,33 @@ def run_model(samples: ModalSamples, input_dof: str, first_run: int, order: int 
     return _lines_models(samples, input_dof, order, first_run)[1]
 
 
-def _lines_models(samples: ModalSamples, input_dof: str, order: int, first_run: int | None
-                  ) -> tuple[AmplitudeModalModel, AmplitudeModalModel]:
+def _anchored_fit(design: NDArray, values: NDArray, limit: tuple[float, float] | None) -> NDArray:
+    """Least squares of ``design @ c = values``; with ``limit`` = (value, standard error) at
+    a = 0 (the first coefficient), that one more equation weighted against the samples by
+    their scatter about the fit without it over the limit's standard error — each source by
+    its own noise, as the joint fit of ``nlupdate amplitude`` weights them."""
+    c = np.linalg.lstsq(design, values, rcond=None)[0]
+    if limit is None:
+        return c
+    residual = values - design @ c
+    scatter = float(np.sqrt(np.sum(residual**2) / max(values.size - design.shape[1], 1)))
+    weight = scatter / max(float(limit[1]), 1e-9 * abs(float(limit[0])), 1e-300)
+    row = np.zeros(design.shape[1])
+    row[0] = weight
+    return np.linalg.lstsq(np.vstack([design, row]), np.r_[values, weight * float(limit[0])], rcond=None)[0]
+
+
+def _lines_models(samples: ModalSamples, input_dof: str, order: int, first_run: int | None,
+                  limit: LinearLimitLike | None = None) -> tuple[AmplitudeModalModel, AmplitudeModalModel]:
     a_ref = float(np.max(samples.amplitude))
     design = (samples.amplitude / a_ref)[:, None] ** np.arange(order + 1)[None, :]
     with_runs = first_run is not None and 0 < first_run < samples.amplitude.size
     if with_runs:
         design = np.column_stack([design, np.arange(samples.amplitude.size) >= first_run])
-    f = np.linalg.lstsq(design, samples.frequency_hz, rcond=None)[0]
-    zeta = np.linalg.lstsq(design, samples.damping_ratio, rcond=None)[0]
+    f = _anchored_fit(design, samples.frequency_hz, None if limit is None else
+                      (limit.frequency_hz, limit.frequency_std_hz))
+    zeta = _anchored_fit(design, samples.damping_ratio, None if limit is None else
+                         (limit.damping_ratio, limit.damping_std))
     offsets = (float(f[-1]), float(zeta[-1])) if with_runs else (0.0, 0.0)
     f, zeta = f[:order + 1], zeta[:order + 1]
 
@@ -201,6 +227,9 @@ def _lines_models(samples: ModalSamples, input_dof: str, order: int, first_run: 
 
     runs_note = (f"; the response-controlled runs' offsets {offsets[0]:+.4g} Hz, {offsets[1]:+.3g} in ζ"
                  if with_runs else "")
+    if limit is not None:
+        runs_note += (f"; the linear limit of {limit.source} ({limit.frequency_hz:.6g} Hz, "
+                      f"{100 * limit.damping_ratio:.4g} %) fitted at a = 0")
     return model(0.0, 0.0, runs_note), model(*offsets, runs_note + " (the runs' model)")
 
 
@@ -224,7 +253,7 @@ def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], fit, background: com
     constant ``background``."""
     samples, _ = samples_from_lines(kept, fit, background, runs)
     first_run = samples_from_lines(kept, fit, background)[0].amplitude.size if runs else None
-    models = _lines_models(samples, kept.input_dof, LINES_ORDER, first_run)
+    models = _lines_models(samples, kept.input_dof, LINES_ORDER, first_run, kept.linear_limit)
     return _single_mode(models[0], lambda f: fit.residual_receptance(f) + background, kept.input_dof, models[1])
 
 
@@ -272,7 +301,7 @@ MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
     "amplitude-iwan": _amplitude("iwan"), "amplitude-jenkins": _amplitude("jenkins"),
 }
 AUTO_CANDIDATES = ("lines", "lines-background", "amplitude-polynomial", "amplitude-iwan")
-#: The models that take response-controlled runs as kept evidence (their every line a sample)
+#: The models that take response-controlled runs (their every line a sample) and a linear limit as kept evidence
 WITH_RUNS = ("lines", "lines-background")
 
 
@@ -301,6 +330,9 @@ def _remembered(name: str, fit: Callable[[FRFLevels], Fitted], runs: Sequence[He
     subsets), and every fit is deterministic. Keyed by the model and the curves' (and kept
     ``runs``') whole content; a fit that failed raises the same error again."""
     def fit_on(kept: FRFLevels) -> Fitted:
+        if kept.linear_limit is not None and name not in WITH_RUNS:
+            raise ValueError(f"model {name}: cannot fit a linear limit (an impact) beside the levels (only "
+                             f"{', '.join(WITH_RUNS)} can)")
         content = pickle.dumps((kept, tuple(runs)), protocol=pickle.HIGHEST_PROTOCOL)
         key = (name, hashlib.sha256(content).digest())
         with _fits_lock:
@@ -359,7 +391,7 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> ModelChoice:
     if kept.levels.size < 3:
         return ModelChoice("lines", {}, f"{kept.levels.size} kept levels: too few to compare models on them")
     scores = {}
-    for name in [c for c in AUTO_CANDIDATES if not runs or c in WITH_RUNS]:
+    for name in [c for c in AUTO_CANDIDATES if not (runs or kept.linear_limit is not None) or c in WITH_RUNS]:
         errors = []
         try:
             for level, f, h in zip(kept.levels, kept.frequencies, kept.receptances):
