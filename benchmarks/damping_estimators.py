@@ -34,7 +34,9 @@ each seed moving the mode by a uniform −0.025 … +0.025 Hz against the lines 
 Gaussian noise of 0.3 % or 1 % of the peak (RMS |e|; the BRB's runs fit an SDOF to 0.05–0.4 %).
 Then every estimator on the BRB's own twelve curves: the scatter of ln ζ about a parabola in
 log amplitude (the repeatability's trend, :func:`~nlupdate.core.validation.held_out.repeatability`),
-pooled and per test type. docs/validation.md, "How the damping ratio is measured", holds the output.
+pooled and per test type; and the four force-controlled levels predicted from the mode through the
+eight runs (the two test types at equal amplitude). docs/validation.md, "How the damping ratio is
+measured", holds the output.
 """
 from __future__ import annotations
 
@@ -238,6 +240,25 @@ def print_brb(data, runs) -> None:
             f"{100 * scatter(np.log(values[e][sel]), x[sel], degree):.1f} %" for e in ESTIMATORS) + " |")
 
 
+def print_levels_from_runs(data) -> None:
+    """The BRB's force-controlled levels predicted by the mode through its eight runs
+    (:func:`brb_like_model`, unshifted), each at the forces its lines achieved, read by the
+    tool's estimator: do the two test types agree at equal amplitude?"""
+    from nlupdate.core.validation.held_out import resonance_amplitudes
+
+    model = brb_like_model()
+    print(f"\nthe force-controlled levels predicted from the mode through the eight runs (f0 "
+          f"{model.natural_frequency_hz:.3f} Hz, ζ0 {100 * model.damping_ratio:.4f} %), half-power estimator")
+    print("| level (N) | reached at resonance (µm) | resonance (Hz): measured, error | damping (%): measured, error | "
+          "peak: error |\n|---|---|---|---|---|")
+    for k, (level, f, h) in enumerate(zip(data.levels, data.frequencies, data.receptances)):
+        measured, predicted = resonance(f, h), resonance(f, frf_at_forces(model, f, data.achieved[k], "0"))
+        print(f"| {level:g} | {1e6 * resonance_amplitudes(data)[k]:.0f} | {measured.resonance_hz:.3f}, "
+              f"{predicted.resonance_hz - measured.resonance_hz:+.3f} | {100 * measured.damping_ratio:.3f}, "
+              f"{100 * (predicted.damping_ratio / measured.damping_ratio - 1):+.1f} % | "
+              f"{100 * (predicted.peak_abs / measured.peak_abs - 1):+.1f} % |")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=24)
@@ -255,6 +276,7 @@ def main(argv: list[str] | None = None) -> int:
         for noise in (0.003, 0.01):
             print_simulated(simulate(achieved, args.seeds, noise), args.seeds, noise)
         print_brb(data, runs)
+        print_levels_from_runs(data)
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
     return 0
 

@@ -151,17 +151,20 @@ class _Tee(io.TextIOBase):
 
 
 @contextlib.contextmanager
-def writing_docs(enabled: bool, script: str, argv: list[str] | None = None) -> Iterator[None]:
+def writing_docs(enabled: bool, script: str, argv: list[str] | None = None, page: Path | None = None
+                 ) -> Iterator[None]:
     """Around a benchmark's main work: with ``enabled``, its stdout is written into its block at the end.
 
     ``script`` is the file name (``frf_speed.py``); ``argv`` the arguments it ran with
-    (default ``sys.argv[1:]``). The block is written only when the work ends without an exception.
+    (default ``sys.argv[1:]``); ``page`` the docs page holding the block (default
+    docs/performance.md). The block is written only when the work ends without an exception.
     """
     if not enabled:
         yield
         return
+    page = DOCS if page is None else page
     command = rerun_command(script, sys.argv[1:] if argv is None else argv)
-    replace_block(DOCS.read_text(encoding="utf-8"), script, command, "")  # fail before the run, not after it
+    replace_block(page.read_text(encoding="utf-8"), script, command, "", str(page))  # fail before the run, not after it
     started, load_before = datetime.datetime.now(datetime.timezone.utc), load_average()
     wall, cpu = time.perf_counter(), cpu_seconds()
     tee = _Tee(sys.stdout)
@@ -169,5 +172,5 @@ def writing_docs(enabled: bool, script: str, argv: list[str] | None = None) -> I
         yield
     body = render(command, started, load_before, load_average(), cpu_seconds() - cpu,
                   time.perf_counter() - wall, tee.copy.getvalue())
-    write_block(script, command, body, DOCS)
-    print(f"wrote the block of {script} in {DOCS}", file=sys.stderr)
+    write_block(script, command, body, page)
+    print(f"wrote the block of {script} in {page}", file=sys.stderr)

@@ -110,3 +110,15 @@ def test_nothing_is_written_when_the_run_fails(tmp_path, monkeypatch):
             print("half a table")
             raise RuntimeError("the benchmark failed")
     assert page.read_bytes() == PAGE_TEXT.encode()
+
+
+def test_a_block_on_another_page_is_written_there(tmp_path, monkeypatch):
+    """``writing_docs(..., page=...)``: benchmarks/validation_brb.py writes docs/validation.md's block."""
+    performance, other = tmp_path / "performance.md", tmp_path / "validation.md"
+    performance.write_bytes(PAGE_TEXT.encode())
+    other.write_bytes(PAGE_TEXT.encode())
+    monkeypatch.setattr(docs_block, "DOCS", performance)
+    with docs_block.writing_docs(True, "a.py", ["--write-docs"], page=other):
+        print("| the table |")
+    assert "```text\n| the table |\n```" in other.read_bytes().decode()
+    assert performance.read_bytes() == PAGE_TEXT.encode()
