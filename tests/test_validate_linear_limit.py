@@ -113,3 +113,21 @@ def test_validate_keeps_an_impacts_linear_limit(data, tmp_path, capsys):
     capsys.readouterr()
     assert main([*common, "--model", "amplitude-polynomial", "--out", str(tmp_path / "refused")]) == 2
     assert "cannot keep a linear limit" in capsys.readouterr().err
+
+
+if __name__ == "__main__":  # python tests/test_validate_linear_limit.py: with and without the limit, every run and the top
+    from nlupdate.core.validation.held_out import validate
+
+    levels = data.__wrapped__()
+    runs = [run(x) for x in (2e-6, 5e-6, 1e-5)]
+    for model in ("lines", "lines-background"):
+        for limit in (None, LIMIT):
+            kept = dataclasses.replace(levels, linear_limit=limit)
+            cells = [f"{1e6 * o.held_m:g} µm {o.compared['resonance_hz'].error:+.4f} Hz "
+                     f"{100 * o.compared['damping_ratio'].relative_error:+.1f} % "
+                     f"{100 * o.compared['peak_abs'].relative_error:+.1f} %"
+                     for o in predict_held_runs(kept, runs, model, repeatability(kept, runs))]
+            top = validate(kept, "top", [model]).held_out[0].compared
+            cells.append(f"top {top['resonance_hz'].error:+.4f} Hz {100 * top['damping_ratio'].relative_error:+.1f} % "
+                         f"{100 * top['peak_abs'].relative_error:+.1f} %")
+            print(f"{model}, {'the exact linear limit kept' if limit else 'levels only'}: " + "; ".join(cells))
