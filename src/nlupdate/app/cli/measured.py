@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError
-from nlupdate.core.measurement.band import in_band
+from nlupdate.core.measurement.band import excited_band_of_table, in_band
 from nlupdate.core.measurement.units import ReadOptions, ReferenceUnitError, table_reference_unit
 
 LEVEL_HELP = ("level (in the reference unit) of a file that does not hold it: FILE=VALUE; of one run of a file "
@@ -174,34 +174,6 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
                          f"measured rows outside it left out before any step (choose another with --band LOW:HIGH)")
             table = table[inside].reset_index(drop=True)
     return table, notes
-
-
-def excited_band_of_table(table: pd.DataFrame) -> tuple[tuple[float, float], str]:
-    """((low, high) Hz, how it was found): the excited band
-    (:func:`nlupdate.core.measurement.band.excited_band`) of each response/input pair's lowest
-    level with at least 20 lines, joined over the pairs; the whole range when no level has."""
-    from nlupdate.core.measurement.band import COHERENCE_THRESHOLD, excited_band
-
-    lows, highs, reasons = [], [], []
-    for (response, inp), pair in table.groupby(["response_dof", "input_dof"], sort=True):
-        for level, curve in pair.groupby("force_level_n", sort=True):
-            if len(curve) < 20:
-                continue
-            curve = curve.sort_values("frequency_hz")
-            h = curve["h_real"].to_numpy(float) + 1j * curve["h_imag"].to_numpy(float)
-            coherence = curve["coherence"].to_numpy(float) if "coherence" in curve.columns \
-                and curve["coherence"].notna().all() else None
-            try:
-                band = excited_band(curve["frequency_hz"].to_numpy(float), h, coherence, COHERENCE_THRESHOLD)
-            except ValueError as error:
-                raise CliError(f"response {response}, input {inp}, level {level:g}: {error}") from None
-            lows.append(band.low_hz)
-            highs.append(band.high_hz)
-            reasons.append(f"{band.reason}, level {level:g} {table_reference_unit(table)} of {response}/{inp}")
-            break
-    if not lows:
-        return (float(table["frequency_hz"].min()), float(table["frequency_hz"].max())), "all measured frequencies"
-    return (min(lows), max(highs)), "; ".join(sorted(set(reasons)))
 
 
 def describe_frf_table(table: pd.DataFrame, paths: list[str], calibration: float | None = None) -> str:

@@ -20,7 +20,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 from numpy.typing import ArrayLike
+
+from nlupdate.core.measurement.units import table_reference_unit
 
 COHERENCE_THRESHOLD = 0.8
 ROUGHNESS_LIMIT = 0.5
@@ -101,3 +104,28 @@ def excited_band(frequency_hz: ArrayLike, h: ArrayLike, coherence: ArrayLike | N
         return whole
     return Band(float(f[run[0]]), float(f[run[1]]),
                 f"where the FRF is smooth (relative 2nd difference of 1/H < {ROUGHNESS_LIMIT:g}; no coherence given)")
+
+
+def excited_band_of_table(table: pd.DataFrame) -> tuple[tuple[float, float], str]:
+    """((low, high) Hz, how it was found): the excited band
+    (:func:`excited_band`) of each response/input pair's lowest level with at least 20 lines, joined over the pairs; the whole range when no level has."""
+    lows, highs, reasons = [], [], []
+    for (response, inp), pair in table.groupby(["response_dof", "input_dof"], sort=True):
+        for level, curve in pair.groupby("force_level_n", sort=True):
+            if len(curve) < 20:
+                continue
+            curve = curve.sort_values("frequency_hz")
+            h = curve["h_real"].to_numpy(float) + 1j * curve["h_imag"].to_numpy(float)
+            coherence = curve["coherence"].to_numpy(float) if "coherence" in curve.columns \
+                and curve["coherence"].notna().all() else None
+            try:
+                band = excited_band(curve["frequency_hz"].to_numpy(float), h, coherence, COHERENCE_THRESHOLD)
+            except ValueError as error:
+                raise ValueError(f"response {response}, input {inp}, level {level:g}: {error}") from None
+            lows.append(band.low_hz)
+            highs.append(band.high_hz)
+            reasons.append(f"{band.reason}, level {level:g} {table_reference_unit(table)} of {response}/{inp}")
+            break
+    if not lows:
+        return (float(table["frequency_hz"].min()), float(table["frequency_hz"].max())), "all measured frequencies"
+    return (min(lows), max(highs)), "; ".join(sorted(set(reasons)))

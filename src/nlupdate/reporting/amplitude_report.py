@@ -1,0 +1,125 @@
+"""How an amplitude-dependent modal model fitted to several test types is told and drawn
+(:class:`~nlupdate.core.identification.amplitude_joint.AmplitudeFit`): the lines
+``nlupdate amplitude`` prints (:func:`amplitude_lines`), its two figures
+(:func:`plot_amplitude_fit`) and a study's ``[amplitude]`` section and summary lines. Renders
+only: every number comes from the fit.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from nlupdate.core.identification.amplitude_joint import POOR_FIT, AmplitudeFit
+from nlupdate.core.identification.backbone_samples import DISAGREEMENT
+from nlupdate.reporting.backbone_plots import plot_sources
+from nlupdate.reporting.markdown import markdown_table
+
+
+def plot_amplitude_fit(fit: AmplitudeFit, folder: Path) -> tuple[Path, Path]:
+    """``folder/backbone.png`` and ``folder/damping.png``: every fitted source on the model,
+    with the band of its backbone table."""
+    return plot_sources(fit.model, [(f"{name} ({kind})", s) for name, s, _, kind in fit.points], fit.curve, folder)
+
+
+def _disagreement_line(fit: AmplitudeFit) -> str | None:
+    odd = fit.disagreeing()
+    if not odd:
+        return None
+    return (f"{', '.join(odd)} disagree(s) with the joint fit by more than {DISAGREEMENT:g} standard errors "
+            f"(consistency.csv): a test-type effect (e.g. shaker–structure interaction, a drift between tests) or a "
+            f"wrong shape or unit")
+
+
+def _poor_line(fit: AmplitudeFit) -> str | None:
+    if not fit.poor():
+        return None
+    f, z = fit.misfit()
+    return (f"the model misses its samples by {100 * f:.3g} % in frequency and {100 * z:.3g} % in damping (rms; "
+            f"a good fit is within {100 * POOR_FIT[0]:g} % and {100 * POOR_FIT[1]:g} %): another backbone or a band "
+            f"that holds the mode alone")
+
+
+def _held_lines(fit: AmplitudeFit) -> list[str]:
+    lines = []
+    if fit.held_errors is None:
+        return lines
+    for source, all_rows in fit.held_errors.groupby("source", sort=False):
+        for inside, rows in all_rows.groupby("within_fit", sort=False):
+            worst = rows[["frequency_error", "damping_error", "amplitude_error"]].abs().max()
+            lines.append(f"held out {source} ({rows['test_type'].iloc[0]}): predicted within "
+                         f"{100 * worst['frequency_error']:.3g} % in frequency and {100 * worst['damping_error']:.3g} % "
+                         f"in damping ratio" + (f", {100 * worst['amplitude_error']:.3g} % in amplitude at its forces"
+                                                if np.isfinite(worst["amplitude_error"]) else "")
+                         + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)")
+    return lines
+
+
+def amplitude_lines(fit: AmplitudeFit) -> list[str]:
+    """What ``nlupdate amplitude`` prints after the fit: the linear limit and backbone, the
+    modal joint, notes and warnings, the bands, each source's agreement and the held-out
+    predictions."""
+    model, samples = fit.model, fit.samples
+    lines = [f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
+             f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, modal "
+             f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)"]
+    if model.joint is not None:
+        j = model.joint
+        lines.append(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {fit.unit}/√kg, "
+                     f"chi = {j.chi:.4g}, beta = {j.beta:.4g}")
+    if model.note:
+        lines.append(f"note: {model.note}")
+    lines += [f"warning: {warning}" for warning in model.warnings]
+    if fit.resamples:
+        lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits of a residual bootstrap")
+    else:
+        lines.append("note: backbone.csv's *_low/*_high band columns are NaN (the backbone fits give no covariance); "
+                     "--bootstrap N refits N resamples for them ([amplitude] bootstrap in a study)")
+    if fit.agreement is not None:
+        for row in fit.agreement.itertuples():
+            lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit "
+                         f"{100 * row.frequency_offset:+.3g} % in frequency ({row.frequency_score:+.2g} standard "
+                         f"errors), {100 * row.damping_offset:+.3g} % in damping ({row.damping_score:+.2g})"
+                         + ("" if row.consistent else " — DISAGREES with the other sources beyond its uncertainty"))
+        odd = _disagreement_line(fit)
+        if odd:
+            lines.append(f"warning: {odd}")
+    return lines + _held_lines(fit)
+
+
+def amplitude_summary(fit: AmplitudeFit) -> list[str]:
+    """The study summary's lines, the bad news first: sources that disagree, a poor fit; then
+    the linear limit and the amplitudes covered."""
+    lines = [f"* **Amplitude model: {text}**" for text in (_disagreement_line(fit), _poor_line(fit)) if text]
+    model, samples = fit.model, fit.samples
+    kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
+    lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
+                 f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; modal "
+                 f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg")
+    return lines
+
+
+def amplitude_section(fit: AmplitudeFit, plots: dict[str, str]) -> list[str]:
+    """The report's ``[amplitude]`` section: what each source gave, the model, the
+    agreement of the sources and the figures (``plots``: name → path in the archive)."""
+    lines = ["## Amplitude-dependent modal model", "",
+             "One mode's natural frequency and damping ratio against modal amplitude, fitted jointly to every test "
+             "type the `[amplitude]` table names (each source weighted by its own noise), with a consistency check "
+             "across the sources (docs/ring-down.md).", ""]
+    lines += [f"* {note}" for note in fit.notes] + [""]
+    lines += [f"* {line}" for line in amplitude_lines(fit)] + [""]
+    f, z = fit.misfit()
+    lines += [f"Misfit of the samples about the model (rms): {100 * f:.3g} % in frequency, {100 * z:.3g} % in "
+              f"damping.", ""]
+    if fit.agreement is not None:
+        shown = fit.agreement[["source", "test_type", "samples", "frequency_offset", "damping_offset",
+                               "frequency_score", "damping_score", "consistent"]]
+        lines += [markdown_table(shown), ""]
+    for name in ("amplitude_backbone", "amplitude_damping"):
+        if name in plots:
+            lines += [f"![{name.replace('_', ' ')}]({plots[name]})", ""]
+    lines += ["Files `amplitude/amplitude_model.json`, `backbone.csv`, `backbone_points.csv`"
+              + (", `consistency.csv`" if fit.agreement is not None else "")
+              + (", `held_out.csv`" if fit.held_errors is not None else "") + " (as `nlupdate amplitude` writes them).",
+              ""]
+    return lines
