@@ -83,7 +83,7 @@ LONGEST_MODULES = (
     "test_reporting_archive.py", "test_updating_stops.py", "test_time_integration.py", "test_input_expansion.py",
     "test_identification_single_frequency.py", "test_server_app.py", "test_weak_messages.py", "test_partition.py",
     "test_discovery_places.py", "test_calculix_reduction.py", "test_bands.py", "test_study_hold_out_type.py",
-    "test_study_schema.py",
+    "test_study_schema.py", "test_study_amplitude.py",
     "test_validate_line_forces.py", "test_docs_blocks.py", "test_validate_linear_limit.py",
 )
 

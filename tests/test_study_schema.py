@@ -72,6 +72,9 @@ parameters = ["k1"]
 [prediction]
 
 [validation]
+
+[amplitude]
+impact = ["frf.csv"]
 """
 SIMULATED = """
 [study]

@@ -17,6 +17,9 @@
     identification.json   the identification summary (when the study identifies)
     fe_validation.json    ``[fe_validation]``: the joint identified per bolt, its fit, the shaker's
                       mass, the test's repeatability, the FE points
+    amplitude/        ``[amplitude]``: the files ``nlupdate amplitude`` writes for the same
+                      sources (amplitude_model.json, backbone.csv, backbone_points.csv,
+                      consistency.csv, held_out.csv, backbone.png, damping.png)
     tables/*.parquet  :func:`nlupdate.reporting.tables.study_tables`
     plots/*.png       measured FRFs, DF fit, extracted linear FRF, convergence, candidate
                       errors and FRFs, predictions per level, correlation per level
@@ -42,6 +45,7 @@ from nlupdate.files import atomic_directory, copy_private, inside, name_problem,
 from nlupdate.fingerprints import file_hash, table_hash, tree_hash
 from nlupdate.core.identification.trust import POOR_FIT_FACTOR
 from nlupdate.notices import NlupdateWarning
+from nlupdate.reporting.amplitude_report import plot_amplitude_fit
 from nlupdate.reporting.figures import frf_curve, png_bytes
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
@@ -259,6 +263,16 @@ def _plots(result, folder: Path, figures: FigureKeeper | None = None) -> dict[st
     return written
 
 
+def write_amplitude(fit, folder: Path) -> dict[str, str]:
+    """``[amplitude]``'s files in ``folder`` (``amplitude/`` of the archive), as ``nlupdate
+    amplitude`` writes them: the model, backbone.csv, backbone_points.csv, consistency.csv,
+    held_out.csv and the two figures; returns the figures' keys → paths in the archive."""
+    folder.mkdir()
+    fit.write(folder)
+    plot_amplitude_fit(fit, folder)
+    return {"amplitude_backbone": f"{folder.name}/backbone.png", "amplitude_damping": f"{folder.name}/damping.png"}
+
+
 class FigureKeeper(Protocol):
     """Where an archive's figures are kept between runs of the same results (the flows
     give :class:`nlupdate.orchestration.tasks.figures.FigureStore`): PNG bytes by file name."""
@@ -294,6 +308,8 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
             write_json(result.validation.summary(), folder / "validation.json")
         if result.fe_validation is not None:
             write_json(result.fe_validation.summary(), folder / "fe_validation.json")
+        if result.amplitude is not None:
+            plots.update(write_amplitude(result.amplitude, folder / "amplitude"))
         manifest = build_manifest(result, final.name, run, sorted(tables), plots, inputs)
         write_json(manifest, folder / MANIFEST)
         (folder / "report.md").write_text(report_markdown(result, manifest, plots))

@@ -16,6 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_summary
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
@@ -113,12 +114,17 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
         lines += _validation_section(result.validation, plots)
     if result.fe_validation is not None:
         lines += fe_validation_section(result.fe_validation)
+    if result.amplitude is not None:
+        lines += amplitude_section(result.amplitude, plots)
 
     lines += ["## Files", "",
               "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
               "* `study.toml` — the study file as run",
               "* `tables/*.parquet` — " + ", ".join(f"`{name}`" for name in manifest.get("tables", [])),
-              "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())), ""]
+              "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())
+                                               if name.startswith("plots/")), ""]
+    if result.amplitude is not None:
+        lines[-1:-1] = ["* `amplitude/` — the files `nlupdate amplitude` writes for the `[amplitude]` sources"]
     return "\n".join(lines)
 
 
@@ -148,7 +154,7 @@ def _warning_lines(result) -> list[str]:
 
 
 def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
-    out = []
+    out = [] if result.amplitude is None else amplitude_summary(result.amplitude)
     ident = result.identification
     if ident is not None:
         stats = ident.uncertainty.parameters

@@ -1,7 +1,7 @@
 """The chain of a study, declared once.
 
     measured data → identification → targets → updating → comparison → candidate FRFs
-    → predictions → validation → FE validation → warnings
+    → predictions → validation → amplitude → FE validation → warnings
 
 :data:`CHAIN` lists the steps in order. Each :class:`Step` names the function that
 computes it (:mod:`nlupdate.study.steps`), the earlier results it takes, the study
@@ -34,8 +34,10 @@ from nlupdate.study.steps.updating import (
     CandidateFRFs, Comparison, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs, compare_runs, run_update,
     run_verdict, study_targets, updating_model, updating_runs,
 )
+from nlupdate.study.steps.amplitude import amplitude_step
 from nlupdate.study.steps.fe_validation import fe_validation_step
 from nlupdate.study.steps.validation import validation_step
+from nlupdate.core.identification.amplitude_joint import AmplitudeFit
 from nlupdate.core.validation.held_out import Validation
 from nlupdate.fe.joint_validation import FEValidation
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
@@ -124,6 +126,11 @@ CHAIN: tuple[Step, ...] = (
          applies=lambda study, results: study.validation is not None,
          describe=lambda study, validation: f"{len({r.level for r in validation.held_out})} held-out level(s), "
                                             f"{', '.join(study.validation.models)}"),
+    Step("amplitude", amplitude_step, inputs=("measured data",), sections=("amplitude", "measured"),
+         applies=lambda study, results: study.amplitude is not None,
+         describe=lambda study, fit: f"{fit.samples.amplitude.size} samples of {len(fit.points)} source(s), "
+                                     f"{fit.model.backbone} backbone, linear limit {fit.model.natural_frequency_hz:.6g} "
+                                     f"Hz, {100 * fit.model.damping_ratio:.3g} %"),
     Step("FE validation", fe_validation_step, inputs=("targets", "updating", "comparison"),
          sections=("fe_validation", "adapter", "fixed", "parameters", "targets"),
          applies=lambda study, results: study.fe_validation is not None and _has_runs(study, results),
@@ -156,6 +163,7 @@ class StudyResult:
     models: Mapping[str, Any] = field(default_factory=dict)
     validation: Validation | None = None
     fe_validation: FEValidation | None = None
+    amplitude: AmplitudeFit | None = None
 
     @property
     def best(self) -> str | None:
@@ -203,6 +211,7 @@ def study_result(study: Study, results: Results) -> StudyResult:
         candidate_frfs=results.get("candidate FRFs"), predictions=tuple(results.get("predictions") or ()),
         warnings=tuple(results.get("warnings") or ()), models=models_used(study),
         validation=results.get("validation"), fe_validation=results.get("FE validation"),
+        amplitude=results.get("amplitude"),
     )
 
 

@@ -21,6 +21,7 @@ from nlupdate.core.updating.eigensensitivity import EigensensitivityOptions
 from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
 from nlupdate.settings import Setting, SettingError, parse_mapping, settings_of
+from nlupdate.study.amplitude import AmplitudeSpec
 from nlupdate.study.reader import Reader, StudyError
 from nlupdate.study.spec import CandidateEntry, ComparisonSpec, PredictionSpec, TargetsSpec, ValidationSpec
 from nlupdate.study.table_keys import (
@@ -46,6 +47,7 @@ TABLES: dict[str, tuple[tuple[type, bool], ...]] = {
     "comparison": ((ComparisonSpec, False),),
     "prediction": ((PredictionSpec, False),),
     "validation": ((ValidationSpec, False),),
+    "amplitude": ((AmplitudeSpec, False),),
 }
 
 

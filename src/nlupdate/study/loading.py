@@ -80,14 +80,16 @@ def study_from_text(text: str, path: str | os.PathLike, redirect: Mapping[str, P
     prediction = sections.read_prediction(read, data, identification, adapter)
     validation = sections.read_validation(read, data, measured)
     fe_validation = read_fe_validation(read, data, adapter, validation)
+    amplitude = sections.read_amplitude(read, data, measured)
     if measured is None and identification is not None:
         raise StudyError(f"{path}: [identification] needs measured data: a [measured] table (file or simulate)")
-    if adapter is None and measured is None:
-        raise StudyError(f"{path}: nothing to do: give [measured] data to identify and/or an [adapter] to update")
+    if adapter is None and measured is None and amplitude is None:
+        raise StudyError(f"{path}: nothing to do: give [measured] data to identify, an [adapter] to update and/or "
+                         f"[amplitude] tests of one mode")
     return Study(
         path=path, name=name, description=description, text=text, measured=measured, identification=identification,
         adapter=adapter, fixed=fixed, parameters=parameters, targets=targets, updating=updating,
         eigensensitivity=eigensensitivity, optimisation=optimisation, candidates=candidates, comparison=comparison,
-        prediction=prediction, validation=validation, fe_validation=fe_validation,
+        prediction=prediction, validation=validation, fe_validation=fe_validation, amplitude=amplitude,
         input_files=dict(read.files),
     )

@@ -2,7 +2,7 @@
 (:data:`ALLOWED`: the declared tables' keys, :mod:`nlupdate.study.declared`, and the
 hand-read ones'), and the readers of the tables whose keys are declared settings —
 ``[identification]``, ``[updating]``, ``[eigensensitivity]``, ``[optimisation]``,
-``[comparison]``, ``[prediction]``, ``[validation]``: each key checked by its declaration,
+``[comparison]``, ``[prediction]``, ``[validation]``, ``[amplitude]``: each key checked by its declaration,
 then the rules across keys and tables. ``[measured]`` is :mod:`nlupdate.study.measured_section`;
 ``[adapter]``, ``[[parameters]]`` and ``[targets]``, :mod:`nlupdate.study.model_sections`.
 Every mistake is one line naming the file, the table, the key, the expected form and what
@@ -23,11 +23,12 @@ from nlupdate.core.validation.models import model_fitter
 from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.study.declared import TABLES, build, classes, declared_keys, read_declared
 from nlupdate.study.reader import Reader
+from nlupdate.study.amplitude import FILE_KEYS, AmplitudeSpec
 from nlupdate.study.spec import CandidateEntry, ComparisonSpec, EigensensitivitySpec, PredictionSpec, ValidationSpec
 
 ALLOWED: dict[str, set[str]] = {
     "": {"study", "measured", "identification", "adapter", "parameters", "targets", "updating", "eigensensitivity",
-         "optimisation", "comparison", "prediction", "validation", "fe_validation"},
+         "optimisation", "comparison", "prediction", "validation", "fe_validation", "amplitude"},
     **{table: set(declared_keys(table)) for table in TABLES},
 }
 ALLOWED["optimisation"] |= {"candidates"}  # the [[optimisation.candidates]] tables
@@ -196,3 +197,40 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
         raise read.fail(where, "shapes", "with hold_out_type, the mode shape at each source's coordinate: "
                                          "{ \"<coordinate>\" = value (1/√kg) }")
     return dataclasses.replace(spec, ring_down=tuple(str(read.path_of(path)) for path in spec.ring_down))
+
+
+def read_amplitude(read: Reader, data: Mapping[str, Any], measured: object | None) -> AmplitudeSpec | None:
+    """``[amplitude]``, or None when the study has none: each key by its declaration; at least
+    one source; every file existing (relative to the study file); ``measured`` needs a
+    ``[measured]`` table."""
+    where = "amplitude"
+    table = read.table(data, where)
+    if table is None:
+        return None
+    values = read_declared(read, table, where)
+    (cls,) = classes(where)
+    spec = build(read, where, cls, values)
+    if spec.band_hz is not None and not spec.band_hz[0] < spec.band_hz[1]:
+        raise read.fail(where, "band_hz", "[LOW, HIGH] in Hz with LOW < HIGH", list(spec.band_hz))
+    for name, value in spec.shapes.items():
+        if value == 0:
+            raise read.fail(where, "shapes", "a table { coordinate = shape ≠ 0 (1/√kg) }", {name: value})
+    for name, pair in spec.coordinates.items():
+        if (not isinstance(pair, (list, tuple)) or len(pair) != 2
+                or not all(isinstance(p, str) and p for p in pair)):
+            raise read.fail(where, "coordinates", 'a table { FILE = ["RESPONSE", "INPUT"] }', {name: pair})
+    if spec.measured and measured is None:
+        raise read.fail(where, "measured", "false without a [measured] table (the stepped sine to take)", True)
+    if not spec.measured and not spec.file_count:
+        raise read.fail(where, None, "a source: `measured = true` or a file in ring_down, impact, "
+                                     "response_controlled or phase_resonance")
+    if not spec.measured:
+        for key in ("input_dof", "response_dof"):
+            if key in table:
+                raise read.fail(where, key, "nothing unless measured = true", table[key])
+    for key in FILE_KEYS:
+        for written in getattr(spec, key):
+            path = read.path_of(written)
+            if not read.redirect and not path.is_file():
+                raise read.fail(where, key, "existing files (relative to the study file)", written)
+    return dataclasses.replace(spec, coordinates={k: tuple(v) for k, v in spec.coordinates.items()})

@@ -34,6 +34,7 @@ from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
 from nlupdate.core.validation.fe_settings import FEValidationSettings
 from nlupdate.settings import setting
+from nlupdate.study.amplitude import AmplitudeSpec
 
 __all__ = [
     "CandidateEntry", "ComparisonSpec", "EigensensitivitySpec", "MeasuredSpec", "PredictionSpec", "SimulationSpec", "ValidationSpec",
@@ -348,6 +349,7 @@ class Study:
     prediction: PredictionSpec | None
     validation: ValidationSpec | None = None
     fe_validation: FEValidationSettings | None = None
+    amplitude: AmplitudeSpec | None = None
     input_files: Mapping[str, Path] = field(default_factory=dict)
     snapshots: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 

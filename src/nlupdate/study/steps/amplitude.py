@@ -1,0 +1,61 @@
+"""``[amplitude]`` of a study: one mode's amplitude-dependent modal model from any mix of tests,
+fitted as ``nlupdate amplitude`` fits it — the same functions
+(:func:`~nlupdate.core.identification.amplitude_inputs.read_sources`,
+:func:`~nlupdate.core.identification.amplitude_joint.measured_source`,
+:func:`~nlupdate.core.identification.amplitude_joint.fit_sources`,
+:func:`~nlupdate.core.identification.amplitude_joint.backbone_table`), so the archive's
+``amplitude/`` files are the command's for the same inputs. Sources are named by their
+paths as written in the study."""
+from __future__ import annotations
+
+import dataclasses
+
+import pandas as pd
+
+from nlupdate.core.identification.amplitude_inputs import read_sources
+from nlupdate.core.identification.amplitude_joint import (
+    AmplitudeFit, backbone_table, fit_sources, measured_source,
+)
+from nlupdate.core.measurement.band import excited_band_of_table, in_band
+from nlupdate.study.amplitude import FILE_KEYS
+from nlupdate.study.spec import Study, StudyError
+from nlupdate.study.steps.measured import measured_description
+
+
+def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    """The study's measured table cut to ``band_hz`` or, without it, to its excited band
+    (as ``nlupdate amplitude --measured`` cuts an FRF table; a note saying which)."""
+    band = study.amplitude.band_hz
+    if band is not None:
+        found, how = (band[0], band[1]), "band_hz"
+    else:
+        found, how = excited_band_of_table(table)
+    inside = in_band(table["frequency_hz"], found)
+    if not inside.any():
+        raise ValueError(f"the [measured] data have no line between {found[0]:g} and {found[1]:g} Hz ({how})")
+    note = (f"stepped sine ({measured_description(study)}): band {found[0]:g}–{found[1]:g} Hz ({how}), "
+            f"{int((~inside).sum())} of {len(table)} measured rows outside it left out")
+    return table[inside].reset_index(drop=True), note
+
+
+def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
+    """The model of ``[amplitude]``'s sources (``measured``: the study's measured table, used
+    when ``measured = true``), with its backbone table and a note per source."""
+    spec = study.amplitude
+    written = {str(study.resolve(p)): p for key in FILE_KEYS for p in getattr(spec, key)}
+    try:
+        found, channel, notes = read_sources(spec.sources(study.resolve), spec.shapes)
+        found = [(written.get(path, path), *rest) for path, *rest in found]
+        for path, name in written.items():
+            notes = [note.replace(path, name) for note in notes]
+        part, name = None, ""
+        if spec.measured:
+            table, note = _stepped_sine(study, measured)
+            notes.insert(0, note)
+            name = measured_description(study)
+            part = measured_source(table, spec.shapes, spec.fit_options(), name, spec.input_dof, spec.response_dof)
+        fit = fit_sources(found, channel, spec.shapes, spec.fit_options(), part, name)
+        curve = backbone_table(fit)
+    except ValueError as error:
+        raise StudyError(f"{study.path}: [amplitude]: {error}") from None
+    return dataclasses.replace(fit, curve=curve, notes=tuple(notes))
