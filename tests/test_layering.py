@@ -204,6 +204,33 @@ def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkey
     assert step_keys()[0] != before[0]
 
 
+def test_import_sets_kept_between_runs_follow_an_edited_source(tmp_path, monkeypatch):
+    """A run reads the import sets earlier runs found (``code-imports.json``, so as not to
+    parse 171 modules each time) by each source's content: an import added to a source is
+    followed at once, and what a run covers equals a fresh parse of every source."""
+    import json
+    import shutil
+
+    from nlupdate.orchestration.tasks import keys
+
+    package = tmp_path / "nlupdate"
+    shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+
+    def covered(config: Path) -> list[Path]:  # as a new run (process) would
+        monkeypatch.setenv("NLUPDATE_CONFIG_DIR", str(config))
+        monkeypatch.setattr(keys, "_IMPORT_SETS", keys._ImportSets())
+        keys._parsed_imports.cache_clear()
+        return keys.imported_modules(keys.FE_ROOTS, package)
+
+    first = covered(tmp_path / "kept")
+    assert json.loads((tmp_path / "kept" / "code-imports.json").read_text())  # kept for the next run
+    registry = package / "fe" / "adapters" / "registry.py"
+    registry.write_text(registry.read_text() + "\n\ndef _added():\n    import nlupdate.reporting.report  # noqa\n")
+    again = covered(tmp_path / "kept")
+    assert package / "reporting" / "report.py" in again and package / "reporting" / "report.py" not in first
+    assert again == covered(tmp_path / "nothing-kept")
+
+
 def test_every_module_a_study_step_loads_is_in_its_cache_key():
     """The code a step's key covers is derived from the imports (read from the sources);
     here it is checked against what Python actually loads when the chain and its steps
