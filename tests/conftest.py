@@ -3,7 +3,9 @@
 * Prefect keeps its database and settings in a temporary ``PREFECT_HOME`` for the
   session (set before anything imports Prefect), nlupdate its cache secret and schedule
   registrations in a temporary ``NLUPDATE_CONFIG_DIR`` (both removed at the end), and
-  :func:`prefect_server` starts one server for all the tests that need it. Under
+  :func:`prefect_server` starts one server for all the tests that need it (runs in
+  subprocesses of the session use it too, and it stops with the session:
+  ``NLUPDATE_PREFECT_SERVER_KEEP_S=0``). Under
   pytest-xdist (``-n 2`` in pyproject.toml) each worker process has its own folders and its
   own server. Prefect's database migrations run once per session, while the workers collect
   the tests (:mod:`prefect_home`), and each worker's home starts from that database (a
@@ -34,6 +36,9 @@ os.environ["NLUPDATE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="nlupdate-test-confi
 _SESSION_FOLDERS = (os.environ["PREFECT_HOME"], os.environ["NLUPDATE_CONFIG_DIR"])
 os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
+# a run's Prefect server stops when no run of the session uses it (kept 600 s otherwise),
+# so none outlives the suite; tests of keeping set their own time
+os.environ["NLUPDATE_PREFECT_SERVER_KEEP_S"] = "0"
 
 import prefect_home  # noqa: E402
 from nlupdate.orchestration.flows.environment import prepare_environment  # noqa: E402
@@ -67,7 +72,7 @@ def pytest_unconfigure(config):
 LONGEST_MODULES = (
     "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py", "test_hill_reduction.py",
     "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
-    "test_discovery_hard.py", "test_interrupts.py", "test_real_measurements.py", "test_iwan_identification.py",
+    "test_discovery_hard.py", "test_interrupts.py", "test_kept_server.py", "test_real_measurements.py", "test_iwan_identification.py",
     "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
     "test_validate.py", "test_demo_identification.py", "test_linear_frf_consistency.py", "test_time_history.py",
     "test_bolted_beam_example.py", "test_runner.py", "test_doc_snippets.py", "test_optional_dask.py",

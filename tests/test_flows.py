@@ -317,43 +317,74 @@ def test_an_unreachable_dask_address_fails_clearly_within_ten_seconds():
     assert time.perf_counter() - started < 10
 
 
-def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch):
-    from nlupdate.orchestration.flows import server
+def own_server_folder(monkeypatch, tmp_path) -> Path:
+    """Kept-server files of the test's own (the session's server is not found, so a run
+    starts one), kept for no run after it."""
+    from nlupdate.orchestration.flows import server_lease
+
+    folder = tmp_path / "server-state"
+    folder.mkdir()
+    monkeypatch.setattr(server_lease, "state_folder", lambda: folder)
+    monkeypatch.setenv("NLUPDATE_PREFECT_SERVER_KEEP_S", "0")
+    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    return folder
+
+
+def ends(process, timeout_s: float = 30) -> bool:
+    """Whether ``process`` (a Popen) ends within ``timeout_s``."""
+    import subprocess
+
+    try:
+        process.wait(timeout_s)
+    except subprocess.TimeoutExpired:
+        return False
+    return True
+
+
+def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch, tmp_path):
+    from nlupdate.orchestration.flows import server, server_lease
     from nlupdate.orchestration.flows.server import ServerError, prefect_api
 
+    started = []
+
     def broken(self, timeout_s):
+        started.append(self.process)
         raise RuntimeError("the server did not answer within 120 s")
 
-    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    folder = own_server_folder(monkeypatch, tmp_path)
     monkeypatch.setattr(server.RunServer, "wait", broken)
     before = list(server._STARTED)  # the session's server, when a test before started it
     with pytest.raises(ServerError, match="could not start a Prefect server .*prefect server start"):
         with prefect_api(lambda message: None):
             pass
-    assert server._STARTED == before  # the process that did not answer is stopped
+    assert server._STARTED == before  # the process that did not answer is stopped, its record gone
+    assert started[0].poll() is not None and server_lease.read_record(folder) is None
     monkeypatch.setenv("PREFECT_API_URL", "http://127.0.0.1:9/api")
     with pytest.raises(ServerError, match="PREFECT_API_URL=http://127.0.0.1:9/api does not answer"):
         with prefect_api(lambda message: None):
             pass
 
 
-def test_a_server_started_early_is_the_one_the_run_uses_and_stops_with_it(monkeypatch):
+def test_a_server_started_early_is_the_one_the_run_uses_and_stops_after_it(monkeypatch, tmp_path):
     """The CLI starts the run's server before it imports Prefect (so that it boots
-    meanwhile); prefect_api waits for that one instead of starting a second, and stops it."""
+    meanwhile); prefect_api waits for that one instead of starting a second; kept for no
+    run after it (NLUPDATE_PREFECT_SERVER_KEEP_S=0), the server stops when the run lets go."""
     import httpx
 
     from nlupdate.orchestration.flows import server
 
-    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    own_server_folder(monkeypatch, tmp_path)
     before = list(server._STARTED)  # the session's server, when a test before started it
     server.start_server_early()
     early = server._EARLY[0]
-    process = early.process
-    with server.prefect_api(lambda message: None) as url:
+    process = early.started.process
+    said = []
+    with server.prefect_api(said.append) as url:
         assert url == early.api_url
         assert httpx.get(f"{url}/health").status_code == 200
         assert server._STARTED == [*before, early] and not server._EARLY
-    assert process.poll() is not None and server._STARTED == before
+    assert said[1] == f"Prefect server: {url} (started for this run; stops with the run)", said
+    assert ends(process) and server._STARTED == before
 
 
 def test_discovery_flow_finds_what_the_plain_call_finds_and_archives_it(prefect_server, tmp_path):
@@ -419,25 +450,21 @@ def test_an_unreachable_dask_address_is_refused_before_any_server_starts(tmp_pat
     assert seconds < 15, seconds
 
 
-def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(prefect_server):
-    """A run that fails before it needs Prefect stops the server it started early — and no
-    other: the session's server (started by prefect_api in this process) keeps answering,
-    as several in-process runs of one test module need."""
+def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(prefect_server, monkeypatch, tmp_path):
+    """A run that fails before it needs Prefect lets go of the server it started early,
+    which then stops (kept for no run here) — and no other: the session's server (started
+    by prefect_api in this process) keeps answering, as several in-process runs of one test
+    module need."""
     import httpx
 
     from nlupdate.orchestration.flows import server
 
-    import os
-
-    saved = os.environ.pop("PREFECT_API_URL")
-    try:
-        server.start_server_early()
-        early = server._EARLY[0]
-        process = early.process
-        server.stop_early_server()
-    finally:
-        os.environ["PREFECT_API_URL"] = saved
-    assert process.wait(30) is not None and not server._EARLY and early not in server._STARTED
+    own_server_folder(monkeypatch, tmp_path)
+    server.start_server_early()
+    early = server._EARLY[0]
+    process = early.started.process
+    server.stop_early_server()
+    assert ends(process) and not server._EARLY and early not in server._STARTED
     assert httpx.get(f"{prefect_server}/health").status_code == 200
 
 

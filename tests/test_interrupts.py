@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import prefect_home
 from studies import two_dof_study, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -163,9 +164,14 @@ def listening(port: int) -> bool:
 
 
 def started_run(tmp_path: Path) -> tuple[subprocess.Popen, int, int]:
-    """``nlupdate run`` of a long study with its own temporary Prefect server, once its
-    tasks run: (process, server pid, server port)."""
-    env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
+    """``nlupdate run`` of a long study with a Prefect server of its own, once its tasks
+    run: (process, server pid, server port). Its own ``PREFECT_HOME`` (seeded with the
+    session's migrated database), so that it starts the server rather than using the
+    session's, and ``NLUPDATE_PREFECT_SERVER_KEEP_S=0``: the server is kept for no run after it."""
+    home = tmp_path / "prefect-home"
+    prefect_home.seed(home)
+    env = {**{k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}, "PREFECT_HOME": str(home),
+           "NLUPDATE_PREFECT_SERVER_KEEP_S": "0"}
     study = write_study(tmp_path / "study.toml", long_study())
     process = subprocess.Popen([sys.executable, "-m", "nlupdate", "run", str(study), "--out", str(tmp_path / "results")],
                                cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -323,7 +329,8 @@ def test_a_sigterm_a_library_handled_itself_still_ends_the_command(tmp_path):
 
 
 def test_a_killed_run_leaves_no_server_running(tmp_path):
-    """SIGKILL gives the run no chance to clean up: its server notices its parent is gone."""
+    """SIGKILL gives the run no chance to clean up: its lease on the server ends with its
+    process, and the server, used by no run, stops (after its keep time, 0 here)."""
     process, server, port = started_run(tmp_path)
     process.send_signal(signal.SIGKILL)
     process.wait(timeout=30)

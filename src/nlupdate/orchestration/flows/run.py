@@ -33,7 +33,7 @@ def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterat
     (checked first), the environment, the result store, one
     Prefect API, the task runner and no flow-run heartbeats (each costs a second at the
     end of every (sub)flow run). Yields (where the run is recorded — the API's URL when the
-    user gave it, a note for a server started for the run, whose URL is gone after it —,
+    user gave it, a note for the server kept for the runs, whose URL changes when it restarts —,
     task runner, its description, store)."""
     if execution.dask_address is not None:  # before the server, which takes seconds to start
         check_scheduler_address(execution.dask_address)
@@ -45,7 +45,7 @@ def _flow_session(execution: Execution, cache_dir, progress: Progress) -> Iterat
     users_api = bool(os.environ.get("PREFECT_API_URL"))
     with prefect_api(progress.say) as url, task_runner(execution) as (runner, description), \
             temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}), using(progress):
-        recorded = f"API {url}" if users_api else ("a Prefect server started for the run (the run stays in "
+        recorded = f"API {url}" if users_api else ("the Prefect server kept for the runs (the run stays in "
                                                    "Prefect's local database)")
         yield recorded, runner, description, store
 

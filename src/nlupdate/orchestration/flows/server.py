@@ -1,12 +1,15 @@
-"""The Prefect API a run reports to: the user's (``PREFECT_API_URL``) or one started for it.
+"""The Prefect API a run reports to: the user's (``PREFECT_API_URL``) or one kept for the runs.
 
 Without ``PREFECT_API_URL`` every process — and every Dask worker — would start its own
-temporary server (13–26 s each here). :func:`prefect_api` starts exactly one for the run,
-in a subprocess, points this process (Prefect's settings, for the block) and every worker
-started afterwards (the environment) at it, and stops it at the end, after Prefect's
-background writers have sent the run's history (otherwise most of it is lost). Runs are
-kept in Prefect's database (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server
-start`` shows them later.
+temporary server (13–26 s each here). :func:`prefect_api` uses the one server kept for the
+runs on this Prefect database (:mod:`nlupdate.orchestration.flows.server_lease`), starting it
+in a subprocess when none is running, points this process (Prefect's settings, for the
+block) and every worker started afterwards (the environment) at it, and at the end — after
+Prefect's background writers have sent the run's history (otherwise most of it is lost) —
+lets go of it: the server stops by itself once no run has used it for
+``NLUPDATE_PREFECT_SERVER_KEEP_S`` seconds (600 by default; 0: with the run). Runs are kept
+in Prefect's database (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start``
+shows them later.
 
 Once the API answers, flow runs that killed processes of this host left "Running" are
 marked Crashed (:func:`nlupdate.orchestration.flows.liveness.mark_dead_runs_crashed`); when that is not
@@ -26,30 +29,32 @@ from typing import Callable, Iterator
 
 import httpx
 
+from nlupdate.orchestration.flows import server_lease
+
 
 class ServerError(RuntimeError):
     """The Prefect API cannot be reached or started; the message says what to do."""
 
 
-_STARTED: list = []  # servers started for a run and not stopped yet
-_EARLY: list = []  # of those, the one start_server_early started for the next prefect_api
+_STARTED: list = []  # kept servers this process holds a lease on
+_EARLY: list = []  # of those, the one start_server_early took for the next prefect_api
 
 
 def stop_started_servers() -> None:
-    """Stop the servers :func:`prefect_api` started (for an exit that cannot unwind)."""
+    """Let go of the kept servers this process uses (for an exit that cannot unwind)."""
     _EARLY.clear()
     while _STARTED:
-        _STARTED.pop().stop()
+        _STARTED.pop().release()
 
 
 def stop_early_server() -> None:
-    """Stop the server :func:`start_server_early` started when no :func:`prefect_api` took
+    """Let go of the server :func:`start_server_early` took when no :func:`prefect_api` used
     it (the run ended before it needed one); servers in use are left to their owners."""
     while _EARLY:
         server = _EARLY.pop()
         if server in _STARTED:
             _STARTED.remove(server)
-        server.stop()
+        server.release()
 
 
 HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200; with "
@@ -107,17 +112,19 @@ RUN_SERVER_SETTINGS = {"PREFECT_SERVER_SERVICES_EVENT_PERSISTER_ENABLED": "false
 
 
 class RunServer:
-    """Prefect's temporary server for one run: uvicorn serving Prefect's API app (Prefect
-    3.8's own command line; the app wrapped by :mod:`nlupdate.orchestration.flows.server_app`), started
-    through :mod:`nlupdate.orchestration.flows.server_process` so that it ends when this process does,
-    even when this process is killed. It runs in a session (process group) of its own, so
-    a signal to the run's group does not take the API away while the run reports its end.
+    """Prefect's server kept for the runs on one database: uvicorn serving Prefect's API app
+    (Prefect 3.8's own command line; the app wrapped by :mod:`nlupdate.orchestration.flows.server_app`),
+    started through :mod:`nlupdate.orchestration.flows.server_process`, which stops it once
+    no run has held a lease for ``keep_s`` (even when every run was killed). It runs in a
+    session (process group) of its own, so a signal to a run's group does not take the API
+    away while the run reports its end; its output goes to ``server.log`` in ``folder``.
 
     Started without importing Prefect here (the server process imports it itself, at the
     same time as this process imports what the run needs); :meth:`wait` returns once the
     API answers."""
 
-    def __init__(self) -> None:
+    def __init__(self, folder: Path, keep_s: float) -> None:
+        self.folder, self.keep_s = folder, keep_s
         self.port = _free_port()
         self.process: subprocess.Popen | None = self._spawn()
 
@@ -135,17 +142,22 @@ class RunServer:
             from prefect.settings import get_current_settings
 
             settings = get_current_settings().to_environment_variables(exclude_unset=True)
-        return subprocess.Popen(
-            # -P: the working folder is not put on sys.path, so a source checkout there (whose
-            # nlupdate/ lacks the installed nlupdate.orchestration.flows) cannot shadow the installed package
-            args=[sys.executable, "-P", "-m", "nlupdate.orchestration.flows.server_process", str(os.getpid()),
-                  "--app-dir", str(app_dir), "--factory", "nlupdate.orchestration.flows.server_app:create_app",
-                  "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
-            env={**RUN_SERVER_SETTINGS, **os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
-                 "PREFECT__SERVER_FINAL": "1", **settings},
-            # a session of its own: a signal to the run's process group (timeout, kill -- -PGID,
-            # a batch scheduler) reaches the run, which then stops its server after reporting to it
-            start_new_session=hasattr(os, "setsid"))
+        with open(self.folder / "server.log", "ab") as log:
+            process = subprocess.Popen(
+                # -P: the working folder is not put on sys.path, so a source checkout there (whose
+                # nlupdate/ lacks the installed nlupdate.orchestration.flows) cannot shadow the installed package
+                args=[sys.executable, "-P", "-m", "nlupdate.orchestration.flows.server_process", str(self.folder),
+                      f"{self.keep_s:g}", "--app-dir", str(app_dir), "--factory",
+                      "nlupdate.orchestration.flows.server_app:create_app", "--host", "127.0.0.1",
+                      "--port", str(self.port), "--log-level", "error", "--lifespan", "on"],
+                env={**RUN_SERVER_SETTINGS, **os.environ, "PREFECT_UI_ENABLED": "0", "PREFECT__SERVER_EPHEMERAL": "1",
+                     "PREFECT__SERVER_FINAL": "1", **settings},
+                stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                # a session of its own: a signal to the run's process group (timeout, kill -- -PGID,
+                # a batch scheduler) reaches the run, which then reports its end to the server
+                start_new_session=hasattr(os, "setsid"))
+        server_lease.write_record(self.folder, process.pid, self.port)
+        return process
 
     def wait(self, timeout_s: float) -> None:
         """Return once ``/api/health`` answers 200; RuntimeError when the process ends first
@@ -159,7 +171,8 @@ class RunServer:
                     self.port = _free_port()
                     self.process = self._spawn()
                 elif code is not None:
-                    raise RuntimeError(f"the server process exited with code {code}")
+                    raise RuntimeError(f"the server process exited with code {code} (its output: "
+                                       f"{self.folder / 'server.log'})")
                 with contextlib.suppress(httpx.TransportError):
                     if client.get(f"{self.api_url}/health").status_code == 200:
                         return
@@ -174,7 +187,66 @@ class RunServer:
             except subprocess.TimeoutExpired:
                 self.process.kill()
                 self.process.wait()
+            server_lease.forget_record(self.folder, self.process.pid)
             self.process = None
+
+
+class KeptServer:
+    """This run's use of the server kept for its Prefect database: the running one, else
+    one started now (:class:`RunServer`); held by a lease (:class:`server_lease.Lease`)
+    until :meth:`release`."""
+
+    def __init__(self) -> None:
+        self.keep_s = server_lease.keep_seconds()
+        folder = server_lease.state_folder()
+        with server_lease.starting(folder):
+            self.lease = server_lease.Lease(folder)
+            try:
+                record = server_lease.read_record(folder)
+                self.started = None if record else RunServer(folder, self.keep_s)
+            except BaseException:
+                self.lease.release()
+                raise
+        self.pid, self.port = (record["pid"], record["port"]) if record else (self.started.process.pid,
+                                                                               self.started.port)
+
+    @property
+    def api_url(self) -> str:
+        return f"http://127.0.0.1:{self.port}/api"
+
+    def wait(self, timeout_s: float) -> None:
+        """Return once the server answers (see :meth:`RunServer.wait`)."""
+        if self.started is not None:
+            self.started.wait(timeout_s)
+            self.pid, self.port = self.started.process.pid, self.started.port
+            return
+        deadline = time.monotonic() + timeout_s
+        with httpx.Client(timeout=5.0) as client:
+            while time.monotonic() < deadline:
+                with contextlib.suppress(httpx.TransportError):
+                    if client.get(f"{self.api_url}/health").status_code == 200:
+                        return
+                if not server_lease.serving(self.pid):
+                    raise RuntimeError("the kept server's process ended before it answered")
+                time.sleep(0.05)
+        raise RuntimeError(f"the server did not answer within {timeout_s:g} s")
+
+    def describe(self) -> str:
+        """How long the server stays, for the run's line."""
+        started = "started for this run" if self.started is not None else "already running"
+        if self.keep_s == 0:
+            return f"{started}; stops with the run"
+        return f"{started}; kept {self.keep_s:g} s after the last run using it"
+
+    def release(self) -> None:
+        """Let go: the server stops once no run has held it for its keep time."""
+        self.lease.release()
+
+    def stop(self) -> None:
+        """Let go, and stop a server this run started (one that did not answer)."""
+        self.release()
+        if self.started is not None:
+            self.started.stop()
 
 
 def _free_port() -> int:
@@ -184,12 +256,13 @@ def _free_port() -> int:
 
 
 def start_server_early() -> None:
-    """Start the run's server now, unless ``PREFECT_API_URL`` names one, so that it boots
-    while this process imports and prepares the run; :func:`prefect_api` then waits for it
-    (and :func:`stop_started_servers` stops it when the run ends before that)."""
+    """Take the kept server now, starting it unless one is running or ``PREFECT_API_URL``
+    names one, so that it boots while this process imports and prepares the run;
+    :func:`prefect_api` then waits for it (and :func:`stop_started_servers` lets go of it
+    when the run ends before that)."""
     if not os.environ.get("PREFECT_API_URL") and not _EARLY:
         try:
-            _EARLY.append(RunServer())
+            _EARLY.append(KeptServer())
             _STARTED.append(_EARLY[-1])
         except Exception:  # noqa: BLE001 - prefect_api starts one and reports the error in one line
             pass
@@ -209,20 +282,22 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
             finally:
                 flush_run_history()
         return
-    say("starting a Prefect server for this run …")
     server = _EARLY.pop() if _EARLY else None
     try:
         if server is None:
-            server = RunServer()
+            server = KeptServer()
             _STARTED.append(server)
+        if server.started is not None:
+            say("starting a Prefect server for this run …")
         server.wait(startup_timeout_s)
     except Exception as error:  # whatever uvicorn or the database raised
         if server in _STARTED:
             _STARTED.remove(server)
+        if server is not None:
             server.stop()
         raise ServerError(f"could not start a Prefect server ({type(error).__name__}: {error}); {HELP}") from None
     os.environ["PREFECT_API_URL"] = server.api_url
-    say(f"Prefect server: {server.api_url} (stops with the run)")
+    say(f"Prefect server: {server.api_url} ({server.describe()})")
     try:
         with _named_in_prefects_settings(server.api_url):
             _crash_dead_runs(server.api_url, say)
@@ -234,4 +309,4 @@ def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Ite
         os.environ.pop("PREFECT_API_URL", None)
         if server in _STARTED:
             _STARTED.remove(server)
-            server.stop()
+            server.release()

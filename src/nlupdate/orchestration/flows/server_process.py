@@ -1,10 +1,12 @@
-"""The temporary Prefect server's process: uvicorn, ended when the run that started it ends.
+"""The kept Prefect server's process: uvicorn, stopped once no run has used it for a while.
 
-``python -m nlupdate.orchestration.flows.server_process PARENT_PID UVICORN_ARGS…`` runs ``python -m
-uvicorn UVICORN_ARGS…`` in this process, with a watchdog thread that ends it (SIGTERM to
-itself, then exit after 5 s) as soon as its parent is gone — however the parent ended,
-SIGKILL included, when nothing else could stop the server. Without it, each killed run
-left a server (~220 MB) listening on loopback for good.
+``python -m nlupdate.orchestration.flows.server_process FOLDER KEEP_S UVICORN_ARGS…`` runs
+``python -m uvicorn UVICORN_ARGS…`` in this process, with a watchdog thread that ends it
+(SIGTERM to itself, then exit after 5 s) once no run has held a lease on it
+(:mod:`nlupdate.orchestration.flows.server_lease`, files in ``FOLDER``) for ``KEEP_S``
+seconds. A run's lease ends with its process, however it ended — SIGKILL included — so
+no server outlives its last run by more than the keep time (without a watchdog, each
+killed run left a server of ~220 MB listening on loopback for good).
 """
 from __future__ import annotations
 
@@ -14,24 +16,35 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
+
+from nlupdate.orchestration.flows import server_lease
 
 POLL_S = 0.25
 
 
-def _watch(parent: int) -> None:
-    while os.getppid() == parent:
+def _watch(folder: Path, keep_s: float) -> None:
+    idle_since: float | None = None
+    while True:
         time.sleep(POLL_S)
-    os.kill(os.getpid(), signal.SIGTERM)  # uvicorn shuts down on SIGTERM
-    time.sleep(5.0)
-    os._exit(0)
+        held = server_lease.unused(folder)
+        if held is None:  # a run holds a lease
+            idle_since = None
+            continue
+        now = time.monotonic()
+        idle_since = now if idle_since is None else idle_since
+        if now - idle_since >= keep_s:  # the exclusive hold stays until exit: a new run waits, then starts one
+            server_lease.forget_record(folder, os.getpid())
+            os.kill(os.getpid(), signal.SIGTERM)  # uvicorn shuts down on SIGTERM
+            time.sleep(5.0)
+            os._exit(0)
+        os.close(held)
 
 
 def main() -> None:
-    parent = int(sys.argv[1])
-    if os.getppid() != parent:  # the parent died before we started
-        sys.exit(0)
-    threading.Thread(target=_watch, args=(parent,), name="parent-watchdog", daemon=True).start()
-    sys.argv = ["uvicorn", *sys.argv[2:]]
+    folder, keep_s = Path(sys.argv[1]), float(sys.argv[2])
+    threading.Thread(target=_watch, args=(folder, keep_s), name="idle-watchdog", daemon=True).start()
+    sys.argv = ["uvicorn", *sys.argv[3:]]
     runpy.run_module("uvicorn", run_name="__main__", alter_sys=True)
 
 
