@@ -78,7 +78,7 @@ LONGEST_MODULES = (
     "test_bolted_beam_example.py", "test_runner.py", "test_doc_snippets.py", "test_optional_dask.py",
     "test_result_reprs.py", "test_tanh_friction.py", "test_element_registry.py",
     "test_amplitude_modal.py", "test_phase_resonance.py", "test_impact.py", "test_joint_sources.py",
-    "test_test_type_truth.py", "test_backbone_forms.py", "test_test_type_uff.py", "test_decay_fit.py",
+    "test_test_type_truth.py", "test_backbone_forms.py", "test_test_type_uff.py", "test_stepped_sine_truth.py", "test_decay_fit.py",
     "test_discovery_cli.py", "test_archive_compare_studies.py",
     "test_readme_identify.py", "test_answer_from_cache.py",
     "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_amplitude_limits.py",

@@ -65,6 +65,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
+from nlupdate.core.identification.frf_peak import resonance_peak
 from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
 from nlupdate.core.identification.modal_fit import fit_mode_near
 from nlupdate.core.measurement.modal_table import validate_modal_table
@@ -125,8 +126,9 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
                       band_fraction: float = 0.1) -> ModalSamples:
     """One backbone sample per force level from FRFs at the driving point or a transfer
     (module docstring): the resonance of each level (peak of |H| within ``band_fraction`` of
-    the lowest level's resonance near ``near_hz``, refined by a parabola), after removing the
-    other modes' share."""
+    the lowest level's resonance near ``near_hz``, from every line near its top:
+    :func:`~nlupdate.core.identification.frf_peak.resonance_peak`), after removing the other
+    modes' share."""
     f_low, h_low = data.frequencies[0], data.receptances[0]
     start = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
     fit = fit_mode_near(f_low, h_low, start, band_fraction=band_fraction)
@@ -149,12 +151,9 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
         hb = np.abs(h[band] - fit.residual_receptance(fb))
         if fb.size < 3:
             continue
-        i = int(np.clip(np.argmax(hb), 1, fb.size - 2))
-        y0, y1, y2 = hb[i - 1 : i + 2]
-        curvature = y0 - 2 * y1 + y2
-        shift = float(np.clip(0.5 * (y0 - y2) / curvature, -1, 1)) if curvature < 0 else 0.0
-        peak_hz.append(fb[i] + shift * 0.5 * (fb[i + 1] - fb[i - 1]))
-        peak_x.append((y1 - 0.25 * (y0 - y2) * shift) * float(level))
+        at_hz, height = resonance_peak(fb, hb)
+        peak_hz.append(at_hz)
+        peak_x.append(height * float(level))
         forces.append(float(level))
     if len(forces) < 2:
         raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
