@@ -151,10 +151,13 @@ class AmplitudeFit:
         return any(value > bound for value, bound in zip(self.misfit(), POOR_FIT))
 
     def disagreeing(self) -> list[str]:
-        """The sources that disagree with the joint fit beyond their uncertainty."""
+        """The sources that disagree with the joint fit beyond their uncertainty, by file (with
+        its test type when the file is read as several: a hammer record as ring-down and impact)."""
         if self.agreement is None:
             return []
-        return self.agreement.loc[~self.agreement["consistent"], "source"].astype(str).tolist()
+        shared = self.agreement["source"].duplicated(keep=False)
+        return [f"{row.source} ({row.test_type})" if twice else str(row.source)
+                for row, twice in zip(self.agreement.itertuples(), shared) if not row.consistent]
 
     def write(self, folder: Path) -> list[str]:
         """``amplitude_model.json``, ``backbone.csv`` (:attr:`curve`, from :func:`backbone_table`),
