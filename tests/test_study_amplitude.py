@@ -197,3 +197,33 @@ def test_nlupdate_run_computes_the_step_once_and_archives_the_commands_files(rec
     assert sorted(entry["as_written"] for entry in copied) == ["decay.csv", "tap.csv"]
     assert all((archives[0] / entry["archived"]).read_bytes() == (folder / entry["as_written"]).read_bytes()
                for entry in copied)
+
+
+BRB = Path(__file__).resolve().parent / "data" / "brb"
+
+
+def test_the_studys_own_stepped_sine_is_read_as_the_commands_measured(tmp_path, monkeypatch):
+    """``measured = true`` takes the study's ``[measured]`` FRF table — the Brake–Reuss beam's
+    four force-controlled levels — beside its hammer record's linear limit: the archive's
+    files equal ``nlupdate amplitude --measured … --impact …``'s byte for byte, one
+    stepped-sine sample per level."""
+    for name in ("ForcedFrequencyResponses.mat", "HammerImpact_1600Hz.mat"):
+        (tmp_path / name).write_bytes((BRB / name).read_bytes())
+    study = {"study": {"name": "brb-measured"},
+             "measured": {"file": "ForcedFrequencyResponses.mat",
+                          "coordinates": {"ForcedFrequencyResponses.mat": ["acc3:-y", "acc3:y"]}},
+             "amplitude": {"measured": True, "impact": ["HammerImpact_1600Hz.mat"], "channel": "acc3",
+                           "band_hz": [60.0, 100.0], "response_unit": "m/s^2",
+                           "shapes": {"acc3": 0.7271, "acc3:y": 0.7271}, "backbone": "polynomial", "bootstrap": 20}}
+    (tmp_path / "brb.toml").write_text(tomli_w.dumps(study))
+    archive = write_archive(api.run_study(tmp_path / "brb.toml"), tmp_path / "archive", {"orchestration": "test"})
+    monkeypatch.chdir(tmp_path)
+    assert main(["amplitude", "--measured", "ForcedFrequencyResponses.mat", "--coordinates",
+                 "ForcedFrequencyResponses.mat=acc3:-y,acc3:y", "--impact", "HammerImpact_1600Hz.mat", "--channel",
+                 "acc3", "--band", "60:100", "--response-unit", "m/s^2", "--shape", "acc3=0.7271", "--shape",
+                 "acc3:y=0.7271", "--backbone", "polynomial", "--bootstrap", "20", "--out", "cli"]) == 0
+    for name in FILES:
+        assert (tmp_path / "cli" / name).read_bytes() == (archive / "amplitude" / name).read_bytes(), name
+    points = pd.read_csv(archive / "amplitude" / "backbone_points.csv")
+    assert points["test_type"].value_counts().to_dict() == {"stepped-sine": 4, "impact": 1}
+    assert pd.read_csv(archive / "amplitude" / "backbone.csv")["natural_frequency_hz_low"].notna().all()

@@ -22,6 +22,14 @@ from nlupdate.study.spec import Study, StudyError
 from nlupdate.study.steps.measured import measured_description
 
 
+def _measured_name(study: Study) -> str:
+    """The ``[measured]`` files as written in the study (as the command names ``--measured``)."""
+    written = {str(path): name for name, path in study.input_files.items()}
+    spec = study.measured
+    files = [spec.file] if spec.file is not None else [path for path, _ in spec.files] or list(spec.time_histories)
+    return ", ".join(written.get(str(f), str(f)) for f in files) if files else measured_description(study)
+
+
 def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     """The study's measured table cut to ``band_hz`` or, without it, to its excited band
     (as ``nlupdate amplitude --measured`` cuts an FRF table; a note saying which)."""
@@ -33,7 +41,7 @@ def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str]
     inside = in_band(table["frequency_hz"], found)
     if not inside.any():
         raise ValueError(f"the [measured] data have no line between {found[0]:g} and {found[1]:g} Hz ({how})")
-    note = (f"stepped sine ({measured_description(study)}): band {found[0]:g}–{found[1]:g} Hz ({how}), "
+    note = (f"stepped sine ({_measured_name(study)}): band {found[0]:g}–{found[1]:g} Hz ({how}), "
             f"{int((~inside).sum())} of {len(table)} measured rows outside it left out")
     return table[inside].reset_index(drop=True), note
 
@@ -52,7 +60,7 @@ def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
         if spec.measured:
             table, note = _stepped_sine(study, measured)
             notes.insert(0, note)
-            name = measured_description(study)
+            name = _measured_name(study)
             part = measured_source(table, spec.shapes, spec.fit_options(), name, spec.input_dof, spec.response_dof)
         fit = fit_sources(found, channel, spec.shapes, spec.fit_options(), part, name)
         curve = backbone_table(fit)
