@@ -21,6 +21,8 @@ import tomli_w
 from nlupdate.app import api
 from nlupdate.app.cli import main
 from nlupdate.reporting.archive import write_archive
+from nlupdate.reporting.catalogue import find_runs
+from nlupdate.reporting.compare import result_fields
 from nlupdate.study.loading import load_study
 from nlupdate.study.reader import StudyError
 
@@ -193,6 +195,11 @@ def test_nlupdate_run_computes_the_step_once_and_archives_the_commands_files(rec
     for name in FILES:
         expected = (tmp_path / "cli" / name).read_bytes()
         assert all((a / "amplitude" / name).read_bytes() == expected for a in archives), name
+    fields = [result_fields(run)["amplitude backbone"] for run in find_runs(results)]
+    backbone = pd.read_csv(archives[0] / "amplitude" / "backbone.csv")
+    first = f"a = {backbone['modal_amplitude'].iloc[0]:.4g} m·√kg: natural frequency (Hz)"
+    assert len(fields) == 2 and fields[0] == fields[1] and len(fields[0]) == 6  # what archive compare/rerun check
+    assert fields[0][first].value == pytest.approx(backbone["natural_frequency_hz"].iloc[0], rel=1e-12)
     copied = json.loads((archives[0] / "manifest.json").read_text())["inputs"]["files"]
     assert sorted(entry["as_written"] for entry in copied) == ["decay.csv", "tap.csv"]
     assert all((archives[0] / entry["archived"]).read_bytes() == (folder / entry["as_written"]).read_bytes()

@@ -141,6 +141,13 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
     if correlation is not None:
         for row in correlation.itertuples():
             out["FRAC"][f"{row.model} at {row.force_level_n:g} N"] = _pair(row.frac)
+    backbone = run.table("amplitude_backbone")
+    if backbone is not None and len(backbone):  # [amplitude]: its ends and middle
+        out["amplitude backbone"] = {}
+        for row in backbone.iloc[sorted({0, len(backbone) // 2, len(backbone) - 1})].itertuples():
+            at = f"a = {row.modal_amplitude:.4g} m·√kg"
+            out["amplitude backbone"][f"{at}: natural frequency (Hz)"] = _pair(row.natural_frequency_hz)
+            out["amplitude backbone"][f"{at}: damping ratio"] = _pair(row.damping_ratio)
     return {section: values for section, values in out.items() if values}
 
 

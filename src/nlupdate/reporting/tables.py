@@ -19,6 +19,8 @@ fe_modes             ``[fe_validation]``: each elastic FE mode of the initial an
                      with the test's frequency where paired (``frequency_hz_measured``)
 validation           ``[validation]``: held-out levels; ``[fe_validation]``: one row per forced run
                      and model, measured and predicted resonance, damping ratio and peak
+amplitude_backbone   ``[amplitude]``: the fitted backbone (amplitude/backbone.csv: modal_amplitude,
+                     natural_frequency_hz, damping_ratio and their 95 % ``*_low``/``*_high``)
 ===================  ==========================================================================
 """
 from __future__ import annotations
@@ -102,4 +104,6 @@ def study_tables(result) -> dict[str, pd.DataFrame]:
     if result.fe_validation is not None:  # the study reader allows one of [validation] and [fe_validation]
         tables["fe_modes"] = result.fe_validation.modes
         tables["validation"] = result.fe_validation.table
+    if result.amplitude is not None:
+        tables["amplitude_backbone"] = result.amplitude.curve
     return tables
