@@ -2,12 +2,14 @@
 Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with each type held out.
 
     python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03]] [--at-samples]
+                                         [--ring-down decay|segments]
 
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
 closed-form single-nonlinear-mode backbone). Per test type and seed:
 
 * ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: SDOF 3 mm, 2-DOF 240 ×), white
-  noise 2 % of the record's peak, read in segments (``decay_segments``);
+  noise 2 % of the record's peak, read by the decay fit (``fit_decay``: its samples where the
+  damping is known to 1.5 %) or, with ``--ring-down segments``, in segments (``decay_segments``);
 * impact: an RK4 tap (Jenkins stuck, 0.5 × slip; Iwan 0.05 ×), 2 % noise, ``fit_linear_limit``;
 * phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels (Jenkins 0.5–15 ×
   its slip amplitude; Iwan from microslip to 3.3 × φ_max, SDOF, and 130 ×, 2-DOF); 2 % noise on
@@ -43,6 +45,7 @@ from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
 from nlupdate.core.identification.backbone_samples import join_samples, own_fit_for, source_noise  # noqa: E402
 from nlupdate.core.identification.data import FRFLevels  # noqa: E402
+from nlupdate.core.identification.decay_fit import fit_decay  # noqa: E402
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
 from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
@@ -63,14 +66,19 @@ def records(s: dict, kind: str, dofs: int) -> dict:
             "points": points, "table": stepped_sine_table(s, points[1])}
 
 
-def samples(s: dict, made: dict, seed: int) -> dict[str, tuple[ModalSamples, tuple[float, float] | None]]:
+def samples(s: dict, made: dict, seed: int,
+            ring_down: str = "decay") -> dict[str, tuple[ModalSamples, tuple[float, float] | None]]:
     """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by)."""
     psi, rng = s["phi"][0], np.random.default_rng(1000 + seed)
     t, x = made["decay"]
-    parts = decay_segments(t, {"x": noisy(x, seed)}, band(s), shape=psi)
-    ring = (join_samples([p.samples() for p in parts]),
-            (float(np.median([p.frequency_std_hz / p.frequency_hz for p in parts])),
-             float(np.median([p.damping_std / p.damping_ratio for p in parts]))))
+    if ring_down == "decay":
+        fit = fit_decay(t, noisy(x, seed), band(s), shape=psi)
+        ring = (fit.samples(), fit.stated_noise())
+    else:
+        parts = decay_segments(t, {"x": noisy(x, seed)}, band(s), shape=psi)
+        ring = (join_samples([p.samples() for p in parts]),
+                (float(np.median([p.frequency_std_hz / p.frequency_hz for p in parts])),
+                 float(np.median([p.damping_std / p.damping_ratio for p in parts]))))
     t, x = made["tap"]
     tap = fit_linear_limit(t, {"x": noisy(x, seed)}, band(s), shape=psi)
     omega, force, response = made["points"]
@@ -135,6 +143,8 @@ def main() -> None:
                         help="leave out amplitudes within [a_s/K, K·a_s] of the Jenkins slip amplitude a_s")
     parser.add_argument("--kink-below", type=float, default=None, metavar="B",
                         help="with --kink: leave out [a_s/B, K·a_s] instead (B > 1; default K)")
+    parser.add_argument("--ring-down", default="decay", choices=("decay", "segments"),
+                        help="how the ring-down is read: the decay fit (default) or segments")
     parser.add_argument("--at-samples", action="store_true",
                         help="each type's own fit at its samples' amplitudes instead of 60 over their range")
     args = parser.parse_args()
@@ -150,7 +160,7 @@ def main() -> None:
         made = records(s, kind, dofs)
         rows = {name: [] for name in TYPES + ("joint",)}
         for seed in range(args.seeds):
-            every = samples(s, made, seed)
+            every = samples(s, made, seed, args.ring_down)
             for name, (smp, stated) in every.items():
                 own = (curve_errors(s, fit(s, [(smp, stated)], args.backbone), smp.amplitude.min(), smp.amplitude.max(),
                                     smp.amplitude if args.at_samples else None)
