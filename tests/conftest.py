@@ -81,7 +81,7 @@ LONGEST_MODULES = (
     "test_test_type_truth.py", "test_backbone_forms.py", "test_test_type_uff.py", "test_stepped_sine_truth.py", "test_decay_fit.py",
     "test_discovery_cli.py", "test_archive_compare_studies.py",
     "test_readme_identify.py", "test_answer_from_cache.py",
-    "test_trust_warnings.py", "test_discovery_examples.py", "test_discovery_modal.py", "test_amplitude_limits.py",
+    "test_trust_warnings.py", "test_discovery_modal.py", "test_amplitude_limits.py",
     "test_progress.py", "test_validate_response_controlled.py", "test_validate_held_type.py",
     "test_full_band_export.py", "test_calculix.py", "test_identification_cli.py", "test_solver_vs_time_integration.py",
     "test_reporting_plots.py", "test_frf_speed_benchmark.py", "test_identification_prd.py",

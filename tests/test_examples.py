@@ -25,7 +25,7 @@ EXAMPLES = ROOT / "examples"
 #: those whose header command a default-suite test runs as written and checks what it finds
 #: — the Brake–Reuss beam's discover (~80 s under load: tests/test_real_measurements.py),
 #: the SDOF discover (tests/test_discovery_cli.py, the `run_output` fixture) and the gun
-#: barrel's discover (tests/test_discovery_examples.py, as examples/discovery/README.md gives it).
+#: barrel's discover (tests/test_discovery_modal.py, as examples/discovery/README.md gives it).
 SLOW = {"bolted_beam/study.toml", "discovery/brb_mode1.toml", "discovery/sdof_linear.toml",
         "discovery/gunbarrel_mode1.toml",
         "two_dof_study.toml",  # the same study runs in the default suite: tests/test_examples_py.py
