@@ -137,7 +137,8 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
         points = read_phase_resonance(path, files.options)
         missing = [dof for dof in (points.response_dof, points.input_dof) if dof not in shapes]
         if missing:
-            raise SourceError(f"{path}: give the shape at {missing[0]} (1/√kg): the damping at phase resonance, "
+            raise SourceError(f"{path}: give the shape at {missing[0]} (1/√kg; --shape {missing[0]}=VALUE, in a study "
+                              f"[amplitude] shapes): the damping at phase resonance, "
                               f"ζ = |φ_f φ_r| F/(2Ω²|X_r|), needs the mass-normalised shape at the response and "
                               f"the force")
         samples = samples_from_phase_resonance(points, shapes[points.response_dof], shapes[points.input_dof])
