@@ -9,7 +9,7 @@ Per round, in rotated order (load hits every contender alike), each as a fresh p
 * **cold demo** — ``python -m nlupdate demo`` in an empty folder (no task cache): the CLI,
   the Prefect server it uses, everything. The run's server is kept between runs
   (:mod:`nlupdate.orchestration.flows.server_lease`, ``NLUPDATE_PREFECT_SERVER_KEEP_S``
-  600 s): a cold demo after another finds it running, and its CPU during the run is counted
+  600 s here, longer than any gap between the runs): a cold demo after another finds it running, and its CPU during the run is counted
   (read from ``/proc`` before and after; its start, made by an earlier run, is not);
 * **cold demo, no server running** — the same after the kept server was stopped: this run
   starts it, and its CPU from its start to the run's end is counted (the first run of a

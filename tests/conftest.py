@@ -36,7 +36,7 @@ os.environ["NLUPDATE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="nlupdate-test-confi
 _SESSION_FOLDERS = (os.environ["PREFECT_HOME"], os.environ["NLUPDATE_CONFIG_DIR"])
 os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
-# a run's Prefect server stops when no run of the session uses it (kept 600 s otherwise),
+# a run's Prefect server stops when no run of the session uses it (kept 300 s otherwise),
 # so none outlives the suite; tests of keeping set their own time
 os.environ["NLUPDATE_PREFECT_SERVER_KEEP_S"] = "0"
 

@@ -61,7 +61,7 @@ def own_home(tmp_path, monkeypatch):
 def test_the_keep_time_is_checked():
     from nlupdate.orchestration.flows.server_lease import KEEP_ENV, keep_seconds
 
-    for text, seconds in (("", 600.0), ("0", 0.0), ("2.5", 2.5)):
+    for text, seconds in (("", 300.0), ("0", 0.0), ("2.5", 2.5)):
         os.environ[KEEP_ENV] = text
         try:
             assert keep_seconds() == seconds

@@ -7,7 +7,7 @@ in a subprocess when none is running, points this process (Prefect's settings, f
 block) and every worker started afterwards (the environment) at it, and at the end — after
 Prefect's background writers have sent the run's history (otherwise most of it is lost) —
 lets go of it: the server stops by itself once no run has used it for
-``NLUPDATE_PREFECT_SERVER_KEEP_S`` seconds (600 by default; 0: with the run). Runs are kept
+``NLUPDATE_PREFECT_SERVER_KEEP_S`` seconds (300 by default; 0: with the run). Runs are kept
 in Prefect's database (``~/.prefect`` or ``PREFECT_HOME``), so ``prefect server start``
 shows them later.
 
