@@ -195,7 +195,7 @@ def fit_decay(time_s: NDArray, response: NDArray, band_hz: tuple[float, float] |
     uniform) and ``response`` (any unit); ``band_hz`` the mode's band (default: around the
     largest peak); ``shape`` |φ| (1/√kg) at the sensor makes amplitudes modal; ``snr`` the
     envelope-to-noise ratio where the fitted part ends."""
-    decay = _decay(time_s, {"x": response}, band_hz, None, snr, source)
+    decay = _decay(time_s, {"response": response}, band_hz, None, snr, source)
     (head, last), envelope = decay.ends[0], decay.envelopes[0]
     low, high = decay.band
     step = max(int(round(decay.fs / (PER_BANDWIDTH * (high - low)))), 1)
@@ -206,7 +206,7 @@ def fit_decay(time_s: NDArray, response: NDArray, band_hz: tuple[float, float] |
     reference = float(np.sqrt(envelope[head] * envelope[last]))
     measured, centre, dt = decay.baseband[0][index] / reference, 2 * np.pi * decay.centre, step / decay.fs
     # start: the segments' samples (rate σ = ζω, damped frequency) fitted by the same form
-    parts = decay_segments(time_s, {"x": response}, band_hz, snr=snr, source=source)
+    parts = decay_segments(time_s, {"response": response}, band_hz, snr=snr, source=source)
     amplitude = np.array([part.amplitude for part in parts]) / reference
     omega = 2 * np.pi * np.array([part.frequency_hz for part in parts])
     zeta = np.array([part.damping_ratio for part in parts])
