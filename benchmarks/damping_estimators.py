@@ -4,18 +4,19 @@ simulated curves with the Brake–Reuss beam's lines, noise and damping, truth k
     python benchmarks/damping_estimators.py [--seeds 24]
 
 ``nlupdate validate`` reads the damping ratio of a measured and of a predicted curve with
-one estimator (:mod:`nlupdate.core.validation.resonance`: half-power crossings interpolated
-linearly in |H| between the lines). Is that estimator the noisy part of the BRB's measured
+one estimator (:mod:`nlupdate.core.validation.resonance`): the circle fit below since these
+figures (issue 34), the half-power crossings interpolated linearly in |H| between the lines before. Is that estimator the noisy part of the BRB's measured
 damping (its repeatability: 23 % about a parabola in log amplitude)? Compared here:
 
-* ``half-power`` — the tool's estimator;
+* ``half-power`` — the tool's estimator before (``Resonance.half_power_damping_ratio``);
 * ``half-power 1/|H|²`` — the crossings interpolated in 1/|H|² (a parabola in Ω near an SDOF's
   resonance, so exact there to first order);
 * ``SDOF fit`` — least squares of ``A/(ω_n² − Ω² + 2iζω_nΩ) + B + C(Ω − ω_n)/ω_n`` (complex A, B,
   C: the other modes' share) to the complex H over the lines with |H| ≥ 0.3 max|H| around the peak;
-* ``circle fit`` — the mobility iΩH over the lines with |H| ≥ 0.4 max|H|: an algebraic circle,
-  then ``ψ − ψ_r = 2 atan((ω_r² − Ω²)/(2ζω_rΩ))`` for the angle ψ about its centre (an
-  SDOF's mobility is exactly that circle).
+* ``circle fit`` — the tool's estimator (:mod:`nlupdate.core.validation.circle_fit`): the
+  mobility iΩH over the lines with |H| ≥ 0.4 max|H|: an algebraic circle, then
+  ``ψ − ψ_r = 2 atan((ω_r² − Ω²)/(2ζω_rΩ))`` for the angle ψ about its centre (an SDOF's
+  mobility is exactly that circle).
 
 The simulated test (truth known): one nonlinear mode (:class:`AmplitudeModalModel`, φ = 0.7271
 1/√kg at the driving point) whose natural frequency and damping ratio are the quadratics in
@@ -57,6 +58,7 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel  # noqa: E402
 from nlupdate.core.validation.models import frf_at_forces  # noqa: E402
+from nlupdate.core.validation.circle_fit import circle_window  # noqa: E402
 from nlupdate.core.validation.resonance import resonance  # noqa: E402
 
 PHI = 0.7271
@@ -80,7 +82,7 @@ def brb_like_model(shift_hz: float = 0.0) -> AmplitudeModalModel:
 
 # ------------------------------------------------------------------------------ estimators
 def half_power(f, h) -> float:
-    return resonance(f, h).damping_ratio
+    return resonance(f, h).half_power_damping_ratio
 
 
 def half_power_inverse_square(f, h) -> float:
@@ -96,24 +98,14 @@ def half_power_inverse_square(f, h) -> float:
     return float((f2 - f1) / (2 * r.resonance_hz))
 
 
-def _around_peak(h, fraction: float) -> slice:
-    m = np.abs(h)
-    k = int(np.argmax(m))
-    low, high = k, k
-    while low > 0 and m[low - 1] >= fraction * m[k]:
-        low -= 1
-    while high < m.size - 1 and m[high + 1] >= fraction * m[k]:
-        high += 1
-    return slice(low, high + 1)
-
-
 def _start(f, h) -> tuple[float, float]:
     r = resonance(f, h)
-    return 2 * np.pi * r.resonance_hz, (r.damping_ratio if np.isfinite(r.damping_ratio) else 0.003)
+    zeta = r.half_power_damping_ratio
+    return 2 * np.pi * r.resonance_hz, (zeta if np.isfinite(zeta) else 0.003)
 
 
 def sdof_fit(f, h, fraction: float = 0.3) -> float:
-    window = _around_peak(h, fraction)
+    window = circle_window(h, fraction)
     w, hh = 2 * np.pi * f[window], h[window]
     wn, z = _start(f, h)
     a = h[int(np.argmax(np.abs(h)))] * 2j * z * wn**2
@@ -129,22 +121,9 @@ def sdof_fit(f, h, fraction: float = 0.3) -> float:
     return float(fit.x[1])
 
 
-def circle_fit(f, h, fraction: float = 0.4) -> float:
-    window = _around_peak(h, fraction)
-    w = 2 * np.pi * f[window]
-    y = 1j * w * h[window]
-    c = np.linalg.lstsq(np.column_stack([y.real, y.imag, np.ones(w.size)]), np.abs(y) ** 2, rcond=None)[0]
-    psi = np.unwrap(np.angle(y - (c[0] + 1j * c[1]) / 2))
-    wn, z = _start(f, h)
-    k = int(np.argmax(np.abs(h[window])))
-    best = None
-    for sign in (1.0, -1.0):
-        def misfit(p, sign=sign):
-            return 2 * np.arctan((p[0]**2 - w**2) / (2 * p[1] * p[0] * w)) - sign * (psi - p[2])
-        fit = least_squares(misfit, [wn, z, psi[k]], x_scale=[wn * 1e-3, z, 1.0],
-                            bounds=([0, 1e-6, -np.inf], [np.inf, 0.5, np.inf]))
-        best = fit if best is None or fit.cost < best.cost else best
-    return float(best.x[1])
+def circle_fit(f, h) -> float:
+    """The tool's estimator (:func:`~nlupdate.core.validation.circle_fit.circle_fit_damping`)."""
+    return resonance(f, h).damping_ratio
 
 
 ESTIMATORS = {"half-power": half_power, "half-power 1/|H|²": half_power_inverse_square,
@@ -250,7 +229,7 @@ def print_levels_from_runs(data) -> None:
 
     model = brb_like_model()
     print(f"\nthe force-controlled levels predicted from the mode through the eight runs (f0 "
-          f"{model.natural_frequency_hz:.3f} Hz, ζ0 {100 * model.damping_ratio:.4f} %), half-power estimator")
+          f"{model.natural_frequency_hz:.3f} Hz, ζ0 {100 * model.damping_ratio:.4f} %), the tool's estimator (circle fit)")
     print("| level (N) | reached at resonance (µm) | resonance (Hz): measured, error | damping (%): measured, error | "
           "peak: error |\n|---|---|---|---|---|")
     for k, (level, f, h) in enumerate(zip(data.levels, data.frequencies, data.receptances)):
@@ -265,7 +244,7 @@ def print_levels_from_runs(data) -> None:
 def damping_read_by(estimator):
     """What-if, in this process only: every curve ``validate`` compares (measured, predicted,
     and the baseline's kept levels) read with ``estimator``'s damping ratio instead of the
-    half-power one; resonance, peak and the half-power line count unchanged."""
+    tool's; resonance, peak and the half-power line count unchanged."""
     import nlupdate.core.validation.baseline as baseline
     import nlupdate.core.validation.held_out as held_out
     from nlupdate.core.validation.resonance import Resonance
@@ -276,7 +255,7 @@ def damping_read_by(estimator):
             zeta = estimator(np.asarray(f, dtype=float), np.asarray(h)) if np.isfinite(r.resonance_hz) else np.nan
         except (ValueError, np.linalg.LinAlgError):
             zeta = float("nan")
-        return Resonance(r.resonance_hz, float(zeta), r.peak_abs, r.half_power_lines)
+        return Resonance(r.resonance_hz, float(zeta), r.peak_abs, r.half_power_lines, r.half_power_damping_ratio)
 
     for module in (held_out, baseline):
         module.resonance = read

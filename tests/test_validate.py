@@ -3,7 +3,7 @@
 References, each independent of the code under test:
 
 * the resonance estimator against the closed form of a linear mode (peak frequency
-  ω_n√(1 − 2ζ²), peak 1/(2ζω_n²√(1 − ζ²)), half-power ζ);
+  ω_n√(1 − 2ζ²), peak 1/(2ζω_n²√(1 − ζ²)), ζ by the circle fit and by half-power);
 * the baseline at a kept level against that level's own measured curve;
 * held-out levels of an SDOF with a Jenkins joint — exactly one nonlinear mode, simulated
   by describing-function continuation, 0.5 % noise — against the simulated curve: the
@@ -54,8 +54,10 @@ def test_resonance_of_a_linear_mode_is_its_closed_form():
     assert shown.peak_abs == pytest.approx(1 / (2 * zeta * wr**2 * np.sqrt(1 - zeta**2)), rel=1e-6)
     assert shown.damping_ratio == pytest.approx(zeta, rel=2e-4)
     assert shown.half_power_lines == 80 and shown.damping_resolved
+    assert shown.half_power_damping_ratio == pytest.approx(zeta, rel=2e-4)
     narrow = resonance(f[(f > 79.9) & (f < 80.1)], 1 / (wr**2 - w**2 + 2j * zeta * wr * w)[(f > 79.9) & (f < 80.1)])
-    assert np.isnan(narrow.damping_ratio)  # the half-power points lie outside the band
+    assert np.isnan(narrow.half_power_damping_ratio)  # the half-power points lie outside the band
+    assert narrow.damping_ratio == pytest.approx(zeta, rel=1e-6)  # the circle fit needs no crossing
 
 
 def test_the_baseline_gives_back_a_kept_level(jenkins_sdof):

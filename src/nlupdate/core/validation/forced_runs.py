@@ -7,8 +7,8 @@ control) or at the force that holds the amplitude (response control), by the
 single-harmonic balance of the whole system condensed to its nonlinear coordinates
 (:class:`~nlupdate.core.model.system.CondensedProblem`, Newton from the previous line's
 solution). Measured and predicted curves go through the same estimator
-(:func:`nlupdate.core.validation.resonance.resonance`): resonance (Hz), half-power damping
-ratio and peak |H| (m/N).
+(:func:`nlupdate.core.validation.resonance.resonance`): resonance (Hz), damping ratio (circle
+fit) and peak |H| (m/N).
 """
 from __future__ import annotations
 
@@ -63,17 +63,21 @@ def read_forced_runs(path: str | Path, coordinates: tuple[str, str]) -> list[For
 
 
 def features(frequency_hz: NDArray, h: NDArray) -> dict[str, float]:
-    """``resonance_hz`` (Hz), ``damping_ratio`` (half-power) and ``peak`` (|H|) of one curve."""
+    """``resonance_hz`` (Hz), ``damping_ratio`` (circle fit) and ``peak`` (|H|) of one curve."""
     found = resonance(frequency_hz, h)
     return {"resonance_hz": found.resonance_hz, "damping_ratio": found.damping_ratio, "peak": found.peak_abs}
 
 
 def runs_repeatability(runs: list[ForcedRun]) -> Repeatability:
     """The test's own scatter (1σ) of resonance and damping ratio over its force-controlled runs
-    (:func:`nlupdate.core.validation.held_out.repeatability`)."""
+    (:func:`nlupdate.core.validation.held_out.repeatability`), each run placed at the response
+    it reached at resonance (:func:`~nlupdate.core.validation.held_out.resonance_amplitudes`:
+    the peak |H| times the force the run achieved there — its level on lines recording none —
+    not its nominal level)."""
     forced = [run for run in runs if run.control == "force"]
     levels = FRFLevels("response", "input", np.array([run.level for run in forced]),
-                       tuple(run.frequency_hz for run in forced), tuple(run.h for run in forced))
+                       tuple(run.frequency_hz for run in forced), tuple(run.h for run in forced),
+                       achieved=tuple(np.where(np.isfinite(run.force_n), run.force_n, run.level) for run in forced))
     return repeatability(levels)
 
 

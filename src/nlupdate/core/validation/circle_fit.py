@@ -1,0 +1,81 @@
+"""Damping ratio of one receptance curve by a modal circle fit (Kennedy–Pancu) around its peak.
+
+An SDOF receptance ``H = A/(ω_r² − Ω² + 2iζω_rΩ)`` (complex modal constant A) has a mobility
+``iΩH`` that is exactly a circle in the complex plane, and the angle ψ of a point about the
+circle's centre obeys ``ψ − ψ_r = ±2 atan((ω_r² − Ω²)/(2ζω_rΩ))``. The fit:
+
+1. the lines: the contiguous run of lines around the largest |H| with |H| ≥
+   :data:`CIRCLE_FRACTION` × max|H| (for an SDOF about 2.3 half-power bandwidths wide);
+2. a circle through their mobility points, algebraically (least squares of
+   ``|y|² = a·Re y + b·Im y + c``);
+3. ω_r, ζ and ψ_r by least squares of the angle law, both senses of rotation tried, the
+   smaller misfit kept.
+
+Only ζ is returned; the resonance frequency and peak of a comparison come from the peak
+(:mod:`nlupdate.core.validation.resonance`). Other modes add a near-constant to the mobility
+over so narrow a band, which moves the circle, not the angles about its centre.
+
+The damping ratio is NaN (the curve does not trace the resonance's circle) when
+
+* fewer than :data:`MIN_CIRCLE_LINES` lines lie in the run (a half-power band of less than
+  about two lines, or a band too narrow), or
+* the largest |H| is the run's first or last line: on one side |H| falls below the fraction
+  in one step or the band ends — a jump (a fold of a nonlinear force-controlled sweep) or a
+  resonance at the band's edge;
+* the curve is a magnitude (real), which has no circle.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.optimize import least_squares
+
+#: The lines fitted: |H| at least this fraction of the largest |H|, contiguous around it.
+CIRCLE_FRACTION = 0.4
+#: Fewer lines than this in the run: the damping ratio is NaN.
+MIN_CIRCLE_LINES = 5
+
+
+def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
+    """The contiguous lines around the largest |h| with |h| ≥ ``fraction`` × max|h|."""
+    m = np.abs(np.asarray(h))
+    k = int(np.argmax(m))
+    low, high = k, k
+    while low > 0 and m[low - 1] >= fraction * m[k]:
+        low -= 1
+    while high < m.size - 1 and m[high + 1] >= fraction * m[k]:
+        high += 1
+    return slice(low, high + 1)
+
+
+def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float = float("nan")) -> float:
+    """Damping ratio (fraction of critical) of the receptance ``h`` (complex, any unit per
+    force) over ``frequency_hz`` (Hz, strictly increasing, finite lines only) by the modal
+    circle fit of the module's docstring; ``start_zeta`` seeds the angle fit (NaN: from the
+    run's width). NaN under the module's rules."""
+    f = np.asarray(frequency_hz, dtype=float)
+    h = np.asarray(h)
+    if not np.iscomplexobj(h) or f.size < MIN_CIRCLE_LINES:
+        return float("nan")
+    window = circle_window(h)
+    k = int(np.argmax(np.abs(h))) - window.start
+    count = window.stop - window.start
+    if count < MIN_CIRCLE_LINES or k == 0 or k == count - 1:
+        return float("nan")
+    w = 2 * np.pi * f[window]
+    y = 1j * w * h[window]
+    c = np.linalg.lstsq(np.column_stack([y.real, y.imag, np.ones(w.size)]), np.abs(y) ** 2, rcond=None)[0]
+    psi = np.unwrap(np.angle(y - (c[0] + 1j * c[1]) / 2))
+    wn = float(w[k])
+    if not (np.isfinite(start_zeta) and 0 < start_zeta < 0.5):
+        # the run spans about ±2.29 ζ ω_r for an SDOF (|H| = 0.4 max|H|)
+        start_zeta = float(np.clip((w[-1] - w[0]) / (4 * 2.29 * wn), 1e-5, 0.4))
+    best = None
+    for sign in (1.0, -1.0):
+        def misfit(p: np.ndarray, sign: float = sign) -> np.ndarray:
+            return 2 * np.arctan((p[0] ** 2 - w**2) / (2 * p[1] * p[0] * w)) - sign * (psi - p[2])
+
+        fit = least_squares(misfit, [wn, start_zeta, psi[k]], x_scale=[wn * 1e-3, start_zeta, 1.0], xtol=1e-12,
+                            bounds=([0, 1e-6, -np.inf], [np.inf, 0.5, np.inf]))
+        best = fit if best is None or fit.cost < best.cost else best
+    return float(best.x[1])
