@@ -27,19 +27,20 @@ FORCED = DATA / "ForcedFrequencyResponses.mat"
 
 
 def _raw_runs() -> dict[str, list]:
-    """Each run's (frequency, |receptance|) straight from the file: |amplitude / force| / ω²."""
+    """Each run's (frequency, receptance) straight from the file: amplitude·e^{i·phase} / force / ω²
+    (the file's acceleration in m/s², phase in rad; the damping's circle fit needs the phase)."""
     runs = scipy.io.loadmat(FORCED, squeeze_me=True, struct_as_record=False)["FRdata"]
     out = {}
     for group in ("ForceControl", "ResponseControl"):
         out[group] = []
         for run in np.atleast_1d(getattr(runs, group)):
             f = np.asarray(run.frequency, float)
-            out[group].append((f, np.abs(run.amplitude / run.force) / (2 * np.pi * f) ** 2))
+            out[group].append((f, run.amplitude * np.exp(1j * run.phase) / run.force / (2 * np.pi * f) ** 2))
     return out
 
 
 def test_measured_runs_are_the_files_curves():
-    """Every run of the file, in order, its resonance, half-power damping and peak as the estimator
+    """Every run of the file, in order, its resonance, damping ratio and peak as the estimator
     gives them on the raw curve (force-controlled runs ascending in force)."""
     runs = read_forced_runs(FORCED, ("acc3:-y", "acc3:y"))
     raw = _raw_runs()
@@ -47,8 +48,8 @@ def test_measured_runs_are_the_files_curves():
     order = np.argsort([np.mean(np.abs(run.force)) for run in
                         np.atleast_1d(scipy.io.loadmat(FORCED, squeeze_me=True, struct_as_record=False)["FRdata"].ForceControl)])
     expected = [raw["ForceControl"][i] for i in order] + raw["ResponseControl"]
-    for run, (frequency, magnitude) in zip(runs, expected):
-        reference = resonance(frequency, magnitude)
+    for run, (frequency, receptance) in zip(runs, expected):
+        reference = resonance(frequency, receptance)
         found = features(run.frequency_hz, run.h)
         assert found["resonance_hz"] == pytest.approx(reference.resonance_hz, rel=1e-12)
         assert found["damping_ratio"] == pytest.approx(reference.damping_ratio, rel=1e-9)
@@ -158,9 +159,9 @@ def test_the_step_on_two_runs_and_a_short_fit():
         # no shaker mass: the stuck joint is the stiffest the model can be, so no resonance above mode 1
         assert (rows.resonance_hz_predicted < modes.frequency_hz.iloc[0] * (1 + 1e-4)).all()
     raw = _raw_runs()
-    for row, (frequency, magnitude) in zip(found.table.itertuples(),
+    for row, (frequency, receptance) in zip(found.table.itertuples(),
                                            [raw["ForceControl"][0], raw["ResponseControl"][0]] * 2):
-        reference = resonance(frequency, magnitude)
+        reference = resonance(frequency, receptance)
         assert (row.resonance_hz_measured, row.peak_measured) == pytest.approx(
             (reference.resonance_hz, reference.peak_abs), rel=1e-12)
     assert found.fit["evaluations"] >= 1 and set(found.joint) == {"slip_force", "chi", "beta", "damping_ratio_forced"}

@@ -9,7 +9,7 @@ linear springs normal to the interface, across it and in rotation, structural da
 friction element per bolt between the bolt's two reference points, its stuck stiffness the
 FE model's ``kt``. The joint (:func:`identify_joint`) is fitted on the updated model: the
 slip force F_S per bolt (and Iwan's χ, β = 0) and the linear damping ratio with the shaker
-attached, least squares of the relative peak and half-power damping errors of every
+attached, least squares of the relative peak and damping errors of every
 force-controlled run (evaluations bounded). Units SI; frequencies in Hz.
 """
 from __future__ import annotations
@@ -139,7 +139,7 @@ def identify_joint(adapter: BRBAdapter, parameters: Mapping[str, float], damping
         for run, m in zip(forced, measured):
             p = predict_run(system, drive_dof, run)
             out += [np.log(p["peak"] / m["peak"]), (p["damping_ratio"] - m["damping_ratio"]) / m["damping_ratio"]]
-        return np.nan_to_num(np.array(out), nan=10.0)  # a curve without a half-power band: penalised
+        return np.nan_to_num(np.array(out), nan=10.0)  # a curve without a damping ratio: penalised
 
     kind = JOINT_LAWS[element]  # x = [log F_S, shape parameters…, log ζ]
     x0 = [np.log(1000.0), *kind.start, np.log(damping_ratio)]

@@ -1,4 +1,4 @@
-"""The ``[fe_validation]`` figure: every forced run's measured resonance, half-power damping
+"""The ``[fe_validation]`` figure: every forced run's measured resonance, damping
 ratio and peak |H| beside the initial and the updated FE model's predictions, the test's own
 repeatability drawn around the measured points. Renders the step's table; computes nothing."""
 from __future__ import annotations

@@ -21,7 +21,7 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     if len(result.levels):
         rows = result.levels
         for ax, name, scale, label in ((axes[0], "resonance_hz", 1.0, "resonance (Hz)"),
-                                       (axes[1], "damping_ratio", 100.0, "half-power damping ratio (%)")):
+                                       (axes[1], "damping_ratio", 100.0, "damping ratio (%)")):
             x = rows["level"].to_numpy()
             if f"{name}_low" in rows:
                 ax.fill_between(x, scale * rows[f"{name}_low"], scale * rows[f"{name}_high"], color="0.85",

@@ -366,7 +366,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
     lines = ["## Held-out levels", "",
              "Each held-out level predicted by a model fitted on the other levels of the measured curve "
              "(docs/methods.md §10), beside the log-amplitude baseline (interpolation between the kept levels). "
-             "Resonance, half-power damping ratio and peak come from one estimator for the measured and predicted "
+             "Resonance, damping ratio (circle fit) and peak come from one estimator for the measured and predicted "
              "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability. The test's own "
              f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
              f"{number(repeat.resonance_hz, 3)} Hz, damping ratio {number(100 * repeat.damping_ratio, 3)} % "

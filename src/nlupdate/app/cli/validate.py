@@ -3,8 +3,8 @@
 Judges a model where it was not fitted (docs/methods.md §10). For each held-out level
 (--hold-out each: every level in turn; top: the highest, an extrapolation; or levels
 like 0.49,0.97) the model is fitted on the other levels of the driving-point curve and
-predicts the held-out curve over its measured band; its resonance frequency, half-power
-damping ratio and peak are compared with the measured ones and with the log-amplitude
+predicts the held-out curve over its measured band; its resonance frequency, damping
+ratio (a modal circle fit) and peak are compared with the measured ones and with the log-amplitude
 baseline (interpolation between the kept levels), each with a 95 % band (jackknife over
 the kept levels plus the test's repeatability, stated beside every error). Writes
 DIR/predicted_frf.parquet (the first model's curves in the measured-FRF table schema plus

@@ -1,7 +1,7 @@
 """The baseline a physics model must beat (docs/methods.md §10): interpolation in log-amplitude.
 
 Each kept level is described by what its curve shows — its resonance frequency and
-half-power damping ratio (:mod:`nlupdate.core.validation.resonance`, the estimator every
+damping ratio (:mod:`nlupdate.core.validation.resonance`, the estimator every
 comparison uses) and its peak, which give the modal constant of the one-mode curve
 through them, ``|A| = max|H|·2ζω_n²√(1 − ζ²)`` (its phase from a one-mode fit,
 :func:`nlupdate.core.identification.modal_fit.fit_mode_near`) — and by its amplitude, the
@@ -30,7 +30,7 @@ from nlupdate.core.validation.resonance import resonance
 @dataclass(frozen=True)
 class LevelFit:
     """One kept level: its level (reference unit), resonance amplitude (m), resonance (Hz),
-    half-power damping ratio, peak |H| and its one-mode fit (phase and residual terms)."""
+    damping ratio, peak |H| and its one-mode fit (phase and residual terms)."""
 
     level: float
     amplitude: float
@@ -55,8 +55,8 @@ class LevelFit:
 
 def fit_level(level: float, frequency_hz: ArrayLike, h: ArrayLike, force: ArrayLike | float | None = None) -> LevelFit:
     """What the baseline keeps of one measured curve (``force``: the force per line,
-    default ``level``). Where the half-power band leaves the curve, the damping ratio is
-    the one-mode fit's (half its loss factor)."""
+    default ``level``). Where the estimator gives none (too few lines, a jump, the peak at
+    the band's edge), the damping ratio is the one-mode fit's (half its loss factor)."""
     f = np.asarray(frequency_hz, dtype=float)
     hh = np.asarray(h, dtype=complex)
     k = int(np.nanargmax(np.abs(hh)))

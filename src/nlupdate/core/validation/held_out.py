@@ -1,8 +1,8 @@
 """Fit on some levels, predict the others (docs/methods.md §10): :func:`validate`.
 
 For each held-out level the chosen model is fitted on the kept levels and predicts the
-held-out curve over its measured band; the curve's resonance frequency, half-power damping
-ratio and peak (:mod:`nlupdate.core.validation.resonance`, the same estimator on measured and
+held-out curve over its measured band; the curve's resonance frequency, damping
+ratio (circle fit) and peak (:mod:`nlupdate.core.validation.resonance`, the same estimator on measured and
 predicted curves) are compared, beside the log-amplitude baseline
 (:mod:`nlupdate.core.validation.baseline`).
 
@@ -150,7 +150,7 @@ class Repeatability:
         return {"resonance_hz_std": self.resonance_hz, "damping_ratio_std": self.damping_ratio,
                 "damping_ratio_relative_std": self.damping_relative, "peak_abs_relative_std": self.peak_relative,
                 "levels": self.levels, "trend_degree": self.degree,
-                "method": "residual standard deviation of each measured curve's resonance and half-power damping "
+                "method": "residual standard deviation of each measured curve's resonance and damping "
                           "ratio about a polynomial of trend_degree in log(response amplitude at resonance), and of "
                           "log(damping ratio) and log(peak |H|) about the same, levels - degree - 1 degrees of "
                           "freedom"}

@@ -5,7 +5,7 @@ while the force varies (:mod:`nlupdate.core.identification.response_controlled` 
 them); it samples the mode at one amplitude. Each model is fitted on **every**
 force-controlled level and predicts the run's receptance at the held X
 (:attr:`~nlupdate.core.validation.models.Fitted.at_response`); the run's resonance,
-half-power damping ratio and peak |H| — and the force needed at resonance, X/peak — are
+damping ratio and peak |H| — and the force needed at resonance, X/peak — are
 compared with the measured ones (the estimator of :mod:`nlupdate.core.validation.resonance`
 on both curves) and with the log-amplitude baseline at X
 (:func:`~nlupdate.core.validation.baseline.baseline_at_response`). Bands as for a held-out

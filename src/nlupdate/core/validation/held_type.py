@@ -15,7 +15,7 @@ fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
 * stepped sine: each force level's FRF over its measured lines (single-nonlinear-mode theory,
   :meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.frf`, the mode alone: the other
   modes' share is not added), read by the same resonance estimator as the measured curve
-  (:mod:`nlupdate.core.validation.resonance`: resonance frequency, half-power damping ratio,
+  (:mod:`nlupdate.core.validation.resonance`: resonance frequency, damping ratio,
   peak |H|).
 
 Errors are relative (predicted / measured − 1); a resonance frequency's also in Hz. A sample
