@@ -204,14 +204,18 @@ def stop_group(process: subprocess.Popen, sig: int = signal.SIGTERM, timeout_s: 
 def prefect_server_process(tmp_path: Path, **extra_env: str):
     """``prefect server start`` (scheduler included) in its own PREFECT_HOME, on a free
     port; yields its API URL. Its scheduler looks for new deployments every second
-    (Prefect's default: 5 s), so a test waits for runs, not for the scheduler's loop. The
-    home starts from the session's migrated database (:mod:`prefect_home`)."""
+    (Prefect's default: 5 s), so a test waits for runs, not for the scheduler's loop, and
+    creates 3 runs ahead of time, not Prefect's 100: for a 2-second interval it wrote 100
+    scheduled runs (and their events) to the server's SQLite database while serve's runs
+    wrote theirs — 107 flow runs on the server at the end of the interval test, 10 with 3
+    ahead, the same runs served. The home starts from the session's migrated database
+    (:mod:`prefect_home`)."""
     prefect_home.seed(tmp_path / "server-home")
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "PREFECT_API_URL"}
     env.update(PREFECT_HOME=str(tmp_path / "server-home"), PREFECT_SERVER_ANALYTICS_ENABLED="false",
                PREFECT_UI_ENABLED="false", PREFECT_SERVER_SERVICES_SCHEDULER_RECENT_DEPLOYMENTS_LOOP_SECONDS="1",
-               **extra_env)
+               PREFECT_SERVER_SERVICES_SCHEDULER_MAX_RUNS="3", **extra_env)
     with open(tmp_path / "server.log", "w") as log:
         server = subprocess.Popen([sys.executable, "-m", "prefect", "server", "start", "--host", "127.0.0.1",
                                    "--port", str(port)], env=env, stdout=log, stderr=subprocess.STDOUT,
