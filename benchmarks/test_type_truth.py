@@ -25,6 +25,9 @@ amplitude`` does) over all samples' range and, with each type held out, the mode
 the others at the held-out samples' amplitudes within the others' range (as ``--hold-out``
 does, but against the truth; the impact's one sample lies below the others and is predicted
 by the fit's low-amplitude end) — all against the truth.
+With ``--backbone jenkins`` a Jenkins system's lines end with every fit's slip amplitude
+against a_s (mean ± sd over the seeds, largest): next to the kink the damping is off by up to
+12.7 × that (docs/ring-down.md, "Near the stick–slip kink").
 """
 from __future__ import annotations
 
@@ -123,6 +126,13 @@ def sample_errors(s: dict, smp: ModalSamples) -> tuple[float, float]:
             float(np.max(np.abs(smp.damping_ratio[keep] / z - 1))))
 
 
+def slip_error(s: dict, model) -> float:
+    """The fitted joint's slip amplitude φ_max over the truth's a_s, − 1 (NaN without a joint):
+    near a Jenkins joint's kink the fitted damping is off by up to 12.7 × this (SDOF)."""
+    joint = getattr(model, "joint", None)
+    return float(joint.phi_max / s["slip"] - 1) if joint is not None else np.nan
+
+
 def fit(s: dict, chosen: list[tuple[ModalSamples, tuple[float, float] | None]], backbone: str):
     joined = join_samples([c[0] for c in chosen])
     own_fit = own_fit_for(backbone, (("m1", float(s["phi"][0])),))
@@ -159,14 +169,18 @@ def main() -> None:
         s, started = system(dofs, kind), time.process_time()
         made = records(s, kind, dofs)
         rows = {name: [] for name in TYPES + ("joint",)}
+        slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):
             every = samples(s, made, seed, args.ring_down)
             for name, (smp, stated) in every.items():
-                own = (curve_errors(s, fit(s, [(smp, stated)], args.backbone), smp.amplitude.min(), smp.amplitude.max(),
+                own_model = fit(s, [(smp, stated)], args.backbone) if smp.amplitude.size >= 3 else None
+                own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(),
                                     smp.amplitude if args.at_samples else None)
-                       if smp.amplitude.size >= 3 else (np.nan, np.nan))
+                       if own_model is not None else (np.nan, np.nan))
                 rest = [every[other] for other in TYPES if other != name]
                 model = fit(s, rest, args.backbone)
+                slips.setdefault(f"own {name}", []).append(slip_error(s, own_model))
+                slips.setdefault(f"without {name}", []).append(slip_error(s, model))
                 low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest))
                 if name == "impact":  # the linear limit lies below every other type: the models' a → 0 end
                     low = smp.amplitude.min()
@@ -175,8 +189,9 @@ def main() -> None:
                 rows[name].append((*sample_errors(s, smp), *own, smp.amplitude.min() / s["slip"],
                                    smp.amplitude.max() / s["slip"], *held))
             joined = join_samples([smp for smp, _ in every.values()])
-            rows["joint"].append((np.nan, np.nan, *curve_errors(s, fit(s, list(every.values()), args.backbone),
-                                                                joined.amplitude.min(), joined.amplitude.max()),
+            model = fit(s, list(every.values()), args.backbone)
+            slips.setdefault("joint", []).append(slip_error(s, model))
+            rows["joint"].append((np.nan, np.nan, *curve_errors(s, model, joined.amplitude.min(), joined.amplitude.max()),
                                   joined.amplitude.min() / s["slip"], joined.amplitude.max() / s["slip"], np.nan,
                                   np.nan))
         for name, values in rows.items():
@@ -186,6 +201,10 @@ def main() -> None:
                 worst = [np.nanmax(v[:, j]) if np.isfinite(v[:, j]).any() else np.nan for j in range(v.shape[1])]
             print(f"{dofs}-DOF {kind:10s} {name:16s} {worst[0]:9.1e} {worst[1]:9.3f} {worst[2]:9.1e} {worst[3]:9.3f} "
                   f"{np.nanmin(v[:, 4]):5.3g}–{np.nanmax(v[:, 5]):5.3g}   {worst[6]:.1e}, {worst[7]:.3f}")
+        if kind == "jenkins" and args.backbone == "jenkins":
+            print("  fitted slip amplitude / a_s − 1, mean ± sd (largest |.|): " + "; ".join(
+                f"{name} {np.nanmean(v):+.4f} ± {np.nanstd(v, ddof=1):.4f} ({np.nanmax(np.abs(v)):.4f})"
+                for name, v in ((n, np.array(e, dtype=float)) for n, e in slips.items()) if np.isfinite(v).any()))
         print(f"  ({args.seeds} seeds, {time.process_time() - started:.0f} s CPU)", flush=True)
 
 
