@@ -22,7 +22,7 @@ X + iY = R·e^{iθ}). ``--export`` writes it as CSV, which every command reads w
 coordinates: validate's one-mode models see only its modal constant, which is positive here
 (the mobility's phase runs +84° → −79° through the resonance).
 
-Prints the measured resonance, half-power damping ratio and peak per level, then
+Prints the measured resonance, damping ratio (circle fit), half-power lines and peak per level, then
 (:mod:`benchmarks.validation_table`) the ``--hold-out each`` and ``--hold-out top`` tables,
 model × level with the baseline beside, and the test's repeatability. docs/validation.md
 holds its output.

@@ -19,6 +19,7 @@ import scipy.stats
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.validation.forced_runs import ForcedRun, runs_repeatability
 from nlupdate.core.validation.held_out import Repeatability, bands, repeatability, resonance_amplitudes, validate
 from nlupdate.core.validation.models import model_fitter
 from nlupdate.core.validation.resonance import resonance
@@ -175,6 +176,28 @@ def test_a_level_sits_at_the_amplitude_it_reached_not_at_its_nominal_force(data)
         truth = amplitude(float(np.interp(r.resonance_hz, F, shaker_force(level))), 2 * np.pi * r.resonance_hz)
         assert x == pytest.approx(truth, rel=2e-3)
         assert level * r.peak_abs > 1.15 * truth
+
+def test_forced_runs_scatter_places_each_run_at_the_force_it_achieved(data):
+    """[fe_validation]'s test scatter (forced_runs.runs_repeatability) places each
+    force-controlled run as validate does: the residual standard deviation of the resonance
+    about a straight line in log amplitude (4 − 2 degrees of freedom) at the closed-form
+    amplitude reached with the force achieved at resonance — not at peak × nominal level."""
+    runs = [ForcedRun(f"FRdata.ForceControl({k})", "force", level, f, h, shaker_force(level))
+            for k, (level, f, h) in enumerate(zip(data.levels, data.frequencies, data.receptances), start=1)]
+    shown = [resonance(f, h) for f, h in zip(data.frequencies, data.receptances)]
+    y = np.array([r.resonance_hz for r in shown])
+
+    def scatter(x):
+        residual = y - np.polyval(np.polyfit(x, y, 1), x)
+        return float(np.sqrt(np.sum(residual**2) / (y.size - 2)))
+
+    reached = np.log([amplitude(float(np.interp(r.resonance_hz, F, shaker_force(level))), 2 * np.pi * r.resonance_hz)
+                      for level, r in zip(data.levels, shown)])
+    nominal = np.log([level * r.peak_abs for level, r in zip(data.levels, shown)])
+    found = runs_repeatability(runs).resonance_hz
+    assert found == pytest.approx(scatter(reached), rel=0.01)  # measured 0.24 %
+    assert abs(found / scatter(nominal) - 1) > 0.02  # at the nominal level 3.7 % off (the sag is alike at each)
+
 
 @pytest.mark.slow
 def test_held_out_bands_cover_the_measured_level_on_simulated_tests():
