@@ -4,9 +4,10 @@ simulated curves with the Brake–Reuss beam's lines, noise and damping, truth k
     python benchmarks/damping_estimators.py [--seeds 24]
 
 ``nlupdate validate`` reads the damping ratio of a measured and of a predicted curve with
-one estimator (:mod:`nlupdate.core.validation.resonance`): the circle fit below since these
-figures (issue 34), the half-power crossings interpolated linearly in |H| between the lines before. Is that estimator the noisy part of the BRB's measured
-damping (its repeatability: 23 % about a parabola in log amplitude)? Compared here:
+one estimator (:mod:`nlupdate.core.validation.resonance`): the circle fit below, chosen on
+these figures (issue 34); before, the half-power crossings interpolated linearly in |H|
+between the lines. Is that estimator the noisy part of the BRB's measured damping (its
+repeatability: 23 % about a parabola in log amplitude, as first measured)? Compared here:
 
 * ``half-power`` — the tool's estimator before (``Resonance.half_power_damping_ratio``);
 * ``half-power 1/|H|²`` — the crossings interpolated in 1/|H|² (a parabola in Ω near an SDOF's
