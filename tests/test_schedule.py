@@ -237,9 +237,12 @@ def prefect_server_process(tmp_path: Path, **extra_env: str):
         stop_group(server)
 
 
-@pytest.fixture
-def real_server(tmp_path):
-    with prefect_server_process(tmp_path) as url:
+@pytest.fixture(scope="module")
+def real_server(tmp_path_factory):
+    """One ``prefect server start`` for the module's two serve tests (a server's start is
+    ~4 s of CPU); each test registers its study in its own nlupdate folder, and the
+    interval test deletes its schedule (and the runs it left scheduled) as it ends."""
+    with prefect_server_process(tmp_path_factory.mktemp("real-server")) as url:
         yield url
 
 
@@ -309,6 +312,9 @@ def test_serve_runs_an_interval_schedule_each_run_with_its_own_archive(tmp_path,
     assert not deployment["paused"] and all(s["active"] for s in deployment["schedules"])
     assert [s["schedule"]["interval"] for s in deployment["schedules"]] == [2.0]
     print(f"scheduled runs test: {time.monotonic() - started:.1f} s after the server answered")
+    code, out, err = in_process(capsys, real_server, "schedule", "delete", "two-dof")
+    assert code == 0 and "deleted scheduled study 'two-dof' and its future runs" in out, err
+    assert read_deployment(real_server, "two-dof").status_code == 404
 
 
 class LineReader:
