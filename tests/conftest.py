@@ -68,28 +68,31 @@ def pytest_unconfigure(config):
 #: The modules that take longest (4 s or more summed over their tests on two workers),
 #: longest first. They are handed to the workers first (``--no-loadscope-reorder`` in
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
-#: leave long modules of few tests for the end), so the two workers finish together.
+#: leave long modules of few tests for the end), so the two workers finish together. The
+#: first four hold the slow suite's longest tests; the rest are in the order of their
+#: default-suite times (a fresh-clone run with --durations, summed per module).
 LONGEST_MODULES = (
     "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py", "test_hill_reduction.py",
-    "test_flows.py", "test_schedule.py", "test_crash_safety.py", "test_archive_cli.py", "test_harmonic_balance.py",
-    "test_discovery_hard.py", "test_interrupts.py", "test_kept_server.py", "test_real_measurements.py", "test_iwan_identification.py",
-    "test_hb_cli_study.py", "test_examples_py.py", "test_examples.py", "test_discovery.py", "test_iwan_response.py",
-    "test_validate.py", "test_demo_identification.py", "test_linear_frf_consistency.py", "test_time_history.py",
-    "test_bolted_beam_example.py", "test_runner.py", "test_doc_snippets.py", "test_optional_dask.py",
-    "test_result_reprs.py", "test_tanh_friction.py", "test_element_registry.py",
-    "test_amplitude_modal.py", "test_phase_resonance.py", "test_impact.py", "test_joint_sources.py",
-    "test_test_type_truth.py", "test_backbone_forms.py", "test_test_type_uff.py", "test_stepped_sine_truth.py", "test_decay_fit.py",
-    "test_discovery_cli.py", "test_archive_compare_studies.py",
-    "test_readme_identify.py", "test_answer_from_cache.py",
-    "test_trust_warnings.py", "test_discovery_modal.py", "test_amplitude_limits.py",
-    "test_progress.py", "test_validate_response_controlled.py", "test_validate_held_type.py",
-    "test_full_band_export.py", "test_calculix.py", "test_identification_cli.py", "test_solver_vs_time_integration.py",
-    "test_reporting_plots.py", "test_frf_speed_benchmark.py", "test_identification_prd.py",
-    "test_reporting_archive.py", "test_updating_stops.py", "test_time_integration.py", "test_input_expansion.py",
-    "test_identification_single_frequency.py", "test_server_app.py", "test_weak_messages.py", "test_partition.py",
-    "test_discovery_places.py", "test_calculix_reduction.py", "test_bands.py", "test_study_hold_out_type.py",
+    "test_flows.py", "test_crash_safety.py", "test_progress.py", "test_examples.py", "test_schedule.py",
+    "test_archive_cli.py", "test_interrupts.py", "test_kept_server.py", "test_reporting_plots.py",
+    "test_discovery.py", "test_linear_frf_consistency.py", "test_examples_py.py",
+    "test_identification_single_frequency.py", "test_validate.py", "test_validate_response_controlled.py",
+    "test_real_measurements.py", "test_trust_warnings.py", "test_hb_cli_study.py", "test_tanh_friction.py",
+    "test_doc_snippets.py", "test_amplitude_limits.py", "test_archive_compare_studies.py", "test_discovery_modal.py",
+    "test_discovery_cli.py", "test_harmonic_balance.py", "test_demo_identification.py", "test_iwan_response.py",
+    "test_amplitude_modal.py", "test_discovery_hard.py", "test_time_history.py", "test_bolted_beam_example.py",
+    "test_answer_from_cache.py", "test_test_type_truth.py", "test_identification_cli.py",
+    "test_iwan_identification.py", "test_solver_vs_time_integration.py", "test_reporting_archive.py",
+    "test_layering.py", "test_full_band_export.py", "test_readme_identify.py", "test_archive_safety.py",
+    "test_frf_speed_benchmark.py", "test_partition.py", "test_backbone_forms.py", "test_test_type_uff.py",
+    "test_stepped_sine_truth.py", "test_decay_fit.py", "test_identification_prd.py", "test_time_integration.py",
+    "test_optional_dask.py", "test_updating_stops.py", "test_backbone_samples.py", "test_ring_down.py",
+    "test_study_update.py", "test_docs_blocks.py", "test_validate_linear_limit.py", "test_calculix.py",
+    "test_validate_line_forces.py", "test_discovery_jacobian.py", "test_joint_sources.py", "test_discovery_places.py",
+    "test_impact.py", "test_validate_held_type.py", "test_weak_messages.py", "test_runner.py",
+    "test_study_hold_out_type.py", "test_result_reprs.py", "test_phase_resonance.py", "test_element_registry.py",
+    "test_calculix_reduction.py", "test_bands.py", "test_input_expansion.py", "test_server_app.py",
     "test_study_schema.py", "test_study_amplitude.py",
-    "test_validate_line_forces.py", "test_docs_blocks.py", "test_validate_linear_limit.py",
 )
 
 
