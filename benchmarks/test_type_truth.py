@@ -2,6 +2,7 @@
 Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with each type held out.
 
     python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03]] [--at-samples]
+                                         [--extra-level 1.3]
                                          [--ring-down decay|segments]
 
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
@@ -56,13 +57,14 @@ from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
 
 
-def records(s: dict, kind: str, dofs: int) -> dict:
-    """The noise-free records of every test type of one system."""
+def records(s: dict, kind: str, dofs: int, extra: tuple[float, ...] = ()) -> dict:
+    """The noise-free records of every test type of one system (``extra``: more Jenkins levels,
+    × a_s)."""
     slip = s["slip"]
     start = 30 * slip if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip
     # levels: the Jenkins joint from stuck to 15 × its slip amplitude; the Iwan joint from
     # microslip to past 2 × its φ_max (MACROSLIP_REACH: below it an Iwan fit fixes β = 0)
-    amplitude = (np.geomspace(0.5, 15, 6) * slip if kind == "jenkins"
+    amplitude = (np.sort(np.append(np.geomspace(0.5, 15, 6), extra)) * slip if kind == "jenkins"
                  else np.geomspace(0.05, 1.0, 6) * (6e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
     points = locked_points(s, amplitude)  # (Ω, the force that holds the amplitude at resonance, x)
     return {"decay": free_decay(s, start, 80), "tap": free_decay(s, (0.5 if kind == "jenkins" else 0.05) * slip, 40),
@@ -155,6 +157,8 @@ def main() -> None:
                         help="with --kink: leave out [a_s/B, K·a_s] instead (B > 1; default K)")
     parser.add_argument("--ring-down", default="decay", choices=("decay", "segments"),
                         help="how the ring-down is read: the decay fit (default) or segments")
+    parser.add_argument("--extra-level", type=float, action="append", default=[], metavar="X",
+                        help="one more phase-resonance and stepped-sine level at X × a_s (Jenkins systems; repeatable)")
     parser.add_argument("--at-samples", action="store_true",
                         help="each type's own fit at its samples' amplitudes instead of 60 over their range")
     args = parser.parse_args()
@@ -167,7 +171,7 @@ def main() -> None:
         if args.system and f"{dofs}-{kind}" not in args.system:
             continue
         s, started = system(dofs, kind), time.process_time()
-        made = records(s, kind, dofs)
+        made = records(s, kind, dofs, tuple(args.extra_level))
         rows = {name: [] for name in TYPES + ("joint",)}
         slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):
