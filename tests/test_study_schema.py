@@ -286,3 +286,15 @@ def test_a_key_declared_on_the_class_alone_reaches_every_door(extended_validatio
     parser = argparse.ArgumentParser()
     add_setting_options(parser, declared.classes("validation")[0])
     assert parser.parse_args(["--taper-fraction", "0.5"]).taper_fraction == 0.5
+
+
+def test_amplitude_takes_the_defaults_of_the_amplitude_table():
+    """``nlupdate amplitude``'s options that a study's ``[amplitude]`` key shares default to
+    that key's declaration (one default for both doors)."""
+    from nlupdate.study.amplitude import AmplitudeSpec
+
+    parser = build_parser(["amplitude"])
+    args = parser.parse_args(["amplitude", "--out", "x"])
+    declared = AmplitudeSpec()
+    for name in ("ring_down_fit", "response_unit", "backbone", "order", "mode"):
+        assert getattr(args, name) == getattr(declared, name), name

@@ -32,7 +32,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from nlupdate.app.cli import CliError, add_command, positive_int
-from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
+from nlupdate.app.cli.amplitude_sources import DECLARED, add_source_options, read_sources
 from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
@@ -66,11 +66,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                "if measured; else the table's only response: a transfer FRF)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="mass-normalised mode shape (1/√kg) at a coordinate; needed at the input for a modal table")
-    parser.add_argument("--mode", type=positive_int, default=1, help="mode number in a modal table (default 1)")
-    parser.add_argument("--backbone", choices=FIT_BACKBONES, default="iwan",
-                        help="backbone model (default iwan; jenkins: the Iwan joint in its Jenkins limit, stuck below "
+    parser.add_argument("--mode", type=positive_int, default=DECLARED.mode, help=f"mode number in a modal table (default {DECLARED.mode})")
+    parser.add_argument("--backbone", choices=FIT_BACKBONES, default=DECLARED.backbone,
+                        help=f"backbone model (default {DECLARED.backbone}; jenkins: the Iwan joint in its Jenkins limit, stuck below "
                              "its slip amplitude, for a joint that sticks and slips at one force)")
-    parser.add_argument("--order", type=positive_int, default=2, help="polynomial order (default 2)")
+    parser.add_argument("--order", type=positive_int, default=DECLARED.order, help=f"polynomial order (default {DECLARED.order})")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="refits of a residual bootstrap for the bands of backbone.csv (default 200 for the "
                              "polynomial backbone, 0 for iwan: about a second per refit; 0: no bands, NaN)")

@@ -16,6 +16,10 @@ from nlupdate.app.cli import CliError
 from nlupdate.app.cli.measured import parse_band, parse_levels, read_options
 from nlupdate.core.identification.amplitude_inputs import RING_DOWN_FITS, Source, SourceError, SourceFiles
 from nlupdate.core.identification.amplitude_inputs import read_sources as read_test_sources
+from nlupdate.study.amplitude import AmplitudeSpec
+
+#: the defaults of the options a study's ``[amplitude]`` table shares: its declaration's
+DECLARED = AmplitudeSpec()
 
 
 def add_source_options(parser: argparse.ArgumentParser, response_controlled: bool = True) -> None:
@@ -23,9 +27,9 @@ def add_source_options(parser: argparse.ArgumentParser, response_controlled: boo
     (``nlupdate validate`` reads those runs from its ``--measured`` MATLAB files)."""
     parser.add_argument("--ring-down", action="append", default=[], metavar="FILE",
                         help="free decay of the mode (.csv: time_s and one column per channel; or .mat); repeatable")
-    parser.add_argument("--ring-down-fit", choices=RING_DOWN_FITS, default="envelope",
-                        help="how a ring-down is read: envelope (differentiated envelope and phase, default), "
-                             "segments (a complex exponential fit of each part over which the envelope falls by 1.5: "
+    parser.add_argument("--ring-down-fit", choices=RING_DOWN_FITS, default=DECLARED.ring_down_fit,
+                        help=f"how a ring-down is read (default {DECLARED.ring_down_fit}): envelope "
+                             "(differentiated envelope and phase), segments (a complex exponential fit of each part over which the envelope falls by 1.5: "
                              "fewer samples, robust to noise) or decay (the averaged decay equations fitted to the "
                              "whole record: samples where ζ is known to 1.5 %%, for noisy records)")
     if response_controlled:
@@ -48,8 +52,9 @@ def add_source_options(parser: argparse.ArgumentParser, response_controlled: boo
                         help="impact or low-level free decay (.csv or .mat: time_s, one column per channel, optional "
                              "force): the linear limit from the quietest part of the decay; all channels jointly, or "
                              "--channel; repeatable")
-    parser.add_argument("--response-unit", default="m",
-                        help="unit of the --ring-down and --impact records: m (default), mm, m/s, mm/s, m/s^2, g, …; "
+    parser.add_argument("--response-unit", default=DECLARED.response_unit,
+                        help=f"unit of the --ring-down and --impact records (default {DECLARED.response_unit}): m, mm, m/s, mm/s, "
+                             "m/s^2, g, …; "
                              "their amplitudes are made displacement")
     parser.add_argument("--channel", help="the ring-down and impact files' channel (default: a ring-down's only one, "
                                           "an impact's every one); its --shape, if given, makes the amplitude modal")
