@@ -198,7 +198,7 @@ class KeptServer:
 
     def __init__(self) -> None:
         self.keep_s = server_lease.keep_seconds()
-        folder = server_lease.state_folder()
+        self.folder = folder = server_lease.state_folder()
         with server_lease.starting(folder):
             self.lease = server_lease.Lease(folder)
             try:
@@ -226,8 +226,10 @@ class KeptServer:
                 with contextlib.suppress(httpx.TransportError):
                     if client.get(f"{self.api_url}/health").status_code == 200:
                         return
-                if not server_lease.serving(self.pid):
+                record = server_lease.read_record(self.folder)  # its starter may have moved it to another port
+                if record is None:
                     raise RuntimeError("the kept server's process ended before it answered")
+                self.pid, self.port = record["pid"], record["port"]
                 time.sleep(0.05)
         raise RuntimeError(f"the server did not answer within {timeout_s:g} s")
 
