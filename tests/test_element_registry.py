@@ -25,7 +25,6 @@ NOT_ELEMENTS = {
     "app/cli/amplitude.py": "the --backbone choice (BACKBONES)",
     "app/cli/validate_type.py": "the backbone of the held-out type's amplitude model (BACKBONES)",
     "core/identification/backbone_samples.py": "the backbone kind whose own fit weighs a source (BACKBONES)",
-    "core/validation/held_type.py": "the backbone kind that sets the default bootstrap refits (BACKBONES)",
 }
 
 

@@ -30,7 +30,8 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import Source
 from nlupdate.core.identification.amplitude_modal_fit import (
-    ModalSamples, amplitude_model_from_frfs, fit_amplitude_model, samples_from_frfs, samples_from_modal_table,
+    ModalSamples, amplitude_model_from_frfs, default_resamples, fit_amplitude_model, samples_from_frfs,
+    samples_from_modal_table,
 )
 from nlupdate.core.identification.backbone_samples import (
     DEFAULT_NOISE, backbone_curve, backbone_points, consistency, held_out_errors, join_samples, own_fit_for,
@@ -236,7 +237,7 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
                       for k in (0, 1))
         model = joint_fit(list(range(len(points))))
         agreement = consistency(model, [(name, s, kind) for name, s, _, kind in points], noises, joint_fit)
-    resamples = (200 if options.backbone == "polynomial" else 0) if options.bootstrap is None else options.bootstrap
+    resamples = default_resamples(options.backbone) if options.bootstrap is None else options.bootstrap
     if resamples < 0:
         raise ValueError(f"bootstrap {resamples}: expected a number of refits ≥ 0")
     if samples.amplitude.size == 1:

@@ -338,6 +338,13 @@ JENKINS_CHI = -0.5
 #: the backbones :func:`fit_amplitude_model` fits: the model's, and ``jenkins`` (an Iwan joint
 #: in its Jenkins limit, stored as an ``iwan`` backbone)
 FIT_BACKBONES = BACKBONES + ("jenkins",)
+
+
+def default_resamples(backbone: str) -> int:
+    """Bootstrap refits for a fitted model's 95 % bands when none are asked for: 200 for the
+    polynomial backbone, none for Iwan's and Jenkins' (about a second per refit)."""
+    return 200 if backbone == "polynomial" else 0
+
 #: below this p-value of :func:`microslip_test` the free Iwan fit is kept
 MICROSLIP_P = 0.05
 

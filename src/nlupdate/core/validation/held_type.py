@@ -59,11 +59,6 @@ BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polyno
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
 
 
-def default_resamples(backbone: str) -> int:
-    """Bootstrap refits for the held samples' bands when none are asked for: 200 for the
-    polynomial backbone, none for Iwan's (about a second per refit)."""
-    return 200 if backbone == "polynomial" else 0
-
 
 @dataclass(frozen=True, eq=False)
 class HeldType:
