@@ -117,6 +117,17 @@ def writer_alive(pid: int) -> bool:
     return True
 
 
+def process_running(pid: int) -> bool:
+    """Whether process ``pid`` runs on this host and has not ended: a zombie (ended, not yet
+    waited for by its parent) runs nothing (read from /proc where there is one)."""
+    if not writer_alive(pid):
+        return False
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):  # no /proc here: the signal check above is all there is
+        return True
+
+
 def clean_leftovers(folder: str | os.PathLike) -> list[Path]:
     """Remove the temporary outputs of dead writers on this host in ``folder``; returns them.
 

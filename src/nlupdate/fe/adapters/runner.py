@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
 from nlupdate.fe.adapters.base import AdapterError
+from nlupdate.files import process_running
 
 LOG_TAIL_LINES = 20
 KILL_GRACE_S = 2.0
@@ -173,19 +174,6 @@ def descendants(pid: int) -> list[int]:
     return found
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    try:  # a zombie is gone
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return True
-
-
 def _kill_group(process: subprocess.Popen[bytes]) -> list[int]:
     """POSIX: terminate the process group of ``process`` (it leads its own session) and
     every process it started that left the group; returns those still running after."""
@@ -211,9 +199,9 @@ def _kill_group(process: subprocess.Popen[bytes]) -> list[int]:
         except (ProcessLookupError, PermissionError):
             pass
     deadline = time.monotonic() + KILL_GRACE_S
-    while time.monotonic() < deadline and any(_alive(pid) for pid in started):
+    while time.monotonic() < deadline and any(process_running(pid) for pid in started):
         time.sleep(0.05)
-    return [pid for pid in started if _alive(pid)]
+    return [pid for pid in started if process_running(pid)]
 
 
 def _kill_tree_windows(process: subprocess.Popen[bytes]) -> None:

@@ -34,6 +34,8 @@ import sys
 from pathlib import Path
 from typing import Iterator
 
+from nlupdate.files import process_running
+
 KEEP_ENV = "NLUPDATE_PREFECT_SERVER_KEEP_S"
 DEFAULT_KEEP_S = 300.0
 
@@ -138,15 +140,9 @@ def forget_record(folder: Path, pid: int) -> None:
 def serving(pid: int) -> bool:
     """Whether process ``pid`` runs and is a server of ours (not a zombie, not another
     process that got its number after it ended)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+    if not process_running(pid):
         return False
-    except PermissionError:
-        return True
-    try:  # a zombie (ended, not yet waited for by its parent) is gone
-        if Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z":
-            return False
+    try:
         return b"nlupdate.orchestration.flows.server_process" in Path(f"/proc/{pid}/cmdline").read_bytes()
     except OSError:  # no /proc here: the signal check above is all there is
         return True
