@@ -166,12 +166,30 @@ def test_over_20_seeds_the_bands_hold_the_truth_in_85_to_99_percent_with_a_model
     range converges to, and the held-out predictions' bands the noise-free held-out
     resonance, damping and peak, in 85–99 % of the bands; no estimate lies outside its own
     band. (The noise-free fit at the same levels is held more often: the model-form part is
-    not an error with respect to it.)"""
+    not an error with respect to it.)
+
+    Rows without a band: since validate reads damping by the circle fit (261067d), a curve
+    whose resonance spans fewer than 5 lines at 0.4 max|H| has no damping ratio (NaN), and a
+    Jenkins fit's top level can be that narrow (seed 3: ζ ≈ 1e-3 on 0.1 Hz lines, 3 lines
+    in the run; half-power had read 9.7e-4 from 1 line inside its band). Measured at be10d27
+    (python benchmarks/band_coverage.py --seeds 20 --samples 10, 04:22-04:29 UTC, load 5-6):
+    5 of the 520 rows have no band, each the top level's predicted damping of an
+    iwan→jenkins seed (3, 7, 11, 12, 13; the noise-free truth is NaN too but for seed 12,
+    1.2e-3) — the estimator declining a curve that does not resolve it, not a band missing
+    its value; at 3777d80 (half-power) seed 3's row had a band. Such rows are asserted to be
+    exactly that, at most a fifth of the 40 top-level damping rows (so the damping coverage
+    still speaks for most of them), and left out of the coverage, as
+    validate_band_coverage.py counts only levels with a damping band. With them left out:
+    predictions 91.1 % of 235, parameters (dense levels) 96.4 % of 140, none outside its band."""
     import pandas as pd
 
     from benchmarks.band_coverage import CASES, one_seed
 
     frame = pd.DataFrame([row for seed in range(20) for case in CASES for row in one_seed(case, seed, 10)])
+    unbanded = frame[~frame["has_band"]]
+    assert (unbanded.quantity == "damping_ratio").all() and (unbanded.truth_kind == "top level").all()
+    assert unbanded.value.isna().all() and len(unbanded) <= 8, unbanded[["case", "seed", "value", "truth"]]
+    frame = frame[frame["has_band"]]
     assert frame["contains_value"].all()
     parameters = frame[(frame.kind == "parameter") & (frame.truth_kind == "dense levels")]
     predictions = frame[frame.kind == "prediction"]
