@@ -23,6 +23,21 @@ The damping ratio is NaN (the curve does not trace the resonance's circle) when
   in one step or the band ends — a jump (a fold of a nonlinear force-controlled sweep) or a
   resonance at the band's edge;
 * the curve is a magnitude (real), which has no circle.
+
+**A jump inside the run** (a fold of a stepped-sine sweep that lands above the fraction) is
+found by :func:`jump_in_run`, and the caller (:mod:`nlupdate.core.validation.resonance`)
+then reads the half-power value instead. The rule: a single linear mode of damping ratio ζ
+at ω_r has ``|H| ∝ 1/√(1 + x²)``, ``x = (ω_r² − Ω²)/(2ζω_rΩ)``, so between two lines whose x
+differ by δ its |H| changes by at most the factor ``δ/2 + √(1 + δ²/4)`` (the two lines
+astride a half-power point). A step between two adjacent lines of the run is a jump when its
+``|ln(|H_{i+1}|/|H_i|)|`` exceeds that bound for **twice** the δ of the curve's own ζ (its
+half-power value: ζ may be read up to 2× high before a smooth curve is called a jump) by
+more than :data:`JUMP_NOISE_SIGMAS` times the curve's relative noise σ
+(:func:`nlupdate.core.measurement.noise.estimate_noise_fraction`; ln of a one-line ratio
+carries noise of std ≈ σ). No noise estimate (fewer than 9 contiguous lines): no jump is
+called. Cutting the run at the jump instead does not work: on a hardening sweep up the peak
+*is* the fold, so the side holding the peak ends at its peak (the rule above: NaN), and
+on the closed-form Duffing jump (tests/test_circle_fit.py) half-power is within 5 %.
 """
 from __future__ import annotations
 
@@ -30,10 +45,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
+from nlupdate.core.measurement.noise import estimate_noise_fraction
+
 #: The lines fitted: |H| at least this fraction of the largest |H|, contiguous around it.
 CIRCLE_FRACTION = 0.4
 #: Fewer lines than this in the run: the damping ratio is NaN.
 MIN_CIRCLE_LINES = 5
+#: A step of ln|H| beyond the linear bound by more than this many noise stds is a jump.
+JUMP_NOISE_SIGMAS = 8.0
 
 
 def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
@@ -46,6 +65,28 @@ def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
     while high < m.size - 1 and m[high + 1] >= fraction * m[k]:
         high += 1
     return slice(low, high + 1)
+
+
+def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
+    """Whether two adjacent lines of the run (:func:`circle_window`) of ``h`` (complex or
+    magnitude, over ``frequency_hz`` in Hz, increasing) differ in |h| by more than a linear
+    mode of damping ratio ``zeta`` (fraction of critical) allows, by the module's rule.
+    False for a non-positive or NaN ``zeta`` or a curve too short to estimate its noise."""
+    f = np.asarray(frequency_hz, dtype=float)
+    h = np.asarray(h)
+    if not (np.isfinite(zeta) and zeta > 0):
+        return False
+    try:
+        sigma = estimate_noise_fraction(f, h.astype(complex))
+    except ValueError:
+        return False
+    window = circle_window(h)
+    m = np.abs(h[window])
+    w = 2 * np.pi * f[window]
+    wr = w[int(np.argmax(m))]
+    delta = 2 * np.abs(np.diff((wr**2 - w**2) / (2 * zeta * wr * w)))
+    bound = np.log(delta / 2 + np.sqrt(1 + delta**2 / 4)) + JUMP_NOISE_SIGMAS * sigma
+    return bool(np.any(np.abs(np.diff(np.log(m))) > bound))
 
 
 def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float = float("nan")) -> float:

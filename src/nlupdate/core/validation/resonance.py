@@ -5,7 +5,10 @@ The peak: the largest |H|, refined by a parabola through the three lines around 
 (:func:`nlupdate.core.correlation.metrics.peak`). The damping ratio: the modal circle fit of
 the mobility over the lines with |H| ≥ 0.4 max|H| around the peak
 (:func:`nlupdate.core.validation.circle_fit.circle_fit_damping`: NaN for fewer than 5 such
-lines, a peak at that run's end — a jump or the band's edge — or a magnitude-only curve).
+lines, a peak at that run's end — a jump or the band's edge — or a magnitude-only curve),
+except where a step between two lines of that run is a jump no linear mode of the curve's
+half-power width can make (:func:`~nlupdate.core.validation.circle_fit.jump_in_run`): then
+the half-power value, as a circle fitted across a jump reads ζ up to 2× low.
 On simulated curves with the Brake–Reuss beam's lines and noise it is 2–3× less noisy than
 the half-power bandwidth and needs no crossing inside the band (docs/validation.md, "How the
 damping ratio is measured").
@@ -23,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlupdate.core.correlation.metrics import peak
-from nlupdate.core.validation.circle_fit import circle_fit_damping
+from nlupdate.core.validation.circle_fit import circle_fit_damping, jump_in_run
 
 #: Fewer lines than this inside the half-power band: the damping ratio is poorly resolved.
 MIN_HALF_POWER_LINES = 5
@@ -58,7 +61,10 @@ def resonance(frequency_hz: ArrayLike, h: ArrayLike) -> Resonance:
         return Resonance(float("nan"), float("nan"), float("nan"), 0)
     f_r, top = peak(f, magnitude)
     zeta_hp, lines = _half_power(f, magnitude, f_r, top)
-    return Resonance(f_r, circle_fit_damping(f, h, start_zeta=zeta_hp), top, lines, zeta_hp)
+    zeta = circle_fit_damping(f, h, start_zeta=zeta_hp)
+    if np.iscomplexobj(h) and jump_in_run(f, h, zeta_hp if np.isfinite(zeta_hp) else zeta):
+        zeta = zeta_hp
+    return Resonance(f_r, zeta, top, lines, zeta_hp)
 
 
 def _half_power(f: np.ndarray, magnitude: np.ndarray, f_r: float, top: float) -> tuple[float, int]:
