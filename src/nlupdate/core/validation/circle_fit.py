@@ -26,18 +26,26 @@ The damping ratio is NaN (the curve does not trace the resonance's circle) when
 
 **A jump inside the run** (a fold of a stepped-sine sweep that lands above the fraction) is
 found by :func:`jump_in_run`, and the caller (:mod:`nlupdate.core.validation.resonance`)
-then reads the half-power value instead. The rule: a single linear mode of damping ratio ζ
-at ω_r has ``|H| ∝ 1/√(1 + x²)``, ``x = (ω_r² − Ω²)/(2ζω_rΩ)``, so between two lines whose x
-differ by δ its |H| changes by at most the factor ``δ/2 + √(1 + δ²/4)`` (the two lines
-astride a half-power point). A step between two adjacent lines of the run is a jump when its
-``|ln(|H_{i+1}|/|H_i|)|`` exceeds that bound for **twice** the δ of the curve's own ζ (its
-half-power value: ζ may be read up to 2× high before a smooth curve is called a jump) by
-more than :data:`JUMP_NOISE_SIGMAS` times the curve's relative noise σ
-(:func:`nlupdate.core.measurement.noise.estimate_noise_fraction`; ln of a one-line ratio
-carries noise of std ≈ σ). No noise estimate (fewer than 9 contiguous lines): no jump is
-called. Cutting the run at the jump instead does not work: on a hardening sweep up the peak
-*is* the fold, so the side holding the peak ends at its peak (the rule above: NaN), and
-on the closed-form Duffing jump (tests/test_circle_fit.py) half-power is within 5 %.
+then reads the half-power value instead. The rule, both parts needed:
+
+* *beyond a linear mode:* a single linear mode of damping ratio ζ at ω_r has
+  ``|H| ∝ 1/√(1 + x²)``, ``x = (ω_r² − Ω²)/(2ζω_rΩ)``, so between two lines whose x differ by
+  δ its |H| changes by at most the factor ``δ/2 + √(1 + δ²/4)`` (the two lines astride a
+  half-power point). The step ``|ln(|H_{i+1}|/|H_i|)|`` exceeds that bound for
+  :data:`JUMP_ZETA_FACTOR` × δ (ζ the curve's half-power value, allowed to be 2× high) by
+  more than :data:`JUMP_NOISE_SIGMAS` × the curve's relative noise σ
+  (:func:`nlupdate.core.measurement.noise.estimate_noise_fraction`; ln of a one-line ratio
+  carries noise of std ≈ σ; on linear curves with 0–2 % noise the excess stayed below 5.3 σ);
+* *a discontinuity:* the step is more than :data:`JUMP_STANDS_OUT` × both neighbouring
+  steps of ln|H|. Without it the bent but continuous flank of a strongly nonlinear curve is
+  called a jump: the transmitter beam's four measured curves (docs/validation.md) and many of
+  the BRB models' predicted curves are steeper on one flank than any linear mode of their
+  half-power width, yet step smoothly from line to line.
+
+No noise estimate (fewer than 9 contiguous lines): no jump is called. Cutting the run at
+the jump instead does not work: on a hardening sweep up the peak *is* the fold, so the side
+holding the peak ends at its peak (the rule above: NaN); on the closed-form Duffing jump
+(tests/test_circle_fit.py) the half-power value is within 5 %.
 """
 from __future__ import annotations
 
@@ -51,8 +59,12 @@ from nlupdate.core.measurement.noise import estimate_noise_fraction
 CIRCLE_FRACTION = 0.4
 #: Fewer lines than this in the run: the damping ratio is NaN.
 MIN_CIRCLE_LINES = 5
-#: A step of ln|H| beyond the linear bound by more than this many noise stds is a jump.
+#: The linear bound of a step is that of a mode this many times less damped than the curve.
+JUMP_ZETA_FACTOR = 2.0
+#: A step of ln|H| beyond the linear bound by more than this many noise stds ...
 JUMP_NOISE_SIGMAS = 8.0
+#: ... and this many times both neighbouring steps of ln|H| is a jump.
+JUMP_STANDS_OUT = 1.5
 
 
 def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
@@ -69,9 +81,10 @@ def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
 
 def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
     """Whether two adjacent lines of the run (:func:`circle_window`) of ``h`` (complex or
-    magnitude, over ``frequency_hz`` in Hz, increasing) differ in |h| by more than a linear
-    mode of damping ratio ``zeta`` (fraction of critical) allows, by the module's rule.
-    False for a non-positive or NaN ``zeta`` or a curve too short to estimate its noise."""
+    magnitude, over ``frequency_hz`` in Hz, increasing) make a jump by the module's rule: a
+    step of ln|h| beyond what a linear mode of damping ratio ``zeta`` (fraction of critical)
+    allows and standing out from both neighbouring steps. False for a non-positive or NaN
+    ``zeta`` or a curve too short to estimate its noise."""
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h)
     if not (np.isfinite(zeta) and zeta > 0):
@@ -80,13 +93,16 @@ def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
         sigma = estimate_noise_fraction(f, h.astype(complex))
     except ValueError:
         return False
-    window = circle_window(h)
-    m = np.abs(h[window])
-    w = 2 * np.pi * f[window]
+    m = np.abs(h)
+    w = 2 * np.pi * f
     wr = w[int(np.argmax(m))]
-    delta = 2 * np.abs(np.diff((wr**2 - w**2) / (2 * zeta * wr * w)))
-    bound = np.log(delta / 2 + np.sqrt(1 + delta**2 / 4)) + JUMP_NOISE_SIGMAS * sigma
-    return bool(np.any(np.abs(np.diff(np.log(m))) > bound))
+    delta = JUMP_ZETA_FACTOR * np.abs(np.diff((wr**2 - w**2) / (2 * zeta * wr * w)))
+    step = np.abs(np.diff(np.log(m)))
+    beyond = step > np.log(delta / 2 + np.sqrt(1 + delta**2 / 4)) + JUMP_NOISE_SIGMAS * sigma
+    neighbour = np.maximum(np.r_[0.0, step[:-1]], np.r_[step[1:], 0.0])
+    window = circle_window(h)
+    inside = np.arange(window.start, window.stop - 1)
+    return bool(np.any(beyond[inside] & (step[inside] > JUMP_STANDS_OUT * neighbour[inside])))
 
 
 def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float = float("nan")) -> float:
