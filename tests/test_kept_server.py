@@ -106,6 +106,30 @@ def test_runs_at_once_share_one_server_which_stops_after_the_keep_time_once_all_
             holder.wait()
 
 
+def test_a_server_whose_prefect_home_is_deleted_stops_at_once(own_home):
+    """A server kept for 600 s whose Prefect home is then deleted (as a test session's
+    temporary home is) can be found by no run: it stops within seconds, not after its
+    keep time (its watchdog died on the missing lease file before, and each test session
+    left its workers' servers running)."""
+    import shutil
+
+    home, env = own_home
+    env = {**env, "NLUPDATE_PREFECT_SERVER_KEEP_S": "600"}
+    holder = subprocess.Popen([sys.executable, "-c", HOLD], env=env, text=True, stdout=subprocess.PIPE)
+    try:
+        pid, port = map(int, holder.stdout.readline().split())
+        assert httpx.get(f"http://127.0.0.1:{port}/api/health").status_code == 200
+        holder.kill()
+        holder.wait()
+        time.sleep(1)
+        assert not gone(pid)  # kept: its keep time is 600 s
+        shutil.rmtree(home)
+        wait_until(lambda: gone(pid), timeout_s=30)
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def test_a_second_run_in_process_uses_the_server_the_first_kept(tmp_path, monkeypatch):
     """Two runs in turn (prefect_api, as run_study_flow uses it): the second says the
     server is already running and uses the same one; it still answers after both."""
