@@ -30,7 +30,7 @@ from nlupdate.core.measurement.run_levels import held_amplitudes_in_text
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.notices import NlupdateWarning
 
-from test_phase_resonance import DUFFING, FORCES, PHI, df_backbone, locked_points
+from test_phase_resonance import DUFFING, FORCES, PHI, assert_amplitude_fits_the_backbone, df_backbone, locked_points
 from test_response_controlled import JENKINS, K, M, C, held_sweep
 
 G = 9.80665
@@ -245,13 +245,7 @@ def test_phase_resonance_spectra_at_one_line_per_level(tmp_path, duffing_points)
     samples = samples_from_phase_resonance(points, PHI)
     f, z = df_backbone(DUFFING, samples.amplitude * PHI)
     assert np.max(np.abs(samples.frequency_hz / f - 1)) < 1e-4 and np.max(np.abs(samples.damping_ratio / z - 1)) < 2e-3
-    out = tmp_path / "amm"
-    assert main(["amplitude", "--phase-resonance", str(path), "--shape", f"1:uz={PHI}", "--backbone", "polynomial",
-                 "--bootstrap", "0", "--out", str(out)]) == 0
-    fitted = pd.read_csv(out / "backbone.csv")
-    f, z = df_backbone(DUFFING, fitted["modal_amplitude"].to_numpy() * PHI)
-    assert np.max(np.abs(fitted["natural_frequency_hz"] / f - 1)) < 2e-3
-    assert np.max(np.abs(fitted["damping_ratio"] / z - 1)) < 0.05
+    assert_amplitude_fits_the_backbone(path, "1:uz", DUFFING, tmp_path / "amm")
 
 
 def test_phase_resonance_one_line_frfs_with_the_force_in_the_run_name(tmp_path, duffing_points):
