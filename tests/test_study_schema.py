@@ -221,6 +221,8 @@ def test_validate_takes_the_validation_keys_it_shares_with_the_study():
             continue
         assert options[name].option_strings[0] == flag_of(name, declaration), name
     assert tuple(options["hold_out_type"].choices) == settings_of(ValidationSpec)["hold_out_type"][1].choices
+    for name in ("impact", "channel"):  # the command's own (shared with --hold-out-type's sources), one dest each
+        assert name in settings_of(ValidationSpec) and options[name].option_strings[0] == f"--{name}", name
     parser = build_parser(["validate"])
     args = parser.parse_args(["validate", "--hold-out", "0.49,0.97", "--input-dof", "0", "--out", "x"])
     assert ValidationSpec(**setting_values(args, ValidationSpec)) == ValidationSpec(hold_out=(0.49, 0.97), input_dof="0")

@@ -19,6 +19,7 @@ from nlupdate.core.updating.optimisation import OptimisationOptions
 from nlupdate.core.updating.residuals import ResponseOptions
 from nlupdate.core.updating.sensitivity import FORMULAS
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL
+from nlupdate.core.validation.impact_limit import LIMIT_MODELS, refused_model
 from nlupdate.core.validation.models import model_fitter
 from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.study.declared import TABLES, build, classes, declared_keys, read_declared
@@ -185,11 +186,21 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
     (cls,) = classes(where)
     spec = build(read, where, cls, values)
     typed = ("hold_out_type", "shapes", "ring_down")
+    if "channel" in table and spec.impact is None:
+        raise read.fail(where, "channel", "nothing unless impact is given", table["channel"])
     if spec.hold_out_type is None:
         for key in typed[1:]:
             if key in table:
                 raise read.fail(where, key, "nothing unless hold_out_type is given", table[key])
-        return spec
+        if spec.impact is None:
+            return spec
+        refused = refused_model(spec.models)
+        if refused is not None:
+            raise read.fail(where, "models", f"with impact, models among {list(LIMIT_MODELS)} (a linear limit is "
+                                             f"kept beside the levels by the lines models only)", list(spec.models))
+        return dataclasses.replace(spec, impact=str(read.path_of(spec.impact)))
+    if spec.impact is not None:
+        raise read.fail(where, "impact", "nothing with hold_out_type (levels held out only)", table["impact"])
     if spec.models[0] not in BACKBONE_OF_MODEL:
         raise read.fail(where, "models", f"with hold_out_type, a first model among {list(BACKBONE_OF_MODEL)}",
                         list(spec.models))

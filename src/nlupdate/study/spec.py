@@ -198,6 +198,16 @@ class ValidationSpec:
                 "force-controlled levels as backbone evidence of every fit (models `lines`, `lines-background` and "
                 "`auto` among them; the held-out levels are still force-controlled ones). With `hold_out_type`, "
                 "`auto` and `kept` make them a source")
+    impact: str | None = setting(
+        None, kind="string", default_text="none", flag="",
+        meaning="with levels held out (not with `hold_out_type`): an impact or low-level free decay (.csv or .mat: "
+                "`time_s`, one column per channel, optional `force`) whose linear limit, fitted to its quietest decay "
+                "in the measured band widened to ±20 %, is kept beside the levels as one more sample of the `lines` "
+                "models' backbone and damping curve at zero amplitude (`validation.json`'s `linear_limit`); models "
+                "`lines`, `lines-background` or `auto` only; as `nlupdate validate --impact`")
+    channel: str | None = setting(
+        None, kind="string", default_text="every response channel", flag="",
+        meaning="with `impact`: the record's channel fitted, as `--channel`")
     hold_out_type: str | None = setting(
         None, kind="choice", choices=HELD_TYPES, default_text="none", flag="",
         meaning="hold out a whole test type as well: the amplitude-dependent modal model fitted on the other "

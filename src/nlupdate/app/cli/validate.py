@@ -39,14 +39,15 @@ from nlupdate.app.cli.settings_options import add_setting_options, setting_value
 from nlupdate.app.cli.validate_type import add_type_options, run_held_type
 from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.impact import LinearLimit, fit_linear_limit, split_force
-from nlupdate.core.identification.ring_down import RingDownError, read_channels
+from nlupdate.core.identification.impact import LinearLimit
+from nlupdate.core.identification.ring_down import RingDownError
 from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
 from nlupdate.core.validation.held_response import validate_measured
-from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS, WITH_RUNS
+from nlupdate.core.validation.impact_limit import LIMIT_MODELS, impact_linear_limit, refused_model
+from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
 from nlupdate.study.spec import ValidationSpec
 
 
@@ -108,22 +109,18 @@ def _plot_name(level: float, model: str, several: bool) -> str:
 
 
 def linear_limit(args: argparse.Namespace, data: FRFLevels, models: list[str]) -> LinearLimit:
-    """The linear limit of the one ``--impact`` record (``--channel``), fitted in ``--band``
-    or the measured lines' band, either widened to ±20 % about its centre (the decay's
-    band-pass needs room); CliError for several records or a model that cannot keep it."""
+    """The linear limit of the one ``--impact`` record (``--channel``) in ``--band`` or the
+    measured lines' band (:func:`~nlupdate.core.validation.impact_limit.impact_linear_limit`);
+    CliError for several records or a model that cannot keep it."""
     if len(args.impact) != 1:
         raise CliError(f"--impact: give one record with held-out levels, got {len(args.impact)}")
-    refused = [m for m in models if m not in (*WITH_RUNS, "auto")]
+    refused = refused_model(models)
     if refused:
-        raise CliError(f"--impact: model {refused[0]} cannot keep a linear limit beside the levels (only "
-                       f"{', '.join(WITH_RUNS)} or auto)")
+        raise CliError(f"--impact: model {refused} cannot keep a linear limit beside the levels (only "
+                       f"{', '.join(LIMIT_MODELS)})")
     path = args.impact[0]
-    low, high = parse_band(args.band) or (min(f.min() for f in data.frequencies), max(f.max() for f in data.frequencies))
-    centre = 0.5 * (low + high)
     try:
-        time_s, responses, force = split_force(read_channels(path, "impact record"), args.channel)
-        fit = fit_linear_limit(time_s, responses, (min(low, 0.8 * centre), max(high, 1.2 * centre)), None, force,
-                               source=path)
+        fit = impact_linear_limit(path, args.channel, parse_band(args.band), data)
     except RingDownError as error:
         raise CliError(f"{path}: {error}") from None
     print(f"{path}: linear limit {fit.frequency_hz:.6g} ± {fit.frequency_std_hz:.2g} Hz, damping ratio "
@@ -163,11 +160,6 @@ def run(args: argparse.Namespace) -> int:
             name = "predicted_frf.parquet" if k == 0 else f"predicted_frf_{_slug(model)}.parquet"
             predicted_table(rows, data).to_parquet(folder / name, index=False)
         summary = validation.summary()
-        if data.linear_limit is not None:
-            limit = data.linear_limit
-            summary["linear_limit"] = {"source": limit.source, "frequency_hz": limit.frequency_hz,
-                                       "frequency_std_hz": limit.frequency_std_hz,
-                                       "damping_ratio": limit.damping_ratio, "damping_std": limit.damping_std}
         write_json(summary, folder / "validation.json")
         for result in validation.held_out:
             save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))

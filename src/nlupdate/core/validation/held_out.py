@@ -173,11 +173,14 @@ class Validation:
     kept_runs: tuple[str, ...] = ()
     #: the repeatability the response-controlled runs' bands use (levels and runs pooled)
     runs_repeatability: Repeatability | None = None
+    #: the mode's linear limit from another test (an impact) kept beside the levels, or None
+    linear_limit: Any = None
 
     def summary(self) -> dict:
         """The ``validation.json`` content: the reference unit, the repeatability, auto's
-        choices, one entry per held-out level and model (:meth:`HeldOut.as_dict`) and, where
-        predicted, one per response-controlled run and model."""
+        choices, one entry per held-out level and model (:meth:`HeldOut.as_dict`), where
+        predicted one per response-controlled run and model, and the linear limit kept."""
+        limit = self.linear_limit
         return {"reference_unit": self.reference_unit, "repeatability": self.repeatability.as_dict(),
                 "auto_choices": {f"{level:g}": {"model": c.name, "reason": c.reason, "scores": c.scores}
                                  for level, c in self.choices.items()},
@@ -190,7 +193,10 @@ class Validation:
                 **({"response_controlled": [r.as_dict() for r in self.response_controlled]}
                    if self.response_controlled else {}),
                 **({"response_controlled_notes": list(self.response_controlled_notes)}
-                   if self.response_controlled_notes else {})}
+                   if self.response_controlled_notes else {}),
+                **({"linear_limit": {"source": limit.source, "frequency_hz": limit.frequency_hz,
+                                     "frequency_std_hz": limit.frequency_std_hz, "damping_ratio": limit.damping_ratio,
+                                     "damping_std": limit.damping_std}} if limit is not None else {})}
 
     def table(self) -> pd.DataFrame:
         """One row per held-out level and model: each quantity measured, predicted, its band
@@ -475,4 +481,4 @@ def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: 
             results.append(predict_held_out(data, level, name, repeat, requested, runs))
             progress("held-out levels", len(results), total)
     return Validation(tuple(results), repeat, choices, data.reference_unit,
-                      kept_runs=tuple(run.name for run in runs))
+                      kept_runs=tuple(run.name for run in runs), linear_limit=data.linear_limit)

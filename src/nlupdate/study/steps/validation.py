@@ -12,6 +12,7 @@ from nlupdate.core.identification.response_controlled import read_response_contr
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation
+from nlupdate.core.validation.impact_limit import impact_linear_limit
 from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.held_type import (
     BACKBONE_OF_MODEL, HeldType, Source, TypedValidation, hold_out_type,
@@ -21,7 +22,8 @@ from nlupdate.study.spec import Study, StudyError
 
 def validation_step(study: Study, table: pd.DataFrame) -> Validation:
     """``[validation]``: the measured driving-point curve judged on held-out levels
-    (:func:`nlupdate.core.validation.held_out.validate`)."""
+    (:func:`nlupdate.core.validation.held_out.validate`), with ``impact``'s linear limit kept
+    beside them as ``nlupdate validate --impact`` keeps it."""
     spec = study.validation
     inputs = sorted(set(table["input_dof"].astype(str)))
     input_dof = spec.input_dof or (study.identification.input_dof if study.identification is not None else None) \
@@ -32,6 +34,8 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
     paths = [measured.file] if measured.file is not None else [path for path, _ in measured.files]
     try:
         data = FRFLevels.from_table(table, input_dof, input_dof)
+        if spec.impact is not None:
+            data = dataclasses.replace(data, linear_limit=impact_linear_limit(spec.impact, spec.channel, None, data))
         validation = validate_measured(data, spec.hold_out, spec.models, spec.response_controlled, paths,
                                        measured.read_options())
         if spec.hold_out_type is not None:
