@@ -34,6 +34,9 @@ def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str,
         print("|---|---|---|---|---|---|---|")
         for r in result.held_out:
             print(f"| {r.level:g} | {r.label} | {error_cells(r, hz_digits)} |")
+        for choice in result.choices.values():
+            if choice.warning:
+                print(f"\nwarning: {choice.warning}")
         if hold_out == "each":
             print("\n" + repeatability_line(result.repeatability, hz_digits))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
@@ -58,6 +61,9 @@ def error_cells(r, hz_digits: int = 3) -> str:
 
     res = c["resonance_hz"]
     inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
+    own = [n for n in c if c[n].predicted_inside is False and c[n].predicted == c[n].predicted]
+    if own:  # never expected: a predicted value outside its own band is said, not printed as if fine
+        inside += " (prediction outside its own band: " + ", ".join(own) + ")"
     resonance_hz = (f"{res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
                     f"{res.high - res.measured:+.{hz_digits - 1}f}]")
     return (f"{resonance_hz} | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | {inside} | "

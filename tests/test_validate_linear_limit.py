@@ -23,7 +23,8 @@ from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.validation.held_out import repeatability
 from nlupdate.core.validation.held_response import predict_held_runs
-from nlupdate.core.validation.models import choose_model, model_fitter
+from nlupdate.core.validation.auto_choice import choose_model
+from nlupdate.core.validation.models import model_fitter
 from nlupdate.core.validation.resonance import resonance
 
 W0, ZETA0, A1, SOFTENING, GROWTH = 2 * np.pi * 80.5, 0.0015, 1e-4, 0.004, 0.003

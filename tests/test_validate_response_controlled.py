@@ -228,7 +228,8 @@ def test_auto_with_runs_kept_picks_the_model_that_predicts_the_held_out_level_be
     lines 1.6 %, lines-background 3.2 %), and its reason names the runs."""
     import pandas as pd
 
-    from nlupdate.core.validation.models import choose_model, model_fitter, relative_error
+    from nlupdate.core.validation.auto_choice import choose_model
+    from nlupdate.core.validation.models import model_fitter, relative_error
 
     background, levels = -1e-5, (0.25, 0.5, 0.75, 1.0)
     f = np.linspace(80.0, 100.0, 161)

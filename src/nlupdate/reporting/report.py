@@ -381,6 +381,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
                   markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
+    lines += [f"Warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
     return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
 
 

@@ -28,7 +28,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import re
+import sys
 
+import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError, add_command
@@ -129,6 +131,26 @@ def linear_limit(args: argparse.Namespace, data: FRFLevels, models: list[str]) -
     return fit
 
 
+QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
+
+
+def band_notes(compared: dict) -> list[str]:
+    """What the error columns cannot show of each quantity: no predicted value, the
+    predicted value outside its own band, the measured value outside the band — a value
+    is never printed as if it were fine when it is not."""
+    notes = []
+    for key, c in compared.items():
+        name = QUANTITY_NAMES.get(key, key)
+        if not np.isfinite(c.predicted):
+            notes.append(f"no predicted {name} (the predicted curve gives none)")
+        elif c.predicted_inside is False:
+            notes.append(f"the predicted {name} {c.predicted:.6g} lies OUTSIDE its own 95 % band [{c.low:.6g}, "
+                         f"{c.high:.6g}]")
+        if key != "resonance_hz" and c.inside is False:
+            notes.append(f"the measured {name} {c.measured:.6g} lies OUTSIDE the 95 % band [{c.low:.6g}, {c.high:.6g}]")
+    return notes
+
+
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if args.hold_out_type:
@@ -179,6 +201,8 @@ def run(args: argparse.Namespace) -> int:
               f"(base {100 * b['damping_ratio'].relative_error:+6.1f}) {100 * peak.relative_error:+7.1f} "
               f"{r.residual_to_noise:9.3g}")
         print(f"{'':>8} {'baseline':<22} {b['resonance_hz'].error:+8.3f}")
+        for note in band_notes(r.compared):
+            print(f"{'':>8} note: {note}")
         if r.half_power_lines < 5:
             print(f"{'':>8} note: the measured half-power band spans {r.half_power_lines} lines: its damping ratio "
                   f"is poorly resolved")
@@ -197,5 +221,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"response-controlled runs: {note}")
     for level, choice in validation.choices.items():
         print(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
+        if choice.warning:
+            print(f"warning: {choice.warning}", file=sys.stderr)
     print(f"wrote {out / 'validation.json'}, {out / 'predicted_frf.parquet'} and the plots")
     return 0

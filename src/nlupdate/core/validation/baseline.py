@@ -18,7 +18,7 @@ level's resonance, damping and peak.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 import scipy.optimize
@@ -26,6 +26,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_near
 from nlupdate.core.validation.resonance import resonance
+
+if TYPE_CHECKING:
+    from nlupdate.core.identification.data import FRFLevels
 
 @dataclass(frozen=True)
 class LevelFit:
@@ -67,6 +70,12 @@ def fit_level(level: float, frequency_hz: ArrayLike, h: ArrayLike, force: ArrayL
     zeta = shown.damping_ratio if np.isfinite(shown.damping_ratio) else float(fit.loss_factors[0]) / 2
     forces = np.broadcast_to(float(level) if force is None else np.asarray(force, dtype=float), f.shape)
     return LevelFit(float(level), float(np.abs(hh[k]) * forces[k]), shown.resonance_hz, zeta, shown.peak_abs, fit)
+
+
+def baseline_fits(data: "FRFLevels", levels: Sequence[float]) -> list[LevelFit]:
+    """The baseline's description of each of ``levels`` of ``data`` (:func:`fit_level`, the
+    force achieved at each line)."""
+    return [fit_level(v, *data.curve(v), data.force_at(v, data.curve(v)[0])) for v in levels]
 
 
 def _interpolated(fits: list[LevelFit], log_a: float) -> Callable[[NDArray], NDArray[np.complex128]]:

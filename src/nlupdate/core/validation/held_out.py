@@ -46,8 +46,9 @@ from numpy.typing import NDArray
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.noise import estimate_noise_fraction
 from nlupdate.progress import ProgressCallback, no_progress
-from nlupdate.core.validation.baseline import baseline_frf, fit_level
-from nlupdate.core.validation.models import ModelChoice, choose_model, model_fitter
+from nlupdate.core.validation.baseline import baseline_fits, baseline_frf
+from nlupdate.core.validation.auto_choice import ModelChoice, choose_model, extrapolated, outside_physical_range
+from nlupdate.core.validation.models import BASELINE, model_fitter
 from nlupdate.core.validation.resonance import Resonance, resonance
 
 QUANTITIES = ("resonance_hz", "damping_ratio", "peak_abs")
@@ -76,6 +77,14 @@ class Compared:
         if not (np.isfinite(self.low) and np.isfinite(self.high)):
             return None
         return bool(self.low <= self.measured <= self.high)
+
+    @property
+    def predicted_inside(self) -> bool | None:
+        """Whether the predicted value lies in its own band (None without a band); a
+        prediction without a value (NaN) is not in it."""
+        if not (np.isfinite(self.low) and np.isfinite(self.high)):
+            return None
+        return bool(self.low <= self.predicted <= self.high)
 
     def as_dict(self) -> dict[str, float]:
         return {"measured": self.measured, "predicted": self.predicted, "low": self.low, "high": self.high}
@@ -182,8 +191,7 @@ class Validation:
         predicted one per response-controlled run and model, and the linear limit kept."""
         limit = self.linear_limit
         return {"reference_unit": self.reference_unit, "repeatability": self.repeatability.as_dict(),
-                "auto_choices": {f"{level:g}": {"model": c.name, "reason": c.reason, "scores": c.scores}
-                                 for level, c in self.choices.items()},
+                "auto_choices": {f"{level:g}": c.as_dict() for level, c in self.choices.items()},
                 "bands": "95 %: jackknife over the kept levels and the test's repeatability "
                          "(nlupdate.core.validation.held_out)",
                 "held_out": [r.as_dict() for r in self.held_out],
@@ -416,12 +424,6 @@ def refits(fit, levels: Sequence[float], data: FRFLevels, predict) -> tuple[list
     return curves, note.rstrip("; ")
 
 
-def baseline_fits(data: FRFLevels, levels: Sequence[float]) -> list:
-    """The log-amplitude baseline's description of each of ``levels``
-    (:func:`~nlupdate.core.validation.baseline.fit_level`, the force of each line)."""
-    return [fit_level(v, *data.curve(v), data.force_at(v, data.curve(v)[0])) for v in levels]
-
-
 def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatability, requested: str = "",
                      runs: Sequence = ()) -> HeldOut:
     """One held-out level under one model (module docstring), ``runs`` (response-controlled,
@@ -434,6 +436,10 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
     fitted = fit(kept)
     predicted = fitted(f, level, force)
     curves, note = refits(fit, kept_levels, data, lambda inner: inner(f, level, force))
+    if model != BASELINE and extrapolated(kept, level):
+        why = outside_physical_range(kept, fitted, level)
+        if why is not None:
+            note = "; ".join(filter(None, [f"the extrapolation leaves the physical range: {why}", note]))
     misfit = kept_misfit(fitted, data, kept_levels) if len(curves) < 3 else None
     base = baseline_frf(baseline_fits(data, kept_levels), level, f)
     return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model,
@@ -461,7 +467,7 @@ def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray
 def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: Sequence[str] = ("auto",),
              progress: ProgressCallback = no_progress, runs: Sequence = ()) -> Validation:
     """Every level ``hold_out`` names, predicted by every model of ``models`` (``auto``:
-    :func:`~nlupdate.core.validation.models.choose_model` on that level's kept levels) from the
+    :func:`~nlupdate.core.validation.auto_choice.choose_model` on that level's kept levels) from the
     others, and from the response-controlled ``runs`` when given (a different test, kept as
     backbone evidence: :data:`~nlupdate.core.validation.models.WITH_RUNS`). Needs at least two
     kept levels per held-out level."""
@@ -476,7 +482,7 @@ def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: 
             name = requested
             if requested == "auto":
                 kept = data.subset([v for v in data.levels if not np.isclose(v, level, rtol=1e-9)])
-                choices[level] = choose_model(kept, runs)
+                choices[level] = choose_model(kept, runs, level)
                 name = choices[level].name
             results.append(predict_held_out(data, level, name, repeat, requested, runs))
             progress("held-out levels", len(results), total)

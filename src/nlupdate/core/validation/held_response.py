@@ -24,12 +24,12 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
-from nlupdate.core.validation.baseline import baseline_at_response
+from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits
 from nlupdate.core.validation.held_out import (
-    CurveComparison, Repeatability, Validation, baseline_fits, curve_comparison, kept_misfit, refits, repeatability,
-    validate,
+    CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, refits, repeatability, validate,
 )
-from nlupdate.core.validation.models import choose_model, model_fitter
+from nlupdate.core.validation.auto_choice import choose_model
+from nlupdate.core.validation.models import model_fitter
 from nlupdate.progress import ProgressCallback, no_progress
 
 
@@ -90,7 +90,7 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
 def with_held_runs(validation: Validation, data: FRFLevels, runs: Sequence[HeldRun],
                    models: Sequence[str], progress: ProgressCallback = no_progress) -> Validation:
     """``validation`` with every run of ``runs`` predicted by every model of ``models``
-    (``auto``: :func:`~nlupdate.core.validation.models.choose_model` on all force-controlled
+    (``auto``: :func:`~nlupdate.core.validation.auto_choice.choose_model` on all force-controlled
     levels); a model that cannot predict them is named in ``response_controlled_notes``.
     ``progress("response-controlled runs: models", done, len(models))`` after each model."""
     results, notes = [], []

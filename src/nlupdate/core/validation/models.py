@@ -24,10 +24,10 @@ single-mode models take the force achieved at each line when it is known (a
 force-controlled sweep does not hold its nominal level: on the BRB the force at resonance
 is 27 % below it at 0.19 N, :func:`frf_at_forces`); PRD regenerates at the nominal level.
 
-``auto`` is the tool's own choice, made on the kept curves alone: the candidate
-(:data:`AUTO_CANDIDATES`) whose leave-one-kept-out predictions miss least (RMS of the
-relative receptance error over every kept level and every kept response-controlled run,
-each predicted from the others), or ``lines`` with fewer than three kept levels.
+* ``baseline`` — the log-amplitude baseline itself (:mod:`nlupdate.core.validation.baseline`),
+  the kept levels alone: ``auto``'s fallback.
+
+``auto`` is the tool's own choice (:mod:`nlupdate.core.validation.auto_choice`).
 
 A linear limit kept with the curves (:attr:`FRFLevels.linear_limit`, an impact's pole) is
 one more sample of the ``lines`` models' polynomials at a = 0 (:func:`lines_model`); the
@@ -49,6 +49,7 @@ from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, ampli
 from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
+from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits, baseline_frf
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 
 #: frequency (Hz), level → receptance (m/N, or per volt)
@@ -295,24 +296,27 @@ def _prd(elements: tuple[str, ...]) -> Callable[[FRFLevels], Fitted]:
     return fit_on
 
 
+def _baseline(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
+    """The log-amplitude baseline of the kept levels as a model
+    (:mod:`nlupdate.core.validation.baseline`): no joint at all, each quantity of the kept
+    curves continued in log amplitude. It keeps the levels alone (kept ``runs`` and a linear
+    limit are not used): ``auto``'s fallback where every candidate's extrapolation leaves the
+    physical range (:mod:`nlupdate.core.validation.auto_choice`)."""
+    fits = baseline_fits(kept, kept.levels)
+    return Fitted(lambda f, level: baseline_frf(fits, float(level), f),
+                  lambda f, amplitude_m: baseline_at_response(fits, amplitude_m, f))
+
+
 #: Models by name (``prd:ELEMENTS`` is parsed by :func:`model_fitter`).
 MODELS: dict[str, Callable[[FRFLevels], Fitted]] = {
     "lines": _lines, "lines-background": _lines_background, "amplitude-polynomial": _amplitude("polynomial"),
-    "amplitude-iwan": _amplitude("iwan"), "amplitude-jenkins": _amplitude("jenkins"),
+    "amplitude-iwan": _amplitude("iwan"), "amplitude-jenkins": _amplitude("jenkins"), "baseline": _baseline,
 }
 AUTO_CANDIDATES = ("lines", "lines-background", "amplitude-polynomial", "amplitude-iwan")
 #: The models that take response-controlled runs (their every line a sample) and a linear limit as kept evidence
 WITH_RUNS = ("lines", "lines-background")
-
-
-@dataclass(frozen=True)
-class ModelChoice:
-    """The model ``auto`` chose and each candidate's leave-one-kept-out RMS relative
-    error (NaN where a candidate failed on the kept levels)."""
-
-    name: str
-    scores: dict[str, float]
-    reason: str
+#: The log-amplitude baseline as a model: it uses the kept levels alone, whatever else is kept
+BASELINE = "baseline"
 
 
 #: The most fits :func:`model_fitter` keeps (a validation of n levels needs about n²/2 distinct ones;
@@ -330,7 +334,7 @@ def _remembered(name: str, fit: Callable[[FRFLevels], Fitted], runs: Sequence[He
     subsets), and every fit is deterministic. Keyed by the model and the curves' (and kept
     ``runs``') whole content; a fit that failed raises the same error again."""
     def fit_on(kept: FRFLevels) -> Fitted:
-        if kept.linear_limit is not None and name not in WITH_RUNS:
+        if kept.linear_limit is not None and name not in (*WITH_RUNS, BASELINE):
             raise ValueError(f"model {name}: cannot fit a linear limit (an impact) beside the levels (only "
                              f"{', '.join(WITH_RUNS)} can)")
         content = pickle.dumps((kept, tuple(runs)), protocol=pickle.HIGHEST_PROTOCOL)
@@ -360,7 +364,7 @@ def model_fitter(name: str, runs: Sequence[HeldRun] = ()) -> Callable[[FRFLevels
     (:func:`_remembered`), with the response-controlled ``runs`` as kept evidence beside the
     force-controlled levels (:data:`WITH_RUNS` only); ValueError naming the models for an
     unknown one, or for runs given to a model that cannot take them."""
-    if runs and name not in WITH_RUNS:
+    if runs and name not in (*WITH_RUNS, BASELINE):
         raise ValueError(f"model {name}: cannot fit response-controlled runs as kept data (only "
                          f"{', '.join(WITH_RUNS)} can: their every line is a backbone sample)")
     if name in MODELS:
@@ -379,36 +383,3 @@ def relative_error(measured: NDArray, predicted: NDArray) -> float:
     as a miss of 1)."""
     error = np.abs(predicted - measured) / np.abs(measured)
     return float(np.sqrt(np.mean(np.where(np.isfinite(error), error, 1.0) ** 2)))
-
-
-def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> ModelChoice:
-    """``auto`` (module docstring); with response-controlled ``runs`` kept, among the
-    candidates that can take them, and judged on every kept curve: each level predicted
-    from the other levels and all runs, each run (at its held amplitude) from all levels and
-    the other runs — a run a fit keeps is evidence it must predict too (on the BRB's top
-    level the three kept levels alone tie ``lines`` 0.299 against ``lines-background``
-    0.302; the eight runs part them, 0.51 against 0.31)."""
-    if kept.levels.size < 3:
-        return ModelChoice("lines", {}, f"{kept.levels.size} kept levels: too few to compare models on them")
-    scores = {}
-    for name in [c for c in AUTO_CANDIDATES if not (runs or kept.linear_limit is not None) or c in WITH_RUNS]:
-        errors = []
-        try:
-            for level, f, h in zip(kept.levels, kept.frequencies, kept.receptances):
-                inner = kept.subset([lv for lv in kept.levels if lv != level])
-                predicted = model_fitter(name, runs)(inner)(f, float(level), kept.force_at(level, f))
-                errors.append(relative_error(h, predicted))
-            for k, run in enumerate(runs):
-                others = [r for j, r in enumerate(runs) if j != k]
-                errors.append(relative_error(run.h, model_fitter(name, others)(kept).at_response(run.frequency_hz,
-                                                                                                 run.held_m)))
-            scores[name] = float(np.sqrt(np.mean(np.square(errors))))
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
-            scores[name] = float("nan")
-    usable = {name: score for name, score in scores.items() if np.isfinite(score)}
-    if not usable:
-        return ModelChoice("lines", scores, "no candidate predicted the kept levels from each other")
-    best = min(usable, key=usable.get)
-    curves = f"{kept.levels.size} levels and {len(runs)} response-controlled runs" if runs else "levels"
-    return ModelChoice(best, scores, f"the smallest leave-one-kept-out error over the kept {curves} "
-                                     f"({', '.join(f'{n} {s:.3g}' for n, s in scores.items())})")

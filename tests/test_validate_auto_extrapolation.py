@@ -1,0 +1,115 @@
+"""``auto`` on an extrapolated level: a candidate whose prediction leaves the physical range
+is refused, with a warning, and the baseline is the last fallback (issue 34).
+
+Reference, independent of the code under test: one mode whose joint damps as a Jenkins
+joint does — the equivalent damping ratio rising to its largest at the slip transition
+(a = a₁) and falling as 1/a beyond it, ζ(a) = ζ₀ + g·u/(1 + u²), u = a/a₁, the natural
+frequency softening as ω₀(1 − s·u/(1 + u)) — solved in closed form by single-harmonic
+balance line by line (``a·|ω(a)² − Ω² + 2iζ(a)ω(a)Ω| = F``, bisection on a grid, the root
+unique here, asserted). Its three lower levels reach 0.2–1.4 a₁ at resonance, across the
+damping's maximum, the top one 3.3 a₁: the ``lines`` models' damping quadratics through the
+three lower levels are already falling at the largest kept amplitude and fall to nothing
+beyond it (peak +989 % and +1574 %), while the truth's peak rises 1.3× (its damping falls
+to 1.85 ‰ from 2.9 ‰).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.impact import LinearLimit
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.validation.auto_choice import PEAK_GROWTH, choose_model
+from nlupdate.core.validation.held_out import validate
+
+W0, ZETA0, A1, SOFTENING, GROWTH = 2 * np.pi * 80.0, 0.001, 1e-4, 0.003, 0.004
+LEVELS = (0.03, 0.08, 0.2, 0.35)
+F = np.linspace(78.5, 81.0, 51)
+LIMIT = LinearLimit(W0 / (2 * np.pi), ZETA0, 1e-4, 1e-6, 1e-8, (1e-9, 1e-8), (0.0, 1.0), (60.0, 100.0), ("0",), 1,
+                    "exact")
+
+
+def denominator(a, omega):
+    u = a / A1
+    w, zeta = W0 * (1 - SOFTENING * u / (1 + u)), ZETA0 + GROWTH * u / (1 + u**2)
+    return w**2 - omega**2 + 2j * zeta * w * omega
+
+
+def amplitude(force, omega):
+    grid = np.geomspace(1e-9, 1e-1, 8000)
+    g = grid * np.abs(denominator(grid, omega))
+    assert np.all(np.diff(g) > 0)
+    return float(np.interp(np.log(force), np.log(g), grid))
+
+
+@pytest.fixture(scope="module")
+def data():
+    rows = [frf_table(F, level, "0", "0", np.array([1 / denominator(amplitude(level, 2 * np.pi * f), 2 * np.pi * f)
+                                                    for f in F])) for level in LEVELS]
+    return FRFLevels.from_table(pd.concat(rows, ignore_index=True), "0", "0")
+
+
+@pytest.fixture(scope="module")
+def top(data):
+    return validate(data, "top", ["lines", "lines-background", "auto"])
+
+
+def test_auto_refuses_the_lines_models_whose_extrapolation_leaves_the_physical_range(data, top):
+    rows = {r.requested: r for r in top.held_out}
+    for name in ("lines", "lines-background"):  # the failure the choice must not make: the peak ×10 and more
+        assert rows[name].compared["peak_abs"].relative_error > 5.0, name
+        assert "the extrapolation leaves the physical range" in rows[name].note, name
+    choice = top.choices[LEVELS[-1]]
+    assert choice.name not in ("lines", "lines-background") and set(choice.refused) == {"lines", "lines-background"}
+    assert "lines refused" in choice.warning and f"{choice.name} used" in choice.warning
+    assert f"above {PEAK_GROWTH:g} ×" in choice.refused["lines-background"]
+    assert choose_model(data.subset(list(LEVELS[:3]))).name == "lines-background"  # without the level: the old rank
+    auto, base = rows["auto"].compared, rows["auto"].baseline
+    assert auto["peak_abs"].inside and auto["damping_ratio"].inside  # the truth in the 95 % band
+    for name in ("damping_ratio", "peak_abs"):  # as good as the log-amplitude baseline, not 10x off
+        assert abs(auto[name].relative_error) < 1.1 * abs(base[name].relative_error), name
+    assert top.summary()["auto_choices"]["0.35"]["warning"] == choice.warning
+
+
+def test_every_candidate_refused_falls_back_to_the_baseline(data):
+    """With the exact linear limit kept only the ``lines`` models are candidates; both leave
+    the range, so the baseline predicts the level — the baseline's own figures, with a band."""
+    kept = dataclasses.replace(data, linear_limit=LIMIT)
+    result = validate(kept, "top", ["auto"])
+    (row,) = result.held_out
+    choice = result.choices[LEVELS[-1]]
+    assert row.model == "baseline" and "every candidate refused" in choice.warning
+    for name, c in row.compared.items():
+        assert c.predicted == pytest.approx(row.baseline[name].predicted, rel=1e-9), name
+        assert c.low < c.predicted < c.high, name
+
+
+def test_no_value_is_printed_as_if_fine(data, tmp_path, capsys):
+    """``nlupdate validate``: a measured value outside its band, a prediction without a value
+    or outside its own band each get a line saying so; auto's refusals go to stderr."""
+    from nlupdate.app.cli import main
+
+    frames = [frf_table(f, level, "0", "0", h) for level, f, h in zip(data.levels, data.frequencies, data.receptances)]
+    pd.concat(frames, ignore_index=True).to_csv(tmp_path / "levels.csv", index=False)
+    common = ["validate", "--measured", str(tmp_path / "levels.csv"), "--hold-out", "top", "--response-controlled",
+              "off"]
+    assert main([*common, "--model", "lines,auto", "--out", str(tmp_path / "out")]) == 0
+    out, err = capsys.readouterr()
+    assert "the extrapolation leaves the physical range" in out
+    assert "note: no predicted damping ratio" in out  # lines' top curve: too sharp a peak to read one
+    assert "warning: auto at 0.35 N (an extrapolation): lines-background refused" in err
+
+
+def test_a_value_outside_a_band_gets_its_line():
+    from nlupdate.app.cli.validate import band_notes
+    from nlupdate.core.validation.held_out import Compared
+
+    assert band_notes({"peak_abs": Compared(1.0, 2.0, 1.5, 2.5)}) == [
+        "the measured peak |H| 1 lies OUTSIDE the 95 % band [1.5, 2.5]"]
+    assert band_notes({"damping_ratio": Compared(2.0, 3.0, 1.5, 2.5)}) == [
+        "the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
+    assert band_notes({"resonance_hz": Compared(2.0, 2.1, 1.5, 2.5)}) == []
