@@ -93,6 +93,7 @@ LONGEST_MODULES = (
     "test_study_hold_out_type.py", "test_result_reprs.py", "test_phase_resonance.py", "test_element_registry.py",
     "test_calculix_reduction.py", "test_bands.py", "test_input_expansion.py", "test_server_app.py",
     "test_study_schema.py", "test_study_amplitude.py", "test_circle_fit.py", "test_study_validation_impact.py",
+    "test_validate_auto_extrapolation.py",
 )
 
 
