@@ -94,6 +94,7 @@ LONGEST_MODULES = (
     "test_calculix_reduction.py", "test_bands.py", "test_input_expansion.py", "test_server_app.py",
     "test_study_schema.py", "test_study_amplitude.py", "test_circle_fit.py", "test_study_validation_impact.py",
     "test_validate_auto_extrapolation.py",
+    "test_held_runs_truth.py",
 )
 
 
