@@ -185,8 +185,10 @@ class ValidationSpec:
     models: tuple[str, ...] = setting(
         ("auto",), kind="strings", min_length=1, flag="",
         meaning="`lines`, `lines-background`, `amplitude-polynomial`, `amplitude-iwan`, `prd:ELEMENTS` (e.g. "
-                "`prd:cubic,jenkins`) or `auto` (the one of the first four that predicts the kept levels from each "
-                f"other best); with `hold_out_type`, the first is one of {', '.join(BACKBONE_OF_MODEL)}")
+                "`prd:cubic,jenkins`), `baseline` (the log-amplitude baseline itself) or `auto` (the one of the first "
+                "four that predicts the kept levels from each other best; for a level outside the kept range, the "
+                "best whose prediction stays in the physical range, else `baseline`, with a warning); with "
+                f"`hold_out_type`, the first is one of {', '.join(BACKBONE_OF_MODEL)}")
     input_dof: str | None = setting(
         None, kind="string", default_text="the identification's input (in a study), else the table's only one",
         meaning="the driving point whose curve is judged")

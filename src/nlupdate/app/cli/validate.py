@@ -61,7 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--model", default="auto", metavar="NAMES",
                         help=f"models, comma-separated: {', '.join(MODELS)}, prd:ELEMENTS (e.g. prd:cubic+jenkins) or "
                              f"auto (default: the one of {', '.join(AUTO_CANDIDATES)} that predicts the kept levels "
-                             f"from each other best)")
+                             f"from each other best; for a level outside the kept range the best whose prediction "
+                             f"stays in the physical range, else baseline, with a warning)")
     add_type_options(parser)
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (appears when complete)")
     add_overwrite_option(parser)
