@@ -1,8 +1,8 @@
 """Issue 37's time-integration truth table: every test type of an SDOF and a 2-DOF, each with a
 Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with each type held out.
 
-    python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03]] [--at-samples]
-                                         [--extra-level 1.3]
+    python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03] [--kink-inside]]
+                                         [--at-samples] [--extra-level 1.3] [--stepped-sine lines|peaks]
                                          [--ring-down decay|segments]
 
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
@@ -17,7 +17,9 @@ closed-form single-nonlinear-mode backbone). Per test type and seed:
   the force and on the response amplitude;
 * force-controlled stepped sine: multi-harmonic-balance FRFs at the same six levels on 301
   lines over 0.9–1.05 f₀ (``stepped_sine_table``, tests/test_stepped_sine_truth.py), 2 % noise
-  (``add_table_noise``), one sample per level (``samples_from_frfs``).
+  (``add_table_noise``), one sample per level (``samples_from_frfs``); with ``--backbone jenkins``
+  every fit that includes the stepped sine is refined on its lines (``refine_on_lines``, the
+  lines within half their level's peak; ``--stepped-sine peaks``: not, as before).
 
 Printed per system × type: the largest error of the samples themselves and of that type's own
 fitted backbone (``--backbone``, at 60 amplitudes over the range its samples cover), over
@@ -51,6 +53,7 @@ from nlupdate.core.identification.backbone_samples import join_samples, own_fit_
 from nlupdate.core.identification.data import FRFLevels  # noqa: E402
 from nlupdate.core.identification.decay_fit import fit_decay  # noqa: E402
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
+from nlupdate.core.identification.line_refine import SteppedSineLines, refine_on_lines, stepped_sine_lines  # noqa: E402
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
 from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 
@@ -72,8 +75,10 @@ def records(s: dict, kind: str, dofs: int, extra: tuple[float, ...] = ()) -> dic
 
 
 def samples(s: dict, made: dict, seed: int,
-            ring_down: str = "decay") -> dict[str, tuple[ModalSamples, tuple[float, float] | None]]:
-    """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by)."""
+            ring_down: str = "decay") -> tuple[dict[str, tuple[ModalSamples, tuple[float, float] | None]],
+                                               SteppedSineLines]:
+    """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by), and
+    the stepped sine's lines (the same noisy FRFs)."""
     psi, rng = s["phi"][0], np.random.default_rng(1000 + seed)
     t, x = made["decay"]
     if ring_down == "decay":
@@ -91,11 +96,11 @@ def samples(s: dict, made: dict, seed: int,
         "pr", "m1", "m1", omega / (2 * np.pi), force * (1 + 0.02 * rng.standard_normal(force.size)),
         response * (1 + 0.02 * rng.standard_normal(force.size))), psi, psi)
     table = add_table_noise(made["table"], 0.02, seed)
-    frfs = samples_from_frfs(FRFLevels.from_table(table, str(table["response_dof"].iloc[0]),
-                                                  str(table["input_dof"].iloc[0])), psi)
+    data = FRFLevels.from_table(table, str(table["response_dof"].iloc[0]), str(table["input_dof"].iloc[0]))
+    frfs = samples_from_frfs(data, psi)
     return {"ring-down": ring, "impact": (tap.samples(), (tap.frequency_std_hz / tap.frequency_hz,
                                                           tap.damping_std / tap.damping_ratio)),
-            "phase-resonance": (pr, None), "stepped-sine": (frfs, None)}
+            "phase-resonance": (pr, None), "stepped-sine": (frfs, None)}, stepped_sine_lines(data, psi)
 
 
 #: with ``--kink K`` (and ``--kink-below B``), amplitudes within [a_s/B, K·a_s] of the Jenkins slip
@@ -104,6 +109,16 @@ def samples(s: dict, made: dict, seed: int,
 #: (docs/ring-down.md, "Near the stick–slip kink")
 KINK = 1.0
 KINK_BELOW = 1.0
+#: with ``--kink-inside``: only the amplitudes within that band instead
+INSIDE = False
+
+
+def _kept(s: dict, a: np.ndarray) -> np.ndarray:
+    """Which amplitudes the errors take (``--kink``, ``--kink-below``, ``--kink-inside``)."""
+    if KINK <= 1:
+        return np.ones(a.size, bool)
+    outside = (a <= s["slip"] / KINK_BELOW) | (a >= KINK * s["slip"])
+    return ~outside if INSIDE else outside
 
 
 def curve_errors(s: dict, model, low: float, high: float, at: np.ndarray | None = None) -> tuple[float, float]:
@@ -111,7 +126,7 @@ def curve_errors(s: dict, model, low: float, high: float, at: np.ndarray | None 
     amplitude): at 60 amplitudes, or at the amplitudes ``at`` within it (``--kink``: without
     those near the Jenkins slip amplitude)."""
     a = np.geomspace(low, high, 60) if at is None else at[(at >= low) & (at <= high)]
-    a = a[(a <= s["slip"] / KINK_BELOW) | (a >= KINK * s["slip"])] if KINK > 1 else a
+    a = a[_kept(s, a)]
     if a.size == 0:
         return np.nan, np.nan
     f, z = truth(s, a)
@@ -120,7 +135,7 @@ def curve_errors(s: dict, model, low: float, high: float, at: np.ndarray | None 
 
 def sample_errors(s: dict, smp: ModalSamples) -> tuple[float, float]:
     a = smp.amplitude
-    keep = (a <= s["slip"] / KINK_BELOW) | (a >= KINK * s["slip"]) if KINK > 1 else np.ones(a.size, bool)
+    keep = _kept(s, a)
     if not keep.any():
         return np.nan, np.nan
     f, z = truth(s, a[keep])
@@ -135,14 +150,26 @@ def slip_error(s: dict, model) -> float:
     return float(joint.phi_max / s["slip"] - 1) if joint is not None else np.nan
 
 
-def fit(s: dict, chosen: list[tuple[ModalSamples, tuple[float, float] | None]], backbone: str):
-    joined = join_samples([c[0] for c in chosen])
-    own_fit = own_fit_for(backbone, (("m1", float(s["phi"][0])),))
-    noise = [source_noise(smp, stated, own_fit) for smp, stated in chosen]
-    f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen, noise)])
-    z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen, noise)])
-    return fit_amplitude_model(joined, (("m1", float(s["phi"][0])),), backbone, 2, frequency_std=f_std,
-                               damping_std=z_std)
+def fit(s: dict, chosen: dict[str, tuple[ModalSamples, tuple[float, float] | None]], backbone: str,
+        lines: SteppedSineLines | None = None):
+    """The fit of the ``chosen`` types (each weighted by its noise, as ``nlupdate amplitude``
+    does); with ``lines`` (``--stepped-sine lines``, the Jenkins backbone) and the stepped sine
+    among them, refined on its lines with the other types' samples (``refine_on_lines``)."""
+    shapes = (("m1", float(s["phi"][0])),)
+    joined = join_samples([c[0] for c in chosen.values()])
+    own_fit = own_fit_for(backbone, shapes)
+    noise = [source_noise(smp, stated, own_fit) for smp, stated in chosen.values()]
+    f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen.values(), noise)])
+    z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen.values(), noise)])
+    model = fit_amplitude_model(joined, shapes, backbone, 2, frequency_std=f_std, damping_std=z_std)
+    if lines is None or backbone != "jenkins" or "stepped-sine" not in chosen:
+        return model
+    names = [n for n in chosen if n != "stepped-sine"]
+    if not names:
+        return refine_on_lines(model, lines)[0]
+    others = join_samples([chosen[n][0] for n in names])
+    keep = np.concatenate([np.full(smp.amplitude.size, n != "stepped-sine") for n, (smp, _) in chosen.items()])
+    return refine_on_lines(model, lines, others, f_std[keep], z_std[keep])[0]
 
 
 def main() -> None:
@@ -159,11 +186,16 @@ def main() -> None:
                         help="how the ring-down is read: the decay fit (default) or segments")
     parser.add_argument("--extra-level", type=float, action="append", default=[], metavar="X",
                         help="one more phase-resonance and stepped-sine level at X × a_s (Jenkins systems; repeatable)")
+    parser.add_argument("--kink-inside", action="store_true",
+                        help="with --kink: only the amplitudes within the band instead of those outside it")
+    parser.add_argument("--stepped-sine", default="lines", choices=("lines", "peaks"),
+                        help="with --backbone jenkins: refine every fit with the stepped sine on its lines (default) "
+                             "or fit its peaks only (one sample per level, as before)")
     parser.add_argument("--at-samples", action="store_true",
                         help="each type's own fit at its samples' amplitudes instead of 60 over their range")
     args = parser.parse_args()
-    global KINK, KINK_BELOW
-    KINK = args.kink
+    global KINK, KINK_BELOW, INSIDE
+    KINK, INSIDE = args.kink, args.kink_inside
     KINK_BELOW = args.kink if args.kink_below is None else args.kink_below
     print(f"{'system':16s} {'type':16s} {'samples f':>9s} {'samples ζ':>9s} {'own fit f':>9s} {'own fit ζ':>9s} "
           f"{'a/slip':>12s}   held out: f, ζ")
@@ -175,25 +207,26 @@ def main() -> None:
         rows = {name: [] for name in TYPES + ("joint",)}
         slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):
-            every = samples(s, made, seed, args.ring_down)
+            every, lines = samples(s, made, seed, args.ring_down)
+            lines = lines if args.stepped_sine == "lines" else None
             for name, (smp, stated) in every.items():
-                own_model = fit(s, [(smp, stated)], args.backbone) if smp.amplitude.size >= 3 else None
+                own_model = fit(s, {name: (smp, stated)}, args.backbone, lines) if smp.amplitude.size >= 3 else None
                 own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(),
                                     smp.amplitude if args.at_samples else None)
                        if own_model is not None else (np.nan, np.nan))
-                rest = [every[other] for other in TYPES if other != name]
-                model = fit(s, rest, args.backbone)
+                rest = {other: every[other] for other in TYPES if other != name}
+                model = fit(s, rest, args.backbone, lines)
                 slips.setdefault(f"own {name}", []).append(slip_error(s, own_model))
                 slips.setdefault(f"without {name}", []).append(slip_error(s, model))
-                low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest))
+                low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest.values()))
                 if name == "impact":  # the linear limit lies below every other type: the models' a → 0 end
                     low = smp.amplitude.min()
-                high = min(smp.amplitude.max(), max(r[0].amplitude.max() for r in rest))
+                high = min(smp.amplitude.max(), max(r[0].amplitude.max() for r in rest.values()))
                 held = curve_errors(s, model, low, high, smp.amplitude) if low <= high else (np.nan, np.nan)
                 rows[name].append((*sample_errors(s, smp), *own, smp.amplitude.min() / s["slip"],
                                    smp.amplitude.max() / s["slip"], *held))
             joined = join_samples([smp for smp, _ in every.values()])
-            model = fit(s, list(every.values()), args.backbone)
+            model = fit(s, every, args.backbone, lines)
             slips.setdefault("joint", []).append(slip_error(s, model))
             rows["joint"].append((np.nan, np.nan, *curve_errors(s, model, joined.amplitude.min(), joined.amplitude.max()),
                                   joined.amplitude.min() / s["slip"], joined.amplitude.max() / s["slip"], np.nan,

@@ -163,7 +163,9 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
 
 
 # ---------------------------------------------------------------------------------- fitting
-def _residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
+def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
+    """Weighted relative misfits of ``samples`` about the curves ``model_omega_zeta(a) → (ω, ζ)``:
+    frequencies over ``frequency_std``, then damping ratios over ``damping_std`` (non-finite: 1e6)."""
     omega, zeta = model_omega_zeta(samples.amplitude)
     r_f = (omega / (2 * np.pi * samples.frequency_hz) - 1) / frequency_std
     r_z = (zeta / samples.damping_ratio - 1) / damping_std
@@ -250,7 +252,7 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
     return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
 
 
-def _iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
+def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
     """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
     logit(−χ) (χ ∈ (−1, 0), or fixed), log β (or fixed)."""
     values = iter(theta)
@@ -277,10 +279,10 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
         def unpack(t):
             phi = float(np.exp(t[-1]))
             scaled = ((shapes[0][0], phi),) + tuple((n, v * phi / shapes[0][1]) for n, v in shapes[1:])
-            return _iwan_model(t[:-1], scaled, fixed, mode, damping), samples.with_shape(phi)
+            return iwan_model(t[:-1], scaled, fixed, mode, damping), samples.with_shape(phi)
     else:
         def unpack(t):
-            return _iwan_model(t, shapes, fixed, mode, damping), samples
+            return iwan_model(t, shapes, fixed, mode, damping), samples
     z_low = float(samples.damping_ratio[np.argmin(samples.amplitude)])
     a_max = float(np.max(samples.amplitude))
     # log ω₀ is held in linear_limit_range by the trust region's own bounds: a logistic map
@@ -317,7 +319,7 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
                                 model, data = unpack(t)
                             except (ValueError, OverflowError):
                                 return np.full(2 * samples.amplitude.size, 1e6)
-                            return _residual(model.omega_zeta, data, frequency_std, damping_std)
+                            return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
 
                     lower, upper = np.full(len(theta), -np.inf), np.full(len(theta), np.inf)
                     lower[0], upper[0] = log_range
