@@ -144,3 +144,18 @@ def test_transmitter_beam_validate_reads_the_export(tmp_path):
     assert top["level"] == pytest.approx(0.45)
     assert top["resonance_hz"]["measured"] == pytest.approx(42.742, abs=0.002)
     assert np.isfinite(top["resonance_hz"]["predicted"]) and np.isfinite(top["baseline"]["resonance_hz"]["predicted"])
+
+
+def test_auto_does_not_extrapolate_the_top_level_with_lines():
+    """The top level held out (an extrapolation): ``lines`` ranks first on the kept levels but
+    its prediction's peak is 51 × the largest kept one (peak +9306 % against the measurement);
+    ``auto`` refuses it with a warning and its choice predicts the measured peak within its band."""
+    from nlupdate.core.validation.held_out import validate
+
+    data = FRFLevels.from_table(lockin_table(_data_folder() / FILE_NAME), "beam", "beam")
+    result = validate(data, "top", ["auto"])
+    (top,) = result.held_out
+    choice = result.choices[top.level]
+    assert "lines" in choice.refused and top.model != "lines" and "lines refused" in choice.warning
+    assert choice.scores["lines"] < choice.scores[top.model]  # refused for its extrapolation, not its rank
+    assert top.compared["peak_abs"].inside and abs(top.compared["peak_abs"].relative_error) < 0.5
