@@ -74,28 +74,38 @@ def test_flow_and_sequential_run_give_the_same_numbers(first_run):
 
 
 def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
-    """Flow runs are read back from the API: the study flow and its two fan-out subflows,
-    completed, named after their step and the study."""
+    """The run is read back from the API: one flow run, completed, with no flow runs under it
+    (a fan-out step's jobs are task runs of the study's flow run), every task run completed,
+    and each job's task run recorded as fed by the task runs of its step's inputs — the edges
+    the UI's run graph draws (``targets`` → each updating run)."""
     from prefect.client.orchestration import get_client
-    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentTaskRunId
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentFlowRunId
 
     _, _, manifest = first_run
 
-    async def flow_runs():
-        """The study's flow run and the flow runs started by its task runs."""
+    async def recorded():
+        """The study's flow run, the flow runs under it and its task runs."""
         async with get_client() as client:
             parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
+            children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
+                parent_flow_run_id=FlowRunFilterParentFlowRunId(any_=[parent.id])))
             task_runs = await client.read_task_runs(flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[parent.id])),
                                                     limit=200)
-            children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
-                parent_task_run_id=FlowRunFilterParentTaskRunId(any_=[run.id for run in task_runs])))
-            return parent, children
+            return parent, children, task_runs
 
     with talking_to(prefect_server):
-        parent, children = asyncio.run(flow_runs())
+        parent, children, task_runs = asyncio.run(recorded())
     assert parent.state_name == "Completed"
-    assert sorted(run.state_name for run in children) == ["Completed"] * 2
-    assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
+    assert children == []
+    assert len(task_runs) == 6 + 9 + 2 and {run.state_name for run in task_runs} == {"Completed"}
+    ids = {run.name: run.id for run in task_runs}
+    fed_by = {run.name: {put.id for put in run.task_inputs.get("inputs", [])} for run in task_runs}
+    jobs = [name for name in fed_by if name.startswith(("updating: ", "prediction: "))]
+    assert len(jobs) == 11
+    for name in jobs:  # every updating run is fed by the targets, every prediction by the identification
+        source = "targets" if name.startswith("updating: ") else "identification"
+        assert ids[f"{source}: two-dof"] in fed_by[name], (name, fed_by[name])
+    assert fed_by["identification: two-dof"] == {ids["measured data: two-dof"]}
 
 
 def test_a_run_talks_to_its_server_whatever_prefect_read_when_imported(prefect_server, tmp_path, monkeypatch):
@@ -126,47 +136,42 @@ async def _read_flow_run(flow_run_id: str):
         return await client.read_flow_run(flow_run_id)
 
 
-def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_server):
+def test_flow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_server):
     """Every run of the study read back from the API has a name that says what it is —
     the study and its start time, the steps, each updating run and prediction by its name
-    in the archive's tables — and none has a name Prefect made up (``updating-0``,
+    in the archive's tables, after its step's (the UI lists and draws a step's jobs together
+    by it) — and none has a name Prefect made up (``updating-0``,
     ``stoic-marmoset``). FE points have no task runs. The manifest's entries are these
     names and the tally of FE points."""
     import datetime as dt
     import re
 
     from prefect.client.orchestration import get_client
-    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentFlowRunId
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId
 
     _, archive, manifest = first_run
 
     async def runs():
         async with get_client() as client:
             parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
-            children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
-                parent_flow_run_id=FlowRunFilterParentFlowRunId(any_=[parent.id])))
-            tasks = {}
-            for run in (parent, *children):
-                tasks[run.name] = await client.read_task_runs(
-                    flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[run.id])), limit=200)
-            return parent, children, tasks
+            return parent, await client.read_task_runs(
+                flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[parent.id])), limit=200)
 
     with talking_to(prefect_server):
-        parent, children, tasks = asyncio.run(runs())
+        parent, tasks = asyncio.run(runs())
     match = re.fullmatch(r"two-dof (\d{4}-\d\d-\d\d \d\d:\d\d) UTC", parent.name)
     assert match, parent.name
     named_at = dt.datetime.strptime(match[1], "%Y-%m-%d %H:%M").replace(tzinfo=dt.timezone.utc)
     started = dt.datetime.fromisoformat(manifest["run"]["started_utc"])
     assert 0 <= (started - named_at).total_seconds() < 61, (parent.name, started)  # named as it started
 
-    assert sorted(run.name for run in children) == ["predictions: two-dof", "updating: two-dof"]
     steps = {"measured data", "identification", "targets", "comparison", "candidate FRFs", "warnings"}
-    assert sorted(t.name for t in tasks[parent.name]) == sorted(
-        [f"{step}: two-dof" for step in steps] + ["predictions: two-dof", "updating: two-dof"])  # + the subflows'
+    names = [t.name for t in tasks]
+    assert sorted(name for name in names if name.endswith(": two-dof")) == sorted(f"{step}: two-dof" for step in steps)
 
     candidates = set(pd.read_parquet(archive / "tables" / "runs.parquet")["candidate"])
     assert len(candidates) == 9 and "optimisation {k1}" in candidates
-    updating = [t.name for t in tasks["updating: two-dof"]]
+    updating = [name for name in names if name.startswith("updating: ")]
     jobs = set(updating)
     # in ASCII: the UI's run graph draws no other characters (O(h²) and O(h⁴) would both read O(h))
     assert jobs == {f"updating: {candidate}".replace("²", "^2").replace("⁴", "^4") for candidate in candidates}
@@ -178,10 +183,10 @@ def test_flow_subflow_and_task_runs_are_named_by_what_they_compute(first_run, pr
 
     models = set(pd.read_parquet(archive / "tables" / "correlation.parquet")["model"])
     assert models >= {"initial"} and len(models) == 2
-    assert {t.name for t in tasks["predictions: two-dof"]} == {f"prediction: {model}" for model in models}
+    assert {name for name in names if name.startswith("prediction: ")} == {f"prediction: {model}" for model in models}
+    assert len(names) == len(steps) + len(jobs) + len(models)  # no other task run
 
-    everything = [run.name for run in children] + [t.name for ts in tasks.values() for t in ts]
-    made_up = [name for name in everything if ": " not in name or re.search(r"-\d+$", name)]
+    made_up = [name for name in names if ": " not in name or re.search(r"-\d+$", name)]
     assert not made_up, made_up
     assert set(manifest["run"]["tasks"]) == steps | jobs | {f"prediction: {model}" for model in models} | {"FE point"}
 

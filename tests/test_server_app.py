@@ -112,3 +112,36 @@ def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypat
     holder.execute("COMMIT")
     writer.execute("INSERT INTO runs VALUES ('COMPLETED')")  # the retry gets through
     assert [row[0] for row in writer.execute("SELECT state FROM runs")] == ["RUNNING", "COMPLETED"]
+
+
+def test_the_background_worker_looks_for_work_every_five_seconds_and_still_does_it(monkeypatch):
+    """The server's docket worker (Prefect's background jobs) is made with 5 s between its
+    looks for work instead of 0.25 s — that polling was most of an idle kept server's CPU —
+    and still runs a job queued for it."""
+    import datetime as dt
+
+    import prefect.server.api.background_workers as workers
+    from docket import Docket
+
+    from nlupdate.orchestration.flows.server_app import BACKGROUND_POLL_S, poll_background_work_slowly
+
+    monkeypatch.setattr(workers, "Worker", workers.Worker)  # restored after
+    poll_background_work_slowly()
+    poll_background_work_slowly()  # twice is once
+    assert workers.Worker.docket_worker.__module__.startswith("docket")
+    done = []
+
+    async def job(value: int) -> None:
+        done.append(value)
+
+    async def run() -> None:
+        async with Docket(name="nlupdate-test", url="memory://nlupdate-test") as docket:
+            async with workers.Worker(docket) as worker:
+                assert worker.minimum_check_interval == worker.scheduling_resolution == dt.timedelta(
+                    seconds=BACKGROUND_POLL_S) == dt.timedelta(seconds=5)
+                docket.register(job)
+                await docket.add(job)(7)
+                await worker.run_until_finished()
+
+    asyncio.run(run())
+    assert done == [7]

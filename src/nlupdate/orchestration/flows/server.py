@@ -108,7 +108,13 @@ def flush_run_history(timeout_s: float = 30.0) -> None:
 #: recorder and the API), and the UI shows the run as before. Measured on cold demos against
 #: a running server (two A/B rounds, load 10–14): the server's CPU 5.6–5.7 s with it,
 #: 4.0–4.7 s without (docs/performance.md, "Prefect's share of the demo").
-RUN_SERVER_SETTINGS = {"PREFECT_SERVER_SERVICES_EVENT_PERSISTER_ENABLED": "false"}
+#: Nor does it run the services no run of ours uses: automations (the triggers and actions
+#: services read every event of the run against automations, of which a run server has none)
+#: and the stream of events to websocket subscribers (none: the UI is not served here). The
+#: task-run recorder, which writes the task runs' states from their events, stays.
+RUN_SERVER_SETTINGS = {"PREFECT_SERVER_SERVICES_EVENT_PERSISTER_ENABLED": "false",
+                       "PREFECT_SERVER_SERVICES_TRIGGERS_ENABLED": "false",
+                       "PREFECT_SERVER_EVENTS_STREAM_OUT_ENABLED": "false"}
 
 
 class RunServer:

@@ -3,7 +3,8 @@ tasks, then the run's archive.
 
 Each step is a task named after it (:mod:`nlupdate.orchestration.tasks.cached`), keyed by its entry in the
 chain (:func:`nlupdate.orchestration.tasks.keys.step_key`). A fan-out step — the updating runs, the
-predictions — is a subflow named after it. Its jobs start at once, each on a coordinator
+predictions — is a task run per job in the study's flow run, each named after its step and
+job (``updating: central O(h^2) {E}``). Its jobs start at once, each on a coordinator
 thread that runs its job task; jobs whose FE points are known beforehand (the
 predictions: :attr:`~nlupdate.study.chain.Step.points`) submit those at once and then run
 in turn. The FE evaluations are not tasks: a job computes its points inside its task, on
@@ -29,14 +30,15 @@ from typing import Any, Callable, Iterator
 
 from prefect import flow
 from prefect.context import FlowRunContext
+from prefect.utilities.annotations import opaque
 from rich.markup import escape
 
 from nlupdate.orchestration.flows.cache import Cache
-from nlupdate.orchestration.flows.handles import Handle, handle, study_handle
+from nlupdate.orchestration.flows.handles import Handle, study_handle
 from nlupdate.orchestration.flows.liveness import claim_flow_run
 from nlupdate.orchestration.flows.status_lines import current_progress
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
-from nlupdate.study.chain import CHAIN, STEPS, Step, StudyResult, study_result
+from nlupdate.study.chain import CHAIN, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
 from nlupdate.study.steps.updating import RunFailure
 from nlupdate.orchestration.tasks import cached, keys
@@ -56,7 +58,7 @@ def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: 
     key = keys.step_key(step, study, input_keys)
     started = time.perf_counter()
     task = cache.task(cached.chain_step, step.name, step_run_name(step.name, study.name))
-    future = task.submit(key, step.name, study, tuple(inputs))
+    future = task.submit(key, step.name, Opaque(study), _opaque(inputs))
     future.wait()
     result = future.result()
     current_progress().finished(step.name, future.state.name, step.describe(study, result),
@@ -64,20 +66,22 @@ def _step_task(step: Step, study: Study, inputs: list, input_keys: list, cache: 
     return result, key
 
 
-@flow(name="fan-out")
-def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, cache: Cache) -> tuple[Any, str]:
-    """Every job of the fan-out step ``step_name``, started together, their FE points in
-    the run's registry ``points``; their outcomes gathered by the step. Returns the result
-    and its key. Each job's task run, progress line and manifest entry carry the job's
-    name (:func:`~nlupdate.orchestration.tasks.names.job_run_name`)."""
-    claim_flow_run()
-    step, study, (values, input_keys), registry = STEPS[step_name], study.value, inputs.value, points.value
-    _name_the_subflow_task_run(step_run_name(step.name, study.name))
+def _fan_out(step: Step, study: Study, values: list, input_keys: list, registry: PointRegistry,
+             cache: Cache) -> tuple[Any, str]:
+    """Every job of the fan-out step ``step``, started together as task runs of the study's
+    flow run, their FE points in the run's ``registry``; their outcomes gathered by the
+    step. Returns the result and its key. Each job's task run, progress line and manifest
+    entry carry the job's name, which starts with the step's
+    (:func:`~nlupdate.orchestration.tasks.names.job_run_name`): the UI lists and draws a
+    step's jobs together by it. (A subflow per step grouped them too, at four API writes and
+    a task runner of its own per step, about 0.2 s of CPU each; tags would cost a
+    concurrency-slot round trip per task run.)"""
     progress = current_progress()
     spec = step.model(study)
     model = keys.model_identity(spec, adapter_for(spec).model_fingerprint())
     jobs = step.jobs(study, *values)
     count, finished, in_order = len(jobs), iter(range(1, len(jobs) + 1)), threading.Lock()
+    shared = _opaque(values)
 
     def report(name: str, state: str, detail: str, seconds: float | None = None) -> None:
         with in_order:  # lines in the order of their i/N
@@ -89,7 +93,7 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
         task = cache.task(cached.chain_job, step.name, name)
         started = time.perf_counter()
         with evaluating_with(RegistryPointEvaluator(spec, registry)):
-            state = task(key, step.name, study, job, tuple(values), return_state=True)
+            state = task(key, step.name, Opaque(study), Opaque(job), shared, return_state=True)
         if state.is_completed():
             outcome = state.result()
             # a job read from the cache ran no FE points here: its result's own counts are
@@ -123,28 +127,32 @@ def fan_out_flow(step_name: str, study: Handle, inputs: Handle, points: Handle, 
             keys.gathered_key(step, [key for _, key in outcomes if key is not None]))
 
 
-def _name_the_subflow_task_run(name: str) -> None:
-    """Give the task run Prefect adds to the parent flow run for this subflow (``updating-0``)
-    the subflow's name."""
-    context = FlowRunContext.get()
-    if context.flow_run.parent_task_run_id is not None:
-        context.client.set_task_run_name(context.flow_run.parent_task_run_id, name)
+class Opaque(opaque):
+    """Prefect's ``opaque``: a task argument whose own task run Prefect finds (the edge of the
+    run graph) and which it does not walk into. Prefect looks through every argument of a
+    task run for futures, twice (recording its inputs, then resolving them): through a
+    study's results that was about 0.4 s of the demo's CPU. Pickled as what it wraps (for a
+    Dask worker): Prefect's own, a tuple, comes back wrapping a tuple of its value."""
+
+    __slots__ = ()
+
+    def __reduce__(self):
+        return type(self), (self.unwrap(),)
 
 
-def _as_written(text: str):
-    """A flow run name shown as written (a string would be read as a format template)."""
-    return lambda: text
+def _opaque(values: list) -> tuple:
+    """A task's inputs, each :class:`Opaque`."""
+    return tuple(Opaque(value) for value in values)
 
 
 def run_chain(study: Study, cache: Cache) -> tuple[StudyResult, dict[str, str]]:
-    """Every step the study asks for, as cached tasks and subflows; the result and every
+    """Every step the study asks for, as cached tasks; the result and every
     step's key (step name → key)."""
     results: dict[str, Any] = {}
     result_keys: dict[str, str] = {}
-    subflow_runner = FlowRunContext.get().task_runner
-    with _point_executor(subflow_runner) as submit:
+    with _point_executor(FlowRunContext.get().task_runner) as submit:
         registry = PointRegistry(submit, cache.store, cache.refresh)
-        _run_steps(study, cache, subflow_runner, handle(registry, "the FE points of this run"), results, result_keys)
+        _run_steps(study, cache, registry, results, result_keys)
         if any(step.fans_out and step.name in results for step in CHAIN):
             _tally_points(registry.states())
     return study_result(study, results), result_keys
@@ -166,7 +174,7 @@ def _point_executor(task_runner: Any) -> Iterator[Callable[..., Any]]:
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _run_steps(study: Study, cache: Cache, subflow_runner: Any, points: Handle, results: dict[str, Any],
+def _run_steps(study: Study, cache: Cache, registry: PointRegistry, results: dict[str, Any],
                result_keys: dict[str, str]) -> None:
     """Each step the study asks for in chain order, its result and key into ``results`` and
     ``result_keys``."""
@@ -176,11 +184,7 @@ def _run_steps(study: Study, cache: Cache, subflow_runner: Any, points: Handle, 
         inputs = [results.get(name) for name in step.inputs]
         input_keys = [result_keys.get(name) for name in step.inputs]
         if step.fans_out:
-            subflow = fan_out_flow.with_options(name=step.name, task_runner=subflow_runner.duplicate(),
-                                                flow_run_name=_as_written(step_run_name(step.name, study.name)))
-            results[step.name], result_keys[step.name] = subflow(
-                step.name, study_handle(study), handle((inputs, input_keys), f"inputs: {', '.join(step.inputs)}"),
-                points, cache)
+            results[step.name], result_keys[step.name] = _fan_out(step, study, inputs, input_keys, registry, cache)
         else:
             results[step.name], result_keys[step.name] = _step_task(step, study, inputs, input_keys, cache)
 
