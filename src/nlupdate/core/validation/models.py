@@ -31,7 +31,8 @@ is 27 % below it at 0.19 N, :func:`frf_at_forces`); PRD regenerates at the nomin
 
 A linear limit kept with the curves (:attr:`FRFLevels.linear_limit`, an impact's pole) is
 one more sample of the ``lines`` models' polynomials at a = 0 (:func:`lines_model`); the
-other models refuse it, and ``auto`` chooses among the ``lines`` models then.
+other models refuse it (``baseline`` leaves it out), and ``auto`` chooses among the ``lines``
+models then.
 """
 from __future__ import annotations
 
@@ -66,8 +67,8 @@ HELD_RANGE = 10.0
 class Fitted:
     """A model fitted on kept levels: called as ``fitted(frequency_hz, level)``, the
     receptance at a force level; ``at_response(frequency_hz, amplitude_m)``, the receptance
-    of a run that holds the response amplitude (m) at the driving point — None where the
-    model cannot say (PRD)."""
+    of a run that holds the response amplitude (m, one value or one per line) at the driving
+    point — None where the model cannot say (PRD)."""
 
     at_force: Predictor
     at_response: Predictor | None = None
@@ -128,9 +129,10 @@ def frf_at_forces(model: AmplitudeModalModel, frequency_hz: NDArray, force: floa
 
 
 def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str,
-                    frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
+                    frequency_hz: NDArray, amplitude_m: float | NDArray) -> NDArray[np.complex128]:
     """The driving-point receptance of ``model`` plus the other modes' ``background`` when
-    the response amplitude is held at ``amplitude_m`` (m) at every line: the force there is
+    the response amplitude is held at ``amplitude_m`` (m; one value, or one per line — a run
+    holding acceleration A holds A/Ω²: :attr:`HeldRun.held_on_lines`): the force there is
     ``X/|H|``, so the modal amplitude solves ``a = X·|H_mode(a)|/(|H(a)|·|φ_f|)`` with
     ``H_mode = φ_f²/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω)``, ``H = H_mode + background``. Per line the
     root nearest ``X/|φ_f|`` within a factor :data:`HELD_RANGE` either way, bracketed on a
@@ -139,26 +141,27 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
     f = np.asarray(frequency_hz, dtype=float)
     w, shape = 2 * np.pi * f[:, None], model.shape(dof)
     rest = background(f)[:, None]
-    centre = float(amplitude_m) / abs(shape)
+    held = np.broadcast_to(np.asarray(amplitude_m, dtype=float), f.shape)[:, None]
+    centre = held / abs(shape)
 
     def mismatch(log_a: NDArray) -> NDArray:
         omega, zeta = model.omega_zeta(np.exp(log_a))
         h_mode = shape**2 / (omega**2 - w**2 + 2j * zeta * omega * w)
-        return log_a - np.log(float(amplitude_m) * np.abs(h_mode) / (np.abs(h_mode + rest) * abs(shape)))
+        return log_a - np.log(held * np.abs(h_mode) / (np.abs(h_mode + rest) * abs(shape)))
 
     grid = np.log(centre) + np.linspace(-np.log(HELD_RANGE), np.log(HELD_RANGE), 241)[None, :]
-    g = mismatch(grid + 0 * w)
+    g = mismatch(grid)
     change = np.sign(g[:, :-1]) != np.sign(g[:, 1:])
     nearest = np.argmin(np.where(change, np.abs(grid[:, :-1] - np.log(centre)), np.inf), axis=1)
     rows = np.arange(f.size)
-    low, high = grid[0, nearest], grid[0, nearest + 1]
+    low, high = grid[rows, nearest], grid[rows, nearest + 1]
     g_low = g[rows, nearest]
     for _ in range(50):
         mid = 0.5 * (low + high)
         g_mid = mismatch(mid[:, None])[:, 0]
         same = np.sign(g_mid) == np.sign(g_low)
         low, g_low, high = np.where(same, mid, low), np.where(same, g_mid, g_low), np.where(same, high, mid)
-    a = np.where(change.any(axis=1), np.exp(0.5 * (low + high)), centre)
+    a = np.where(change.any(axis=1), np.exp(0.5 * (low + high)), centre[:, 0])
     omega, zeta = model.omega_zeta(a)
     return shape**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f) + background(f)
 
@@ -242,7 +245,7 @@ def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDA
         f = np.asarray(frequency_hz, dtype=float)
         return frf_at_forces(model, f, force, dof) + background(f)
 
-    def at_response(frequency_hz: NDArray, amplitude_m: float) -> NDArray[np.complex128]:
+    def at_response(frequency_hz: NDArray, amplitude_m: float | NDArray) -> NDArray[np.complex128]:
         return held_receptance(held_model or model, background, dof, frequency_hz, amplitude_m)
 
     return Fitted(at_force, at_response, per_line_force=True)
@@ -304,7 +307,7 @@ def _baseline(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
     physical range (:mod:`nlupdate.core.validation.auto_choice`)."""
     fits = baseline_fits(kept, kept.levels)
     return Fitted(lambda f, level: baseline_frf(fits, float(level), f),
-                  lambda f, amplitude_m: baseline_at_response(fits, amplitude_m, f))
+                  lambda f, amplitude_m: baseline_at_response(fits, float(np.median(amplitude_m)), f))
 
 
 #: Models by name (``prd:ELEMENTS`` is parsed by :func:`model_fitter`).
