@@ -113,3 +113,10 @@ def test_a_value_outside_a_band_gets_its_line():
     assert band_notes({"damping_ratio": Compared(2.0, 3.0, 1.5, 2.5)}) == [
         "the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
     assert band_notes({"resonance_hz": Compared(2.0, 2.1, 1.5, 2.5)}) == []
+
+
+def test_the_study_report_states_the_refusal(top):
+    from nlupdate.reporting.report import _validation_section
+
+    lines = _validation_section(top, {})
+    assert f"Warning: {top.choices[LEVELS[-1]].warning}" in lines
