@@ -274,7 +274,7 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
     unknown, as a log) is fitted too and the model's shapes carry it."""
     fixed = fixed or {}
     free_shape = samples.shape_free and samples.response_amplitude is not None
-    omega_range = linear_limit_range(samples, frequency_std)
+    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA)
     if free_shape:
         def unpack(t):
             phi = float(np.exp(t[-1]))

@@ -58,12 +58,29 @@ def damping_cap(samples: ModalSamples, damping_std: float | NDArray = 0.05) -> f
     return z_ref * (1 + 3 * float(np.median(damping_std)))
 
 
-def linear_limit_range(samples: ModalSamples, frequency_std: float) -> tuple[float, float]:
+#: with ``form_extrapolates``, the highest linear limit is this factor above the highest sample's
+#: frequency: a joint stuck at most as stiff as the rest of the mode (K_T ≤ ω∞², a guard only)
+FORM_REACH = float(np.sqrt(2.0))
+
+
+def linear_limit_range(samples: ModalSamples, frequency_std: float,
+                       form_extrapolates: bool = False) -> tuple[float, float]:
     """(lowest, highest) linear limit ω₀ (rad/s) that is physical for these samples (module
     docstring): at or above every sample, and above the lowest-amplitude one by no more than
-    the softening measured over all of them."""
+    the softening measured over all of them.
+
+    ``form_extrapolates`` (the ``jenkins`` backbone): no softening cap — the form carries the
+    stuck frequency below the samples itself. Its softening below the lowest sample at u × the
+    slip amplitude is K_T(1 − r(u)), r = Re ν/K_T, over the samples only K_T(r(u) − r(u_max)):
+    2.7 × less with samples from 3 to 15 × (r(3) = 0.29, r(15) = 0.03), and less still the
+    further they lie into macroslip, so the cap excluded the truth of a ring-down whose samples
+    start at 3 × and its fit missed the damping by 13–20 % (docs/ring-down.md); the highest
+    ω₀ is then :data:`FORM_REACH` × the highest sample's."""
     f = samples.frequency_hz
     f_ref = float(f[np.argmin(samples.amplitude)])
     typical = float(np.median(frequency_std))  # one value, or the median of each sample's
     margin = max((float(f.max()) - float(f.min())) / f_ref, 3 * typical)
-    return 2 * np.pi * float(f.max()) * (1 - 3 * typical), 2 * np.pi * f_ref * (1 + margin)
+    low = 2 * np.pi * float(f.max()) * (1 - 3 * typical)
+    if form_extrapolates:
+        return low, 2 * np.pi * float(f.max()) * FORM_REACH
+    return low, 2 * np.pi * f_ref * (1 + margin)
