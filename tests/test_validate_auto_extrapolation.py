@@ -120,3 +120,7 @@ def test_the_study_report_states_the_refusal(top):
 
     lines = _validation_section(top, {})
     assert f"Warning: {top.choices[LEVELS[-1]].warning}" in lines
+    table = next(line for line in lines if "measured in its 95 % band (f, ζ, peak)" in line)
+    # each quantity says whether the measured value is in its band; lines' top damping has no value, so no band
+    assert "| 0.35 | lines | +0.038 [-0.10, +0.23] | +nan | +989.2 | yes, –, yes |" in table
+    assert any(line.startswith("Note, 0.35 N `lines`: the extrapolation leaves the physical range") for line in lines)

@@ -382,6 +382,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
     lines += [f"Warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
+    lines += [f"Note, {number(r.level)} {unit} `{r.label}`: {r.note}" for r in validation.held_out if r.note]
     return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
 
 
@@ -393,6 +394,8 @@ def _errors(r) -> dict[str, str]:
             "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, {res.high - res.measured:+.2f}]",
             "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
             "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
+            "measured in its 95 % band (f, ζ, peak)": ", ".join(
+                "–" if q.inside is None else ("yes" if q.inside else "**no**") for q in c.values()),
             "baseline: resonance (Hz), damping (%), peak (%)":
                 f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
                 f"{100 * b['peak_abs'].relative_error:+.1f}",
