@@ -1,4 +1,4 @@
-"""What the Prefect UI calls the runs of a study: flow, subflow and task-run names that say
+"""What the Prefect UI calls the runs of a study: flow and task-run names that say
 what they are, built from plain values (names of the study, its steps and runs, parameter
 values). The progress lines and the manifest use the same names, so a line of either maps
 to one run on the server.
@@ -6,7 +6,6 @@ to one run on the server.
 =====================  ==========================================
 the study flow run     ``two-dof 2026-11-25 10:03 UTC``
 a step's task run      ``identification: two-dof``
-a fan-out subflow      ``updating: two-dof``
 a job's task run       ``updating: eigensensitivity central O(h²) {E, h2}``,
                        ``prediction: optimisation {E, h2} equal weights``
 a discovery candidate  ``candidate fit, round 2: dry_friction on [0]``
@@ -41,7 +40,7 @@ def study_run_name(study: str, started: dt.datetime) -> str:
 
 
 def step_run_name(step: str, study: str) -> str:
-    """A chain step's task run, or a fan-out step's subflow run: ``identification: two-dof``."""
+    """A chain step's task run: ``identification: two-dof``."""
     return ascii_name(f"{step}: {study}")
 
 
