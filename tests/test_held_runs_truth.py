@@ -103,7 +103,8 @@ def simulated_test(held: tuple[float, ...] = HELD) -> tuple[list, list]:
 
 def measured(levels: list, runs: list, noise: float, seed: int) -> tuple[FRFLevels, list[HeldRun]]:
     """The curves with ``noise`` (relative, per line) as the tool reads a test: the levels at
-    their achieved forces; each run's held amplitude the median of its achieved |X|."""
+    their achieved forces; each run at the |X| it achieved on each line (its held amplitude
+    the median)."""
     rng = np.random.default_rng(seed)
     data = FRFLevels("x", "x", np.array([nominal for nominal, _, _ in levels]), tuple(GRID for _ in levels),
                      tuple(add_frf_noise(h, noise, rng) for _, _, h in levels),
@@ -111,7 +112,8 @@ def measured(levels: list, runs: list, noise: float, seed: int) -> tuple[FRFLeve
     out = []
     for k, (force, h) in enumerate(runs, start=1):
         noisy = add_frf_noise(h, noise, rng)
-        out.append(HeldRun(f"run {k}", "x", "x", GRID, noisy, float(np.median(np.abs(noisy) * force)), force))
+        achieved = np.abs(noisy) * force  # the displacement on each line, as its response sensor reads it
+        out.append(HeldRun(f"run {k}", "x", "x", GRID, noisy, float(np.median(achieved)), force, achieved))
     return data, out
 
 
@@ -160,3 +162,35 @@ def test_held_runs_are_predicted_without_bias_from_force_controlled_levels():
         truth = resonance(GRID, h)
         assert abs(r.compared["damping_ratio"].predicted / truth.damping_ratio - 1) < 0.08, r.run
         assert abs(r.compared["resonance_hz"].predicted - truth.resonance_hz) < 0.06, r.run
+
+
+def test_a_run_holding_acceleration_is_predicted_at_its_displacement_on_each_line():
+    """A run holding the acceleration A holds the displacement A/Ω² on line Ω: the BRB's MAT
+    reader keeps the displacement each line achieved (``held_line_m``: runs 2 and 8, held at
+    20 and 80 m/s², within 7 % of A/Ω² on every line — the controller settles on the first
+    lines — and 3.8–4.0 % larger on its lowest eight lines than on its highest), and a single-mode
+    model predicts a run at its displacement on each line — the closed form of a mode whose
+    ω and ζ depend on the amplitude, no other modes: H = φ²/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω),
+    a = X/|φ|, X = A/Ω² per line."""
+    from nlupdate.core.identification.response_controlled import read_response_controlled
+    from nlupdate.core.measurement.units import ReadOptions
+    from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+    from nlupdate.core.validation.models import held_receptance
+    from test_real_measurements import BRB
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        runs = read_response_controlled(BRB, ReadOptions(coordinates={str(BRB): ("acc3:-y", "acc3:y")}))
+    for run, target in ((runs[1], 20.0), (runs[-1], 80.0)):
+        held = run.held_on_lines
+        assert np.allclose(held * (2 * np.pi * run.frequency_hz) ** 2, target, rtol=0.07), run.name
+        assert 1.03 < np.median(held[:8]) / np.median(held[-8:]) < 1.05, run.name
+
+    phi = 0.8
+    model = AmplitudeModalModel(80.0, 0.002, (("x", phi),), frequency_coefficients=(-0.01,),
+                                damping_coefficients=(0.004,), reference_amplitude=400e-6 / phi)
+    f = GRID
+    x = 30.0 / (2 * np.pi * f) ** 2  # 30 m/s² held: 116–121 µm over the band
+    omega, zeta = model.omega_zeta(x / phi)
+    exact = phi**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f)
+    assert np.allclose(held_receptance(model, lambda g: np.zeros(g.shape, complex), "x", f, x), exact, rtol=1e-9)

@@ -12,7 +12,9 @@ when its response amplitude varies less along the run than its force (the rule t
 uses to leave them out of force-controlled data). The FRF ``H = amplitude·e^{i·phase}/force``
 is converted to receptance (m/N) with the sign of ``--coordinates`` (a sensor along −y), and
 the held displacement amplitude is the median of ``|amplitude|/ω^p`` over the run (p = 0, 1, 2
-for displacement, velocity, acceleration).
+for displacement, velocity, acceleration); each line keeps the displacement it achieved,
+``|amplitude|/ω^p`` (``HeldRun.held_line_m``: a run holding acceleration holds a
+displacement that falls as 1/ω² across the band, and a controller settles on the first lines).
 
 Universal files (``.uff``/``.unv``: docs/ring-down.md states the layouts): datasets 58 grouped
 into runs by their ID lines as for force-controlled exports
@@ -27,7 +29,8 @@ m/s2``, ``Rc5ms2``, ``a=0.5 g``). The held displacement is the median of ``targe
 run (p of the target's unit). The **force** at each line is the force spectrum's amplitude,
 else ``target/(Ω^p·|H|)``; with a force spectrum, the response it implies (``|H|·F``, or the
 response spectrum) is compared with the target and a median difference above 10 % is warned
-about (an RMS spectrum read as peak is 29 % low).
+about (an RMS spectrum read as peak is 29 % low). Each line keeps the displacement ``|H|·F``
+(the target's, without a force spectrum).
 
 Each run: one mode fitted by :func:`~nlupdate.core.identification.modal_fit.fit_mode_near` near
 the run's peak (residual terms for the other modes; structural damping, loss factor η, so
@@ -63,7 +66,10 @@ from nlupdate.notices import NlupdateWarning
 class HeldRun:
     """One response-controlled run: ``frequency_hz``, receptance ``h`` (m/N, the sensor's
     sign applied), the held displacement amplitude ``held_m`` (m), the force at each line
-    ``force_n`` (N) and the run's name."""
+    ``force_n`` (N) and the run's name. ``held_line_m``: the displacement the controller
+    achieved on each line (m) — a run holding acceleration A holds A/Ω² (±2.5 % over the
+    BRB's band), and the response on its first lines may lag the target — None for
+    ``held_m`` on every line."""
 
     name: str
     response_dof: str
@@ -72,6 +78,14 @@ class HeldRun:
     h: NDArray[np.complex128]
     held_m: float
     force_n: NDArray[np.float64]
+    held_line_m: NDArray[np.float64] | None = None
+
+    @property
+    def held_on_lines(self) -> NDArray[np.float64]:
+        """The displacement held on each line (m): ``held_line_m``, else ``held_m`` everywhere."""
+        if self.held_line_m is None:
+            return np.full(np.shape(self.frequency_hz), float(self.held_m))
+        return np.asarray(self.held_line_m, dtype=float)
 
 
 def read_response_controlled(path: str | Path, options: ReadOptions | None = None) -> list[HeldRun]:
@@ -106,9 +120,9 @@ def read_response_controlled(path: str | Path, options: ReadOptions | None = Non
             response, inp, sign = _run_coordinates(run, where, path, options)
             iw = 1j * 2 * np.pi * frequency
             h = sign * amplitude * response_factor * np.exp(1j * phase * phase_factor) / (force * reference_factor)
-            held = float(np.median(np.abs(amplitude) * response_factor / np.abs(iw) ** power))
-            runs.append(HeldRun(where.split(": ", 1)[1], response, inp, frequency, h / iw**power, held,
-                                force * reference_factor))
+            achieved = np.abs(amplitude) * response_factor / np.abs(iw) ** power  # displacement on each line, m
+            runs.append(HeldRun(where.split(": ", 1)[1], response, inp, frequency, h / iw**power,
+                                float(np.median(achieved)), force * reference_factor, achieved))
     if not runs:
         raise MeasurementTableError(f"{path}: holds no response-controlled run (none holds its response amplitude "
                                     f"more steadily than its force)")
@@ -197,7 +211,7 @@ def _read_uff(data: bytes, path: Path, options: ReadOptions) -> list[HeldRun]:
                               f"target?", NlupdateWarning, stacklevel=3)
         runs.append(HeldRun(run or f"dataset {main.index}", main.response_dof,
                             main.input_dof if main.kind == "frf" else force.response_dof, frequency, h,
-                            float(np.median(target)), force_n))
+                            float(np.median(target)), force_n, np.abs(h) * force_n))
     return runs
 
 

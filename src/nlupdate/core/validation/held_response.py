@@ -3,7 +3,10 @@
 A response-controlled stepped-sine run holds the response amplitude X at the driving point
 while the force varies (:mod:`nlupdate.core.identification.response_controlled` reads
 them); it samples the mode at one amplitude. Each model is fitted on **every**
-force-controlled level and predicts the run's receptance at the held X
+force-controlled level and predicts the run's receptance at the held X — on each line the
+displacement the run achieved there (``HeldRun.held_on_lines``: a run holding acceleration
+holds A/Ω², and on a simulated BRB-like mode its curve reads up to 3.4 % more damped than
+one held at its median displacement, benchmarks/held_runs_truth.py) —
 (:attr:`~nlupdate.core.validation.models.Fitted.at_response`); the run's resonance,
 damping ratio and peak |H| — and the force needed at resonance, X/peak — are
 compared with the measured ones (the estimator of :mod:`nlupdate.core.validation.resonance`
@@ -77,8 +80,9 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
             raise ValueError(f"response-controlled run {run.name}: at {run.response_dof}/{run.input_dof}, not the "
                              f"driving point {data.input_dof} of the force-controlled curve")
         f, h = run.frequency_hz, run.h
-        predicted = fitted.at_response(f, run.held_m)
-        curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, run.held_m))
+        held = run.held_on_lines  # a run holding acceleration holds A/Ω² on each line
+        predicted = fitted.at_response(f, held)
+        curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, held))
         misfit = kept_misfit(fitted, data, levels) if len(curves) < 3 else None
         base = baseline_at_response(fits, run.held_m, f)
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
