@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.decay_fit import PRECISION, fit_decay
-from nlupdate.core.identification.ring_down import RingDownError
+from nlupdate.core.identification.decay_fit import PRECISION, fit_decay, noise_correlation
+from nlupdate.core.identification.ring_down import RingDownError, analytic_band_pass
 from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth
 
 
@@ -54,11 +54,12 @@ def test_linear_decay_is_its_pole_and_its_stated_error_holds():
         assert np.all(z_std <= PRECISION * z) and np.all(samples.force_n == 0)
 
 
-def check_seeds(dofs: int, kind: str, seeds: range) -> None:
+def check_seeds(dofs: int, kind: str, seeds: range, covered: float | None = None) -> None:
     """Every sample the fit reports (where its damping is known to 1.5 %) within 0.2 % in
     frequency and 5 % in damping of the truth, at least two samples a seed, and an amplitude
-    range like the measured one (a / the Jenkins slip amplitude: 2.9–15.2, 0.45–1.04,
-    3.2–16.9, 27–141)."""
+    range like the measured one (a / the Jenkins slip amplitude, seeds 0–39: 2.9–15.2,
+    0.45–1.04, 3.2–16.9, 27.5–141) over the seeds, at least a factor ``covered`` (default 4,
+    2 on the SDOF Iwan record)."""
     s, t, x = ring_down(dofs, kind)
     lowest, highest = [], []
     for seed in seeds:
@@ -68,22 +69,25 @@ def check_seeds(dofs: int, kind: str, seeds: range) -> None:
         assert np.max(np.abs(ez)) < 0.05, seed
         lowest.append(a.min() / s["slip"])
         highest.append(a.max() / s["slip"])
-    covered = {(1, "jenkins"): 4, (1, "iwan"): 2, (2, "jenkins"): 4, (2, "iwan"): 4}[dofs, kind]
+    covered = covered or {(1, "jenkins"): 4, (1, "iwan"): 2, (2, "jenkins"): 4, (2, "iwan"): 4}[dofs, kind]
     assert max(highest) / min(lowest) > covered
 
 
 @pytest.mark.parametrize("dofs, kind", SYSTEMS)
 def test_noisy_ring_down_within_the_issue_bounds_of_the_truth(dofs, kind):
-    """2 % noise, seeds 0–2 (the slow test below: 0–11): :func:`check_seeds`."""
-    check_seeds(dofs, kind, range(3))
+    """2 % noise, seeds 0–2 (the slow test below: 0–11): :func:`check_seeds`. The 2-DOF Iwan
+    record's lowest sample (27 × a_s) is dropped in these three seeds since the standard errors
+    carry the F-test's choice of terms (1.7–3.4 % there; 41–141 × kept, a factor 3.4): a factor
+    3 here, 4 over the twelve seeds of the slow test."""
+    check_seeds(dofs, kind, range(3), 3 if (dofs, kind) == (2, "iwan") else None)
 
 
 @pytest.mark.slow  # 12 seeds × 4 systems: 15 s CPU, 45 s at load 7 on 2 cores
 @pytest.mark.parametrize("dofs, kind", SYSTEMS)
 def test_noisy_ring_down_within_the_issue_bounds_over_twelve_seeds(dofs, kind):
-    """2 % noise, seeds 0–11: :func:`check_seeds` (measured over seeds 0–39: ≤ 1.1e-3 in
-    frequency and 3.7–6.0 % in damping, the only two above 5 % at 3.0 and 4.4 × a Jenkins slip
-    amplitude, where the record itself dissipates 1–3 % more than the periodic truth;
+    """2 % noise, seeds 0–11: :func:`check_seeds` (measured over seeds 0–39: ≤ 8.1e-4 in
+    frequency and 3.7–6.0 % in damping; over 0–79 five samples above 5 %, 5.4–6.0 %, all on the
+    SDOF records, whose noise-free record itself dissipates 1–2 % more than the periodic truth;
     docs/ring-down.md)."""
     check_seeds(dofs, kind, range(12))
 
@@ -129,3 +133,45 @@ def test_amplitude_command_reads_a_ring_down_by_the_decay_fit(tmp_path, capsys):
     assert len(points) >= 3
     assert np.max(np.abs(points["natural_frequency_hz"] / f - 1)) < 2e-3
     assert np.max(np.abs(points["damping_ratio"] / zeta - 1)) < 0.05
+
+
+def test_noise_correlation_is_the_filtered_noise_own():
+    """The factor the fit's covariance takes for its correlated values against white noise
+    band-passed by the ring-down's filter and taken every ``step`` samples at baseband (Monte
+    Carlo, 300 records of 20 s at 1 kHz, band 7–13 Hz): the variance of their mean times their
+    count over one value's variance (measured 4.54 against 4.42, the sampling error of 300
+    variances about 8 %; 1 for values far apart)."""
+    fs, band_hz, step = 1000.0, (7.0, 13.0), 42
+    rng = np.random.default_rng(5)
+    means, values = [], []
+    t = np.arange(20000) / fs
+    for _ in range(300):  # at baseband, as the fit takes them
+        z = (analytic_band_pass(t, rng.standard_normal(t.size), band_hz, fs)[0]
+             * np.exp(-2j * np.pi * np.mean(band_hz) * t))[3000:-3000:step]
+        means.append(z.real.mean())
+        values.append(z.real)
+    measured = np.var(means) * len(values[0]) / np.var(np.concatenate(values))
+    assert abs(noise_correlation(band_hz, fs, step) / measured - 1) < 0.15
+    assert abs(noise_correlation(band_hz, fs, 1000) - 1) < 0.01
+
+
+@pytest.mark.parametrize("dofs", [1, 2])
+def test_ring_down_alone_gives_the_jenkins_backbone_over_its_amplitudes(tmp_path, dofs):
+    """Issue 37: ``nlupdate amplitude --ring-down FILE --backbone jenkins``, the Jenkins record
+    alone (2 % noise, seed 1), its fitted curve (backbone.csv) within 0.2 % in frequency and 5 %
+    in damping of the truth over the amplitudes its samples cover (2.98–15.1 and 3.3–16.8 ×
+    the slip amplitude). Its samples all lie in macroslip, where a cap on the linear limit at the
+    softening measured over them excluded the truth and the fit missed by 13–21 %
+    (docs/ring-down.md; measured here 2.6 % and 0.5 %)."""
+    s, t, x = ring_down(dofs, "jenkins")
+    pd.DataFrame({"time_s": t, "m1": noisy(x, 1)}).to_csv(tmp_path / "decay.csv", index=False)
+    assert main(["amplitude", "--ring-down", str(tmp_path / "decay.csv"), "--ring-down-fit", "decay", "--shape",
+                 f"m1={s['phi'][0]}", "--band", "{}:{}".format(*band(s)), "--backbone", "jenkins",
+                 "--bootstrap", "0", "--out", str(tmp_path / "amm")]) == 0
+    points = pd.read_csv(tmp_path / "amm" / "backbone_points.csv")["modal_amplitude"]
+    curve = pd.read_csv(tmp_path / "amm" / "backbone.csv")
+    covered = curve[(curve["modal_amplitude"] >= points.min()) & (curve["modal_amplitude"] <= points.max())]
+    f, zeta = truth(s, covered["modal_amplitude"].to_numpy())
+    assert len(covered) >= 10 and points.max() / points.min() > 3
+    assert np.max(np.abs(covered["natural_frequency_hz"] / f - 1)) < 2e-3
+    assert np.max(np.abs(covered["damping_ratio"] / zeta - 1)) < 0.05
