@@ -105,8 +105,8 @@ def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> dict[str, float]:
                 errors.append(relative_error(h, predicted))
             for k, run in enumerate(runs):
                 others = [r for j, r in enumerate(runs) if j != k]
-                errors.append(relative_error(run.h, model_fitter(name, others)(kept).at_response(run.frequency_hz,
-                                                                                                 run.held_m)))
+                errors.append(relative_error(run.h, model_fitter(name, others)(kept).at_response(
+                    run.frequency_hz, run.held_on_lines)))  # the displacement each line achieved
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):
             scores[name] = float("nan")
@@ -119,7 +119,7 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
     level predicted from the other levels and all runs, each run (at its held amplitude)
     from all levels and the other runs — a run a fit keeps is evidence it must predict too
     (on the BRB's top level the three kept levels alone tie ``lines`` 0.299 against
-    ``lines-background`` 0.302; the eight runs part them, 0.51 against 0.31). ``level``: the
+    ``lines-background`` 0.302; the eight runs part them, 0.48 against 0.32 — each run predicted at the displacement it achieved on each line). ``level``: the
     held-out level the choice predicts; outside the kept range the physical-range check
     applies (module docstring)."""
     if kept.levels.size < 3:
