@@ -119,7 +119,8 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
     level predicted from the other levels and all runs, each run (at its held amplitude)
     from all levels and the other runs — a run a fit keeps is evidence it must predict too
     (on the BRB's top level the three kept levels alone tie ``lines`` 0.299 against
-    ``lines-background`` 0.302; the eight runs part them, 0.48 against 0.32 — each run predicted at the displacement it achieved on each line). ``level``: the
+    ``lines-background`` 0.302; the eight runs part them, 0.48 against 0.32 — each run
+    predicted at the displacement it achieved on each line). ``level``: the
     held-out level the choice predicts; outside the kept range the physical-range check
     applies (module docstring)."""
     if kept.levels.size < 3:
