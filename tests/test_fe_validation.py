@@ -41,7 +41,8 @@ def _raw_runs() -> dict[str, list]:
 
 def test_measured_runs_are_the_files_curves():
     """Every run of the file, in order, its resonance, damping ratio and peak as the estimator
-    gives them on the raw curve (force-controlled runs ascending in force)."""
+    gives them on the raw curve (force-controlled runs ascending in force); each response-controlled
+    run's displacement on each line the file's acceleration amplitude over Ω²."""
     runs = read_forced_runs(FORCED, ("acc3:-y", "acc3:y"))
     raw = _raw_runs()
     assert [r.control for r in runs] == ["force"] * len(raw["ForceControl"]) + ["response"] * len(raw["ResponseControl"])
@@ -56,6 +57,59 @@ def test_measured_runs_are_the_files_curves():
         assert found["peak"] == pytest.approx(reference.peak_abs, rel=1e-9)
     held = [run.level for run in runs if run.control == "response"]
     assert held == sorted(held) and 1e-5 < held[0] < held[-1] < 1e-3  # metres of held displacement
+    raw_runs = np.atleast_1d(scipy.io.loadmat(FORCED, squeeze_me=True, struct_as_record=False)["FRdata"].ResponseControl)
+    for run, raw_run in zip([run for run in runs if run.control == "response"], raw_runs):
+        # each line's held displacement: the file's acceleration amplitude over Ω² (falls across the band)
+        f = np.asarray(raw_run.frequency, float)
+        np.testing.assert_allclose(run.held_line_m, np.abs(raw_run.amplitude) / (2 * np.pi * f) ** 2, rtol=1e-9)
+        assert run.level == pytest.approx(np.median(run.held_line_m), rel=1e-12)
+
+
+def test_a_run_holding_acceleration_is_predicted_at_its_displacement_on_each_line():
+    """A response-controlled run holding the acceleration A holds the displacement X = A/Ω² on
+    line Ω (5 % more on the lowest line than on the highest of a BRB-like 79.3–81.3 Hz band);
+    the run is predicted on each line at the X it achieved there. Reference: an SDOF (1 kg,
+    loss factor η on the spring K − k_f) with a Jenkins element (spring k_f, slip force F_s) in
+    microslip, whose first-harmonic receptance at displacement amplitude X is the closed form
+    H = 1/((K − k_f)(1 + iη) − Ω² + ν(X)), ν the textbook describing function (β = arccos(1 − 2F_s/(k_f X))):
+    Re ν = (k_f/π)(β − ½ sin 2β), Im ν = 4F_s(X − F_s/k_f)/(πX²). Its ζ rises with X, so the run's
+    curve at the per-line X reads 1.3 % more damped than one held at its median X — which the
+    single-amplitude prediction gave; the per-line prediction matches the closed form to 1e-5."""
+    from nlupdate.core.model.elements.jenkins import JenkinsFriction
+    from nlupdate.core.model.linear import LumpedModel
+    from nlupdate.core.model.system import NonlinearSystem
+
+    frequency = np.round(np.arange(79.3, 81.3001, 0.05), 4)  # Hz, the BRB's 41 lines
+    omega = 2 * np.pi * frequency
+    held = 30.0 / omega**2  # m: 30 m/s² held, 115-121 µm
+    k, kf = (2 * np.pi * 80.705) ** 2, 0.02 * (2 * np.pi * 80.705) ** 2  # N/m: resonance at 80.30 Hz, ζ 0.47 %
+    slip, eta = 0.5 * kf * float(np.median(held)), 0.0028
+
+    def closed_form(x: np.ndarray, w: np.ndarray) -> np.ndarray:
+        beta = np.arccos(1 - 2 * slip / (kf * x))
+        nu = kf / np.pi * (beta - 0.5 * np.sin(2 * beta)) + 4j * slip * (x - slip / kf) / (np.pi * x**2)
+        return 1 / ((k - kf) * (1 + 1j * eta) - w**2 + nu)
+
+    system = NonlinearSystem(LumpedModel.with_loss_factor([[1.0]], [[k - kf]], eta, dof_names=("x",)),
+                             (JenkinsFriction((0,), kf=kf, slip_force=slip),))
+    exact = features(frequency, closed_form(held, omega))
+    single = features(frequency, closed_form(np.full(held.shape, np.median(held)), omega))
+    assert single["damping_ratio"] / exact["damping_ratio"] - 1 < -0.01  # what one held amplitude gets wrong
+    h, force = harmonic_response(system, "x", frequency, held_m=held)
+    np.testing.assert_allclose(h, closed_form(held, omega), rtol=1e-5)
+    np.testing.assert_allclose(np.abs(h) * force, held, rtol=1e-5)  # the force holds each line's X
+    run = ForcedRun("held", "response", float(np.median(held)), frequency, closed_form(held, omega),
+                    np.abs(held / closed_form(held, omega)), held)
+    predicted = predict_run(system, "x", run)
+    assert predicted["resonance_hz"] == pytest.approx(exact["resonance_hz"], abs=1e-4)
+    assert predicted["damping_ratio"] == pytest.approx(exact["damping_ratio"], rel=1e-4)
+    assert predicted["peak"] == pytest.approx(exact["peak"], rel=1e-5)
+    # beyond the band (margin_hz) the end lines' displacement is held, as their force for force control
+    wide = np.round(np.arange(78.3, 82.3001, 0.05), 4)
+    clamped = features(wide, closed_form(np.interp(wide, frequency, held), 2 * np.pi * wide))
+    outside = predict_run(system, "x", run, margin_hz=1.0)
+    assert outside["damping_ratio"] == pytest.approx(clamped["damping_ratio"], rel=1e-4)
+    assert outside["resonance_hz"] == pytest.approx(clamped["resonance_hz"], abs=1e-4)
 
 
 @pytest.mark.calculix

@@ -1,9 +1,12 @@
 """Every forced run of a stepped-sine test against a nonlinear model, run as the test ran it.
 
 A run is force-controlled (the shaker's force set per level; the force it achieved on each
-line is kept) or response-controlled (the drive point's displacement amplitude held at
-``level``). The model answers each line as the test asked: at the achieved force (force
-control) or at the force that holds the amplitude (response control), by the
+line is kept) or response-controlled (the drive point's response held; ``level`` the median
+displacement amplitude, ``held_line_m`` the displacement achieved on each line, the
+reader's ``HeldRun.held_on_lines`` (:mod:`~nlupdate.core.identification.response_controlled`):
+a run holding acceleration A holds A/Ω², 3.8–4.0 % more on the BRB's lowest lines than on
+its highest). The model answers each line as the test asked: at the achieved force (force
+control) or at the force that holds the line's achieved displacement (response control), by the
 single-harmonic balance of the whole system condensed to its nonlinear coordinates
 (:class:`~nlupdate.core.model.system.CondensedProblem`, Newton from the previous line's
 solution). Measured and predicted curves go through the same estimator
@@ -32,8 +35,10 @@ from nlupdate.core.validation.resonance import resonance
 @dataclass(frozen=True, eq=False)
 class ForcedRun:
     """One measured run: ``run`` (its name in the file), ``control`` (force | response),
-    ``level`` (the force level in N, or the held displacement amplitude in m), the lines
-    ``frequency_hz`` (Hz), the receptance ``h`` (m/N) and the force on each line ``force_n`` (N)."""
+    ``level`` (the force level in N, or the median held displacement amplitude in m), the lines
+    ``frequency_hz`` (Hz), the receptance ``h`` (m/N), the force on each line ``force_n`` (N) and,
+    for a response-controlled run, the displacement it achieved on each line ``held_line_m`` (m;
+    None: ``level`` on every line)."""
 
     run: str
     control: str
@@ -41,6 +46,7 @@ class ForcedRun:
     frequency_hz: NDArray[np.float64]
     h: NDArray[np.complex128]
     force_n: NDArray[np.float64]
+    held_line_m: NDArray[np.float64] | None = None
 
 
 def read_forced_runs(path: str | Path, coordinates: tuple[str, str]) -> list[ForcedRun]:
@@ -58,7 +64,7 @@ def read_forced_runs(path: str | Path, coordinates: tuple[str, str]) -> list[For
                               (lines.h_real + 1j * lines.h_imag).to_numpy(), lines.level_achieved.to_numpy()))
     for held in read_response_controlled(path, options):
         runs.append(ForcedRun(held.name, "response", float(held.held_m), np.asarray(held.frequency_hz, float),
-                              np.asarray(held.h, complex), np.asarray(held.force_n, float)))
+                              np.asarray(held.h, complex), np.asarray(held.force_n, float), held.held_on_lines))
     return runs
 
 
@@ -108,17 +114,19 @@ def run_errors(table: pd.DataFrame, repeatability_hz: float, factor: float = 2.0
 
 
 def harmonic_response(system: NonlinearSystem, drive_dof: str, frequency_hz: NDArray,
-                      force_n: NDArray | None = None, held_m: float | None = None,
+                      force_n: NDArray | None = None, held_m: float | NDArray | None = None,
                       x_scale: float = 1e-6) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
     """First-harmonic receptance at ``drive_dof`` on each line, ``(H (m/N), F (N))``.
 
     Force control: ``force_n`` per line. Response control: the force that holds
-    ``|X_drive| = held_m`` (a secant iteration on log F, to 1e-6 in log amplitude). Raises
+    ``|X_drive| = held_m`` (m; one value, or one per line) (a secant iteration on log F, to 1e-6
+    in log amplitude). Raises
     ``RuntimeError`` naming the line when the balance or the held amplitude is not found."""
     drive = system.model.dof_names.index(drive_dof)
     h_out = np.empty(len(frequency_hz), dtype=complex)
     f_out = np.empty(len(frequency_hz))
     y, force = None, None
+    held_lines = None if held_m is None else np.broadcast_to(np.asarray(held_m, float), np.shape(frequency_hz))
     for line, frequency in enumerate(frequency_hz):
         omega = 2 * np.pi * frequency
 
@@ -134,31 +142,34 @@ def harmonic_response(system: NonlinearSystem, drive_dof: str, frequency_hz: NDA
                     return solution, complex(problem.response_at(omega, problem.to_complex(solution), [drive])[0, 0])
             raise RuntimeError(f"harmonic balance at {frequency:.3f} Hz, force {amplitude:.4g} N did not converge")
 
-        if held_m is None:
+        if held_lines is None:
             force = float(force_n[line])
             y, x = solve(force, y)
         else:
-            force = force or held_m / abs(system.model.receptance(np.array([omega]), [drive], [drive])[0, 0, 0])
+            held = float(held_lines[line])
+            force = force or held / abs(system.model.receptance(np.array([omega]), [drive], [drive])[0, 0, 0])
             y, x = solve(force, y)
             log_f, log_x = [np.log(force)], [np.log(abs(x))]
             for _ in range(30):
-                if abs(log_x[-1] - np.log(held_m)) < 1e-6:
+                if abs(log_x[-1] - np.log(held)) < 1e-6:
                     break
                 slope = 1.0 if len(log_f) < 2 else (log_x[-1] - log_x[-2]) / (log_f[-1] - log_f[-2])
-                force = float(np.exp(log_f[-1] + (np.log(held_m) - log_x[-1]) / max(slope, 0.05)))
+                force = float(np.exp(log_f[-1] + (np.log(held) - log_x[-1]) / max(slope, 0.05)))
                 y, x = solve(force, y)
                 log_f.append(np.log(force))
                 log_x.append(np.log(abs(x)))
             else:
-                raise RuntimeError(f"no force holds {held_m:.4g} m at {frequency:.3f} Hz")
+                raise RuntimeError(f"no force holds {held:.4g} m at {frequency:.3f} Hz")
         h_out[line], f_out[line] = x / force, force
     return h_out, f_out
 
 
 def predict_run(system: NonlinearSystem, drive_dof: str, run: ForcedRun, margin_hz: float = 0.0) -> dict[str, float]:
     """The run's :func:`features` as the model predicts them on the run's lines, the grid extended
-    by ``margin_hz`` (Hz) at each end at the median spacing (the end lines' force held there),
-    so that a predicted resonance outside the tested band is still found."""
+    by ``margin_hz`` (Hz) at each end at the median spacing (the end lines' force, or achieved
+    displacement, held there), so that a predicted resonance outside the tested band is still
+    found. A response-controlled run is held on each line at the displacement it achieved there
+    (``held_line_m``), not at its median."""
     frequency = run.frequency_hz
     step = float(np.median(np.diff(frequency)))
     extra = int(round(margin_hz / step))
@@ -167,5 +178,6 @@ def predict_run(system: NonlinearSystem, drive_dof: str, run: ForcedRun, margin_
     if run.control == "force":
         h, _ = harmonic_response(system, drive_dof, grid, force_n=np.interp(grid, frequency, run.force_n))
     else:
-        h, _ = harmonic_response(system, drive_dof, grid, held_m=run.level)
+        held = run.level if run.held_line_m is None else np.interp(grid, frequency, run.held_line_m)
+        h, _ = harmonic_response(system, drive_dof, grid, held_m=held)
     return features(grid, h)
