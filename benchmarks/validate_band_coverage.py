@@ -1,6 +1,7 @@
 """Coverage of ``nlupdate validate``'s 95 % bands for the single-mode models (issue 34).
 
-    python benchmarks/validate_band_coverage.py [--seeds 20] [--models lines-background] [--processes 2]
+    python benchmarks/validate_band_coverage.py [--seeds 20] [--first-seed 0] [--models lines-background]
+        [--processes 2] [--write-docs]
 
 Each seed: a 1 kg SDOF at 80 Hz with a four-parameter Iwan joint (χ, β, its slip force and
 stiffness drawn per seed), measured like the Brake–Reuss beam — four force levels spanning a
@@ -14,7 +15,10 @@ to them are the wrong form. ``validate --hold-out each`` holds out every level i
 band must hold the *measured* held-out value (the criterion the BRB is judged by).
 
 Prints per model and quantity: coverage (share of held-out levels, every seed, whose band
-holds the measured value), the median of |error| and of band half-width relative to |error|.
+holds the measured value), the misses, the median of |error| and of band half-width relative
+to |error|. ``--first-seed``: seeds first-seed … first-seed + seeds − 1 (a second set to check a
+change chosen on the first). ``--write-docs``: the output becomes the script's block of
+docs/validation.md (benchmarks/docs_block.py).
 """
 from __future__ import annotations
 
@@ -30,6 +34,9 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks import docs_block  # noqa: E402
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "validation.md"
 LEVELS = (0.2, 0.5, 1.0, 1.5)
 
 
@@ -84,32 +91,43 @@ def one_seed(args: tuple[int, tuple[str, ...], float]) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import pandas as pd
-
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--models", default="lines-background")
     parser.add_argument("--sigma-f", type=float, default=0.1)
     parser.add_argument("--processes", type=int, default=2)
+    docs_block.add_option(parser)
     args = parser.parse_args(argv)
+    with docs_block.writing_docs(args.write_docs, "validate_band_coverage.py", argv, DOCS):
+        run(args)
+    return 0
+
+
+def run(args: argparse.Namespace) -> None:
+    """Print the coverage table of the seeds and models ``args`` names (module docstring)."""
+    import pandas as pd
+
     models = tuple(m.strip() for m in args.models.split(",") if m.strip())
-    started, cpu = time.perf_counter(), time.process_time()
-    jobs = [(seed, models, args.sigma_f) for seed in range(args.seeds)]
+    started, cpu = time.perf_counter(), docs_block.cpu_seconds()
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    jobs = [(seed, models, args.sigma_f) for seed in seeds]
     with multiprocessing.Pool(args.processes) as pool:
         rows = [row for part in pool.map(one_seed, jobs) for row in part]
     table = pd.DataFrame(rows)
-    print(f"{args.seeds} seeds × {len(LEVELS)} held-out levels, σ_f = {args.sigma_f} Hz, 0.5 % noise")
-    print("| model | quantity | coverage | held-out levels | median error | median half-width / error |")
-    print("|---|---|---|---|---|---|")
+    print(f"seeds {seeds.start}–{seeds.stop - 1} × {len(LEVELS)} held-out levels, σ_f = {args.sigma_f} Hz, 0.5 % noise")
+    print("| model | quantity | coverage | misses | held-out levels | median error | median half-width / error |")
+    print("|---|---|---|---|---|---|---|")
     for (model, quantity), group in table.groupby(["model", "quantity"], sort=False):
         known = group[group["inside"].notna()]
         ratio = (known["half_width"] / known["error"].clip(lower=1e-12)).median()
         unit = "Hz" if quantity == "resonance_hz" else ""
         error = known["error"].median() if unit else 100 * known["error"].median()
-        print(f"| {model} | {quantity} | {100 * known['inside'].astype(bool).mean():.0f} % | {len(known)} of "
+        inside = known["inside"].astype(bool)
+        print(f"| {model} | {quantity} | {100 * inside.mean():.1f} % | {int((~inside).sum())} | {len(known)} of "
               f"{len(group)} | {error:.3g}{' Hz' if unit else ' %'} | {ratio:.2f} |")
-    print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU (this process)")
-    return 0
+    print(f"\n{time.perf_counter() - started:.1f} s wall, {docs_block.cpu_seconds() - cpu:.1f} s CPU "
+          f"(this process and its {args.processes} workers)")
 
 
 if __name__ == "__main__":
