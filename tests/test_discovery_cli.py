@@ -51,7 +51,12 @@ def test_augmented_model_is_used_by_another_command(run_output, tmp_path):
     assert code == 0 and len(pd.read_csv(frf)) == 28
 
 
+@pytest.mark.slow
 def test_modal_table_is_recognised(tmp_path):
+    """In the slow suite: the default suite's tests/test_discovery_modal.py runs the same
+    command on the same modal table (the README's, without --max-effects) and checks that it is
+    read as a modal table and that microslip comes first; --max-effects 1 is run by
+    tests/test_discovery_places.py. This second discovery of the gun barrel cost 2.8 s CPU."""
     out = tmp_path / "gun"
     code = main(["discover", "--model", str(EXAMPLES / "gunbarrel_mode1.toml"), "--measured",
                  str(EXAMPLES / "gunbarrel_modal.csv"), "--out", str(out), "--max-effects", "1"])

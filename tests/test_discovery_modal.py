@@ -130,6 +130,7 @@ def test_gun_barrel_returns_what_the_readme_says(readme_run):
     (header,) = header_commands(EXAMPLES / "gunbarrel_mode1.toml")
     assert argv == [absolute(a) for a in header], (argv, header)  # the example's header runs here too
     result = json.loads((out / "discovery.json").read_text())
+    assert result["measurement"] == "modal"  # the table is read as a modal table
     assert [(e["effect"], e["dofs"]) for e in result["effects"]] == [("microslip", [0]), ("damping_error", [0])]
     microslip, damping = (e["parameters"] for e in result["effects"])
     assert microslip["kt"] == pytest.approx(1.02e5, rel=0.02) and microslip["slip_force"] == pytest.approx(19.3, rel=0.02)
