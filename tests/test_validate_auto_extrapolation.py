@@ -100,19 +100,31 @@ def test_no_value_is_printed_as_if_fine(data, tmp_path, capsys):
     assert main([*common, "--model", "lines,auto", "--out", str(tmp_path / "out")]) == 0
     out, err = capsys.readouterr()
     assert "the extrapolation leaves the physical range" in out
-    assert "note: no predicted damping ratio" in out  # lines' top curve: too sharp a peak to read one
+    assert "note at 0.35 N (lines): no predicted damping ratio" in out  # lines' top curve: too sharp a peak
+    # the bad news first: the first line on stderr names the level, the quantity and the model
+    assert err.splitlines()[0].startswith("warning: measured OUTSIDE the prediction's 95 % band: 0.35 N damping ratio")
     assert "warning: auto at 0.35 N (an extrapolation): lines-background refused" in err
 
 
 def test_a_value_outside_a_band_gets_its_line():
-    from nlupdate.app.cli.validate import band_notes
-    from nlupdate.core.validation.held_out import Compared
+    """The verdict names each quantity whose measured value lies outside its band (or that has
+    no predicted value); the notes name a prediction outside its own band."""
+    from types import SimpleNamespace
 
-    assert band_notes({"peak_abs": Compared(1.0, 2.0, 1.5, 2.5)}) == [
-        "the measured peak |H| 1 lies OUTSIDE the 95 % band [1.5, 2.5]"]
-    assert band_notes({"damping_ratio": Compared(2.0, 3.0, 1.5, 2.5)}) == [
-        "the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
-    assert band_notes({"resonance_hz": Compared(2.0, 2.1, 1.5, 2.5)}) == []
+    from nlupdate.core.validation.held_out import Compared
+    from nlupdate.reporting.validation_text import _notes, verdict_lines
+
+    def held(**compared):
+        return SimpleNamespace(level=0.35, label="lines", compared=compared, half_power_lines=9, note="")
+
+    outside = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), peak_abs=Compared(1.0, 2.0, 1.5, 2.5))
+    fine = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), damping_ratio=Compared(2.0, 3.0, 1.5, 2.5))
+    validation = SimpleNamespace(held_out=[outside, fine], response_controlled=(), choices={})
+    assert verdict_lines(validation, "N") == [
+        "warning: measured OUTSIDE the prediction's 95 % band: 0.35 N peak |H| (lines)"]
+    assert _notes(fine) == ["the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
+    assert verdict_lines(SimpleNamespace(held_out=[fine], response_controlled=(), choices={}), "N")[0].startswith(
+        "every held-out level's resonance, damping ratio and peak |H| lies within")
 
 
 def test_the_study_report_states_the_refusal(top):
@@ -122,5 +134,6 @@ def test_the_study_report_states_the_refusal(top):
     assert f"Warning: {top.choices[LEVELS[-1]].warning}" in lines
     table = next(line for line in lines if "measured in its 95 % band (f, ζ, peak)" in line)
     # each quantity says whether the measured value is in its band; lines' top damping has no value, so no band
-    assert "| 0.35 | lines | +0.038 [-0.10, +0.23] | +nan | +989.2 | yes, –, yes |" in table
+    row = next(line for line in table.splitlines() if line.startswith("| 0.35 | lines |")).split(" | ")
+    assert row[2] == "+0.038 [-0.10, +0.23]" and row[3] == "—" and row[4].startswith("+989 [") and row[5] == "yes, —, yes"
     assert any(line.startswith("Note, 0.35 N `lines`: the extrapolation leaves the physical range") for line in lines)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from nlupdate.core.identification.amplitude_joint import POOR_FIT, AmplitudeFit
 from nlupdate.core.identification.backbone_samples import DISAGREEMENT
@@ -18,8 +19,11 @@ from nlupdate.reporting.markdown import markdown_table
 
 def plot_amplitude_fit(fit: AmplitudeFit, folder: Path) -> tuple[Path, Path]:
     """``folder/backbone.png`` and ``folder/damping.png``: every fitted source on the model,
-    with the band of its backbone table."""
-    return plot_sources(fit.model, [(f"{name} ({kind})", s) for name, s, _, kind in fit.points], fit.curve, folder)
+    with the band of its backbone table, the sources the consistency check names marked."""
+    odd = frozenset() if fit.agreement is None else frozenset(
+        f"{row.source} ({row.test_type})" for row in fit.agreement.itertuples() if not row.consistent)
+    return plot_sources(fit.model, [(f"{name} ({kind})", s) for name, s, _, kind in fit.points], fit.curve, folder,
+                        odd)
 
 
 def _disagreement_line(fit: AmplitudeFit) -> str | None:
@@ -56,20 +60,21 @@ def _held_lines(fit: AmplitudeFit) -> list[str]:
 
 
 def amplitude_lines(fit: AmplitudeFit) -> list[str]:
-    """What ``nlupdate amplitude`` prints after the fit: the linear limit and backbone, the
-    modal joint, notes and warnings, the bands, each source's agreement and the held-out
-    predictions."""
+    """What ``nlupdate amplitude`` prints after the fit, the bad news first (sources that
+    disagree, a poor fit, the model's warnings); then the linear limit and backbone, the
+    modal joint, notes, the bands, each source's agreement and the held-out predictions."""
     model, samples = fit.model, fit.samples
-    lines = [f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
-             f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, modal "
-             f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)"]
+    lines = [f"warning: {text}" for text in (_disagreement_line(fit), _poor_line(fit)) if text]
+    lines += [f"warning: {warning}" for warning in model.warnings]
+    lines.append(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
+                 f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, "
+                 f"modal amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)")
     if model.joint is not None:
         j = model.joint
         lines.append(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {fit.unit}/√kg, "
                      f"chi = {j.chi:.4g}, beta = {j.beta:.4g}")
     if model.note:
         lines.append(f"note: {model.note}")
-    lines += [f"warning: {warning}" for warning in model.warnings]
     if fit.resamples:
         lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits of a residual bootstrap")
     else:
@@ -78,12 +83,9 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     if fit.agreement is not None:
         for row in fit.agreement.itertuples():
             lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit "
-                         f"{100 * row.frequency_offset:+.3g} % in frequency ({row.frequency_score:+.2g} standard "
-                         f"errors), {100 * row.damping_offset:+.3g} % in damping ({row.damping_score:+.2g})"
+                         f"{100 * row.frequency_offset:+.2g} % in frequency ({row.frequency_score:+.2g} standard "
+                         f"errors), {100 * row.damping_offset:+.2g} % in damping ({row.damping_score:+.2g})"
                          + ("" if row.consistent else " — DISAGREES with the other sources beyond its uncertainty"))
-        odd = _disagreement_line(fit)
-        if odd:
-            lines.append(f"warning: {odd}")
     return lines + _held_lines(fit)
 
 
@@ -99,6 +101,18 @@ def amplitude_summary(fit: AmplitudeFit) -> list[str]:
     return lines
 
 
+def _agreement_table(agreement: pd.DataFrame) -> pd.DataFrame:
+    """consistency.csv as the report shows it: offsets in % and scores in standard errors,
+    two significant figures, whether each source agrees with the joint fit."""
+    return pd.DataFrame({
+        "source": agreement["source"], "test type": agreement["test_type"], "samples": agreement["samples"],
+        "frequency misfit (%)": [f"{100 * v:+.2g}" for v in agreement["frequency_offset"]],
+        "frequency misfit (standard errors)": [f"{v:+.2g}" for v in agreement["frequency_score"]],
+        "damping misfit (%)": [f"{100 * v:+.2g}" for v in agreement["damping_offset"]],
+        "damping misfit (standard errors)": [f"{v:+.2g}" for v in agreement["damping_score"]],
+        "agrees with the fit": ["yes" if ok else "**NO**" for ok in agreement["consistent"]]})
+
+
 def amplitude_section(fit: AmplitudeFit, plots: dict[str, str]) -> list[str]:
     """The report's ``[amplitude]`` section: what each source gave, the model, the
     agreement of the sources and the figures (``plots``: name → path in the archive)."""
@@ -112,9 +126,7 @@ def amplitude_section(fit: AmplitudeFit, plots: dict[str, str]) -> list[str]:
     lines += [f"Misfit of the samples about the model (rms): {100 * f:.3g} % in frequency, {100 * z:.3g} % in "
               f"damping.", ""]
     if fit.agreement is not None:
-        shown = fit.agreement[["source", "test_type", "samples", "frequency_offset", "damping_offset",
-                               "frequency_score", "damping_score", "consistent"]]
-        lines += [markdown_table(shown), ""]
+        lines += [markdown_table(_agreement_table(fit.agreement)), ""]
     for name in ("amplitude_backbone", "amplitude_damping"):
         if name in plots:
             lines += [f"![{name.replace('_', ' ')}]({plots[name]})", ""]

@@ -1,5 +1,8 @@
 """One backbone figure and one damping figure of ``nlupdate amplitude``: every source's
-samples marked, the jointly fitted curve and its bootstrap band (``backbone.csv``)."""
+samples marked (a source that disagrees with the joint fit says so in the legend), the
+jointly fitted curve and its bootstrap band (``backbone.csv``), grey where the curve has no
+samples (extrapolated, or held at its value beyond the largest amplitude), the legend below
+the axes."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,7 +13,7 @@ from matplotlib.figure import Figure
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
-from nlupdate.reporting.figures import band_fill, save_figure
+from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, save_figure
 
 _MARKERS = "os^vDP*Xh<>"
 
@@ -20,34 +23,38 @@ def _short(name: str) -> str:
 
 
 def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples]], curve: pd.DataFrame,
-                 folder: Path) -> tuple[Path, Path]:
+                 folder: Path, disagreeing: frozenset[str] = frozenset()) -> tuple[Path, Path]:
     """``folder/backbone.png`` (natural frequency) and ``folder/damping.png`` (damping ratio)
-    against modal amplitude: each source's samples with its own marker, the model over
-    a third of the smallest to three times the largest amplitude, its band where
-    ``curve`` (backbone.csv) has one."""
+    against modal amplitude: each source's samples with its own marker (the sources named
+    in ``disagreeing`` marked so in the legend), the model over a third of the smallest to
+    three times the largest amplitude, grey beyond the samples, its band where ``curve``
+    (backbone.csv) has one."""
     amplitudes = np.concatenate([s.amplitude for _, s in parts])
     a = np.geomspace(amplitudes.min() / 3, amplitudes.max() * 3, 300)
     paths = []
     for column, scale, label, name in (("natural_frequency_hz", 1.0, "natural frequency (Hz)", "backbone.png"),
                                        ("damping_ratio", 100.0, "damping ratio (%)", "damping.png")):
-        fig = Figure(figsize=(7, 4.5))
+        fig = Figure(figsize=(7, 5.2), layout="constrained")
         ax = fig.subplots()
         for k, (source, samples) in enumerate(parts):
             values = samples.frequency_hz if column == "natural_frequency_hz" else samples.damping_ratio
+            odd = " — DISAGREES with the fit" if source in disagreeing else ""
             ax.semilogx(samples.amplitude, scale * values, _MARKERS[k % len(_MARKERS)], ms=5, mfc="none", zorder=3,
-                        label=f"{_short(source)} ({samples.amplitude.size})")
+                        label=f"{_short(source)}: {samples.amplitude.size} sample(s){odd}")
         fitted = model.frequency_hz(a) if column == "natural_frequency_hz" else model.damping(a)
         ax.semilogx(a, scale * fitted, "-", color="black", lw=1.2, zorder=2, label=f"{model.backbone} fit, all sources")
         low, high = curve[f"{column}_low"].to_numpy(), curve[f"{column}_high"].to_numpy()
         if np.all(np.isfinite(low)) and np.all(np.isfinite(high)):
-            band_fill(ax, curve["modal_amplitude"], scale * low, scale * high, "95 % band (bootstrap)",
-                      color="grey", alpha=0.3, zorder=1)
+            band_fill(ax, curve["modal_amplitude"], scale * low, scale * high, "95 % band of the fit (bootstrap)",
+                      color="tab:blue", alpha=0.2, zorder=1)
+        ax.axvspan(a[0], amplitudes.min(), **EXTRAPOLATION_FILL, label="no samples (extrapolated or held)")
+        ax.axvspan(amplitudes.max(), a[-1], **EXTRAPOLATION_FILL)
+        ax.set_xlim(a[0], a[-1])
         ax.set_xlabel("modal amplitude a (m·√kg)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+        fig.legend(loc="outside lower center", ncols=2, fontsize=7, frameon=False)
         ax.set_title(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
                      f"ζ₀ = {100 * model.damping_ratio:.3g} %", fontsize=10)
-        fig.tight_layout()
         paths.append(save_figure(fig, folder / name))
     return paths[0], paths[1]

@@ -20,11 +20,18 @@ from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_sum
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
+from nlupdate.reporting.validation_text import error_cells, in_band_cell, repeatability_line, verdict_lines
 from nlupdate.core.response.method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
                     "propagated through the updating sensitivities for updated parameters); the identified values' "
                     "95 % intervals, which also carry model-form error, are in the identification section")
+
+
+def _plot_files(plots: Mapping[str, str]) -> list[str]:
+    """The report's line listing ``plots/*.png``, none when the folder holds none."""
+    names = sorted(name for name in plots.values() if name.startswith("plots/"))
+    return ["* `plots/*.png` — " + ", ".join(f"`{name}`" for name in names)] if names else []
 
 
 def hidden_truth(study) -> dict[str, float]:
@@ -77,7 +84,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
     lines += _warning_lines(result)
     summary = _summary_lines(result, truth)
     lines += summary or ["(nothing was computed)"]
-    lines += ["", f"_{UNCERTAINTY_NOTE}._", ""]
+    lines += [""] + ([f"_{UNCERTAINTY_NOTE}._", ""] if result.identification is not None or result.runs else [])
     if result.failures:
         lines += ["**Failed updating runs** (the others finished):", ""]
         lines += [f"* `{f.name}`: {f.error}" for f in result.failures] + [""]
@@ -121,8 +128,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
               "* `manifest.json` — inputs and their hashes, versions, seeds, timing, tasks computed vs cached",
               "* `study.toml` — the study file as run",
               "* `tables/*.parquet` — " + ", ".join(f"`{name}`" for name in manifest.get("tables", [])),
-              "* `plots/*.png` — " + ", ".join(f"`{name}`" for name in sorted(plots.values())
-                                               if name.startswith("plots/")), ""]
+              *_plot_files(plots), ""]
     if result.amplitude is not None:
         lines[-1:-1] = ["* `amplitude/` — the files `nlupdate amplitude` writes for the `[amplitude]` sources"]
     return "\n".join(lines)
@@ -187,6 +193,9 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    f"mean {number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
                    + _single_frequency_levels(c))
     if result.validation is not None:
+        verdict = verdict_lines(result.validation, result.validation.reference_unit)[0]
+        if verdict.startswith("warning: "):  # a miss opens the summary
+            out.insert(0, f"* **Held-out levels: {verdict.removeprefix('warning: ')}**")
         out += _validation_summary(result.validation)
     if result.fe_validation is not None:
         out += fe_validation_summary(result.fe_validation)
@@ -367,10 +376,12 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
              "Each held-out level predicted by a model fitted on the other levels of the measured curve "
              "(docs/methods.md §10), beside the log-amplitude baseline (interpolation between the kept levels). "
              "Resonance, damping ratio (circle fit) and peak come from one estimator for the measured and predicted "
-             "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability. The test's own "
-             f"scatter about a line in log amplitude ({repeat.levels} levels): resonance "
-             f"{number(repeat.resonance_hz, 3)} Hz, damping ratio {number(100 * repeat.damping_ratio, 3)} % "
-             "(points) — no model can be expected to do better than that.", ""]
+             "curves; bands are 95 %: jackknife over the kept levels plus the test's repeatability — no model can be "
+             "expected to do better than the test repeats to:", "",
+             f"* {repeatability_line(repeat, 'held-out levels')}"]
+    if validation.response_controlled and validation.runs_repeatability is not None:
+        lines.append(f"* {repeatability_line(validation.runs_repeatability, 'response-controlled runs')}")
+    lines.append("")
     rows = [{f"level ({unit})": number(r.level), **_errors(r)} for r in validation.held_out]
     lines += [markdown_table(pd.DataFrame(rows)), ""]
     if "validation" in plots:
@@ -387,16 +398,11 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
 
 
 def _errors(r) -> dict[str, str]:
-    """One prediction's errors (a held-out level or a response-controlled run) beside the baseline's."""
-    c, b = r.compared, r.baseline
-    res = c["resonance_hz"]
-    return {"model": r.label,
-            "resonance error (Hz)": f"{res.error:+.3f} [{res.low - res.measured:+.2f}, {res.high - res.measured:+.2f}]",
-            "damping error (%)": f"{100 * c['damping_ratio'].relative_error:+.1f}",
-            "peak error (%)": f"{100 * c['peak_abs'].relative_error:+.1f}",
-            "measured in its 95 % band (f, ζ, peak)": ", ".join(
-                "–" if q.inside is None else ("yes" if q.inside else "**no**") for q in c.values()),
-            "baseline: resonance (Hz), damping (%), peak (%)":
-                f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
-                f"{100 * b['peak_abs'].relative_error:+.1f}",
+    """One prediction's errors with their 95 % bands (a held-out level or a response-controlled
+    run) beside the baseline's."""
+    res, zeta, peak = error_cells(r.compared, True)
+    base = error_cells(r.baseline, False)
+    return {"model": r.label, "resonance error (Hz) [95 % band]": res, "damping error (%) [band]": zeta,
+            "peak error (%) [band]": peak, "measured in its 95 % band (f, ζ, peak)": in_band_cell(r.compared),
+            "baseline: resonance (Hz), damping (%), peak (%)": ", ".join(base),
             "residual / noise (model, baseline)": f"{number(r.residual_to_noise, 3)}, {number(r.baseline_residual_to_noise, 3)}"}

@@ -2,13 +2,18 @@
 
 Per held-out level (:func:`held_out_figure`): |H| measured (points), the model's prediction
 (line) with its 95 % band (shaded; the legend says when it is narrower than the line), and
-the log-amplitude baseline (dashed). Summary (:func:`summary_figure`): per held-out level
-and model, the resonance error (Hz) and the damping and peak errors (%), each with the
-band as an error bar and the baseline's error beside it (open markers), and the test's
-repeatability (±1σ, grey) behind the resonance and damping panels. The response-controlled
-runs (:func:`response_controlled_figure`) the same, per run.
+the log-amplitude baseline (dashed); the y axis spans the curves (a band reaching far below
+them is cut at the axis, and the legend says so), the legend sits below the axes. Summary
+(:func:`summary_figure`): per held-out level and model, the resonance error (Hz) and the
+damping and peak errors (%), each with the band as an error bar and the baseline's error
+beside it (open markers), and the test's repeatability (±1σ, grey: in Hz, and the relative
+scatter of the damping ratio and the peak) behind each panel, the legend below the panels.
+The response-controlled runs (:func:`response_controlled_figure`) the same, per run, with
+the repeatability their bands use (levels and runs pooled).
 """
 from __future__ import annotations
+
+import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -18,28 +23,42 @@ from nlupdate.reporting.figures import MEASURED_STYLE
 _MODEL_COLOURS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
 
 
-def held_out_figure(result, unit: str = "N") -> Figure:
-    """One held-out level (:class:`~nlupdate.core.validation.held_out.HeldOut`)."""
-    figure = Figure(figsize=(7.5, 4.6), layout="constrained")
+#: How far (a factor) the y axis of a held-out figure reaches beyond the curves it shows.
+_Y_MARGIN = 3.0
+
+
+def held_out_figure(result, unit: str = "N", evidence: str = "") -> Figure:
+    """One held-out level (:class:`~nlupdate.core.validation.held_out.HeldOut`); ``evidence``
+    names what the fit kept beside the levels (response-controlled runs, a linear limit), so
+    the legend says everything the prediction was fitted on."""
+    figure = Figure(figsize=(7.5, 5.2), layout="constrained")
     ax = figure.subplots()
     f = result.frequency_hz
-    ax.semilogy(f, np.abs(result.measured), **{**MEASURED_STYLE, "ms": 4}, label="measured (held out)")
-    predicted = np.abs(result.predicted)
+    measured, predicted, base = np.abs(result.measured), np.abs(result.predicted), np.abs(result.baseline_frf)
+    shown = np.concatenate([v[np.isfinite(v) & (v > 0)] for v in (measured, predicted, base)])
+    bottom, top = shown.min() / _Y_MARGIN, shown.max() * _Y_MARGIN
+    ax.semilogy(f, measured, **{**MEASURED_STYLE, "ms": 4}, label="measured (held out)", zorder=3)
     band = np.isfinite(result.abs_low) & np.isfinite(result.abs_high)
     if band.any():
         width = np.nanmax((result.abs_high - result.abs_low)[band] / predicted[band])
+        cut = bool(np.any(result.abs_low[band] < bottom) or np.any(result.abs_high[band] > top))
         ax.fill_between(f, np.where(band, result.abs_low, np.nan), np.where(band, result.abs_high, np.nan),
                         color="tab:red", alpha=0.2, lw=0,
-                        label="95 % band" + (" (narrower than the line)" if width < 0.01 else ""))
-    ax.semilogy(f, predicted, color="tab:red", lw=1.5, label=f"{result.label} (fitted on {_levels(result.kept, unit)})")
-    ax.semilogy(f, np.abs(result.baseline_frf), color="0.35", ls="--", lw=1.2, label="log-amplitude baseline")
+                        label="95 % band of the prediction" + (" (narrower than the line)" if width < 0.01 else "")
+                        + (" (cut at the axis)" if cut else ""))
+    fitted_on = _levels(result.kept, unit) + (f" + {evidence}" if evidence else "")
+    ax.semilogy(f, predicted, color="tab:red", lw=1.5,
+                label=textwrap.fill(f"predicted: {result.label} (fitted on {fitted_on})", 60,
+                                    break_on_hyphens=False))
+    ax.semilogy(f, base, color="0.35", ls="--", lw=1.2, label="log-amplitude baseline")
+    ax.set_ylim(bottom, top)
     c = result.compared
     ax.set_title(f"held-out level {result.level:g} {unit}: resonance {c['resonance_hz'].measured:.3f} Hz measured, "
-                 f"{c['resonance_hz'].predicted:.3f} predicted", fontsize=9)
+                 f"{c['resonance_hz'].predicted:.3f} Hz predicted", fontsize=9)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"|H| (m/{unit})")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7.5)
+    figure.legend(loc="outside lower center", ncols=2, fontsize=7.5, frameon=False)
     return figure
 
 
@@ -60,25 +79,34 @@ def summary_figure(validation) -> Figure:
 
 def response_controlled_figure(validation) -> Figure:
     """Errors per response-controlled run and model, predicted from every force-controlled
-    level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`)."""
+    level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`), the
+    repeatability behind them the one their bands use."""
     held = sorted({r.held_m for r in validation.response_controlled})
+    repeat = validation.runs_repeatability or validation.repeatability
     figure = _error_panels(validation.response_controlled, lambda r: held.index(r.held_m),
-                           [f"{1e6 * v:.0f}" for v in held], "held response amplitude (µm)", validation.repeatability)
+                           [f"{1e6 * v:.0f}" for v in held], "held response amplitude (µm)", repeat)
     figure.suptitle("response-controlled runs predicted from the force-controlled levels (bars: 95 % bands; "
                     "squares: log-amplitude baseline)", fontsize=10)
     return figure
 
 
+def _model_label(rows) -> str:
+    """The model as asked for, with auto's choice when it is one model for every row."""
+    labels = set(r.label for r in rows)
+    return labels.pop() if len(labels) == 1 else f"{rows[0].requested} (model per level)"
+
+
 def _error_panels(results, position, ticks: list[str], xlabel: str, repeatability) -> Figure:
     """Resonance, damping and peak errors of ``results`` (each with ``compared``,
     ``baseline`` and ``requested``) at ``position(result)`` on the x axis, one colour per
-    model, the test's repeatability behind."""
+    model, the test's repeatability (±1σ: Hz, and relative for the damping ratio and the
+    peak) behind each panel, one legend below the panels."""
     models = list(dict.fromkeys(r.requested for r in results))
-    figure = Figure(figsize=(11, 3.8), layout="constrained")
+    figure = Figure(figsize=(11, 4.3), layout="constrained")
     axes = figure.subplots(1, 3)
     panels = (("resonance_hz", "resonance error (Hz)", 1.0, repeatability.resonance_hz, False),
-              ("damping_ratio", "damping ratio error (%)", 100.0, repeatability.damping_ratio, True),
-              ("peak_abs", "peak |H| error (%)", 100.0, float("nan"), True))
+              ("damping_ratio", "damping ratio error (%)", 100.0, repeatability.damping_relative, True),
+              ("peak_abs", "peak |H| error (%)", 100.0, repeatability.peak_relative, True))
     x = np.arange(len(ticks), dtype=float)
     offsets = np.linspace(-0.2, 0.2, len(models)) if len(models) > 1 else np.zeros(1)
     for ax, (name, label, scale, repeat, relative) in zip(axes, panels):
@@ -99,20 +127,20 @@ def _error_panels(results, position, ticks: list[str], xlabel: str, repeatabilit
                 base = np.array([v.error for v in b])
             yerr = np.vstack([np.where(np.isfinite(low), err - low, 0), np.where(np.isfinite(high), high - err, 0)])
             colour = _MODEL_COLOURS[k % len(_MODEL_COLOURS)]
-            ax.errorbar(xs, err, yerr=yerr, fmt="o", color=colour, ms=5, capsize=3, label=model)
+            ax.errorbar(xs, err, yerr=yerr, fmt="o", color=colour, ms=5, capsize=3,
+                        label=f"{_model_label(rows)}, 95 % band" if name == "resonance_hz" else None)
             ax.plot(xs + 0.08, base, "s", mfc="none", color="0.3", ms=6,
-                    label="log-amplitude baseline" if k == 0 else None)
+                    label="log-amplitude baseline" if k == 0 and name == "resonance_hz" else None)
         if np.isfinite(repeat):
             span = scale * repeat
-            if relative:
-                mean_measured = np.mean([r.compared[name].measured for r in results])
-                span = 100 * repeat / mean_measured
-            ax.axhspan(-span, span, color="0.85", zorder=0, label="test repeatability ±1σ")
+            ax.axhspan(-span, span, color="0.85", zorder=0,
+                       label=f"test repeatability ±1σ ({repeatability.levels} curves)"
+                       if name == "resonance_hz" else None)
         ax.axhline(0.0, color="k", lw=0.8)
         ax.set_xticks(x, ticks)
         ax.set_xlim(-0.5, len(ticks) - 0.5)  # one slot per level, also for a single one
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         ax.grid(True, axis="y", alpha=0.3)
-    axes[0].legend(fontsize=7)
+    figure.legend(loc="outside lower center", ncols=len(models) + 2, fontsize=8, frameon=False)
     return figure

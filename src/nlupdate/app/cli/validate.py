@@ -30,7 +30,6 @@ import dataclasses
 import re
 import sys
 
-import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError, add_command
@@ -47,6 +46,7 @@ from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
+from nlupdate.reporting.validation_text import validation_lines, verdict_lines
 from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.impact_limit import LIMIT_MODELS, impact_linear_limit, refused_model
 from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
@@ -132,26 +132,6 @@ def linear_limit(args: argparse.Namespace, data: FRFLevels, models: list[str]) -
     return fit
 
 
-QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
-
-
-def band_notes(compared: dict) -> list[str]:
-    """What the error columns cannot show of each quantity: no predicted value, the
-    predicted value outside its own band, the measured value outside the band — a value
-    is never printed as if it were fine when it is not."""
-    notes = []
-    for key, c in compared.items():
-        name = QUANTITY_NAMES.get(key, key)
-        if not np.isfinite(c.predicted):
-            notes.append(f"no predicted {name} (the predicted curve gives none)")
-        elif c.predicted_inside is False:
-            notes.append(f"the predicted {name} {c.predicted:.6g} lies OUTSIDE its own 95 % band [{c.low:.6g}, "
-                         f"{c.high:.6g}]")
-        if key != "resonance_hz" and c.inside is False:
-            notes.append(f"the measured {name} {c.measured:.6g} lies OUTSIDE the 95 % band [{c.low:.6g}, {c.high:.6g}]")
-    return notes
-
-
 def run(args: argparse.Namespace) -> int:
     out = checked_output(args.out, args.overwrite, folder=True)
     if args.hold_out_type:
@@ -175,7 +155,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"keeping {len(validation.kept_runs)} response-controlled run(s) beside the force-controlled levels")
     unit = data.reference_unit
     several = len(models) > 1
-    repeat = validation.repeatability
     with atomic_directory(out, on_exists="replace") as archive:
         folder = archive.path
         for k, model in enumerate(models):  # auto's choice may differ per level: its rows together
@@ -184,45 +163,19 @@ def run(args: argparse.Namespace) -> int:
             predicted_table(rows, data).to_parquet(folder / name, index=False)
         summary = validation.summary()
         write_json(summary, folder / "validation.json")
+        evidence = " + ".join(([f"{len(validation.kept_runs)} response-controlled runs"] if validation.kept_runs else [])
+                              + (["the impact's linear limit"] if data.linear_limit is not None else []))
         for result in validation.held_out:
-            save_figure(held_out_figure(result, unit), folder / _plot_name(result.level, result.requested, several))
+            save_figure(held_out_figure(result, unit, evidence),
+                        folder / _plot_name(result.level, result.requested, several))
         save_figure(summary_figure(validation), folder / "validation.png")
         if validation.response_controlled:
             save_figure(response_controlled_figure(validation), folder / "response_controlled.png")
-    print(f"test repeatability (1σ about a line in log amplitude, {repeat.levels} levels): resonance "
-          f"{repeat.resonance_hz:.3g} Hz, damping ratio {100 * repeat.damping_ratio:.3g} % (points)")
-    print(f"{'level':>8} {'model':<22} {'resonance error (Hz)':>30} {'damping error (%)':>22} {'peak error (%)':>16} "
-          f"{'res/noise':>9}")
-    for r in validation.held_out:
-        c, b = r.compared, r.baseline
-        res, zeta, peak = c["resonance_hz"], c["damping_ratio"], c["peak_abs"]
-        inside = "" if res.inside is None else (" in band" if res.inside else " OUTSIDE band")
-        print(f"{r.level:>6g} {unit} {r.label:<22} {res.error:+8.3f} [{res.low - res.measured:+.2f}, "
-              f"{res.high - res.measured:+.2f}]{inside:>13} {100 * zeta.relative_error:+8.1f} "
-              f"(base {100 * b['damping_ratio'].relative_error:+6.1f}) {100 * peak.relative_error:+7.1f} "
-              f"{r.residual_to_noise:9.3g}")
-        print(f"{'':>8} {'baseline':<22} {b['resonance_hz'].error:+8.3f}")
-        for note in band_notes(r.compared):
-            print(f"{'':>8} note: {note}")
-        if r.half_power_lines < 5:
-            print(f"{'':>8} note: the measured half-power band spans {r.half_power_lines} lines: its damping ratio "
-                  f"is poorly resolved")
-        if r.note:
-            print(f"{'':>8} note: {r.note}")
-    if validation.response_controlled:
-        print(f"{'response-controlled run':<28} {'X (m)':>9} {'model':<22} {'resonance error (Hz)':>20} "
-              f"{'damping error (%)':>18} {'peak error (%)':>15}  baseline f, ζ, peak")
-    for r in validation.response_controlled:
-        c, b = r.compared, r.baseline
-        print(f"{r.run:<28} {r.held_m:9.3g} {r.label:<22} {c['resonance_hz'].error:+20.3f} "
-              f"{100 * c['damping_ratio'].relative_error:+18.1f} {100 * c['peak_abs'].relative_error:+15.1f}  "
-              f"{b['resonance_hz'].error:+.3f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
-              f"{100 * b['peak_abs'].relative_error:+.1f}")
-    for note in validation.response_controlled_notes:
-        print(f"response-controlled runs: {note}")
-    for level, choice in validation.choices.items():
-        print(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
-        if choice.warning:
-            print(f"warning: {choice.warning}", file=sys.stderr)
+    verdict = verdict_lines(validation, unit)
+    print(verdict[0], file=sys.stderr if verdict[0].startswith("warning:") else sys.stdout)
+    for line in verdict[1:]:
+        print(line, file=sys.stderr)
+    for line in validation_lines(validation, unit):
+        print(line)
     print(f"wrote {out / 'validation.json'}, {out / 'predicted_frf.parquet'} and the plots")
     return 0

@@ -1,0 +1,135 @@
+"""What ``nlupdate validate`` prints of a held-out validation
+(:class:`~nlupdate.core.validation.held_out.Validation`), the bad news first.
+
+:func:`verdict_lines` opens the output: whether every held-out level (and every
+response-controlled run predicted) lies within its 95 % bands, else each quantity that does
+not, naming level and model; then auto's warnings. :func:`validation_lines` is the rest: the
+test's repeatability, one aligned table per held-out level and model (each error with its
+band, which quantities the measurement lies inside the band of, the residual over the
+noise) with the baseline's errors in the row below, the same for the response-controlled
+runs, and auto's choices. Renders only: every number and flag comes from the validation.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
+
+
+def _outside(result) -> list[str]:
+    """The quantities of one comparison whose measured value lies outside the band, or
+    that have no predicted value."""
+    return [QUANTITY_NAMES[key] for key, c in result.compared.items()
+            if c.inside is False or not np.isfinite(c.predicted)]
+
+
+def verdict_lines(validation, unit: str) -> list[str]:
+    """The first lines: every held-out level (and predicted run) inside its bands, or each
+    one that is not (the first line then starts with ``warning:``); auto's warnings."""
+    misses = [f"{r.level:g} {unit} {', '.join(_outside(r))} ({r.label})" for r in validation.held_out if _outside(r)]
+    misses += [f"{r.run} {', '.join(_outside(r))} ({r.label})" for r in validation.response_controlled
+               if _outside(r)]
+    what = "held-out level" + (" and response-controlled run" if validation.response_controlled else "")
+    if misses:
+        lines = [f"warning: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
+    else:
+        lines = [f"every {what}'s resonance, damping ratio and peak |H| lies within its prediction's 95 % band"]
+    return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
+
+
+def repeatability_line(repeat, what: str) -> str:
+    """The test's scatter (1σ) in the units the tables use."""
+    trend = "a line" if repeat.degree == 1 else "a parabola" if repeat.degree == 2 else f"degree {repeat.degree}"
+    return (f"test repeatability ({what}; 1σ about {trend} in log amplitude, {repeat.levels} curves): resonance "
+            f"{repeat.resonance_hz:.2g} Hz, damping ratio {_percent(100 * repeat.damping_relative, sign=False)} %, "
+            f"peak |H| {_percent(100 * repeat.peak_relative, sign=False)} %")
+
+
+def _percent(value: float, sign: bool = True) -> str:
+    if not np.isfinite(value):
+        return "—"
+    return f"{value:+.0f}" if sign and abs(value) >= 100 else f"{value:+.1f}" if sign else f"{value:.2g}"
+
+
+def _bounds(c, relative: bool) -> str:
+    if not (np.isfinite(c.low) and np.isfinite(c.high)):
+        return ""
+    if relative:
+        return f" [{100 * (c.low / c.measured - 1):+.0f}, {100 * (c.high / c.measured - 1):+.0f}]"
+    return f" [{c.low - c.measured:+.2f}, {c.high - c.measured:+.2f}]"
+
+
+def error_cells(compared: dict, bands: bool) -> list[str]:
+    """The resonance error (Hz) and the damping and peak errors (%), with their bands."""
+    res, zeta, peak = compared["resonance_hz"], compared["damping_ratio"], compared["peak_abs"]
+    frequency = f"{res.error:+.3f}" if np.isfinite(res.error) else "—"
+    return [frequency + (_bounds(res, False) if bands else ""),
+            _percent(100 * zeta.relative_error) + (_bounds(zeta, True) if bands else ""),
+            _percent(100 * peak.relative_error) + (_bounds(peak, True) if bands else "")]
+
+
+def in_band_cell(compared: dict) -> str:
+    """Per quantity whether the measured value lies in the prediction's band (— without one)."""
+    flags = [c.inside for c in compared.values()]
+    return ", ".join("—" if flag is None else "yes" if flag else "NO" for flag in flags)
+
+
+#: The columns: each error with its 95 % band, whether the measured value lies in each band,
+#: the prediction's residual over the measurement noise.
+_HEADER = ("f error (Hz) [95 % band]", "ζ error (%) [band]", "peak error (%) [band]", "in band f, ζ, peak",
+           "residual/noise")
+
+
+def _table(first: str, second: str, rows) -> list[str]:
+    """Rows of (first column, second column, model, comparison, baseline comparison,
+    residual, baseline residual) as aligned text; the baseline's row below each."""
+    cells = [(first, second, "model", *_HEADER)]
+    for a, b, label, compared, baseline, residual, base_residual in rows:
+        cells.append((a, b, label, *error_cells(compared, True), in_band_cell(compared), f"{residual:.3g}"))
+        cells.append(("", "", "baseline (log-amplitude)", *error_cells(baseline, False), "", f"{base_residual:.3g}"))
+    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
+    return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths) if w).rstrip() for row in cells]
+
+
+def validation_lines(validation, unit: str) -> list[str]:
+    """Everything after the verdict: repeatability, the held-out levels' table with notes,
+    the response-controlled runs' table, auto's choices."""
+    lines = [repeatability_line(validation.repeatability, "held-out levels")]
+    lines += _table(f"level ({unit})", "", [(f"{r.level:g}", "", r.label, r.compared, r.baseline, r.residual_to_noise,
+                                             r.baseline_residual_to_noise) for r in validation.held_out])
+    for r in validation.held_out:
+        notes = _notes(r)
+        lines += [f"  note at {r.level:g} {unit} ({r.label}): {note}" for note in notes]
+    runs = validation.response_controlled
+    if runs:
+        lines.append("")
+        lines.append(repeatability_line(validation.runs_repeatability or validation.repeatability,
+                                        "response-controlled runs"))
+        lines += _table("response-controlled run", "held X (µm)",
+                        [(r.run, f"{1e6 * r.held_m:.3g}", r.label, r.compared, r.baseline, r.residual_to_noise,
+                          r.baseline_residual_to_noise) for r in runs])
+        for r in runs:
+            lines += [f"  note at {r.run} ({r.label}): {note}" for note in _notes(r)]
+    lines += [f"response-controlled runs: {note}" for note in validation.response_controlled_notes]
+    for level, choice in validation.choices.items():
+        lines.append(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
+    return lines
+
+
+def _notes(result) -> list[str]:
+    """What the table cannot show of one comparison: no predicted value, the prediction
+    outside its own band, a half-power band of few lines, the model's own note."""
+    notes = []
+    for key, c in result.compared.items():
+        name = QUANTITY_NAMES.get(key, key)
+        if not np.isfinite(c.predicted):
+            notes.append(f"no predicted {name} (the predicted curve gives none)")
+        elif c.predicted_inside is False:
+            notes.append(f"the predicted {name} {c.predicted:.6g} lies OUTSIDE its own 95 % band [{c.low:.6g}, "
+                         f"{c.high:.6g}]")
+    if result.half_power_lines < 5:
+        notes.append(f"the measured half-power band spans {result.half_power_lines} lines: its damping ratio is "
+                     f"poorly resolved")
+    if result.note:
+        notes.append(result.note)
+    return notes

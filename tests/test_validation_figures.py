@@ -1,0 +1,146 @@
+"""What the figures and printed lines of ``nlupdate validate`` and ``nlupdate amplitude`` show
+(the artists and the text, not the pixels):
+
+* a held-out level's figure carries the measured points, the prediction, its 95 % band and
+  the baseline, names everything the fit kept (runs, a linear limit) and keeps its legend off
+  the axes;
+* the summary figure's grey repeatability is the one printed: ±1σ in Hz, and the relative
+  scatter of the damping ratio and of the peak (it was the damping's points over the mean
+  damping, 3 × the stated 6 % on the Brake–Reuss beam, and no peak band); the
+  response-controlled figure uses the pooled repeatability its bands use;
+* the backbone and damping figures mark every source, name the disagreeing ones, draw the
+  band and grey out the amplitudes without samples;
+* the printed amplitude fit opens with its bad news.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.collections import PolyCollection
+from matplotlib.patches import Rectangle
+
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+from nlupdate.core.validation.held_out import Compared, Repeatability
+from nlupdate.reporting.backbone_plots import plot_sources
+from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
+from nlupdate.reporting.validation_text import repeatability_line
+
+F = np.linspace(79.0, 81.0, 41)
+
+
+def _curve(f0: float = 80.0, zeta: float = 0.002) -> np.ndarray:
+    w, w0 = 2 * np.pi * F, 2 * np.pi * f0
+    return 1.0 / (w0**2 - w**2 + 2j * zeta * w0 * w)
+
+
+def _held(level: float, requested: str = "auto") -> SimpleNamespace:
+    compared = {"resonance_hz": Compared(80.0, 80.1, 79.8, 80.4), "damping_ratio": Compared(0.002, 0.0022, 0.0015, 0.003),
+                "peak_abs": Compared(1e-4, 1.1e-4, 0.8e-4, 1.4e-4)}
+    baseline = {name: Compared(c.measured, c.measured * 1.05) for name, c in compared.items()}
+    predicted = _curve(80.1)
+    return SimpleNamespace(level=level, kept=(0.5, 1.0), label="auto → lines", requested=requested, compared=compared,
+                           baseline=baseline, frequency_hz=F, measured=_curve(), predicted=predicted,
+                           abs_low=np.abs(predicted) * 1e-3, abs_high=np.abs(predicted) * 1.5,
+                           baseline_frf=_curve(79.9), held_m=1e-4 * level)
+
+
+REPEAT = Repeatability(resonance_hz=0.15, damping_ratio=5e-4, levels=4, damping_relative=0.06, peak_relative=0.04)
+POOLED = Repeatability(resonance_hz=0.085, damping_ratio=3e-4, levels=12, damping_relative=0.15, peak_relative=0.03,
+                       degree=2)
+
+
+def _labels(figure) -> list[str]:
+    return [text.get_text() for legend in figure.legends for text in legend.get_texts()]
+
+
+def test_a_held_out_figure_shows_measured_prediction_band_and_baseline():
+    figure = held_out_figure(_held(0.2), "N", "8 response-controlled runs + the impact's linear limit")
+    (ax,) = figure.axes
+    assert ax.get_legend() is None and len(figure.legends) == 1  # the legend sits below the axes, off the data
+    labels = " ".join(_labels(figure))
+    assert "measured (held out)" in labels and "log-amplitude baseline" in labels
+    assert "95 % band of the prediction (cut at the axis)" in labels  # its low edge is 1e-3 of the curve
+    assert "0.5, 1 N + 8 response-controlled runs + the impact's linear limit" in labels.replace("\n", " ")
+    assert any(isinstance(c, PolyCollection) for c in ax.collections)
+    low, high = ax.get_ylim()  # the axis spans the curves, not the band's far edge
+    assert low > 1e-3 * np.abs(_curve(80.1)).min()
+
+
+def _span(ax) -> float:
+    """The half-height of the grey repeatability span of one panel."""
+    (patch,) = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_facecolor()[:3] == pytest.approx((0.85,) * 3)]
+    (y0, y1) = patch.get_path().transformed(patch.get_patch_transform()).get_extents().intervaly
+    return (y1 - y0) / 2
+
+
+def test_the_summary_draws_the_repeatability_it_states():
+    validation = SimpleNamespace(reference_unit="N", held_out=[_held(0.2), _held(1.0)], repeatability=REPEAT)
+    figure = summary_figure(validation)
+    resonance, damping, peak = figure.axes
+    assert _span(resonance) == pytest.approx(0.15)
+    assert _span(damping) == pytest.approx(6.0)  # 100 × damping_relative, as printed
+    assert _span(peak) == pytest.approx(4.0)
+    assert all(ax.get_legend() is None for ax in figure.axes)
+    assert "auto → lines, 95 % band" in _labels(figure)
+    line = repeatability_line(REPEAT, "held-out levels")
+    assert "about a line" in line and "damping ratio 6 %" in line and "peak |H| 4 %" in line
+
+
+def test_the_response_controlled_figure_uses_the_pooled_repeatability():
+    validation = SimpleNamespace(reference_unit="N", response_controlled=[_held(0.2), _held(1.0)],
+                                 repeatability=REPEAT, runs_repeatability=POOLED)
+    resonance, damping, _ = response_controlled_figure(validation).axes
+    assert _span(resonance) == pytest.approx(0.085) and _span(damping) == pytest.approx(15.0)
+    assert "about a parabola" in repeatability_line(POOLED, "response-controlled runs")
+
+
+def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path, monkeypatch):
+    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
+                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
+                                reference_amplitude=4e-4)
+    a = np.geomspace(3e-5, 4e-4, 6)
+    parts = [(f"{name} ({kind})", ModalSamples(a * k, model.frequency_hz(a * k), model.damping(a * k), np.ones(6), 0.7))
+             for k, (name, kind) in zip((1.0, 0.9), (("rd.csv", "ring-down"), ("rc.mat", "response-controlled")))]
+    curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
+                          "damping_ratio": model.damping(a)})
+    for column in ("natural_frequency_hz", "damping_ratio"):
+        curve[f"{column}_low"], curve[f"{column}_high"] = curve[column] * 0.99, curve[column] * 1.01
+    from nlupdate.reporting import backbone_plots
+
+    drawn = []
+    original = backbone_plots.save_figure
+    monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+    paths = plot_sources(model, parts, curve, tmp_path, frozenset({"rd.csv (ring-down)"}))
+    assert all(p.is_file() for p in paths) and len(drawn) == 2
+    for figure in drawn:
+        labels = _labels(figure)
+        assert "rd.csv (ring-down): 6 sample(s) — DISAGREES with the fit" in labels
+        assert "rc.mat (response-controlled): 6 sample(s)" in labels
+        assert "95 % band of the fit (bootstrap)" in labels and "no samples (extrapolated or held)" in labels
+        assert figure.axes[0].get_legend() is None
+
+
+def test_the_printed_amplitude_fit_opens_with_its_bad_news():
+    from nlupdate.reporting.amplitude_report import amplitude_lines
+
+    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
+                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
+                                reference_amplitude=4e-4)
+    a = np.geomspace(3e-5, 4e-4, 6)
+    agreement = pd.DataFrame({"source": ["rd.csv", "rc.mat"], "test_type": ["ring-down", "response-controlled"],
+                              "samples": [6, 6], "frequency_offset": [1e-4, -3e-4], "frequency_score": [3.6, -1.0],
+                              "damping_offset": [0.234, 0.0014], "damping_score": [66.0, 0.17],
+                              "consistent": [False, True]})
+    fit = SimpleNamespace(model=model, samples=ModalSamples(a, model.frequency_hz(a), model.damping(a), np.ones(6), 0.7),
+                          agreement=agreement, resamples=200, held_errors=None, unit="N",
+                          disagreeing=lambda: ["rd.csv"], poor=lambda: True, misfit=lambda: (0.0013, 0.101))
+    lines = amplitude_lines(fit)
+    assert lines[0].startswith("warning: rd.csv disagree(s) with the joint fit")
+    assert lines[1].startswith("warning: the model misses its samples by 0.13 % in frequency and 10.1 % in damping")
+    assert lines[2].startswith("mode 1: linear limit 80.6 Hz")
+    assert "rd.csv (ring-down): 6 sample(s), mean misfit +0.01 % in frequency (+3.6 standard errors), +23 % in " \
+           "damping (+66) — DISAGREES" in lines[-2]
