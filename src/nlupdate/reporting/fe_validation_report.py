@@ -72,8 +72,8 @@ def fe_validation_section(found) -> list[str]:
     lines = ["## FE model against every forced run", "",
              "The initial and the updated FE model (reduced at the bolts), each with the joint identified per bolt, "
              "predicting every forced run as the test ran it (force control: the force achieved on each line; "
-             "response control: the held amplitude). Resonance, damping ratio (circle fit) and peak |H| by one "
-             "estimator for the measured and predicted curves.", "",
+             "response control: the displacement achieved on each line). Resonance, damping ratio (circle fit) "
+             "and peak |H| by one estimator for the measured and predicted curves.", "",
              _markdown(modes_table(found)), "", joint_line(found), "",
              f"The test's own scatter over its {repeat.levels} force-controlled runs (1σ about a line in log "
              f"amplitude): resonance {_g(repeat.resonance_hz, 3)} Hz, damping ratio "
