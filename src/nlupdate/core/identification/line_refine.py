@@ -21,8 +21,8 @@ to a_s 5 % off.)
 
 Per-line samples (a_i, ω_i, ζ_i) fitted as points would put the noise of H into a as well
 as into ω and ζ — errors in the variables, which next to the kink bias a_s (+0.5 % on average
-over 8 seeds of the Jenkins SDOF at 2 % noise, ζ up to 10 % off next to a_s). The refinement is instead an
-output-error fit: for trial joint parameters each line's amplitude solves
+over 8 seeds of the Jenkins SDOF at 2 % noise, ζ up to 10 % off next to a_s). The refinement
+is instead an output-error fit: for trial joint parameters each line's amplitude solves
 ``a·|D(a, Ω)| = φ_f F`` (Newton in ln a from the measured amplitude: the branch the line was
 measured on), and the misfit is ``(D_measured − D(a))/|D_measured|`` (real and imaginary
 parts), the relative noise of H. Lines where |H| is at least
@@ -32,8 +32,8 @@ squares with their own relative standard deviations; the lines' noise is their r
 after a first pass.
 
 Measured on the Jenkins systems of ``benchmarks/test_type_truth.py`` (six levels, 301 lines,
-2 % noise, 8 seeds; docs/ring-down.md, "Near the stick–slip kink"): the stepped sine's own
-fit places a_s within +0.003 … +0.16 % (SDOF) and −0.14 … +0.27 % (2-DOF), against −0.06 …
+2 % noise, 8 seeds; docs/ring-down.md, "The kink from the stepped sine's lines"): the
+stepped sine's own fit places a_s within +0.003 … +0.16 % (SDOF) and −0.14 … +0.27 % (2-DOF), against −0.06 …
 +2.5 % and −1.3 … +2.0 % from the peaks, and its damping within 1.2 % and 1.0 % of the truth
 over 0.5–15 a_s, the kink included (the peaks: 19 % and 7.1 %; tests/test_stepped_sine_truth.py).
 """
