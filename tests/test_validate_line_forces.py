@@ -201,16 +201,20 @@ def test_forced_runs_scatter_places_each_run_at_the_force_it_achieved(data):
 
 @pytest.mark.slow
 def test_held_out_bands_cover_the_measured_level_on_simulated_tests():
-    """benchmarks/validate_band_coverage.py on 20 seeds (an Iwan joint fitted by the
+    """benchmarks/validate_band_coverage.py on 60 seeds (an Iwan joint fitted by the
     quadratic line models, four levels, the test's own scatter of 0.1 Hz and 10 % in
     damping): the 95 % bands hold the measured held-out value in 85–99 % of the levels for
-    each quantity (measured 91–96 %)."""
+    each quantity (measured over seeds 0–59: resonance 93.3 %, damping 96.9 %, peak 93.8 %).
+    Sixty seeds, not twenty: twenty give about 74 damping bands, and a band that truly covers
+    97 % holds all 74 one time in ten (0.97^74), so 100 % on twenty seeds does not tell an
+    over-wide band from a right one (seeds 0–19 held all 74, seeds 20–39 and 40–59 missed 3
+    and 4); with about 220 bands no miss at all, or fewer than three, is a real over-coverage."""
     from benchmarks.validate_band_coverage import one_seed
 
-    rows = [row for seed in range(20) for row in one_seed((seed, ("lines-background",), 0.1))]
+    rows = [row for seed in range(60) for row in one_seed((seed, ("lines-background",), 0.1))]
     for quantity in ("resonance_hz", "damping_ratio", "peak_abs"):
         inside = [row["inside"] for row in rows if row["quantity"] == quantity and row["inside"] is not None]
-        assert len(inside) >= 70 and 0.85 <= np.mean(inside) <= 0.99, (quantity, np.mean(inside))
+        assert len(inside) >= 200 and 0.85 <= np.mean(inside) <= 0.99, (quantity, np.mean(inside))
 
 
 @pytest.mark.parametrize("stiffening", [0.0, 0.02])
