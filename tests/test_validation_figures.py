@@ -6,8 +6,9 @@
   the axes;
 * the summary figure's grey repeatability is the one printed: ±1σ in Hz, and the relative
   scatter of the damping ratio and of the peak (it was the damping's points over the mean
-  damping, 3 × the stated 6 % on the Brake–Reuss beam, and no peak band); the
-  response-controlled figure uses the pooled repeatability its bands use;
+  damping, 3 × the stated 6 % on the Brake–Reuss beam, and no peak band), those two panels
+  on a log axis of predicted/measured labelled in % error; the response-controlled figure
+  uses the pooled repeatability its bands use;
 * the backbone and damping figures mark every source, name the disagreeing ones, draw the
   band and grey out the amplitudes without samples;
 * the printed amplitude fit opens with its bad news.
@@ -70,31 +71,34 @@ def test_a_held_out_figure_shows_measured_prediction_band_and_baseline():
     assert low > 1e-3 * np.abs(_curve(80.1)).min()
 
 
-def _span(ax) -> float:
-    """The half-height of the grey repeatability span of one panel."""
+def _span(ax) -> tuple[float, float]:
+    """The lower and upper edge of the grey repeatability span of one panel."""
     (patch,) = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_facecolor()[:3] == pytest.approx((0.85,) * 3)]
-    (y0, y1) = patch.get_path().transformed(patch.get_patch_transform()).get_extents().intervaly
-    return (y1 - y0) / 2
+    return tuple(patch.get_path().transformed(patch.get_patch_transform()).get_extents().intervaly)
 
 
 def test_the_summary_draws_the_repeatability_it_states():
     validation = SimpleNamespace(reference_unit="N", held_out=[_held(0.2), _held(1.0)], repeatability=REPEAT)
     figure = summary_figure(validation)
     resonance, damping, peak = figure.axes
-    assert _span(resonance) == pytest.approx(0.15)
-    assert _span(damping) == pytest.approx(6.0)  # 100 × damping_relative, as printed
-    assert _span(peak) == pytest.approx(4.0)
+    assert _span(resonance) == pytest.approx((-0.15, 0.15))
+    # the relative panels: predicted/measured on a log axis, the span exp(±σ) of the log scatter printed
+    assert damping.get_yscale() == "log" and _span(damping) == pytest.approx((np.exp(-0.06), np.exp(0.06)))
+    assert _span(peak) == pytest.approx((np.exp(-0.04), np.exp(0.04)))
+    # its ticks read as % errors: the 95 % band of +50 % (high 0.003 against 0.002) is labelled so
+    assert damping.yaxis.get_major_formatter()(1.5, 0) == "+50" and damping.yaxis.get_major_formatter()(1.0, 0) == "0"
     assert all(ax.get_legend() is None for ax in figure.axes)
     assert "auto → lines, 95 % band" in _labels(figure)
     line = repeatability_line(REPEAT, "held-out levels")
-    assert "about a line" in line and "damping ratio 6 %" in line and "peak |H| 4 %" in line
+    assert "about a line" in line and "damping ratio 6 % of itself" in line and "peak |H| 4 % of itself" in line
 
 
 def test_the_response_controlled_figure_uses_the_pooled_repeatability():
     validation = SimpleNamespace(reference_unit="N", response_controlled=[_held(0.2), _held(1.0)],
                                  repeatability=REPEAT, runs_repeatability=POOLED)
     resonance, damping, _ = response_controlled_figure(validation).axes
-    assert _span(resonance) == pytest.approx(0.085) and _span(damping) == pytest.approx(15.0)
+    assert _span(resonance) == pytest.approx((-0.085, 0.085))
+    assert _span(damping) == pytest.approx((np.exp(-0.15), np.exp(0.15)))
     assert "about a parabola" in repeatability_line(POOLED, "response-controlled runs")
 
 

@@ -7,7 +7,8 @@ them is cut at the axis, and the legend says so), the legend sits below the axes
 (:func:`summary_figure`): per held-out level and model, the resonance error (Hz) and the
 damping and peak errors (%), each with the band as an error bar and the baseline's error
 beside it (open markers), and the test's repeatability (±1σ, grey: in Hz, and the relative
-scatter of the damping ratio and the peak) behind each panel, the legend below the panels.
+scatter of the damping ratio and the peak) behind each panel, the legend below the panels;
+the damping and peak panels on a log axis of predicted/measured, labelled in % error.
 The response-controlled runs (:func:`response_controlled_figure`) the same, per run, with
 the repeatability their bands use (levels and runs pooled).
 """
@@ -17,6 +18,7 @@ import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
 from nlupdate.reporting.figures import MEASURED_STYLE
 
@@ -100,26 +102,30 @@ def _error_panels(results, position, ticks: list[str], xlabel: str, repeatabilit
     """Resonance, damping and peak errors of ``results`` (each with ``compared``,
     ``baseline`` and ``requested``) at ``position(result)`` on the x axis, one colour per
     model, the test's repeatability (±1σ: Hz, and relative for the damping ratio and the
-    peak) behind each panel, one legend below the panels."""
+    peak) behind each panel, one legend below the panels. The damping and peak panels are
+    drawn as the ratio predicted/measured on a log axis labelled in % error: a band of
+    −90 … +1300 % then takes as much room as its factor 10 either way and leaves the other
+    levels readable (on a linear axis it flattened them to a line)."""
     models = list(dict.fromkeys(r.requested for r in results))
     figure = Figure(figsize=(11, 4.3), layout="constrained")
     axes = figure.subplots(1, 3)
-    panels = (("resonance_hz", "resonance error (Hz)", 1.0, repeatability.resonance_hz, False),
-              ("damping_ratio", "damping ratio error (%)", 100.0, repeatability.damping_relative, True),
-              ("peak_abs", "peak |H| error (%)", 100.0, repeatability.peak_relative, True))
+    panels = (("resonance_hz", "resonance error (Hz)", repeatability.resonance_hz, False),
+              ("damping_ratio", "damping ratio error (%, log scale)", repeatability.damping_relative, True),
+              ("peak_abs", "peak |H| error (%, log scale)", repeatability.peak_relative, True))
     x = np.arange(len(ticks), dtype=float)
     offsets = np.linspace(-0.2, 0.2, len(models)) if len(models) > 1 else np.zeros(1)
-    for ax, (name, label, scale, repeat, relative) in zip(axes, panels):
+    for ax, (name, label, repeat, relative) in zip(axes, panels):
+        drawn = []
         for k, model in enumerate(models):
             rows = [r for r in results if r.requested == model]
             xs = np.array([x[position(r)] for r in rows]) + offsets[k]
             c = [r.compared[name] for r in rows]
             b = [r.baseline[name] for r in rows]
-            if relative:
-                err = np.array([scale * v.relative_error for v in c])
-                low = np.array([scale * (v.low / v.measured - 1) for v in c])
-                high = np.array([scale * (v.high / v.measured - 1) for v in c])
-                base = np.array([scale * v.relative_error for v in b])
+            if relative:  # predicted / measured; a non-positive band edge has no place on the log axis
+                err = np.array([v.predicted / v.measured for v in c])
+                low = np.array([v.low / v.measured if v.low > 0 else np.nan for v in c])
+                high = np.array([v.high / v.measured for v in c])
+                base = np.array([v.predicted / v.measured for v in b])
             else:
                 err = np.array([v.error for v in c])
                 low = np.array([v.low - v.measured for v in c])
@@ -127,16 +133,19 @@ def _error_panels(results, position, ticks: list[str], xlabel: str, repeatabilit
                 base = np.array([v.error for v in b])
             yerr = np.vstack([np.where(np.isfinite(low), err - low, 0), np.where(np.isfinite(high), high - err, 0)])
             colour = _MODEL_COLOURS[k % len(_MODEL_COLOURS)]
-            ax.errorbar(xs, err, yerr=yerr, fmt="o", color=colour, ms=5, capsize=3,
+            ax.errorbar(xs, err, yerr=np.where(np.isfinite(yerr), yerr, 0), fmt="o", color=colour, ms=5, capsize=3,
                         label=f"{_model_label(rows)}, 95 % band" if name == "resonance_hz" else None)
             ax.plot(xs + 0.08, base, "s", mfc="none", color="0.3", ms=6,
                     label="log-amplitude baseline" if k == 0 and name == "resonance_hz" else None)
+            drawn += [err, low, high, base]
         if np.isfinite(repeat):
-            span = scale * repeat
-            ax.axhspan(-span, span, color="0.85", zorder=0,
+            span = (np.exp(-repeat), np.exp(repeat)) if relative else (-repeat, repeat)
+            ax.axhspan(*span, color="0.85", zorder=0,
                        label=f"test repeatability ±1σ ({repeatability.levels} curves)"
                        if name == "resonance_hz" else None)
-        ax.axhline(0.0, color="k", lw=0.8)
+        ax.axhline(1.0 if relative else 0.0, color="k", lw=0.8)
+        if relative:
+            _ratio_axis(ax, np.concatenate(drawn))
         ax.set_xticks(x, ticks)
         ax.set_xlim(-0.5, len(ticks) - 0.5)  # one slot per level, also for a single one
         ax.set_xlabel(xlabel)
@@ -144,3 +153,17 @@ def _error_panels(results, position, ticks: list[str], xlabel: str, repeatabilit
         ax.grid(True, axis="y", alpha=0.3)
     figure.legend(loc="outside lower center", ncols=len(models) + 2, fontsize=8, frameon=False)
     return figure
+
+
+def _ratio_axis(ax, ratios: np.ndarray) -> None:
+    """A log axis of predicted/measured ratios, its ticks labelled as % errors."""
+    ratios = ratios[np.isfinite(ratios) & (ratios > 0)]
+    low, high = min(ratios.min(initial=1.0), 0.9), max(ratios.max(initial=1.0), 1.1)
+    ax.set_yscale("log")
+    ax.set_ylim(low / 1.1, high * 1.1)
+    if high / low > 4:
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    else:
+        ax.yaxis.set_major_locator(MaxNLocator(7))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: "0" if abs(y - 1) < 1e-9 else f"{100 * (y - 1):+.3g}".replace("-", "−")))
