@@ -195,7 +195,7 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
     if result.validation is not None:
         verdict = verdict_lines(result.validation, result.validation.reference_unit)[0]
         if verdict.startswith("warning: "):  # a miss opens the summary
-            out.insert(0, f"* **Held-out levels: {verdict.removeprefix('warning: ')}**")
+            out.insert(0, f"* **Validation: {verdict.removeprefix('warning: ')}**")
         out += _validation_summary(result.validation)
     if result.fe_validation is not None:
         out += fe_validation_summary(result.fe_validation)
@@ -387,7 +387,8 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
     if "validation" in plots:
         lines += [f"![held-out levels]({plots['validation']})", ""]
     if validation.response_controlled:
-        rows = [{"run": r.run, "held amplitude (m)": number(r.held_m, 3), **_errors(r)} for r in validation.response_controlled]
+        rows = [{"run": r.run, "held amplitude (µm)": number(1e6 * r.held_m, 3), **_errors(r)}
+                for r in validation.response_controlled]
         lines += ["Response-controlled runs predicted from all force-controlled levels at their held amplitude:", "",
                   markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \

@@ -41,7 +41,7 @@ def repeatability_line(repeat, what: str) -> str:
     """The test's scatter (1σ) in the units the tables use."""
     trend = "a line" if repeat.degree == 1 else "a parabola" if repeat.degree == 2 else f"degree {repeat.degree}"
     return (f"test repeatability ({what}; 1σ about {trend} in log amplitude, {repeat.levels} curves): resonance "
-            f"{repeat.resonance_hz:.2g} Hz, damping ratio {_percent(100 * repeat.damping_relative, sign=False)} % of "
+            f"{repeat.resonance_hz:.3g} Hz, damping ratio {_percent(100 * repeat.damping_relative, sign=False)} % of "
             f"itself, peak |H| {_percent(100 * repeat.peak_relative, sign=False)} % of itself")
 
 
