@@ -9,8 +9,9 @@
   damping, 3 × the stated 6 % on the Brake–Reuss beam, and no peak band), those two panels
   on a log axis of predicted/measured labelled in % error; the response-controlled figure
   uses the pooled repeatability its bands use;
-* the backbone and damping figures mark every source, name the disagreeing ones, draw the
-  band and grey out the amplitudes without samples;
+* the backbone and damping figures mark every source, name the disagreeing ones, show the
+  held-out ones (they were left off), draw the band and grey out the amplitudes without
+  samples;
 * the printed amplitude fit opens with its bad news.
 """
 from __future__ import annotations
@@ -118,13 +119,18 @@ def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path
     drawn = []
     original = backbone_plots.save_figure
     monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
-    paths = plot_sources(model, parts, curve, tmp_path, frozenset({"rd.csv (ring-down)"}))
+    held = [("tap.csv (impact)", ModalSamples(a[:1] / 10, model.frequency_hz(a[:1] / 10), model.damping(a[:1] / 10),
+                                               np.ones(1), 0.7))]
+    paths = plot_sources(model, parts, curve, tmp_path, frozenset({"rd.csv (ring-down)"}), held)
     assert all(p.is_file() for p in paths) and len(drawn) == 2
     for figure in drawn:
         labels = _labels(figure)
         assert "rd.csv (ring-down): 6 sample(s) — DISAGREES with the fit" in labels
         assert "rc.mat (response-controlled): 6 sample(s)" in labels
-        assert "95 % band of the fit (bootstrap)" in labels and "no samples (extrapolated or held)" in labels
+        assert "tap.csv (impact): 1 sample(s), held out (not fitted)" in labels
+        assert "polynomial fit, the sources not held out" in labels and "no samples (extrapolated or held)" in labels
+        assert any(label.startswith("95 % band of the fit (bootstrap)") for label in labels)
+        assert figure.axes[0].get_xlim()[0] < a[0] / 10  # the held-out sample is on the axis
         assert figure.axes[0].get_legend() is None
 
 

@@ -19,11 +19,12 @@ from nlupdate.reporting.markdown import markdown_table
 
 def plot_amplitude_fit(fit: AmplitudeFit, folder: Path) -> tuple[Path, Path]:
     """``folder/backbone.png`` and ``folder/damping.png``: every fitted source on the model,
-    with the band of its backbone table, the sources the consistency check names marked."""
+    with the band of its backbone table, the sources the consistency check names marked, the
+    sources held out beside them."""
     odd = frozenset() if fit.agreement is None else frozenset(
         f"{row.source} ({row.test_type})" for row in fit.agreement.itertuples() if not row.consistent)
     return plot_sources(fit.model, [(f"{name} ({kind})", s) for name, s, _, kind in fit.points], fit.curve, folder,
-                        odd)
+                        odd, [(f"{name} ({kind})", s) for name, s, _, kind in fit.held])
 
 
 def _disagreement_line(fit: AmplitudeFit) -> str | None:

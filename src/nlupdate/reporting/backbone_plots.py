@@ -1,6 +1,6 @@
 """One backbone figure and one damping figure of ``nlupdate amplitude``: every source's
-samples marked (a source that disagrees with the joint fit says so in the legend), the
-jointly fitted curve and its bootstrap band (``backbone.csv``), grey where the curve has no
+samples marked (a source that disagrees with the joint fit says so in the legend; a source
+held out, grey and filled), the jointly fitted curve and its bootstrap band (``backbone.csv``), grey where the curve has no
 samples (extrapolated, or held at its value beyond the largest amplitude), the legend below
 the axes."""
 from __future__ import annotations
@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
-from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, save_figure
+from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, label_thin_bands, save_figure
 
 _MARKERS = "os^vDP*Xh<>"
 
@@ -23,26 +23,35 @@ def _short(name: str) -> str:
 
 
 def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples]], curve: pd.DataFrame,
-                 folder: Path, disagreeing: frozenset[str] = frozenset()) -> tuple[Path, Path]:
+                 folder: Path, disagreeing: frozenset[str] = frozenset(),
+                 held: list[tuple[str, ModalSamples]] = ()) -> tuple[Path, Path]:
     """``folder/backbone.png`` (natural frequency) and ``folder/damping.png`` (damping ratio)
     against modal amplitude: each source's samples with its own marker (the sources named
-    in ``disagreeing`` marked so in the legend), the model over a third of the smallest to
-    three times the largest amplitude, grey beyond the samples, its band where ``curve``
-    (backbone.csv) has one."""
+    in ``disagreeing`` marked so in the legend), the ``held`` sources (held out of the fit)
+    filled grey, the model over a third of the smallest to three times the largest amplitude,
+    grey beyond the fitted samples, its band where ``curve`` (backbone.csv) has one (its
+    legend saying when it is narrower than the line)."""
     amplitudes = np.concatenate([s.amplitude for _, s in parts])
-    a = np.geomspace(amplitudes.min() / 3, amplitudes.max() * 3, 300)
+    every = np.concatenate([amplitudes, *[s.amplitude for _, s in held]])
+    a = np.geomspace(every.min() / 3, every.max() * 3, 300)
     paths = []
     for column, scale, label, name in (("natural_frequency_hz", 1.0, "natural frequency (Hz)", "backbone.png"),
                                        ("damping_ratio", 100.0, "damping ratio (%)", "damping.png")):
-        fig = Figure(figsize=(7, 5.2), layout="constrained")
+        fig = Figure(figsize=(8.5, 5.4), layout="constrained")
         ax = fig.subplots()
         for k, (source, samples) in enumerate(parts):
             values = samples.frequency_hz if column == "natural_frequency_hz" else samples.damping_ratio
             odd = " — DISAGREES with the fit" if source in disagreeing else ""
             ax.semilogx(samples.amplitude, scale * values, _MARKERS[k % len(_MARKERS)], ms=5, mfc="none", zorder=3,
                         label=f"{_short(source)}: {samples.amplitude.size} sample(s){odd}")
+        for k, (source, samples) in enumerate(held):
+            values = samples.frequency_hz if column == "natural_frequency_hz" else samples.damping_ratio
+            ax.semilogx(samples.amplitude, scale * values, _MARKERS[(len(parts) + k) % len(_MARKERS)], ms=5,
+                        color="0.45", zorder=3, label=f"{_short(source)}: {samples.amplitude.size} sample(s), held out "
+                                                      f"(not fitted)")
         fitted = model.frequency_hz(a) if column == "natural_frequency_hz" else model.damping(a)
-        ax.semilogx(a, scale * fitted, "-", color="black", lw=1.2, zorder=2, label=f"{model.backbone} fit, all sources")
+        ax.semilogx(a, scale * fitted, "-", color="black", lw=1.2, zorder=2,
+                    label=f"{model.backbone} fit, " + ("the sources not held out" if held else "all sources"))
         low, high = curve[f"{column}_low"].to_numpy(), curve[f"{column}_high"].to_numpy()
         if np.all(np.isfinite(low)) and np.all(np.isfinite(high)):
             band_fill(ax, curve["modal_amplitude"], scale * low, scale * high, "95 % band of the fit (bootstrap)",
@@ -53,8 +62,9 @@ def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples
         ax.set_xlabel("modal amplitude a (m·√kg)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
-        fig.legend(loc="outside lower center", ncols=2, fontsize=7, frameon=False)
         ax.set_title(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
                      f"ζ₀ = {100 * model.damping_ratio:.3g} %", fontsize=10)
+        label_thin_bands(fig)
+        fig.legend(loc="outside lower center", ncols=2, fontsize=7, frameon=False)
         paths.append(save_figure(fig, folder / name))
     return paths[0], paths[1]
