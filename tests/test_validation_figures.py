@@ -154,3 +154,26 @@ def test_the_printed_amplitude_fit_opens_with_its_bad_news():
     assert lines[2].startswith("mode 1: linear limit 80.6 Hz")
     assert "rd.csv (ring-down): 6 sample(s), mean misfit +0.01 % in frequency (+3.6 standard errors), +23 % in " \
            "damping (+66) — DISAGREES" in lines[-2]
+
+
+def test_a_held_out_type_opens_with_the_values_outside_their_bands():
+    """``validate --hold-out-type``: the first line names each level (or the samples) whose
+    measured value lies outside the prediction's band; the table gives the bands."""
+    from nlupdate.reporting.validation_text import held_type_lines
+
+    def compared(measured, predicted, low=None, high=None):
+        out = {"measured": measured, "predicted": predicted, "relative_error": predicted / measured - 1}
+        return out if low is None else {**out, "low": low, "high": high, "inside": low <= measured <= high}
+
+    level = {"level": 0.1947, "within_fit": True, "resonance_hz": compared(80.262, 80.383, 80.08, 80.68),
+             "damping_ratio": compared(0.00119, 0.00249, 0.00136, 0.00361), "peak_abs": compared(5.6e-4, 4.2e-4)}
+    lines = held_type_lines({"test_type": "stepped-sine", "levels": [level], "samples": []}, "N")
+    assert lines[0] == ("warning: stepped-sine held out: measured OUTSIDE the prediction's 95 % band: "
+                        "0.1947 N damping ratio")
+    assert lines[2].split() == ["0.1947", "80.262", "80.383", "[80.08,", "80.68]", "0.119", "0.249", "[0.136,",
+                                "0.361]", "-25.0", "yes,", "NO,", "—"]
+    sample = {"within_fit": True, "natural_frequency_hz": compared(80.4, 80.41, 80.3, 80.5),
+              "damping_ratio": compared(0.002, 0.0016, 0.0017, 0.0019)}
+    lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample]}, "N")
+    assert lines == ["warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 of "
+                     "the 2 held-out samples within the fitted amplitudes"]

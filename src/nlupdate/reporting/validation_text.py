@@ -133,3 +133,42 @@ def _notes(result) -> list[str]:
     if result.note:
         notes.append(result.note)
     return notes
+
+
+def held_type_lines(summary: dict, unit: str) -> list[str]:
+    """What ``nlupdate validate --hold-out-type`` prints of validation.json's
+    ``held_out_type`` entry (:meth:`~nlupdate.core.validation.held_type.HeldType.summary`),
+    the bad news first: each held-out level or sample whose measured value lies outside the
+    prediction's 95 % band; then, for a held stepped sine, one aligned row per level
+    (measured, predicted with its band, in band or not)."""
+    names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
+    misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
+              for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
+    sampled = [entry for entry in summary["samples"] if entry["within_fit"]]
+    for key in ("natural_frequency_hz", "damping_ratio"):
+        count = sum(entry[key].get("inside") is False for entry in sampled)
+        if count:
+            misses.append(f"{names[key]} of {count} of the {len(sampled)} held-out samples within the fitted amplitudes")
+    what = f"{summary['test_type']} held out"
+    lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}" if misses else
+             f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
+    if not summary["levels"]:
+        return lines
+    cells = [(f"level ({unit})", "resonance (Hz): measured", "predicted [95 % band]", "damping (%): measured",
+              "predicted [95 % band]", "peak error (%)", "in band f, ζ, peak")]
+    for entry in summary["levels"]:
+        res, zeta, peak = entry["resonance_hz"], entry["damping_ratio"], entry["peak_abs"]
+        flags = ", ".join("—" if c.get("inside") is None else "yes" if c["inside"] else "NO" for c in (res, zeta, peak))
+        cells.append((f"{entry['level']:g}", f"{res['measured']:.3f}", f"{res['predicted']:.3f}" + _band(res, 1.0, 2),
+                      f"{100 * zeta['measured']:.3g}", f"{100 * zeta['predicted']:.3g}" + _band(zeta, 100.0, None),
+                      _percent(100 * peak["relative_error"]),
+                      flags + ("" if entry["within_fit"] else " (outside the fitted amplitudes)")))
+    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
+    return lines + ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+
+
+def _band(compared: dict, scale: float, decimals: int | None) -> str:
+    if "low" not in compared:
+        return ""
+    low, high = scale * compared["low"], scale * compared["high"]
+    return f" [{low:.{decimals}f}, {high:.{decimals}f}]" if decimals is not None else f" [{low:.3g}, {high:.3g}]"

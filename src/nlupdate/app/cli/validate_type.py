@@ -12,6 +12,7 @@ too. Writes DIR/validation.json (``held_out_type``) and DIR/held_out_type.png.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from nlupdate.app.cli import CliError
@@ -25,6 +26,7 @@ from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
 from nlupdate.reporting.jsonfile import write_json
+from nlupdate.reporting.validation_text import held_type_lines
 
 
 def add_type_options(parser: argparse.ArgumentParser) -> None:
@@ -73,20 +75,18 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
     except (AmplitudeModelError, ValueError) as error:
         raise CliError(str(error)) from None
     unit = data.reference_unit if data is not None else "N"
+    summary = result.summary()
     with atomic_directory(out, on_exists="replace") as archive:
-        write_json({"held_out_type": result.summary()}, archive.path / "validation.json")
+        write_json({"held_out_type": summary}, archive.path / "validation.json")
         save_figure(held_type_figure(result, unit), archive.path / "held_out_type.png")
+    verdict, *table = held_type_lines(summary, unit)
+    print(verdict, file=sys.stderr if verdict.startswith("warning:") else sys.stdout)
     kinds = ", ".join(f"{name} ({kind}, {n})" for name, kind, n in result.fitted_on)
     print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: linear limit "
           f"{result.model.natural_frequency_hz:.6g} Hz, {100 * result.model.damping_ratio:.4g} %")
-    if len(result.levels):
-        print(f"{'level':>10} {'resonance (Hz) meas/pred':>26} {'damping (%) meas/pred':>24} {'peak error (%)':>15}")
-        for row in result.levels.itertuples():
-            print(f"{row.level:>6.4g} {unit:<3} {row.resonance_hz_measured:12.5g} {row.resonance_hz_predicted:12.5g} "
-                  f"{100 * row.damping_ratio_measured:11.4g} {100 * row.damping_ratio_predicted:11.4g} "
-                  f"{100 * (row.peak_abs_predicted / row.peak_abs_measured - 1):+14.1f}"
-                  + ("" if row.within_fit else "  (outside the fitted amplitudes)"))
-    else:
+    for line in table:
+        print(line)
+    if not len(result.levels):
         inside = int(result.samples["within_fit"].sum())
         print(f"{len(result.samples)} held-out samples, {inside} within the fitted amplitudes "
               f"{result.fitted_range[0]:.3g}–{result.fitted_range[1]:.3g} m·√kg")
