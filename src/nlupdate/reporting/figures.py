@@ -27,6 +27,7 @@ from matplotlib.axes import Axes
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from nlupdate.files import atomic_file
 
@@ -61,16 +62,27 @@ def band_fill(ax: Axes, x: ArrayLike, low: ArrayLike, high: ArrayLike, label: st
 
 
 def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """Distance of each of ``points`` (n×2) to the polyline through ``line`` (m×2, m ≥ 2)."""
+    """Distance of each of ``points`` (n×2) to the polyline through ``line`` (m×2, m ≥ 2).
+
+    Exact, without comparing every point with every segment: a point's distance to the
+    nearest vertex bounds its distance to the polyline, so a block of points (neighbours
+    along x) is compared only with the segments whose bounding boxes come that close."""
     a, b = line[:-1], line[1:]
     d = b - a
     length2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+    low, high = np.minimum(a, b), np.maximum(a, b)
+    bound = cKDTree(line).query(points)[0]
+    order = np.argsort(points[:, 0], kind="stable")
     out = np.empty(len(points))
     for start in range(0, len(points), 256):
-        p = points[start:start + 256, None, :]
-        t = np.clip(np.einsum("ijk,jk->ij", p - a[None], d) / length2[None], 0.0, 1.0)
-        nearest = a[None] + t[..., None] * d[None]
-        out[start:start + 256] = np.sqrt(np.min(np.sum((p - nearest) ** 2, axis=-1), axis=1))
+        block = order[start:start + 256]
+        p = points[block]
+        reach = float(bound[block].max())
+        near = np.all((high >= p.min(axis=0) - reach) & (low <= p.max(axis=0) + reach), axis=1)
+        a_n, d_n = a[near], d[near]
+        t = np.clip(np.einsum("ijk,jk->ij", p[:, None, :] - a_n[None], d_n) / length2[near][None], 0.0, 1.0)
+        nearest = a_n[None] + t[..., None] * d_n[None]
+        out[block] = np.sqrt(np.min(np.sum((p[:, None, :] - nearest) ** 2, axis=-1), axis=1))
     return out
 
 
