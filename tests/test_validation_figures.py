@@ -177,3 +177,7 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
     lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample]}, "N")
     assert lines == ["warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 of "
                      "the 2 held-out samples within the fitted amplitudes"]
+    outside = {**sample, "within_fit": False}
+    assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside]}, "N") == [
+        "warning: impact held out: no held-out sample lies within the fitted amplitudes: each prediction is an "
+        "extrapolation, without a band"]

@@ -6,16 +6,18 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
+from nlupdate.reporting.figures import EXTRAPOLATION_FILL
+
 from nlupdate.core.validation.held_type import HeldType
 
 
 def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     """Two panels, natural frequency (or resonance) and damping ratio: for held-out samples
-    against modal amplitude (measured marks, the model's curve, the fitted sources' range
-    shaded, the prediction's bootstrap band where there is one); for held-out stepped-sine
+    against modal amplitude (measured marks, the model's curve, grey beyond the fitted sources'
+    amplitudes, the prediction's bootstrap band where there is one); for held-out stepped-sine
     levels against force level (measured and predicted, the repeatability band about the
-    prediction)."""
-    fig = Figure(figsize=(10, 4.2))
+    prediction, a tick at each level). One legend below the panels, off the data."""
+    fig = Figure(figsize=(10, 4.8), layout="constrained")
     axes = fig.subplots(1, 2)
     fitted = ", ".join(sorted({kind for _, kind, _ in result.fitted_on}))
     if len(result.levels):
@@ -25,9 +27,10 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
             x = rows["level"].to_numpy()
             if f"{name}_low" in rows:
                 ax.fill_between(x, scale * rows[f"{name}_low"], scale * rows[f"{name}_high"], color="0.85",
-                                label="predicted ± 95 % repeatability")
+                                label="95 % band of the prediction (the test's repeatability)")
             ax.semilogx(x, scale * rows[f"{name}_measured"], "o", mfc="none", label="measured (held out)")
             ax.semilogx(x, scale * rows[f"{name}_predicted"], "x-", label=f"predicted from {fitted}")
+            ax.set_xticks(x, [f"{v:g}" for v in x])  # a log axis over one decade shows no labelled tick else
             ax.set_xlabel(f"force level ({unit})")
             ax.set_ylabel(label)
     else:
@@ -37,7 +40,11 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
         for ax, measured, curve, scale, label in (
                 (axes[0], "natural_frequency_hz", result.model.frequency_hz(grid), 1.0, "natural frequency (Hz)"),
                 (axes[1], "damping_ratio", result.model.damping(grid), 100.0, "damping ratio (%)")):
-            ax.axvspan(*result.fitted_range, color="0.9", label="amplitudes of the fitted types")
+            low, high = result.fitted_range  # grey where the model has no fitted sample (the figures' convention)
+            outside = [span for span in ((grid[0], low), (high, grid[-1])) if span[1] > span[0]]
+            for k, span in enumerate(outside):
+                ax.axvspan(*span, **EXTRAPOLATION_FILL,
+                           label="beyond the fitted types' amplitudes (extrapolated)" if k == 0 else None)
             ax.semilogx(a, scale * rows[measured], "o", ms=4, mfc="none", label=f"{result.test_type} (held out)")
             ax.semilogx(grid, scale * curve, "-", color="black", label=f"predicted from {fitted}")
             column = "predicted_frequency_hz" if measured == "natural_frequency_hz" else "predicted_damping_ratio"
@@ -51,8 +58,7 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     for ax in axes:
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize=8, frameon=False)
     fig.suptitle(f"{result.test_type} held out, predicted by the {result.model.backbone} model of {fitted}",
                  fontsize=10)
-    fig.tight_layout()
     return fig

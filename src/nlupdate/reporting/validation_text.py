@@ -150,8 +150,13 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
         if count:
             misses.append(f"{names[key]} of {count} of the {len(sampled)} held-out samples within the fitted amplitudes")
     what = f"{summary['test_type']} held out"
-    lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}" if misses else
-             f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
+    if misses:
+        lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
+    elif not summary["levels"] and not sampled:
+        lines = [f"warning: {what}: no held-out sample lies within the fitted amplitudes: each prediction is an "
+                 f"extrapolation, without a band"]
+    else:
+        lines = [f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
     if not summary["levels"]:
         return lines
     cells = [(f"level ({unit})", "resonance (Hz): measured", "predicted [95 % band]", "damping (%): measured",
