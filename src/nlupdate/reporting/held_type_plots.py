@@ -36,7 +36,8 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     else:
         rows = result.samples
         a = rows["modal_amplitude"].to_numpy()
-        grid = np.geomspace(min(a.min(), result.fitted_range[0]), max(a.max(), result.fitted_range[1]), 200)
+        grid = np.geomspace(min(a.min(), result.fitted_range[0]) / 1.5, max(a.max(), result.fitted_range[1]) * 1.5,
+                            200)  # no sample on the axis' edge
         for ax, measured, curve, scale, label in (
                 (axes[0], "natural_frequency_hz", result.model.frequency_hz(grid), 1.0, "natural frequency (Hz)"),
                 (axes[1], "damping_ratio", result.model.damping(grid), 100.0, "damping ratio (%)")):
@@ -48,7 +49,7 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
             ax.semilogx(a, scale * rows[measured], "o", ms=4, mfc="none", label=f"{result.test_type} (held out)")
             ax.semilogx(grid, scale * curve, "-", color="black", label=f"predicted from {fitted}")
             column = "predicted_frequency_hz" if measured == "natural_frequency_hz" else "predicted_damping_ratio"
-            if f"{column}_low" in rows:
+            if f"{column}_low" in rows and np.isfinite(rows[f"{column}_low"]).any():  # no legend for an empty band
                 order = np.argsort(a)
                 ax.fill_between(a[order], scale * rows[f"{column}_low"].to_numpy()[order],
                                 scale * rows[f"{column}_high"].to_numpy()[order], color="tab:orange", alpha=0.3,
