@@ -164,6 +164,6 @@ def _ratio_axis(ax, ratios: np.ndarray) -> None:
     if high / low > 4:
         ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
     else:
-        ax.yaxis.set_major_locator(MaxNLocator(7))
+        ax.yaxis.set_major_locator(MaxNLocator(7, steps=[1, 2, 2.5, 5, 10]))  # round % errors
     ax.yaxis.set_minor_formatter(NullFormatter())
     ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: "0" if abs(y - 1) < 1e-9 else f"{100 * (y - 1):+.3g}".replace("-", "−")))
