@@ -10,7 +10,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from nlupdate.core.correlation.levels import SHAPE_POINTS
-from nlupdate.reporting.figures import INITIAL_STYLE, MEASURED_STYLE, frf_curve, level_colours, unwrapped_phase_deg
+from nlupdate.reporting.figures import (INITIAL_STYLE, MEASURED_STYLE, frf_curve, grid_in_inches, level_colours,
+                                        unwrapped_phase_deg)
 
 #: Styles of the predicted models after the initial one.
 PREDICTION_COLOURS = ("C3", "C0", "C2", "C4", "C1", "C5")
@@ -65,14 +66,22 @@ def predictions_figure(
     levels = sorted({float(level) for p in predictions for level in p.table["force_level_n"]})
     level_rows = -(-len(levels) // 5)
     columns = -(-len(levels) // level_rows)
-    figure = Figure(figsize=(3.3 * columns, 4.4 * level_rows + 1.0), layout="constrained")
-    grid = figure.add_gridspec(2 * level_rows, columns, height_ratios=[1.5, 1] * level_rows)
+    separator = "; " if columns > 2 else "\n"  # two panels are too narrow for one line
+    title = (f"{title or 'predicted vs measured at every force level'}\nresponse {response_dof}, input "
+             f"{input_dof}{separator}FRAC = 1: the predicted FRF has the measured shape over the whole band")
+    figure = Figure(figsize=(3.3 * columns, 4.4 * level_rows + 1.0))
+    # a fixed layout (inches): the title's lines and a panel title above, tick labels as wide as
+    # "6×10⁻⁵" and the y label left of each row, the x label and the legend below
+    grid = figure.add_gridspec(level_rows, columns, **grid_in_inches(
+        figure, level_rows, columns, left=0.78, right=0.12, top=0.44 + 0.18 * title.count("\n"), bottom=0.72,
+        wspace=0.55, hspace=0.62))
     first = None
     for k, level in enumerate(levels):
         row, column = divmod(k, columns)
-        ax_mag = figure.add_subplot(grid[2 * row, column], sharex=first)
+        cell = grid[row, column].subgridspec(2, 1, height_ratios=[1.5, 1], hspace=0.08)
+        ax_mag = figure.add_subplot(cell[0], sharex=first)
         first = first or ax_mag
-        ax_phase = figure.add_subplot(grid[2 * row + 1, column], sharex=first)
+        ax_phase = figure.add_subplot(cell[1], sharex=first)
         f_m, h_m = frf_curve(measured, response_dof, input_dof, level)
         single = f_m.size < SHAPE_POINTS  # a single-frequency level: its points drawn large, on top
         marker = {**MEASURED_STYLE, "ms": 6 if single else 1.5, "zorder": 5 if single else None}
@@ -102,11 +111,8 @@ def predictions_figure(
             ax_mag.set_ylabel("|H| (m/N)", fontsize=8)
             ax_phase.set_ylabel("phase (deg)", fontsize=8)
     handles, labels = first.get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, markerscale=4)
-    separator = "; " if columns > 2 else "\n"  # two panels are too narrow for one line
-    figure.suptitle(f"{title or 'predicted vs measured at every force level'}\nresponse {response_dof}, input "
-                    f"{input_dof}{separator}FRAC = 1: the predicted FRF has the measured shape over the whole band",
-                    fontsize=10)
+    figure.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, markerscale=4)
+    figure.suptitle(title, fontsize=10, y=1 - 0.06 / figure.get_figheight(), va="top")
     return figure
 
 
