@@ -106,3 +106,16 @@ def test_brb_hammer_ring_down_is_named_against_the_shaker_runs(tmp_path):
     assert not agreement.loc["ring-down", "consistent"]
     assert 0.1 < agreement.loc["ring-down", "damping_offset"] < 0.35
     assert agreement.loc["impact", "consistent"] and agreement.loc["response-controlled", "consistent"]
+
+
+def test_brb_stepped_sine_joined_without_its_shape_names_the_coordinate(tmp_path, capsys):
+    """The beam's stepped sine is excited at acc3:y; a shape given at another name (acc3)
+    leaves its modal amplitudes without a scale, and the one-line error says which file,
+    which coordinate and the form of the option that fixes it."""
+    runs = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
+    assert main(["amplitude", "--measured", str(runs), "--response-controlled", str(runs), "--coordinates",
+                 f"{runs}=acc3:-y,acc3:y", "--shape", "acc3=0.7271", "--backbone", "polynomial", "--bootstrap", "0",
+                 "--out", str(tmp_path / "amm")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert str(runs) in error and "excited coordinate acc3:y" in error, error
+    assert "--shape acc3:y=VALUE" in error and "shapes given at: acc3)" in error, error

@@ -47,7 +47,7 @@ from nlupdate.core.identification.backbone_samples import (
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.line_refine import refine_on_lines, stepped_sine_lines
 from nlupdate.core.measurement.units import table_reference_unit
-from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, write_amplitude_model
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
 from nlupdate.progress import ProgressCallback, no_progress
 
 #: rms relative misfits (frequency, damping ratio) of the samples about the model above which
@@ -235,6 +235,12 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
         points = [(measured_name, samples, None, measured.kind)] + list(sources)
         shapes_fit = model.shapes
         if sources:  # the measured samples and the other sources, fitted together at the given shape
+            if samples.shape_free:
+                given = ", ".join(shapes) or "none"
+                raise AmplitudeModelError(
+                    f"{measured_name}: joining its FRFs with other sources needs the mass-normalised mode shape at "
+                    f"the excited coordinate {input_dof} (--shape {input_dof}=VALUE, 1/√kg; shapes given at: "
+                    f"{given}): without it their modal amplitudes have no common scale")
             samples = join_samples([s for _, s, _, _ in points])
     held = [p for p in points if p[3] == options.hold_out]
     if held:
