@@ -93,6 +93,29 @@ def test_force_controlled_runs_read_back_as_receptance_with_the_achieved_force(t
     assert any("converted accelerance" in m for m in messages)
 
 
+def test_response_controlled_runs_read_apart_are_not_reported_lost(tmp_path):
+    """validate and amplitude --response-controlled read a file's response-controlled runs as
+    such: the FRF table is the same (the force-controlled runs, the analytic receptance) but
+    no warning says the runs were left out; the commands state which files they read apart."""
+    import argparse
+
+    from nlupdate.app.cli.measured import read_options
+
+    path = write(tmp_path / "runs.mat", {"ForceControl": [force_run(0.2), force_run(1.0)],
+                                         "ResponseControl": [response_run(5.0), response_run(40.0)]})
+    alone, _ = read_quietly(path)
+    apart, messages = read_quietly(path, ReadOptions(coordinates=DRIVE.coordinates, runs_read_apart=(str(path),)))
+    assert apart.equals(alone)
+    assert not any("left out" in m for m in messages) and any("converted accelerance" in m for m in messages)
+    amplitude = argparse.Namespace(measured=[str(path)], response_controlled=[str(path)])
+    assert read_options(amplitude).reads_runs_apart(str(path))
+    assert not read_options(argparse.Namespace(measured=[str(path)], response_controlled=[])).reads_runs_apart(str(path))
+    for setting, apart_too in ((None, True), ("auto", True), ("kept", True), ("off", False)):  # validate's option
+        validate = argparse.Namespace(measured=[str(path)], response_controlled=setting)
+        assert read_options(validate).reads_runs_apart(str(path)) is apart_too, setting
+    assert not read_options(argparse.Namespace(measured=[str(path)])).reads_runs_apart(str(path))  # identify
+
+
 def test_phase_in_degrees_and_displacement_amplitudes(tmp_path):
     degrees = force_run(0.5, units="Hz, N, m/s^2, deg", phase_scale=180 / np.pi)
     table, _ = read_quietly(write(tmp_path / "runs.mat", {"FC": [degrees]}))

@@ -112,9 +112,21 @@ def read_options(args: argparse.Namespace) -> ReadOptions:
         coordinates[name] = names
     try:
         return ReadOptions(getattr(args, "reference_unit", None), getattr(args, "reference_calibration", None), levels,
-                           coordinates)
+                           coordinates, _runs_read_apart(args))
     except ReferenceUnitError as error:
         raise CliError(f"--reference-calibration: {error}") from None
+
+
+def _runs_read_apart(args: argparse.Namespace) -> tuple[str, ...]:
+    """The files whose response-controlled runs the command reads as such: ``amplitude``'s
+    ``--response-controlled FILE``s; ``validate``'s MATLAB ``--measured`` files unless
+    ``--response-controlled off``; none for a command without the option."""
+    held = getattr(args, "response_controlled", "off")
+    if isinstance(held, (list, tuple)):
+        return tuple(map(str, held))
+    if str(held).lower() in ("off", "false"):
+        return ()
+    return tuple(str(p) for p in getattr(args, "measured", None) or [] if str(p).lower().endswith(".mat"))
 
 
 def _uses_frf_options(args: argparse.Namespace) -> bool:

@@ -412,7 +412,8 @@ def _read_runs(groups: list[tuple[str, list[dict[str, Any]]]], path: Path, optio
                    f"FRFs at a force level")
         if not curves:
             raise MeasurementTableError(message + "; the file holds no force-controlled run")
-        warnings.warn(message, NlupdateWarning, stacklevel=4)
+        if not options.reads_runs_apart(str(path)):  # else read as response-controlled runs: not lost
+            warnings.warn(message, NlupdateWarning, stacklevel=4)
     if unheld:
         worst = max(unheld, key=lambda u: max(u[1] / u[2], u[3] / u[1]))
         warnings.warn(

@@ -58,12 +58,16 @@ class ReadOptions:
     coordinates: the (response, input) coordinate names of each file that does not name
         them (keyed like ``levels``); a name ``NODE:-DIR`` states a sensor or force along
         the negative direction: the FRF is negated and the coordinate named ``NODE:DIR``.
+    runs_read_apart: the files (keyed like ``levels``) whose response-controlled runs the
+        command reads as such (``nlupdate validate``, ``amplitude --response-controlled``):
+        the FRF reader leaves those runs out of its table without warning that they are lost.
     """
 
     reference_unit: str | None = None
     reference_calibration: float | None = None
     levels: Mapping[str, float] = field(default_factory=dict)
     coordinates: Mapping[str, tuple[str, str]] = field(default_factory=dict)
+    runs_read_apart: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.reference_unit is not None:
@@ -104,6 +108,11 @@ class ReadOptions:
     def coordinates_of(self, path: str) -> tuple[str, str] | None:
         """The (response, input) names the user gave for the file ``path`` (None when none)."""
         return _statement_for(self.coordinates, path)
+
+    def reads_runs_apart(self, path: str) -> bool:
+        """Whether the response-controlled runs of the file ``path`` are read as such
+        (``runs_read_apart``)."""
+        return bool(_statement_for({key: True for key in self.runs_read_apart}, path))
 
 
 def _one_level(matches: Mapping[str, float], what: str) -> float | None:
