@@ -176,11 +176,12 @@ def png_bytes(figure: Figure, dpi: int = 120) -> bytes:
     then frozen: ``savefig`` would otherwise draw it twice (a hidden draw to lay it out,
     then the real one). Layout and drawing share one Agg renderer, so every text is
     measured once, not once per renderer. The pixels are the same; ``figure`` is left
-    without its engine."""
+    without its engine and at ``dpi`` (the axis labels' offsets from their tick labels
+    are in pixels of the last draw, so a reader measuring them needs the same dpi)."""
     FigureCanvasAgg(figure)
+    figure.set_dpi(dpi)
     engine = figure.get_layout_engine()
     if engine is not None:
-        figure.set_dpi(dpi)
         engine.execute(figure)
         figure.set_layout_engine(None)
     buffer = io.BytesIO()

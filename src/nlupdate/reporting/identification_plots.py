@@ -14,8 +14,8 @@ from numpy.typing import ArrayLike
 from nlupdate.core.identification.methods import METHODS
 from nlupdate.reporting.coverage import AMPLITUDE_GAP_RATIO, covered_intervals, describe_intervals
 from nlupdate.reporting.figures import (
-    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, THIN_BAND_NOTE, band_fill, label_thin_bands,
-    level_colours, unwrapped_phase_deg,
+    BAND_LABEL, EXTRACTED_COLOUR, EXTRAPOLATION_FILL, FIT_COLOUR, FIT_WIDTH, THIN_BAND_NOTE, band_fill, grid_in_inches,
+    label_thin_bands, level_colours, unwrapped_phase_deg,
 )
 
 
@@ -69,8 +69,12 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
         point_style.update(c=colouring[0], cmap=colouring[1], norm=colouring[2])
     else:
         point_style.update(color="C0")
-    figure = Figure(figsize=(15, 4.6), layout="constrained")
-    axes = figure.subplots(1, 3)
+    figure = Figure(figsize=(15, 4.6))
+    # a fixed layout (inches; constrained layout would measure every tick label twice): tick
+    # labels as wide as "−300000" and the y label left of each panel, the two title lines
+    # above, the x label and the legend (one row: at most six entries) below, the colour bar's labels right
+    axes = figure.subplots(1, 3, gridspec_kw=grid_in_inches(figure, 1, 3, left=1.0, right=0.75 if colouring else 0.15,
+                                                             top=0.62, bottom=0.88, wspace=1.05))
     for ax, part, band_part, name in ((axes[0], np.real, "real", "Re"), (axes[1], np.imag, "imag", "Im")):
         empty = [(grid[0], low)] if grid[0] < low else []
         empty += gaps + ([(high, grid[-1])] if grid[-1] > high else [])
@@ -128,13 +132,14 @@ def fit_figure(identification: Any, title: str, poor_factor: float | None = None
             for c in fills:
                 c.set_label(f"{BAND_LABEL} ({band.n_samples} fits): {THIN_BAND_NOTE} over the data in {part}")
     handles, labels = axes[0].get_legend_handles_labels()  # beside the panels: inside it would hide points
-    figure.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=7)
+    figure.legend(handles, labels, loc="lower center", ncol=min(len(labels), 6), fontsize=7)
     method = METHODS[result.method]
     where = f"the fit is solid where the data lie ({describe_intervals(covered)})"
     if gaps:
         where += (f", dashed across the gap{'s' if len(gaps) > 1 else ''} between them (no point within a factor "
                   f"{AMPLITUDE_GAP_RATIO:g})")
-    figure.suptitle(f"{title}: {method.fitted_quantity}\n{method.describe_points(result, unit)}; {where}", fontsize=9)
+    figure.suptitle(f"{title}: {method.fitted_quantity}\n{method.describe_points(result, unit)}; {where}", fontsize=9,
+                    y=1 - 0.05 / figure.get_figheight(), va="top")
     return figure
 
 
@@ -151,8 +156,11 @@ def linear_frf_figure(identification: Any, measured: tuple[str, ArrayLike, Array
     model = identification.modal_receptance(f)
     unit = identification.reference_unit
     modes = list(identification.modes)[:max_zooms]
-    figure = Figure(figsize=(6.5 + 3.0 * len(modes), 6.4), layout="constrained")
-    grid = figure.add_gridspec(2, 1 + len(modes), width_ratios=[2.2] + [1] * len(modes))
+    figure = Figure(figsize=(6.5 + 3.0 * len(modes), 6.4))
+    # a fixed layout (inches; constrained layout would measure every tick label twice): tick
+    # labels as wide as "6 × 10⁻⁵" left of each panel, two-line titles above the zooms
+    grid = figure.add_gridspec(2, 1 + len(modes), width_ratios=[2.2] + [1] * len(modes), **grid_in_inches(
+        figure, 2, 1 + len(modes), left=0.95, right=0.15, top=0.5, bottom=0.55, wspace=0.78, hspace=0.4))
     phase = unwrapped_phase_deg(h)
     model_phase = unwrapped_phase_deg(model)
     panels = []

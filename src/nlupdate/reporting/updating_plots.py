@@ -10,7 +10,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator, NullLocator
 
-from nlupdate.reporting.figures import BAND_LABEL, MEASURED_STYLE, band_fill, label_thin_bands, prefixed_unit
+from nlupdate.reporting.figures import (BAND_LABEL, MEASURED_STYLE, band_fill, grid_in_inches, label_thin_bands,
+                                        prefixed_unit)
 from nlupdate.reporting.styles import bar_style
 
 #: Fill of a target's ±1σ and ±2σ interval.
@@ -82,9 +83,15 @@ def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parame
     count = len(names) + 1
     columns = min(count, 3)
     rows = -(-count // columns)
-    figure = Figure(figsize=(4.4 * columns, 3.3 * rows + 1.6), layout="constrained")
-    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
     runs = list(dict.fromkeys(history["run"]))
+    entries = len(runs) + bool(truth) + len(target_sigma_pct or {})  # at most, in the legend's three columns
+    figure = Figure(figsize=(4.4 * columns, 3.3 * rows + 1.6))
+    # a fixed layout (inches; constrained layout would measure every tick label twice): a
+    # two-line y label and tick labels left of each panel, the title above, the x label
+    # and the legend (its title and a row per three entries) below
+    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False, gridspec_kw=grid_in_inches(
+        figure, rows, columns, left=1.05, right=0.15, top=0.62, bottom=0.85 + 0.15 * -(-entries // 3),
+        wspace=1.0, hspace=0.85))).ravel()
     looks = {}
     for k, run in enumerate(runs):
         marker = styles[run].get("marker") or CONVERGENCE_MARKERS[k % len(CONVERGENCE_MARKERS)]
@@ -134,10 +141,10 @@ def convergence_figure(history: pd.DataFrame, styles: Mapping[str, dict], parame
     drawn = {line.get_label(): line for ax in axes[:count][::-1] for line in ax.get_lines()}
     handles = [drawn[run] for run in runs if run in drawn]
     handles += ([truth_handle] if truth_handle is not None else []) + sigma_handles
-    figure.legend(handles, [h.get_label() for h in handles], loc="outside lower center", ncol=min(3, len(handles)),
+    figure.legend(handles, [h.get_label() for h in handles], loc="lower center", ncol=min(3, len(handles)),
                   fontsize=7, title="run (colour: parameter set or candidate; line style: difference formula); runs "
                   "that coincide are drawn side by side, within ±0.3 iteration", title_fontsize=7)
-    figure.suptitle("convergence of every updating run", fontsize=10)
+    figure.suptitle("convergence of every updating run", fontsize=10, y=1 - 0.06 / figure.get_figheight(), va="top")
     return figure
 
 
@@ -201,8 +208,10 @@ def candidate_frfs_figure(frfs: Any, styles: Mapping[str, dict], title: str = ""
     (:class:`~nlupdate.study.steps.updating.CandidateFRFs`), with what modal truncation does to the
     models' curves said on the plot."""
     f = np.asarray(frfs.frequency_hz, dtype=float)
-    figure = Figure(figsize=(12, 5.4), layout="constrained")
-    ax, side = figure.subplots(1, 2, width_ratios=[2.6, 1])
+    figure = Figure(figsize=(12, 5.4))
+    # a fixed layout (inches; constrained layout would measure every tick label twice)
+    ax, side = figure.subplots(1, 2, width_ratios=[2.6, 1], gridspec_kw=grid_in_inches(
+        figure, 1, 2, left=0.95, right=0.1, top=0.4, bottom=0.6, wspace=0.3))
     side.axis("off")
     band = frfs.reference_band
     if band is not None:
