@@ -104,6 +104,15 @@ def test_no_value_is_printed_as_if_fine(data, tmp_path, capsys):
     # the bad news first: the first line on stderr names the level, the quantity and the model
     assert err.splitlines()[0].startswith("warning: measured OUTSIDE the prediction's 95 % band: 0.35 N damping ratio")
     assert "warning: auto at 0.35 N (an extrapolation): lines-background refused" in err
+    # auto's reason: the scores in words, a candidate that failed named with why (three kept
+    # levels, two left to fit: the Iwan backbone's three parameters need three), no "nan"
+    (reason,) = [line for line in out.splitlines() if line.startswith("auto at 0.35 N: ")]
+    assert "nan" not in reason and "amplitude-iwan failed to fit with one kept curve left out: an iwan backbone " \
+                                   "needs at least 3 samples, got 2" in reason, reason
+    depth = 0
+    for char in reason:  # no parentheses inside parentheses
+        depth += {"(": 1, ")": -1}.get(char, 0)
+        assert depth <= 1, reason
 
 
 def test_a_value_outside_a_band_gets_its_line():

@@ -112,7 +112,7 @@ def validation_lines(validation, unit: str) -> list[str]:
             lines += [f"  note at {r.run} ({r.label}): {note}" for note in _notes(r)]
     lines += [f"response-controlled runs: {note}" for note in validation.response_controlled_notes]
     for level, choice in validation.choices.items():
-        lines.append(f"auto at {level:g} {unit}: {choice.name} ({choice.reason})")
+        lines.append(f"auto at {level:g} {unit}: {choice.name} — {choice.reason}")
     return lines
 
 

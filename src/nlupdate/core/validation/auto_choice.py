@@ -93,9 +93,10 @@ def outside_physical_range(kept: FRFLevels, fitted: Fitted, level: float) -> str
     return None
 
 
-def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> dict[str, float]:
-    """Each candidate's leave-one-kept-out RMS relative error (module docstring; NaN where it failed)."""
-    scores = {}
+def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float], dict[str, str]]:
+    """Each candidate's leave-one-kept-out RMS relative error (module docstring; NaN where it
+    failed) and, for each that failed, why (its error's message)."""
+    scores, failed = {}, {}
     for name in [c for c in AUTO_CANDIDATES if not (runs or kept.linear_limit is not None) or c in WITH_RUNS]:
         errors = []
         try:
@@ -108,9 +109,10 @@ def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> dict[str, float]:
                 errors.append(relative_error(run.h, model_fitter(name, others)(kept).at_response(
                     run.frequency_hz, run.held_on_lines)))  # the displacement each line achieved
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             scores[name] = float("nan")
-    return scores
+            failed[name] = str(error) or type(error).__name__
+    return scores, failed
 
 
 def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | None = None) -> ModelChoice:
@@ -127,13 +129,14 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
         scores, ranked = {}, ["lines"]
         reason = f"{kept.levels.size} kept levels: too few to compare models on them"
     else:
-        scores = _scores(kept, runs)
+        scores, failed = _scores(kept, runs)
         usable = {name: score for name, score in scores.items() if np.isfinite(score)}
         ranked = sorted(usable, key=usable.get) or ["lines"]
         curves = f"{kept.levels.size} levels and {len(runs)} response-controlled runs" if runs else "levels"
-        reason = (f"the smallest leave-one-kept-out error over the kept {curves} "
-                  f"({', '.join(f'{n} {s:.3g}' for n, s in scores.items())})" if usable
+        reason = (f"the smallest leave-one-kept-out error over the kept {curves}: "
+                  f"{', '.join(f'{n} {s:.3g}' for n, s in usable.items())}" if usable
                   else "no candidate predicted the kept levels from each other")
+        reason += "".join(f"; {n} failed to fit with one kept curve left out: {why}" for n, why in failed.items())
     if not extrapolated(kept, level):
         return ModelChoice(ranked[0], scores, reason)
     refused: dict[str, str] = {}
@@ -141,7 +144,7 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
         try:
             why = outside_physical_range(kept, model_fitter(name, runs)(kept), float(level))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
-            why = f"it cannot be fitted on the kept levels ({error})"
+            why = f"it cannot be fitted on the kept levels: {error}"
         if why is None:
             break
         refused[name] = why
