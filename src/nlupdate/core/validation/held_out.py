@@ -339,9 +339,11 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
     prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring);
     ``misfit`` (quantity → (σ, degrees of freedom)): the model's own misfit at the kept
-    levels, the model term where there is no jackknife. Each side of a band takes the
-    refits' spread on that side (:func:`_sides`): the band follows the model where its
-    refits move one way."""
+    levels, the model term of a quantity with fewer than three finite refit values (no
+    jackknife, or a refit's curve without one: a damping ratio at a jump) — without it that
+    quantity has no band, never a band of the test's scatter alone. Each side of a band
+    takes the refits' spread on that side (:func:`_sides`): the band follows the model where
+    its refits move one way."""
     f = frequency_hz
     values = _metrics(f, predicted)
     jack_values = [_metrics(f, curve) for curve in curves]
@@ -358,11 +360,12 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
         centre = values[name]
         with np.errstate(invalid="ignore", divide="ignore"):
             jack = np.log(jack) if log else jack
+        finite = int(np.isfinite(jack).sum())
         halves = []
-        for side in [float(x[0]) for x in _sides(jack[:, None])] if n >= 3 else [None, None]:
-            model = (side, n - 1) if side is not None else (misfit or {}).get(name, (np.nan, 0))
+        for side in [float(x[0]) for x in _sides(jack[:, None])] if finite >= 3 else [None, None]:
+            model = (side, finite - 1) if side is not None else (misfit or {}).get(name, (np.nan, 0))
             total, t = _t95([model, (test_std[name], test_dof)])
-            halves.append(t * total if (n >= 3 or misfit) and np.isfinite(t) else float("nan"))
+            halves.append(t * total if (side is not None or misfit) and np.isfinite(t) else float("nan"))
         low, high = ((centre * np.exp(-halves[0]), centre * np.exp(halves[1])) if log
                      else (centre - halves[0], centre + halves[1]))
         compared[name] = Compared(measured[name], centre, low, high)
@@ -384,6 +387,15 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     else:
         abs_low = abs_high = np.full(f.shape, np.nan)
     return compared, np.maximum(size - abs_low, 0.0), size + abs_high
+
+
+def needs_misfit(frequency_hz: NDArray, curves: list) -> bool:
+    """Whether the band of refits ``curves`` needs :func:`kept_misfit`: a quantity that fewer
+    than three of them give (:func:`bands`)."""
+    if len(curves) < 3:
+        return True
+    values = [_metrics(frequency_hz, curve) for curve in curves]
+    return any(sum(np.isfinite(v[name]) for v in values) < 3 for name in QUANTITIES)
 
 
 def kept_misfit(fitted, data: FRFLevels, levels: Sequence[float]) -> dict[str, tuple[float, int]]:
@@ -440,7 +452,7 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
         why = outside_physical_range(kept, fitted, level)
         if why is not None:
             note = "; ".join(filter(None, [f"the extrapolation leaves the physical range: {why}", note]))
-    misfit = kept_misfit(fitted, data, kept_levels) if len(curves) < 3 else None
+    misfit = kept_misfit(fitted, data, kept_levels) if needs_misfit(f, curves) else None
     base = baseline_frf(baseline_fits(data, kept_levels), level, f)
     return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model,
                    **curve_comparison(data, f, h, predicted, curves, base, repeat, misfit), note=note)

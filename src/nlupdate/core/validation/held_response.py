@@ -29,7 +29,8 @@ from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits
 from nlupdate.core.validation.held_out import (
-    CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, refits, repeatability, validate,
+    CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits, repeatability,
+    validate,
 )
 from nlupdate.core.validation.auto_choice import choose_model
 from nlupdate.core.validation.models import model_fitter
@@ -83,7 +84,7 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
         held = run.held_on_lines  # a run holding acceleration holds A/Ω² on each line
         predicted = fitted.at_response(f, held)
         curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, held))
-        misfit = kept_misfit(fitted, data, levels) if len(curves) < 3 else None
+        misfit = kept_misfit(fitted, data, levels) if needs_misfit(f, curves) else None
         base = baseline_at_response(fits, run.held_m, f)
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
                                   requested=requested or model,
