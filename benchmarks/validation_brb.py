@@ -6,7 +6,8 @@
 Prints, for ``--hold-out each`` and ``--hold-out top`` (docs/methods.md §10), one row per
 held-out level and model: the resonance error (Hz), damping-ratio and peak errors (%), each
 with its 95 % band, whether the measured value lies in the band, and the log-amplitude
-baseline's errors; then the test's repeatability (:mod:`benchmarks.validation_table`); then
+baseline's errors, as ``nlupdate validate`` states them (:mod:`benchmarks.validation_table`);
+then the test's repeatability; then
 the eight response-controlled runs predicted from all four force-controlled levels, the same
 way; then ``--response-controlled kept``: the runs kept beside the levels as backbone
 evidence (lines models and auto); then the hammer impact's linear limit
@@ -25,7 +26,8 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks import docs_block  # noqa: E402
-from benchmarks.validation_table import error_cells, print_validation_tables, repeatability_line  # noqa: E402
+from benchmarks.validation_table import print_notes, print_validation_tables, row_cells  # noqa: E402
+from nlupdate.reporting.validation_text import repeatability_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BRB = ROOT / "tests" / "data" / "brb" / "ForcedFrequencyResponses.mat"
@@ -97,16 +99,18 @@ def print_with_impact(data, models) -> None:
         kept = f" --response-controlled kept ({len(kept_runs)} runs)" if kept_runs else " --response-controlled off"
         print(f"\n--hold-out {hold_out}{kept} --impact\n{HEADER}")
         for r in result.held_out:
-            print(f"| {r.level:g} | {r.label} | {error_cells(r)} |")
-        print("\n" + repeatability_line(result.repeatability) + (" (levels and runs pooled)" if kept_runs else ""))
+            print(f"| {r.level:g} | {r.label} | {row_cells(r)} |")
+        print_notes([(f"{r.level:g} N", r) for r in result.held_out])
+        print("\n" + repeatability_line(result.repeatability, "levels and runs pooled" if kept_runs else "levels"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = with_held_runs(Validation((), repeatability(anchored)), anchored, runs, models)
     print(f"\nresponse-controlled runs predicted from the {data.levels.size} force-controlled levels and the impact\n"
           f"{RUN_HEADER}")
     for r in result.response_controlled:
-        print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {error_cells(r)} |")
-    print("\n" + repeatability_line(result.runs_repeatability) + " (levels and runs pooled: the runs' bands)")
+        print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {row_cells(r)} |")
+    print_notes([(r.run.split(".")[-1], r) for r in result.response_controlled])
+    print("\n" + repeatability_line(result.runs_repeatability, "levels and runs pooled: the runs' bands"))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 
@@ -134,8 +138,9 @@ def print_with_runs_kept(data, models) -> None:
               f"{1e6 * runs[0].held_m:.1f}–{1e6 * runs[-1].held_m:.1f} µm, kept beside the levels)")
         print(HEADER)
         for r in result.held_out:
-            print(f"| {r.level:g} | {r.label} | {error_cells(r)} |")
-    print("\n" + repeatability_line(result.repeatability) + " (levels and runs pooled)")
+            print(f"| {r.level:g} | {r.label} | {row_cells(r)} |")
+        print_notes([(f"{r.level:g} N", r) for r in result.held_out])
+    print("\n" + repeatability_line(result.repeatability, "levels and runs pooled"))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 
@@ -154,10 +159,11 @@ def print_response_controlled(data, models) -> None:
     print(f"\nresponse-controlled runs predicted from the {data.levels.size} force-controlled levels")
     print(RUN_HEADER)
     for r in result.response_controlled:
-        print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {error_cells(r)} |")
+        print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {row_cells(r)} |")
+    print_notes([(r.run.split(".")[-1], r) for r in result.response_controlled])
     for note in result.response_controlled_notes:
         print(f"note: {note}")
-    print("\n" + repeatability_line(result.runs_repeatability) + " (levels and runs pooled: the runs' bands)")
+    print("\n" + repeatability_line(result.runs_repeatability, "levels and runs pooled: the runs' bands"))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 

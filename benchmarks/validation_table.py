@@ -2,7 +2,9 @@
 held-out level and model — resonance error (Hz), damping-ratio and peak errors (%), each
 with its 95 % band, whether the measured value lies in the band, the log-amplitude
 baseline's errors — for ``--hold-out each`` and ``--hold-out top``, then the test's
-repeatability. Used by benchmarks/validation_brb.py and validation_transmitter_beam.py.
+repeatability. The cells, notes and the repeatability line are those ``nlupdate validate``
+prints (:mod:`nlupdate.reporting.validation_text`), here as markdown rows. Used by
+benchmarks/validation_brb.py and validation_transmitter_beam.py.
 """
 from __future__ import annotations
 
@@ -15,11 +17,11 @@ if TYPE_CHECKING:
     from nlupdate.core.identification.data import FRFLevels
 
 
-def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str, hz_digits: int = 3) -> None:
-    """Runs :func:`validate` on ``data`` for ``each`` and ``top`` with
-    ``models`` and prints both tables (levels in ``unit``; resonance errors with ``hz_digits``
-    decimals, their bands with one fewer), the repeatability, the load and the times."""
+def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str) -> None:
+    """Runs :func:`validate` on ``data`` for ``each`` and ``top`` with ``models`` and prints
+    both tables (levels in ``unit``) with their notes, the repeatability, the load and the times."""
     from nlupdate.core.validation.held_out import validate
+    from nlupdate.reporting.validation_text import repeatability_line
 
     print(f"load {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
@@ -33,39 +35,32 @@ def print_validation_tables(data: "FRFLevels", models: Sequence[str], unit: str,
               "(%) [band] | in band (f, ζ, peak) | baseline: f (Hz), ζ (%), peak (%) |")
         print("|---|---|---|---|---|---|---|")
         for r in result.held_out:
-            print(f"| {r.level:g} | {r.label} | {error_cells(r, hz_digits)} |")
+            print(f"| {r.level:g} | {r.label} | {row_cells(r)} |")
+        print_notes([(f"{r.level:g} {unit}", r) for r in result.held_out])
         for choice in result.choices.values():
             if choice.warning:
                 print(f"\nwarning: {choice.warning}")
         if hold_out == "each":
-            print("\n" + repeatability_line(result.repeatability, hz_digits))
+            print("\n" + repeatability_line(result.repeatability, "held-out levels"))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
 
 
-def repeatability_line(repeat, hz_digits: int = 3) -> str:
-    """The test's repeatability as the tables state it beside every error."""
-    trend = "a line" if repeat.degree == 1 else "a parabola"
-    return (f"test repeatability (1σ about {trend} in log amplitude, {repeat.levels} curves, {repeat.dof} degrees of "
-            f"freedom): resonance {repeat.resonance_hz:.{hz_digits}f} Hz, damping ratio "
-            f"{100 * repeat.damping_ratio:.{hz_digits}f} % (points) or {100 * repeat.damping_relative:.0f} % of "
-            f"itself, peak {100 * repeat.peak_relative:.0f} % of itself")
+def row_cells(r) -> str:
+    """The markdown cells of one prediction (a held-out level or a response-controlled run):
+    its errors with their 95 % bands, in band or not, the baseline's errors — the cells
+    ``nlupdate validate`` prints."""
+    from nlupdate.reporting.validation_text import error_cells, in_band_cell
+
+    return " | ".join([*error_cells(r.compared, True), in_band_cell(r.compared),
+                       ", ".join(error_cells(r.baseline, False))])
 
 
-def error_cells(r, hz_digits: int = 3) -> str:
-    """The table cells of one prediction (a held-out level or a response-controlled run):
-    resonance, damping and peak errors with their 95 % bands, in band or not, the baseline's."""
-    c, b = r.compared, r.baseline
+def print_notes(rows: Sequence[tuple[str, object]]) -> None:
+    """What a table cannot show of each (name, prediction) — no predicted value, a
+    prediction outside its own band, a half-power band of few lines, the model's note — as
+    ``nlupdate validate`` notes it."""
+    from nlupdate.reporting.validation_text import comparison_notes
 
-    def rel(q):
-        return f"{100 * q.relative_error:+.1f} [{100 * (q.low / q.measured - 1):+.0f}, {100 * (q.high / q.measured - 1):+.0f}]"
-
-    res = c["resonance_hz"]
-    inside = ", ".join("–" if c[n].inside is None else ("yes" if c[n].inside else "no") for n in c)
-    own = [n for n in c if c[n].predicted_inside is False and c[n].predicted == c[n].predicted]
-    if own:  # never expected: a predicted value outside its own band is said, not printed as if fine
-        inside += " (prediction outside its own band: " + ", ".join(own) + ")"
-    resonance_hz = (f"{res.error:+.{hz_digits}f} [{res.low - res.measured:+.{hz_digits - 1}f}, "
-                    f"{res.high - res.measured:+.{hz_digits - 1}f}]")
-    return (f"{resonance_hz} | {rel(c['damping_ratio'])} | {rel(c['peak_abs'])} | {inside} | "
-            f"{b['resonance_hz'].error:+.{hz_digits}f}, {100 * b['damping_ratio'].relative_error:+.1f}, "
-            f"{100 * b['peak_abs'].relative_error:+.1f}")
+    lines = [f"note at {name} ({r.label}): {note}" for name, r in rows for note in comparison_notes(r)]
+    if lines:
+        print("\n" + "\n".join(lines))

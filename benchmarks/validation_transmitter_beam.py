@@ -152,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{r.peak_abs:.4e} |")
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     print()
-    print_validation_tables(data, models, "V", hz_digits=4)
+    print_validation_tables(data, models, "V")
     return 0
 
 

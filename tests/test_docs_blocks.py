@@ -122,3 +122,31 @@ def test_a_block_on_another_page_is_written_there(tmp_path, monkeypatch):
         print("| the table |")
     assert "```text\n| the table |\n```" in other.read_bytes().decode()
     assert performance.read_bytes() == PAGE_TEXT.encode()
+
+
+def test_the_validation_benchmarks_print_the_cells_nlupdate_validate_prints(capsys):
+    """benchmarks/validation_table.py (the BRB block of docs/validation.md) renders each
+    prediction with nlupdate validate's own cells and notes: a damping ratio the predicted
+    curve does not give reads "—" and is noted, not "+nan"; a value outside its band "NO"."""
+    from types import SimpleNamespace
+
+    from benchmarks.validation_table import print_notes, row_cells
+    from nlupdate.core.validation.held_out import Compared
+    from nlupdate.reporting.validation_text import validation_lines
+
+    nan = float("nan")
+    compared = {"resonance_hz": Compared(80.0, 80.1, 79.9, 80.3), "damping_ratio": Compared(0.002, nan, nan, nan),
+                "peak_abs": Compared(1.0, 1.3, 1.1, 1.5)}
+    baseline = {"resonance_hz": Compared(80.0, 79.8), "damping_ratio": Compared(0.002, 0.0025),
+                "peak_abs": Compared(1.0, 0.9)}
+    held = SimpleNamespace(level=0.5, label="lines", compared=compared, baseline=baseline, half_power_lines=9, note="",
+                           residual_to_noise=2.0, baseline_residual_to_noise=3.0)
+    row = row_cells(held)
+    assert row == "+0.100 [-0.10, +0.30] | — | +30.0 [+10, +50] | yes, —, NO | -0.200, +25.0, -10.0"
+    repeat = SimpleNamespace(degree=1, levels=4, resonance_hz=0.1, damping_relative=0.05, peak_relative=0.05)
+    printed = validation_lines(SimpleNamespace(repeatability=repeat, held_out=[held], response_controlled=(),
+                                               response_controlled_notes=(), choices={}), "N")
+    table_row = next(line for line in printed if line.startswith("0.5"))
+    assert all(cell.strip() in table_row for cell in row.split(" | ")[:4])  # the same cells as validate's table
+    print_notes([("0.5 N", held)])
+    assert "note at 0.5 N (lines): no predicted damping ratio" in capsys.readouterr().out

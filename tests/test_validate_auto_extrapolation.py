@@ -121,7 +121,7 @@ def test_a_value_outside_a_band_gets_its_line():
     from types import SimpleNamespace
 
     from nlupdate.core.validation.held_out import Compared
-    from nlupdate.reporting.validation_text import _notes, verdict_lines
+    from nlupdate.reporting.validation_text import comparison_notes, verdict_lines
 
     def held(**compared):
         return SimpleNamespace(level=0.35, label="lines", compared=compared, half_power_lines=9, note="")
@@ -131,7 +131,7 @@ def test_a_value_outside_a_band_gets_its_line():
     validation = SimpleNamespace(held_out=[outside, fine], response_controlled=(), choices={})
     assert verdict_lines(validation, "N") == [
         "warning: measured OUTSIDE the prediction's 95 % band: 0.35 N peak |H| (lines)"]
-    assert _notes(fine) == ["the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
+    assert comparison_notes(fine) == ["the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
     assert verdict_lines(SimpleNamespace(held_out=[fine], response_controlled=(), choices={}), "N")[0].startswith(
         "every held-out level's resonance, damping ratio and peak |H| lies within")
 

@@ -98,7 +98,7 @@ def validation_lines(validation, unit: str) -> list[str]:
     lines += _table(f"level ({unit})", "", [(f"{r.level:g}", "", r.label, r.compared, r.baseline, r.residual_to_noise,
                                              r.baseline_residual_to_noise) for r in validation.held_out])
     for r in validation.held_out:
-        notes = _notes(r)
+        notes = comparison_notes(r)
         lines += [f"  note at {r.level:g} {unit} ({r.label}): {note}" for note in notes]
     runs = validation.response_controlled
     if runs:
@@ -109,14 +109,14 @@ def validation_lines(validation, unit: str) -> list[str]:
                         [(r.run, f"{1e6 * r.held_m:.3g}", r.label, r.compared, r.baseline, r.residual_to_noise,
                           r.baseline_residual_to_noise) for r in runs])
         for r in runs:
-            lines += [f"  note at {r.run} ({r.label}): {note}" for note in _notes(r)]
+            lines += [f"  note at {r.run} ({r.label}): {note}" for note in comparison_notes(r)]
     lines += [f"response-controlled runs: {note}" for note in validation.response_controlled_notes]
     for level, choice in validation.choices.items():
         lines.append(f"auto at {level:g} {unit}: {choice.name} — {choice.reason}")
     return lines
 
 
-def _notes(result) -> list[str]:
+def comparison_notes(result) -> list[str]:
     """What the table cannot show of one comparison: no predicted value, the prediction
     outside its own band, a half-power band of few lines, the model's own note."""
     notes = []
