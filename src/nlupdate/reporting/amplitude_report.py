@@ -76,7 +76,10 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
                      f"chi = {j.chi:.4g}, beta = {j.beta:.4g}")
     if model.note:
         lines.append(f"note: {model.note}")
-    if fit.resamples:
+    if fit.options.backbone == "jenkins" and fit.samples.amplitude.size > 1:
+        lines.append("note: backbone.csv's *_low/*_high bands: 95 % from the fit's linearised covariance (the "
+                     "phase-resonance points' amplitude noise included; the kink moves with the slip amplitude)")
+    elif fit.resamples:
         lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits of a residual bootstrap")
     else:
         lines.append("note: backbone.csv's *_low/*_high band columns are NaN (the backbone fits give no covariance); "

@@ -14,14 +14,19 @@ With the ``jenkins`` backbone and a driving-point stepped sine whose shape is gi
 (alone or joint) is then refined on every line of the stepped sine by output error, the other
 sources' samples in the same least squares (:mod:`nlupdate.core.identification.line_refine`:
 the lines pass through the stick–slip kink on their flanks and place the slip amplitude
-about ten times better than the peaks). The consistency table and the bootstrap bands are
-those of the sample fit.
+about ten times better than the peaks). The consistency table is that of the sample fit.
+The ``jenkins`` backbone's bands are those of the estimator that gave the model (the line
+refinement's or the sample fit's residual, linearised, the phase-resonance points'
+amplitude noise included: :mod:`nlupdate.core.identification.joint_band`); the residual
+bootstrap held the truth at 25–79 % of the amplitudes next to the stick–slip kink
+(docs/ring-down.md, "Honest bands at the kink").
 
 Files written (:meth:`AmplitudeFit.write`): ``amplitude_model.json`` (the model, its reference
 unit), ``backbone.csv`` (the fitted backbone over the samples' amplitudes: ``modal_amplitude``
 m·√kg, ``natural_frequency_hz``, ``damping_ratio`` and their 95 % ``*_low``/``*_high`` bands,
-NaN without resamples), ``backbone_points.csv`` (every source's samples, with ``source`` and
-``test_type``), ``consistency.csv`` (several sources) and ``held_out.csv`` (a type held out).
+NaN without resamples unless the backbone is ``jenkins``), ``backbone_points.csv`` (every
+source's samples, with ``source`` and ``test_type``), ``consistency.csv`` (several sources)
+and ``held_out.csv`` (a type held out).
 The figures ``backbone.png`` and ``damping.png`` are drawn by
 :func:`nlupdate.reporting.backbone_plots.plot_sources`.
 """
@@ -45,7 +50,10 @@ from nlupdate.core.identification.backbone_samples import (
     source_noise,
 )
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.line_refine import refine_on_lines, stepped_sine_lines
+from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, joint_fixed, sample_fit_residual
+from nlupdate.core.identification.line_refine import (
+    line_misfit, refine_on_lines, refinement_residual, stepped_sine_lines,
+)
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
 from nlupdate.progress import ProgressCallback, no_progress
@@ -284,10 +292,44 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
                         agreement, held_errors, noise, resamples, input_dof, data, options)
 
 
+def joint_covariance_band(fit: AmplitudeFit, amplitude: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(frequency low, high, damping low, high) of a ``jenkins`` fit at ``amplitude`` from the
+    linearised residual of the estimator that gave it (module docstring): the line refinement
+    when the fit was refined on the stepped sine's lines, else the weighted sample fit."""
+    model = fit.model
+    kinds = [p[3] for p in fit.points for _ in range(p[1].amplitude.size)]
+    f_std, z_std = (np.broadcast_to(np.asarray(n, float), (len(kinds),)) for n in fit.noise)
+    a_std = amplitude_std(kinds, z_std)
+    first = fit.points[0]
+    refined = (fit.data is not None and fit.data.response_dof == fit.data.input_dof and first[3] == "stepped-sine"
+               and not first[1].shape_free)  # as fit_sources refines (_refines_on_lines)
+    if not refined:
+        noisy = (fit.samples, f_std, z_std, a_std) if a_std.any() else None
+        return covariance_band(model, sample_fit_residual(model, fit.samples, f_std, z_std), amplitude,
+                               noisy_amplitudes=noisy)
+    lines = stepped_sine_lines(fit.data, fit.points[0][1].input_shape)
+    keep = np.array([kind != "stepped-sine" for kind in kinds])
+    others = join_samples([p[1] for p in fit.points[1:]]) if len(fit.points) > 1 else None
+    fs, zs = (f_std[keep], z_std[keep]) if others is not None else (1e-3, 0.05)
+    misfit = line_misfit(model, lines)
+    noise = float(np.sqrt(2 * np.sum(misfit**2) / max(misfit.size - 4, 1)))  # as refine_on_lines states it
+    residual = refinement_residual(model, lines, others, fs, zs)
+    noisy = (others, fs, zs, a_std[keep]) if others is not None and a_std[keep].any() else None
+    return covariance_band(model, lambda theta: residual(theta, noise), amplitude, noisy_amplitudes=noisy)
+
+
 def backbone_table(fit: AmplitudeFit, progress: ProgressCallback = no_progress) -> pd.DataFrame:
-    """``backbone.csv``: the model over the fitted samples' amplitudes with its bootstrap band
-    (module docstring); one impact's pole alone: its own 95 % interval."""
+    """``backbone.csv``: the model over the fitted samples' amplitudes with its band (module
+    docstring): the ``jenkins`` backbone's from its estimator's covariance
+    (:func:`joint_covariance_band`), the others' from the bootstrap; one impact's pole alone:
+    its own 95 % interval."""
     model, options = fit.model, fit.options
+    if model.joint is not None and joint_fixed(model) and fit.samples.amplitude.size > 1:
+        curve = backbone_curve(model, fit.samples)
+        a = curve["modal_amplitude"].to_numpy()
+        (curve["natural_frequency_hz_low"], curve["natural_frequency_hz_high"], curve["damping_ratio_low"],
+         curve["damping_ratio_high"]) = joint_covariance_band(fit, a)
+        return curve
     curve = backbone_curve(model, fit.samples, refit=lambda draw: fit_amplitude_model(
         draw, model.shapes, options.backbone, options.order, *fit.noise, mode=options.mode),
         resamples=fit.resamples, progress=progress)

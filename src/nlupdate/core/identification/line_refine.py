@@ -40,16 +40,15 @@ over 0.5–15 a_s, the kink included (the peaks: 19 % and 7.1 %; tests/test_step
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Callable
 
 import numpy as np
 import scipy.optimize
-import scipy.special
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import (
-    JENKINS_BETA, JENKINS_CHI, ModalSamples, iwan_model, sample_residual,
-)
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, sample_residual
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.joint_band import joint_unknowns, model_from_unknowns
 from nlupdate.core.identification.line_samples import PEAK_FRACTION, lowest_level_fit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 
@@ -138,14 +137,33 @@ def line_misfit(model: AmplitudeModalModel, lines: SteppedSineLines) -> NDArray[
     return np.concatenate([r.real, r.imag])
 
 
-def _unknowns(model: AmplitudeModalModel, jenkins: bool) -> NDArray:
-    """The unknowns of :func:`~nlupdate.core.identification.amplitude_modal_fit.iwan_model`
-    for ``model``: log ω₀, log ζ₀, logit(K_T/ω₀²), log F_S (and logit(−χ), log β unless Jenkins)."""
-    joint, w0 = model.joint, 2 * np.pi * model.natural_frequency_hz
-    theta = [np.log(w0), np.log(model.damping_ratio), scipy.special.logit(joint.kt / w0**2), np.log(joint.slip_force)]
-    if not jenkins:
-        theta += [scipy.special.logit(-joint.chi), np.log(joint.beta)]
-    return np.array(theta)
+def refinement_residual(model: AmplitudeModalModel, lines: SteppedSineLines, others: ModalSamples | None = None,
+                        frequency_std: float | NDArray = 1e-3,
+                        damping_std: float | NDArray = 0.05) -> Callable[[NDArray, float], NDArray]:
+    """(θ, the lines' relative noise) → the weighted residual :func:`refine_on_lines` minimises
+    (θ: :func:`~nlupdate.core.identification.joint_band.joint_unknowns`; the lines' misfits over
+    their noise, then ``others``' samples over their standard deviations; 1e6 where a trial
+    model cannot be formed)."""
+    if model.joint is None:
+        raise AmplitudeModelError("the line refinement fits a modal joint (the jenkins or iwan backbone)")
+    unpack = model_from_unknowns(model)
+
+    def residual(theta: NDArray, noise: float) -> NDArray:
+        with np.errstate(all="ignore"):
+            try:
+                trial = unpack(theta)
+            except (ValueError, OverflowError):
+                trial = None
+            size = 2 * lines.omega.size + (0 if others is None else 2 * others.amplitude.size)
+            if trial is None:
+                return np.full(size, 1e6)
+            parts = [line_misfit(trial, lines) / (noise / np.sqrt(2))]
+            if others is not None:
+                parts.append(sample_residual(trial.omega_zeta, others, frequency_std, damping_std))
+            out = np.concatenate(parts)
+        return np.where(np.isfinite(out), out, 1e6)
+
+    return residual
 
 
 def refine_on_lines(model: AmplitudeModalModel, lines: SteppedSineLines, others: ModalSamples | None = None,
@@ -161,28 +179,9 @@ def refine_on_lines(model: AmplitudeModalModel, lines: SteppedSineLines, others:
     if abs(abs(model.shape(0)) / lines.input_shape - 1) > 1e-9:
         raise AmplitudeModelError(f"the model's shape at its first coordinate, {abs(model.shape(0)):.6g} 1/√kg, is not "
                                   f"the lines' φ_f = {lines.input_shape:.6g}: their amplitudes have no common scale")
-    jenkins = model.joint.beta >= JENKINS_BETA * (1 - 1e-9)
-    fixed = {"beta": JENKINS_BETA, "chi": JENKINS_CHI} if jenkins else {}
-
-    def unpack(theta):
-        return iwan_model(theta, model.shapes, fixed, model.mode, model.linear_damping)
-
-    def residual(theta, noise):
-        with np.errstate(all="ignore"):
-            try:
-                trial = unpack(theta)
-            except (ValueError, OverflowError):
-                trial = None
-            size = 2 * lines.omega.size + (0 if others is None else 2 * others.amplitude.size)
-            if trial is None:
-                return np.full(size, 1e6)
-            parts = [line_misfit(trial, lines) / (noise / np.sqrt(2))]
-            if others is not None:
-                parts.append(sample_residual(trial.omega_zeta, others, frequency_std, damping_std))
-            out = np.concatenate(parts)
-        return np.where(np.isfinite(out), out, 1e6)
-
-    theta, noise = _unknowns(model, jenkins), _FIRST_NOISE
+    residual = refinement_residual(model, lines, others, frequency_std, damping_std)
+    unpack = model_from_unknowns(model)
+    theta, noise = joint_unknowns(model), _FIRST_NOISE
     for _ in range(2 if others is not None else 1):
         solution = scipy.optimize.least_squares(residual, theta, args=(noise,), x_scale="jac", method="lm")
         theta = solution.x

@@ -1,0 +1,131 @@
+"""Issue 37: how often the amplitude model's 95 % damping band holds the truth, inside the
+Jenkins stick–slip kink band [a_s/1.03, 1.5 a_s] and off it, per source and for the joint fit.
+
+    python benchmarks/kink_band_coverage.py [--seeds 8] [--resamples 40] [--system 1-jenkins]
+
+The records, noise and fits are those of ``benchmarks/test_type_truth.py`` (``--backbone
+jenkins``, the stepped sine refined on its lines). Per fit, two bands at 60 amplitudes over
+its samples' range (the held-out stepped sine: over its samples within the others' range):
+
+* ``bootstrap``: the residual bootstrap ``backbone.csv`` had (``backbone_table``: the
+  samples' misfits drawn onto the fitted curve, refitted by the sample fit, basic interval);
+* ``covariance``: the fit's own estimator linearised, the samples' amplitudes taken as exact;
+* ``cov + EIV``: the same with the phase-resonance points' amplitude noise
+  (:mod:`nlupdate.core.identification.joint_band`, the band ``backbone.csv`` now has).
+
+Printed per system × fit × band: coverage of the damping truth inside the kink band and
+off it (pooled over amplitudes and seeds), the coverage where the fit's damping error
+exceeds 5 %, and the band's median half-width over the fit, inside the kink band.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+import test_type_truth as ttt  # noqa: E402
+from test_test_type_truth import system, truth  # noqa: E402
+
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model  # noqa: E402
+from nlupdate.core.identification.backbone_samples import backbone_curve, join_samples, own_fit_for, source_noise  # noqa: E402
+from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, sample_fit_residual  # noqa: E402
+from nlupdate.core.identification.line_refine import refine_on_lines, refinement_residual  # noqa: E402
+
+KINK = (1 / 1.03, 1.5)
+CELLS = ("own phase-resonance", "own ring-down", "own stepped-sine", "joint", "stepped-sine held out")
+
+
+def fitted(s: dict, chosen: dict, lines) -> tuple:
+    """(model, the residual its fit minimised as θ → r, the bootstrap's refit, the samples, the
+    phase-resonance samples' noisy amplitudes for ``covariance_band`` or None):
+    as ``test_type_truth.fit`` with the Jenkins backbone and the stepped sine on its lines."""
+    shapes = (("m1", float(s["phi"][0])),)
+    joined = join_samples([c[0] for c in chosen.values()])
+    own_fit = own_fit_for("jenkins", shapes)
+    noise = [source_noise(smp, stated, own_fit) for smp, stated in chosen.values()]
+    f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen.values(), noise)])
+    z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen.values(), noise)])
+    model = fit_amplitude_model(joined, shapes, "jenkins", 2, frequency_std=f_std, damping_std=z_std)
+
+    kinds = [n for n, (smp, _) in chosen.items() for _ in range(smp.amplitude.size)]
+    a_std = amplitude_std(kinds, z_std)
+
+    def refit(draw):
+        return fit_amplitude_model(draw, shapes, "jenkins", 2, frequency_std=f_std, damping_std=z_std)
+
+    if "stepped-sine" not in chosen:
+        eiv = (joined, f_std, z_std, a_std) if a_std.any() else None
+        return model, sample_fit_residual(model, joined, f_std, z_std), refit, joined, eiv
+    keep = np.concatenate([np.full(smp.amplitude.size, n != "stepped-sine") for n, (smp, _) in chosen.items()])
+    others = join_samples([chosen[n][0] for n in chosen if n != "stepped-sine"]) if keep.any() else None
+    fs, zs = (f_std[keep], z_std[keep]) if others is not None else (1e-3, 0.05)
+    model, line_noise = refine_on_lines(model, lines, others, fs, zs)
+    residual = refinement_residual(model, lines, others, fs, zs)
+    eiv = (others, fs, zs, a_std[keep]) if others is not None and a_std[keep].any() else None
+    return model, (lambda theta: residual(theta, line_noise)), refit, joined, eiv
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--resamples", type=int, default=40, help="bootstrap refits per fit (the old band)")
+    parser.add_argument("--system", action="append", choices=("1-jenkins", "2-jenkins"))
+    args = parser.parse_args()
+    print(f"{'system':10s} {'fit':22s} {'band':10s} {'in kink':>9s} {'off kink':>9s} {'err>5%':>9s} "
+          f"{'width in':>8s} {'width off':>9s}")
+    for dofs in (1, 2):
+        if args.system and f"{dofs}-jenkins" not in args.system:
+            continue
+        s, started = system(dofs, "jenkins"), time.process_time()
+        made = ttt.records(s, "jenkins", dofs)
+        tally = {(c, b): [] for c in CELLS for b in ("bootstrap", "covariance", "cov + EIV")}
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
+            every, lines = ttt.samples(s, made, seed)
+            cases = {"own phase-resonance": ({"phase-resonance": every["phase-resonance"]}, None),
+                     "own ring-down": ({"ring-down": every["ring-down"]}, None),
+                     "own stepped-sine": ({"stepped-sine": every["stepped-sine"]}, None),
+                     "joint": (every, None),
+                     "stepped-sine held out": ({n: every[n] for n in ttt.TYPES if n != "stepped-sine"},
+                                               every["stepped-sine"][0])}
+            for cell, (chosen, held) in cases.items():
+                model, residual, refit, joined, eiv = fitted(s, chosen, lines)
+                low, high = joined.amplitude.min(), joined.amplitude.max()
+                if held is not None:
+                    low, high = max(low, held.amplitude.min()), min(high, held.amplitude.max())
+                a = np.geomspace(low, high, 60)
+                _, z_true = truth(s, a)
+                z_fit = model.damping(a)
+                boot = backbone_curve(model, joined, refit=refit, resamples=args.resamples, seed=seed)
+                # backbone_curve spans the samples' range: interpolate onto a in ln a
+                grid = boot["modal_amplitude"].to_numpy()
+                bands = {"bootstrap": tuple(np.interp(np.log(a), np.log(grid), boot[c].to_numpy())
+                                            for c in ("damping_ratio_low", "damping_ratio_high")),
+                         "covariance": covariance_band(model, residual, a, seed=seed)[2:],
+                         "cov + EIV": covariance_band(model, residual, a, seed=seed, noisy_amplitudes=eiv)[2:]}
+                inside = (a >= KINK[0] * s["slip"]) & (a <= KINK[1] * s["slip"])
+                error = np.abs(z_fit / z_true - 1)
+                for name, (z_low, z_high) in bands.items():
+                    held_it = (z_true >= z_low) & (z_true <= z_high)
+                    width = (z_high - z_low) / 2 / z_fit
+                    tally[(cell, name)].append((held_it, inside, error > 0.05, width))
+        for (cell, name), rows in tally.items():
+            held_it, inside, big, width = (np.concatenate([r[k] for r in rows]) for k in range(4))
+
+            def share(mask):
+                return f"{held_it[mask].mean():6.1%}/{mask.sum():<3d}" if mask.any() else f"{'—':>10s}"
+
+            print(f"{dofs}-jenkins  {cell:22s} {name:10s} {share(inside):>10s} {share(~inside):>10s} {share(big):>10s} "
+                  f"{np.median(width[inside]) if inside.any() else np.nan:8.3f} {np.median(width[~inside]):9.3f}")
+        print(f"  ({args.seeds} seeds from {args.first_seed}, {args.resamples} bootstrap refits, "
+              f"{time.process_time() - started:.0f} s CPU)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
