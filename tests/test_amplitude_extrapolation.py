@@ -1,0 +1,77 @@
+"""An impact's pole below every other source's amplitudes: the consistency check cannot test
+it, and the model's linear limit below it is an extrapolation (issue 37's review).
+
+Truth: the describing-function backbone of the Iwan SDOF of tests/test_ring_down.py (10 Hz,
+χ = −0.5, slip amplitude φ_max = 1 mm; its microslip softening grows as A^0.5 from A = 0),
+sampled as a stepped sine would give it (A = 0.1–2 mm) and as an impact's pole at 1 % of
+φ_max, ± 1e-5 of its frequency (the Brake–Reuss beam's hammer pole: 80.5797 ± 0.0006 Hz).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.backbone_samples import _scores, consistency, join_samples
+from test_ring_down import IWAN, M, df_backbone
+
+PHI = 1 / np.sqrt(M)
+SHAPES = (("x", PHI),)
+IMPACT_STD = (1e-5, 0.01)  # the impact's stated relative standard errors (frequency, damping ratio)
+
+
+def truth(amplitude_m: np.ndarray, frequency_shift: float = 0.0) -> ModalSamples:
+    """Samples of the DF truth at physical amplitudes A (m); modal a = A/φ."""
+    f, z = df_backbone(IWAN, amplitude_m)
+    return ModalSamples(amplitude_m / PHI, f * (1 + frequency_shift), z, np.zeros(amplitude_m.size), PHI)
+
+
+def joint(parts, noises):
+    def refit(chosen):
+        stds = [np.concatenate([np.full(parts[i][1].amplitude.size, noises[i][k]) for i in chosen]) for k in (0, 1)]
+        return fit_amplitude_model(join_samples([parts[i][1] for i in chosen]), SHAPES, "polynomial", 2, *stds)
+    return refit(list(range(len(parts)))), refit
+
+
+@pytest.mark.parametrize("shift_in_errors", [50.0, 0.0, -50.0])
+def test_an_impact_below_every_other_source_is_not_checked(shift_in_errors):
+    """Moved by ±50 of its standard errors or not, the joint fit follows the impact: scored
+    against it (the check before) it agreed within 0.1 standard errors; it is now reported as
+    not checked, and the linear limit above it as the backbone's extrapolation."""
+    steps = truth(np.geomspace(1e-4, 2e-3, 8))
+    tap = truth(np.array([1e-5]), shift_in_errors * IMPACT_STD[0])
+    parts, noises = [("steps", steps, "stepped-sine"), ("tap", tap, "impact")], [(1e-3, 0.05), IMPACT_STD]
+    model, refit = joint(parts, noises)
+    before = _scores(model, parts, noises)[1]
+    assert abs(before["frequency_score"]) < 0.1  # the check before: "consistent" whatever the shift
+    row = consistency(model, parts, noises, refit).set_index("source").loc["tap"]
+    assert row["compared_with"] == "none" and np.isnan(row["frequency_score"])
+    assert model.warnings and "extrapolation below every sample" in model.warnings[0]
+
+
+def test_the_linear_limit_of_a_microslip_joint_lies_above_its_impact_pole():
+    """Why the fit does not pin the linear limit onto the impact: the Iwan joint still softens
+    at 1 % of its slip amplitude, so the truth's f₀ lies 0.15 % (150 of the impact's standard
+    errors) above the impact's pole; the polynomial in (a/a_ref)^0.5 through the impact
+    extrapolates to within 1e-4 of the truth's f₀."""
+    steps, tap = truth(np.geomspace(1e-4, 2e-3, 8)), truth(np.array([1e-5]))
+    f0_truth = float(df_backbone(IWAN, np.array([1e-12]))[0][0])
+    assert (f0_truth / tap.frequency_hz[0] - 1) / IMPACT_STD[0] > 100
+    model, _ = joint([("steps", steps, "stepped-sine"), ("tap", tap, "impact")], [(1e-3, 0.05), IMPACT_STD])
+    assert abs(model.natural_frequency_hz / f0_truth - 1) < 1e-4
+    assert abs(model.frequency_hz(tap.amplitude)[0] / tap.frequency_hz[0] - 1) < 3 * IMPACT_STD[0]
+
+
+def test_an_impact_among_the_other_samples_moved_by_50_errors_is_named():
+    """Where the stepped sine brackets the impact's amplitude the check tests it: moved by 50 of
+    its standard errors it is named, unmoved it agrees (the steps exact, at the noise floor
+    1e-5 that source_noise gives them; with steps 100 × noisier the joint fit follows the
+    impact and it scored 0.03 moved: the check cannot see what the other sources cannot pin)."""
+    steps = truth(np.geomspace(3e-6, 2e-3, 12))
+    for shift, named in ((50.0, True), (0.0, False)):
+        tap = truth(np.array([1e-5]), shift * IMPACT_STD[0])
+        parts, noises = [("steps", steps, "stepped-sine"), ("tap", tap, "impact")], [(1e-5, 0.05), IMPACT_STD]
+        model, refit = joint(parts, noises)
+        row = consistency(model, parts, noises, refit).set_index("source").loc["tap"]
+        assert row["compared_with"] == "agreeing sources"
+        assert (not row["consistent"]) == named, (shift, row)
