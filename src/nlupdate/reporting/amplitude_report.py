@@ -36,6 +36,18 @@ def _disagreement_line(fit: AmplitudeFit) -> str | None:
             f"wrong shape or unit")
 
 
+def _unchecked_line(fit: AmplitudeFit) -> str | None:
+    """The sources no other agreeing source reaches (consistency.csv ``compared_with`` none)."""
+    if fit.agreement is None:
+        return None
+    alone = [f"{row.source} ({row.test_type})" for row in fit.agreement.itertuples()
+             if row.consistent and row.compared_with == "none"]
+    if not alone:
+        return None
+    return (f"{', '.join(alone)}: no other agreeing source reaches its amplitudes, so the consistency check cannot "
+            f"test it (consistency.csv: compared_with none); the joint fit follows it there")
+
+
 def _poor_line(fit: AmplitudeFit) -> str | None:
     if not fit.poor():
         return None
@@ -65,7 +77,7 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     disagree, a poor fit, the model's warnings); then the linear limit and backbone, the
     modal joint, notes, the bands, each source's agreement and the held-out predictions."""
     model, samples = fit.model, fit.samples
-    lines = [f"warning: {text}" for text in (_disagreement_line(fit), _poor_line(fit)) if text]
+    lines = [f"warning: {text}" for text in (_disagreement_line(fit), _unchecked_line(fit), _poor_line(fit)) if text]
     lines += [f"warning: {warning}" for warning in model.warnings]
     lines.append(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
                  f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, "
@@ -86,6 +98,10 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
                      "--bootstrap N refits N resamples for them ([amplitude] bootstrap in a study)")
     if fit.agreement is not None:
         for row in fit.agreement.itertuples():
+            if row.compared_with == "none":
+                lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), not checked (no other agreeing "
+                             f"source reaches its amplitudes; the joint fit follows it there)")
+                continue
             lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit "
                          f"{100 * row.frequency_offset:+.2g} % in frequency ({row.frequency_score:+.2g} standard "
                          f"errors), {100 * row.damping_offset:+.2g} % in damping ({row.damping_score:+.2g})"
@@ -96,7 +112,8 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
 def amplitude_summary(fit: AmplitudeFit) -> list[str]:
     """The study summary's lines, the bad news first: sources that disagree, a poor fit; then
     the linear limit and the amplitudes covered."""
-    lines = [f"* **Amplitude model: {text}**" for text in (_disagreement_line(fit), _poor_line(fit)) if text]
+    lines = [f"* **Amplitude model: {text}**" for text in (_disagreement_line(fit), _unchecked_line(fit),
+                                                           _poor_line(fit)) if text]
     model, samples = fit.model, fit.samples
     kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
     lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
@@ -110,11 +127,12 @@ def _agreement_table(agreement: pd.DataFrame) -> pd.DataFrame:
     two significant figures, whether each source agrees with the joint fit."""
     return pd.DataFrame({
         "source": agreement["source"], "test type": agreement["test_type"], "samples": agreement["samples"],
-        "frequency misfit (%)": [f"{100 * v:+.2g}" for v in agreement["frequency_offset"]],
-        "frequency misfit (standard errors)": [f"{v:+.2g}" for v in agreement["frequency_score"]],
-        "damping misfit (%)": [f"{100 * v:+.2g}" for v in agreement["damping_offset"]],
-        "damping misfit (standard errors)": [f"{v:+.2g}" for v in agreement["damping_score"]],
-        "agrees with the fit": ["yes" if ok else "**NO**" for ok in agreement["consistent"]]})
+        "frequency misfit (%)": [f"{100 * v:+.2g}" if v == v else "—" for v in agreement["frequency_offset"]],
+        "frequency misfit (standard errors)": [f"{v:+.2g}" if v == v else "—" for v in agreement["frequency_score"]],
+        "damping misfit (%)": [f"{100 * v:+.2g}" if v == v else "—" for v in agreement["damping_offset"]],
+        "damping misfit (standard errors)": [f"{v:+.2g}" if v == v else "—" for v in agreement["damping_score"]],
+        "agrees with the fit": ["not checked" if alone == "none" else "yes" if ok else "**NO**"
+                                for ok, alone in zip(agreement["consistent"], agreement["compared_with"])]})
 
 
 def amplitude_section(fit: AmplitudeFit, plots: dict[str, str]) -> list[str]:
