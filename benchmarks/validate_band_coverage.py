@@ -115,7 +115,8 @@ def run(args: argparse.Namespace) -> None:
     with multiprocessing.Pool(args.processes) as pool:
         rows = [row for part in pool.map(one_seed, jobs) for row in part]
     table = pd.DataFrame(rows)
-    print(f"seeds {seeds.start}–{seeds.stop - 1} × {len(LEVELS)} held-out levels, σ_f = {args.sigma_f} Hz, 0.5 % noise")
+    print(f"seeds {seeds.start}–{seeds.stop - 1} × {len(LEVELS)} held-out levels, σ_f = {args.sigma_f} Hz, "
+          "0.5 % noise")
     print("| model | quantity | coverage | misses | held-out levels | median error | median half-width / error |")
     print("|---|---|---|---|---|---|---|")
     for (model, quantity), group in table.groupby(["model", "quantity"], sort=False):

@@ -14,8 +14,9 @@ taken from the data, nothing assumed:
   out, ``σ_J² = (n−1)/n · Σ (x_j − x̄)²`` for every predicted quantity and every line of
   |H| (it carries model-form error: a model that fits some levels and not others moves
   when they are dropped), n − 1 degrees of freedom. A model that cannot be refitted
-  without a kept level (``amplitude-iwan`` on three) takes its misfit at the kept levels
-  instead (RMS, in-sample: :func:`kept_misfit`);
+  without a kept level (``amplitude-iwan`` on three), and a quantity fewer than three
+  refits give (a refit's curve peaking at a jump has no damping ratio), take the misfit
+  at the kept levels instead (RMS, in-sample: :func:`kept_misfit`);
 * test: the repeatability — the scatter of the measured levels about a trend in log
   amplitude (``σ_R``, residual standard deviation, N − 2 degrees of freedom: the test's
   own run-to-run and level-to-level variation no smooth model can follow): of the
@@ -338,12 +339,9 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
           ) -> tuple[dict[str, Compared], NDArray, NDArray]:
     """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
     prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring);
-    ``misfit`` (quantity → (σ, degrees of freedom)): the model's own misfit at the kept
-    levels, the model term of a quantity with fewer than three finite refit values (no
-    jackknife, or a refit's curve without one: a damping ratio at a jump) — without it that
-    quantity has no band, never a band of the test's scatter alone. Each side of a band
-    takes the refits' spread on that side (:func:`_sides`): the band follows the model where
-    its refits move one way."""
+    ``misfit`` (quantity → (σ, dof)): the model's misfit at the kept levels, the model term
+    of a quantity fewer than three refits give (without it: no band, never the test's term
+    alone). Each side takes the refits' spread on that side (:func:`_sides`)."""
     f = frequency_hz
     values = _metrics(f, predicted)
     jack_values = [_metrics(f, curve) for curve in curves]
