@@ -16,8 +16,8 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from single_mode_reference import stepped_sine
 
-from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.impact import LinearLimit
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
@@ -40,18 +40,9 @@ def denominator(a, omega):
     return w**2 - omega**2 + 2j * zeta * w * omega
 
 
-def amplitude(force, omega):
-    grid = np.geomspace(1e-9, 1e-2, 6000)
-    g = grid * np.abs(denominator(grid, omega))
-    assert np.all(np.diff(g) > 0)
-    return float(np.interp(np.log(force), np.log(g), grid))
-
-
 @pytest.fixture(scope="module")
 def data():
-    rows = [frf_table(F, level, "0", "0", np.array([1 / denominator(amplitude(level, 2 * np.pi * f), 2 * np.pi * f)
-                                                    for f in F])) for level in LEVELS]
-    return FRFLevels.from_table(pd.concat(rows, ignore_index=True), "0", "0")
+    return stepped_sine(denominator, LEVELS, F, np.geomspace(1e-9, 1e-2, 6000))
 
 
 def run(held):
