@@ -1,7 +1,7 @@
 """Issue 37: how often the amplitude model's 95 % damping band holds the truth, inside the
 Jenkins stick–slip kink band [a_s/1.03, 1.5 a_s] and off it, per source and for the joint fit.
 
-    python benchmarks/kink_band_coverage.py [--seeds 8] [--resamples 40] [--system 1-jenkins]
+    python benchmarks/kink_band_coverage.py [--seeds 8] [--resamples 20] [--system 1-jenkins]
 
 The records, noise and fits are those of ``benchmarks/test_type_truth.py`` (``--backbone
 jenkins``, the stepped sine refined on its lines). Per fit, two bands at 60 amplitudes over
@@ -75,7 +75,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--first-seed", type=int, default=0)
-    parser.add_argument("--resamples", type=int, default=40, help="bootstrap refits per fit (the old band)")
+    parser.add_argument("--resamples", type=int, default=20, help="bootstrap refits per fit (the old band; 0: not drawn)")
     parser.add_argument("--system", action="append", choices=("1-jenkins", "2-jenkins"))
     args = parser.parse_args()
     print(f"{'system':10s} {'fit':22s} {'band':10s} {'in kink':>9s} {'off kink':>9s} {'err>5%':>9s} "

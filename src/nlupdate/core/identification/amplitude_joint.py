@@ -17,9 +17,9 @@ the lines pass through the stick–slip kink on their flanks and place the slip 
 about ten times better than the peaks). The consistency table is that of the sample fit.
 The ``jenkins`` backbone's bands are those of the estimator that gave the model (the line
 refinement's or the sample fit's residual, linearised, the phase-resonance points'
-amplitude noise included: :mod:`nlupdate.core.identification.joint_band`); the residual
-bootstrap held the truth at 25–79 % of the amplitudes next to the stick–slip kink
-(docs/ring-down.md, "Honest bands at the kink").
+amplitude noise included: :mod:`nlupdate.core.identification.joint_band`); for the phase
+resonance's own fit the residual bootstrap held the truth at 51–59 % of the amplitudes next to
+the stick–slip kink, this band at 100 % (docs/ring-down.md, "Honest bands at the kink").
 
 Files written (:meth:`AmplitudeFit.write`): ``amplitude_model.json`` (the model, its reference
 unit), ``backbone.csv`` (the fitted backbone over the samples' amplitudes: ``modal_amplitude``
