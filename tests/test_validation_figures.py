@@ -142,11 +142,13 @@ def test_the_printed_amplitude_fit_opens_with_its_bad_news():
                                 reference_amplitude=4e-4)
     a = np.geomspace(3e-5, 4e-4, 6)
     agreement = pd.DataFrame({"source": ["rd.csv", "rc.mat"], "test_type": ["ring-down", "response-controlled"],
-                              "samples": [6, 6], "frequency_offset": [1e-4, -3e-4], "frequency_score": [3.6, -1.0],
+                              "samples": [6, 6], "compared_with": ["agreeing sources"] * 2,
+                              "frequency_offset": [1e-4, -3e-4], "frequency_score": [3.6, -1.0],
                               "damping_offset": [0.234, 0.0014], "damping_score": [66.0, 0.17],
                               "consistent": [False, True]})
     fit = SimpleNamespace(model=model, samples=ModalSamples(a, model.frequency_hz(a), model.damping(a), np.ones(6), 0.7),
                           agreement=agreement, resamples=200, held_errors=None, unit="N",
+                          options=SimpleNamespace(backbone="polynomial"),
                           disagreeing=lambda: ["rd.csv"], poor=lambda: True, misfit=lambda: (0.0013, 0.101))
     lines = amplitude_lines(fit)
     assert lines[0].startswith("warning: rd.csv disagree(s) with the joint fit")

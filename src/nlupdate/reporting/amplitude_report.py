@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.amplitude_joint import POOR_FIT, AmplitudeFit
+from nlupdate.core.identification.amplitude_modal_fit import KINKED_BACKBONES
 from nlupdate.core.identification.backbone_samples import DISAGREEMENT
 from nlupdate.reporting.backbone_plots import plot_sources
 from nlupdate.reporting.markdown import markdown_table
@@ -88,7 +89,7 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
                      f"chi = {j.chi:.4g}, beta = {j.beta:.4g}")
     if model.note:
         lines.append(f"note: {model.note}")
-    if fit.options.backbone == "jenkins" and fit.samples.amplitude.size > 1:
+    if fit.options.backbone in KINKED_BACKBONES and fit.samples.amplitude.size > 1:
         lines.append("note: backbone.csv's *_low/*_high bands: 95 % from the fit's linearised covariance (the "
                      "phase-resonance points' amplitude noise included; the kink moves with the slip amplitude)")
     elif fit.resamples:

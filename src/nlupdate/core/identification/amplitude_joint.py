@@ -42,8 +42,8 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import Source
 from nlupdate.core.identification.amplitude_modal_fit import (
-    ModalSamples, amplitude_model_from_frfs, default_resamples, fit_amplitude_model, samples_from_frfs,
-    samples_from_modal_table,
+    KINKED_BACKBONES, ModalSamples, amplitude_model_from_frfs, default_resamples, fit_amplitude_model,
+    samples_from_frfs, samples_from_modal_table,
 )
 from nlupdate.core.identification.backbone_samples import (
     DEFAULT_NOISE, backbone_curve, backbone_points, consistency, held_out_errors, join_samples, own_fit_for,
@@ -210,7 +210,7 @@ def _one_source_model(samples: ModalSamples, shapes, options: FitOptions) -> Amp
 def _refines_on_lines(measured: MeasuredSource | None, options: FitOptions) -> bool:
     """Whether the fit is refined on the stepped sine's lines (:mod:`~nlupdate.core.identification.line_refine`):
     the ``jenkins`` backbone and driving-point FRFs with the shape given."""
-    return (options.backbone == "jenkins" and measured is not None and measured.data is not None
+    return (options.backbone in KINKED_BACKBONES and measured is not None and measured.data is not None
             and measured.data.response_dof == measured.data.input_dof and not measured.samples.shape_free)
 
 

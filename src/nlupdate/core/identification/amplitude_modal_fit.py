@@ -340,6 +340,10 @@ JENKINS_CHI = -0.5
 #: the backbones :func:`fit_amplitude_model` fits: the model's, and ``jenkins`` (an Iwan joint
 #: in its Jenkins limit, stored as an ``iwan`` backbone)
 FIT_BACKBONES = BACKBONES + ("jenkins",)
+#: the backbones with a stick–slip kink (a Jenkins joint): refined on a driving-point stepped
+#: sine's lines (:mod:`~nlupdate.core.identification.line_refine`), banded by that fit's covariance
+#: (:mod:`~nlupdate.core.identification.joint_band`) rather than by bootstrap refits
+KINKED_BACKBONES = ("jenkins",)
 
 
 def default_resamples(backbone: str) -> int:
