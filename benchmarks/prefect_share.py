@@ -18,6 +18,9 @@ Per round, in rotated order (load hits every contender alike), each as a fresh p
   from it without Prefect, :mod:`nlupdate.orchestration.flows.from_cache`, when the code has that);
 * **two at once** — two cold demos started together in two empty folders (the kept server,
   when there is one, counted as above);
+* **two in process at once** — two of the first started together: the machine's own cost of
+  running two studies at once (two processes on the shared cores, no Prefect), printed beside
+  the two-at-once goal so Prefect's part of it can be read;
 * **server start** — the run's Prefect server alone (:class:`nlupdate.orchestration.flows.server.RunServer`)
   until ``/api/health`` answers, then stopped.
 
@@ -263,6 +266,10 @@ def _run(args: argparse.Namespace) -> int:
             cpu, wall, _ = measure([([python, "-c", IN_PROCESS], folder())], env)
             record("in process (run_study + archive)", cpu, wall)
 
+        def two_in_process() -> None:
+            cpu, wall, _ = measure([([python, "-c", IN_PROCESS], folder()) for _ in range(2)], env)
+            record("two in process at once", cpu, wall)
+
         def cold_and_cached() -> None:
             place = folder()
             cpu, wall, server_cpu, (run,) = demos([place])
@@ -288,7 +295,7 @@ def _run(args: argparse.Namespace) -> int:
             record("server start alone (CPU: both processes)", cpu, wall)
             more["server start wall"].append(float(run.lines[-1][1].split()[-1]))
 
-        return [in_process, cold_and_cached, first_cold, two_at_once, server_start]
+        return [in_process, cold_and_cached, first_cold, two_at_once, two_in_process, server_start]
 
     every = [contender for python in pythons for contender in contenders(python)]
     for number in range(args.rounds):
@@ -336,6 +343,9 @@ def report(python: str, rows: dict[str, list[tuple[float, float]]], extra: dict[
     print(f"goals: cold {cold / base:.2f} × in process (≤ 1.3: {'met' if cold <= 1.3 * base else 'NOT met'}); "
           f"cached {cached / base:.2f} × (≤ 0.25: {'met' if cached <= 0.25 * base else 'NOT met'}); "
           f"two at once {pair / cold:.2f} × one cold demo (≤ 2: {'met' if pair <= 2 * cold else 'NOT met'})")
+    machine = medians["two in process at once"][0] / base
+    print(f"the machine's own cost of two at once (two in-process studies together ÷ one, no Prefect): "
+          f"{machine:.2f}; two cold demos at once ÷ that: {pair / cold / machine:.2f} × twice one")
     print(f"the first cold demo, which starts the server: {first / base:.2f} × in process "
           f"(≤ 1.3: {'met' if first <= 1.3 * base else 'NOT met'})")
 
