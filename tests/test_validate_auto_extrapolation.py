@@ -98,7 +98,7 @@ def test_no_value_is_printed_as_if_fine(data, tmp_path, capsys):
     # auto's reason: the scores in words, a candidate that failed named with why (three kept
     # levels, two left to fit: the Iwan backbone's three parameters need three), no "nan"
     (reason,) = [line for line in out.splitlines() if line.startswith("auto at 0.35 N: ")]
-    assert "nan" not in reason and "amplitude-iwan failed to fit with one kept curve left out: an iwan backbone " \
+    assert "nan" not in reason and "amplitude-iwan failed to fit with one kept curve left out: the iwan backbone " \
                                    "needs at least 3 samples, got 2" in reason, reason
     depth = 0
     for char in reason:  # no parentheses inside parentheses

@@ -400,7 +400,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
             raise AmplitudeModelError(f"polynomial order {order}: need 1 ≤ order < {samples.amplitude.size} samples")
         return _polynomial(samples, shapes, int(order), frequency_std, damping_std, mode)
     if samples.amplitude.size < 3:
-        raise AmplitudeModelError(f"an {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
+        raise AmplitudeModelError(f"the {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
     jenkins = {"beta": JENKINS_BETA, "chi": JENKINS_CHI} if backbone == "jenkins" else {}
     fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins), law) for law in LINEAR_DAMPING]
     model, chi2, law = min(fits, key=lambda fit: fit[1])
