@@ -167,6 +167,8 @@ def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, 
     study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"], "response_controlled": flag})
     code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "run", "--quiet")
     assert code == 0, err
+    # the file's runs are said to be left out only where nothing reads them
+    assert ("left out 8 run(s)" in err) == (flag == "off"), err
     run = tmp_path / "run"
     summary = json.loads((run / "validation.json").read_text())
     if flag == "off":

@@ -28,7 +28,9 @@ import pandas as pd
 
 from nlupdate.app.cli import CliError
 from nlupdate.core.measurement.band import excited_band_of_table, in_band
-from nlupdate.core.measurement.units import ReadOptions, ReferenceUnitError, table_reference_unit
+from nlupdate.core.measurement.units import (
+    ReadOptions, ReferenceUnitError, table_reference_unit, validate_reads_runs_apart,
+)
 
 LEVEL_HELP = ("level (in the reference unit) of a file that does not hold it: FILE=VALUE; of one run of a file "
               "holding several: FILE#RUN=VALUE; or of a run by its name: RUN=VALUE (RUN as the 'no level' error "
@@ -124,9 +126,7 @@ def _runs_read_apart(args: argparse.Namespace) -> tuple[str, ...]:
     held = getattr(args, "response_controlled", "off")
     if isinstance(held, (list, tuple)):
         return tuple(map(str, held))
-    if str(held).lower() in ("off", "false"):
-        return ()
-    return tuple(str(p) for p in getattr(args, "measured", None) or [] if str(p).lower().endswith(".mat"))
+    return validate_reads_runs_apart(getattr(args, "measured", None) or [], str(held))
 
 
 def _uses_frf_options(args: argparse.Namespace) -> bool:

@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from collections.abc import Iterable
+from pathlib import Path
 from typing import Mapping
 
 import pandas as pd
@@ -113,6 +115,15 @@ class ReadOptions:
         """Whether the response-controlled runs of the file ``path`` are read as such
         (``runs_read_apart``)."""
         return bool(_statement_for({key: True for key in self.runs_read_apart}, path))
+
+
+def validate_reads_runs_apart(paths: Iterable[str | Path], response_controlled: str) -> tuple[str, ...]:
+    """The files among ``paths`` whose response-controlled runs ``validate`` (or a study's
+    ``[validation]``) reads as such — the MATLAB ones, unless ``response_controlled`` is off —
+    for :attr:`ReadOptions.runs_read_apart`."""
+    if str(response_controlled).lower() in ("off", "false"):
+        return ()
+    return tuple(str(path) for path in paths if str(path).lower().endswith(".mat"))
 
 
 def _one_level(matches: Mapping[str, float], what: str) -> float | None:

@@ -2,6 +2,8 @@
 curve — as measured and in the FE model — that the later steps compare with."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 
@@ -9,7 +11,7 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.pipeline import Identification, identify
 from nlupdate.core.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.core.measurement.time_history import estimate_frf, read_time_record
-from nlupdate.core.measurement.units import calibrated
+from nlupdate.core.measurement.units import calibrated, validate_reads_runs_apart
 from nlupdate.core.model.model_file import element_from_table, load_system
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.simulate import simulate_frf_table
@@ -45,10 +47,15 @@ def measured_table(study: Study) -> pd.DataFrame:
     if study.measured is None:
         raise StudyError(f"{study.path}: the study has no [measured] data")
     spec = study.measured
+    paths = [spec.file] if spec.file is not None else [path for path, _ in spec.files]
+    options = spec.read_options()
+    if study.validation is not None:  # its response-controlled runs are read by [validation], not lost
+        options = dataclasses.replace(options, runs_read_apart=validate_reads_runs_apart(
+            paths, study.validation.response_controlled))
     if spec.file is not None:
-        return read_frf_table(spec.file, options=spec.read_options())
+        return read_frf_table(spec.file, options=options)
     if spec.files:
-        return read_frf_tables([path for path, _ in spec.files], options=spec.read_options())
+        return read_frf_tables(paths, options=options)
     if spec.time_histories:
         records = [read_time_record(path) for path in spec.time_histories]
         input_dof = spec.input_dof or ("force" if records[0].reference_unit == "N" else "voltage")
