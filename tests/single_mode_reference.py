@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.impact import LinearLimit
 from nlupdate.core.measurement.frf_table import frf_table
 
 Denominator = Callable[[np.ndarray | float, float], np.ndarray | complex]
@@ -36,3 +37,10 @@ def stepped_sine(denominator: Denominator, levels: Sequence[float], frequencies_
              for f in frequencies_hz]
         rows.append(frf_table(frequencies_hz, level, "0", "0", np.array(h)))
     return FRFLevels.from_table(pd.concat(rows, ignore_index=True), "0", "0")
+
+
+def exact_linear_limit(omega0: float, zeta0: float) -> LinearLimit:
+    """The mode's linear limit as an impact would state it, exact: natural frequency
+    ω₀/2π (Hz, ω₀ in rad/s) and damping ratio ζ₀ with negligible standard errors."""
+    return LinearLimit(omega0 / (2 * np.pi), zeta0, 1e-4, 1e-6, 1e-8, (1e-9, 1e-8), (0.0, 1.0), (60.0, 100.0),
+                       ("0",), 1, "exact")

@@ -19,9 +19,8 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
-from single_mode_reference import stepped_sine
+from single_mode_reference import exact_linear_limit, stepped_sine
 
-from nlupdate.core.identification.impact import LinearLimit
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.validation.auto_choice import PEAK_GROWTH, choose_model
 from nlupdate.core.validation.held_out import validate
@@ -29,8 +28,7 @@ from nlupdate.core.validation.held_out import validate
 W0, ZETA0, A1, SOFTENING, GROWTH = 2 * np.pi * 80.0, 0.001, 1e-4, 0.003, 0.004
 LEVELS = (0.03, 0.08, 0.2, 0.35)
 F = np.linspace(78.5, 81.0, 51)
-LIMIT = LinearLimit(W0 / (2 * np.pi), ZETA0, 1e-4, 1e-6, 1e-8, (1e-9, 1e-8), (0.0, 1.0), (60.0, 100.0), ("0",), 1,
-                    "exact")
+LIMIT = exact_linear_limit(W0, ZETA0)
 
 
 def denominator(a, omega):

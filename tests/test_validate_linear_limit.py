@@ -16,9 +16,8 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from single_mode_reference import stepped_sine
+from single_mode_reference import exact_linear_limit, stepped_sine
 
-from nlupdate.core.identification.impact import LinearLimit
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.validation.held_out import repeatability
@@ -30,8 +29,7 @@ from nlupdate.core.validation.resonance import resonance
 W0, ZETA0, A1, SOFTENING, GROWTH = 2 * np.pi * 80.5, 0.0015, 1e-4, 0.004, 0.003
 LEVELS = (0.1, 0.2, 0.35, 0.5)
 F = np.linspace(79.2, 81.2, 41)
-LIMIT = LinearLimit(W0 / (2 * np.pi), ZETA0, 1e-4, 1e-6, 1e-8, (1e-9, 1e-8), (0.0, 1.0), (60.0, 100.0), ("0",), 1,
-                    "exact")
+LIMIT = exact_linear_limit(W0, ZETA0)
 
 
 def denominator(a, omega):
