@@ -11,11 +11,22 @@ its samples' range (the held-out stepped sine: over its samples within the other
   samples' misfits drawn onto the fitted curve, refitted by the sample fit, basic interval);
 * ``covariance``: the fit's own estimator linearised, the samples' amplitudes taken as exact;
 * ``cov + EIV``: the same with the phase-resonance points' amplitude noise
-  (:mod:`nlupdate.core.identification.joint_band`, the band ``backbone.csv`` now has).
+  (:mod:`nlupdate.core.identification.joint_band`, the band ``backbone.csv`` has for a fit
+  not refined on the lines);
+* ``line band``: for a fit refined on the stepped sine's lines, the band ``backbone.csv``
+  has for it (:mod:`nlupdate.core.identification.line_band`: ``cov + EIV`` with the
+  linear-damping law's viscous share among the unknowns, widened to the leave-one-out
+  spread); the others: ``cov + EIV``.
+
+The refinement chooses the linear-damping law on the lines (``refine_on_lines``); with
+``--sample-law`` it keeps the sample fit's, as before 2026-11-29.
 
 Printed per system × fit × band: coverage of the damping truth inside the kink band and
 off it (pooled over amplitudes and seeds), the coverage where the fit's damping error
-exceeds 5 %, and the band's median half-width over the fit, inside the kink band.
+exceeds 5 %, the band's median half-width over the fit, inside the kink band and off it, and
+off it the median of |error| / half-width (0.34 for a Gaussian band of the right width:
+below it the band is wider than the errors, above it narrower), and the largest damping
+error inside and off the kink band.
 """
 from __future__ import annotations
 
@@ -35,9 +46,13 @@ from test_test_type_truth import system, truth  # noqa: E402
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model  # noqa: E402
 from nlupdate.core.identification.backbone_samples import backbone_curve, join_samples, own_fit_for, source_noise  # noqa: E402
 from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, sample_fit_residual  # noqa: E402
-from nlupdate.core.identification.line_refine import refine_on_lines, refinement_residual  # noqa: E402
+from nlupdate.core.identification.line_band import line_refinement_band  # noqa: E402
+from nlupdate.core.identification.line_refine import refine_at_law, refine_on_lines, refinement_residual  # noqa: E402
 
 KINK = (1 / 1.03, 1.5)
+#: ``--sample-law``: the refinement keeps the sample fit's linear-damping law (as before)
+SAMPLE_LAW = False
+BANDS = ("bootstrap", "covariance", "cov + EIV", "line band")
 CELLS = ("own phase-resonance", "own ring-down", "own stepped-sine", "joint", "stepped-sine held out")
 
 
@@ -65,10 +80,20 @@ def fitted(s: dict, chosen: dict, lines) -> tuple:
     keep = np.concatenate([np.full(smp.amplitude.size, n != "stepped-sine") for n, (smp, _) in chosen.items()])
     others = join_samples([chosen[n][0] for n in chosen if n != "stepped-sine"]) if keep.any() else None
     fs, zs = (f_std[keep], z_std[keep]) if others is not None else (1e-3, 0.05)
-    model, line_noise = refine_on_lines(model, lines, others, fs, zs)
+    if SAMPLE_LAW:
+        model, line_noise = refine_at_law(model, lines, others, fs, zs)
+    else:
+        model, line_noise = refine_on_lines(model, lines, others, fs, zs)
     residual = refinement_residual(model, lines, others, fs, zs)
     eiv = (others, fs, zs, a_std[keep]) if others is not None and a_std[keep].any() else None
-    return model, (lambda theta: residual(theta, line_noise)), refit, joined, eiv
+    source = np.concatenate([np.full(smp.amplitude.size, i) for i, (smp, _) in enumerate(chosen.values())])[keep]
+
+    def band(a, seed):
+        return line_refinement_band(model, lines, line_noise, a, others, fs, zs, source, eiv, seed)[2:]
+
+    residual_at_noise = (lambda theta: residual(theta, line_noise))
+    residual_at_noise.line_band = band
+    return model, residual_at_noise, refit, joined, eiv
 
 
 def main() -> None:
@@ -77,15 +102,19 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--resamples", type=int, default=20, help="bootstrap refits per fit (the old band; 0: not drawn)")
     parser.add_argument("--system", action="append", choices=("1-jenkins", "2-jenkins"))
+    parser.add_argument("--sample-law", action="store_true",
+                        help="the line refinement keeps the sample fit's linear-damping law (as before 2026-11-29)")
     args = parser.parse_args()
-    print(f"{'system':10s} {'fit':22s} {'band':10s} {'in kink':>9s} {'off kink':>9s} {'err>5%':>9s} "
-          f"{'width in':>8s} {'width off':>9s}")
+    global SAMPLE_LAW
+    SAMPLE_LAW = args.sample_law
+    print(f"{'system':10s} {'fit':22s} {'band':10s} {'in kink':>10s} {'off kink':>10s} {'err>5%':>10s} "
+          f"{'width in':>8s} {'width off':>9s} {'|e|/hw':>6s} {'err in':>7s} {'err off':>7s}")
     for dofs in (1, 2):
         if args.system and f"{dofs}-jenkins" not in args.system:
             continue
         s, started = system(dofs, "jenkins"), time.process_time()
         made = ttt.records(s, "jenkins", dofs)
-        tally = {(c, b): [] for c in CELLS for b in ("bootstrap", "covariance", "cov + EIV")}
+        tally = {(c, b): [] for c in CELLS for b in BANDS}
         for seed in range(args.first_seed, args.first_seed + args.seeds):
             every, lines = ttt.samples(s, made, seed)
             cases = {"own phase-resonance": ({"phase-resonance": every["phase-resonance"]}, None),
@@ -102,27 +131,34 @@ def main() -> None:
                 a = np.geomspace(low, high, 60)
                 _, z_true = truth(s, a)
                 z_fit = model.damping(a)
-                boot = backbone_curve(model, joined, refit=refit, resamples=args.resamples, seed=seed)
-                # backbone_curve spans the samples' range: interpolate onto a in ln a
-                grid = boot["modal_amplitude"].to_numpy()
-                bands = {"bootstrap": tuple(np.interp(np.log(a), np.log(grid), boot[c].to_numpy())
-                                            for c in ("damping_ratio_low", "damping_ratio_high")),
-                         "covariance": covariance_band(model, residual, a, seed=seed)[2:],
+                bands = {"covariance": covariance_band(model, residual, a, seed=seed)[2:],
                          "cov + EIV": covariance_band(model, residual, a, seed=seed, noisy_amplitudes=eiv)[2:]}
+                line_band = getattr(residual, "line_band", None)
+                bands["line band"] = line_band(a, seed) if line_band is not None else bands["cov + EIV"]
+                if args.resamples:
+                    boot = backbone_curve(model, joined, refit=refit, resamples=args.resamples, seed=seed)
+                    # backbone_curve spans the samples' range: interpolate onto a in ln a
+                    grid = boot["modal_amplitude"].to_numpy()
+                    bands["bootstrap"] = tuple(np.interp(np.log(a), np.log(grid), boot[c].to_numpy())
+                                               for c in ("damping_ratio_low", "damping_ratio_high"))
                 inside = (a >= KINK[0] * s["slip"]) & (a <= KINK[1] * s["slip"])
                 error = np.abs(z_fit / z_true - 1)
                 for name, (z_low, z_high) in bands.items():
                     held_it = (z_true >= z_low) & (z_true <= z_high)
                     width = (z_high - z_low) / 2 / z_fit
-                    tally[(cell, name)].append((held_it, inside, error > 0.05, width))
+                    tally[(cell, name)].append((held_it, inside, error > 0.05, width, error))
         for (cell, name), rows in tally.items():
-            held_it, inside, big, width = (np.concatenate([r[k] for r in rows]) for k in range(4))
+            if not rows:
+                continue
+            held_it, inside, big, width, error = (np.concatenate([r[k] for r in rows]) for k in range(5))
 
             def share(mask):
                 return f"{held_it[mask].mean():6.1%}/{mask.sum():<3d}" if mask.any() else f"{'—':>10s}"
 
             print(f"{dofs}-jenkins  {cell:22s} {name:10s} {share(inside):>10s} {share(~inside):>10s} {share(big):>10s} "
-                  f"{np.median(width[inside]) if inside.any() else np.nan:8.3f} {np.median(width[~inside]):9.3f}")
+                  f"{np.median(width[inside]) if inside.any() else np.nan:8.3f} {np.median(width[~inside]):9.3f} "
+                  f"{np.median(error[~inside] / width[~inside]):6.2f} "
+                  f"{error[inside].max() if inside.any() else np.nan:7.2%} {error[~inside].max():7.2%}")
         print(f"  ({args.seeds} seeds from {args.first_seed}, {args.resamples} bootstrap refits, "
               f"{time.process_time() - started:.0f} s CPU)", flush=True)
 

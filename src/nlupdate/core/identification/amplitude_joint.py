@@ -19,7 +19,9 @@ The ``jenkins`` backbone's bands are those of the estimator that gave the model 
 refinement's or the sample fit's residual, linearised, the phase-resonance points'
 amplitude noise included: :mod:`nlupdate.core.identification.joint_band`); for the phase
 resonance's own fit the residual bootstrap held the truth at 51–59 % of the amplitudes next to
-the stick–slip kink, this band at 100 % (docs/ring-down.md, "Honest bands at the kink").
+the stick–slip kink, this band at 100 % (docs/ring-down.md, "Honest bands at the kink"). The
+line refinement's band holds the linear-damping law's uncertainty and the leave-one-level-out
+spread too (:mod:`nlupdate.core.identification.line_band`).
 
 Files written (:meth:`AmplitudeFit.write`): ``amplitude_model.json`` (the model, its reference
 unit), ``backbone.csv`` (the fitted backbone over the samples' amplitudes: ``modal_amplitude``
@@ -51,9 +53,8 @@ from nlupdate.core.identification.backbone_samples import (
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, joint_fixed, sample_fit_residual
-from nlupdate.core.identification.line_refine import (
-    line_misfit, refine_on_lines, refinement_residual, stepped_sine_lines,
-)
+from nlupdate.core.identification.line_band import line_refinement_band
+from nlupdate.core.identification.line_refine import line_misfit, refine_on_lines, stepped_sine_lines
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
 from nlupdate.progress import ProgressCallback, no_progress
@@ -313,9 +314,9 @@ def joint_covariance_band(fit: AmplitudeFit, amplitude: np.ndarray) -> tuple[np.
     fs, zs = (f_std[keep], z_std[keep]) if others is not None else (1e-3, 0.05)
     misfit = line_misfit(model, lines)
     noise = float(np.sqrt(2 * np.sum(misfit**2) / max(misfit.size - 4, 1)))  # as refine_on_lines states it
-    residual = refinement_residual(model, lines, others, fs, zs)
     noisy = (others, fs, zs, a_std[keep]) if others is not None and a_std[keep].any() else None
-    return covariance_band(model, lambda theta: residual(theta, noise), amplitude, noisy_amplitudes=noisy)
+    source = np.concatenate([np.full(p[1].amplitude.size, i) for i, p in enumerate(fit.points)])[keep]
+    return line_refinement_band(model, lines, noise, amplitude, others, fs, zs, source, noisy)
 
 
 def backbone_table(fit: AmplitudeFit, progress: ProgressCallback = no_progress) -> pd.DataFrame:

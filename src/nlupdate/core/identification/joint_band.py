@@ -33,12 +33,19 @@ kink"). Here the band is that of the estimator itself:
 A draw of log F_S and logit(K_T/ω₀²) moves a_s = F_S/K_T, so the kink moves with it: the
 band holds the damping of every slip amplitude the data allow, not only of the fitted one.
 
-What it does not hold: a bias of the estimator that no noise explains. The 2-DOF's line
-refinement is ~0.5–1 % off in damping away from the kink (the single-mode receptance against
-the five-harmonic truth), with a band of ±0.2 %: coverage there 35–50 % (docs/ring-down.md).
+The linear-damping law (viscous or structural) is a choice, not an unknown, in this band.
+With ``law_free`` the unknowns carry the law's viscous share w too, ζ_lin =
+ζ₀[(1 − w)ω₀²/ω² + wω₀/ω] (w = 1 viscous, 0 structural: :data:`VISCOUS_SHARE`), the residual
+that of :func:`mixed_law_residual` (the fit's residual at each law, mixed linearly in w) and
+each draw's damping the same mixture of the two laws' curves: the line refinement's band
+(:mod:`~nlupdate.core.identification.line_band`, which adds the leave-one-level-out spread).
+
+What it does not hold: a bias of the estimator that no noise explains (the line
+refinement's: docs/ring-down.md, "Honest bands at the kink").
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -59,6 +66,9 @@ DRAWS = 4000
 NOISY_AMPLITUDE_SHARE = {"phase-resonance": 1 / np.sqrt(2)}
 #: central-difference step in the unknowns (logs and logits)
 _STEP = 1e-4
+#: the viscous share w of the rest of the structure's damping at each linear-damping law
+#: (the band's mixed law: ζ_lin = ζ₀[(1 − w)ω₀²/ω² + w ω₀/ω], module docstring)
+VISCOUS_SHARE = {"viscous": 1.0, "structural": 0.0}
 
 
 def joint_fixed(model: AmplitudeModalModel) -> dict[str, float]:
@@ -99,6 +109,35 @@ def amplitude_std(kinds: list[str], damping_std: NDArray) -> NDArray:
     return share * np.broadcast_to(np.asarray(damping_std, float), share.shape)
 
 
+def mixed_law_residual(model: AmplitudeModalModel,
+                       residual_at: Callable[[AmplitudeModalModel], Callable[[NDArray], NDArray]]
+                       ) -> Callable[[NDArray], NDArray]:
+    """(θ, w) → the weighted residual of ``model``'s fit at the mixed linear-damping law of
+    viscous share w (module docstring), from ``residual_at``: a model → θ → the fit's residual
+    at that model's law. Linear in w: ``r_s(θ) + w (r_v(θ) − r_s(θ))``."""
+    structural = residual_at(replace(model, linear_damping="structural"))
+    viscous = residual_at(replace(model, linear_damping="viscous"))
+
+    def residual(unknowns: NDArray) -> NDArray:
+        r_s = structural(unknowns[:-1])
+        return r_s + unknowns[-1] * (viscous(unknowns[:-1]) - r_s)
+
+    return residual
+
+
+def _mixed_law_curves(model: AmplitudeModalModel) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
+    """((θ, w), a) → (ω, ζ) of ``model``'s unknowns θ at the mixed law of viscous share w."""
+    structural = model_from_unknowns(replace(model, linear_damping="structural"))
+    viscous = model_from_unknowns(replace(model, linear_damping="viscous"))
+
+    def curves(unknowns: NDArray, amplitude: NDArray) -> tuple[NDArray, NDArray]:
+        w, z_s = structural(unknowns[:-1]).omega_zeta(amplitude)
+        z_v = viscous(unknowns[:-1]).omega_zeta(amplitude)[1]
+        return w, z_s + unknowns[-1] * (z_v - z_s)
+
+    return curves
+
+
 def _eiv_meat(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: NDArray, damping_std: NDArray,
               amplitude_std: NDArray) -> NDArray:
     """The covariance, in the fit's weighted units, that noise in the samples' amplitudes adds
@@ -122,16 +161,24 @@ def _eiv_meat(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: 
 def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], NDArray], amplitude: NDArray,
                     draws: int = DRAWS, seed: int = 0,
                     noisy_amplitudes: tuple[ModalSamples, NDArray, NDArray, NDArray] | None = None,
-                    ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+                    law_free: bool = False) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """(frequency low, high (Hz), damping low, high) of ``model`` at ``amplitude`` (module
     docstring); ``residual``: θ → the weighted residual the fit minimised. ``noisy_amplitudes``:
     (samples, their frequency and damping standard deviations in the fit, their amplitudes'
     relative standard deviations) of the samples whose misfits end the residual, when their
     amplitudes are measured with noise (module docstring: errors in the variables). NaN where
-    the covariance cannot be formed (no degrees of freedom, a singular Jacobian)."""
+    the covariance cannot be formed (no degrees of freedom, a singular Jacobian). ``law_free``:
+    ``residual`` takes the viscous share w after θ (:func:`mixed_law_residual`) and the band
+    holds the linear-damping law's uncertainty (module docstring)."""
     amplitude = np.asarray(amplitude, dtype=float)
     theta = joint_unknowns(model)
-    unpack = model_from_unknowns(model)
+    if law_free:
+        theta, curves = np.append(theta, VISCOUS_SHARE[model.linear_damping]), _mixed_law_curves(model)
+    else:
+        unpack = model_from_unknowns(model)
+
+        def curves(unknowns: NDArray, a: NDArray) -> tuple[NDArray, NDArray]:
+            return unpack(unknowns).omega_zeta(a)
     r0 = residual(theta)
     p, m = theta.size, r0.size
     nan = np.full(amplitude.size, np.nan)
@@ -160,7 +207,7 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
     for i, shift in enumerate(shifts):
         with np.errstate(all="ignore"):
             try:
-                w, zeta = unpack(theta + shift).omega_zeta(amplitude)
+                w, zeta = curves(theta + shift, amplitude)
             except (ValueError, OverflowError):
                 continue
         f[i], z[i] = w / (2 * np.pi), zeta
