@@ -152,15 +152,17 @@ def test_the_truth_curves_are_the_describing_function_modes():
 
 def test_held_runs_are_predicted_without_bias_from_force_controlled_levels():
     """``lines-background`` (``auto``'s choice on the BRB) fitted on the four levels and the
-    linear limit predicts runs 2, 3 and 6 within 8 % of the truth curve's damping ratio (this
-    seed: +2.5, +3.7, +3.0 %) and 0.06 Hz (within 0.008 Hz) at 2 % noise; over 8 seeds every
-    run's mean error is +2.2 … +7.3 % (seed scatter 2–7 %, benchmarks/held_runs_truth.py),
+    linear limit predicts runs 2, 3 and 6 within 10 % of the truth curve's damping ratio (this
+    seed: +6.2, +8.3, +8.3 %; +2.5, +3.7, +3.0 % before the model's damping was hysteretic,
+    the constant share the lines are read with moving from (3.5 − 1.6i)e-5 to (2.7 − 1.0i)e-5
+    m/N) and 0.06 Hz (within 0.017 Hz) at 2 % noise; over 8 seeds every run's mean error is
+    +2.4 … +8.0 % (was +2.2 … +7.3 %; seed scatter 2–7 %, benchmarks/held_runs_truth.py),
     where on the BRB the same prediction misses runs 2 and 3 by −18.0 and −14.6 %."""
     levels, runs = simulated_test((HELD[1], HELD[2], HELD[5]))
     data, held = measured(levels, runs, 0.02, seed=0)
     for r, (_, h) in zip(predicted_runs(data, held, ["lines-background"], impact=True), runs):
         truth = resonance(GRID, h)
-        assert abs(r.compared["damping_ratio"].predicted / truth.damping_ratio - 1) < 0.08, r.run
+        assert abs(r.compared["damping_ratio"].predicted / truth.damping_ratio - 1) < 0.10, r.run
         assert abs(r.compared["resonance_hz"].predicted - truth.resonance_hz) < 0.06, r.run
 
 
@@ -170,8 +172,8 @@ def test_a_run_holding_acceleration_is_predicted_at_its_displacement_on_each_lin
     20 and 80 m/s², within 7 % of A/Ω² on every line — the controller settles on the first
     lines — and 3.8–4.0 % larger on its lowest eight lines than on its highest), and a single-mode
     model predicts a run at its displacement on each line — the closed form of a mode whose
-    ω and ζ depend on the amplitude, no other modes: H = φ²/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω),
-    a = X/|φ|, X = A/Ω² per line."""
+    ω and ζ depend on the amplitude, no other modes: H = φ²/(ω(a)² − Ω² + 2iζ(a)ω(a)²) (the damping
+    hysteretic, nlupdate.core.model.single_mode's convention), a = X/|φ|, X = A/Ω² per line."""
     from nlupdate.core.identification.response_controlled import read_response_controlled
     from nlupdate.core.measurement.units import ReadOptions
     from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
@@ -192,5 +194,5 @@ def test_a_run_holding_acceleration_is_predicted_at_its_displacement_on_each_lin
     f = GRID
     x = 30.0 / (2 * np.pi * f) ** 2  # 30 m/s² held: 116–121 µm over the band
     omega, zeta = model.omega_zeta(x / phi)
-    exact = phi**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f)
+    exact = phi**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega**2)
     assert np.allclose(held_receptance(model, lambda g: np.zeros(g.shape, complex), "x", f, x), exact, rtol=1e-9)

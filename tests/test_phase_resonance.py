@@ -133,7 +133,10 @@ def test_a_point_off_quadrature_is_corrected_to_the_backbone(tmp_path, phase_deg
     assert np.max(np.abs(omega / (2 * np.pi * samples.frequency_hz) - 1)) > 1e-3  # Ω is off the backbone
     err_f, err_z = errors(samples, DUFFING)
     assert np.max(np.abs(err_f)) < 1e-4
-    assert np.max(np.abs(err_z)) < 3e-3
+    # this SDOF's damping is viscous; read with the model's hysteretic convention (a friction
+    # joint's, nlupdate.core.model.single_mode) a point off quadrature carries ζ(Ω − ω)/ω more:
+    # measured 2.3e-3 at −75°, 3.2e-3 at −105° (read with the viscous form, before: 4.4e-4, 5.3e-4)
+    assert np.max(np.abs(err_z)) < 4e-3
 
 
 def test_noisy_points_fitted_stay_within_the_issue_bounds(tmp_path, iwan_points):

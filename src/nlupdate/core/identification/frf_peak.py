@@ -7,11 +7,12 @@ neighbours inherits that. A stepped-sine sample's damping ratio is inversely pro
 the peak's height, so it came out 1–3 % low on every level of a simulated Jenkins SDOF
 (benchmarks/test_type_truth.py, 8 seeds), and its amplitude as much too high.
 
-Single-nonlinear-mode theory (docs/iwan.md §4) gives the curve near the top: at amplitude A
-on a curve of force F, ``(ω² − Ω²)² + (2ζωΩ)² = (φ²F/(A·φ))²`` with ω, ζ at A, i.e. in
-``u = Ω²`` and ``y = 1/|H|²`` (∝ 1/A²)::
+Single-nonlinear-mode theory (docs/iwan.md §4, the damping hysteretic:
+:mod:`nlupdate.core.model.single_mode`) gives the curve near the top: at amplitude A on a
+curve of force F, ``(ω² − Ω²)² + (2ζω²)² = (φ²F/(A·φ))²`` with ω, ζ at A, i.e. in ``u = Ω²``
+and ``y = 1/|H|²`` (∝ 1/A²)::
 
-    (u − c(y))² = K·y − 4ζ²ω⁴(1 − ζ²),      c = ω²(1 − 2ζ²)  (the backbone at A).
+    (u − c(y))² = K·y − 4ζ²ω⁴,      c = ω²  (the backbone at A).
 
 The right side vanishes at the peak ``(c₀, y₀)``; near it, with c and the right side taken
 linear in ``y − y₀``, the curve is a parabola with a tilted axis,

@@ -12,12 +12,13 @@ obeys single-nonlinear-mode theory at its modal amplitude a = |H|F/φ_f::
 
     D = φ_f²/H = ω(a)² − Ω² + i(c(Ω) + Im ν(a)),    c = 2ζ₀ω₀Ω (viscous) or 2ζ₀ω₀² (structural),
 
-ν the modal joint's describing function: the joint's dissipation does not scale with Ω. (The
-model's own forced response, :class:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel`,
-writes all of it as 2ζ(a)ω(a)Ω: on a flank at half the peak, Ω/ω ≈ 1 ± 1.7ζ, that reads the
-joint's damping ±2 % off, above the peak low and below it high; fitted in that form, the
-refinement put a_s +0.4 % high on noise-free curves of the Jenkins SDOF and its damping next
-to a_s 5 % off.)
+ν the modal joint's describing function: the joint's dissipation does not scale with Ω. That
+is the model's own dynamic stiffness (:meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.dynamic_stiffness`,
+:mod:`nlupdate.core.model.single_mode`: hysteretic but for the viscous share ζ₀ω₀/ω(a)).
+(Written all as 2ζ(a)ω(a)Ω, viscous — as the model's forced response was before — a flank at
+half the peak, Ω/ω ≈ 1 ± 1.7ζ, reads the joint's damping ±2 % off, above the peak low and
+below it high; fitted in that form, the refinement put a_s +0.4 % high on noise-free curves of
+the Jenkins SDOF and its damping next to a_s 5 % off.)
 
 Per-line samples (a_i, ω_i, ζ_i) fitted as points would put the noise of H into a as well
 as into ω and ζ — errors in the variables, which next to the kink bias a_s (+0.5 % on average
@@ -108,15 +109,6 @@ def stepped_sine_lines(data: FRFLevels, input_shape: float) -> SteppedSineLines:
                             abs(float(input_shape)), np.concatenate(index))
 
 
-def line_operator(model: AmplitudeModalModel, amplitude: NDArray, omega: NDArray) -> NDArray[np.complex128]:
-    """``D(a, Ω) = ω(a)² − Ω² + i(c(Ω) + Im ν(a))`` of a model with a joint (module docstring)."""
-    w, _ = model.omega_zeta(amplitude)
-    w0 = 2 * np.pi * model.natural_frequency_hz
-    linear = (2 * model.damping_ratio * w0 * omega if model.linear_damping == "viscous"
-              else 2 * model.damping_ratio * w0**2 + 0 * omega)
-    return w**2 - omega**2 + 1j * (linear + model.joint.describing_function(amplitude).imag)
-
-
 def line_amplitudes(model: AmplitudeModalModel, lines: SteppedSineLines) -> NDArray[np.float64]:
     """The amplitude each line holds on ``model``: ``a·|D(a, Ω)| = φ_f F`` solved by Newton in
     ln a from the measured amplitude (module docstring)."""
@@ -125,7 +117,7 @@ def line_amplitudes(model: AmplitudeModalModel, lines: SteppedSineLines) -> NDAr
     step = 1e-5
 
     def g(x):
-        return x + np.log(np.abs(line_operator(model, np.exp(x), lines.omega)))
+        return x + np.log(np.abs(model.dynamic_stiffness(np.exp(x), lines.omega)))
 
     for _ in range(_NEWTON):
         value = g(log_a) - target
@@ -142,7 +134,7 @@ def line_misfit(model: AmplitudeModalModel, lines: SteppedSineLines) -> NDArray[
     """Relative misfits ``(D_measured − D(a))/|D_measured|`` of every line, real parts then
     imaginary parts (module docstring)."""
     measured = lines.input_shape**2 / lines.receptance
-    r = (measured - line_operator(model, line_amplitudes(model, lines), lines.omega)) / np.abs(measured)
+    r = (measured - model.dynamic_stiffness(line_amplitudes(model, lines), lines.omega)) / np.abs(measured)
     return np.concatenate([r.real, r.imag])
 
 

@@ -7,17 +7,21 @@ amplitude F and the response's first harmonic X_r (amplitude, and phase relative
 force). Each point is a backbone point directly; the damping comes from the force needed
 to hold it there.
 
-Derivation (single-nonlinear-mode theory, :mod:`nlupdate.core.model.amplitude_modal`). With
+Derivation (single-nonlinear-mode theory, :mod:`nlupdate.core.model.single_mode`). With
 the mode mass-normalised (shape φ in 1/√kg, modal coordinate q in m·√kg), the first harmonic
 of a force at coordinate f balances::
 
-    (ω(a)² − Ω² + 2iζ(a)ω(a)Ω) q = φ_f F,      X_r = φ_r q,      a = |q| = |X_r|/|φ_r|.
+    (ω(a)² − Ω² + 2iζ(a)ω(a)²) q = φ_f F,      X_r = φ_r q,      a = |q| = |X_r|/|φ_r|,
+
+the damping hysteretic (a friction joint's; ζ the viscous damping ratio at resonance).
 
 Write ``q = a·e^{iθ}`` with θ the phase of the modal coordinate behind the modal force φ_f F
 (θ = arg X_r − arg(φ_rφ_f), F real) and ``P = |φ_f|F/a`` (rad²/s²). The real and imaginary
 parts of ``D = φ_f F/q = P e^{−iθ}`` give::
 
-    ω(a)² = Ω² + P cos θ,          ζ(a) = −P sin θ / (2 ω(a) Ω).
+    ω(a)² = Ω² + P cos θ,          ζ(a) = −P sin θ / (2 ω(a)²)
+
+(:func:`~nlupdate.core.model.single_mode.natural_and_damping`).
 
 At quadrature (θ = −90°) they are ω = Ω and ``ζ = |φ_f| F / (2 Ω² a) = |φ_f φ_r| F /
 (2 Ω² |X_r|)``: units (1/kg)·N / (s⁻²·m) = 1. A point off quadrature (the loop locked at
@@ -71,6 +75,7 @@ from nlupdate.core.measurement.time_history import csv_frame
 from nlupdate.core.measurement.uff.levels import dataset_level
 from nlupdate.core.measurement.uff.run_records import RunRecord, by_run, run_records, uff_content
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS, ReadOptions
+from nlupdate.core.model.single_mode import natural_and_damping
 from nlupdate.input_files import read_input_bytes, sniff
 
 CSV_COLUMNS = ("frequency_hz", "force_n", "response_amplitude", "response_phase_deg")
@@ -265,14 +270,12 @@ def samples_from_phase_resonance(points: PhaseResonancePoints, response_shape: f
     a = np.abs(points.x) / abs(phi_r)
     theta = np.angle(points.x * np.sign(phi_r * phi_f))
     p = abs(phi_f) * points.force_n / a
-    omega2 = omega_x**2 + p * np.cos(theta)
-    bad = (omega2 <= 0) | (np.sin(theta) >= 0)
+    omega, zeta = natural_and_damping(p * np.exp(-1j * theta), omega_x)
+    bad = ~np.isfinite(omega) | (np.sin(theta) >= 0)
     if np.any(bad):
         i = int(np.argmax(bad))
         raise MeasurementTableError(
             f"{points.source}: the point at {points.frequency_hz[i]:.6g} Hz, {points.force_n[i]:.4g} N has its "
             f"displacement {np.degrees(theta[i]):.1f}° from the modal force; expected between −180° and 0° (−90° at "
             f"phase resonance): a sensor along the negative direction? (NODE:-DIR in --coordinates)")
-    omega = np.sqrt(omega2)
-    zeta = -p * np.sin(theta) / (2 * omega * omega_x)
     return ModalSamples(a, omega / (2 * np.pi), zeta, points.force_n, abs(phi_f))

@@ -5,9 +5,9 @@ frequency and damping ratio depend on how far it vibrates. With the mode mass-no
 (shape φ in 1/√kg at each coordinate, modal coordinate q in m·√kg), a harmonic force
 ``Re(F e^{iΩt})`` (N) at coordinate f and the modal amplitude ``a = |q|``::
 
-    (ω(a)² − Ω² + 2iζ(a)ω(a)Ω) q = φ_f F,        X_j = φ_j q   (m),
+    D(a, Ω) q = φ_f F,        X_j = φ_j q   (m),
 
-ω in rad/s. ``ω(0)`` and ``ζ(0)`` are the linear limit (the joint stuck): the natural
+ω in rad/s, D the mode's dynamic stiffness (below). ``ω(0)`` and ``ζ(0)`` are the linear limit (the joint stuck): the natural
 frequency an FE model with tied contact should have, and an updating target.
 
 Backbones (ω(a), ζ(a)):
@@ -33,11 +33,17 @@ Backbones (ω(a), ζ(a)):
   held from there (``"continued"``: monotone, for predicting a level above the fitted
   ones), and ζ is kept ≥ 0.
 
-Forced response. For a given a the excitation frequencies with ``|q| = a`` solve a
-quadratic in Ω²::
+Forced response. The mode's dynamic stiffness and receptance are those of
+:mod:`nlupdate.core.model.single_mode`: ``D(a, Ω) = ω(a)² − Ω² + 2i[ζ(a)ω(a)² + ζ_v(a)ω(a)(Ω − ω(a))]``,
+the damping hysteretic (a friction joint's: its dissipation per cycle does not depend on Ω)
+but for the viscous share ζ_v (:meth:`AmplitudeModalModel.viscous_damping`: the rest of the
+structure's damping of an ``iwan`` backbone with ``linear_damping = "viscous"``, ζ₀ω₀/ω(a);
+zero otherwise, a ``polynomial`` backbone's ζ(a) all hysteretic); at resonance the imaginary
+part is 2ζω² either way. For a given a the excitation frequencies with ``|q| = a`` are ::
 
-    Ω² = ω²(1 − 2ζ²) ± √(P² − 4ζ²ω⁴(1 − ζ²)),     P = |φ_f F| / a,
+    Ω² = ω² ± √(P² − 4ζ²ω⁴),     P = |φ_f F| / a,
 
+(without a viscous share; with one, iterated: :func:`~nlupdate.core.model.single_mode.excitation_frequencies`)
 real up to the peak amplitude, where the two meet. :meth:`AmplitudeModalModel.frf` traces
 this curve over a from the smallest amplitude up to the first peak — the branch continuous
 with the linear response; where the discriminant turns real again at larger a the curve is
@@ -62,6 +68,7 @@ from nlupdate.files import atomic_file
 from nlupdate.input_files import read_input_text
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.model import single_mode
 
 BACKBONES = ("iwan", "polynomial")
 LINEAR_DAMPING = ("viscous", "structural")
@@ -187,6 +194,21 @@ class AmplitudeModalModel:
         """Damping ratio at modal amplitudes a (m·√kg): the damping curve."""
         return self.omega_zeta(amplitude)[1]
 
+    def viscous_damping(self, amplitude: ArrayLike) -> NDArray[np.float64]:
+        """The viscous share ζ_v(a) of ζ(a) at modal amplitudes a (m·√kg): ζ₀ω₀/ω(a) for an
+        ``iwan`` backbone with ``linear_damping = "viscous"``, else 0 (module docstring)."""
+        a = np.asarray(amplitude, dtype=float)
+        if self.joint is None or self.linear_damping != "viscous":
+            return np.zeros(a.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.damping_ratio * self.omega0 / self.omega_zeta(a)[0]
+
+    def dynamic_stiffness(self, amplitude: ArrayLike, omega: ArrayLike) -> NDArray[np.complex128]:
+        """The mode's ``D(a, Ω)`` (rad²/s²) at modal amplitudes a (m·√kg) and excitation Ω
+        (rad/s): :func:`~nlupdate.core.model.single_mode.dynamic_stiffness`."""
+        w, zeta = self.omega_zeta(amplitude)
+        return single_mode.dynamic_stiffness(omega, w, zeta, self.viscous_damping(amplitude))
+
     # -- forced response ------------------------------------------------------------------
     def _curve(self, modal_force: float, lowest: float) -> tuple[NDArray, NDArray]:
         """(Ω rad/s, a) along the response curve: below resonance up to the peak, then back."""
@@ -194,11 +216,9 @@ class AmplitudeModalModel:
         a = np.geomspace(lowest, 10 * peak_guess, _CURVE_POINTS)
 
         def discriminant_of(amplitude):
-            omega, zeta = self.omega_zeta(amplitude)
-            value = (modal_force / amplitude) ** 2 - 4 * zeta**2 * omega**4 * (1 - zeta**2)
-            return value, omega**2 * (1 - 2 * zeta**2)
+            return single_mode.resonance_discriminant(modal_force, amplitude, *self.omega_zeta(amplitude))
 
-        discriminant, centre = discriminant_of(a)
+        discriminant = discriminant_of(a)
         real = (discriminant >= 0) & np.isfinite(discriminant)
         # the branch continuous from the smallest amplitude: up to the first peak only
         top = int(np.argmin(real)) - 1 if not real.all() else a.size - 1
@@ -207,17 +227,14 @@ class AmplitudeModalModel:
             lo, hi = a[top], a[top + 1]
             for _ in range(60):
                 mid = np.sqrt(lo * hi)
-                lo, hi = (mid, hi) if discriminant_of(mid)[0] >= 0 else (lo, mid)
+                lo, hi = (mid, hi) if discriminant_of(mid) >= 0 else (lo, mid)
             a = np.insert(a, top + 1, lo)
-            discriminant, centre = discriminant_of(a)
-            discriminant[top + 1] = max(discriminant[top + 1], 0.0)
-            real = (discriminant >= 0) & np.isfinite(discriminant)
-            real[top + 2:] = False
-        root = np.sqrt(np.where(real, discriminant, 0.0))
-        below, above = centre - root, centre + root
-        keep_below = real & (below > 0)
-        keep_above = real & (above > 0)
-        w = np.concatenate([np.sqrt(below[keep_below]), np.sqrt(above[keep_above])[::-1]])
+            real = np.insert(real, top + 1, True)
+        w_a, zeta = self.omega_zeta(a)
+        below, above = single_mode.excitation_frequencies(modal_force, a, w_a, np.where(real, zeta, np.nan),
+                                                          self.viscous_damping(a))
+        keep_below, keep_above = np.isfinite(below), np.isfinite(above)
+        w = np.concatenate([below[keep_below], above[keep_above][::-1]])
         amp = np.concatenate([a[keep_below], a[keep_above][::-1]])
         return w, amp
 
@@ -260,8 +277,7 @@ class AmplitudeModalModel:
         each Ω crosses (bisection in log a; the segment end nearer the root where the
         bracket does not change sign)."""
         def mismatch(a):
-            w, zeta = self.omega_zeta(a)
-            return np.log(a * np.abs(w**2 - omega**2 + 2j * zeta * w * omega) / modal_force)
+            return np.log(a * np.abs(self.dynamic_stiffness(a, omega)) / modal_force)
 
         valid = np.isfinite(low) & np.isfinite(high)
         lo, hi = np.where(valid, np.minimum(low, high), 1.0), np.where(valid, np.maximum(low, high), 1.0)
@@ -282,10 +298,15 @@ class AmplitudeModalModel:
         """Receptance H = X_response/F (m/N) at the frequencies (Hz) for a force amplitude
         ``force_n`` (N) at ``input_dof``, by single-nonlinear-mode theory (module docstring)."""
         omega = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
-        a = self.modal_amplitude(omega, force_n, input_dof, sweep)
-        w, zeta = self.omega_zeta(a)
-        denominator = w**2 - omega**2 + 2j * zeta * w * omega
-        return self.shape(response_dof) * self.shape(input_dof) / denominator
+        return self.receptance(self.modal_amplitude(omega, force_n, input_dof, sweep), omega, response_dof, input_dof)
+
+    def receptance(self, amplitude: ArrayLike, omega: ArrayLike, response_dof: str | int,
+                   input_dof: str | int) -> NDArray[np.complex128]:
+        """The mode's receptance ``φ_rφ_f/D(a, Ω)`` (m/N) at modal amplitudes a (m·√kg) and
+        excitation Ω (rad/s): :func:`~nlupdate.core.model.single_mode.receptance`."""
+        w, zeta = self.omega_zeta(amplitude)
+        return single_mode.receptance(omega, w, zeta, self.shape(response_dof), self.shape(input_dof),
+                                      viscous=self.viscous_damping(amplitude))
 
     # -- the other test types ----------------------------------------------------------
     def phase_resonance_point(self, force_n: ArrayLike, input_dof: str | int) -> tuple[NDArray, NDArray]:
@@ -333,10 +354,10 @@ class AmplitudeModalModel:
                  input_dof: str | int) -> NDArray[np.complex128]:
         """Receptance (m/N) of a response-controlled sweep holding the displacement amplitude
         ``held_m`` (m) at ``response_dof``: at a = held/|φ_r| the mode is linear,
-        ``H = φ_rφ_f/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω)``."""
+        ``H = φ_rφ_f/D(a, Ω)`` (:meth:`receptance`)."""
         omega = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
-        w, zeta = self.omega_zeta(abs(float(held_m)) / abs(self.shape(response_dof)))
-        return self.shape(response_dof) * self.shape(input_dof) / (w**2 - omega**2 + 2j * zeta * w * omega)
+        amplitude = np.full(omega.shape, abs(float(held_m)) / abs(self.shape(response_dof)))
+        return self.receptance(amplitude, omega, response_dof, input_dof)
 
     def frf_table(self, frequency_hz: ArrayLike, force_levels_n: Sequence[float], input_dof: str,
                   sweep: str = "up") -> pd.DataFrame:

@@ -104,8 +104,7 @@ def frf_at_forces(model: AmplitudeModalModel, frequency_hz: NDArray, force: floa
                                  600)[None, :]
 
     def mismatch(a: NDArray) -> NDArray:
-        w, zeta = model.omega_zeta(a)
-        return np.log(a * np.abs(w**2 - omega**2 + 2j * zeta * w * omega) / modal_force)
+        return np.log(a * np.abs(model.dynamic_stiffness(a, omega)) / modal_force)
 
     g = mismatch(grid)
     change = np.sign(g[:, :-1]) != np.sign(g[:, 1:])
@@ -119,8 +118,7 @@ def frf_at_forces(model: AmplitudeModalModel, frequency_hz: NDArray, force: floa
         g_mid = mismatch(mid)
         same = np.sign(g_mid) == np.sign(g_low)
         low, g_low, high = np.where(same, mid, low), np.where(same, g_mid, g_low), np.where(same, high, mid)
-    w, zeta = model.omega_zeta(np.sqrt(low * high)[:, 0])
-    out = shape**2 / (w**2 - omega[:, 0] ** 2 + 2j * zeta * w * omega[:, 0])
+    out = model.receptance(np.sqrt(low * high)[:, 0], omega[:, 0], dof, dof)
     order = np.argsort(f)
     for rank, line in enumerate(order):
         if not single[line]:
@@ -134,7 +132,8 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
     the response amplitude is held at ``amplitude_m`` (m; one value, or one per line — a run
     holding acceleration A holds A/Ω²: :attr:`HeldRun.held_on_lines`): the force there is
     ``X/|H|``, so the modal amplitude solves ``a = X·|H_mode(a)|/(|H(a)|·|φ_f|)`` with
-    ``H_mode = φ_f²/(ω(a)² − Ω² + 2iζ(a)ω(a)Ω)``, ``H = H_mode + background``. Per line the
+    ``H_mode`` the model's receptance (:meth:`AmplitudeModalModel.receptance`),
+    ``H = H_mode + background``. Per line the
     root nearest ``X/|φ_f|`` within a factor :data:`HELD_RANGE` either way, bracketed on a
     grid and bisected in log a (a plain fixed-point iteration diverges at resonance where the
     backbone is steep: the BRB's continued quadratic above its largest fitted amplitude)."""
@@ -145,8 +144,7 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
     centre = held / abs(shape)
 
     def mismatch(log_a: NDArray) -> NDArray:
-        omega, zeta = model.omega_zeta(np.exp(log_a))
-        h_mode = shape**2 / (omega**2 - w**2 + 2j * zeta * omega * w)
+        h_mode = model.receptance(np.exp(log_a), w, dof, dof)
         return log_a - np.log(held * np.abs(h_mode) / (np.abs(h_mode + rest) * abs(shape)))
 
     grid = np.log(centre) + np.linspace(-np.log(HELD_RANGE), np.log(HELD_RANGE), 241)[None, :]
@@ -162,8 +160,7 @@ def held_receptance(model: AmplitudeModalModel, background: Callable[[NDArray], 
         same = np.sign(g_mid) == np.sign(g_low)
         low, g_low, high = np.where(same, mid, low), np.where(same, g_mid, g_low), np.where(same, high, mid)
     a = np.where(change.any(axis=1), np.exp(0.5 * (low + high)), centre[:, 0])
-    omega, zeta = model.omega_zeta(a)
-    return shape**2 / (omega**2 - (2 * np.pi * f) ** 2 + 2j * zeta * omega * 2 * np.pi * f) + background(f)
+    return model.receptance(a, 2 * np.pi * f, dof, dof) + background(f)
 
 
 def lines_model(samples: ModalSamples, input_dof: str, order: int = LINES_ORDER, first_run: int | None = None,
