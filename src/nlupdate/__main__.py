@@ -1,6 +1,4 @@
 """``python -m nlupdate`` runs the command-line interface."""
-import sys
+from nlupdate.app.cli import entry
 
-from nlupdate.app.cli import main
-
-sys.exit(main())
+entry()

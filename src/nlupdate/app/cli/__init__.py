@@ -162,6 +162,18 @@ def _interrupted_line(args: argparse.Namespace, signum: int) -> str:
     return f"nlupdate {args.command}: {how}; {getattr(args, 'interrupt_note', 'nothing was written')}"
 
 
+def entry() -> None:
+    """The ``nlupdate`` program (``python -m nlupdate`` too): :func:`main` on the command
+    line, then the process ends with its exit code without the interpreter's teardown
+    (:mod:`nlupdate.app.cli.process_end`). Python code calls :func:`main`."""
+    from nlupdate.app.cli import process_end
+
+    process_end.arm()  # before the command registers its own exit handlers: runs after them
+    code = main()
+    process_end.ending_with(code)
+    sys.exit(code)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from nlupdate.app.cli import interrupts
 
@@ -226,4 +238,4 @@ def _failed(args: argparse.Namespace, error: Exception) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()
