@@ -50,7 +50,7 @@ from nlupdate.progress import ProgressCallback, no_progress
 from nlupdate.core.validation.baseline import baseline_fits, baseline_frf
 from nlupdate.core.validation.auto_choice import ModelChoice, choose_model, extrapolated, outside_physical_range
 from nlupdate.core.validation.models import BASELINE, model_fitter
-from nlupdate.core.validation.resonance import Resonance, resonance
+from nlupdate.core.validation.resonance import Resonance, read_alike, resonance
 
 QUANTITIES = ("resonance_hz", "damping_ratio", "peak_abs")
 
@@ -285,8 +285,8 @@ def repeatability(data: FRFLevels, runs: Sequence = ()) -> Repeatability:
     return Repeatability(out[0], out[1], len(shown), out[2], out[3], degree)
 
 
-def _metrics(frequency_hz: NDArray, h: NDArray) -> dict[str, float]:
-    r: Resonance = resonance(frequency_hz, h)
+def _metrics(r: Resonance, other: Resonance | None = None) -> dict[str, float]:
+    r = read_alike(r, other)  # a curve's quantities, its damping read alike with the curve compared with it
     return {"resonance_hz": r.resonance_hz, "damping_ratio": r.damping_ratio, "peak_abs": r.peak_abs}
 
 
@@ -335,16 +335,17 @@ def _sides(samples: NDArray) -> tuple[NDArray, NDArray]:
 
 
 def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray, curves: list, repeat: Repeatability,
-          noise: float, misfit: dict[str, tuple[float, int]] | None = None
+          noise: float, misfit: dict[str, tuple[float, int]] | None = None, shown: Resonance | None = None
           ) -> tuple[dict[str, Compared], NDArray, NDArray]:
     """(each quantity measured, predicted and its 95 % band; the |H| band low and high) of a
     prediction ``predicted`` whose jackknife refits gave ``curves`` (module docstring);
     ``misfit`` (quantity → (σ, dof)): the model's misfit at the kept levels, the model term
     of a quantity fewer than three refits give (without it: no band, never the test's term
-    alone). Each side takes the refits' spread on that side (:func:`_sides`)."""
+    alone). Each side takes the refits' spread on that side (:func:`_sides`). The prediction and
+    each refit are read alike with the measured curve (its resonance ``shown``: :func:`_metrics`)."""
     f = frequency_hz
-    values = _metrics(f, predicted)
-    jack_values = [_metrics(f, curve) for curve in curves]
+    values = _metrics(resonance(f, predicted), shown)
+    jack_values = [_metrics(resonance(f, curve), shown) for curve in curves]
     n = len(curves)
     # resonance in Hz; damping ratio and peak, positive, in log (a band that never reaches 0,
     # asymmetric as a relative scatter is)
@@ -392,7 +393,7 @@ def needs_misfit(frequency_hz: NDArray, curves: list) -> bool:
     than three of them give (:func:`bands`)."""
     if len(curves) < 3:
         return True
-    values = [_metrics(frequency_hz, curve) for curve in curves]
+    values = [_metrics(resonance(frequency_hz, curve)) for curve in curves]
     return any(sum(np.isfinite(v[name]) for v in values) < 3 for name in QUANTITIES)
 
 
@@ -404,8 +405,8 @@ def kept_misfit(fitted, data: FRFLevels, levels: Sequence[float]) -> dict[str, t
     errors: dict[str, list[float]] = {name: [] for name in QUANTITIES}
     for level in levels:
         f, h = data.curve(level)
-        predicted = _metrics(f, fitted(f, level, data.force_at(level, f)))
-        measured = _metrics(f, h)
+        shown, curve = resonance(f, h), resonance(f, fitted(f, level, data.force_at(level, f)))
+        predicted, measured = _metrics(curve, shown), _metrics(shown, curve)
         for name in QUANTITIES:
             log = name != "resonance_hz"
             d = np.log(predicted[name] / measured[name]) if log else predicted[name] - measured[name]
@@ -458,19 +459,18 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
 
 def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray, curves: list, base: NDArray,
                      repeat: Repeatability, misfit: dict[str, tuple[float, int]] | None = None) -> dict[str, Any]:
-    """The comparison fields of a :class:`CurveComparison`: measured ``h`` against
-    ``predicted`` (with the band of the refitted ``curves``, or of the model's ``misfit`` at
-    its kept levels without them: :func:`bands`) and against the baseline's
-    curve ``base`` over the lines ``f`` (Hz); the noise from ``h`` itself, or from the
-    lowest level of ``data`` when ``h`` is too short to tell."""
-    measured = _metrics(f, h)
+    """The comparison fields of a :class:`CurveComparison`: measured ``h`` against ``predicted``
+    (with the band of the refitted ``curves``, or of the model's ``misfit`` at its kept levels
+    without them: :func:`bands`) and against the baseline's curve ``base`` over the lines ``f``
+    (Hz), each pair read alike; the noise from ``h``, or the lowest level's when ``h`` is too short."""
+    shown, model_r, base_r = (resonance(f, curve) for curve in (h, predicted, base))
     noise = _noise(f, h, _noise(data.frequencies[0], data.receptances[0], 0.01))
-    compared, abs_low, abs_high = bands(f, measured, predicted, curves, repeat, noise, misfit)
-    base_values = _metrics(f, base)
-    return dict(compared=compared, baseline={name: Compared(measured[name], base_values[name]) for name in QUANTITIES},
+    compared, abs_low, abs_high = bands(f, _metrics(shown, model_r), predicted, curves, repeat, noise, misfit, shown)
+    base_m, base_p = _metrics(shown, base_r), _metrics(base_r, shown)
+    return dict(compared=compared, baseline={name: Compared(base_m[name], base_p[name]) for name in QUANTITIES},
                 residual_to_noise=_residual_to_noise(h, predicted, noise),
                 baseline_residual_to_noise=_residual_to_noise(h, base, noise),
-                half_power_lines=resonance(f, h).half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
+                half_power_lines=shown.half_power_lines, frequency_hz=f, measured=h, predicted=predicted,
                 abs_low=abs_low, abs_high=abs_high, baseline_frf=base)
 
 

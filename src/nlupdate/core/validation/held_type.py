@@ -15,7 +15,7 @@ fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
 * stepped sine: each force level's FRF over its measured lines (single-nonlinear-mode theory,
   :meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.frf`, the mode alone: the other
   modes' share is not added), read by the same resonance estimator as the measured curve
-  (:mod:`nlupdate.core.validation.resonance`: resonance frequency, damping ratio,
+  (:mod:`nlupdate.core.validation.resonance`, the two read alike: resonance frequency, damping ratio,
   peak |H|).
 
 Errors are relative (predicted / measured − 1); a resonance frequency's also in Hz. A sample
@@ -47,7 +47,7 @@ from nlupdate.core.identification.backbone_samples import (
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation, repeatability
-from nlupdate.core.validation.resonance import resonance
+from nlupdate.core.validation.resonance import read_alike, resonance
 
 #: the test types a whole of which can be held out (a modal table is no test)
 HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
@@ -175,8 +175,8 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
     rows = []
     for level in data.levels:
         f, h = data.curve(level)
-        measured = resonance(f, h)
-        predicted = resonance(f, model.frf(f, float(level), data.response_dof, data.input_dof))
+        shown, curve = resonance(f, h), resonance(f, model.frf(f, float(level), data.response_dof, data.input_dof))
+        measured, predicted = read_alike(shown, curve), read_alike(curve, shown)  # one estimator on both
         amplitude = predicted.peak_abs * float(level) / abs(model.shape(data.response_dof))  # a = |X_r|/|φ_r|
         row = {"level": float(level), "half_power_lines": measured.half_power_lines,
                "within_fit": bool(fitted_range[0] * (1 - 1e-9) <= amplitude <= fitted_range[1] * (1 + 1e-9))}
