@@ -79,7 +79,7 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
     and each job's task run recorded as fed by the task runs of its step's inputs — the edges
     the UI's run graph draws (``targets`` → each updating run)."""
     from prefect.client.orchestration import get_client
-    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentFlowRunId
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterParentFlowRunId
 
     _, _, manifest = first_run
 
@@ -89,9 +89,7 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
             parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
             children = await client.read_flow_runs(flow_run_filter=FlowRunFilter(
                 parent_flow_run_id=FlowRunFilterParentFlowRunId(any_=[parent.id])))
-            task_runs = await client.read_task_runs(flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[parent.id])),
-                                                    limit=200)
-            return parent, children, task_runs
+            return parent, children, await recorded_task_runs(client, parent.id, 6 + 9 + 2)
 
     with talking_to(prefect_server):
         parent, children, task_runs = asyncio.run(recorded())
@@ -106,6 +104,23 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
         source = "targets" if name.startswith("updating: ") else "identification"
         assert ids[f"{source}: two-dof"] in fed_by[name], (name, fed_by[name])
     assert fed_by["identification: two-dof"] == {ids["measured data: two-dof"]}
+
+
+def test_the_run_server_runs_only_what_a_run_needs(prefect_server):
+    """The server a run starts, as it reports its settings: no event persister, automations
+    or event and log streams (a run uses none), its task-run recorder writing once a second
+    in batches, no analytics (the one background service Prefect runs in such a server
+    is its telemetry, on only with analytics), and the UI's records still made: the
+    recorder is on."""
+    import httpx
+
+    settings = httpx.get(f"{prefect_server}/admin/settings", timeout=30).json()["server"]
+    services = settings["services"]
+    assert not services["event_persister"]["enabled"] and not services["triggers"]["enabled"]
+    assert not settings["events"]["stream_out_enabled"] and not settings["logs"]["stream_out_enabled"]
+    assert services["task_run_recorder"]["enabled"]
+    assert (services["task_run_recorder"]["batch_size"], services["task_run_recorder"]["flush_interval"]) == (100, 1)
+    assert settings["analytics_enabled"] is False
 
 
 def test_a_run_talks_to_its_server_whatever_prefect_read_when_imported(prefect_server, tmp_path, monkeypatch):
@@ -129,6 +144,23 @@ def test_a_run_talks_to_its_server_whatever_prefect_read_when_imported(prefect_s
     assert recorded.state_name == "Completed"
 
 
+async def recorded_task_runs(client, flow_run_id, count: int, patience_s: float = 60.0) -> list:
+    """The task runs of ``flow_run_id`` once the server has recorded ``count`` of them in a
+    final state: the run's server writes the states it receives as events once a second
+    (``RUN_SERVER_SETTINGS``), after the run may have returned (``patience_s`` only ends a
+    wait for what will not come; the test then asserts what was recorded)."""
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId
+
+    deadline = time.monotonic() + patience_s
+    while True:
+        task_runs = await client.read_task_runs(flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[flow_run_id])),
+                                                limit=200)
+        done = len(task_runs) >= count and all(run.state is not None and run.state.is_final() for run in task_runs)
+        if done or time.monotonic() > deadline:
+            return task_runs
+        await asyncio.sleep(0.1)
+
+
 async def _read_flow_run(flow_run_id: str):
     from prefect.client.orchestration import get_client
 
@@ -147,15 +179,13 @@ def test_flow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_se
     import re
 
     from prefect.client.orchestration import get_client
-    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId
 
     _, archive, manifest = first_run
 
     async def runs():
         async with get_client() as client:
             parent = await client.read_flow_run(manifest["run"]["flow_run_id"])
-            return parent, await client.read_task_runs(
-                flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[parent.id])), limit=200)
+            return parent, await recorded_task_runs(client, parent.id, 6 + 9 + 2)
 
     with talking_to(prefect_server):
         parent, tasks = asyncio.run(runs())

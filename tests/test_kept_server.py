@@ -187,9 +187,17 @@ def test_a_second_run_uses_the_kept_server_and_both_are_in_its_api(own_home, tmp
             flow_run_id = manifest["run"]["flow_run_id"]
             flow_run = httpx.get(f"{url}/flow_runs/{flow_run_id}").json()
             assert flow_run["state"]["type"] == "COMPLETED", flow_run
-            task_runs = httpx.post(f"{url}/task_runs/filter",
-                                   json={"flow_runs": {"id": {"any_": [flow_run_id]}}}).json()
-            names = {task_run["name"].split(":")[0].split(" ")[0] for task_run in task_runs}
+            def recorded() -> tuple[list, set]:
+                runs = httpx.post(f"{url}/task_runs/filter", json={"flow_runs": {"id": {"any_": [flow_run_id]}}}).json()
+                return runs, {run["name"].split(":")[0].split(" ")[0] for run in runs}
+
+            def complete() -> bool:
+                runs, names = recorded()
+                return {"measured", "identification"} <= names and all(run["state"]["type"] == "COMPLETED" for run in runs)
+
+            # the server writes the task runs' states from their events once a second, after the run may have ended
+            wait_until(complete, 60)
+            task_runs, names = recorded()
             assert {"measured", "identification"} <= names, names
             assert all(task_run["state"]["type"] == "COMPLETED" for task_run in task_runs), task_runs
     finally:
