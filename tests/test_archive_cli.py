@@ -1,8 +1,9 @@
 """``nlupdate archive list/show/compare/rerun`` on real runs of a small study.
 
-Run A reads its measured data from a file (simulated once with the 2-DOF truth, 1 %
-noise); run B is the same study with another Monte-Carlo seed. The archives must be
-self-contained: A is rerun after its data file was deleted. Expected values come from
+The study is the small 2-DOF study (:func:`studies.small_two_dof_study`) with its
+optimisation candidate kept. Run A reads its measured data from a file (simulated once with
+the 2-DOF truth, 1 % noise); run B is the same study with another Monte-Carlo seed. The
+archives must be self-contained: A is rerun after its data file was deleted. Expected values come from
 the archives' own tables read independently (parquet), from the study files, and from
 what the test changed, never from the code under test.
 """
@@ -10,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 from pathlib import Path
 
@@ -20,22 +20,28 @@ import pytest
 
 from nlupdate.app.cli import main
 from nlupdate.files import HOST
-from nlupdate.study import load_study
+from nlupdate.study import study_from_text
 from nlupdate.study.steps.measured import measured_table
 
 from cli_runs import run_cli
-
-ROOT = Path(__file__).resolve().parents[1]
-SIMULATED = ROOT / "tests" / "data" / "studies" / "two_dof.toml"
+from studies import TWO_DOF_STUDY, small_two_dof_study, study_text, two_dof_study
 
 
-def study_text(monte_carlo_seed: int) -> str:
-    """The simulated study with its [measured.simulate] table (up to the next blank line)
-    replaced by the data file, and the given Monte-Carlo seed."""
-    text, count = re.subn(r"(?ms)^\[measured\.simulate\]\n.*?\n\n", '[measured]\nfile = "data/measured.parquet"\n\n',
-                          SIMULATED.read_text())
-    assert count == 1
-    return text.replace("samples = 8\nseed = 1", f"samples = 8\nseed = {monte_carlo_seed}")
+def simulated_study() -> dict:
+    """The small 2-DOF study with the full study's optimisation candidate (the best-ranked run)."""
+    study = small_two_dof_study()
+    study["optimisation"] = two_dof_study()["optimisation"]
+    return study
+
+
+def study_from_file(monte_carlo_seed: int, candidates: object = "best") -> str:
+    """The study's text with its measured data read from the file, the given Monte-Carlo
+    seed and prediction candidates."""
+    study = simulated_study()
+    study["measured"] = {"file": "data/measured.parquet"}
+    study["identification"]["seed"] = monte_carlo_seed
+    study["prediction"]["candidates"] = candidates
+    return study_text(study)
 
 
 @pytest.fixture(scope="module")
@@ -43,10 +49,11 @@ def runs(prefect_server, tmp_path_factory):
     """Two runs A (Monte-Carlo seed 1) and B (seed 2) of a file-based study."""
     folder = tmp_path_factory.mktemp("archive-cli")
     (folder / "data").mkdir()
-    measured_table(load_study(SIMULATED)).to_parquet(folder / "data" / "measured.parquet", index=False)
-    (folder / "a.toml").write_text(study_text(1))
-    (folder / "b.toml").write_text(study_text(2))
-    (folder / "c.toml").write_text(study_text(1).replace('candidates = "best"', 'candidates = ["no such run"]'))
+    simulated = study_from_text(study_text(simulated_study()), TWO_DOF_STUDY)
+    measured_table(simulated).to_parquet(folder / "data" / "measured.parquet", index=False)
+    (folder / "a.toml").write_text(study_from_file(1))
+    (folder / "b.toml").write_text(study_from_file(2))
+    (folder / "c.toml").write_text(study_from_file(1, ["no such run"]))
     results = folder / "results"
     archives = {}
     for name, code in (("a", 0), ("b", 0), ("c", 2)):
@@ -162,13 +169,17 @@ def test_rerun_from_the_archive_alone_reproduces_the_run(runs, capsys):
     assert "REPRODUCED: all" in out
     verdict_path = Path(out.split("verdict: ")[1].strip())
     verdict = json.loads(verdict_path.read_text())
-    assert verdict["reproduced"] and verdict["fields_compared"] > 30 and verdict["input_changes"] == []
+    tables = {name: pd.read_parquet(archives["a"] / "tables" / f"{name}.parquet")
+              for name in ("identification", "runs", "correlation")}
+    # at least every identified parameter, every run's updated values and every FRAC compared
+    assert verdict["reproduced"] and verdict["fields_compared"] >= sum(map(len, tables.values()))
+    assert verdict["input_changes"] == []
     rerun = verdict_path.parent
     manifest = json.loads((rerun / "manifest.json").read_text())
     assert manifest["run"]["rerun_of"] == f"two-dof/{archives['a'].name}"
     assert all(counts["cached"] == 0 for counts in manifest["run"]["tasks"].values())  # recomputed, not read back
-    for name in ("identification", "runs", "correlation"):  # independent check of the verdict
-        a = pd.read_parquet(archives["a"] / "tables" / f"{name}.parquet").select_dtypes("number")
+    for name, table in tables.items():  # independent check of the verdict
+        a = table.select_dtypes("number")
         b = pd.read_parquet(rerun / "tables" / f"{name}.parquet").select_dtypes("number")
         a = a.drop(columns=[c for c in a if "wall_time" in c or "evaluations" in c])
         np.testing.assert_allclose(a.to_numpy(), b[a.columns].to_numpy(), rtol=1e-6)
