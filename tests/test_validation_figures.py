@@ -8,7 +8,7 @@
   scatter of the damping ratio and of the peak (it was the damping's points over the mean
   damping, 3 × the stated 6 % on the Brake–Reuss beam, and no peak band), those two panels
   on a log axis of predicted/measured labelled in % error; the response-controlled figure
-  uses the pooled repeatability its bands use;
+  uses the pooled repeatability its bands use and its title names a kept linear limit;
 * the backbone and damping figures mark every source, name the disagreeing ones, show the
   held-out ones (they were left off), draw the band and grey out the amplitudes without
   samples;
@@ -97,10 +97,15 @@ def test_the_summary_draws_the_repeatability_it_states():
 def test_the_response_controlled_figure_uses_the_pooled_repeatability():
     validation = SimpleNamespace(reference_unit="N", response_controlled=[_held(0.2), _held(1.0)],
                                  repeatability=REPEAT, runs_repeatability=POOLED)
-    resonance, damping, _ = response_controlled_figure(validation).axes
+    figure = response_controlled_figure(validation)
+    resonance, damping, _ = figure.axes
     assert _span(resonance) == pytest.approx((-0.085, 0.085))
     assert _span(damping) == pytest.approx((np.exp(-0.15), np.exp(0.15)))
     assert "about a parabola" in repeatability_line(POOLED, "response-controlled runs")
+    assert "impact" not in figure.get_suptitle()
+    validation.linear_limit = SimpleNamespace(frequency_hz=80.58, damping_ratio=0.0014)  # --impact kept
+    assert "from the force-controlled levels and the impact's linear limit" in response_controlled_figure(
+        validation).get_suptitle()
 
 
 def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path, monkeypatch):

@@ -81,13 +81,15 @@ def summary_figure(validation) -> Figure:
 
 def response_controlled_figure(validation) -> Figure:
     """Errors per response-controlled run and model, predicted from every force-controlled
-    level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`), the
-    repeatability behind them the one their bands use."""
+    level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`) and the
+    linear limit when one was kept (the title says so), the repeatability behind them the one
+    their bands use."""
     held = sorted({r.held_m for r in validation.response_controlled})
     repeat = validation.runs_repeatability or validation.repeatability
     figure = _error_panels(validation.response_controlled, lambda r: held.index(r.held_m),
                            [f"{1e6 * v:.0f}" for v in held], "held response amplitude (µm)", repeat)
-    figure.suptitle("response-controlled runs predicted from the force-controlled levels (bars: 95 % bands; "
+    kept = " and the impact's linear limit" if getattr(validation, "linear_limit", None) is not None else ""
+    figure.suptitle(f"response-controlled runs predicted from the force-controlled levels{kept} (bars: 95 % bands; "
                     "squares: log-amplitude baseline)", fontsize=10)
     return figure
 
