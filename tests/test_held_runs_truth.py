@@ -157,7 +157,8 @@ def test_held_runs_are_predicted_without_bias_from_force_controlled_levels():
     the constant share the lines are read with moving from (3.5 − 1.6i)e-5 to (2.7 − 1.0i)e-5
     m/N) and 0.06 Hz (within 0.017 Hz) at 2 % noise; over 8 seeds every run's mean error is
     +2.4 … +8.0 % (was +2.2 … +7.3 %; seed scatter 2–7 %, benchmarks/held_runs_truth.py),
-    where on the BRB the same prediction misses runs 2 and 3 by −18.0 and −14.6 %."""
+    where on the BRB the same prediction misses runs 2 and 3 by −18.3 and −14.7 % (−18.0 and −14.6 %
+    before)."""
     levels, runs = simulated_test((HELD[1], HELD[2], HELD[5]))
     data, held = measured(levels, runs, 0.02, seed=0)
     for r, (_, h) in zip(predicted_runs(data, held, ["lines-background"], impact=True), runs):
