@@ -71,6 +71,39 @@ def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_lev
         assert all(c[name].inside for name in c), r.held_m
 
 
+
+def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
+    """The note of ``with_held_runs``: each run's modal constant over the φ_f² the single-mode
+    models take from the lowest level. Closed form: the Duffing SDOF's runs have the unit
+    mass's modal constant 1 (and the lowest level's one-mode fit 1.0002), so the note says
+    1.00; runs of a mode whose modal constant is 1.3 × (the BRB's runs are 1.25–1.36 × its
+    lowest level's fit) say 1.30 — and their damping, read from the width, is predicted as
+    well as before while their peak is 1.3 × the prediction's."""
+    import pandas as pd
+
+    from nlupdate.core.validation.held_response import modal_constant_note
+
+    f = np.linspace(80.0, 100.0, 321)
+    levels = (0.25, 0.5, 0.75, 1.0)
+    table = pd.concat([frf_table(f, level, "x", "x", duffing_receptance(f, level)) for level in levels],
+                      ignore_index=True)
+    data = FRFLevels.from_table(table, "x", "x")
+    peaks = np.array([np.abs(h).max() * level for level, h in zip(data.levels, data.receptances)])
+    w = 2 * np.pi * f
+    for scale in (1.0, 1.3):
+        runs = [HeldRun(f"held {x:.3g}", "x", "x", f, scale / (DUFFING_K * (1 + 1j * DUFFING_ETA) - w**2
+                                                                  + 0.75 * K3 * x**2), x, np.ones_like(f))
+                for x in np.sqrt(peaks[:-1] * peaks[1:])[:2]]  # held between the levels' resonance amplitudes
+        note = modal_constant_note(data, runs)
+        ratios = [float(v) for v in note.split("RMS): ")[1].split(";")[0].split(", ")]
+        assert ratios == pytest.approx([scale, scale], abs=0.005), note
+        out = with_held_runs(validate(data, "top", ["lines"]), data, runs, ["lines"])
+        assert note in out.response_controlled_notes
+        for r in out.response_controlled:
+            assert abs(r.compared["damping_ratio"].relative_error) < 0.01
+            assert r.compared["peak_abs"].measured / r.compared["peak_abs"].predicted == pytest.approx(scale, rel=0.01)
+
+
 @pytest.mark.slow
 def test_held_runs_of_a_jenkins_sdof_are_predicted_from_its_force_controlled_levels():
     """The modal Iwan model (Jenkins is its χ → −1 limit) fitted on the five force-controlled
