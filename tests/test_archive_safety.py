@@ -22,8 +22,9 @@ MODEL = ROOT / "examples" / "two_dof.toml"
 
 
 def study_text(name_line: str | None) -> str:
-    """The 2-DOF study with ``name_line`` (TOML text, possibly invalid) as its [study] table."""
-    text = studies.study_text({key: value for key, value in studies.two_dof_study().items() if key != "study"})
+    """The small 2-DOF study (:func:`studies.small_two_dof_study`) with ``name_line`` (TOML
+    text, possibly invalid) as its [study] table."""
+    text = studies.study_text({key: value for key, value in studies.small_two_dof_study().items() if key != "study"})
     return text + "\n[study]\n" + (name_line if name_line is not None else 'name = "two-dof"') + "\n"
 
 
@@ -208,7 +209,7 @@ def test_a_file_replaced_during_a_run_is_archived_as_it_was_read(tmp_path, monke
 
     measured = tmp_path / "frf.csv"
     assert main(["simulate", str(MODEL), "--input-dof", "0", "--freqs", "690:770:40", "--forces",
-                 "0.01,20,40,60,80,100", "--noise", "0.01", "--seed", "3", "--out", str(measured)]) == 0
+                 "0.01,60", "--noise", "0.01", "--seed", "3", "--out", str(measured)]) == 0
     original = measured.read_bytes()
     text = study_text(None)
     start, end = text.index("[measured.simulate]"), text.index("[identification]")
