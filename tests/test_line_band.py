@@ -80,17 +80,18 @@ def test_the_lines_choose_the_law_and_the_band_holds_the_truth_off_the_kink(two_
     assert np.median(np.concatenate([f["half_width"] for f in fits])[off]) < 0.004
 
 
-@pytest.mark.slow  # 8 seeds of two systems: ~40 s at load 7; the fast version is the test above
+@pytest.mark.slow  # 8 seeds of two systems: 30 + 37 s at load 8; the fast version is the test above
 @pytest.mark.parametrize("dofs", [1, 2], ids=["sdof", "2dof"])
 def test_the_line_band_covers_the_truth_off_the_kink_eight_seeds(dofs):
     """Seeds 0–7, the stepped sine's own refinement: off the kink the band holds the damping
-    truth at 85–100 % of the 60 × 8 amplitudes (measured SDOF 100 %, 2-DOF 85.2 %; the old band
-    97.1 % and 49.5 %), inside it at ≥ 95 % (100 % and 98.4 %; old 96.7 % and 98.4 %)."""
+    truth at ≥ 80 % of the 60 × 8 amplitudes (measured SDOF 100 %, 2-DOF 85.2 %: seeds 0 and 4
+    at 46 % and 35 %, seed 4 the one where the lines pick the structural law; the old band
+    97.1 % and 50.5 %), inside it at ≥ 95 % (100 % and 98.4 %; old 93.4 % and 98.4 %)."""
     s, table = _table(dofs)
     fits = [_own_fit(s, table, seed) for seed in range(8)]
     off = np.concatenate([f["off"] for f in fits])
     held = np.concatenate([f["held"] for f in fits])
-    assert held[off].mean() >= 0.85
+    assert held[off].mean() >= 0.8
     assert held[~off].mean() >= 0.95
 
 
