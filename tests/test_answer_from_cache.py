@@ -19,17 +19,18 @@ from nlupdate.orchestration.flows.run import run_study_flow
 from nlupdate.orchestration.flows.status_lines import Progress
 from nlupdate.orchestration.tasks.signing import RECORDS_FOLDER
 from nlupdate.study import load_study
-
-STUDY = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
+from studies import small_two_dof_study, write_study
 
 
 @pytest.fixture(scope="module")
 def filled(prefect_server, tmp_path_factory):
-    """The 2-DOF study run once under Prefect: (folder, its archive, its manifest)."""
+    """The small 2-DOF study (:func:`studies.small_two_dof_study`) run once under Prefect:
+    (folder, its archive, its manifest, the study file)."""
     folder = tmp_path_factory.mktemp("from-cache")
-    archive = run_study_flow(load_study(STUDY), folder / "results", cache_dir=folder / "cache",
+    study = write_study(folder / "study.toml", small_two_dof_study())
+    archive = run_study_flow(load_study(study), folder / "results", cache_dir=folder / "cache",
                              progress=Progress(quiet=True))
-    return folder, archive, json.loads((archive / "manifest.json").read_text())
+    return folder, archive, json.loads((archive / "manifest.json").read_text()), study
 
 
 def tables(archive: Path) -> dict[str, pd.DataFrame]:
@@ -37,9 +38,9 @@ def tables(archive: Path) -> dict[str, pd.DataFrame]:
 
 
 def test_a_rerun_is_answered_from_the_cache_with_the_flow_runs_results(filled, tmp_path):
-    folder, computed, manifest = filled
+    folder, computed, manifest, study = filled
     progress = Progress(quiet=True)
-    answered = answer_from_cache(load_study(STUDY), tmp_path / "results", folder / "cache", progress)
+    answered = answer_from_cache(load_study(study), tmp_path / "results", folder / "cache", progress)
     assert answered is not None and answered.parent.parent == tmp_path / "results"
     first, again = tables(computed), tables(answered)
     assert list(first) == list(again) and "runs.parquet" in first
@@ -57,12 +58,12 @@ def test_a_rerun_is_answered_from_the_cache_with_the_flow_runs_results(filled, t
 
 
 def test_answering_from_the_cache_imports_no_prefect(filled, tmp_path):
-    folder, _, _ = filled
+    folder, _, _, study = filled
     script = ("import sys; from pathlib import Path\n"
               "from nlupdate.orchestration.flows.from_cache import answer_from_cache\n"
               "from nlupdate.orchestration.flows.status_lines import Progress\n"
               "from nlupdate.study import load_study\n"
-              f"archive = answer_from_cache(load_study({str(STUDY)!r}), Path({str(tmp_path)!r}), "
+              f"archive = answer_from_cache(load_study({str(study)!r}), Path({str(tmp_path)!r}), "
               f"Path({str(folder / 'cache')!r}), Progress(quiet=True))\n"
               "print(archive is not None, sorted(m for m in sys.modules if m.split('.')[0] == 'prefect'))\n")
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
@@ -71,7 +72,7 @@ def test_answering_from_the_cache_imports_no_prefect(filled, tmp_path):
 
 
 def test_a_missing_or_edited_record_sends_the_run_through_prefect(filled, tmp_path, prefect_server, capsys):
-    folder, computed, _ = filled
+    folder, computed, _, study = filled
     import shutil
 
     cache = tmp_path / "cache"
@@ -79,15 +80,15 @@ def test_a_missing_or_edited_record_sends_the_run_through_prefect(filled, tmp_pa
     record = sorted((cache / RECORDS_FOLDER).iterdir(), key=lambda p: p.stat().st_mtime)[0]  # the first step's
     content = record.read_bytes()
     record.write_bytes(content.replace(b'"expiration":null', b'"expiration":nul '))  # edited: signature fails
-    assert answer_from_cache(load_study(STUDY), tmp_path / "answered", cache, Progress(quiet=True)) is None
+    assert answer_from_cache(load_study(study), tmp_path / "answered", cache, Progress(quiet=True)) is None
     record.unlink()
-    assert answer_from_cache(load_study(STUDY), tmp_path / "answered", cache, Progress(quiet=True)) is None
+    assert answer_from_cache(load_study(study), tmp_path / "answered", cache, Progress(quiet=True)) is None
     assert not (tmp_path / "answered").exists()  # nothing written when it cannot answer
-    code, out, err = run_cli(capsys, "run", STUDY, "--out", tmp_path / "results", "--cache-dir", cache)
+    code, out, err = run_cli(capsys, "run", study, "--out", tmp_path / "results", "--cache-dir", cache)
     assert code == 0, err
     archive = Path(out.split("archive:")[1].split()[0])
     run = json.loads((archive / "manifest.json").read_text())["run"]
     assert run["flow_run_id"] and "Prefect flow" in run["orchestration"]
     assert sum(counts["computed"] for counts in run["tasks"].values()) >= 1  # the missing record, computed
-    code, out, _ = run_cli(capsys, "run", STUDY, "--out", tmp_path / "results", "--cache-dir", cache)
+    code, out, _ = run_cli(capsys, "run", study, "--out", tmp_path / "results", "--cache-dir", cache)
     assert code == 0 and "answered from it without Prefect" in out  # complete again: no Prefect
