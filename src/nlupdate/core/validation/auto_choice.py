@@ -1,19 +1,25 @@
 """``auto``: the model ``nlupdate validate`` chooses itself, on the kept curves alone.
 
 **Ranking.** The candidates (:data:`~nlupdate.core.validation.models.AUTO_CANDIDATES`) are
-ranked by their leave-one-kept-out error: the RMS of the relative receptance error over
-every kept level and every kept response-controlled run, each predicted from the others
-(``lines`` with fewer than three kept levels). Leaving out the highest (lowest) kept level
-makes one of those terms an extrapolation within the kept data.
+ranked by their leave-one-kept-out error: the RMS over every kept level and every kept
+response-controlled run, each predicted from the others, of that curve's receptance error
+‖H_p − H_m‖₂/‖H_m‖₂ (:func:`~nlupdate.core.validation.models.curve_error`; ``lines`` with
+fewer than three kept levels). Leaving out the highest (lowest) kept level makes one of
+those terms an extrapolation within the kept data. Each line weighs by what its curve holds,
+the resonance first: scored by the RMS of the per-line |H_p − H_m|/|H_m|, as before, one
+line at an antiresonance (|H_m| near zero) decided the choice (a closed-form SDOF with
+another mode's constant share, tests/test_validate_response_controlled.py: lines-background
+picked, its held-out miss 1.24 % against lines' 0.57 %).
 
 **Extrapolation.** A held-out level above (below) every kept level is an extrapolation, which
-that ranking does not guard: on the transmitter beam (docs/validation.md) ``lines`` ranks
-first for the top level (0.40 against ``amplitude-polynomial``'s 0.46) and its damping
-quadratic, already falling at the largest kept amplitude, falls to zero beyond it: peak
-+9306 %. Ranking by the in-kept extrapolation term alone does no better on the real data (the
-BRB's lowest level: ``lines`` 0.371 against ``lines-background`` 0.397, whose predictions then
-miss it by 0.615 and 0.478; the transmitter beam's top: ``lines-background`` 0.192, whose
-prediction misses it by 0.955 against ``amplitude-polynomial``'s 0.412). So for an
+that ranking does not guard (figures here and in :func:`choose_model` by the per-line score):
+on the transmitter beam (docs/validation.md) ``lines`` ranks first for the top level (0.40
+against ``amplitude-polynomial``'s 0.46) and its damping quadratic, already falling at the
+largest kept amplitude, falls to zero beyond it: peak +9306 %. Ranking by the in-kept
+extrapolation term alone does no better on the real data (the BRB's lowest level: ``lines``
+0.371 against ``lines-background`` 0.397, whose predictions then miss it by 0.615 and 0.478;
+the transmitter beam's top: ``lines-background`` 0.192, whose prediction misses it by 0.955
+against ``amplitude-polynomial``'s 0.412). So for an
 extrapolation each candidate's prediction at the held-out level is checked in rank order
 (:func:`outside_physical_range`): the first within the physical range is chosen, each one
 before it is refused with the reason stated, and when every one is refused the log-amplitude
@@ -29,7 +35,7 @@ import numpy as np
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun
-from nlupdate.core.validation.models import AUTO_CANDIDATES, BASELINE, WITH_RUNS, Fitted, model_fitter, relative_error
+from nlupdate.core.validation.models import AUTO_CANDIDATES, BASELINE, WITH_RUNS, Fitted, curve_error, model_fitter
 
 #: How far an extrapolated peak |H| may rise above the larger of the largest kept peak and
 #: the kept peaks' power law in level (:func:`outside_physical_range`): a one-mode peak is
@@ -42,7 +48,7 @@ PEAK_GROWTH = 2.0
 
 @dataclass(frozen=True)
 class ModelChoice:
-    """The model ``auto`` chose, each candidate's leave-one-kept-out RMS relative error (NaN
+    """The model ``auto`` chose, each candidate's leave-one-kept-out error (module docstring; NaN
     where a candidate failed on the kept levels), why, the candidates refused for an
     extrapolation (name → reason) and, when any was, the warning stating it."""
 
@@ -94,7 +100,7 @@ def outside_physical_range(kept: FRFLevels, fitted: Fitted, level: float) -> str
 
 
 def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float], dict[str, str]]:
-    """Each candidate's leave-one-kept-out RMS relative error (module docstring; NaN where it
+    """Each candidate's leave-one-kept-out error (module docstring; NaN where it
     failed) and, for each that failed, why (its error's message)."""
     scores, failed = {}, {}
     for name in [c for c in AUTO_CANDIDATES if not (runs or kept.linear_limit is not None) or c in WITH_RUNS]:
@@ -103,10 +109,10 @@ def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float],
             for level, f, h in zip(kept.levels, kept.frequencies, kept.receptances):
                 inner = kept.subset([lv for lv in kept.levels if lv != level])
                 predicted = model_fitter(name, runs)(inner)(f, float(level), kept.force_at(level, f))
-                errors.append(relative_error(h, predicted))
+                errors.append(curve_error(h, predicted))
             for k, run in enumerate(runs):
                 others = [r for j, r in enumerate(runs) if j != k]
-                errors.append(relative_error(run.h, model_fitter(name, others)(kept).at_response(
+                errors.append(curve_error(run.h, model_fitter(name, others)(kept).at_response(
                     run.frequency_hz, run.held_on_lines)))  # the displacement each line achieved
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
