@@ -12,14 +12,14 @@ another mode's constant share, tests/test_validate_response_controlled.py: lines
 picked, its held-out miss 1.24 % against lines' 0.57 %).
 
 **Extrapolation.** A held-out level above (below) every kept level is an extrapolation, which
-that ranking does not guard (figures here and in :func:`choose_model` by the per-line score):
-on the transmitter beam (docs/validation.md) ``lines`` ranks first for the top level (0.40
-against ``amplitude-polynomial``'s 0.46) and its damping quadratic, already falling at the
+that ranking does not guard: on the transmitter beam (docs/validation.md) the per-line score
+ranked ``lines`` first for the top level (0.397 against ``amplitude-polynomial``'s 0.457;
+the curve score ranks them 0.402 and 0.378) and its damping quadratic, already falling at the
 largest kept amplitude, falls to zero beyond it: peak +9306 %. Ranking by the in-kept
-extrapolation term alone does no better on the real data (the BRB's lowest level: ``lines``
-0.371 against ``lines-background`` 0.397, whose predictions then miss it by 0.615 and 0.478;
-the transmitter beam's top: ``lines-background`` 0.192, whose prediction misses it by 0.955
-against ``amplitude-polynomial``'s 0.412). So for an
+extrapolation term alone (per-line score) did no better on the real data (the BRB's lowest
+level: ``lines`` 0.371 against ``lines-background`` 0.397, whose predictions then miss it by
+0.615 and 0.478; the transmitter beam's top: ``lines-background`` 0.192, whose prediction
+misses it by 0.955 against ``amplitude-polynomial``'s 0.412). So for an
 extrapolation each candidate's prediction at the held-out level is checked in rank order
 (:func:`outside_physical_range`): the first within the physical range is chosen, each one
 before it is refused with the reason stated, and when every one is refused the log-amplitude
@@ -126,8 +126,8 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
     kept, among the candidates that can take them, and judged on every kept curve: each
     level predicted from the other levels and all runs, each run (at its held amplitude)
     from all levels and the other runs — a run a fit keeps is evidence it must predict too
-    (on the BRB's top level the three kept levels alone tie ``lines`` 0.299 against
-    ``lines-background`` 0.302; the eight runs part them, 0.48 against 0.32 — each run
+    (on the BRB's top level the three kept levels alone score ``lines`` 0.474 against
+    ``lines-background`` 0.395; with the eight runs 0.596 against 0.330 — each run
     predicted at the displacement it achieved on each line). ``level``: the
     held-out level the choice predicts; outside the kept range the physical-range check
     applies (module docstring)."""
