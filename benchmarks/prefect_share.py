@@ -5,7 +5,8 @@
 Per round, in rotated order (load hits every contender alike), each as a fresh process:
 
 * **in process** — the demo study run sequentially without Prefect
-  (:func:`nlupdate.study.run_study`, then the archive with its figures), imports included;
+  (:func:`nlupdate.study.run_study`, then the archive with its figures), imports included,
+  ending without the interpreter's teardown as the ``nlupdate`` program does (like for like);
 * **cold demo** — ``python -m nlupdate demo`` in an empty folder (no task cache): the CLI,
   the Prefect server it uses, everything. The run's server is kept between runs
   (:mod:`nlupdate.orchestration.flows.server_lease`, ``NLUPDATE_PREFECT_SERVER_KEEP_S``
@@ -58,6 +59,7 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 from benchmarks import docs_block  # noqa: E402
 
 IN_PROCESS = """
+import os
 import sys
 from pathlib import Path
 from nlupdate.app.cli.demo import demo_study_text
@@ -65,6 +67,8 @@ from nlupdate.reporting.archive import write_archive
 from nlupdate.study import run_study, study_from_text
 study = study_from_text(demo_study_text(1), Path("demo.toml"))
 print(write_archive(run_study(study), Path("results") / "sequential", {"orchestration": "sequential"}))
+sys.stdout.flush()
+os._exit(0)  # ends as the nlupdate program does (app/cli/process_end.py): no interpreter teardown on either side
 """
 
 SERVER_START = """
