@@ -83,7 +83,7 @@ LONGEST_MODULES = (
     "test_amplitude_modal.py", "test_joint_band.py", "test_line_band.py", "test_discovery_hard.py", "test_time_history.py", "test_bolted_beam_example.py",
     "test_answer_from_cache.py", "test_test_type_truth.py", "test_identification_cli.py",
     "test_iwan_identification.py", "test_solver_vs_time_integration.py", "test_reporting_archive.py",
-    "test_layering.py", "test_full_band_export.py", "test_readme_identify.py", "test_archive_safety.py",
+    "test_layering.py", "test_line_background.py", "test_full_band_export.py", "test_readme_identify.py", "test_archive_safety.py",
     "test_frf_speed_benchmark.py", "test_partition.py", "test_backbone_forms.py", "test_test_type_uff.py",
     "test_stepped_sine_truth.py", "test_decay_fit.py", "test_identification_prd.py", "test_time_integration.py",
     "test_optional_dask.py", "test_updating_stops.py", "test_backbone_samples.py", "test_ring_down.py",

@@ -108,12 +108,14 @@ def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
 def test_held_runs_of_a_jenkins_sdof_are_predicted_from_its_force_controlled_levels():
     """The modal Iwan model (Jenkins is its χ → −1 limit) fitted on the five force-controlled
     levels predicts runs held between their resonance amplitudes as the closed form has them:
-    above 3 a_s within 0.01 Hz, 5 % in damping and 2 % in peak (measured ≤ 0.006 Hz, ≤ 3.2 %,
-    ≤ 0.1 %); the lowest run, at 2.2 a_s in the stick–slip transition, within 0.04 Hz and 20 %
-    (measured +0.026 Hz, +17.4 % since the levels' peaks are fitted over their tops —
+    above 3 a_s within 0.01 Hz, 5 % in damping and 2 % in peak (measured ≤ 0.006 Hz, ≤ 2.2 %,
+    ≤ 0.44 %); the lowest run, at 2.2 a_s in the stick–slip transition, within 0.04 Hz, 20 % and
+    5 % (measured +0.020 Hz, −1.5 %, +3.1 % with the lowest level's one-mode fit's constant
+    residual, issue 34 — +0.033 Hz, +17.5 %, +0.7 % with its residual mass before; +0.026 Hz,
+    +17.4 % when the levels' peaks were first fitted over their tops —
     core/identification/frf_peak.py; −0.010 Hz, +13.2 % with the largest line before, on this
-    one seed): there ζ changes many times faster than the fitted slip amplitude (docs/ring-down.md,
-    "Near the stick–slip kink"). The polynomial backbones (``lines``, ``amplitude-polynomial``)
+    one seed): there ζ changes many times faster than the fitted slip amplitude
+    (docs/ring-down.md, "Near the stick–slip kink"). The polynomial backbones (``lines``, ``amplitude-polynomial``)
     cannot follow this transition over two decades of amplitude: 0.1–0.9 Hz off."""
     system = NonlinearSystem(LumpedModel.with_loss_factor([[1.0]], [[K]], 0.002), (JOINT,))
     table, _ = simulate_frf_table(system, 0, np.linspace(76.0, 84.0, 161), LEVELS, noise=0.005, seed=1)
@@ -132,7 +134,7 @@ def test_held_runs_of_a_jenkins_sdof_are_predicted_from_its_force_controlled_lev
         transition = r.held_m < 3 * SLIP_AMPLITUDE
         assert abs(c["resonance_hz"].error) < (0.04 if transition else 0.01), r.held_m
         assert abs(c["damping_ratio"].relative_error) < (0.20 if transition else 0.05), r.held_m
-        assert abs(c["peak_abs"].relative_error) < 0.02, r.held_m
+        assert abs(c["peak_abs"].relative_error) < (0.05 if transition else 0.02), r.held_m
         assert c["resonance_hz"].inside and r.levels == tuple(LEVELS)
     assert sum(r.held_m < 3 * SLIP_AMPLITUDE for r in out.response_controlled) == 1
     first = out.summary()["response_controlled"][0]

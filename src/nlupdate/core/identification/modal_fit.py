@@ -253,9 +253,10 @@ def fit_mode_near(
     inverse_noise: ArrayLike | None = None,
     band_fraction: float = 0.2,
     residual_slope: bool = False,
+    lower_residual: bool = True,
 ) -> ModalFit:
-    """One mode (with the residuals R and R_m/ω², and S ω² with ``residual_slope``) fitted
-    over ``near_hz·(1 ± band_fraction)``. S ω² pays where the band is wide and a mode lies
+    """One mode (with the residuals R and, with ``lower_residual``, R_m/ω², and S ω² with
+    ``residual_slope``) fitted over ``near_hz·(1 ± band_fraction)``. S ω² pays where the band is wide and a mode lies
     just above it (module docstring); over a few per cent its column is nearly that of R
     and R_m/ω², and the modal constant loses its definition (examples/bolted_beam's input shape
     came out 4.9 for 2.8).
@@ -283,8 +284,8 @@ def fit_mode_near(
         crossings = np.array([])
     start = float(crossings[np.argmin(np.abs(crossings - near_hz))]) if crossings.size else float(near_hz)
     noise = None if inverse_noise is None else np.broadcast_to(np.asarray(inverse_noise, dtype=float), hh.shape)[band]
-    fit = fit_modal_model(f[band], hh[band], n_modes=1, inverse_noise=noise, initial_hz=[start], lower_residual=True,
-                          residual_slope=residual_slope)
+    fit = fit_modal_model(f[band], hh[band], n_modes=1, inverse_noise=noise, initial_hz=[start],
+                          lower_residual=lower_residual, residual_slope=residual_slope)
     natural = float(fit.natural_frequencies_hz[0])
     if abs(natural - near_hz) > 0.75 * band_fraction * near_hz:
         raise ValueError(f"modal fit near {near_hz:.4g} Hz ran to the edge of its band ({natural:.4g} Hz): no clear "
