@@ -110,8 +110,16 @@ def print_with_impact(data, models) -> None:
     for r in result.response_controlled:
         print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {row_cells(r)} |")
     print_notes([(r.run.split(".")[-1], r) for r in result.response_controlled])
+    print_extrapolations(result)
     print("\n" + repeatability_line(result.runs_repeatability, "levels and runs pooled: the runs' bands"))
     print(f"\n{time.perf_counter() - started:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
+
+
+def print_extrapolations(result) -> None:
+    """Each run predicted outside the amplitudes the kept data cover, once (the warning
+    ``nlupdate validate`` prints: nlupdate.core.validation.held_response)."""
+    for warning in dict.fromkeys(r.extrapolation for r in result.response_controlled if r.extrapolation):
+        print(f"warning: {warning}")
 
 
 def _runs(data):
@@ -161,6 +169,7 @@ def print_response_controlled(data, models) -> None:
     for r in result.response_controlled:
         print(f"| {r.run.split('.')[-1]} | {1e6 * r.held_m:.1f} | {r.label} | {row_cells(r)} |")
     print_notes([(r.run.split(".")[-1], r) for r in result.response_controlled])
+    print_extrapolations(result)
     for note in result.response_controlled_notes:
         print(f"note: {note}")
     print("\n" + repeatability_line(result.runs_repeatability, "levels and runs pooled: the runs' bands"))

@@ -363,3 +363,46 @@ def test_kept_runs_of_another_test_type_shape_the_backbone_without_shifting_it()
     first_run = samples_from_lines(kept, fit, 0.0)[0].amplitude.size
     shift = run_model(samples, "x", first_run).omega0 - lines_model(samples, "x", first_run=first_run).omega0
     assert shift / (2 * np.pi) == pytest.approx(np.sqrt(DUFFING_K) / (2 * np.pi) * (np.sqrt(stiffer) - 1), rel=0.1)
+
+
+def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation():
+    """The closed-form Duffing SDOF's four levels reach resonance amplitudes a_1 … a_4; runs held
+    at a_1/3 (below every level), between a_1 and a_2, and at 1.5·a_4 (above every level). The
+    two outside are stated as extrapolations (a warning naming the run, its amplitude and the
+    kept range, first in the terminal's verdict and in validation.json), their bands take in
+    every candidate model's prediction at them, and the measured value lies in them; the run
+    inside is not flagged and its band is the jackknife's alone."""
+    import pandas as pd
+
+    from nlupdate.core.validation.held_out import resonance_amplitudes
+    from nlupdate.core.validation.held_response import kept_amplitudes
+    from nlupdate.core.validation.models import AUTO_CANDIDATES, model_fitter
+    from nlupdate.reporting.validation_text import verdict_lines
+
+    f = np.linspace(80.0, 100.0, 321)
+    levels = (0.25, 0.5, 0.75, 1.0)
+    table = pd.concat([frf_table(f, level, "x", "x", duffing_receptance(f, level)) for level in levels],
+                      ignore_index=True)
+    data = FRFLevels.from_table(table, "x", "x")
+    reached = resonance_amplitudes(data)
+    assert kept_amplitudes(data) == (reached.min(), reached.max())
+    held = [reached.min() / 3, np.sqrt(reached[0] * reached[1]), 1.5 * reached.max()]
+    w = 2 * np.pi * f
+    runs = [HeldRun(f"held {x:.3g}", "x", "x", f, 1 / (DUFFING_K * (1 + 1j * DUFFING_ETA) - w**2 + 0.75 * K3 * x**2),
+                    x, np.full(f.shape, x)) for x in held]
+    out = with_held_runs(validate(data, "top", ["lines"]), data, runs, ["lines"])
+    below, inside, above = out.response_controlled
+    assert inside.extrapolation == ""
+    assert "below the lowest" in below.extrapolation and below.run in below.extrapolation
+    assert "above the highest" in above.extrapolation and above.run in above.extrapolation
+    assert f"{1e6 * reached.min():.3g}–{1e6 * reached.max():.3g} µm" in below.extrapolation
+    for r, run in ((below, runs[0]), (above, runs[2])):
+        for name in AUTO_CANDIDATES:
+            curve = model_fitter(name)(data).at_response(f, run.held_on_lines)
+            peak, top = resonance(f, curve).peak_abs, r.compared["peak_abs"]
+            assert top.low <= peak <= top.high, (r.run, name)
+        assert all(c.inside for c in r.compared.values()), r.run
+        assert r.as_dict()["extrapolation"] == r.extrapolation
+    assert "extrapolation" not in inside.as_dict()
+    text = verdict_lines(out, "N")
+    assert sum(line.startswith("warning: response-controlled run") for line in text) == 2

@@ -20,8 +20,31 @@ types differ by 0.08–0.14 Hz at equal amplitude on the BRB, part of the test's
 A note states each run's modal constant against the one the single-mode models take from
 the lowest force-controlled level (:func:`modal_constant_note`): a run's damping ratio is
 read from its curve's width, which the modal constant does not set, while a prediction's
-width scales with it — on the BRB the runs' are 1.25–1.36 × that one, and run 2's damping is
-predicted 18 % low with its peak within 2.3 % (docs/validation.md, "Run 2's damping").
+width scales with it — on the BRB the runs' were 1.25–1.36 × that one while that fit took a residual
+mass beside its constant, and run 2's damping was predicted 18 % low with its peak within
+2.3 %; with a constant residual alone (issue 34) 1.04–1.13 ×, run 2 −6.6 % from the levels and
+the impact (docs/validation.md, "Run 2's damping").
+
+**Extrapolation.** A run held outside the amplitudes the kept data cover — below the lowest
+force-controlled level's response amplitude at resonance
+(:func:`~nlupdate.core.validation.held_out.resonance_amplitudes`; down to 0 when a linear
+limit, an impact, is kept) or above the highest — is an extrapolation, as a held-out level
+outside the kept levels is (:func:`~nlupdate.core.validation.auto_choice.extrapolated`). The
+jackknife measures only how the one model moves when a kept level is dropped; every refit
+extrapolates the same form, so it does not see the form being wrong, and that is what an
+extrapolation risks (on the BRB run 1, 19.7 µm below every level, went from −54.5 % in a band
+[−83, +74] to −35.6 % in [−54, −9] when the lowest level's fit changed, docs/validation.md).
+There the band is widened to the spread of the form itself: each quantity's band, and the
+|H| band, take in the predictions at the run of every ``auto`` candidate
+(:data:`~nlupdate.core.validation.models.AUTO_CANDIDATES`; with a linear limit those that
+can keep it, as ``auto`` ranks them) fitted on the same levels — the
+models the kept data cannot tell apart, whose disagreement outside them is the model-form
+uncertainty the jackknife misses — and :attr:`HeldPrediction.extrapolation` states it (a
+warning naming the run, its amplitude and the kept range, and the candidates taken). It widens,
+never narrows, and moves no prediction. Where the candidates agree, the band stays narrow and
+a miss stays a miss, stated beside the warning: on the BRB every candidate puts run 1's damping
+16–36 % low, since the force-controlled levels read less damped than the runs at equal amplitude
+(docs/validation.md).
 """
 from __future__ import annotations
 
@@ -39,11 +62,12 @@ from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits
 from nlupdate.core.validation.held_out import (
-    CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits, repeatability,
-    validate,
+    Compared, CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits,
+    repeatability, resonance_amplitudes, validate,
 )
 from nlupdate.core.validation.auto_choice import choose_model
-from nlupdate.core.validation.models import model_fitter
+from nlupdate.core.validation.models import AUTO_CANDIDATES, WITH_RUNS, model_fitter
+from nlupdate.core.validation.resonance import read_alike, resonance
 from nlupdate.progress import ProgressCallback, no_progress
 
 
@@ -55,6 +79,8 @@ class HeldPrediction(CurveComparison):
     run: str
     held_m: float
     levels: tuple[float, ...]
+    #: the warning when the run lies outside the kept amplitudes (module docstring), else ''
+    extrapolation: str = ""
 
     def force_needed(self) -> dict[str, float]:
         """The force at resonance X/peak (measured, predicted and its band; N or V)."""
@@ -71,7 +97,56 @@ class HeldPrediction(CurveComparison):
                 "baseline": {**{name: {"measured": c.measured, "predicted": c.predicted}
                                 for name, c in self.baseline.items()},
                              "residual_to_noise": self.baseline_residual_to_noise},
-                "note": self.note}
+                "note": self.note, **({"extrapolation": self.extrapolation} if self.extrapolation else {})}
+
+
+def kept_amplitudes(data: FRFLevels) -> tuple[float, float]:
+    """(lowest, highest) response amplitude (m) the force-controlled levels of ``data`` reached
+    at resonance (:func:`~nlupdate.core.validation.held_out.resonance_amplitudes`); the lowest
+    is 0 when ``data`` keeps a linear limit (an impact: the mode at vanishing amplitude)."""
+    amplitudes = resonance_amplitudes(data)
+    low = 0.0 if data.linear_limit is not None else float(np.nanmin(amplitudes))
+    return low, float(np.nanmax(amplitudes))
+
+
+def widened_for_extrapolation(data: FRFLevels, run: HeldRun, comparison: dict) -> tuple[dict, str]:
+    """(``comparison`` — :func:`~nlupdate.core.validation.held_out.curve_comparison`'s fields
+    for ``run`` — with each quantity's band and the |H| band widened to take in every ``auto``
+    candidate's prediction at the run, fitted on all of ``data``'s levels; the warning stating
+    the extrapolation) when the run's held amplitude lies outside :func:`kept_amplitudes`,
+    else (``comparison``, '') (module docstring). A candidate that cannot be fitted or predict
+    is left out of the spread and named; a quantity the model does not predict keeps no band."""
+    low, high = kept_amplitudes(data)
+    if low <= run.held_m <= high:
+        return comparison, ""
+    f, shown = run.frequency_hz, resonance(run.frequency_hz, run.h)
+    taken, failed, values, sizes = [], [], {name: [] for name in comparison["compared"]}, []
+    for name in [c for c in AUTO_CANDIDATES if data.linear_limit is None or c in WITH_RUNS]:
+        try:
+            curve = model_fitter(name)(data).at_response(f, run.held_on_lines)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            failed.append(name)
+            continue
+        r = read_alike(resonance(f, curve), shown)
+        for key in values:
+            values[key].append(float(getattr(r, key)))
+        sizes.append(np.abs(curve))
+        taken.append(name)
+    compared = {}
+    for key, c in comparison["compared"].items():
+        spread = [v for v in values[key] if np.isfinite(v)]
+        compared[key] = (Compared(c.measured, c.predicted, float(np.nanmin([c.low, *spread])),
+                                  float(np.nanmax([c.high, *spread]))) if spread and np.isfinite(c.predicted) else c)
+    widened = dict(comparison, compared=compared)
+    if sizes:
+        widened.update(abs_low=np.fmin(comparison["abs_low"], np.min(sizes, axis=0)),
+                       abs_high=np.fmax(comparison["abs_high"], np.max(sizes, axis=0)))
+    side = "below the lowest" if run.held_m < low else "above the highest"
+    warning = (f"response-controlled run {run.name} held at {1e6 * run.held_m:.3g} µm, {side} amplitude the kept data "
+               f"cover ({1e6 * low:.3g}–{1e6 * high:.3g} µm at resonance): an extrapolation; its bands widened to the "
+               f"spread of the candidate models' predictions at it ({', '.join(taken) or 'none could predict it'})"
+               + (f"; {', '.join(failed)} could not predict it" if failed else ""))
+    return widened, warning
 
 
 def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repeat: Repeatability, requested: str = ""
@@ -96,9 +171,10 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
         curves, note = refits(fit, levels, data, lambda inner: inner.at_response(f, held))
         misfit = kept_misfit(fitted, data, levels) if needs_misfit(f, curves) else None
         base = baseline_at_response(fits, run.held_m, f)
+        comparison, warning = widened_for_extrapolation(
+            data, run, curve_comparison(data, f, h, predicted, curves, base, repeat, misfit))
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
-                                  requested=requested or model,
-                                  **curve_comparison(data, f, h, predicted, curves, base, repeat, misfit), note=note))
+                                  requested=requested or model, **comparison, note=note, extrapolation=warning))
     return out
 
 
