@@ -37,7 +37,10 @@ def _end() -> None:
     if not _code:
         return
     if "logging" in sys.modules:  # its handlers flushed and closed, as at a normal exit
-        sys.modules["logging"].shutdown()
+        logging = sys.modules["logging"]
+        # but one a signal cut short inside ``Handler.__init__`` (registered, no lock yet:
+        # logging.shutdown raised AttributeError on it and ended the exit with a traceback)
+        logging.shutdown([ref for ref in logging._handlerList if hasattr(ref(), "lock")])
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
