@@ -87,15 +87,17 @@ def test_a_command_that_raises_ends_as_usual_with_its_traceback(tmp_path):
 
 
 HALF_MADE_HANDLER = textwrap.dedent("""
-    import logging, sys
+    import sys
     from pathlib import Path
     import nlupdate.app.cli as cli
 
-    class Flushed(logging.Handler):
-        def flush(self):
-            Path(sys.argv[1]).write_text("flushed")
-
     def command(argv=None):
+        import logging  # as in the program: first imported by the command (Prefect)
+
+        class Flushed(logging.Handler):
+            def flush(self):
+                Path(sys.argv[1]).write_text("flushed")
+
         logging.getLogger("kept").addHandler(Flushed())
         cut = logging.Handler.__new__(logging.Handler)  # what a signal inside Handler.__init__
         cut._closed = False                              # leaves: registered, but no lock yet

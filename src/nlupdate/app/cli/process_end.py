@@ -25,6 +25,8 @@ _code: list[int] = []
 
 def arm() -> None:
     """Register the last exit handler (call before the command imports anything)."""
+    import logging  # noqa: F401 - its own exit handler (shutdown) registered before ours, so ours does it
+
     atexit.register(_end)
 
 
