@@ -21,8 +21,8 @@ band cut that kept levels logged with frequencies rounded differently in the las
 from __future__ import annotations
 
 import argparse
-import re
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
