@@ -132,7 +132,7 @@ def test_the_study_report_states_the_refusal(top):
     assert f"Warning: {top.choices[LEVELS[-1]].warning}" in lines
     table = next(line for line in lines if "measured in its 95 % band (f, ζ, peak)" in line)
     # each quantity says whether the measured value is in its band; lines' top damping has no value, so no band
-    # (the resonance +0.037 Hz since the lowest level's one-mode fit takes a constant residual, issue 34: +0.038 before)
+    # (+0.037 Hz, +1097 % with the lowest level's one-mode fit's constant residual, issue 34; +0.038 Hz, +989 % before)
     row = next(line for line in table.splitlines() if line.startswith("| 0.35 | lines |")).split(" | ")
-    assert row[2] == "+0.037 [-0.09, +0.22]" and row[3] == "—" and row[4].startswith("+989 [") and row[5] == "yes, —, yes"
+    assert row[2] == "+0.037 [-0.09, +0.22]" and row[3] == "—" and row[4].startswith("+1097 [") and row[5] == "yes, —, yes"
     assert any(line.startswith("Note, 0.35 N `lines`: the extrapolation leaves the physical range") for line in lines)
