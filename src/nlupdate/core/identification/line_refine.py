@@ -96,7 +96,7 @@ def stepped_sine_lines(data: FRFLevels, input_shape: float) -> SteppedSineLines:
     if not (np.isfinite(input_shape) and input_shape != 0):
         raise AmplitudeModelError(f"input_shape: the mass-normalised shape at {data.input_dof} (1/√kg, ≠ 0), "
                                   f"got {input_shape}")
-    fit = lowest_level_fit(data)
+    fit = lowest_level_fit(data, residual_mass=True)  # its residual only: φ_f is given (lowest_level_fit)
     omega, force, receptance, index = [], [], [], []
     for k, (level, f, h) in enumerate(zip(data.levels, data.frequencies, data.receptances)):
         modal = h - fit.residual_receptance(f)
