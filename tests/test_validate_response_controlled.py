@@ -43,11 +43,9 @@ def _held_run(amplitude_m: float, frequency_hz: np.ndarray) -> HeldRun:
     return HeldRun(f"held {amplitude_m:.3g} m", "0", "0", frequency_hz, h, amplitude_m, amplitude_m / np.abs(h))
 
 
-def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_levels():
-    """``lines`` (quadratics in the modal amplitude: a cubic spring's backbone exactly) fitted
-    on four closed-form force-controlled curves predicts runs held between their resonance
-    amplitudes (measured: −0.0093 … −0.0097 Hz of a 0.0625 Hz line spacing, damping +0.24 …
-    +0.36 %, peak −0.18 … −0.27 %), with bands that hold them."""
+def duffing_levels() -> tuple[np.ndarray, FRFLevels, np.ndarray]:
+    """Four closed-form force-controlled curves of the Duffing SDOF (0.25–1 N, 80–100 Hz):
+    the lines, the levels and each level's resonance amplitude (m)."""
     import pandas as pd
 
     f = np.linspace(80.0, 100.0, 321)
@@ -55,11 +53,24 @@ def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_lev
     table = pd.concat([frf_table(f, level, "x", "x", duffing_receptance(f, level)) for level in levels],
                       ignore_index=True)
     data = FRFLevels.from_table(table, "x", "x")
-    peaks = np.array([np.abs(h).max() * level for level, h in zip(data.levels, data.receptances)])
-    held = np.sqrt(peaks[:-1] * peaks[1:])
+    return f, data, np.array([np.abs(h).max() * level for level, h in zip(data.levels, data.receptances)])
+
+
+def duffing_held_runs(f: np.ndarray, held_m, scale: float = 1.0) -> list[HeldRun]:
+    """Runs of the Duffing SDOF held at ``held_m`` (closed form; modal constant ``scale``)."""
     w = 2 * np.pi * f
-    runs = [HeldRun(f"held {x:.3g}", "x", "x", f, 1 / (DUFFING_K * (1 + 1j * DUFFING_ETA) - w**2 + 0.75 * K3 * x**2),
-                    x, np.ones_like(f)) for x in held]
+    return [HeldRun(f"held {x:.3g}", "x", "x", f, scale / (DUFFING_K * (1 + 1j * DUFFING_ETA) - w**2 + 0.75 * K3 * x**2),
+                    x, np.ones_like(f)) for x in held_m]
+
+
+def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_levels():
+    """``lines`` (quadratics in the modal amplitude: a cubic spring's backbone exactly) fitted
+    on four closed-form force-controlled curves predicts runs held between their resonance
+    amplitudes (measured: −0.0093 … −0.0097 Hz of a 0.0625 Hz line spacing, damping +0.24 …
+    +0.36 %, peak −0.18 … −0.27 %), with bands that hold them."""
+    f, data, peaks = duffing_levels()
+    held = np.sqrt(peaks[:-1] * peaks[1:])
+    runs = duffing_held_runs(f, held)
     out = with_held_runs(validate(data, "top", ["lines"]), data, runs, ["lines"])
     assert [r.held_m for r in out.response_controlled] == list(held)
     for r, run in zip(out.response_controlled, runs):
@@ -71,7 +82,6 @@ def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_lev
         assert all(c[name].inside for name in c), r.held_m
 
 
-
 def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
     """The note of ``with_held_runs``: each run's modal constant over the φ_f² the single-mode
     models take from the lowest level. Closed form: the Duffing SDOF's runs have the unit
@@ -79,21 +89,11 @@ def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
     1.00; runs of a mode whose modal constant is 1.3 × (the BRB's runs are 1.25–1.36 × its
     lowest level's fit) say 1.30 — and their damping, read from the width, is predicted as
     well as before while their peak is 1.3 × the prediction's."""
-    import pandas as pd
-
     from nlupdate.core.validation.held_response import modal_constant_note
 
-    f = np.linspace(80.0, 100.0, 321)
-    levels = (0.25, 0.5, 0.75, 1.0)
-    table = pd.concat([frf_table(f, level, "x", "x", duffing_receptance(f, level)) for level in levels],
-                      ignore_index=True)
-    data = FRFLevels.from_table(table, "x", "x")
-    peaks = np.array([np.abs(h).max() * level for level, h in zip(data.levels, data.receptances)])
-    w = 2 * np.pi * f
-    for scale in (1.0, 1.3):
-        runs = [HeldRun(f"held {x:.3g}", "x", "x", f, scale / (DUFFING_K * (1 + 1j * DUFFING_ETA) - w**2
-                                                                  + 0.75 * K3 * x**2), x, np.ones_like(f))
-                for x in np.sqrt(peaks[:-1] * peaks[1:])[:2]]  # held between the levels' resonance amplitudes
+    f, data, peaks = duffing_levels()
+    for scale in (1.0, 1.3):  # held between the levels' resonance amplitudes
+        runs = duffing_held_runs(f, np.sqrt(peaks[:-1] * peaks[1:])[:2], scale)
         note = modal_constant_note(data, runs)
         ratios = [float(v) for v in note.split("RMS): ")[1].split(";")[0].split(", ")]
         assert ratios == pytest.approx([scale, scale], abs=0.005), note
