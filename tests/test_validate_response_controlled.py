@@ -372,18 +372,13 @@ def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation()
     kept range, first in the terminal's verdict and in validation.json), their bands take in
     every candidate model's prediction at them, and the measured value lies in them; the run
     inside is not flagged and its band is the jackknife's alone."""
-    import pandas as pd
-
     from nlupdate.core.validation.held_out import resonance_amplitudes
     from nlupdate.core.validation.held_response import kept_amplitudes
     from nlupdate.core.validation.models import AUTO_CANDIDATES, model_fitter
+    from nlupdate.reporting.validation_plots import response_controlled_figure
     from nlupdate.reporting.validation_text import verdict_lines
 
-    f = np.linspace(80.0, 100.0, 321)
-    levels = (0.25, 0.5, 0.75, 1.0)
-    table = pd.concat([frf_table(f, level, "x", "x", duffing_receptance(f, level)) for level in levels],
-                      ignore_index=True)
-    data = FRFLevels.from_table(table, "x", "x")
+    f, data, _ = duffing_levels()
     reached = resonance_amplitudes(data)
     assert kept_amplitudes(data) == (reached.min(), reached.max())
     held = [reached.min() / 3, np.sqrt(reached[0] * reached[1]), 1.5 * reached.max()]
@@ -406,3 +401,6 @@ def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation()
     assert "extrapolation" not in inside.as_dict()
     text = verdict_lines(out, "N")
     assert sum(line.startswith("warning: response-controlled run") for line in text) == 2
+    axis = response_controlled_figure(out).axes[0]  # the figure stars the two on its axis
+    assert [label.get_text().endswith("*") for label in axis.get_xticklabels()] == [True, False, True]
+    assert "*: extrapolated" in axis.get_xlabel()

@@ -47,7 +47,7 @@ def _held(level: float, requested: str = "auto") -> SimpleNamespace:
     return SimpleNamespace(level=level, kept=(0.5, 1.0), label="auto → lines", requested=requested, compared=compared,
                            baseline=baseline, frequency_hz=F, measured=_curve(), predicted=predicted,
                            abs_low=np.abs(predicted) * 1e-3, abs_high=np.abs(predicted) * 1.5,
-                           baseline_frf=_curve(79.9), held_m=1e-4 * level)
+                           baseline_frf=_curve(79.9), held_m=1e-4 * level, extrapolation="")
 
 
 REPEAT = Repeatability(resonance_hz=0.15, damping_ratio=5e-4, levels=4, damping_relative=0.06, peak_relative=0.04)

@@ -83,11 +83,14 @@ def response_controlled_figure(validation) -> Figure:
     """Errors per response-controlled run and model, predicted from every force-controlled
     level (:attr:`~nlupdate.core.validation.held_out.Validation.response_controlled`) and the
     linear limit when one was kept (the title says so), the repeatability behind them the one
-    their bands use."""
+    their bands use; a run held outside the kept amplitudes is starred on the axis."""
     held = sorted({r.held_m for r in validation.response_controlled})
+    outside = {r.held_m for r in validation.response_controlled if r.extrapolation}
     repeat = validation.runs_repeatability or validation.repeatability
     figure = _error_panels(validation.response_controlled, lambda r: held.index(r.held_m),
-                           [f"{1e6 * v:.0f}" for v in held], "held response amplitude (µm)", repeat)
+                           [f"{1e6 * v:.0f}" + ("*" if v in outside else "") for v in held],
+                           "held amplitude (µm); *: extrapolated" if outside else "held response amplitude (µm)",
+                           repeat)  # * outside the amplitudes the kept data cover
     kept = " and the impact's linear limit" if getattr(validation, "linear_limit", None) is not None else ""
     figure.suptitle(f"response-controlled runs predicted from the force-controlled levels{kept} (bars: 95 % bands; "
                     "squares: log-amplitude baseline)", fontsize=10)
