@@ -40,7 +40,7 @@ import scipy.optimize
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_near
+from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_over_band
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.model.single_mode import natural_and_damping
 
@@ -70,10 +70,7 @@ def lowest_level_fit(data: FRFLevels, residual_mass: bool = False) -> ModalFit:
     (φ_f is given to it) and whose band held the truth with it: with the constant alone the
     2-DOF's seed 3 (tests/test_line_band.py, a true second mode above) held it at 71 % of the
     amplitudes off the kink instead of 100 % (measured)."""
-    f, h = data.frequencies[0], data.receptances[0]
-    near = float(f[int(np.argmax(np.abs(h)))])
-    fraction = min(0.9, max(near - f.min(), f.max() - near) / near * 1.0001)
-    return fit_mode_near(f, h, near, band_fraction=fraction, lower_residual=residual_mass)
+    return fit_mode_over_band(data.frequencies[0], data.receptances[0], lower_residual=residual_mass)
 
 
 def _curve_samples(f: np.ndarray, modal: np.ndarray, force: np.ndarray, phi: float) -> tuple[np.ndarray, ...]:

@@ -291,3 +291,13 @@ def fit_mode_near(
         raise ValueError(f"modal fit near {near_hz:.4g} Hz ran to the edge of its band ({natural:.4g} Hz): no clear "
                          f"resonance there")
     return fit
+
+
+def fit_mode_over_band(frequency_hz: ArrayLike, h: ArrayLike, lower_residual: bool = True) -> ModalFit:
+    """One mode fitted over a curve's whole measured band (:func:`fit_mode_near` about its
+    largest |H|, the band as wide as the data on the wider side, at most ±90 %): the one-mode
+    description of a stepped-sine curve or a response-controlled run."""
+    f, hh = np.asarray(frequency_hz, dtype=float), np.asarray(h, dtype=complex)
+    near = float(f[int(np.nanargmax(np.abs(hh)))])
+    fraction = min(0.9, max(near - f.min(), f.max() - near) / near * 1.0001)
+    return fit_mode_near(f, hh, near, band_fraction=fraction, lower_residual=lower_residual)

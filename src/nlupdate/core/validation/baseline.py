@@ -4,7 +4,7 @@ Each kept level is described by what its curve shows — its resonance frequency
 damping ratio (:mod:`nlupdate.core.validation.resonance`, the estimator every
 comparison uses) and its peak, which give the modal constant of the one-mode curve
 through them, ``|A| = max|H|·2ζω_n²√(1 − ζ²)`` (its phase from a one-mode fit,
-:func:`nlupdate.core.identification.modal_fit.fit_mode_near`) — and by its amplitude, the
+:func:`nlupdate.core.identification.modal_fit.fit_mode_over_band`) — and by its amplitude, the
 response amplitude at resonance ``a = max|H|·F`` (m for a receptance). A level not kept
 takes ω, ζ and A interpolated linearly in ``log a`` between the two kept levels around it,
 or extrapolated linearly from the two nearest for an end level (ζ kept above a tenth of the
@@ -24,7 +24,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_near
+from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_over_band
 from nlupdate.core.validation.resonance import resonance
 
 if TYPE_CHECKING:
@@ -63,9 +63,7 @@ def fit_level(level: float, frequency_hz: ArrayLike, h: ArrayLike, force: ArrayL
     f = np.asarray(frequency_hz, dtype=float)
     hh = np.asarray(h, dtype=complex)
     k = int(np.nanargmax(np.abs(hh)))
-    near = float(f[k])
-    fraction = min(0.9, max(near - f.min(), f.max() - near) / near * 1.0001)
-    fit = fit_mode_near(f, hh, near, band_fraction=fraction)
+    fit = fit_mode_over_band(f, hh)
     shown = resonance(f, hh)
     zeta = shown.damping_ratio if np.isfinite(shown.damping_ratio) else float(fit.loss_factors[0]) / 2
     forces = np.broadcast_to(float(level) if force is None else np.asarray(force, dtype=float), f.shape)

@@ -56,7 +56,7 @@ import numpy as np
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.line_samples import lowest_level_fit
-from nlupdate.core.identification.modal_fit import fit_mode_near
+from nlupdate.core.identification.modal_fit import fit_mode_over_band
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
@@ -189,10 +189,8 @@ def modal_constant_note(data: FRFLevels, runs: Sequence[HeldRun]) -> str:
         return ""
     ratios = []
     for run in runs:
-        f, h = run.frequency_hz, run.h
-        near = float(f[int(np.argmax(np.abs(h)))])
         try:
-            own = fit_mode_near(f, h, near, band_fraction=min(0.9, max(near - f.min(), f.max() - near) / near * 1.0001))
+            own = fit_mode_over_band(run.frequency_hz, run.h)
         except ValueError:
             continue
         ratios.append(abs(complex(own.modal_constants[0])) / float(fit.modal_constants[0].real))
