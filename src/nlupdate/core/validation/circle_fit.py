@@ -79,20 +79,20 @@ def circle_window(h: ArrayLike, fraction: float = CIRCLE_FRACTION) -> slice:
     return slice(low, high + 1)
 
 
-def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
-    """Whether two adjacent lines of the run (:func:`circle_window`) of ``h`` (complex or
-    magnitude, over ``frequency_hz`` in Hz, increasing) make a jump by the module's rule: a
-    step of ln|h| beyond what a linear mode of damping ratio ``zeta`` (fraction of critical)
-    allows and standing out from both neighbouring steps. False for a non-positive or NaN
-    ``zeta`` or a curve too short to estimate its noise."""
+def jump_steps(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> np.ndarray:
+    """The steps that make a jump by the module's rule: indices i (line i to line i + 1) inside
+    the run (:func:`circle_window`) of ``h`` (complex or magnitude, over ``frequency_hz`` in
+    Hz, increasing) whose step of ln|h| lies beyond what a linear mode of damping ratio
+    ``zeta`` (fraction of critical) allows and stands out from both neighbouring steps. Empty
+    for a non-positive or NaN ``zeta`` or a curve too short to estimate its noise."""
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h)
     if not (np.isfinite(zeta) and zeta > 0):
-        return False
+        return np.zeros(0, dtype=int)
     try:
         sigma = estimate_noise_fraction(f, h.astype(complex))
     except ValueError:
-        return False
+        return np.zeros(0, dtype=int)
     m = np.abs(h)
     w = 2 * np.pi * f
     wr = w[int(np.argmax(m))]
@@ -102,7 +102,13 @@ def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
     neighbour = np.maximum(np.r_[0.0, step[:-1]], np.r_[step[1:], 0.0])
     window = circle_window(h)
     inside = np.arange(window.start, window.stop - 1)
-    return bool(np.any(beyond[inside] & (step[inside] > JUMP_STANDS_OUT * neighbour[inside])))
+    return inside[beyond[inside] & (step[inside] > JUMP_STANDS_OUT * neighbour[inside])]
+
+
+def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
+    """Whether two adjacent lines of the run (:func:`circle_window`) of ``h`` make a jump by
+    the module's rule (:func:`jump_steps`)."""
+    return bool(jump_steps(frequency_hz, h, zeta).size)
 
 
 def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float = float("nan")) -> float:
