@@ -316,3 +316,31 @@ def test_records_read_on_threads_never_parse_array_headers_at_once(monkeypatch):
     for thread in threads:
         thread.join()
     assert errors == [] and most[0] == 1, (errors, most)
+
+
+def test_record_paths_resolve_as_prefect_resolves_them_and_never_outside_the_folder(tmp_path):
+    """The store resolves its folder once (a record path costs one lstat): every path it
+    resolves equals Prefect's own resolution (LocalFileSystem._resolve_path, the
+    reference), and a record that is a symbolic link out of the folder is refused as
+    Prefect refuses it."""
+    from prefect.filesystems import LocalFileSystem
+
+    from nlupdate.orchestration.tasks.store import record_store
+
+    real = tmp_path / "real"
+    (real / RECORDS_FOLDER).mkdir(parents=True)
+    (tmp_path / "link").symlink_to(real)  # the cache folder named through a link
+    store = record_store(tmp_path / "link")
+    prefect_own = LocalFileSystem(basepath=store.basepath)
+    key = "a3f9" * 16
+    folder = real / RECORDS_FOLDER
+    for path in (None, "", key, str(folder / key), "sub/" + key, str(tmp_path / "link" / RECORDS_FOLDER / key)):
+        assert store._resolve_path(path) == prefect_own._resolve_path(path), path
+    outside = tmp_path / "elsewhere"
+    outside.write_bytes(b"x")
+    (folder / "escape").symlink_to(outside)
+    for resolve in (store._resolve_path, prefect_own._resolve_path):
+        with pytest.raises(ValueError, match="outside of the base path"):
+            resolve("escape")
+        with pytest.raises(ValueError, match="outside of the base path"):
+            resolve("../../elsewhere")

@@ -20,17 +20,18 @@ it and write the same result.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from prefect import Task, task
 
-from nlupdate.core.discovery.candidates import CandidateFit
-from nlupdate.core.discovery.workflow import fit_candidate
 from nlupdate.input_files import pinned
 from nlupdate.study.chain import STEPS
 from nlupdate.study.spec import Study
 from nlupdate.orchestration.tasks.fe_points import current_evaluator
 from nlupdate.orchestration.tasks.store import DataSerializer, record_store
+
+if TYPE_CHECKING:
+    from nlupdate.core.discovery.candidates import CandidateFit
 
 
 def _by_key(context: Any, parameters: Mapping[str, Any]) -> str:
@@ -54,7 +55,10 @@ def chain_job(key: str, step: str, study: Study, job: Any, inputs: tuple) -> Any
 
 @task(name="candidate fit", cache_key_fn=_by_key, persist_result=True)
 def candidate_fit(key: str, job: tuple) -> CandidateFit:
-    """One discovery candidate (an effect at a place) fitted to the measurements."""
+    """One discovery candidate (an effect at a place) fitted to the measurements. (Discovery
+    is imported here, by the runs that fit candidates: a study's run does not load it.)"""
+    from nlupdate.core.discovery.workflow import fit_candidate
+
     return fit_candidate(job)
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import base64
 import errno
+import functools
 import threading
 import warnings
 from pathlib import Path
@@ -79,6 +80,23 @@ class SignedLocalFileSystem(LocalFileSystem):
     def _key(self, resolved: Path) -> str:
         return resolved.name
 
+    def _resolve_path(self, path: str | None) -> Path:
+        """Prefect's resolution (the folder for ``None`` or ``""``, else ``path`` in it, never
+        outside it), with the folder resolved once per process: a record's path is one file
+        name in the folder, so unless that name is a symbolic link (then resolved in full,
+        as Prefect does, and refused outside the folder) it is the resolved folder joined
+        with the name — one ``lstat`` instead of Prefect's one per path component (about
+        0.15 ms a call, several per task run and FE point)."""
+        folder = _resolved_folder(self.basepath)
+        if not path:
+            return folder
+        candidate = Path(path)
+        if not candidate.is_absolute() and not path.startswith("~"):
+            candidate = folder / candidate
+        if candidate.parent == folder and candidate.name not in (".", "..") and not candidate.is_symlink():
+            return candidate
+        return super()._resolve_path(path)
+
     def read_path(self, path: str, **_: Any) -> bytes | None:  # Prefect passes _sync=True
         resolved = Path(self._resolve_path(path))
         try:
@@ -114,6 +132,11 @@ class SignedLocalFileSystem(LocalFileSystem):
 
     async def awrite_path(self, path: str, content: bytes) -> str:
         return self.write_path(path, content)
+
+
+@functools.lru_cache(maxsize=None)
+def _resolved_folder(basepath: str) -> Path:
+    return Path(basepath).expanduser().resolve()
 
 
 _CLEANED: set[Path] = set()
