@@ -76,10 +76,10 @@ def brb_runs(group: str) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     return out
 
 
-def _run(*args: object) -> tuple[int, str]:
-    """nlupdate in this process: (exit code, what it wrote to stderr)."""
+def _run(*args: object, printed: io.StringIO | None = None) -> tuple[int, str]:
+    """nlupdate in this process: (exit code, what it wrote to stderr); its stdout into ``printed``."""
     err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(printed or io.StringIO()):
         code = main([str(a) for a in args])
     return code, err.getvalue()
 
@@ -87,23 +87,40 @@ def _run(*args: object) -> tuple[int, str]:
 @pytest.fixture(scope="module")
 def brb_identification(tmp_path_factory):
     out = tmp_path_factory.mktemp("brb") / "identify"
-    code, err = _run("identify", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--samples", "20", "--out", out)
+    printed = io.StringIO()
+    code, err = _run("identify", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--samples", "20", "--out", out,
+                     printed=printed)
     assert code == 0, err
-    return json.loads((out / "identification.json").read_text()), err.splitlines()
+    return json.loads((out / "identification.json").read_text()), err.splitlines(), printed.getvalue().splitlines()
 
 
 def test_brb_reads_the_force_controlled_runs_as_published(brb_identification):
-    summary, messages = brb_identification
+    summary, messages, _ = brb_identification
     assert summary["low_force_n"] == 0.1947 and summary["high_forces_n"] == [0.4886, 0.9699, 1.46]
     assert any("left out 8 run(s) of FRdata.ResponseControl" in m for m in messages)
     assert any("force was not held" in m for m in messages)
     assert summary["excitation"] == "stepped_sine"
 
 
+def test_brb_identify_states_its_poor_fit_before_the_numbers(brb_identification):
+    """The polynomial PRD fit misses the BRB's curves far beyond their noise (a stuck-friction
+    Δ_f1 the data do not show: kf < 0): the terminal says so before the first parameter, not
+    after the numbers a reader quotes (they were printed first, the warnings after)."""
+    summary, _, printed = brb_identification
+    assert summary["fit"] == "poor" and summary["fit_ratio_to_noise"] > 5
+    first_value = next(k for k, line in enumerate(printed) if line.startswith(tuple(f"{n} = " for n in
+                                                                                     summary["parameters"])))
+    poor = next(k for k, line in enumerate(printed) if line.startswith("fit: poor"))
+    residual = next(k for k, line in enumerate(printed) if line.startswith("warning:") and "noise level" in line)
+    negative = next(k for k, line in enumerate(printed) if line.startswith("warning:") and "kf = " in line)
+    assert max(poor, residual, negative) < first_value, printed
+    assert all(not line.startswith("warning:") for line in printed[first_value:]), printed
+
+
 def test_brb_identify_predicts_the_response_controlled_runs_it_never_saw(brb_identification):
     """The identified linear mode and describing function (from the force-controlled runs)
     against single-mode fits of the response-controlled runs, each at its held amplitude."""
-    summary, _ = brb_identification
+    summary, _, _ = brb_identification
     mode = summary["linear_frf"]["modes"][0]
     f_lin, eta = mode["natural_frequency_hz"]["value"], mode["loss_factor"]["value"]
     w_lin = 2 * np.pi * f_lin

@@ -138,18 +138,21 @@ def run(args: argparse.Namespace) -> int:
     with atomic_directory(out, on_exists="replace" if args.overwrite else "error", kind="identification") as folder:
         write_identification(identification, data, folder.path, between)
     out = folder.final
+    # the bad news first (docs/commands.md): the levels' disagreement, every other warning and a
+    # poor fit before the defaults and the numbers they qualify
+    for warning in sorted(identification.warnings, key=lambda w: w.kind != "levels_disagree"):
+        print(f"warning: {warning}")
+    verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
+    if verdict == "poor":
+        print(f"fit: poor — the fit's residual is {ratio:.3g}× the noise level ({POOR_FIT_FACTOR:g}× at most for a "
+              f"model that describes the data): {identification.model_description} misses part of the behaviour; "
+              f"{out / 'fit.png'} shows the residual against amplitude")
     for key, value in defaults.items():
         print(f"default {key}: {value}")
-    placement = [w for w in identification.warnings if w.kind == "levels_disagree"]
-    for warning in placement:
-        print(f"warning: {warning}")
     for name, stats in identification.uncertainty.parameters.items():
         suffix = f" {parameter_unit(name, unit)}" if parameter_unit(name, unit) else ""
         print(f"{name} = {stats.value:.6g}{suffix} (95 % [{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}]; Monte Carlo "
               f"std {stats.std:.3g}, median {stats.median:.6g})")
-    for warning in identification.warnings:
-        if warning not in placement:
-            print(f"warning: {warning}")
     for placement in between:
         fit = placement.fit
         values = ", ".join(f"{name} = {value:.4g} {parameter_unit(name, unit)}".rstrip()
@@ -159,10 +162,5 @@ def run(args: argparse.Namespace) -> int:
               f"({fit.residual_noise_fraction / max(identification.noise_fraction, 1e-12):.3g}× the noise); linear "
               f"modes of H_{settings.response_dof},{settings.response_dof}: "
               f"{', '.join(f'{f:.5g}' for f in placement.modes_hz) or 'none found'} Hz")
-    verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
-    if verdict == "poor":
-        print(f"fit: poor — the fit's residual is {ratio:.3g}× the noise level ({POOR_FIT_FACTOR:g}× at most for a "
-              f"model that describes the data): {identification.model_description} misses part of the behaviour; "
-              f"{out / 'fit.png'} shows the residual against amplitude")
     print(f"wrote {out / JSON_NAME} and the linear FRF, fit and FRF plots")
     return 0
