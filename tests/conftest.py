@@ -80,7 +80,7 @@ LONGEST_MODULES = (
     "test_real_measurements.py", "test_trust_warnings.py", "test_hb_cli_study.py", "test_tanh_friction.py",
     "test_doc_snippets.py", "test_amplitude_limits.py", "test_archive_compare_studies.py", "test_discovery_modal.py",
     "test_discovery_cli.py", "test_harmonic_balance.py", "test_demo_identification.py", "test_iwan_response.py",
-    "test_amplitude_modal.py", "test_joint_band.py", "test_line_band.py", "test_discovery_hard.py", "test_time_history.py", "test_bolted_beam_example.py",
+    "test_amplitude_modal.py", "test_joint_band.py", "test_line_band.py", "test_periodic_truth.py", "test_discovery_hard.py", "test_time_history.py", "test_bolted_beam_example.py",
     "test_answer_from_cache.py", "test_test_type_truth.py", "test_identification_cli.py",
     "test_iwan_identification.py", "test_solver_vs_time_integration.py", "test_reporting_archive.py",
     "test_layering.py", "test_line_background.py", "test_full_band_export.py", "test_readme_identify.py", "test_archive_safety.py",
