@@ -168,3 +168,24 @@ def test_auto_does_not_extrapolate_the_top_level_with_lines():
     assert growth and float(growth[1]) > 20, refusal  # measured 50-51 ×; the check refuses above 2 ×
     assert top.model != "lines" and ("lines" in choice.refused or choice.scores[top.model] < choice.scores["lines"])
     assert top.compared["peak_abs"].inside and abs(top.compared["peak_abs"].relative_error) < 0.5
+
+
+def test_transmitter_beam_amplitude_states_a_linear_damping_far_below_the_lowest_level(tmp_path):
+    """The polynomial backbone of the four levels reads a linear damping ratio ζ₀ of 0.001 %,
+    far below the 0.049 % the lowest level's curve shows (its half-power width): the damping
+    curve extrapolated to a → 0. amplitude_model.json and the terminal say so (they did not)."""
+    table = lockin_table(_data_folder() / FILE_NAME)
+    csv = tmp_path / "beam.csv"
+    table.to_csv(csv, index=False)
+    result = subprocess.run([sys.executable, "-m", "nlupdate", "amplitude", "--measured", str(csv), "--reference-unit",
+                             "V", "--backbone", "polynomial", "--bootstrap", "0", "--out", str(tmp_path / "out")],
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    model = json.loads((tmp_path / "out" / "amplitude_model.json").read_text())
+    data = FRFLevels.from_table(table, "beam", "beam")
+    lowest = resonance(data.frequencies[0], data.receptances[0])
+    assert model["damping_ratio"] < 0.5 * lowest.damping_ratio
+    assert any("ζ₀" in w and "extrapolation" in w for w in model["warnings"]), model.get("warnings")
+    printed = result.stdout.splitlines()
+    first_number = next(k for k, line in enumerate(printed) if line.startswith("mode 1: linear limit"))
+    assert any("ζ₀" in line for line in printed[:first_number]), printed
