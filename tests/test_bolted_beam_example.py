@@ -29,9 +29,9 @@ def measured(study):
     return measured_table(study)
 
 
-def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
+def follows_every_level(study, seeds) -> None:
     """The example's test around mode 1 (30–70 Hz, 401 frequencies: its truth, levels and 1 %
-    noise), five noise seeds; each model against the structure's own (noise-free) FRFs."""
+    noise) under each noise seed; each model against the structure's own (noise-free) FRFs."""
     truth = study.measured.simulate
     exact, _ = simulate_frf_table(truth_system(study, truth), truth.input_dof, np.linspace(30.0, 70.0, 401),
                                   truth.forces_n)
@@ -40,7 +40,7 @@ def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
     fe_shape = abs(build_adapter(AdapterSpec("surrogate", "tbeam", {"coordinates": ["tip:uz"], "n_modes": 2})).evaluate(
         truth.parameters).mode_shapes[0, 0])
     fine = np.linspace(30.0, 70.0, 4001)
-    for seed in range(1, 6):
+    for seed in seeds:
         model = amplitude_model_from_frfs(FRFLevels.from_table(add_table_noise(exact, truth.noise, seed), "tip:uz",
                                                                 "tip:uz"), "iwan")
         assert model.shape("tip:uz") == pytest.approx(fe_shape, rel=0.025)  # measured 2.78–2.85 (FE 2.794)
@@ -48,6 +48,17 @@ def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
             predicted = model.frf(fine, level, "tip:uz", "tip:uz")
             assert abs(fine[np.argmax(np.abs(predicted))] / f[np.argmax(np.abs(h))] - 1) < 0.01  # measured ≤ 0.88 %
             assert abs(np.abs(predicted).max() / np.abs(h).max() - 1) < 0.2  # measured ≤ 15.7 % (transition levels)
+
+
+def test_amplitude_model_from_the_example_frfs_follows_every_level(study):
+    """Two noise seeds: 1 and 4, the five seeds' largest peak-frequency (0.43 %) and peak (5.5 %)
+    errors (all five: the slow test below)."""
+    follows_every_level(study, (1, 4))
+
+
+@pytest.mark.slow
+def test_amplitude_model_from_the_example_frfs_follows_every_level_over_five_seeds(study):
+    follows_every_level(study, range(1, 6))
 
 
 @pytest.mark.slow
