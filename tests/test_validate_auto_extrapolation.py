@@ -113,7 +113,8 @@ def test_a_value_outside_a_band_gets_its_line():
     from nlupdate.reporting.validation_text import comparison_notes, verdict_lines
 
     def held(**compared):
-        return SimpleNamespace(level=0.35, label="lines", compared=compared, half_power_lines=9, note="")
+        return SimpleNamespace(level=0.35, label="lines", compared=compared, half_power_lines=9, note="",
+                               extrapolation="")
 
     outside = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), peak_abs=Compared(1.0, 2.0, 1.5, 2.5))
     fine = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), damping_ratio=Compared(2.0, 3.0, 1.5, 2.5))

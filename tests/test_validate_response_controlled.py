@@ -365,6 +365,27 @@ def test_kept_runs_of_another_test_type_shape_the_backbone_without_shifting_it()
     assert shift / (2 * np.pi) == pytest.approx(np.sqrt(DUFFING_K) / (2 * np.pi) * (np.sqrt(stiffer) - 1), rel=0.1)
 
 
+def test_a_level_held_out_outside_the_kept_levels_is_flagged_as_an_extrapolation():
+    """As a run held outside the kept amplitudes: the closed-form Duffing SDOF's lowest level
+    (0.25 N) held out lies below the kept 0.5–1 N — an extrapolation its jackknife cannot
+    measure — and says so in the verdict's warnings (before the table) and validation.json;
+    0.5 N, between kept levels, does not. Before, `--hold-out each` printed the BRB's 0.1947 N
+    and 1.46 N rows like the others, without a word."""
+    from nlupdate.reporting.validation_text import verdict_lines
+
+    _, data, _ = duffing_levels()
+    out = validate(data, [0.25, 0.5], ["lines", "baseline"])
+    for r in out.held_out:
+        if r.level == 0.25:
+            assert r.extrapolation.startswith("held-out level 0.25 N lies below the lowest kept level (0.5–1 N)")
+            assert r.as_dict()["extrapolation"] == r.extrapolation
+        else:
+            assert r.extrapolation == "" and "extrapolation" not in r.as_dict()
+    text = verdict_lines(out, "N")
+    assert [line for line in text if "held-out level" in line and "extrapolation" in line] == [
+        f"warning: {out.held_out[0].extrapolation}"]
+
+
 def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation():
     """The closed-form Duffing SDOF's four levels reach resonance amplitudes a_1 … a_4; runs held
     at a_1/3 (below every level), between a_1 and a_2, and at 1.5·a_4 (above every level). The

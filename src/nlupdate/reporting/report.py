@@ -394,7 +394,8 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
     lines += [f"Warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
-    lines += [f"Warning: {w}" for w in dict.fromkeys(r.extrapolation for r in validation.response_controlled
+    lines += [f"Warning: {w}" for w in dict.fromkeys(r.extrapolation for r in (*validation.held_out,
+                                                                                *validation.response_controlled)
                                                        if r.extrapolation)]
     lines += [f"Note, {number(r.level)} {unit} `{r.label}`: {r.note}" for r in validation.held_out if r.note]
     return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]

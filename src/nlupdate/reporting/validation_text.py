@@ -25,8 +25,9 @@ def _outside(result) -> list[str]:
 
 def verdict_lines(validation, unit: str) -> list[str]:
     """The first lines: every held-out level (and predicted run) inside its bands, or each
-    one that is not (the first line then starts with ``warning:``); each response-controlled run
-    predicted outside the kept amplitudes (once per run); auto's warnings."""
+    one that is not (the first line then starts with ``warning:``); each held-out level outside
+    the kept levels and each response-controlled run outside the kept amplitudes (an
+    extrapolation, once each); auto's warnings."""
     misses = [f"{r.level:g} {unit} {', '.join(_outside(r))} ({r.label})" for r in validation.held_out if _outside(r)]
     misses += [f"{r.run} {', '.join(_outside(r))} ({r.label})" for r in validation.response_controlled
                if _outside(r)]
@@ -35,7 +36,8 @@ def verdict_lines(validation, unit: str) -> list[str]:
         lines = [f"warning: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
     else:
         lines = [f"every {what}'s resonance, damping ratio and peak |H| lies within its prediction's 95 % band"]
-    lines += [f"warning: {w}" for w in dict.fromkeys(r.extrapolation for r in validation.response_controlled
+    lines += [f"warning: {w}" for w in dict.fromkeys(r.extrapolation for r in (*validation.held_out,
+                                                                                *validation.response_controlled)
                                                        if r.extrapolation)]
     return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
 

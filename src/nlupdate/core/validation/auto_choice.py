@@ -68,6 +68,19 @@ def extrapolated(kept: FRFLevels, level: float | None) -> bool:
     return level is not None and not (float(np.min(kept.levels)) <= float(level) <= float(np.max(kept.levels)))
 
 
+def level_extrapolation(kept: FRFLevels, level: float) -> str:
+    """The warning that the held-out ``level`` lies outside the kept levels' range — an
+    extrapolation, whose jackknife band refits the same form and so does not measure the
+    form's error (as a response-controlled run's outside the kept amplitudes:
+    :mod:`~nlupdate.core.validation.held_response`) —, or '' inside it."""
+    if not extrapolated(kept, level):
+        return ""
+    low, high, unit = float(np.min(kept.levels)), float(np.max(kept.levels)), kept.reference_unit
+    side = "below the lowest" if level < low else "above the highest"
+    return (f"held-out level {level:g} {unit} lies {side} kept level ({low:g}–{high:g} {unit}): an extrapolation; "
+            f"its bands come from refits that extrapolate the same form, so they do not measure the form's error")
+
+
 def outside_physical_range(kept: FRFLevels, fitted: Fitted, level: float) -> str | None:
     """Why the prediction of ``fitted`` (fitted on ``kept``) at ``level`` — over the lines of
     the kept level nearest it, at the nominal level — leaves the range a physical mode can

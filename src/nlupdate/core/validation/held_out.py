@@ -1,38 +1,35 @@
 """Fit on some levels, predict the others (docs/methods.md §10): :func:`validate`.
 
-For each held-out level the chosen model is fitted on the kept levels and predicts the
-held-out curve over its measured band; the curve's resonance frequency, damping
-ratio (circle fit) and peak (:mod:`nlupdate.core.validation.resonance`, the same estimator on measured and
-predicted curves) are compared, beside the log-amplitude baseline
-(:mod:`nlupdate.core.validation.baseline`).
+For each held-out level the chosen model is fitted on the kept levels and predicts the held-out
+curve over its measured band; the curve's resonance frequency, damping ratio (circle fit) and peak
+(:mod:`nlupdate.core.validation.resonance`, the same estimator on measured and predicted curves) are
+compared, beside the log-amplitude baseline (:mod:`nlupdate.core.validation.baseline`).
 
-95 % bands. A prediction is uncertain because the kept levels are few and the model may
-not be the right form, and a new measurement scatters about any smooth trend. Both are
-taken from the data, nothing assumed:
+95 % bands. A prediction is uncertain because the kept levels are few and the model may not be the
+right form, and a new measurement scatters about any smooth trend. Both are taken from the data:
 
-* model: the jackknife over the kept levels — the model refitted with each kept level left
-  out, ``σ_J² = (n−1)/n · Σ (x_j − x̄)²`` for every predicted quantity and every line of
-  |H| (it carries model-form error: a model that fits some levels and not others moves
-  when they are dropped), n − 1 degrees of freedom. A model that cannot be refitted
-  without a kept level (``amplitude-iwan`` on three), and a quantity fewer than three
-  refits give (a refit's curve peaking at a jump has no damping ratio), take the misfit
-  at the kept levels instead (RMS, in-sample: :func:`kept_misfit`);
-* test: the repeatability — the scatter of the measured levels about a trend in log
-  amplitude (``σ_R``, residual standard deviation, N − 2 degrees of freedom: the test's
-  own run-to-run and level-to-level variation no smooth model can follow): of the
-  resonance about a straight line, of the damping ratio and the peak, relative, about a
-  power law (:class:`Repeatability`); for |H| the measurement noise ε|H|.
+* model: the jackknife over the kept levels — the model refitted with each kept level left out,
+  ``σ_J² = (n−1)/n · Σ (x_j − x̄)²`` for every predicted quantity and every line of |H| (it
+  carries model-form error: a model that fits some levels and not others moves when they are
+  dropped), n − 1 degrees of freedom. A model that cannot be refitted without a kept level
+  (``amplitude-iwan`` on three), and a quantity fewer than three refits give (a refit's curve
+  peaking at a jump has no damping ratio), take the misfit at the kept levels instead (RMS,
+  in-sample: :func:`kept_misfit`). Neither measures a level outside the kept ones: every refit
+  extrapolates the same form (:attr:`CurveComparison.extrapolation` says so);
+* test: the repeatability — the scatter of the measured levels about a trend in log amplitude
+  (``σ_R``, residual standard deviation, N − 2 degrees of freedom: the test's own run-to-run and
+  level-to-level variation no smooth model can follow): of the resonance about a straight line,
+  of the damping ratio and the peak, relative, about a power law (:class:`Repeatability`); for
+  |H| the measurement noise ε|H|.
 
-The resonance's band is ``[x̂ − t·√(σ_J−² + σ_R²), x̂ + t·√(σ_J+² + σ_R²)]``, σ_J− and σ_J+
-the jackknife spread of the refits below and above their mean (:func:`_sides`: equal to
-σ_J for an even scatter; refits skewed one way, as the resonance of a predicted jump is,
-widen that side); the damping ratio and the peak, positive and scattering by a fraction
-of themselves, take the same in their logarithm, ``x̂·exp(−t·…)``, ``x̂·exp(+t·…)`` —
-never below 0. The |H| band takes the refits' spread of |H| below and above at each line
-the same way. t is Student's
-two-sided 95 % factor at the Welch–Satterthwaite degrees of freedom of the two parts (few
-levels, few degrees of freedom: t = 4.3 at two). Coverage is measured, not assumed
-(benchmarks/validate_band_coverage.py, docs/validation.md).
+The resonance's band is ``[x̂ − t·√(σ_J−² + σ_R²), x̂ + t·√(σ_J+² + σ_R²)]``, σ_J− and σ_J+ the
+jackknife spread of the refits below and above their mean (:func:`_sides`: equal to σ_J for an even
+scatter; refits skewed one way, as the resonance of a predicted jump is, widen that side); the
+damping ratio and the peak, positive and scattering by a fraction of themselves, take the same in
+their logarithm, ``x̂·exp(−t·…)``, ``x̂·exp(+t·…)`` — never below 0. The |H| band takes the refits'
+spread of |H| below and above at each line the same way. t is Student's two-sided 95 % factor at
+the Welch–Satterthwaite degrees of freedom of the two parts (few levels, few degrees of freedom:
+t = 4.3 at two). Coverage is measured (benchmarks/validate_band_coverage.py).
 """
 from __future__ import annotations
 
@@ -48,7 +45,8 @@ from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.noise import estimate_noise_fraction
 from nlupdate.progress import ProgressCallback, no_progress
 from nlupdate.core.validation.baseline import baseline_fits, baseline_frf
-from nlupdate.core.validation.auto_choice import ModelChoice, choose_model, extrapolated, outside_physical_range
+from nlupdate.core.validation.auto_choice import (ModelChoice, choose_model, extrapolated, level_extrapolation,
+                                                  outside_physical_range)
 from nlupdate.core.validation.models import BASELINE, model_fitter
 from nlupdate.core.validation.resonance import Resonance, read_alike, resonance
 
@@ -111,6 +109,7 @@ class CurveComparison:
     abs_high: NDArray[np.float64]
     baseline_frf: NDArray[np.complex128]
     note: str = ""
+    extrapolation: str = ""  #: the warning when it lies outside what the kept data cover, else ''
 
     @property
     def label(self) -> str:
@@ -133,7 +132,7 @@ class HeldOut(CurveComparison):
                 "baseline": {**{name: {"measured": c.measured, "predicted": c.predicted}
                                 for name, c in self.baseline.items()},
                              "residual_to_noise": self.baseline_residual_to_noise},
-                "note": self.note}
+                "note": self.note, **({"extrapolation": self.extrapolation} if self.extrapolation else {})}
 
 
 @dataclass(frozen=True)
@@ -453,8 +452,9 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
             note = "; ".join(filter(None, [f"the extrapolation leaves the physical range: {why}", note]))
     misfit = kept_misfit(fitted, data, kept_levels) if needs_misfit(f, curves) else None
     base = baseline_frf(baseline_fits(data, kept_levels), level, f)
-    return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model,
-                   **curve_comparison(data, f, h, predicted, curves, base, repeat, misfit), note=note)
+    return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model, note=note,
+                   extrapolation=level_extrapolation(kept, level), **curve_comparison(data, f, h, predicted, curves,
+                                                                                      base, repeat, misfit))
 
 
 def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray, curves: list, base: NDArray,

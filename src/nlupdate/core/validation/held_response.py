@@ -79,8 +79,6 @@ class HeldPrediction(CurveComparison):
     run: str
     held_m: float
     levels: tuple[float, ...]
-    #: the warning when the run lies outside the kept amplitudes (module docstring), else ''
-    extrapolation: str = ""
 
     def force_needed(self) -> dict[str, float]:
         """The force at resonance X/peak (measured, predicted and its band; N or V)."""
