@@ -88,8 +88,8 @@ def test_no_value_is_printed_as_if_fine(data, tmp_path, capsys):
               "off"]
     assert main([*common, "--model", "lines,auto", "--out", str(tmp_path / "out")]) == 0
     out, err = capsys.readouterr()
-    assert "the extrapolation leaves the physical range" in out
-    assert "note at 0.35 N (lines): no predicted damping ratio" in out  # lines' top curve: too sharp a peak
+    assert "the extrapolation leaves the physical range" in err
+    assert "warning: at 0.35 N (lines): no predicted damping ratio" in err  # lines' top curve: too sharp a peak
     # the bad news first: the first line on stderr names the level, the quantity and the model
     assert err.splitlines()[0].startswith("warning: measured OUTSIDE the prediction's 95 % band: 0.35 N damping ratio")
     assert "warning: auto at 0.35 N (an extrapolation): lines-background refused" in err
@@ -120,7 +120,8 @@ def test_a_value_outside_a_band_gets_its_line():
     fine = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), damping_ratio=Compared(2.0, 3.0, 1.5, 2.5))
     validation = SimpleNamespace(held_out=[outside, fine], response_controlled=(), choices={})
     assert verdict_lines(validation, "N") == [
-        "warning: measured OUTSIDE the prediction's 95 % band: 0.35 N peak |H| (lines)"]
+        "warning: measured OUTSIDE the prediction's 95 % band: 0.35 N peak |H| (lines)",
+        "warning: at 0.35 N (lines): the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
     assert comparison_notes(fine) == ["the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
     assert verdict_lines(SimpleNamespace(held_out=[fine], response_controlled=(), choices={}), "N")[0].startswith(
         "every held-out level's resonance, damping ratio and peak |H| lies within")

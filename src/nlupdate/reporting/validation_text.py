@@ -3,11 +3,12 @@
 
 :func:`verdict_lines` opens the output: whether every held-out level (and every
 response-controlled run predicted) lies within its 95 % bands, else each quantity that does
-not, naming level and model; then auto's warnings. :func:`validation_lines` is the rest: the
-test's repeatability, one aligned table per held-out level and model (each error with its
-band, which quantities the measurement lies inside the band of, the residual over the
-noise) with the baseline's errors in the row below, the same for the response-controlled
-runs, and auto's choices. Renders only: every number and flag comes from the validation.
+not, naming level and model; then the extrapolations, each comparison's notes and auto's
+warnings — everything that qualifies a number comes before it. :func:`validation_lines` is
+the rest: the test's repeatability, one aligned table per held-out level and model (each
+error with its band, which quantities the measurement lies inside the band of, the residual
+over the noise) with the baseline's errors in the row below, the same for the
+response-controlled runs, and auto's choices. Renders only: every number and flag comes from the validation.
 """
 from __future__ import annotations
 
@@ -27,7 +28,9 @@ def verdict_lines(validation, unit: str) -> list[str]:
     """The first lines: every held-out level (and predicted run) inside its bands, or each
     one that is not (the first line then starts with ``warning:``); each held-out level outside
     the kept levels and each response-controlled run outside the kept amplitudes (an
-    extrapolation, once each); auto's warnings."""
+    extrapolation, once each); what the table cannot show of each comparison
+    (:func:`comparison_notes`: a measured damping ratio the lines do not resolve, a band from
+    the in-sample misfit, ...), before the numbers it qualifies; auto's warnings."""
     misses = [f"{r.level:g} {unit} {', '.join(_outside(r))} ({r.label})" for r in validation.held_out if _outside(r)]
     misses += [f"{r.run} {', '.join(_outside(r))} ({r.label})" for r in validation.response_controlled
                if _outside(r)]
@@ -39,6 +42,10 @@ def verdict_lines(validation, unit: str) -> list[str]:
     lines += [f"warning: {w}" for w in dict.fromkeys(r.extrapolation for r in (*validation.held_out,
                                                                                 *validation.response_controlled)
                                                        if r.extrapolation)]
+    lines += [f"warning: at {r.level:g} {unit} ({r.label}): {note}" for r in validation.held_out
+              for note in comparison_notes(r)]
+    lines += [f"warning: at {r.run} ({r.label}): {note}" for r in validation.response_controlled
+              for note in comparison_notes(r)]
     return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
 
 
@@ -102,9 +109,6 @@ def validation_lines(validation, unit: str) -> list[str]:
     lines = [repeatability_line(validation.repeatability, "held-out levels")]
     lines += _table(f"level ({unit})", "", [(f"{r.level:g}", "", r.label, r.compared, r.baseline, r.residual_to_noise,
                                              r.baseline_residual_to_noise) for r in validation.held_out])
-    for r in validation.held_out:
-        notes = comparison_notes(r)
-        lines += [f"  note at {r.level:g} {unit} ({r.label}): {note}" for note in notes]
     runs = validation.response_controlled
     if runs:
         lines.append("")
@@ -113,8 +117,6 @@ def validation_lines(validation, unit: str) -> list[str]:
         lines += _table("response-controlled run", "held X (µm)",
                         [(r.run, f"{1e6 * r.held_m:.3g}", r.label, r.compared, r.baseline, r.residual_to_noise,
                           r.baseline_residual_to_noise) for r in runs])
-        for r in runs:
-            lines += [f"  note at {r.run} ({r.label}): {note}" for note in comparison_notes(r)]
     lines += [f"response-controlled runs: {note}" for note in validation.response_controlled_notes]
     for level, choice in validation.choices.items():
         lines.append(f"auto at {level:g} {unit}: {choice.name} — {choice.reason}")
