@@ -61,9 +61,12 @@ A fit always returns numbers; these checks say when the numbers are not measurem
   and another) or the element set is wrong; the extracted linear FRF and its modes are
   then a blend of levels, not the linear structure. ``nlupdate discover`` places it.
 
-Two more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
-stuck friction stiffness below zero) and :func:`excitation_warnings` (``not_stepped_sine``
-— FRFs from sweeps or random excitation, which PRD and DDF do not assume).
+Three more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
+stuck friction stiffness below zero), :func:`dissipation_warnings` (``generates_energy`` —
+a describing function whose imaginary part is negative at every fitted amplitude, the sign
+a reversed sensor or force direction gives) and :func:`excitation_warnings`
+(``not_stepped_sine`` — FRFs from sweeps or random excitation, which PRD and DDF do not
+assume).
 """
 from __future__ import annotations
 
@@ -315,6 +318,27 @@ def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tu
                 f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
                 f"low level is not stuck", "identification"))
     return tuple(out)
+
+
+def dissipation_warnings(result: Any, reference_unit: str = "N") -> tuple[TrustWarning, ...]:
+    """A warning when the identified describing function ν (``result.nu_high``, N/m) has
+    Im ν < 0 at every amplitude the fit covers (``result.amplitude_range``): the
+    nonlinearity then feeds energy into the structure at every level, less damping the
+    harder it is driven. A joint only adds damping as it slips; what gives this sign is
+    mostly the data's: a response or force direction reversed (the published Brake–Reuss
+    beam read along +y, its accelerometer opposing the force: Im ν from −123 to −3925 N/m,
+    against +123 … +3925 read along −y), a transfer FRF or a negative modal constant."""
+    low, high = result.amplitude_range
+    imag = np.imag(result.nu_high(np.linspace(low, high, 50)))
+    if not (imag.size and np.all(imag < 0)):
+        return ()
+    unit = parameter_unit("kf", reference_unit)
+    return (TrustWarning(
+        "describing_function", "generates_energy",
+        f"the describing function's imaginary part is negative at every fitted amplitude ({imag[0]:.4g} … "
+        f"{imag[-1]:.4g} {unit} over {low:.3g}–{high:.3g} m): the nonlinearity would feed energy into the structure, "
+        f"less damped the harder it is driven, which a joint does not do; check the direction signs of the response "
+        f"and the input (--coordinates FILE=NODE:-DIR,…), a transfer FRF, or a negative modal constant", "identification"),)
 
 
 def excitation_warnings(excitation: str, method: str) -> tuple[TrustWarning, ...]:
