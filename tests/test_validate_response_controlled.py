@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from cli_runs import run_cli
+from nlupdate.app.cli import main
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.measurement.frf_table import frf_table
@@ -141,10 +142,24 @@ def test_held_runs_of_a_jenkins_sdof_are_predicted_from_its_force_controlled_lev
     assert first["force_at_resonance"]["measured"] == pytest.approx(held[0] / resonance(f, runs[0].h).peak_abs)
 
 
-def test_validate_predicts_the_brb_response_controlled_runs(tmp_path, capsys):
-    out = tmp_path / "v"
-    code, text, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out",
-                              "top", "--model", "lines", "--out", out)
+@pytest.fixture(scope="module")
+def brb_top_lines(tmp_path_factory) -> tuple[int, str, str, "Path"]:
+    """``nlupdate validate --hold-out top --model lines`` on the BRB (the response-controlled
+    runs predicted: the default), run once for the module's tests that read it: (exit code,
+    stdout, stderr, its output folder)."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("brb-top-lines") / "v"
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        code = main([str(a) for a in ("validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out",
+                                      "top", "--model", "lines", "--out", out)])
+    return code, stdout.getvalue(), stderr.getvalue(), out
+
+
+def test_validate_predicts_the_brb_response_controlled_runs(brb_top_lines, tmp_path, capsys):
+    code, text, err, out = brb_top_lines
     assert code == 0, err
     runs = json.loads((out / "validation.json").read_text())["response_controlled"]
     assert [r["run"] for r in runs] == [f"FRdata.ResponseControl({k})" for k in range(1, 9)]
@@ -213,7 +228,7 @@ def test_validate_keeps_the_brb_response_controlled_runs_as_evidence(tmp_path, c
 
 
 @pytest.mark.parametrize("flag", [True, "off", "kept"])
-def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, flag):
+def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, flag, brb_top_lines):
     """[validation] response_controlled (default "auto"; true, the earlier form, is auto): the
     runs in validation.json, the plot and the report's table — the same numbers as the
     command's — none with "off", and with "kept" the held-out level predicted with the runs
@@ -240,10 +255,9 @@ def test_a_study_archive_carries_the_response_controlled_runs(tmp_path, capsys, 
         ours, theirs = summary["held_out"][0], command["held_out"][0]
         assert ours["resonance_hz"]["predicted"] == pytest.approx(theirs["resonance_hz"]["predicted"], rel=1e-12)
         return
-    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
-                           "--model", "lines", "--out", tmp_path / "cli")
+    code, _, err, cli = brb_top_lines  # the command's own run
     assert code == 0, err
-    command = json.loads((tmp_path / "cli" / "validation.json").read_text())["response_controlled"]
+    command = json.loads((cli / "validation.json").read_text())["response_controlled"]
     assert len(summary["response_controlled"]) == 8
     for ours, theirs in zip(summary["response_controlled"], command):
         assert ours["run"] == theirs["run"]
