@@ -105,3 +105,32 @@ def test_amplitude_command_fits_the_held_runs_alone(tmp_path, capsys):
     assert np.allclose(points["modal_amplitude"], held.amplitude) and np.allclose(points["damping_ratio"],
                                                                                   held.damping_ratio)
     assert "8 response-controlled run(s) at acc3:y, held 19.7–316 µm" in capsys.readouterr().out
+
+
+def test_a_ring_down_read_without_a_shape_is_not_put_on_the_runs_modal_scale(tmp_path, capsys):
+    """The BRB's hammer ring-down at acc3 read without --shape has amplitudes in m (φ = 1
+    assumed); the response-controlled runs at the same accelerometer are modal, their shape the
+    lowest run's modal constant — √φ² = 0.73 1/√kg by a one-mode fit of the published run
+    (scipy alone) — so the two scales differ by 1/0.73. Joining them was fitted silently
+    (one source then "disagreed"), an FRF at a force used φ = 1 (|H| 1/0.53 × too large), and
+    the summary called the record's amplitudes modal m·√kg. Now: refused with the option to
+    give, and the summary says what the amplitudes are."""
+    from nlupdate.app.cli import main
+    from test_real_measurements import brb_runs, sdof_fit
+
+    f, h, _ = brb_runs("ResponseControl")[0]
+    phi = np.sqrt(abs(sdof_fit(f, h)[2]))
+    assert 0.65 < phi < 0.8  # 0.716 (nlupdate reads 0.7271): not the 1 a record without a shape is read at
+    record = Path(__file__).parent / "data" / "brb" / "HammerImpact_1600Hz.mat"
+    ring_down = ["amplitude", "--ring-down", str(record), "--channel", "acc3", "--band", "60:100", "--response-unit",
+                 "m/s^2", "--backbone", "polynomial", "--bootstrap", "0"]
+    joined = main([*ring_down, "--response-controlled", str(BRB), "--coordinates", f"{BRB}=acc3:-y,acc3:y",
+                   "--out", str(tmp_path / "joined")])
+    assert joined == 2 and "--shape CHANNEL=VALUE" in capsys.readouterr().err
+    predicted = main([*ring_down, "--forces", "0.5", "--freqs", "79:82:31", "--out", str(tmp_path / "predicted")])
+    assert predicted == 2 and "--shape acc3=VALUE" in capsys.readouterr().err
+    assert main([*ring_down, "--out", str(tmp_path / "alone")]) == 0
+    (summary,) = [line for line in capsys.readouterr().out.splitlines() if line.startswith("mode 1:")]
+    assert "not modal" in summary and "m·√kg" not in summary
+    assert main([*ring_down, "--shape", f"acc3={phi:.4f}", "--response-controlled", str(BRB), "--coordinates",
+                 f"{BRB}=acc3:-y,acc3:y", "--out", str(tmp_path / "shaped")]) == 0

@@ -73,6 +73,14 @@ def _held_lines(fit: AmplitudeFit) -> list[str]:
     return lines
 
 
+def _amplitudes(samples) -> str:
+    """The amplitudes the samples cover, in their unit: modal (m·√kg), or a record's own (m)
+    when it was read without a shape (:attr:`ModalSamples.modal`)."""
+    span = f"{samples.amplitude.min():.3g}–{samples.amplitude.max():.3g}"
+    return f"modal amplitudes {span} m·√kg" if samples.modal else \
+        f"amplitudes {span} m at the record's channel (no shape given: not modal)"
+
+
 def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     """What ``nlupdate amplitude`` prints after the fit, the bad news first (sources that
     disagree, a poor fit, the model's warnings); then the linear limit and backbone, the
@@ -82,7 +90,7 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     lines += [f"warning: {warning}" for warning in model.warnings]
     lines.append(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
                  f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, "
-                 f"modal amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg)")
+                 f"{_amplitudes(samples)})")
     if model.joint is not None:
         j = model.joint
         lines.append(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {fit.unit}/√kg, "
@@ -118,8 +126,8 @@ def amplitude_summary(fit: AmplitudeFit) -> list[str]:
     model, samples = fit.model, fit.samples
     kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
     lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
-                 f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; modal "
-                 f"amplitudes {samples.amplitude.min():.3g}–{samples.amplitude.max():.3g} m·√kg")
+                 f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; "
+                 f"{_amplitudes(samples)}")
     unchecked = _unchecked_line(fit)  # not bad news in itself: what the check could not test
     return lines + ([f"* Amplitude model: {unchecked}"] if unchecked else [])
 

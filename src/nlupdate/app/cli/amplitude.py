@@ -137,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
         measured = measured_source(table, shapes, options, sources(args), args.input_dof, args.response_dof)
     fit = fit_sources(rings, channel, shapes, options, measured, sources(args) if args.measured else "")
     predicted = None
+    if args.forces is not None and not fit.samples.modal:
+        raise CliError(f"--forces: the model's amplitudes are {channel}'s own, not modal (no --shape {channel}=VALUE): "
+                       f"an FRF at a force needs the mass-normalised shape at the driven coordinate")
     if args.forces is not None:
         predicted = fit.model.frf_table(frequency_grid(args.freqs), force_levels(args.forces), fit.input_dof)
         if fit.unit != "N":

@@ -70,6 +70,11 @@ def _units_note(channel: str, shapes: Mapping[str, float], unit: str) -> str:
     return "" if channel in shapes else f"; no shape at {channel}: amplitudes in m (of {unit}), not modal"
 
 
+def _record_samples(samples: ModalSamples, channel: str, shapes: Mapping[str, float], unit: str) -> ModalSamples:
+    """A ring-down's or impact's samples as displacement, not modal without a shape at ``channel``."""
+    return dataclasses.replace(displacement_samples(samples, unit), modal=channel in shapes)
+
+
 def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[Source], str, list[str]]:
     """(the sources of every file, the coordinate of the last one, a note per file saying what
     was read): module docstring; a response-controlled file's shape is given or from its lowest
@@ -83,7 +88,7 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
         channel = record.channel
         if files.ring_down_fit == "decay":
             fit = fit_decay(record.time_s, record.response, band, shapes.get(channel), source=path)
-            samples = displacement_samples(fit.samples(), unit)
+            samples = _record_samples(fit.samples(), channel, shapes, unit)
             stated = fit.stated_noise()
             notes.append(f"{path}: channel {channel}, decay fit over {fit.window_s[0]:.3g}–{fit.window_s[1]:.3g} s, "
                          f"{samples.amplitude.size} samples where its damping is known to 1.5 % (median standard "
@@ -91,7 +96,7 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
                          f"{_units_note(channel, shapes, unit)}")
         elif files.ring_down_fit == "segments":
             parts = decay_segments(record.time_s, {channel: record.response}, band, shapes.get(channel), source=path)
-            samples = displacement_samples(join_samples([part.samples() for part in parts]), unit)
+            samples = _record_samples(join_samples([part.samples() for part in parts]), channel, shapes, unit)
             stated = (float(np.median([p.frequency_std_hz / p.frequency_hz for p in parts])),
                       float(np.median([p.damping_std / p.damping_ratio for p in parts])))
             notes.append(f"{path}: channel {channel}, {len(parts)} segment(s) over {parts[0].window_s[0]:.3g}–"
@@ -100,7 +105,7 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
                          f"{_units_note(channel, shapes, unit)}")
         elif files.ring_down_fit == "envelope":
             estimate = estimate_ring_down(record.time_s, record.response, band, shapes.get(channel), source=path)
-            samples, stated = displacement_samples(estimate.samples(), unit), None
+            samples, stated = _record_samples(estimate.samples(), channel, shapes, unit), None
             notes.append(f"{path}: channel {channel}, band {estimate.band_hz[0]:.4g}–{estimate.band_hz[1]:.4g} Hz, "
                          f"{estimate.trim_s[0]:.3g} s and {estimate.trim_s[1]:.3g} s trimmed at the start and end, "
                          f"{samples.amplitude.size} samples (a smoothing window apart: {estimate.window_s.min():.3g}–"
@@ -115,7 +120,7 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
             raise SourceError(f"{path}: {error}") from None
         first = next(iter(responses))
         fit = fit_linear_limit(time_s, responses, band, shapes.get(first), force, source=path)
-        samples = displacement_samples(fit.samples(), unit)
+        samples = _record_samples(fit.samples(), first, shapes, unit)
         notes.append(f"{path}: linear limit {fit.frequency_hz:.6g} ± {fit.frequency_std_hz:.2g} Hz, damping ratio "
                      f"{100 * fit.damping_ratio:.4g} ± {100 * fit.damping_std:.2g} % (complex exponential fit of "
                      f"{', '.join(fit.channels)} over {fit.window_s[0]:.3g}–{fit.window_s[1]:.3g} s, band "

@@ -81,7 +81,9 @@ class ModalSamples:
     From FRFs, ``response_amplitude`` holds the resonance amplitude x (m) at the excited
     coordinate, so that a = x/φ_f and ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`),
     and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
-    is φ_r/φ_f of the FRFs' response (1 at the driving point)."""
+    is φ_r/φ_f of the FRFs' response (1 at the driving point). ``modal`` is False for the
+    samples of a record read without a shape at its channel: a is then the record's own
+    amplitude (m), on no common scale with modal samples (φ_r = 1 is assumed, not known)."""
 
     amplitude: NDArray[np.float64]
     frequency_hz: NDArray[np.float64]
@@ -91,6 +93,7 @@ class ModalSamples:
     response_amplitude: NDArray[np.float64] | None = None
     shape_free: bool = False
     response_ratio: float = 1.0
+    modal: bool = True
 
     def with_shape(self, input_shape: float) -> "ModalSamples":
         """The same FRF samples for another φ_f (1/√kg)."""

@@ -75,11 +75,15 @@ def join_samples(parts: list[ModalSamples]) -> ModalSamples:
         raise AmplitudeModelError("joining FRF samples with other sources needs the mode shape at the excited "
                                   "coordinate (--shape NAME=VALUE): without it their modal amplitudes have no common "
                                   "scale")
+    if len({p.modal for p in parts}) > 1:
+        raise AmplitudeModelError("joining a ring-down or impact record read without the mode shape at its channel "
+                                  "(its amplitudes in m, not modal) with modal samples needs that shape (--shape "
+                                  "CHANNEL=VALUE, 1/√kg): without it their amplitudes have no common scale")
     if len(parts) == 1:
         return parts[0]
     return ModalSamples(np.concatenate([p.amplitude for p in parts]), np.concatenate([p.frequency_hz for p in parts]),
                         np.concatenate([p.damping_ratio for p in parts]), np.concatenate([p.force_n for p in parts]),
-                        parts[0].input_shape)
+                        parts[0].input_shape, modal=parts[0].modal)
 
 
 def backbone_points(parts: list[tuple[str, ModalSamples] | tuple[str, ModalSamples, str]]) -> pd.DataFrame:
@@ -141,7 +145,7 @@ def displacement_samples(samples: ModalSamples, unit: str) -> ModalSamples:
     power, factor = RESPONSE_UNIT_LABELS[unit]
     omega = 2 * np.pi * samples.frequency_hz
     return ModalSamples(samples.amplitude * factor / omega**power, samples.frequency_hz, samples.damping_ratio,
-                        samples.force_n, samples.input_shape)
+                        samples.force_n, samples.input_shape, modal=samples.modal)
 
 
 def own_fit_for(backbone: str, shapes) -> Callable[[ModalSamples], AmplitudeModalModel] | None:
