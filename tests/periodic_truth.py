@@ -50,6 +50,17 @@ def describing_function_point(s: dict, a: float) -> tuple[float, float]:
     return omega, abs(psi * a) / abs(receptance(omega))
 
 
+def describing_function_truth(s: dict, a) -> tuple[np.ndarray, np.ndarray]:
+    """(natural frequency Hz, damping ratio) at modal amplitudes ``a`` of the whole system's
+    single-harmonic phase resonance (:func:`describing_function_point`): the shape's change
+    without the harmonics — on the SDOF the closed form itself (to rounding)."""
+    psi = abs(s["phi"][0])
+    a = np.atleast_1d(np.asarray(a, dtype=float))
+    points = np.array([describing_function_point(s, value) for value in a]).reshape(-1, 2)
+    omega, force = points[:, 0], points[:, 1]
+    return omega / (2 * np.pi), psi * force / (2 * omega**2 * a)
+
+
 def phase_resonance_state(s: dict, a: float, harmonics: int = HARMONICS, samples: int = SAMPLES):
     """(Ω rad/s, F N, the balance problem at that F, its complex state (1, H+1, 1) of dof 0) of
     the multi-harmonic phase resonance at modal amplitude ``a`` (module docstring)."""
