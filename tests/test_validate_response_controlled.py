@@ -419,6 +419,15 @@ def test_a_level_held_out_outside_the_kept_levels_is_flagged_as_an_extrapolation
     text = verdict_lines(out, "N")
     assert [line for line in text if "held-out level" in line and "extrapolation" in line] == [
         f"warning: {out.held_out[0].extrapolation}"]
+    # a linear limit kept beside the levels (an impact: the mode at a → 0) covers every level below them
+    import dataclasses
+
+    from nlupdate.core.validation.auto_choice import level_extrapolation
+    from single_mode_reference import exact_linear_limit
+
+    kept = dataclasses.replace(data.subset([0.5, 0.75, 1.0]),
+                               linear_limit=exact_linear_limit(np.sqrt(DUFFING_K), DUFFING_ETA / 2))
+    assert level_extrapolation(kept, 0.25) == "" and "above the highest" in level_extrapolation(kept, 1.5)
 
 
 def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation():

@@ -72,10 +72,11 @@ def level_extrapolation(kept: FRFLevels, level: float) -> str:
     """The warning that the held-out ``level`` lies outside the kept levels' range — an
     extrapolation, whose jackknife band refits the same form and so does not measure the
     form's error (as a response-controlled run's outside the kept amplitudes:
-    :mod:`~nlupdate.core.validation.held_response`) —, or '' inside it."""
-    if not extrapolated(kept, level):
-        return ""
+    :mod:`~nlupdate.core.validation.held_response`) —, or '' inside it. A linear limit kept
+    (an impact: the mode at vanishing amplitude) covers every level below the kept ones."""
     low, high, unit = float(np.min(kept.levels)), float(np.max(kept.levels)), kept.reference_unit
+    if not extrapolated(kept, level) or (level < low and kept.linear_limit is not None):
+        return ""
     side = "below the lowest" if level < low else "above the highest"
     return (f"held-out level {level:g} {unit} lies {side} kept level ({low:g}–{high:g} {unit}): an extrapolation; "
             f"its bands come from refits that extrapolate the same form, so they do not measure the form's error")
