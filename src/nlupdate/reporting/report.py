@@ -382,6 +382,10 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
     if validation.response_controlled and validation.runs_repeatability is not None:
         lines.append(f"* {repeatability_line(validation.runs_repeatability, 'response-controlled runs')}")
     lines.append("")
+    # the verdict and what qualifies the numbers (extrapolations, each comparison's notes, auto's
+    # refusals) before the tables, as the terminal prints them
+    lines += [f"Warning: {line.removeprefix('warning: ')}" if line.startswith("warning: ") else line
+              for line in verdict_lines(validation, unit)] + [""]
     rows = [{f"level ({unit})": number(r.level), **_errors(r)} for r in validation.held_out]
     lines += [markdown_table(pd.DataFrame(rows)), ""]
     if "validation" in plots:
@@ -393,11 +397,6 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
                   markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
-    lines += [f"Warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
-    lines += [f"Warning: {w}" for w in dict.fromkeys(r.extrapolation for r in (*validation.held_out,
-                                                                                *validation.response_controlled)
-                                                       if r.extrapolation)]
-    lines += [f"Note, {number(r.level)} {unit} `{r.label}`: {r.note}" for r in validation.held_out if r.note]
     return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
 
 
