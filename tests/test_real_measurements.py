@@ -187,10 +187,15 @@ def test_brb_discover_names_amplitude_dependent_damping(tmp_path, monkeypatch, m
     (argv,) = header_commands(BRB_MODEL)
     assert argv[0] == "discover" and "tests/data/brb/ForcedFrequencyResponses.mat" in argv, argv
     monkeypatch.chdir(tmp_path)
-    code, err = _run(*(absolute(a) for a in argv + most))
+    printed = io.StringIO()
+    code, err = _run(*(absolute(a) for a in argv + most), printed=printed)
     assert code == 0, err
     out = tmp_path / argv[argv.index("--out") + 1]
     result = json.loads((out / "discovery.json").read_text())
+    # the fit is far from the noise (the effects leave 1e2x of it): said before the effects' numbers (it came last)
+    lines = printed.getvalue().splitlines()
+    assert result["fit"] == "poor" and result["misfit_to_noise"] > result["poor_fit_limit"]
+    assert lines.index(result["summary"]) < next(k for k, line in enumerate(lines) if line.startswith("effects found:"))
     # the response-controlled runs show the damping growing 4x while the frequency moves
     # < 0.5 %: the effect named must dissipate more at larger amplitude
     assert result["effects"][0]["effect"] in ("quadratic_damping", "dry_friction", "coulomb_friction")

@@ -113,6 +113,10 @@ def run(args: argparse.Namespace) -> int:
         f"({', '.join(f'{k} = {v:.4g} {parameter_unit(k, unit)}'.rstrip() for k, v in e.parameters.items())})"
         for e in result.effects
     ) or "none"
+    print(result.summary())  # how far from the noise, and what not to trust, before the effects and numbers
+    for warning in result.warnings:
+        if warning != result.summary():
+            print(f"warning: {warning}")
     print(f"effects found: {found}")
     print(f"gap (mean 1 − FRAC): before {result.gap_before.gap:.4g}, after {result.gap_after.gap:.4g}; "
           f"stopped: {result.stop_reason}")
@@ -121,9 +125,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"note: iteration {step.iteration}: {step.note}")
     for note in result.restarts:
         print(f"note: {note}")
-    print(result.summary())
-    for warning in result.warnings:
-        if warning != result.summary():
-            print(f"warning: {warning}")
     print(f"wrote {archive.final} in {time.perf_counter() - started:.1f} s")
     return 0
