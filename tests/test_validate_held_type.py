@@ -135,3 +135,21 @@ def test_brb_force_controlled_levels_predicted_from_the_response_controlled_runs
         assert abs(levels[top]["damping_ratio"]["relative_error"]) < 0.02
         assert abs(levels[top]["peak_abs"]["relative_error"]) < 0.01
     assert levels[0.19]["damping_ratio"]["relative_error"] > 0.3  # the runs dissipate more down there
+
+
+def test_the_fitted_models_warnings_open_the_output(tmp_path, capsys):
+    """The BRB's response-controlled runs held out, the polynomial fitted on its four published
+    force-controlled levels: that model's linear limit lies above every level's resonance, an
+    extrapolation at its physical bound (validation.json's model warnings). The terminal said
+    nothing of it and printed that linear limit; the warnings now come first (stderr), before it."""
+    from test_real_measurements import BRB, BRB_COORDINATES
+
+    code, printed, err = run_cli(capsys, "validate", "--hold-out-type", "response-controlled", "--measured", BRB,
+                                 "--coordinates", BRB_COORDINATES, "--shape", "acc3:y=0.7271", "--model",
+                                 "amplitude-polynomial", "--bootstrap", "20", "--out", tmp_path / "v")
+    assert code == 0, err
+    model = json.loads((tmp_path / "v" / "validation.json").read_text())["held_out_type"]["model"]
+    assert any("extrapolation below every sample" in w for w in model["warnings"])
+    stated = [line for line in err.splitlines() if line.startswith("warning: the model fitted without")]
+    assert [line.split(": ", 2)[2] for line in stated] == model["warnings"]
+    assert f"linear limit {model['natural_frequency_hz']:.6g} Hz" in printed  # the number they qualify, on stdout

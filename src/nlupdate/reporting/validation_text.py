@@ -146,8 +146,10 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
     """What ``nlupdate validate --hold-out-type`` prints of validation.json's
     ``held_out_type`` entry (:meth:`~nlupdate.core.validation.held_type.HeldType.summary`),
     the bad news first: each held-out level or sample whose measured value lies outside the
-    prediction's 95 % band; then, for a held stepped sine, one aligned row per level
-    (measured, predicted with its band, in band or not)."""
+    prediction's 95 % band; the fitted model's own warnings (its linear limit extrapolated or
+    on a bound, a poor fit: ``warning:`` lines, in validation.json only before); then, for a
+    held stepped sine, one aligned row per level (measured, predicted with its band, in band
+    or not)."""
     names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
     misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
               for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
@@ -164,6 +166,8 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
                  f"extrapolation, without a band"]
     else:
         lines = [f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
+    lines += [f"warning: the model fitted without {summary['test_type']}: {warning}"
+              for warning in summary["model"].get("warnings", [])]
     if not summary["levels"]:
         return lines
     cells = [(f"level ({unit})", "resonance (Hz): measured", "predicted [95 % band]", "damping (%): measured",

@@ -81,6 +81,9 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
         save_figure(held_type_figure(result, unit), archive.path / "held_out_type.png")
     verdict, *table = held_type_lines(summary, unit)
     print(verdict, file=sys.stderr if verdict.startswith("warning:") else sys.stdout)
+    for line in [line for line in table if line.startswith("warning:")]:  # before the numbers they qualify
+        print(line, file=sys.stderr)
+    table = [line for line in table if not line.startswith("warning:")]
     kinds = ", ".join(f"{name} ({kind}, {n})" for name, kind, n in result.fitted_on)
     print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: linear limit "
           f"{result.model.natural_frequency_hz:.6g} Hz, {100 * result.model.damping_ratio:.4g} %")
