@@ -174,17 +174,17 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
 
     level = {"level": 0.1947, "within_fit": True, "resonance_hz": compared(80.262, 80.383, 80.08, 80.68),
              "damping_ratio": compared(0.00119, 0.00249, 0.00136, 0.00361), "peak_abs": compared(5.6e-4, 4.2e-4)}
-    lines = held_type_lines({"test_type": "stepped-sine", "levels": [level], "samples": []}, "N")
+    lines = held_type_lines({"test_type": "stepped-sine", "levels": [level], "samples": [], "model": {}}, "N")
     assert lines[0] == ("warning: stepped-sine held out: measured OUTSIDE the prediction's 95 % band: "
                         "0.1947 N damping ratio")
     assert lines[2].split() == ["0.1947", "80.262", "80.383", "[80.08,", "80.68]", "0.119", "0.249", "[0.136,",
                                 "0.361]", "-25.0", "yes,", "NO,", "—"]
     sample = {"within_fit": True, "natural_frequency_hz": compared(80.4, 80.41, 80.3, 80.5),
               "damping_ratio": compared(0.002, 0.0016, 0.0017, 0.0019)}
-    lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample]}, "N")
+    lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample], "model": {}}, "N")
     assert lines == ["warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 of "
                      "the 2 held-out samples within the fitted amplitudes"]
     outside = {**sample, "within_fit": False}
-    assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside]}, "N") == [
+    assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside], "model": {}}, "N") == [
         "warning: impact held out: no held-out sample lies within the fitted amplitudes: each prediction is an "
         "extrapolation, without a band"]
