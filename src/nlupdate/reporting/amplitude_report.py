@@ -13,7 +13,7 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_joint import POOR_FIT, AmplitudeFit
 from nlupdate.core.identification.amplitude_modal_fit import KINKED_BACKBONES
-from nlupdate.core.identification.backbone_samples import DISAGREEMENT
+from nlupdate.core.identification.backbone_samples import DISAGREEMENT, MIN_SCATTER_SAMPLES
 from nlupdate.reporting.backbone_plots import plot_sources
 from nlupdate.reporting.markdown import markdown_table
 
@@ -100,6 +100,9 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     if fit.options.backbone in KINKED_BACKBONES and fit.samples.amplitude.size > 1:
         lines.append("note: backbone.csv's *_low/*_high bands: 95 % from the fit's linearised covariance (the "
                      "phase-resonance points' amplitude noise included; the kink moves with the slip amplitude)")
+    elif fit.resamples and fit.samples.amplitude.size < MIN_SCATTER_SAMPLES:
+        lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits with misfits drawn from "
+                     f"the noise the fit assumed ({fit.samples.amplitude.size} samples cannot show their own scatter)")
     elif fit.resamples:
         lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits of a residual bootstrap")
     else:

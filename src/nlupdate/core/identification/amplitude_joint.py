@@ -333,7 +333,7 @@ def backbone_table(fit: AmplitudeFit, progress: ProgressCallback = no_progress) 
         return curve
     curve = backbone_curve(model, fit.samples, refit=lambda draw: fit_amplitude_model(
         draw, model.shapes, options.backbone, options.order, *fit.noise, mode=options.mode),
-        resamples=fit.resamples, progress=progress)
+        resamples=fit.resamples, progress=progress, noise=fit.noise)
     if fit.samples.amplitude.size == 1 and fit.points[0][2] is not None:
         for column, relative in zip(("natural_frequency_hz", "damping_ratio"), fit.points[0][2]):
             curve[f"{column}_low"], curve[f"{column}_high"] = (curve[column] * (1 + k * 1.96 * relative)

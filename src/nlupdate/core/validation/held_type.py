@@ -156,7 +156,7 @@ def sample_bands(model: AmplitudeModalModel, kept: Sequence[Source], shapes: Seq
     refits of the kept sources) interpolated in log a; NaN outside the fitted amplitudes."""
     fitted = join_samples([s for _, s, _, _ in kept])
     stds = _weights(kept, backbone, shapes)
-    curve = backbone_curve(model, fitted, count=100, resamples=resamples,
+    curve = backbone_curve(model, fitted, count=100, resamples=resamples, noise=stds,
                            refit=lambda draw: fit_amplitude_model(draw, shapes, backbone, order, *stds,
                                                                   mode=model.mode))
     x, at = np.log(curve["modal_amplitude"].to_numpy()), np.log(amplitude)
