@@ -96,8 +96,11 @@ def test_the_archive_holds_the_commands_files_and_the_backbone_of_the_truth(reco
 
     report = (archive / "report.md").read_text()
     summary = report.split("## Summary", 1)[1].split("\n## ", 1)[0]
-    first = next(line for line in summary.splitlines() if line.startswith("* "))
-    assert first.startswith("* **Amplitude model** (mode 1, polynomial backbone, ring-down, impact): linear limit ")
+    # the model's own warning first (its f₀ the backbone's extrapolation below the tap, as the command
+    # prints it), then the model
+    first, second = [line for line in summary.splitlines() if line.startswith("* ")][:2]
+    assert first.startswith("* **Amplitude model: the linear limit ") and "extrapolation below every sample" in first
+    assert second.startswith("* **Amplitude model** (mode 1, polynomial backbone, ring-down, impact): linear limit ")
     assert "disagree" not in summary and "## Amplitude-dependent modal model" in report
     assert "![amplitude backbone](amplitude/backbone.png)" in report
     model = json.loads((written / "amplitude_model.json").read_text())
@@ -234,3 +237,18 @@ def test_the_studys_own_stepped_sine_is_read_as_the_commands_measured(tmp_path, 
     points = pd.read_csv(archive / "amplitude" / "backbone_points.csv")
     assert points["test_type"].value_counts().to_dict() == {"stepped-sine": 4, "impact": 1}
     assert pd.read_csv(archive / "amplitude" / "backbone.csv")["natural_frequency_hz_low"].notna().all()
+
+
+def test_the_brb_examples_summary_states_the_linear_limits_extrapolation_before_it(tmp_path):
+    """examples/brb/amplitude.toml (the published hammer record and response-controlled runs):
+    its linear limit lies above the impact's own pole, an extrapolation of the backbone below
+    every sample (amplitude_model.json's warnings). The report's summary gave the linear limit
+    and said nothing of it; it now opens with it, as `nlupdate amplitude` does."""
+    study = Path(__file__).parent.parent / "examples" / "brb" / "amplitude.toml"
+    result = api.run_study(study)
+    archive = write_archive(result, tmp_path / "archive", {"orchestration": "test"})
+    warnings = json.loads((archive / "amplitude" / "amplitude_model.json").read_text())["warnings"]
+    assert any("extrapolation below every sample" in w for w in warnings)
+    summary = (archive / "report.md").read_text().split("## Summary", 1)[1].split("\n## ", 1)[0].splitlines()
+    number = next(k for k, line in enumerate(summary) if line.startswith("* **Amplitude model** (mode 1"))
+    assert all(f"* **Amplitude model: {w}**" in summary[:number] for w in warnings), summary

@@ -130,7 +130,9 @@ CHAIN: tuple[Step, ...] = (
          applies=lambda study, results: study.amplitude is not None,
          describe=lambda study, fit: f"{fit.samples.amplitude.size} samples of {len(fit.points)} source(s), "
                                      f"{fit.model.backbone} backbone, linear limit {fit.model.natural_frequency_hz:.6g} "
-                                     f"Hz, {100 * fit.model.damping_ratio:.3g} %"),
+                                     f"Hz, {100 * fit.model.damping_ratio:.3g} %" + (
+                                         f" — {len(fit.model.warnings)} warning(s) on it, report.md's summary"
+                                         if fit.model.warnings else "")),
     Step("FE validation", fe_validation_step, inputs=("targets", "updating", "comparison"),
          sections=("fe_validation", "adapter", "fixed", "parameters", "targets"),
          applies=lambda study, results: study.fe_validation is not None and _has_runs(study, results),
