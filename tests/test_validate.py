@@ -159,15 +159,17 @@ def _brb_study(tmp_path, validation: dict) -> "Path":
 
 def test_a_study_archive_carries_its_held_out_levels(tmp_path, capsys):
     """[validation] in a study: validation.json, tables/validation.parquet, the plots, and
-    the report's summary line and section — the same numbers as the command's."""
-    study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"]})
+    the report's summary line and section — the same numbers as the command's. The file's
+    response-controlled runs are left out of both (their prediction, half of each run's
+    time, is the study's and the command's in tests/test_validate_response_controlled.py)."""
+    study = _brb_study(tmp_path, {"hold_out": "top", "models": ["lines"], "response_controlled": "off"})
     code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "run", "--quiet")
     assert code == 0, err
     run = tmp_path / "run"
     table = pd.read_parquet(run / "tables" / "validation.parquet")
     assert table["level"].tolist() == [1.46] and table["model"].tolist() == ["lines"]
     code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
-                           "--model", "lines", "--out", tmp_path / "cli")
+                           "--model", "lines", "--response-controlled", "off", "--out", tmp_path / "cli")
     assert code == 0, err
     (entry,) = json.loads((tmp_path / "cli" / "validation.json").read_text())["held_out"]
     assert table["resonance_hz_predicted"].iloc[0] == pytest.approx(entry["resonance_hz"]["predicted"], rel=1e-12)
