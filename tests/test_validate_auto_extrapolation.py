@@ -118,12 +118,14 @@ def test_a_value_outside_a_band_gets_its_line():
 
     outside = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), peak_abs=Compared(1.0, 2.0, 1.5, 2.5))
     fine = held(resonance_hz=Compared(2.0, 2.1, 1.5, 2.5), damping_ratio=Compared(2.0, 3.0, 1.5, 2.5))
-    validation = SimpleNamespace(held_out=[outside, fine], response_controlled=(), choices={})
+    validation = SimpleNamespace(held_out=[outside, fine], response_controlled=(), choices={},
+                                 response_controlled_notes=())
     assert verdict_lines(validation, "N") == [
         "warning: measured OUTSIDE the prediction's 95 % band: 0.35 N peak |H| (lines)",
         "warning: at 0.35 N (lines): the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
     assert comparison_notes(fine) == ["the predicted damping ratio 3 lies OUTSIDE its own 95 % band [1.5, 2.5]"]
-    assert verdict_lines(SimpleNamespace(held_out=[fine], response_controlled=(), choices={}), "N")[0].startswith(
+    assert verdict_lines(SimpleNamespace(held_out=[fine], response_controlled=(), choices={},
+                                         response_controlled_notes=()), "N")[0].startswith(
         "every held-out level's resonance, damping ratio and peak |H| lies within")
 
 

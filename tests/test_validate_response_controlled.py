@@ -171,6 +171,9 @@ def test_validate_predicts_the_brb_response_controlled_runs(brb_top_lines, tmp_p
         assert 80.0 < r["resonance_hz"]["measured"] < 80.6 and set(r["baseline"]) >= {"resonance_hz", "peak_abs"}
     assert (out / "response_controlled.png").stat().st_size > 0
     assert "response-controlled" in text
+    # the runs' modal constants against the one the models take (a bias of their predicted damping)
+    # qualify the table: before it, not after it
+    assert "warning: response-controlled runs: modal constants" in err and "modal constants" not in text
     code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--hold-out", "top",
                            "--model", "lines", "--response-controlled", "off", "--out", tmp_path / "off")
     assert code == 0, err
@@ -465,7 +468,7 @@ def test_a_run_held_outside_the_kept_amplitudes_is_flagged_as_an_extrapolation()
         assert r.as_dict()["extrapolation"] == r.extrapolation
     assert "extrapolation" not in inside.as_dict()
     text = verdict_lines(out, "N")
-    assert sum(line.startswith("warning: response-controlled run") for line in text) == 2
+    assert sum(line.startswith("warning: response-controlled run ") for line in text) == 2
     axis = response_controlled_figure(out).axes[0]  # the figure stars the two on its axis
     assert [label.get_text().endswith("*") for label in axis.get_xticklabels()] == [True, False, True]
     assert "*: extrapolated" in axis.get_xlabel()

@@ -397,7 +397,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
                   markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
-    return lines + [f"Response-controlled runs: {note}" for note in validation.response_controlled_notes]
+    return lines
 
 
 def _errors(r) -> dict[str, str]:

@@ -30,7 +30,9 @@ def verdict_lines(validation, unit: str) -> list[str]:
     the kept levels and each response-controlled run outside the kept amplitudes (an
     extrapolation, once each); what the table cannot show of each comparison
     (:func:`comparison_notes`: a measured damping ratio the lines do not resolve, a band from
-    the in-sample misfit, ...), before the numbers it qualifies; auto's warnings."""
+    the in-sample misfit, ...) and the response-controlled runs' notes (a model that cannot
+    predict them, their modal constants against the one the models take), before the numbers
+    they qualify; auto's warnings."""
     misses = [f"{r.level:g} {unit} {', '.join(_outside(r))} ({r.label})" for r in validation.held_out if _outside(r)]
     misses += [f"{r.run} {', '.join(_outside(r))} ({r.label})" for r in validation.response_controlled
                if _outside(r)]
@@ -46,6 +48,7 @@ def verdict_lines(validation, unit: str) -> list[str]:
               for note in comparison_notes(r)]
     lines += [f"warning: at {r.run} ({r.label}): {note}" for r in validation.response_controlled
               for note in comparison_notes(r)]
+    lines += [f"warning: response-controlled runs: {note}" for note in validation.response_controlled_notes]
     return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
 
 
@@ -104,8 +107,8 @@ def _table(first: str, second: str, rows) -> list[str]:
 
 
 def validation_lines(validation, unit: str) -> list[str]:
-    """Everything after the verdict: repeatability, the held-out levels' table with notes,
-    the response-controlled runs' table, auto's choices."""
+    """Everything after the verdict: repeatability, the held-out levels' table, the
+    response-controlled runs' table, auto's choices."""
     lines = [repeatability_line(validation.repeatability, "held-out levels")]
     lines += _table(f"level ({unit})", "", [(f"{r.level:g}", "", r.label, r.compared, r.baseline, r.residual_to_noise,
                                              r.baseline_residual_to_noise) for r in validation.held_out])
@@ -117,7 +120,6 @@ def validation_lines(validation, unit: str) -> list[str]:
         lines += _table("response-controlled run", "held X (µm)",
                         [(r.run, f"{1e6 * r.held_m:.3g}", r.label, r.compared, r.baseline, r.residual_to_noise,
                           r.baseline_residual_to_noise) for r in runs])
-    lines += [f"response-controlled runs: {note}" for note in validation.response_controlled_notes]
     for level, choice in validation.choices.items():
         lines.append(f"auto at {level:g} {unit}: {choice.name} — {choice.reason}")
     return lines
