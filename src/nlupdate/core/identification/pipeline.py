@@ -52,7 +52,7 @@ from nlupdate.core.identification.settings import MAX_MONTE_CARLO_SAMPLES, Ident
 from nlupdate.core.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
 from nlupdate.core.identification.trust import (
     TrustWarning, consistency_warnings, dissipation_warnings, excitation_warnings, fit_verdict, identification_warnings,
-    sign_warnings,
+    mode_fit_warnings, sign_warnings,
 )
 from nlupdate.core.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.core.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
@@ -172,8 +172,8 @@ class Identification:
         nothing is suspicious."""
         return consistency_warnings(self.level_consistency, self.settings.response_dof) + \
             identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
-            dissipation_warnings(self.result, self.reference_unit) + excitation_warnings(self.excitation,
-                                                                                         self.settings.method)
+            dissipation_warnings(self.result, self.reference_unit) + mode_fit_warnings(self.modes) + \
+            excitation_warnings(self.excitation, self.settings.method)
 
     def parameters(self) -> dict[str, float]:
         """Identified nonlinearity parameters (SI) by name."""
