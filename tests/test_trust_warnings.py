@@ -236,7 +236,7 @@ def test_a_one_mode_fit_that_misses_its_curve_is_named():
     """Closed form: one mode (100 Hz, η = 1 %) is fitted exactly; two modes 2 Hz apart (99 and
     101 Hz) fitted as one are missed by 28 % RMS — a natural frequency between them and a loss
     factor 3.4 × either's — and the warning names both values (the transmitter beam's two lowest
-    levels gave η = 0.3 against the curve's 6e-4, printed without a word)."""
+    levels gave η = 0.3 against the curve's half-power 9.5e-4, printed without a word)."""
     from nlupdate.core.identification.modal_fit import fit_mode_near
     from nlupdate.core.identification.trust import MODE_FIT_LIMIT, mode_fit_warnings
 

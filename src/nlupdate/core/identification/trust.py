@@ -64,7 +64,7 @@ A fit always returns numbers; these checks say when the numbers are not measurem
 * ``mode_fit_poor`` — the one-mode fit of the extracted linear FRF misses it by more than
   ``MODE_FIT_LIMIT`` (20 %) RMS: the linear mode's natural frequency and loss factor do not
   describe that curve (:func:`mode_fit_warnings`; the BRB's fits miss by 3–10 %, the
-  transmitter beam's two lowest levels' by 44 %, with η = 0.3 against the curve's 6e-4).
+  transmitter beam's two lowest levels' by 44 %, with η = 0.3 against the curve's half-power 9.5e-4).
 
 Three more look at the data rather than the fit: :func:`sign_warnings` (``negative`` — a
 stuck friction stiffness below zero), :func:`dissipation_warnings` (``generates_energy`` —
