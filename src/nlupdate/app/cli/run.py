@@ -10,7 +10,6 @@ import argparse
 import contextlib
 import importlib.util
 import json
-import os
 import sys
 from pathlib import Path
 from typing import Iterator
@@ -21,8 +20,10 @@ from nlupdate.app.cli.output import writable_folder
 
 def add_execution_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by ``run`` and ``demo``: where results go and where tasks run."""
-    parser.add_argument("--workers", type=positive_int, default=os.cpu_count() or 2,
-                        help="threads (or local Dask worker processes with --dask) for the tasks (default: CPU count)")
+    parser.add_argument("--workers", type=positive_int,
+                        help="threads (or local Dask worker processes with --dask) for the tasks (default: one per CPU "
+                             "with --dask, for an external FE program or a discovery; one thread for an FE model "
+                             "evaluated in this process, whose evaluations would only contend on more)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--dask", action="store_true", help="run the tasks on a local Dask cluster started for the run")
     where.add_argument("--dask-address", metavar="ADDR", help="run the tasks on an existing Dask scheduler, tcp://HOST:PORT")

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import os
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -83,7 +82,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--name", help="deployment name (default: the study's name)")
     parser.add_argument("--replace", action="store_true", help="replace a scheduled study of the same name")
     parser.add_argument("--out", metavar="DIR", help="archive root of the runs (default ./results)")
-    parser.add_argument("--workers", type=positive_int, metavar="N", help="threads per run (default: CPU count)")
+    parser.add_argument("--workers", type=positive_int, metavar="N", help="threads per run (default: as `nlupdate run`'s)")
     parser.add_argument("--cache-dir", metavar="DIR",
                         help="task result store shared by the runs (default $NLUPDATE_CACHE_DIR or ./.nlupdate-cache)")
     parser.add_argument("--serve", action="store_true", help="then run the schedules here, as 'nlupdate serve' does")
@@ -157,6 +156,7 @@ def add_schedule(args: argparse.Namespace) -> int:
     from nlupdate.app.cli.run import check_solver
     from nlupdate.orchestration.flows import registrations
     from nlupdate.orchestration.flows.run import cache_directory
+    from nlupdate.orchestration.flows.runners import default_workers
     from nlupdate.study import load_study
 
     when = _check_schedule(args)
@@ -175,7 +175,7 @@ def add_schedule(args: argparse.Namespace) -> int:
             raise CliError(f"a scheduled study named {name!r} exists ({existing[name].schedule}, "
                            f"{existing[name].study_file}); pass --replace to replace it, or --name to choose another name")
         registration = registrations.new_registration(
-            name, args.target, study.text, out, cache_directory(args.cache_dir), args.workers or os.cpu_count() or 2,
+            name, args.target, study.text, out, cache_directory(args.cache_dir), args.workers or default_workers(study),
             schedule.when_of(when))
         schedule.register(registration)
         print(f"{'replaced' if name in existing else 'registered'} scheduled study {name!r}: "

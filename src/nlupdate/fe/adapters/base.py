@@ -113,6 +113,10 @@ class FEAdapter(ABC):
     """Base class: parameter checks and point keys around ``_solve``."""
 
     name: str = "adapter"
+    #: Whether an evaluation runs an external program while this process waits (several at
+    #: once then overlap); an in-process evaluation holds the interpreter, so evaluations on
+    #: threads beside each other only contend (:func:`nlupdate.orchestration.flows.runners.default_workers`).
+    runs_a_program: bool = False
 
     def __init__(self, parameter_names: Sequence[str]) -> None:
         self.parameter_names = tuple(parameter_names)

@@ -292,6 +292,7 @@ class CalculixAdapter(FEAdapter):
     """
 
     name = "calculix"
+    runs_a_program = True
 
     def __init__(
         self,

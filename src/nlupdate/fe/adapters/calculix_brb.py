@@ -244,6 +244,7 @@ class BRBAdapter(FEAdapter):
     """
 
     name = "calculix-brb"
+    runs_a_program = True
 
     def __init__(self, mesh: BRBMesh = BRBMesh(), *, n_modes: int = 6, fixed_interface_modes: int = 12,
                  work_root=None, executable: str = "ccx", timeout_s: float | None = 3600.0, threads: int = 1) -> None:

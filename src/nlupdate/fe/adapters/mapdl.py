@@ -92,6 +92,7 @@ class MapdlAdapter(FEAdapter):
     """
 
     name = "mapdl"
+    runs_a_program = True
 
     def __init__(
         self,

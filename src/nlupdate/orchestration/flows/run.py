@@ -78,6 +78,7 @@ def run_study_flow(
     from nlupdate.study.spec import inputs_read_once
 
     progress = progress or Progress()
+    execution = execution.for_study(study)
     with inputs_read_once(study) as study, _flow_session(execution, cache_dir, progress) as (recorded, runner,
                                                                                            description, store):
         progress.say(f"study [bold]{study.name}[/bold]: tasks on {description}; cache {store}"

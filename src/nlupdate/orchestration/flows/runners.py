@@ -3,9 +3,14 @@ run, or an existing cluster at a scheduler address (prefect-dask)."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import os
 import socket
 from dataclasses import dataclass
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
+
+if TYPE_CHECKING:
+    from nlupdate.study.spec import Study
 
 
 class ExecutionError(RuntimeError):
@@ -14,18 +19,44 @@ class ExecutionError(RuntimeError):
 
 @dataclass(frozen=True)
 class Execution:
-    """workers: threads, or local Dask worker processes; dask: start a local cluster;
-    dask_address: ``tcp://HOST:PORT`` of an existing scheduler (``workers`` ignored)."""
+    """workers: threads, or local Dask worker processes (None: :func:`default_workers` for
+    the run's study); dask: start a local cluster; dask_address: ``tcp://HOST:PORT`` of an
+    existing scheduler (``workers`` ignored)."""
 
-    workers: int = 2
+    workers: int | None = None
     dask: bool = False
     dask_address: str | None = None
 
     def __post_init__(self) -> None:
-        if self.workers < 1:
+        if self.workers is not None and self.workers < 1:
             raise ExecutionError(f"workers must be at least 1, got {self.workers}")
         if self.dask and self.dask_address:
             raise ExecutionError("choose a local Dask cluster (--dask) or an existing one (--dask-address), not both")
+
+    def for_study(self, study: "Study | None") -> "Execution":
+        """This execution with its worker count set: as given, else :func:`default_workers`."""
+        if self.workers is not None:
+            return self
+        return dataclasses.replace(self, workers=default_workers(study, processes=self.dask))
+
+
+def default_workers(study: "Study | None", processes: bool = False) -> int:
+    """Threads (or, with ``processes``, local Dask worker processes) for a run when the user
+    names none: one per core for processes, for a study whose FE model is an external
+    program (its evaluations overlap while the threads wait:
+    :attr:`~nlupdate.fe.adapters.base.FEAdapter.runs_a_program`) and for a run without a
+    study (a discovery); else one thread. The FE evaluations of an in-process model hold the
+    interpreter, so on more threads they only contend: the demo took 1.04 s more CPU and
+    0.66 s more wall on two threads than on one, the three-mode T-beam study 1.5 s more CPU
+    and 0.8 s more wall (docs/performance.md, "Threads for in-process FE models")."""
+    cores = os.cpu_count() or 2
+    if processes or study is None:
+        return cores
+    if study.adapter is None:
+        return 1
+    from nlupdate.fe.adapters.registry import build_adapter
+
+    return cores if build_adapter(study.adapter).runs_a_program else 1
 
 
 def check_scheduler_address(address: str, timeout_s: float = 2.0) -> None:
@@ -51,11 +82,13 @@ def check_scheduler_address(address: str, timeout_s: float = 2.0) -> None:
 @contextlib.contextmanager
 def task_runner(execution: Execution, connect_timeout_s: float = 10.0) -> Iterator[tuple[object, str]]:
     """Yield (a Prefect task runner, a description of it) for ``execution``; a local Dask
-    cluster lives as long as the context."""
+    cluster lives as long as the context. No worker count: :func:`default_workers` without a study."""
+    execution = execution.for_study(None)
     if execution.dask_address is None and not execution.dask:
         from prefect.task_runners import ThreadPoolTaskRunner
 
-        yield ThreadPoolTaskRunner(max_workers=execution.workers), f"{execution.workers} threads"
+        yield ThreadPoolTaskRunner(max_workers=execution.workers), \
+            f"{execution.workers} thread{'' if execution.workers == 1 else 's'}"
         return
     if execution.dask_address is not None:
         check_scheduler_address(execution.dask_address, connect_timeout_s)
