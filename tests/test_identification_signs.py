@@ -60,3 +60,7 @@ def test_a_negative_kf_is_warned_about():
     warnings = sign_warnings({"k3": 1e9, "kf": -37.0}, "V")
     assert len(warnings) == 1 and warnings[0].subject == "kf" and warnings[0].kind == "negative"
     assert "kf = -37 V/m is negative" in warnings[0].message
+    # a describing function that dissipates points to the lowest level slipping, not to a sign
+    assert "the lowest level is not stuck" in warnings[0].message and "wrong sign" not in warnings[0].message
+    reversed_sign = sign_warnings({"kf": -37.0}, "V", dissipates=False)[0].message
+    assert "the describing function has the wrong sign" in reversed_sign

@@ -115,6 +115,8 @@ def test_brb_identify_states_its_poor_fit_before_the_numbers(brb_identification)
     residual = next(k for k, line in enumerate(printed) if line.startswith("warning:") and "noise level" in line)
     negative = next(k for k, line in enumerate(printed) if line.startswith("warning:") and "kf = " in line)
     assert max(poor, residual, negative) < first_value, printed
+    # read with the right sign (the DF dissipates): kf < 0 is the lowest level slipping, not a sign
+    assert "the lowest level is not stuck" in printed[negative] and "wrong sign" not in printed[negative]
     assert all(not line.startswith("warning:") for line in printed[first_value:]), printed
 
 
@@ -164,6 +166,8 @@ def test_brb_read_without_the_sensor_sign_gives_a_describing_function_that_gener
     assert np.all(nu_im(np.linspace(low, high, 50)) < 0)
     assert [w["kind"] for w in summary["warnings"] if w["subject"] == "describing_function"] == ["generates_energy"]
     assert "warning: identification: the describing function's imaginary part is negative" in printed.getvalue()
+    negative = [w["message"] for w in summary["warnings"] if w["kind"] == "negative"]
+    assert all("the describing function has the wrong sign" in message for message in negative), negative
 
 
 def test_brb_model_is_the_fit_of_the_lowest_force_controlled_run():

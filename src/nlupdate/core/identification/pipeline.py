@@ -170,10 +170,11 @@ class Identification:
         noise (:func:`nlupdate.core.identification.trust.identification_warnings`), a parameter
         that must be positive and is not, data that are not stepped-sine FRFs; empty when
         nothing is suspicious."""
+        energy = dissipation_warnings(self.result, self.reference_unit)
         return consistency_warnings(self.level_consistency, self.settings.response_dof) + \
-            identification_warnings(self) + sign_warnings(self.result.parameters(), self.reference_unit) + \
-            dissipation_warnings(self.result, self.reference_unit) + mode_fit_warnings(self.modes) + \
-            excitation_warnings(self.excitation, self.settings.method)
+            identification_warnings(self) + \
+            sign_warnings(self.result.parameters(), self.reference_unit, dissipates=not energy) + energy + \
+            mode_fit_warnings(self.modes) + excitation_warnings(self.excitation, self.settings.method)
 
     def parameters(self) -> dict[str, float]:
         """Identified nonlinearity parameters (SI) by name."""

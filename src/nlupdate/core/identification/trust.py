@@ -310,18 +310,25 @@ def _degenerate_warnings(model: Any, values: dict[str, float], source: str, unit
     return out
 
 
-def sign_warnings(parameters: dict[str, float], reference_unit: str = "N") -> tuple[TrustWarning, ...]:
+def sign_warnings(parameters: dict[str, float], reference_unit: str = "N",
+                  dissipates: bool = True) -> tuple[TrustWarning, ...]:
     """A warning for each parameter that must be positive and is not (``kf``: a stuck
-    friction stiffness, from a polynomial's constant term)."""
+    friction stiffness, from a polynomial's constant term). ``dissipates``: whether the
+    describing function takes energy out somewhere (:func:`dissipation_warnings` found
+    nothing); then the direction signs are not what it points to first."""
     out = []
     for name, value in parameters.items():
         if name.split("_")[0] == "kf" and value < 0:
-            out.append(TrustWarning(
-                name, "negative",
-                f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction "
-                f"stiffness is > 0: the describing function has the wrong sign (a transfer FRF, a negative modal "
-                f"constant — exciter and sensor on opposite sides of a node —, or a reversed direction sign) or the "
-                f"low level is not stuck", "identification"))
+            stated = f"{name} = {value:.4g} {parameter_unit(name, reference_unit)} is negative, but a stuck friction " \
+                     f"stiffness is > 0"
+            why = ("the describing function's real part, extrapolated to zero amplitude, falls below zero: the lowest "
+                   "level is not stuck (the joint already slips there) or the element's form does not follow the "
+                   "softening; the describing function dissipates, so the direction signs are not the first suspect"
+                   if dissipates else
+                   "the describing function has the wrong sign (a transfer FRF, a negative modal constant — exciter "
+                   "and sensor on opposite sides of a node —, or a reversed direction sign) or the low level is not "
+                   "stuck")
+            out.append(TrustWarning(name, "negative", f"{stated}: {why}", "identification"))
     return tuple(out)
 
 
