@@ -129,6 +129,32 @@ def test_a_value_outside_a_band_gets_its_line():
         "every held-out level's resonance, damping ratio and peak |H| lies within")
 
 
+def test_the_report_summary_opens_with_any_validation_warning():
+    """A study report's summary opens with the validation's first warning and counts the rest
+    (it showed only a miss: an extrapolation or a note with every value in its band left the
+    summary silent); nothing when nothing warns."""
+    from types import SimpleNamespace
+
+    from nlupdate.core.validation.held_out import Compared
+    from nlupdate.reporting.validation_text import summary_headline
+
+    inside = {"resonance_hz": Compared(2.0, 2.1, 1.5, 2.5)}
+    top = SimpleNamespace(level=1.46, label="lines", compared=inside, half_power_lines=9, note="",
+                          extrapolation="1.46 N lies above the kept levels 0.19–0.97 N: an extrapolation")
+    interior = SimpleNamespace(level=0.49, label="lines", compared=inside, half_power_lines=9, note="", extrapolation="")
+
+    def validation(*held):
+        return SimpleNamespace(held_out=list(held), response_controlled=(), choices={}, response_controlled_notes=())
+
+    assert summary_headline(validation(interior), "N") is None
+    assert summary_headline(validation(interior, top), "N") == top.extrapolation
+    outside = SimpleNamespace(level=0.97, label="lines", compared={"peak_abs": Compared(1.0, 2.0, 1.5, 2.5)},
+                              half_power_lines=9, note="", extrapolation="")
+    assert summary_headline(validation(outside, top), "N") == (
+        "measured OUTSIDE the prediction's 95 % band: 0.97 N peak |H| (lines) (1 more warning opens the validation "
+        "section)")
+
+
 def test_the_study_report_states_the_refusal(top):
     from nlupdate.reporting.report import _validation_section
 

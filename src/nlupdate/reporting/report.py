@@ -20,7 +20,8 @@ from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_sum
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
-from nlupdate.reporting.validation_text import error_cells, in_band_cell, repeatability_line, verdict_lines
+from nlupdate.reporting.validation_text import (error_cells, in_band_cell, repeatability_line, summary_headline,
+                                                verdict_lines)
 from nlupdate.core.response.method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
@@ -193,9 +194,9 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    f"mean {number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
                    + _single_frequency_levels(c))
     if result.validation is not None:
-        verdict = verdict_lines(result.validation, result.validation.reference_unit)[0]
-        if verdict.startswith("warning: "):  # a miss opens the summary
-            out.insert(0, f"* **Validation: {verdict.removeprefix('warning: ')}**")
+        headline = summary_headline(result.validation, result.validation.reference_unit)
+        if headline is not None:  # a miss, an extrapolation or a note opens the summary
+            out.insert(0, f"* **Validation: {headline}**")
         out += _validation_summary(result.validation)
     if result.fe_validation is not None:
         out += fe_validation_summary(result.fe_validation)

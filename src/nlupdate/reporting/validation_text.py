@@ -52,6 +52,17 @@ def verdict_lines(validation, unit: str) -> list[str]:
     return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
 
 
+def summary_headline(validation, unit: str) -> str | None:
+    """The line a validation that warns opens the study report's summary with: its first
+    warning (a miss, an extrapolation, a note; :func:`verdict_lines`) and how many more open
+    the validation section; None when nothing warns."""
+    warned = [line.removeprefix("warning: ") for line in verdict_lines(validation, unit) if line.startswith("warning: ")]
+    if not warned:
+        return None
+    more = len(warned) - 1
+    return warned[0] + (f" ({more} more warning{' opens' if more == 1 else 's open'} the validation section)" if more else "")
+
+
 def repeatability_line(repeat, what: str) -> str:
     """The test's scatter (1σ) in the units the tables use."""
     trend = "a line" if repeat.degree == 1 else "a parabola" if repeat.degree == 2 else f"degree {repeat.degree}"
