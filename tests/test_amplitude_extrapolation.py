@@ -104,3 +104,17 @@ def test_a_linear_damping_extrapolated_far_below_the_samples_is_stated():
     assert model.damping_ratio > 0.01 * z[0]
     (warning,) = model.warnings
     assert "ζ₀" in warning and "extrapolation below every sample" in warning
+
+
+def test_a_polynomial_backbone_with_too_few_samples_says_how_many_it_needs():
+    """Order 2 on two samples: the error names the samples it needs and what to change (it
+    read 'need 1 ≤ order < 2 samples')."""
+    from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+
+    amplitude = np.array([1e-4, 2e-4])
+    samples = ModalSamples(amplitude, np.array([80.0, 79.9]), np.array([1e-3, 1.2e-3]), np.zeros(2), 1.0)
+    with pytest.raises(AmplitudeModelError, match="order 2 needs at least 3 samples, got 2: a lower order or more"):
+        fit_amplitude_model(samples, (("x", 1.0),), "polynomial", 2, 1e-3, 0.05)
+    with pytest.raises(AmplitudeModelError, match="order must be at least 1, got 0"):
+        fit_amplitude_model(samples, (("x", 1.0),), "polynomial", 0, 1e-3, 0.05)
+    assert fit_amplitude_model(samples, (("x", 1.0),), "polynomial", 1, 1e-3, 0.05).natural_frequency_hz > 0

@@ -399,8 +399,11 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         raise AmplitudeModelError("frequency_std and damping_std must be > 0 (relative standard deviations)")
     shapes = tuple((str(n), float(v)) for n, v in shapes)
     if backbone == "polynomial":
-        if not 1 <= int(order) < samples.amplitude.size:
-            raise AmplitudeModelError(f"polynomial order {order}: need 1 ≤ order < {samples.amplitude.size} samples")
+        if int(order) < 1:
+            raise AmplitudeModelError(f"the polynomial order must be at least 1, got {order}")
+        if int(order) >= samples.amplitude.size:
+            raise AmplitudeModelError(f"a polynomial backbone of order {order} needs at least {int(order) + 1} samples, "
+                                      f"got {samples.amplitude.size}: a lower order or more levels or runs")
         return _polynomial(samples, shapes, int(order), frequency_std, damping_std, mode)
     if samples.amplitude.size < 3:
         raise AmplitudeModelError(f"the {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
