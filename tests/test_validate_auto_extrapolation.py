@@ -15,6 +15,7 @@ to 1.85 ‰ from 2.9 ‰).
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -169,3 +170,29 @@ def test_the_study_report_states_the_refusal(top):
     assert row[2] == "+0.037 [-0.09, +0.22]" and row[3] == "—" and row[4].startswith("+1097 [") and row[5] == "yes, —, yes"
     assert any(line.startswith("Warning: at 0.35 N (lines): the extrapolation leaves the physical range")
                and lines.index(line) < lines.index(table) for line in lines)
+
+
+def test_auto_says_when_the_kept_curves_do_not_tell_its_two_best_apart():
+    """The published BRB levels: with 0.1947 N held out the three kept levels score ``lines``
+    0.501 and the runner-up 0.503 — a near tie, stated in the reason (it was not); with
+    0.4886 N held out ``lines-background`` 0.438 against ``lines`` 0.537 is told apart."""
+    import warnings
+
+    from nlupdate.core.identification.data import FRFLevels
+    from nlupdate.core.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.units import ReadOptions
+    from nlupdate.core.validation.auto_choice import near_tie
+
+    brb = Path(__file__).resolve().parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = read_frf_table(brb, options=ReadOptions(coordinates={str(brb): ("acc3:-y", "acc3:y")}))
+    data = FRFLevels.from_table(table, "acc3:y", "acc3:y")
+    levels = [float(v) for v in data.levels]
+    low = choose_model(data.subset(levels[1:]), (), levels[0])
+    assert low.name == "lines" and "within two standard errors of lines over the 3 kept curves" in low.reason
+    interior = choose_model(data.subset([levels[0], *levels[2:]]), (), levels[1])
+    assert interior.name == "lines-background" and "within two standard errors" not in interior.reason
+    # the paired rule itself: equal errors tie, a runner-up worse on every curve by far more than its scatter does not
+    assert near_tie(np.array([0.3, 0.4, 0.5]), np.array([0.31, 0.39, 0.52]))
+    assert not near_tie(np.array([0.3, 0.4, 0.5]), np.array([0.6, 0.71, 0.79]))

@@ -25,6 +25,14 @@ extrapolation each candidate's prediction at the held-out level is checked in ra
 before it is refused with the reason stated, and when every one is refused the log-amplitude
 baseline (``baseline``) is used — each refusal and the fallback stated in
 :attr:`ModelChoice.warning`.
+
+**A near tie.** The two best candidates are scored on the same kept curves, so their
+difference is judged paired: when the mean over the curves of the runner-up's squared error
+less the first's is within two standard errors of zero (:func:`near_tie`), the reason says
+that the kept curves do not tell the two apart (the BRB with 0.1947 N held out: ``lines``
+0.501 against 0.503 over three kept levels; with 0.4886 N held out ``lines-background``
+0.438 against ``lines`` 0.537 is told apart). The choice stands; the other model is one
+``--model`` away.
 """
 from __future__ import annotations
 
@@ -113,10 +121,21 @@ def outside_physical_range(kept: FRFLevels, fitted: Fitted, level: float) -> str
     return None
 
 
-def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float], dict[str, str]]:
+def near_tie(first: np.ndarray, second: np.ndarray) -> bool:
+    """Whether the per-curve errors ``second`` (the runner-up's) exceed ``first`` (the
+    chosen candidate's, on the same curves) by less than two standard errors of their
+    paired squared difference (module docstring); False with fewer than two curves."""
+    gap = np.square(second) - np.square(first)
+    if gap.size < 2:
+        return False
+    return bool(gap.mean() < 2 * gap.std(ddof=1) / np.sqrt(gap.size))
+
+
+def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float], dict[str, str], dict[str, np.ndarray]]:
     """Each candidate's leave-one-kept-out error (module docstring; NaN where it
-    failed) and, for each that failed, why (its error's message)."""
-    scores, failed = {}, {}
+    failed), for each that failed why (its error's message), and each scored candidate's
+    per-curve errors."""
+    scores, failed, per_curve = {}, {}, {}
     for name in [c for c in AUTO_CANDIDATES if not (runs or kept.linear_limit is not None) or c in WITH_RUNS]:
         errors = []
         try:
@@ -129,10 +148,11 @@ def _scores(kept: FRFLevels, runs: Sequence[HeldRun]) -> tuple[dict[str, float],
                 errors.append(curve_error(run.h, model_fitter(name, others)(kept).at_response(
                     run.frequency_hz, run.held_on_lines)))  # the displacement each line achieved
             scores[name] = float(np.sqrt(np.mean(np.square(errors))))
+            per_curve[name] = np.asarray(errors, dtype=float)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             scores[name] = float("nan")
             failed[name] = str(error) or type(error).__name__
-    return scores, failed
+    return scores, failed, per_curve
 
 
 def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | None = None) -> ModelChoice:
@@ -149,13 +169,16 @@ def choose_model(kept: FRFLevels, runs: Sequence[HeldRun] = (), level: float | N
         scores, ranked = {}, ["lines"]
         reason = f"{kept.levels.size} kept levels: too few to compare models on them"
     else:
-        scores, failed = _scores(kept, runs)
+        scores, failed, per_curve = _scores(kept, runs)
         usable = {name: score for name, score in scores.items() if np.isfinite(score)}
         ranked = sorted(usable, key=usable.get) or ["lines"]
         curves = f"{kept.levels.size} levels and {len(runs)} response-controlled runs" if runs else "levels"
         reason = (f"the smallest leave-one-kept-out error over the kept {curves}: "
                   f"{', '.join(f'{n} {s:.3g}' for n, s in usable.items())}" if usable
                   else "no candidate predicted the kept levels from each other")
+        if len(ranked) > 1 and near_tie(per_curve[ranked[0]], per_curve[ranked[1]]):
+            reason += (f"; {ranked[1]} is within two standard errors of {ranked[0]} over the "
+                       f"{per_curve[ranked[0]].size} kept curves: they do not tell the two apart")
         reason += "".join(f"; {n} failed to fit with one kept curve left out: {why}" for n, why in failed.items())
     if not extrapolated(kept, level):
         return ModelChoice(ranked[0], scores, reason)
