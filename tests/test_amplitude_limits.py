@@ -138,12 +138,9 @@ def test_the_linear_damping_of_the_brb_stays_at_or_below_its_lowest_level():
     lowest level measured at 0.139 % (its damping falling from the linear limit, unflagged);
     the reference is that measured sample (ζ = φ²F/(2ω²x) at the 0.19 N peak)."""
     from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
-    from nlupdate.core.measurement.frf_files import read_frf_table
-    from nlupdate.core.measurement.units import ReadOptions
-    from test_real_measurements import BRB
+    from test_real_measurements import brb_levels
 
-    table = read_frf_table(BRB, options=ReadOptions(coordinates={str(BRB): ("acc3:-y", "acc3:y")}))
-    data = FRFLevels.from_table(table, "acc3:y", "acc3:y")
+    data = brb_levels()
     lowest = float(samples_from_frfs(data).damping_ratio[0])
     assert lowest == pytest.approx(0.00139, rel=0.01)
     model = amplitude_model_from_frfs(data, "polynomial", order=2)

@@ -48,6 +48,20 @@ BRB_MODEL = Path(__file__).parent.parent / "examples" / "discovery" / "brb_mode1
 BRB_COORDINATES = f"{BRB}=acc3:-y,acc3:y"
 
 
+def brb_levels():
+    """The BRB's four force-controlled levels at acc3 (the axis as above) as FRFLevels."""
+    import warnings
+
+    from nlupdate.core.identification.data import FRFLevels
+    from nlupdate.core.measurement.frf_files import read_frf_table
+    from nlupdate.core.measurement.units import ReadOptions
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = read_frf_table(BRB, options=ReadOptions(coordinates={str(BRB): ("acc3:-y", "acc3:y")}))
+    return FRFLevels.from_table(table, "acc3:y", "acc3:y")
+
+
 def sdof_fit(frequency_hz: np.ndarray, h: np.ndarray) -> tuple[float, float, float]:
     """(f_r Hz, ζ, φ²) of H = φ²/(ω_r² − ω² + 2iζω_rω) by least squares on the relative error."""
     w = 2 * np.pi * frequency_hz

@@ -15,7 +15,6 @@ to 1.85 ‰ from 2.9 ‰).
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -176,18 +175,10 @@ def test_auto_says_when_the_kept_curves_do_not_tell_its_two_best_apart():
     """The published BRB levels: with 0.1947 N held out the three kept levels score ``lines``
     0.501 and the runner-up 0.503 — a near tie, stated in the reason (it was not); with
     0.4886 N held out ``lines-background`` 0.438 against ``lines`` 0.537 is told apart."""
-    import warnings
-
-    from nlupdate.core.identification.data import FRFLevels
-    from nlupdate.core.measurement.frf_files import read_frf_table
-    from nlupdate.core.measurement.units import ReadOptions
     from nlupdate.core.validation.auto_choice import near_tie
+    from test_real_measurements import brb_levels
 
-    brb = Path(__file__).resolve().parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        table = read_frf_table(brb, options=ReadOptions(coordinates={str(brb): ("acc3:-y", "acc3:y")}))
-    data = FRFLevels.from_table(table, "acc3:y", "acc3:y")
+    data = brb_levels()
     levels = [float(v) for v in data.levels]
     low = choose_model(data.subset(levels[1:]), (), levels[0])
     assert low.name == "lines" and "within two standard errors of lines over the 3 kept curves" in low.reason
