@@ -22,6 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import nlupdate
 
 PACKAGE = Path(nlupdate.__file__).parent
@@ -170,7 +172,20 @@ def test_reporting_imports_types_and_constants_from_the_numerics_not_functions()
 # ----------------------------------------------------------------------------- cache keys and the code
 
 
-def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkeypatch):
+@pytest.fixture
+def fresh_code_hashes():
+    """The code hashes this process keeps (functools.cache) forgotten after a test that
+    computed them from a copy of the package: otherwise every later run of the same test
+    worker keys its results by the copy's code, and a run in another process (the cache
+    answered without Prefect) finds none of them."""
+    from nlupdate.orchestration.tasks import keys
+
+    yield
+    for cached in (keys.numerics_code, keys.discovery_code, keys.fe_code, keys.reporting_code):
+        cached.cache_clear()
+
+
+def test_editing_a_plot_or_the_report_keeps_every_cached_result(tmp_path, monkeypatch, fresh_code_hashes):
     """The code part of a step's key covers the numerics the step runs: editing a plot or
     the report (here in a copy of the package) changes no identification or updating key;
     editing the identification's code changes the identification key."""
