@@ -48,6 +48,13 @@ def test_a_study_keeps_the_impact_as_the_command_does(tmp_path, capsys):
     ({"channel": "acc3"}, "[validation] key 'channel': expected nothing unless impact is given"),
     ({"impact": "hammer.mat", "hold_out_type": "stepped-sine", "models": ["amplitude-iwan"], "shapes": {"x": 1.0}},
      "[validation] key 'impact': expected nothing with hold_out_type"),
+    # a file that is not there is named with its key before any work (it read 'nope.mat: no such file
+    # (input file)', without the study or the key), as [amplitude]'s files are
+    ({"impact": "nope.mat", "channel": "acc3"}, "study.toml: [validation] key 'impact': expected an existing file"),
+    ({"hold_out_type": "stepped-sine", "models": ["amplitude-iwan"], "shapes": {"acc3:y": 0.73},
+      "ring_down": ["nope.mat"]}, "study.toml: [validation] key 'ring_down': expected existing files"),
+    # an unknown element of a prd: model (it was an internal error, IndexError)
+    ({"models": ["prd:jenkinz"]}, "study.toml: [validation] key 'models': expected prd:ELEMENTS"),
 ])
 def test_the_impact_key_is_refused_where_the_command_refuses_it(tmp_path, capsys, validation, expected):
     code, _, err = run_cli(capsys, "update", _brb_study(tmp_path, validation), "--out", tmp_path / "run", "--quiet")

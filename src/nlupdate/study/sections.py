@@ -198,7 +198,10 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
         if refused is not None:
             raise read.fail(where, "models", f"with impact, models among {list(LIMIT_MODELS)} (a linear limit is "
                                              f"kept beside the levels by the lines models only)", list(spec.models))
-        return dataclasses.replace(spec, impact=str(read.path_of(spec.impact)))
+        impact = read.path_of(spec.impact)
+        if not read.redirect and not impact.is_file():
+            raise read.fail(where, "impact", "an existing file (relative to the study file)", spec.impact)
+        return dataclasses.replace(spec, impact=str(impact))
     if spec.impact is not None:
         raise read.fail(where, "impact", "nothing with hold_out_type (levels held out only)", table["impact"])
     if spec.models[0] not in BACKBONE_OF_MODEL:
@@ -207,7 +210,11 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
     if not spec.shapes:
         raise read.fail(where, "shapes", "with hold_out_type, the mode shape at each source's coordinate: "
                                          "{ \"<coordinate>\" = value (1/√kg) }")
-    return dataclasses.replace(spec, ring_down=tuple(str(read.path_of(path)) for path in spec.ring_down))
+    ring_down = tuple(read.path_of(path) for path in spec.ring_down)
+    for written, path in zip(spec.ring_down, ring_down):
+        if not read.redirect and not path.is_file():
+            raise read.fail(where, "ring_down", "existing files (relative to the study file)", written)
+    return dataclasses.replace(spec, ring_down=tuple(map(str, ring_down)))
 
 
 def read_amplitude(read: Reader, data: Mapping[str, Any], measured: object | None) -> AmplitudeSpec | None:

@@ -373,7 +373,10 @@ def model_fitter(name: str, runs: Sequence[HeldRun] = ()) -> Callable[[FRFLevels
         from nlupdate.core.identification.dfmodels import parse_elements
 
         elements = tuple(e.strip() for e in name[4:].split(",") if e.strip())
-        parse_elements(elements)  # unknown element names fail here
+        try:
+            parse_elements(elements)  # unknown element names fail here
+        except ValueError as error:
+            raise ValueError(f"model {name!r}: expected prd:ELEMENTS, identifiable ones ({error})") from None
         return _remembered(name, _prd(elements))
     raise ValueError(f"model {name!r}: expected one of {', '.join([*MODELS, 'prd:ELEMENTS', 'auto'])}")
 
