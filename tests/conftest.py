@@ -81,6 +81,7 @@ LONGEST_MODULES = (
     "test_linear_frf_consistency.py", "test_archive_cli.py", "test_real_measurements.py", "test_discovery_modal.py",
     "test_examples.py", "test_doc_snippets.py", "test_time_history.py", "test_server_app.py",
     "test_iwan_response.py", "test_study_amplitude.py", "test_amplitude_limits.py", "test_amplitude_modal.py",
+    "test_amplitude_band_cut.py",
     "test_discovery.py", "test_circle_fit.py", "test_hb_cli_study.py", "test_line_band.py",
     "test_frf_speed_benchmark.py", "test_demo_identification.py", "test_examples_py.py",
     "test_identification_single_frequency.py", "test_trust_warnings.py", "test_runner.py",

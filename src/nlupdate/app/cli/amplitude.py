@@ -33,12 +33,12 @@ from matplotlib.figure import Figure
 
 from nlupdate.app.cli import CliError, add_command, positive_int
 from nlupdate.app.cli.amplitude_sources import DECLARED, add_source_options, read_sources
-from nlupdate.app.cli.measured import add_measured_options, measured_table, print_notes, sources
+from nlupdate.app.cli.measured import add_measured_options, measured_tables, parse_band, print_notes, sources
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.progress_bar import terminal_progress
 from nlupdate.app.cli.simulate import force_levels, frequency_grid
 from nlupdate.core.identification.amplitude_joint import (
-    FitOptions, backbone_table, fit_sources, measured_source,
+    BandCut, FitOptions, backbone_table, fit_sources, measured_source,
 )
 from nlupdate.core.identification.amplitude_modal_fit import FIT_BACKBONES
 from nlupdate.core.identification.backbone_samples import TEST_TYPES
@@ -132,9 +132,10 @@ def run(args: argparse.Namespace) -> int:
     rings, channel = read_sources(args, shapes)
     measured = None
     if args.measured:
-        table, notes = measured_table(args, modal=True, find_band=True)
+        table, whole, notes = measured_tables(args, modal=True, find_band=True)
         print_notes(notes)
-        measured = measured_source(table, shapes, options, sources(args), args.input_dof, args.response_dof)
+        cut = None if whole is None else BandCut(parse_band(args.band), whole)
+        measured = measured_source(table, shapes, options, sources(args), args.input_dof, args.response_dof, cut)
     fit = fit_sources(rings, channel, shapes, options, measured, sources(args) if args.measured else "")
     predicted = None
     if args.forces is not None and not fit.samples.modal:

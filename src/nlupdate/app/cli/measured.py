@@ -137,7 +137,17 @@ def _uses_frf_options(args: argparse.Namespace) -> bool:
 def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = None, *, modal: bool = False,
                    find_band: bool = False) -> tuple[pd.DataFrame, list[str]]:
     """(the measured table ``--measured`` names, read with the options and cut to ``--band``;
-    the notes to print with :func:`print_notes`).
+    the notes to print with :func:`print_notes`): :func:`measured_tables` without the whole table."""
+    table, _, notes = measured_tables(args, known_dofs, modal=modal, find_band=find_band)
+    return table, notes
+
+
+def measured_tables(args: argparse.Namespace, known_dofs: Iterable[str] | None = None, *, modal: bool = False,
+                    find_band: bool = False) -> tuple[pd.DataFrame, pd.DataFrame | None, list[str]]:
+    """(the measured table ``--measured`` names, read with the options and cut to ``--band``;
+    the FRF table as it is without ``--band`` — cut to its excited band with ``find_band`` —
+    when ``--band`` left out some of its lines, else None; the notes to print with
+    :func:`print_notes`).
 
     The table is a measured-FRF table (all files as one, :func:`read_frf_tables`), or —
     with ``modal`` and a single modal-table file — a modal table (modes outside the band
@@ -154,6 +164,7 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
     paths = list(args.measured)
     band = parse_band(getattr(args, "band", None))
     notes: list[str] = []
+    whole = None
     if modal and any(is_modal_table_file(p) for p in paths):
         if len(paths) != 1:
             raise CliError(f"--measured {' '.join(paths)}: a modal table is read alone (one file)")
@@ -177,15 +188,28 @@ def measured_table(args: argparse.Namespace, known_dofs: Iterable[str] | None = 
         if not inside.all():
             notes.append(f"band {band[0]:g}–{band[1]:g} Hz (--band): {int((~inside).sum())} of {len(table)} measured "
                          f"rows outside it left out before any step")
+            if column == "frequency_hz":
+                whole = _excited(table, find_band)[0]
+                whole = None if in_band(whole[column], band).all() else whole
         table = table[inside].reset_index(drop=True)
     elif find_band and column == "frequency_hz":
-        found, reason = excited_band_of_table(table)
-        inside = pd.Series(in_band(table[column], found), index=table.index)
-        if not inside.all():
-            notes.append(f"band {found[0]:g}–{found[1]:g} Hz found ({reason}): {int((~inside).sum())} of {len(table)} "
-                         f"measured rows outside it left out before any step (choose another with --band LOW:HIGH)")
-            table = table[inside].reset_index(drop=True)
-    return table, notes
+        table, note = _excited(table, True)
+        notes += [note] if note else []
+    return table, whole, notes
+
+
+def _excited(table: pd.DataFrame, find_band: bool) -> tuple[pd.DataFrame, str | None]:
+    """(an FRF table cut to its excited band when ``find_band`` and that is narrower than what
+    was measured — a full-band export —, the note saying so or None)."""
+    if not find_band:
+        return table, None
+    found, reason = excited_band_of_table(table)
+    inside = pd.Series(in_band(table["frequency_hz"], found), index=table.index)
+    if inside.all():
+        return table, None
+    return table[inside].reset_index(drop=True), (
+        f"band {found[0]:g}–{found[1]:g} Hz found ({reason}): {int((~inside).sum())} of {len(table)} measured rows "
+        f"outside it left out before any step (choose another with --band LOW:HIGH)")
 
 
 def describe_frf_table(table: pd.DataFrame, paths: list[str], calibration: float | None = None) -> str:

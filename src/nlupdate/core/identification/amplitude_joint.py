@@ -51,6 +51,7 @@ from nlupdate.core.identification.backbone_samples import (
     DEFAULT_NOISE, backbone_curve, backbone_points, consistency, held_out_errors, join_samples, own_fit_for,
     source_noise,
 )
+from nlupdate.core.identification.band_dependence import band_changes, band_warning
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, joint_fixed, sample_fit_residual
 from nlupdate.core.identification.line_band import line_refinement_band
@@ -89,14 +90,29 @@ class MeasuredSource:
     unit: str
     input_dof: str
     kind: str
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class BandCut:
+    """A band the user cut an FRF table to (``band_hz``, Hz) and the table as the file gives it
+    without that band (``whole``: its excited band), to check the samples against
+    (:mod:`nlupdate.core.identification.band_dependence`)."""
+
+    band_hz: tuple[float, float]
+    whole: pd.DataFrame
 
 
 def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: FitOptions, name: str,
-                    input_dof: str | None = None, response_dof: str | None = None) -> MeasuredSource:
+                    input_dof: str | None = None, response_dof: str | None = None,
+                    cut: BandCut | None = None) -> MeasuredSource:
     """The single-nonlinear-mode fit of a measured table (``name`` its files, for messages): a
     modal table needs the shape at its excited coordinate; an FRF table is read at its driving
     point (or the only response) and its shape comes from a one-mode fit of the lowest level
-    unless given. ValueError (one line) when the coordinates are ambiguous."""
+    unless given. With ``cut`` (the band the table was cut to and the table without it), a
+    warning when the band changes the levels' damping ratios beyond the noise
+    (:mod:`~nlupdate.core.identification.band_dependence`). ValueError (one line) when the
+    coordinates are ambiguous."""
     if "natural_frequency_hz" in table.columns:
         inputs = sorted(set(table["input_dof"])) if "input_dof" in table.columns else []
         input_dof = input_dof or (inputs[0] if len(inputs) == 1 else None)
@@ -123,7 +139,14 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
     model = amplitude_model_from_frfs(data, options.backbone, shapes.get(input_dof), options.order, mode=options.mode)
     if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
         samples = samples.with_shape(model.shapes[0][1])
-    return MeasuredSource(samples, model, data, table_reference_unit(table), input_dof, "stepped-sine")
+    unit = table_reference_unit(table)
+    warning = None
+    if cut is not None:
+        whole = FRFLevels.from_table(cut.whole, response_dof, input_dof)
+        f = cut.whole["frequency_hz"]
+        warning = band_warning(band_changes(whole, data, cut.band_hz, shapes.get(input_dof)), cut.band_hz,
+                               (float(f.min()), float(f.max())), unit)
+    return MeasuredSource(samples, model, data, unit, input_dof, "stepped-sine", (warning,) if warning else ())
 
 
 @dataclass(frozen=True, eq=False)
@@ -289,6 +312,8 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
     if held:
         held_errors = held_out_errors(model, [(name, s, kind) for name, s, _, kind in held],
                                       (float(samples.amplitude.min()), float(samples.amplitude.max())))
+    if measured is not None and measured.warnings:  # the band's, first: the samples themselves are in question
+        model = dataclasses.replace(model, warnings=measured.warnings + model.warnings)
     return AmplitudeFit(dataclasses.replace(model, reference_unit=unit), samples, tuple(points), tuple(held),
                         agreement, held_errors, noise, resamples, input_dof, data, options)
 

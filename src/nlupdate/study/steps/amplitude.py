@@ -14,7 +14,7 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import read_sources
 from nlupdate.core.identification.amplitude_joint import (
-    AmplitudeFit, backbone_table, fit_sources, measured_source,
+    AmplitudeFit, BandCut, backbone_table, fit_sources, measured_source,
 )
 from nlupdate.core.measurement.band import excited_band_of_table, in_band
 from nlupdate.study.amplitude import FILE_KEYS
@@ -30,20 +30,22 @@ def _measured_name(study: Study) -> str:
     return ", ".join(written.get(str(f), str(f)) for f in files) if files else measured_description(study)
 
 
-def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str, BandCut | None]:
     """The study's measured table cut to ``band_hz`` or, without it, to its excited band
-    (as ``nlupdate amplitude --measured`` cuts an FRF table; a note saying which)."""
+    (as ``nlupdate amplitude --measured`` cuts an FRF table; a note saying which), and, when
+    ``band_hz`` leaves out lines of the excited band, that band's table to check the samples
+    against (as the command does)."""
     band = study.amplitude.band_hz
-    if band is not None:
-        found, how = (band[0], band[1]), "band_hz"
-    else:
-        found, how = excited_band_of_table(table)
+    excited, reason = excited_band_of_table(table)
+    found, how = ((band[0], band[1]), "band_hz") if band is not None else (excited, reason)
     inside = in_band(table["frequency_hz"], found)
     if not inside.any():
         raise ValueError(f"the [measured] data have no line between {found[0]:g} and {found[1]:g} Hz ({how})")
     note = (f"stepped sine ({_measured_name(study)}): band {found[0]:g}–{found[1]:g} Hz ({how}), "
             f"{int((~inside).sum())} of {len(table)} measured rows outside it left out")
-    return table[inside].reset_index(drop=True), note
+    whole = table[in_band(table["frequency_hz"], excited)].reset_index(drop=True)
+    cut = None if band is None or in_band(whole["frequency_hz"], found).all() else BandCut(found, whole)
+    return table[inside].reset_index(drop=True), note, cut
 
 
 def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
@@ -58,10 +60,11 @@ def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
             notes = [note.replace(path, name) for note in notes]
         part, name = None, ""
         if spec.measured:
-            table, note = _stepped_sine(study, measured)
+            table, note, cut = _stepped_sine(study, measured)
             notes.insert(0, note)
             name = _measured_name(study)
-            part = measured_source(table, spec.shapes, spec.fit_options(), name, spec.input_dof, spec.response_dof)
+            part = measured_source(table, spec.shapes, spec.fit_options(), name, spec.input_dof, spec.response_dof,
+                                   cut)
         fit = fit_sources(found, channel, spec.shapes, spec.fit_options(), part, name)
         curve = backbone_table(fit)
     except ValueError as error:
