@@ -1,7 +1,8 @@
 """What changed between two archived runs: what the runs are (study, chain steps, FE model,
 parameters, targets, measured curves and force levels), inputs (study fields, data hashes,
 versions, seeds) and results (identified and updated parameters with uncertainty,
-candidates and ranking, FRAC per force level), field by field.
+candidates and ranking, FRAC per force level, the held-out predictions of ``[validation]``),
+field by field.
 
 Runs of different studies are compared too: the overview says how they differ, fields
 both runs have are compared, and the plot draws only the curves and force levels both
@@ -15,6 +16,7 @@ results and are left out.
 """
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from dataclasses import asdict, dataclass
@@ -25,7 +27,7 @@ from typing import Any, Iterable, NamedTuple
 import numpy as np
 import pandas as pd
 
-from nlupdate.reporting.catalogue import ArchivedRun, archived_study_text
+from nlupdate.reporting.catalogue import ArchiveError, ArchivedRun, archived_study_text
 from nlupdate.fingerprints import table_hash
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.prediction_plots import predictions_figure
@@ -35,7 +37,11 @@ DEFAULT_ATOL = 1e-12
 #: The chain's steps (src/nlupdate/study/chain.py) by what each leaves in an archive: a table or a plot.
 STEP_EVIDENCE = (("measured data", "table", "measured"), ("identification", "table", "identification"),
                  ("targets", "table", "targets"), ("updating", "table", "runs"), ("comparison", "table", "ranking"),
-                 ("candidate FRFs", "plot", "frf_comparison"), ("predictions", "table", "predictions"))
+                 ("candidate FRFs", "plot", "frf_comparison"), ("predictions", "table", "predictions"),
+                 ("validation", "plot", "validation"), ("amplitude", "table", "amplitude_backbone"),
+                 ("FE validation", "table", "fe_modes"))
+#: a held-out level's or run's predicted quantities in validation.json, as compare names them
+HELD_OUT_QUANTITIES = {"resonance_hz": "resonance (Hz)", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
 ONE_SIDED = ("only A", "only B")
 
 
@@ -141,6 +147,9 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
     if correlation is not None:
         for row in correlation.itertuples():
             out["FRAC"][f"{row.model} at {row.force_level_n:g} N"] = _pair(row.frac)
+    held_out = _held_out_fields(run)
+    if held_out:
+        out["held-out levels"] = held_out
     backbone = run.table("amplitude_backbone")
     if backbone is not None and len(backbone):  # [amplitude]: its ends and middle
         out["amplitude backbone"] = {}
@@ -149,6 +158,28 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
             out["amplitude backbone"][f"{at}: natural frequency (Hz)"] = _pair(row.natural_frequency_hz)
             out["amplitude backbone"][f"{at}: damping ratio"] = _pair(row.damping_ratio)
     return {section: values for section, values in out.items() if values}
+
+
+def _held_out_fields(run: ArchivedRun) -> dict[str, Any]:
+    """``[validation]``'s predictions (validation.json): per held-out level and response-controlled
+    run, the model that predicted it, and each quantity's prediction and 95 % band."""
+    path = run.folder / "validation.json"
+    if not path.is_file():
+        return {}
+    try:
+        validation = json.loads(path.read_text())
+    except (OSError, ValueError) as error:
+        raise ArchiveError(f"{path}: cannot be read ({type(error).__name__}: {error})") from None
+    out: dict[str, Any] = {}
+    rows = [(f"{row['requested']} at {row['level']:g}", row) for row in validation.get("held_out", [])]
+    rows += [(f"{row['requested']}, run {row['run']}", row) for row in validation.get("response_controlled", [])]
+    for name, row in rows:
+        out[f"{name}: model"] = row["model"]
+        for key, label in HELD_OUT_QUANTITIES.items():
+            for end in ("predicted", "low", "high"):
+                value = row[key][end]
+                out[f"{name}: {label} {end}"] = _pair(math.nan if value is None else value)
+    return out
 
 
 def _numbers_match(a: Estimate, b: Estimate, rtol: float, atol: float) -> tuple[bool, float | None]:

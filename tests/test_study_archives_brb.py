@@ -1,0 +1,81 @@
+"""A study archive of the public Brake–Reuss beam (tests/data/brb: its four force-controlled
+levels at acc3) read back later: ``nlupdate archive list`` and ``compare``, and what
+``nlupdate update`` prints when the study ends.
+
+The study identifies a Jenkins element (which does not describe the beam at acc3: the
+identification is NOT TRUSTWORTHY, tests/test_real_measurements.py), updates k1 and m1 of a
+one-mass model in two parameter sets, predicts every level with both runs and holds the top
+level out (an extrapolation). Expected values come from the archive's own tables and JSON
+read here (parquet, json), never from the code that reads them back.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import shutil
+
+import pandas as pd
+import pytest
+import tomli_w
+
+from nlupdate.app.cli import main
+
+from cli_runs import run_cli
+from test_real_measurements import BRB
+
+RUN_ID = "20261129T000000Z-0000000a"
+
+
+def brb_study() -> dict:
+    return {"study": {"name": "brb-archive"},
+            "measured": {"file": str(BRB), "coordinates": {str(BRB): ["acc3:-y", "acc3:y"]}},
+            "identification": {"response_dof": "acc3:y", "input_dof": "acc3:y", "elements": ["jenkins"],
+                               "samples": 4},
+            "adapter": {"kind": "lumped", "options": {"masses": [1.8], "stiffnesses": [4.6e5]}},
+            "parameters": [{"name": "k1", "unit": "N/m", "start": 4.6e5, "lower": 4.0e5, "upper": 5.0e5},
+                           {"name": "m1", "unit": "kg", "start": 1.8, "lower": 1.7, "upper": 1.9}],
+            "targets": {"from_identification": True, "modes": [1], "response_dof": "acc3:y", "input_dof": "acc3:y",
+                        "model_response_dof": "x1", "model_input_dof": "x1"},
+            "eigensensitivity": {"parameter_sets": [["k1"], ["m1"]]},
+            "prediction": {"candidates": "all"},
+            "validation": {"hold_out": "top", "models": ["lines"], "response_controlled": "off"}}
+
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory):
+    """(results root, the run's folder, what ``nlupdate update`` printed)."""
+    folder = tmp_path_factory.mktemp("brb-archive")
+    (folder / "study.toml").write_text(tomli_w.dumps(brb_study()))
+    run = folder / "results" / "brb-archive" / RUN_ID
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["update", str(folder / "study.toml"), "--out", str(run), "--quiet"]) == 0
+    return folder / "results", run, printed.getvalue()
+
+
+def test_compare_sees_the_held_out_predictions(archive, tmp_path, capsys):
+    """The held-out level's prediction is a result of the run: a run whose prediction differs
+    is not the same run (compare said '0 of 54 fields differ' and rerun 'REPRODUCED' whatever
+    the held-out predictions were), and the chain steps name the validation."""
+    root, run, _ = archive
+    other = tmp_path / "results" / "brb-archive" / "20261129T000001Z-0000000b"
+    shutil.copytree(run, other)
+    validation = json.loads((run / "validation.json").read_text())
+    (held,) = validation["held_out"]
+    held["resonance_hz"]["predicted"] += 0.5  # Hz: the other run predicted the top level 0.5 Hz higher
+    (other / "validation.json").write_text(json.dumps(validation))
+    code, out, err = run_cli(capsys, "archive", "compare", run, other, "--root", root, "--json")
+    assert code == 0, err
+    compared = json.loads(out)
+    steps = next(row for row in compared["overview"] if row["field"] == "chain steps")
+    assert steps["a"].endswith("predictions, validation"), steps
+    rows = {row["field"]: row for row in compared["results"] if row["section"] == "held-out levels"}
+    name = f"lines at {held['level']:g}"
+    changed = rows[f"{name}: resonance (Hz) predicted"]
+    assert changed["status"] == "changed"
+    assert changed["b"][0] - changed["a"][0] == pytest.approx(0.5, rel=1e-9)
+    table = pd.read_parquet(run / "tables" / "validation.parquet")
+    assert changed["a"][0] == pytest.approx(table["resonance_hz_predicted"].item(), rel=1e-12)
+    assert rows[f"{name}: model"]["a"] == table["model"].item() == "lines"
+    assert all(row["status"] == "same" for field, row in rows.items() if "resonance (Hz) predicted" not in field)
