@@ -169,7 +169,8 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
     from nlupdate.reporting.validation_text import held_type_lines
 
     def compared(measured, predicted, low=None, high=None):
-        out = {"measured": measured, "predicted": predicted, "relative_error": predicted / measured - 1}
+        out = {"measured": measured, "predicted": predicted, "error": predicted - measured,
+               "relative_error": predicted / measured - 1}
         return out if low is None else {**out, "low": low, "high": high, "inside": low <= measured <= high}
 
     level = {"level": 0.1947, "within_fit": True, "resonance_hz": compared(80.262, 80.383, 80.08, 80.68),
@@ -184,7 +185,8 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
     lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample], "model": {}}, "N")
     assert lines == ["warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 of "
                      "the 2 held-out samples within the fitted amplitudes"]
-    outside = {**sample, "within_fit": False}
-    assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside], "model": {}}, "N") == [
+    outside = {**sample, "within_fit": False, "source": "tap.csv", "modal_amplitude": 2e-3,
+               "predicted_at_modal_amplitude": 2e-3}  # an impact above the fitted amplitudes
+    assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside], "model": {}}, "N")[0] == (
         "warning: impact held out: no held-out sample lies within the fitted amplitudes: each prediction is an "
-        "extrapolation, without a band"]
+        "extrapolation, without a band")

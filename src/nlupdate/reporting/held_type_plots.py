@@ -49,7 +49,9 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
             ax.semilogx(a, scale * rows[measured], "o", ms=4, mfc="none", label=f"{result.test_type} (held out)")
             ax.semilogx(grid, scale * curve, "-", color="black", label=f"predicted from {fitted}")
             column = "predicted_frequency_hz" if measured == "natural_frequency_hz" else "predicted_damping_ratio"
-            if f"{column}_low" in rows and np.isfinite(rows[f"{column}_low"]).any():  # no legend for an empty band
+            if result.test_type == "impact":  # one point each: bars, the measured pole's and the prediction's
+                _impact_bars(ax, rows, measured, column, scale)
+            elif f"{column}_low" in rows and np.isfinite(rows[f"{column}_low"]).any():  # no legend for an empty band
                 order = np.argsort(a)
                 ax.fill_between(a[order], scale * rows[f"{column}_low"].to_numpy()[order],
                                 scale * rows[f"{column}_high"].to_numpy()[order], color="tab:orange", alpha=0.3,
@@ -63,3 +65,18 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
     fig.suptitle(f"{result.test_type} held out, predicted by the {result.model.backbone} model of {fitted}",
                  fontsize=10)
     return fig
+
+
+def _impact_bars(ax, rows, measured: str, column: str, scale: float) -> None:
+    """Held impacts at their modal amplitudes: the measured value's 95 % band (± 1.96 standard
+    errors of the pole) and, just right of it, the prediction (the model's linear limit where
+    it is read at a = 0) with its band, where there is one."""
+    a = rows["modal_amplitude"].to_numpy()
+    for name, shift, marker, colour, label in (
+            (measured, 1.0, "_", "C0", "impact's own 95 % band"),
+            (column, 1.1, "x", "C3", "predicted (below the fitted amplitudes: the linear limit, a = 0), 95 % band")):
+        value = rows[name].to_numpy()
+        low, high = ((rows[f"{name}_{side}"].to_numpy() if f"{name}_{side}" in rows else value)
+                     for side in ("low", "high"))
+        ax.errorbar(a * shift, scale * value, yerr=scale * np.nan_to_num(np.vstack([value - low, high - value])),
+                    fmt=marker, color=colour, capsize=4, label=label)

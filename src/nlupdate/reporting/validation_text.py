@@ -158,21 +158,33 @@ def comparison_notes(result) -> list[str]:
 def held_type_lines(summary: dict, unit: str) -> list[str]:
     """What ``nlupdate validate --hold-out-type`` prints of validation.json's
     ``held_out_type`` entry (:meth:`~nlupdate.core.validation.held_type.HeldType.summary`),
-    the bad news first: each held-out level or sample whose measured value lies outside the
-    prediction's 95 % band; the fitted model's own warnings (its linear limit extrapolated or
-    on a bound, a poor fit: ``warning:`` lines, in validation.json only before); then, for a
-    held stepped sine, one aligned row per level (measured, predicted with its band, in band
-    or not)."""
+    the bad news first: an impact compared with the model's linear limit extrapolated to zero
+    amplitude (said before anything else); each held-out level or sample whose measured value
+    lies outside the prediction's 95 % band; the fitted model's own warnings (its linear limit
+    extrapolated or on a bound, a poor fit: ``warning:`` lines, in validation.json only
+    before); then, for a held stepped sine, one aligned row per level (measured, predicted with
+    its band, in band or not), for held impacts one row per impact and quantity (measured and
+    predicted, each with its band, the error, in band or not)."""
     names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
     misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
               for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
     sampled = [entry for entry in summary["samples"] if entry["within_fit"]]
+    extrapolated = [entry for entry in summary["samples"] if "extrapolation" in entry]
     for key in ("natural_frequency_hz", "damping_ratio"):
         count = sum(entry[key].get("inside") is False for entry in sampled)
         if count:
             misses.append(f"{names[key]} of {count} of the {len(sampled)} held-out samples within the fitted amplitudes")
+        misses += [f"{names[key]} of {entry['source']} (its linear limit)" for entry in extrapolated
+                   if entry[key].get("inside") is False]
     what = f"{summary['test_type']} held out"
-    if misses:
+    if extrapolated:  # first: every number below it qualifies
+        banded = all("inside" in entry[key] for entry in extrapolated for key in ("natural_frequency_hz",
+                                                                                   "damping_ratio"))
+        verdict = (f"measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}" if misses
+                   else "measured within the prediction's 95 % band" if banded
+                   else "without a band (no bootstrap refits: --bootstrap N)")
+        lines = [f"warning: {what}: {'; '.join(entry['extrapolation'] for entry in extrapolated)}; {verdict}"]
+    elif misses:
         lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
     elif not summary["levels"] and not sampled:
         lines = [f"warning: {what}: no held-out sample lies within the fitted amplitudes: each prediction is an "
@@ -181,6 +193,8 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
         lines = [f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
     lines += [f"warning: the model fitted without {summary['test_type']}: {warning}"
               for warning in summary["model"].get("warnings", [])]
+    if summary["test_type"] == "impact":
+        return lines + _impact_rows(summary["samples"])
     if not summary["levels"]:
         return lines
     cells = [(f"level ({unit})", "resonance (Hz): measured", "predicted [95 % band]", "damping (%): measured",
@@ -194,6 +208,30 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
                       flags + ("" if entry["within_fit"] else " (outside the fitted amplitudes)")))
     widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return lines + ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+
+
+def _impact_rows(samples: list[dict]) -> list[str]:
+    """One aligned row per held impact and quantity: measured [its band], predicted [band],
+    where the prediction is read (the impact's amplitude, or 0: the linear limit), error."""
+    cells = [("impact", "quantity", "measured [95 % band]", "predicted [95 % band]", "predicted at (m·√kg)", "error",
+              "in band")]
+    for entry in samples:
+        at = entry["predicted_at_modal_amplitude"]
+        where = "0 (linear limit)" if at == 0 else f"{at:.3g}"
+        for key, label, scale, unit, digits in (("natural_frequency_hz", "natural frequency", 1.0, "Hz", 4),
+                                                ("damping_ratio", "damping ratio", 100.0, "%", 4)):
+            c = entry[key]
+            measured = f"{scale * c['measured']:.{digits}f} {unit}" + (
+                f" [{scale * c['measured_low']:.{digits}f}, {scale * c['measured_high']:.{digits}f}]"
+                if "measured_low" in c else "")
+            predicted = f"{scale * c['predicted']:.{digits}f} {unit}" + (
+                f" [{scale * c['low']:.{digits}f}, {scale * c['high']:.{digits}f}]" if "low" in c else "")
+            error = (f"{c['error']:+.4f} Hz ({_percent(100 * c['relative_error'])} %)" if key == "natural_frequency_hz"
+                     else f"{_percent(100 * c['relative_error'])} %")
+            flag = "—" if "inside" not in c else "yes" if c["inside"] else "NO"
+            cells.append((entry["source"], label, measured, predicted, where, error, flag))
+    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
+    return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
 
 
 def _band(compared: dict, scale: float, decimals: int | None) -> str:

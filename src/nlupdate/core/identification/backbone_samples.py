@@ -116,12 +116,22 @@ def backbone_curve(model: AmplitudeModalModel, samples: ModalSamples, count: int
     f, z = model.frequency_hz(a), model.damping(a)
     bands = {name: np.full(a.size, np.nan) for name in ("f_low", "f_high", "z_low", "z_high")}
     if refit is not None and resamples > 0:
-        curves = _bootstrap(model, samples, a, refit, resamples, seed, progress, noise)
-        (bands["f_low"], bands["f_high"]), (bands["z_low"], bands["z_high"]) = (
-            band_arrays(point, c) for point, c in zip((f, z), curves))
+        (bands["f_low"], bands["f_high"]), (bands["z_low"], bands["z_high"]) = bootstrap_bands(
+            model, samples, a, refit, resamples, seed, progress, noise)
     return pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": f, "natural_frequency_hz_low": bands["f_low"],
                          "natural_frequency_hz_high": bands["f_high"], "damping_ratio": z,
                          "damping_ratio_low": bands["z_low"], "damping_ratio_high": bands["z_high"]})
+
+
+def bootstrap_bands(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.ndarray,
+                    refit: Callable[[ModalSamples], AmplitudeModalModel], resamples: int, seed: int = 0,
+                    progress: ProgressCallback = no_progress, noise: tuple = DEFAULT_NOISE) -> tuple[tuple, tuple]:
+    """((low, high) of the natural frequency, (low, high) of the damping ratio): the 95 %
+    bands of ``backbone.csv`` (module docstring) at ``amplitude`` (m·√kg; 0 gives the linear
+    limit's: each refit's own, as :meth:`AmplitudeModalModel.frequency_hz` reads a = 0)."""
+    curves = _bootstrap(model, samples, amplitude, refit, resamples, seed, progress, noise)
+    return tuple(band_arrays(point, c) for point, c in zip((model.frequency_hz(amplitude), model.damping(amplitude)),
+                                                          curves))
 
 
 def _bootstrap(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.ndarray,
@@ -275,14 +285,19 @@ def held_out_errors(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamp
     measured and predicted natural frequency and damping ratio at that amplitude and their
     relative errors (``*_error``, predicted / measured − 1); for a phase-resonance sample also
     the amplitude the model holds at its force (``predicted_amplitude``, ``amplitude_error``;
-    NaN for the others)."""
+    NaN for the others). ``predicted_at_amplitude``: the modal amplitude the prediction is
+    read at — the sample's own, but for an impact below every fitted sample 0: an impact
+    measures the linear limit, and the model's is its value at a = 0 (an extrapolation;
+    ``within_fit`` False)."""
     frames = []
     for name, samples, kind in parts:
         a = samples.amplitude
-        f, z = model.frequency_hz(a), model.damping(a)
+        at = np.where(a < fitted[0] * (1 - 1e-9), 0.0, a) if kind == "impact" else a
+        f, z = model.frequency_hz(at), model.damping(at)
         inside = (a >= fitted[0] * (1 - 1e-9)) & (a <= fitted[1] * (1 + 1e-9))
         frame = pd.DataFrame({"source": name, "test_type": kind, "modal_amplitude": a, "within_fit": inside,
-                              "natural_frequency_hz": samples.frequency_hz, "predicted_frequency_hz": f,
+                              "predicted_at_amplitude": at, "natural_frequency_hz": samples.frequency_hz,
+                              "predicted_frequency_hz": f,
                               "frequency_error": f / samples.frequency_hz - 1, "damping_ratio": samples.damping_ratio,
                               "predicted_damping_ratio": z, "damping_error": z / samples.damping_ratio - 1,
                               "predicted_amplitude": np.nan, "amplitude_error": np.nan})

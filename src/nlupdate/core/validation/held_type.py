@@ -9,7 +9,10 @@ fitted jointly, each weighted by its own noise
 fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
 
 * ring-down, response-controlled, impact: each sample's natural frequency and damping ratio at
-  its modal amplitude (the amplitude-dependent model's backbone and damping curve);
+  its modal amplitude (the amplitude-dependent model's backbone and damping curve); an impact
+  below every kept sample measures the linear limit, and is compared with the model's: its
+  frequency and damping at zero amplitude (``predicted_at_modal_amplitude`` 0, an
+  extrapolation the entry states, ``extrapolation``);
 * phase resonance: the same, and the modal amplitude the model holds at each point's force
   (``2ζ(a)ω(a)²a = |φ_f|F``);
 * stepped sine: each force level's FRF over its measured lines (single-nonlinear-mode theory,
@@ -29,8 +32,12 @@ no model follows); about a sample's predicted frequency and damping, the residua
 of the kept sources' fit (``backbone.csv``'s band of ``nlupdate amplitude``) widened on each
 side, in quadrature, by 1.96 × the held source's own noise
 (:func:`~nlupdate.core.identification.backbone_samples.source_noise`: its scatter, at least
-1e-5 in frequency and 1 % in damping), where the sample lies within the fitted amplitudes.
-Without resamples, or outside, there is none (absent).
+1e-5 in frequency and 1 % in damping), where the sample lies within the fitted amplitudes, and
+about an impact's predicted linear limit (the bootstrap of the refits' own linear limits: the
+kept fit's noise carried to a = 0 by the model's form, not that form's error below its
+samples). Without resamples, or outside, there is none (absent). An impact's measured
+frequency and damping have their own 95 % band (``measured_low``, ``measured_high``): ± 1.96
+standard errors of its pole (:class:`~nlupdate.core.identification.impact.LinearLimit`).
 """
 from __future__ import annotations
 
@@ -42,7 +49,7 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import (
-    TEST_TYPES, backbone_curve, held_out_errors, join_samples, own_fit_for, source_noise,
+    TEST_TYPES, bootstrap_bands, held_out_errors, join_samples, own_fit_for, source_noise,
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
@@ -81,16 +88,24 @@ class HeldType:
                "fitted_on": [{"source": s, "test_type": t, "samples": n} for s, t, n in self.fitted_on],
                "fitted_modal_amplitude": list(self.fitted_range),
                "model": self.model.to_dict(), "samples": [], "levels": []}
-        for row in self.samples.itertuples():
-            entry = {"source": row.source, "modal_amplitude": row.modal_amplitude, "within_fit": bool(row.within_fit),
-                     "natural_frequency_hz": _compared(row.natural_frequency_hz, row.predicted_frequency_hz,
-                                                       getattr(row, "predicted_frequency_hz_low", None),
-                                                       getattr(row, "predicted_frequency_hz_high", None)),
-                     "damping_ratio": _compared(row.damping_ratio, row.predicted_damping_ratio,
-                                                getattr(row, "predicted_damping_ratio_low", None),
-                                                getattr(row, "predicted_damping_ratio_high", None))}
-            if np.isfinite(row.predicted_amplitude):
-                entry["modal_amplitude_held"] = _compared(row.modal_amplitude, row.predicted_amplitude)
+        for row in self.samples.to_dict("records"):
+            entry = {"source": row["source"], "modal_amplitude": row["modal_amplitude"],
+                     "within_fit": bool(row["within_fit"])}
+            if row["test_type"] == "impact":
+                entry["predicted_at_modal_amplitude"] = float(row["predicted_at_amplitude"])
+                if row["predicted_at_amplitude"] == 0:
+                    own = self.model.frequency_hz(row["modal_amplitude"]), self.model.damping(row["modal_amplitude"])
+                    entry["extrapolation"] = (
+                        f"the impact {row['source']} at modal amplitude {row['modal_amplitude']:.3g} m·√kg lies below "
+                        f"every kept sample ({self.fitted_range[0]:.3g}–{self.fitted_range[1]:.3g} m·√kg): its "
+                        f"linear limit is compared with the model's at zero amplitude, an extrapolation (the model "
+                        f"at the impact's own amplitude: {float(own[0]):.6g} Hz, {100 * float(own[1]):.4g} %)")
+            for name, column in (("natural_frequency_hz", "predicted_frequency_hz"),
+                                 ("damping_ratio", "predicted_damping_ratio")):
+                entry[name] = _compared(row[name], row[column], row.get(f"{column}_low"), row.get(f"{column}_high"),
+                                        row.get(f"{name}_low"), row.get(f"{name}_high"))
+            if np.isfinite(row["predicted_amplitude"]):
+                entry["modal_amplitude_held"] = _compared(row["modal_amplitude"], row["predicted_amplitude"])
             out["samples"].append(entry)
         for row in self.levels.to_dict("records"):
             entry = {"level": row["level"], "within_fit": bool(row["within_fit"]),
@@ -119,11 +134,18 @@ class HeldType:
         return worst
 
 
-def _compared(measured: float, predicted: float, low: float | None = None, high: float | None = None) -> dict:
+def _compared(measured: float, predicted: float, low: float | None = None, high: float | None = None,
+              measured_low: float | None = None, measured_high: float | None = None) -> dict:
+    """One quantity's entry: measured, predicted, their difference and ratio − 1; the
+    prediction's band (``low``, ``high``, ``inside``: the measured value within) and the
+    measured value's own (``measured_low``, ``measured_high``) where given and finite."""
     out = {"measured": float(measured), "predicted": float(predicted),
            "error": float(predicted - measured), "relative_error": float(predicted / measured - 1)}
     if low is not None and high is not None and np.isfinite(low) and np.isfinite(high):
         out.update(low=float(low), high=float(high), inside=bool(low <= measured <= high))
+    if measured_low is not None and measured_high is not None and np.isfinite(measured_low) and np.isfinite(
+            measured_high):
+        out.update(measured_low=float(measured_low), measured_high=float(measured_high))
     return out
 
 
@@ -152,19 +174,18 @@ def sample_bands(model: AmplitudeModalModel, kept: Sequence[Source], shapes: Seq
                  backbone: str, order: int, amplitude: np.ndarray, resamples: int) -> dict[str, tuple]:
     """95 % bands (low, high) of the predicted natural frequency and damping ratio at
     ``amplitude`` (m·√kg): the residual bootstrap of ``backbone.csv``
-    (:func:`~nlupdate.core.identification.backbone_samples.backbone_curve`, ``resamples``
-    refits of the kept sources) interpolated in log a; NaN outside the fitted amplitudes."""
+    (:func:`~nlupdate.core.identification.backbone_samples.bootstrap_bands`, ``resamples``
+    refits of the kept sources) at those amplitudes; NaN outside the fitted amplitudes, but at
+    0 (the linear limit) the refits' own."""
     fitted = join_samples([s for _, s, _, _ in kept])
     stds = _weights(kept, backbone, shapes)
-    curve = backbone_curve(model, fitted, count=100, resamples=resamples, noise=stds,
-                           refit=lambda draw: fit_amplitude_model(draw, shapes, backbone, order, *stds,
-                                                                  mode=model.mode))
-    x, at = np.log(curve["modal_amplitude"].to_numpy()), np.log(amplitude)
-    out = {}
-    for name in ("natural_frequency_hz", "damping_ratio"):
-        out[name] = tuple(np.interp(at, x, curve[f"{name}_{side}"].to_numpy(), left=np.nan, right=np.nan)
-                          for side in ("low", "high"))
-    return out
+    amplitude = np.asarray(amplitude, dtype=float)
+    bands = bootstrap_bands(model, fitted, amplitude, lambda draw: fit_amplitude_model(
+        draw, shapes, backbone, order, *stds, mode=model.mode), resamples, noise=stds)
+    shown = (amplitude == 0) | ((amplitude >= fitted.amplitude.min() * (1 - 1e-9))
+                                & (amplitude <= fitted.amplitude.max() * (1 + 1e-9)))
+    return {name: tuple(np.where(shown, side, np.nan) for side in band)
+            for name, band in zip(("natural_frequency_hz", "damping_ratio"), bands)}
 
 
 def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_range: tuple[float, float]) -> pd.DataFrame:
@@ -212,8 +233,14 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
     else:
         samples = held_out_errors(model, [(name, s, kind) for name, s, _, kind in held], fitted_range)
         levels = pd.DataFrame()
+        if test_type == "impact":  # each pole's own standard errors (module docstring)
+            errors = np.concatenate([np.tile(np.asarray(st if st is not None else (np.nan, np.nan), float),
+                                              (s.amplitude.size, 1)) for _, s, st, _ in held])
+            for k, name in enumerate(("natural_frequency_hz", "damping_ratio")):
+                samples[f"{name}_low"] = samples[name] * (1 - 1.96 * errors[:, k])
+                samples[f"{name}_high"] = samples[name] * (1 + 1.96 * errors[:, k])
         if resamples > 0:
-            bands = sample_bands(model, kept, shapes, backbone, order, samples["modal_amplitude"].to_numpy(),
+            bands = sample_bands(model, kept, shapes, backbone, order, samples["predicted_at_amplitude"].to_numpy(),
                                  resamples)
             noise = [source_noise(s, stated) for _, s, stated, _ in held]  # the held test's own scatter
             for k, (name, column) in enumerate((("natural_frequency_hz", "predicted_frequency_hz"),
