@@ -79,3 +79,25 @@ def test_compare_sees_the_held_out_predictions(archive, tmp_path, capsys):
     assert changed["a"][0] == pytest.approx(table["resonance_hz_predicted"].item(), rel=1e-12)
     assert rows[f"{name}: model"]["a"] == table["model"].item() == "lines"
     assert all(row["status"] == "same" for field, row in rows.items() if "resonance (Hz) predicted" not in field)
+
+
+def test_list_quotes_the_best_runs_own_frac_and_counts_the_warnings(archive, capsys):
+    """The line names the best run, so its FRAC is that run's lowest over the levels (it was the
+    lowest of every predicted run: 0.716, the {m1} run's, beside the best {k1} whose lowest is
+    0.721); and a run whose results are not to be trusted says so (the BRB's identification is
+    NOT TRUSTWORTHY: the line read 'complete' and the numbers alone)."""
+    root, run, _ = archive
+    code, out, err = run_cli(capsys, "archive", "list", "--root", root, "--json")
+    assert code == 0, err
+    (entry,) = json.loads(out)
+    ranking = pd.read_parquet(run / "tables" / "ranking.parquet")
+    best = ranking.loc[ranking["rank"] == 1, "candidate"].item()
+    correlation = pd.read_parquet(run / "tables" / "correlation.parquet")
+    assert entry["best"] == best
+    assert entry["min_frac"] == pytest.approx(correlation.loc[correlation["model"] == best, "frac"].min(), rel=1e-12)
+    assert correlation.loc[correlation["model"] != "initial", "frac"].min() < entry["min_frac"]  # the case it was wrong
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert entry["warnings"] == len(manifest["warnings"]) == 2
+    code, out, _ = run_cli(capsys, "archive", "list", "--root", root)
+    (line,) = out.strip().splitlines()
+    assert "complete, 2 warnings (archive show)" in line and f"min FRAC {entry['min_frac']:.3f}" in line

@@ -203,7 +203,8 @@ def best_candidate(run: ArchivedRun) -> str | None:
 
 def key_results(run: ArchivedRun) -> dict[str, Any]:
     """Identified parameters, the best candidate and its updated parameters (value, std),
-    and the lowest FRAC of the best prediction over the force levels."""
+    and the lowest FRAC of the best candidate's prediction over the force levels (None when
+    it was not predicted)."""
     out: dict[str, Any] = {"identified": {}, "best": best_candidate(run), "updated": {}, "min_frac": None}
     identified = run.table("identification")
     if identified is not None:
@@ -220,7 +221,7 @@ def key_results(run: ArchivedRun) -> dict[str, Any]:
                     out["updated"][name] = [float(row[column]), None if std is None or pd.isna(std) else float(std)]
     correlation = run.table("correlation")
     if correlation is not None:
-        updated = correlation[correlation["model"] != "initial"]
+        updated = correlation[correlation["model"] == out["best"]]
         if len(updated):
             out["min_frac"] = float(updated["frac"].min())
     return out

@@ -5,8 +5,9 @@ when one second saw the same inputs again) or an unambiguous prefix of one, unde
 --root. list shows the runs oldest first, an original before its -1, -2, ….
 
   list      one line per run: study, id, date, status (complete / failed /
-            incomplete / writing), best candidate, its updated parameters, lowest
-            prediction FRAC over the force levels
+            incomplete / writing) and the number of the run's warnings, best
+            candidate, its updated parameters, the lowest FRAC of its prediction over
+            the force levels
   show      the report's summary and where the archive's files are
   compare   what differs between two runs: what each run is (study, chain steps, FE
             model, parameters, targets, measured curves and force levels), inputs
@@ -97,6 +98,7 @@ def _list_entry(run) -> dict:
         entry["rerun_of"] = run.manifest.get("run", {}).get("rerun_of")
         entry["error"] = run.manifest.get("error")
         entry["failed_runs"] = [failure["run"] for failure in run.manifest.get("failures", [])]
+        entry["warnings"] = len(run.manifest.get("warnings", []))
     return entry
 
 
@@ -104,7 +106,9 @@ def _list_line(entry: dict) -> str:
     from nlupdate.reporting.compare import Estimate, format_value
 
     date = (entry["started_utc"] or "")[:16].replace("T", " ")
-    parts = [f"{entry['study']:<14}", f"{entry['run_id']:<28}", f"{date or '–':<16}", f"{entry['status']:<10}"]
+    warned = entry.get("warnings")
+    status = entry["status"] + (f", {warned} warning{'s' if warned > 1 else ''} (archive show)" if warned else "")
+    parts = [f"{entry['study']:<14}", f"{entry['run_id']:<28}", f"{date or '–':<16}", f"{status:<10}"]
     if entry.get("reason"):
         parts.append(f"({entry['reason']})")
     if entry.get("best"):
