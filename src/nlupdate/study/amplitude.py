@@ -61,7 +61,8 @@ class AmplitudeSpec:
     band_hz: tuple[float, ...] | None = setting(
         None, kind="numbers", length=2, minimum=0, unit="Hz",
         default_text="around the spectrum's largest peak (a record); the excited band (the stepped sine)",
-        meaning="the mode's band [low, high]: a record's band-pass, the stepped sine's lines kept, as `--band`")
+        meaning="the mode's band [low, high]: a record's band-pass, the stepped sine's lines kept (a warning when "
+                "it changes their damping samples from the excited band's), as `--band`")
     response_unit: str = setting("m", kind="string",
                                  meaning="unit of the ring-down and impact records: m, mm, m/s, mm/s, m/s^2, g, …; "
                                          "their amplitudes are made displacement, as `--response-unit`")
