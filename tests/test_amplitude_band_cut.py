@@ -148,7 +148,8 @@ def test_a_band_that_keeps_the_resonance_is_not_named(simulated):
 
 def test_a_studys_band_hz_warns_as_the_command_does(tmp_path):
     """``[amplitude] band_hz = [80, 80.6]`` on the study's BRB stepped sine: the archive's
-    amplitude_model.json holds the command's warning, and the report's summary opens with it."""
+    amplitude_model.json holds the command's warning, and the report's summary states it
+    before the model's line."""
     (tmp_path / "ForcedFrequencyResponses.mat").write_bytes(BRB.read_bytes())
     study = {"study": {"name": "brb-band"},
              "measured": {"file": "ForcedFrequencyResponses.mat",
@@ -161,6 +162,6 @@ def test_a_studys_band_hz_warns_as_the_command_does(tmp_path):
     said = [w for w in warnings if WARNING in w]
     assert len(said) == 1 and said[0].startswith("the band 80–80.6 Hz changes")
     assert all(f"{level:g} N: " in said[0] for level in (0.1947, 0.4886, 0.9699, 1.46))
-    summary = (archive / "report.md").read_text().split("## Summary", 1)[1]
-    first = next(line for line in summary.splitlines() if line.startswith("* "))
-    assert WARNING in first or any(WARNING in line for line in summary.splitlines()[:6]), summary
+    summary = (archive / "report.md").read_text().split("## Summary", 1)[1].split("\n## ", 1)[0].splitlines()
+    number = next(k for k, line in enumerate(summary) if line.startswith("* **Amplitude model** (mode 1"))
+    assert f"* **Amplitude model: {said[0]}**" in summary[:number], summary

@@ -142,10 +142,14 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
     unit = table_reference_unit(table)
     warning = None
     if cut is not None:
-        whole = FRFLevels.from_table(cut.whole, response_dof, input_dof)
+        try:  # lines the band left out may hold what the reading refuses (a receptance of 0): nothing to compare
+            whole = FRFLevels.from_table(cut.whole, response_dof, input_dof)
+        except ValueError:
+            whole = None
         f = cut.whole["frequency_hz"]
-        warning = band_warning(band_changes(whole, data, cut.band_hz, shapes.get(input_dof)), cut.band_hz,
-                               (float(f.min()), float(f.max())), unit)
+        warning = None if whole is None else band_warning(
+            band_changes(whole, data, cut.band_hz, shapes.get(input_dof)), cut.band_hz,
+            (float(f.min()), float(f.max())), unit)
     return MeasuredSource(samples, model, data, unit, input_dof, "stepped-sine", (warning,) if warning else ())
 
 
