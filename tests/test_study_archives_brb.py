@@ -101,3 +101,22 @@ def test_list_quotes_the_best_runs_own_frac_and_counts_the_warnings(archive, cap
     code, out, _ = run_cli(capsys, "archive", "list", "--root", root)
     (line,) = out.strip().splitlines()
     assert "complete, 2 warnings (archive show)" in line and f"min FRAC {entry['min_frac']:.3f}" in line
+
+
+def test_update_says_what_not_to_trust_before_the_numbers(archive):
+    """``nlupdate update``'s last lines: every warning of the archive's summary (the
+    identification's, and the held-out top level's extrapolation, which the terminal did not
+    print at all) before the targets and updated values they qualify (the identification's
+    came after them, last)."""
+    _, run, printed = archive
+    lines = printed.strip().splitlines()
+    first_number = next(i for i, line in enumerate(lines) if line.startswith("study 'brb-archive': targets"))
+    warned = [line for line in lines if line.startswith("warning: ")]
+    assert warned == lines[:len(warned)] and len(warned) <= first_number, printed
+    manifest = json.loads((run / "manifest.json").read_text())
+    for warning in manifest["warnings"]:
+        assert f"warning: {warning['source']}: {warning['message']}" in warned
+    validation = json.loads((run / "validation.json").read_text())
+    (held,) = validation["held_out"]
+    assert any(line.startswith(f"warning: validation: held-out level {held['level']:g} N lies above the highest kept "
+                               "level") and "an extrapolation" in line for line in warned), printed

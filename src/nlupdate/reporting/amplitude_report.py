@@ -121,13 +121,18 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     return lines + _held_lines(fit)
 
 
+def amplitude_warnings(fit: AmplitudeFit) -> list[str]:
+    """The bad news on the fit, as the study's summary and terminal open with it: sources that
+    disagree, a poor fit, the model's own warnings (its linear limit extrapolated or on a bound)."""
+    return [text for text in (_disagreement_line(fit), _poor_line(fit)) if text] + list(fit.model.warnings)
+
+
 def amplitude_summary(fit: AmplitudeFit) -> list[str]:
-    """The study summary's lines, the bad news first: sources that disagree, a poor fit, the
-    model's own warnings (its linear limit extrapolated or on a bound); then the linear limit
-    and the amplitudes covered, and the sources the consistency check could not test."""
-    lines = [f"* **Amplitude model: {text}**" for text in (_disagreement_line(fit), _poor_line(fit)) if text]
+    """The study summary's lines, the bad news first (:func:`amplitude_warnings`); then the
+    linear limit and the amplitudes covered, and the sources the consistency check could not
+    test."""
+    lines = [f"* **Amplitude model: {text}**" for text in amplitude_warnings(fit)]
     model, samples = fit.model, fit.samples
-    lines += [f"* **Amplitude model: {warning}**" for warning in model.warnings]  # its linear limit's, as the terminal
     kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
     lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
                  f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; "

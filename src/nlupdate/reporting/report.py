@@ -16,7 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_summary
+from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_summary, amplitude_warnings
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
@@ -148,6 +148,19 @@ def none_converged_line(runs) -> tuple[str, str] | None:
 def _not_converged(value: float, truth: float | None) -> str:
     """A value where a run stopped: no ±, since it is no result."""
     return f"{number(value)} (not converged{f'; truth {number(truth)}' if truth is not None else ''})"
+
+
+def study_warning_lines(result) -> list[str]:
+    """Every warning the summary carries, one line each, for a terminal: the study's
+    (``result.warnings``), the validation's first (:func:`summary_headline`, with how many more)
+    and the amplitude model's (:func:`amplitude_warnings`)."""
+    lines = [str(w) for w in result.warnings]
+    if result.validation is not None:
+        headline = summary_headline(result.validation, result.validation.reference_unit)
+        lines += [] if headline is None else [f"validation: {headline}"]
+    if result.amplitude is not None:
+        lines += [f"amplitude model: {text}" for text in amplitude_warnings(result.amplitude)]
+    return lines
 
 
 def _warning_lines(result) -> list[str]:

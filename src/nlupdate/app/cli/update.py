@@ -15,7 +15,7 @@ from nlupdate.app.cli import add_command
 from nlupdate.app.cli.output import add_overwrite_option, checked_output
 from nlupdate.app.cli.run import check_solver, exit_code_for_failures
 from nlupdate.reporting.archive import ARCHIVE_KIND, write_archive
-from nlupdate.reporting.report import none_converged_line
+from nlupdate.reporting.report import none_converged_line, study_warning_lines
 from nlupdate.study import inputs_read_once, load_study, run_study
 
 
@@ -45,8 +45,7 @@ def run(args: argparse.Namespace) -> int:
     headline = none_converged_line(result.runs)
     if headline is not None:
         print("".join(headline))
-    first = [w for w in result.warnings if w.kind == "prediction_worse"]
-    for warning in first:
+    for warning in study_warning_lines(result):  # what not to trust, before the numbers it qualifies
         print(f"warning: {warning}")
     if result.targets is not None:
         targets = result.targets.targets
@@ -66,8 +65,5 @@ def run(args: argparse.Namespace) -> int:
         state = ", NOT converged" if isinstance(converged, (bool, np.bool_)) and not converged else ""
         print(f"best for the user weights: {best['candidate']} (weighted |error| {best['weighted_abs_error_pct']:.3f} %"
               f"{state})")
-    for warning in result.warnings:
-        if warning not in first:
-            print(f"warning: {warning}")
     print(f"wrote {folder} (report.md)")
     return exit_code_for_failures([{"run": f.name, "error": f.error} for f in result.failures])
