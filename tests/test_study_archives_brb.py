@@ -120,3 +120,32 @@ def test_update_says_what_not_to_trust_before_the_numbers(archive):
     (held,) = validation["held_out"]
     assert any(line.startswith(f"warning: validation: held-out level {held['level']:g} N lies above the highest kept "
                                "level") and "an extrapolation" in line for line in warned), printed
+
+
+def test_a_loss_factor_fitted_onto_its_bound_is_a_warning(tmp_path, capsys):
+    """The BRB read with the sensor's sign reversed (acc3:y against acc3:y): no modal loss
+    factor reproduces the lowest level's curve, and the low-force fit ends on the upper end of
+    its search, η = 0.2 (docs/study-files.md, [prediction] loss_factor; the correctly signed
+    beam fits 0.0035). The summary said 'loss factor 0.2, fitted to the 0.1947 N measurement'
+    without a word, in every prediction; now the report, the terminal and the manifest say the
+    fit is on its bound."""
+    study = brb_study()
+    study["measured"]["coordinates"] = {str(BRB): ["acc3:y", "acc3:y"]}
+    del study["validation"]  # the reversed curve has no driving-point resonance to validate
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    code, out, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
+    assert code == 0, err
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    (warning,) = [w for w in manifest["warnings"] if w["kind"] == "loss_factor_at_bound"]
+    assert "upper bound of its search (0.0001–0.2)" in warning["message"]
+    assert f"warning: prediction: {warning['message']}" in out.splitlines()
+    report = (tmp_path / "run" / "report.md").read_text()
+    lines = [line for line in report.splitlines() if line.startswith("* **Prediction**")]
+    assert len(lines) == 3 and all("loss factor 0.2, fitted to the 0.1947 N measurement, on the upper bound" in line
+                                   for line in lines), lines
+
+
+def test_the_correctly_signed_beam_fits_its_loss_factor_inside_the_search(archive):
+    _, run, _ = archive
+    kinds = [w["kind"] for w in json.loads((run / "manifest.json").read_text())["warnings"]]
+    assert "loss_factor_at_bound" not in kinds and len(kinds) == 2

@@ -134,8 +134,9 @@ class PredictionSpec:
                 "(eigensensitivity names as above, candidate names)")
     loss_factor: str | float = setting(
         "low_force_fit", kind="choice|number", choices=LOSS_FACTOR_SOURCES, minimum=0,
-        meaning="modal loss factor η of every mode: fitted to the lowest predicted level's measurement, the mean of "
-                "the identified modes' loss factors, or this value")
+        meaning="modal loss factor η of every mode: fitted to the lowest predicted level's measurement (searched in "
+                "1e-4–0.2; a fit that ends on either end is a warning, `loss_factor_at_bound`), the mean of the "
+                "identified modes' loss factors, or this value")
     sweep: str = setting("up", kind="choice", choices=("up", "down"), meaning="stepped-sine direction of the prediction")
     adapter_options: Mapping[str, Any] = setting(
         default_factory=dict, kind="table",

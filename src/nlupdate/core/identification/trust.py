@@ -101,8 +101,9 @@ class TrustWarning:
 
     subject: what it is about (a parameter name, ``fit``, ``run`` or ``prediction``); kind:
     ``at_bound``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
-    ``residual_above_noise``, ``not_converged`` (an updating run) or ``prediction_worse``
-    (the best model predicts worse than the initial one);
+    ``residual_above_noise``, ``not_converged`` (an updating run), ``prediction_worse``
+    (the best model predicts worse than the initial one) or ``loss_factor_at_bound`` (the
+    predictions' low-force loss factor fit ended on its search's bound);
     message: one plain sentence with the numbers; source: where the result came from
     (``identification``, or an updating run's name).
     """

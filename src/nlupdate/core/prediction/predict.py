@@ -40,6 +40,26 @@ from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.core.response.sweep import frequency_sweep
 
 LOSS_FACTOR_BOUNDS = (1e-4, 0.2)
+#: how close (relative) a fitted η must be to a bound to count as on it: twice the search's
+#: tolerance in log η (:func:`fit_loss_factor`'s ``xatol``)
+_ON_BOUND = 2e-3
+
+
+def loss_factor_bound(eta: float) -> str | None:
+    """``"lower"`` or ``"upper"`` when the low-force fit's η ended on that end of its search
+    (:data:`LOSS_FACTOR_BOUNDS`): no loss factor in the range reproduces the curve, so η is the
+    search's, not the structure's; None inside."""
+    for name, bound in zip(("lower", "upper"), LOSS_FACTOR_BOUNDS):
+        if abs(np.log(eta / bound)) < _ON_BOUND:
+            return name
+    return None
+
+
+def on_bound_note(eta: float) -> str:
+    """The words a fitted η on a bound of its search carries ("" inside)."""
+    bound = loss_factor_bound(eta)
+    return "" if bound is None else (f", on the {bound} bound of its search ({LOSS_FACTOR_BOUNDS[0]:g}–"
+                                     f"{LOSS_FACTOR_BOUNDS[1]:g}): no loss factor in that range reproduces it")
 
 
 def updated_model(modes: ModalResult, elements: Sequence, loss_factor: float) -> NonlinearSystem:
@@ -205,7 +225,7 @@ def predict_measured(
         f_low, h_low = select_frf(measured, response, inp, level)
         eta = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level, sweep,
                               harmonic_balance)
-        source = f"fitted to the {level:g} N measurement"
+        source = f"fitted to the {level:g} N measurement" + on_bound_note(eta)
     elif isinstance(loss_factor, str):
         raise ValueError(f"loss_factor must be a number or 'low_force_fit', got {loss_factor!r}")
     else:

@@ -8,6 +8,7 @@ import pandas as pd
 
 from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.identification.trust import TrustWarning
+from nlupdate.core.prediction.predict import LOSS_FACTOR_BOUNDS, loss_factor_bound
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.parameter_warnings import updating_warnings
 from nlupdate.study.spec import Study
@@ -47,6 +48,26 @@ def prediction_warning(predictions: Sequence[Prediction], best: str) -> TrustWar
                         "prediction")
 
 
+def loss_factor_warning(study: Study, predictions: Sequence[Prediction]) -> TrustWarning | None:
+    """``loss_factor_at_bound`` when ``[prediction] loss_factor = "low_force_fit"`` ended on a
+    bound of its search for some updated models (:func:`~nlupdate.core.prediction.predict.loss_factor_bound`):
+    their predictions' damping is the search's end, not the structure's. The ``initial``
+    model, a baseline whose resonance may lie far from the curve's, says so in its summary
+    line only."""
+    if study.prediction is None or study.prediction.loss_factor != "low_force_fit":
+        return None
+    stuck = [p for p in predictions if p.name != "initial" and loss_factor_bound(p.loss_factor) is not None]
+    if not stuck:
+        return None
+    low, high = LOSS_FACTOR_BOUNDS
+    return TrustWarning("prediction", "loss_factor_at_bound",
+                        f"the loss factor fitted to the lowest level's measurement is {stuck[0].loss_factor:.3g} for "
+                        f"{', '.join(f'`{p.name}`' for p in stuck)}, on the {loss_factor_bound(stuck[0].loss_factor)} "
+                        f"bound of its search ({low:g}–{high:g}): no loss factor in that range reproduces that curve, "
+                        "so the predictions' damping is the search's end, not the structure's; check the measured "
+                        "curve's sign and units, or give [prediction] loss_factor", "prediction")
+
+
 def _spread(values: pd.Series) -> str:
     low, high = float(values.min()), float(values.max())
     return f"{low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"{low:.2g}–{high:.2g}"
@@ -65,6 +86,9 @@ def study_warnings(study: Study, identification: Identification | None, updating
     worse = prediction_warning(predictions or (), best.name) if best is not None else None
     if worse is not None:
         out.append(worse)
+    on_bound = loss_factor_warning(study, predictions or ())
+    if on_bound is not None:
+        out.append(on_bound)
     if identification is not None:
         out += identification.warnings
     bounds = {p.name: (p.lower, p.upper) for p in study.parameters}
