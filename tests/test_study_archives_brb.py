@@ -11,14 +11,17 @@ read here (parquet, json), never from the code that reads them back.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import shutil
+from pathlib import Path
 
 import pandas as pd
 import pytest
 import tomli_w
 
+import nlupdate
 from nlupdate.app.cli import main
 
 from cli_runs import run_cli
@@ -149,3 +152,32 @@ def test_the_correctly_signed_beam_fits_its_loss_factor_inside_the_search(archiv
     _, run, _ = archive
     kinds = [w["kind"] for w in json.loads((run / "manifest.json").read_text())["warnings"]]
     assert "loss_factor_at_bound" not in kinds and len(kinds) == 2
+
+
+def package_sources_sha256() -> str:
+    """SHA-256 over the nlupdate package's Python files in name order, each as its name
+    ('nlupdate/…') and its bytes: computed here from the files themselves."""
+    package = Path(nlupdate.__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(p for p in package.rglob("*.py") if "__pycache__" not in p.parts):
+        digest.update(str(path.relative_to(package.parent)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def test_an_archive_names_the_code_that_ran(archive, tmp_path, capsys):
+    """A git commit does not name the code of a tree with local changes (nor of an installed
+    copy: version 0.1.0), so the manifest keeps a hash of the sources that ran, and compare
+    (and rerun, which says 'the same ... package versions as the original run') tells two runs
+    of different code apart; it compared the commit and 'local changes: True' alone."""
+    root, run, _ = archive
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["environment"]["code_sha256"] == package_sources_sha256()
+    other = tmp_path / "results" / "brb-archive" / "20261129T000001Z-0000000b"
+    shutil.copytree(run, other)
+    manifest["environment"]["code_sha256"] = "0" * 64  # another tree at the same commit
+    (other / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = run_cli(capsys, "archive", "compare", run, other, "--root", root, "--json")
+    assert code == 0, err
+    changed = [(row["section"], row["field"]) for row in json.loads(out)["inputs"] if row["status"] != "same"]
+    assert changed == [("versions", "nlupdate code sha256")]

@@ -10,7 +10,7 @@ things have equal fingerprints exactly when they are equal:
 * :func:`fingerprint` is the SHA-256 of that form (hex; ``length`` cuts it);
 * :func:`text_hash`, :func:`file_hash`, :func:`tree_hash` and :func:`table_hash` hash a
   text, a file (as a run read it, :func:`nlupdate.input_files.pinned`), a folder and a
-  table's content.
+  table's content; :func:`source_hash` the Python sources of modules or packages.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ import json
 import math
 import os
 from pathlib import Path, PurePath
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -116,6 +116,17 @@ def tree_hash(folder: str | os.PathLike) -> str:
             digest.update(b"link:" + os.fsencode(os.readlink(path)))
         else:
             digest.update(file_hash(path).encode())
+    return digest.hexdigest()
+
+
+def source_hash(paths: Iterable[Path]) -> str:
+    """SHA-256 of the Python sources under ``paths`` (files or folders), names included."""
+    digest = hashlib.sha256()
+    for root in sorted(Path(p) for p in paths):
+        files = [root] if root.is_file() else sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts)
+        for path in files:
+            digest.update(str(path.relative_to(root.parent)).encode())
+            digest.update(path.read_bytes())
     return digest.hexdigest()
 
 

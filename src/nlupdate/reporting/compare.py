@@ -99,6 +99,8 @@ def input_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
     environment = manifest.get("environment", {})
     versions = {"python": environment.get("python"), "platform": environment.get("platform")}
     versions.update({f"package {name}": version for name, version in environment.get("packages", {}).items()})
+    if environment.get("code_sha256"):  # archives written before it was recorded have none
+        versions["nlupdate code sha256"] = environment["code_sha256"]
     source = environment.get("source") or {}
     if source:
         versions["nlupdate source commit"] = source.get("commit")

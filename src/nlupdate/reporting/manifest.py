@@ -9,6 +9,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import nlupdate
+from nlupdate.fingerprints import source_hash
+
 PACKAGES = ("nlupdate", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "pyuff", "prefect", "prefect-dask", "dask",
             "distributed")
 
@@ -38,9 +41,16 @@ def source_revision() -> dict[str, object] | None:
     return {"commit": commit.stdout.strip(), "local_changes": bool(status.stdout.strip())}
 
 
+def code_hash() -> str:
+    """SHA-256 of the nlupdate package's Python sources as this process runs them: what a git
+    commit cannot name when the tree had local changes, or when nlupdate is not a git checkout
+    (its version, 0.1.0, names no code)."""
+    return source_hash([Path(nlupdate.__file__).parent])
+
+
 def environment() -> dict[str, object]:
-    """Python, platform, package versions and source revision."""
+    """Python, platform, package versions, source revision and the hash of the code that ran."""
     return {"python": sys.version.split()[0], "platform": platform.platform(), "packages": package_versions(),
-            "source": source_revision()}
+            "source": source_revision(), "code_sha256": code_hash()}
 
 

@@ -31,11 +31,11 @@ import json
 import os
 import re
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, Iterator, Sequence
 
 import nlupdate
 from nlupdate.fe.adapters.registry import AdapterSpec
-from nlupdate.fingerprints import fingerprint, path_hash
+from nlupdate.fingerprints import fingerprint, path_hash, source_hash
 from nlupdate.study.chain import Step
 from nlupdate.study.spec import Study
 
@@ -45,17 +45,6 @@ from nlupdate.study.spec import Study
 STUDY_ROOTS = ("nlupdate.study.chain", "nlupdate.study.steps")
 DISCOVERY_ROOTS = ("nlupdate.core.discovery",)
 FE_ROOTS = ("nlupdate.fe.adapters.registry",)
-
-
-def source_hash(paths: Iterable[Path]) -> str:
-    """SHA-256 of the Python sources under ``paths`` (files or folders), names included."""
-    digest = hashlib.sha256()
-    for root in sorted(Path(p) for p in paths):
-        files = [root] if root.is_file() else sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts)
-        for path in files:
-            digest.update(str(path.relative_to(root.parent)).encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()
 
 
 _PACKAGE = Path(nlupdate.__file__).parent
