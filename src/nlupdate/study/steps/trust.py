@@ -63,9 +63,9 @@ def loss_factor_warning(study: Study, predictions: Sequence[Prediction]) -> Trus
     return TrustWarning("prediction", "loss_factor_at_bound",
                         f"the loss factor fitted to the lowest level's measurement is {stuck[0].loss_factor:.3g} for "
                         f"{', '.join(f'`{p.name}`' for p in stuck)}, on the {loss_factor_bound(stuck[0].loss_factor)} "
-                        f"bound of its search ({low:g}–{high:g}): no loss factor in that range reproduces that curve, "
-                        "so the predictions' damping is the search's end, not the structure's; check the measured "
-                        "curve's sign and units, or give [prediction] loss_factor", "prediction")
+                        f"bound of its search ({low:g}–{high:g}): no loss factor in that range reproduces that "
+                        "curve, so the predictions' damping is the search's end, not the structure's; check the "
+                        "measured curve's sign and units, or give [prediction] loss_factor", "prediction")
 
 
 def _spread(values: pd.Series) -> str:
