@@ -132,3 +132,21 @@ def test_impact_within_the_kept_samples_is_predicted_at_its_amplitude(jenkins_te
     assert "extrapolation" not in errors + printed.split("impact held out;")[0]
     row = table_row(printed, "damping ratio")
     assert "linear limit" not in row and f"{100 * entry['damping_ratio']['predicted']:.4f} %" in row
+
+
+def test_amplitude_hold_out_compares_the_impact_with_the_linear_limit(jenkins_tests, tmp_path, capsys):
+    """``nlupdate amplitude --hold-out impact`` reads the prediction where validate does
+    (held_out.csv's ``predicted_at_amplitude`` 0: the model's linear limit) and says so;
+    measured: within 4e-6 and 0.4 % of the stuck truth."""
+    s, folder = jenkins_tests
+    code, printed, _ = run_cli(
+        capsys, "amplitude", "--ring-down", folder / "decay.csv", "--ring-down-fit", "segments", "--impact",
+        folder / "tap.csv", "--phase-resonance", folder / "pr.csv", "--shape", f"m1={s['phi'][0]}", "--band",
+        "{}:{}".format(*band(s)), "--backbone", "jenkins", "--bootstrap", "0", "--hold-out", "impact", "--out",
+        tmp_path / "amm")
+    assert code == 0
+    (row,) = pd.read_csv(tmp_path / "amm" / "held_out.csv").to_dict("records")
+    assert row["predicted_at_amplitude"] == 0 and not row["within_fit"]
+    assert abs(row["predicted_frequency_hz"] / (s["w0"] / (2 * np.pi)) - 1) < 2e-3
+    assert abs(row["predicted_damping_ratio"] / ZETA0 - 1) < 0.05
+    assert "against the model's linear limit (a = 0), an extrapolation" in printed

@@ -69,7 +69,9 @@ def _held_lines(fit: AmplitudeFit) -> list[str]:
                          f"{100 * worst['frequency_error']:.3g} % in frequency and {100 * worst['damping_error']:.3g} % "
                          f"in damping ratio" + (f", {100 * worst['amplitude_error']:.3g} % in amplitude at its forces"
                                                 if np.isfinite(worst["amplitude_error"]) else "")
-                         + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)")
+                         + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)"
+                         + (": an impact below them, against the model's linear limit (a = 0), an extrapolation"
+                            if (rows["predicted_at_amplitude"] == 0).all() else ""))
     return lines
 
 
