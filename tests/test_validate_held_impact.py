@@ -150,3 +150,20 @@ def test_amplitude_hold_out_compares_the_impact_with_the_linear_limit(jenkins_te
     assert abs(row["predicted_frequency_hz"] / (s["w0"] / (2 * np.pi)) - 1) < 2e-3
     assert abs(row["predicted_damping_ratio"] / ZETA0 - 1) < 0.05
     assert "against the model's linear limit (a = 0), an extrapolation" in printed
+
+
+def test_a_damping_curve_held_at_zero_has_no_bootstrap_band():
+    """A fitted damping curve that falls to 0 (ζ is kept ≥ 0) leaves no relative misfit to
+    draw there: one line naming the amplitude, where it was an SVD failure of the refits
+    ('SVD did not converge', exit 2: the polynomial fit of the 2-DOF Jenkins truth above with
+    --bootstrap 20). ζ(a) = 1 % − 2 %·a/(1e-3 m·√kg) is 0 from 5e-4 m·√kg."""
+    from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+    from nlupdate.core.identification.backbone_samples import bootstrap_bands
+    from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+
+    model = AmplitudeModalModel(10.0, 0.01, (("x", 1.0),), damping_coefficients=(-0.02,), reference_amplitude=1e-3)
+    a = np.array([1e-4, 2e-4, 3e-4, 4e-4, 6e-4])
+    samples = ModalSamples(a, np.full(5, 10.0), np.full(5, 0.005), np.ones(5), 1.0)
+    assert model.damping(6e-4) == 0 and model.damping(4e-4) > 0
+    with pytest.raises(AmplitudeModelError, match=r"damping curve is 0 at modal amplitude 0.0006 m·√kg"):
+        bootstrap_bands(model, samples, a, lambda draw: model, 5)

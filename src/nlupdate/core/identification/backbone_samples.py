@@ -143,6 +143,11 @@ def _bootstrap(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.
     :data:`MIN_SCATTER_SAMPLES`, misfits drawn from ``noise`` (module docstring)."""
     rng = np.random.default_rng(seed)
     f_fit, z_fit = model.frequency_hz(samples.amplitude), model.damping(samples.amplitude)
+    if not np.all(z_fit > 0):  # ζ is kept ≥ 0: a curve held at 0 there has no relative misfit to draw
+        at = ", ".join(f"{a:.3g}" for a in samples.amplitude[~(z_fit > 0)])
+        raise AmplitudeModelError(f"bootstrap band: the fitted damping curve is 0 at modal amplitude {at} m·√kg, so "
+                                  f"the samples' relative misfits there are undefined; another backbone, or no band "
+                                  f"(--bootstrap 0)")
     misfit_f, misfit_z = samples.frequency_hz / f_fit - 1, samples.damping_ratio / z_fit - 1
     n = samples.amplitude.size
     f_std, z_std = (np.broadcast_to(np.asarray(std, float), (n,)) for std in noise)
