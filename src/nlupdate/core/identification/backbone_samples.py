@@ -19,7 +19,9 @@ leaves one degree of freedom, and its misfits are a fraction of the noise: on fo
 a closed-form backbone with 5 % noise in ζ the residual bootstrap's bands held the truth at 27
 % of the amplitudes, 4 % wide (tests/test_amplitude_extrapolation.py) — so their misfits are
 drawn from the noise the fit assumed (normal, ``noise``: the defaults 1e-3 and 5 % or a
-source's stated errors) instead. Without resamples the band columns are NaN.
+source's stated errors) instead. Without resamples the band columns are NaN. A fitted
+damping curve held at 0 at a sample (ζ is kept ≥ 0) leaves no relative misfit there: refused
+(:class:`AmplitudeModelError`, one line naming the amplitude).
 
 Joint fit of several sources (stepped sine, response-controlled runs, phase resonance,
 ring-downs, impacts). Each source is weighted by its own noise: the relative standard
