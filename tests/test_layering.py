@@ -38,6 +38,7 @@ NUMERICS_PACKAGES = ("nlupdate.core", "nlupdate.fe")
 REPORTING_MAY_CALL = {
     ("nlupdate.core.response.method", "describe"): "the wording of the response method's settings",
     ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
+    ("nlupdate.core.measurement.units", "table_reference_unit"): "the unit a table's levels are in (its column)",
 }
 
 

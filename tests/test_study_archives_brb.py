@@ -14,6 +14,7 @@ import contextlib
 import hashlib
 import io
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -181,3 +182,48 @@ def test_an_archive_names_the_code_that_ran(archive, tmp_path, capsys):
     assert code == 0, err
     changed = [(row["section"], row["field"]) for row in json.loads(out)["inputs"] if row["status"] != "same"]
     assert changed == [("versions", "nlupdate code sha256")]
+
+
+def test_a_study_per_volt_names_its_levels_in_volts(tmp_path, capsys):
+    """The BRB's table stated per volt (reference_unit = "V", as an amplifier-voltage test is
+    read: levels in V, FRFs in m/V): every level the report and compare name is in V. The
+    identification section read 'from the 0.1947 N (low)', the predictions 'fitted to the
+    0.1947 N measurement' and 'force level (N)', compare 'FRAC … at 0.1947 N' and 'force
+    levels (N)'."""
+    from nlupdate.study import load_study
+    from nlupdate.study.steps.measured import measured_table
+
+    study = brb_study()
+    (tmp_path / "brb.toml").write_text(tomli_w.dumps(study))
+    with pytest.warns(Warning):  # the file's notes on its runs
+        table = measured_table(load_study(tmp_path / "brb.toml"))
+    assert set(table["reference_unit"]) == {"N"}
+    table.assign(reference_unit="V").to_parquet(tmp_path / "brb_per_volt.parquet", index=False)
+    study["study"]["name"] = "brb-per-volt"
+    study["measured"] = {"file": "brb_per_volt.parquet"}
+    del study["validation"]
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    run = tmp_path / "results" / "brb-per-volt" / RUN_ID
+    code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", run, "--quiet")
+    assert code == 0, err
+    report = (run / "report.md").read_text()
+    assert "The reference is the excitation voltage" in report
+    assert "0.1947 V (low) and 3 high levels (0.4886–1.46 V)" in report
+    assert report.count("fitted to the 0.1947 V measurement") == 3 and "| force level (V) |" in report
+    assert not re.search(r"\d N\b|\(N\)", report), re.findall(r".{40}(?:\d N\b|\(N\)).{10}", report)
+    code, out, err = run_cli(capsys, "archive", "compare", run, run, "--root", tmp_path / "results", "--all")
+    assert code == 0, err
+    assert "force levels (V): 0.1947, 0.4886, 0.9699, 1.46" in out and "initial at 0.1947 V" in out
+    assert not re.search(r"\d N\b|\(N\)", out)
+    # the figures of the archive and of compare label the levels and |H| per volt too
+    from nlupdate.reporting.catalogue import open_run
+    from nlupdate.reporting.compare import best_prediction
+    from nlupdate.reporting.prediction_plots import measured_frfs_figure, predictions_figure
+
+    measured = pd.read_parquet(run / "tables" / "measured.parquet")
+    (ax,) = measured_frfs_figure(measured, "acc3:y", "acc3:y").axes
+    assert ax.get_ylabel().endswith("(m/V)") and ax.get_legend_handles_labels()[1][0] == "0.1947 V"
+    figure = predictions_figure(measured, [best_prediction(open_run(run))], "acc3:y", "acc3:y")
+    titles = [a.get_title() for a in figure.axes if a.get_title()]
+    assert titles and all(re.match(r"[\d.]+ V — ", t) for t in titles), titles
+    assert all("(m/N)" not in a.get_ylabel() for a in figure.axes)

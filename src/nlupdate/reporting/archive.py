@@ -44,6 +44,7 @@ from matplotlib.figure import Figure
 from nlupdate.files import atomic_directory, copy_private, inside, name_problem, write_bytes_atomic
 from nlupdate.fingerprints import file_hash, table_hash, tree_hash
 from nlupdate.core.identification.trust import POOR_FIT_FACTOR
+from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.notices import NlupdateWarning
 from nlupdate.reporting.amplitude_report import plot_amplitude_fit
 from nlupdate.reporting.figures import frf_curve, png_bytes
@@ -231,7 +232,8 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
                       lambda: predictions_figure(result.measured, result.predictions, *pair,
                                                  f"{study.name}: initial and updated nonlinear models vs measurement")))
         plots.append(("correlation", "correlation_per_level.png",
-                      lambda: correlation_figure(study_tables(result)["correlation"])))
+                      lambda: correlation_figure(study_tables(result)["correlation"],
+                                                 table_reference_unit(result.measured))))
     validation = result.validation
     if validation is not None:
         plots.append(("validation", "validation.png", lambda: summary_figure(validation)))

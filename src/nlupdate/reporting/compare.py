@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.reporting.catalogue import ArchiveError, ArchivedRun, archived_study_text
+from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.fingerprints import table_hash
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.prediction_plots import predictions_figure
@@ -148,7 +149,7 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
     correlation = run.table("correlation")
     if correlation is not None:
         for row in correlation.itertuples():
-            out["FRAC"][f"{row.model} at {row.force_level_n:g} N"] = _pair(row.frac)
+            out["FRAC"][f"{row.model} at {row.force_level_n:g} {level_unit(run)}"] = _pair(row.frac)
     held_out = _held_out_fields(run)
     if held_out:
         out["held-out levels"] = held_out
@@ -236,8 +237,14 @@ def steps_present(run: ArchivedRun) -> list[str]:
     return [step for step, kind, name in STEP_EVIDENCE if name in (tables if kind == "table" else plots)]
 
 
+def level_unit(run: ArchivedRun) -> str:
+    """The unit of a run's levels, its measured table's reference: ``"N"``, or ``"V"`` per volt."""
+    measured = run.table("measured")
+    return "N" if measured is None else table_reference_unit(measured)
+
+
 def curves(table: pd.DataFrame | None) -> dict[tuple[str, str], list[float]]:
-    """(response dof, input dof) → ascending force levels (N) of an FRF table."""
+    """(response dof, input dof) → ascending levels of an FRF table (in its reference unit)."""
     if table is None:
         return {}
     out: dict[tuple[str, str], list[float]] = {}
@@ -266,7 +273,8 @@ def overview_fields(run: ArchivedRun) -> dict[str, str]:
     measured = curves(run.table("measured"))
     if measured:
         out["measured curves (response/input)"] = ", ".join(f"{r}/{i}" for r, i in measured)
-        out["force levels (N)"] = _numbers(sorted({level for levels in measured.values() for level in levels}))
+        out[f"force levels ({level_unit(run)})"] = _numbers(sorted({level for levels in measured.values()
+                                                                    for level in levels}))
     identified = run.table("identification")
     if identified is not None and len(identified):
         out["identified"] = ", ".join(map(str, identified["parameter"]))
@@ -347,8 +355,8 @@ def _common_levels(*level_lists: Iterable[float]) -> tuple[float, ...]:
                  if all(any(math.isclose(level, other, rel_tol=1e-9) for other in levels) for levels in others))
 
 
-def _curve_list(curves_of: dict[tuple[str, str], list[float]]) -> str:
-    return "; ".join(f"{r}/{i} at {_numbers(levels)} N" for (r, i), levels in curves_of.items()) or "none"
+def _curve_list(curves_of: dict[tuple[str, str], list[float]], unit: str) -> str:
+    return "; ".join(f"{r}/{i} at {_numbers(levels)} {unit}" for (r, i), levels in curves_of.items()) or "none"
 
 
 def plot_scope(a: ArchivedRun, b: ArchivedRun, pa: SimpleNamespace | None,
@@ -360,12 +368,15 @@ def plot_scope(a: ArchivedRun, b: ArchivedRun, pa: SimpleNamespace | None,
     measured_a, measured_b = curves(a.table("measured")), curves(b.table("measured"))
     if not measured_a:
         return PlotScope(None, (), "run A has no measured data")
+    unit, unit_b = level_unit(a), level_unit(b)
+    if unit != unit_b:
+        return PlotScope(None, (), f"A's levels are in {unit}, B's in {unit_b}: no level is in both")
     predicted_a, predicted_b = curves(pa.table), curves(pb.table)
     pairs = [pair for pair in predicted_a if pair in predicted_b and pair in measured_a
              and (not measured_b or pair in measured_b)]
     if not pairs:
-        return PlotScope(None, (), f"the runs measured and predicted no curve in common (A: {_curve_list(predicted_a)}; "
-                                   f"B: {_curve_list(predicted_b)})")
+        return PlotScope(None, (), f"the runs measured and predicted no curve in common "
+                                   f"(A: {_curve_list(predicted_a, unit)}; B: {_curve_list(predicted_b, unit)})")
     best = None
     for pair in pairs:
         sides = [predicted_a[pair], predicted_b[pair], measured_a[pair]] + ([measured_b[pair]] if measured_b else [])
@@ -376,13 +387,14 @@ def plot_scope(a: ArchivedRun, b: ArchivedRun, pa: SimpleNamespace | None,
     if best is None:
         pair = pairs[0]
         return PlotScope(None, (), f"the runs have no force level in common on {pair[0]}/{pair[1]} "
-                                   f"(A: {_numbers(predicted_a[pair])} N; B: {_numbers(predicted_b[pair])} N)")
+                                   f"(A: {_numbers(predicted_a[pair])} {unit}; "
+                                   f"B: {_numbers(predicted_b[pair])} {unit})")
     pair, levels = best
     left_out = sorted({level for level in predicted_a[pair] + predicted_b[pair]
                        if not any(math.isclose(level, kept, rel_tol=1e-9) for kept in levels)})
-    note = f"response {pair[0]}, input {pair[1]} at {_numbers(levels)} N"
+    note = f"response {pair[0]}, input {pair[1]} at {_numbers(levels)} {unit}"
     if left_out:
-        note += f" (the force levels both runs have; {_numbers(left_out)} N left out)"
+        note += f" (the force levels both runs have; {_numbers(left_out)} {unit} left out)"
     return PlotScope(pair, levels, note)
 
 

@@ -22,7 +22,7 @@ def _untrustworthy_lines(ident) -> list[str]:
 def identification_section(ident, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     s = ident.settings
     r = ident.result
-    lines = ["## Identification", ""] + _untrustworthy_lines(ident) + [METHODS[s.method].describe_fit(r)]
+    lines = ["## Identification", ""] + _untrustworthy_lines(ident) + [METHODS[s.method].describe_fit(r, ident.reference_unit)]
     if ident.frequency_choice is not None:  # the method fits at one excitation frequency, chosen by the program
         choice = ident.frequency_choice
         final = ""

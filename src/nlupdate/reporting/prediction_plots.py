@@ -10,6 +10,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from nlupdate.core.correlation.levels import SHAPE_POINTS
+from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.reporting.figures import (INITIAL_STYLE, MEASURED_STYLE, frf_curve, grid_in_inches, level_colours,
                                         unwrapped_phase_deg)
 
@@ -20,7 +21,9 @@ LEVEL_GAP_RATIO = 3.0
 
 
 def measured_frfs_figure(table: pd.DataFrame, response_dof: str, input_dof: str, title: str = "") -> Figure:
-    """|H| (m/N, log scale) against frequency for every force level of a measured-FRF table."""
+    """|H| (m/N, or m/V per volt: the table's reference unit; log scale) against frequency for
+    every level of a measured-FRF table."""
+    unit = table_reference_unit(table)
     figure = Figure(figsize=(7, 4.5))
     # a fixed layout (inches; constrained layout would measure every tick label twice)
     ax = figure.subplots(gridspec_kw=grid_in_inches(figure, 1, 1, left=0.95, right=0.15, top=0.4, bottom=0.55))
@@ -29,9 +32,9 @@ def measured_frfs_figure(table: pd.DataFrame, response_dof: str, input_dof: str,
     for level, colour in zip(levels, level_colours(levels.size)):
         curve = subset[subset["force_level_n"] == level].sort_values("frequency_hz")
         magnitude = np.hypot(curve["h_real"], curve["h_imag"])
-        ax.semilogy(curve["frequency_hz"], magnitude, ".", ms=2, color=colour, label=f"{level:g} N")
+        ax.semilogy(curve["frequency_hz"], magnitude, ".", ms=2, color=colour, label=f"{level:g} {unit}")
     ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel(f"|H| {response_dof}/{input_dof} (m/N)")
+    ax.set_ylabel(f"|H| {response_dof}/{input_dof} (m/{unit})")
     ax.set_title(title or "measured receptance at each force level", y=1.0)  # log: no offset text to dodge
     ax.legend(fontsize=7, ncol=2, title="force level", title_fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
@@ -65,6 +68,7 @@ def predictions_figure(
     short_names = list(short_names or prediction_labels(names))
     styles = list(styles or prediction_styles(names))
     levels = sorted({float(level) for p in predictions for level in p.table["force_level_n"]})
+    unit = table_reference_unit(measured)  # levels in N, or in V per volt
     level_rows = -(-len(levels) // 5)
     columns = -(-len(levels) // level_rows)
     separator = "; " if columns > 2 else "\n"  # two panels are too narrow for one line
@@ -103,14 +107,14 @@ def predictions_figure(
             fracs.append(f"{short} {row_[column_].iloc[0]:.2f}" if len(row_) else f"{short} –")
         what = f"rel. error at {f_m.size} line{'s' if f_m.size > 1 else ''}: " if single else "FRAC "
         # y=1: a log axis has no offset text to dodge, so matplotlib need not measure its ticks once more
-        ax_mag.set_title(f"{level:g} N — {what}" + ", ".join(fracs), fontsize=7.5, y=1.0)
+        ax_mag.set_title(f"{level:g} {unit} — {what}" + ", ".join(fracs), fontsize=7.5, y=1.0)
         for ax in (ax_mag, ax_phase):
             ax.grid(True, which="both", alpha=0.3)
             ax.tick_params(which="both", labelsize=7)
         ax_mag.tick_params(labelbottom=False)
         ax_phase.set_xlabel("frequency (Hz)", fontsize=8)
         if column == 0:
-            ax_mag.set_ylabel("|H| (m/N)", fontsize=8)
+            ax_mag.set_ylabel(f"|H| (m/{unit})", fontsize=8)
             ax_phase.set_ylabel("phase (deg)", fontsize=8)
     handles, labels = first.get_legend_handles_labels()
     figure.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, markerscale=4)
@@ -124,9 +128,9 @@ def _segments(levels: np.ndarray) -> list[np.ndarray]:
     return np.split(np.arange(levels.size), breaks)
 
 
-def correlation_figure(correlation: pd.DataFrame) -> Figure:
-    """FRAC and the normalised FRF error per force level, one line per model (styled as
-    in :func:`predictions_figure`). One column per measured level; levels more than
+def correlation_figure(correlation: pd.DataFrame, unit: str = "N") -> Figure:
+    """FRAC and the normalised FRF error per level (in ``unit``: N, or V per volt), one line per
+    model (styled as in :func:`predictions_figure`). One column per measured level; levels more than
     :data:`LEVEL_GAP_RATIO` times apart are separated by a gap and not joined by a line."""
     levels = np.sort(correlation["force_level_n"].unique().astype(float))
     segments = _segments(levels)
@@ -152,7 +156,7 @@ def correlation_figure(correlation: pd.DataFrame) -> Figure:
             ax.plot(xs, ys, marker="o", ms=4, label=label, **style)
     for ax in (left, right):
         ax.set_xticks(position, [f"{v:g}" for v in levels], fontsize=8)
-        ax.set_xlabel(f"force level (N); one column per level, a gap where levels are more than "
+        ax.set_xlabel(f"force level ({unit}); one column per level, a gap where levels are more than "
                       f"{LEVEL_GAP_RATIO:g}× apart", fontsize=8)
         ax.grid(True, alpha=0.3)
         for boundary in np.cumsum([s.size for s in segments])[:-1]:

@@ -22,6 +22,7 @@ from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
 from nlupdate.reporting.validation_text import (error_cells, in_band_cell, repeatability_line, summary_headline,
                                                 verdict_lines)
+from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.response.method import describe
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
@@ -102,7 +103,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
             spec = study.measured
             sources = [spec.file] if spec.file else [p for p, _ in spec.files] or list(spec.time_histories)
             how = "FRFs estimated by `nlupdate frf` from the time histories " if spec.time_histories else "Read from "
-            unit = result.measured["reference_unit"].iloc[0] if "reference_unit" in result.measured.columns else "N"
+            unit = table_reference_unit(result.measured)
             per_volt = " The reference is the excitation voltage: levels in V, FRFs in m/V, parameters per volt." \
                 if unit == "V" else ""
             lines += [f"{how}{', '.join(f'`{s}`' for s in sources)} (SHA-256 of the table "
@@ -360,7 +361,8 @@ def _prediction_section(result, plots: Mapping[str, str]) -> list[str]:
         lines += [f"![predictions]({plots['predictions']})", "",
                   "Magnitude and phase at each force level; each panel's title gives the FRAC of the initial and of "
                   "the updated model at that level.", ""]
-    columns = {"model": "model", "force_level_n": "force level (N)", "frac": "FRAC",
+    unit = table_reference_unit(result.measured)
+    columns = {"model": "model", "force_level_n": f"force level ({unit})", "frac": "FRAC",
                "normalised_error": "‖H_model − H_measured‖ / ‖H_measured‖",
                "peak_frequency_error_pct": "peak frequency error (%)",
                "peak_amplitude_ratio": "peak amplitude model / measured"}

@@ -186,12 +186,13 @@ class PRD:
             out["estimator_details"] = dict(result.extras, noise_fraction_from_fit=result.noise_fraction)
         return out
 
-    def describe_fit(self, result: PRDResult) -> str:
+    def describe_fit(self, result: PRDResult, unit: str = "N") -> str:
+        """One sentence for a report: frequency, levels (in the reference ``unit``, N or V), estimator."""
         setup = result.setup
         low, high = min(setup.high_forces), max(setup.high_forces)
-        levels = f"{len(setup.high_forces)} high levels ({low:g}–{high:g} N)" if len(setup.high_forces) > 1 \
-            else f"1 high level ({high:g} N)"
-        return f"PRD at **{setup.frequency_hz:g} Hz** from the {setup.low_force:g} N (low) and {levels}, " \
+        levels = f"{len(setup.high_forces)} high levels ({low:g}–{high:g} {unit})" if len(setup.high_forces) > 1 \
+            else f"1 high level ({high:g} {unit})"
+        return f"PRD at **{setup.frequency_hz:g} Hz** from the {setup.low_force:g} {unit} (low) and {levels}, " \
                f"{result.estimator} estimator."
 
     def describe_points(self, result: PRDResult, unit: str) -> str:
@@ -266,10 +267,12 @@ class DDF:
             },
         }
 
-    def describe_fit(self, result: DDFResult) -> str:
+    def describe_fit(self, result: DDFResult, unit: str = "N") -> str:
+        """One sentence for a report: the pair of levels (in the reference ``unit``), band, estimator."""
         low, high = result.setup.force_pair
         band = result.setup.band_hz
-        return f"DDF between {low:g} and {high:g} N over {band[0]:g}–{band[1]:g} Hz, {result.estimator} estimator."
+        return (f"DDF between {low:g} and {high:g} {unit} over {band[0]:g}–{band[1]:g} Hz, "
+                f"{result.estimator} estimator.")
 
     def describe_points(self, result: DDFResult, unit: str) -> str:
         low, high = result.setup.force_pair

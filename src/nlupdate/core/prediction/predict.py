@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from nlupdate.fe.adapters.base import ModalResult
 from nlupdate.core.correlation.levels import correlate_levels
 from nlupdate.core.measurement.frf_table import select_frf
+from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.harmonic_balance import HarmonicSettings
 from nlupdate.core.model.linear import dof_index
@@ -225,7 +226,7 @@ def predict_measured(
         f_low, h_low = select_frf(measured, response, inp, level)
         eta = fit_loss_factor(modes, elements, model_response, model_input, f_low, h_low, level, sweep,
                               harmonic_balance)
-        source = f"fitted to the {level:g} N measurement" + on_bound_note(eta)
+        source = f"fitted to the {level:g} {table_reference_unit(measured)} measurement" + on_bound_note(eta)
     elif isinstance(loss_factor, str):
         raise ValueError(f"loss_factor must be a number or 'low_force_fit', got {loss_factor!r}")
     else:
