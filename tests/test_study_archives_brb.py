@@ -227,3 +227,17 @@ def test_a_study_per_volt_names_its_levels_in_volts(tmp_path, capsys):
     titles = [a.get_title() for a in figure.axes if a.get_title()]
     assert titles and all(re.match(r"[\d.]+ V — ", t) for t in titles), titles
     assert all("(m/N)" not in a.get_ylabel() for a in figure.axes)
+
+
+def test_a_validation_on_the_reversed_sign_says_where_the_sign_is_stated(tmp_path, capsys):
+    """[validation] on the BRB read with the sensor's sign reversed: the one line names the
+    fault (a negative modal constant at the driving point) and where the direction is stated;
+    it ended at 'no driving-point resonance to take φ_f from'."""
+    study = brb_study()
+    study["measured"]["coordinates"] = {str(BRB): ["acc3:y", "acc3:y"]}
+    for table in ("identification", "adapter", "parameters", "targets", "eigensensitivity", "prediction"):
+        del study[table]
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
+    (line,) = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and "[validation]" in line and "modal constant -0.47" in line and "NODE:-DIR" in line, err

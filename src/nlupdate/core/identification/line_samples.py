@@ -97,7 +97,9 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None, background:
     constant = complex(fit.modal_constants[0])
     if not constant.real > 0:
         raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} curve gives a "
-                                  f"modal constant {constant:.4g}: no driving-point resonance to take φ_f from")
+                                  f"modal constant {constant:.4g}: no driving-point resonance to take φ_f from (a "
+                                  "driving point's is positive: a sensor or force along the negative direction is "
+                                  "stated as NODE:-DIR in the coordinates, e.g. [\"acc3:-y\", \"acc3:y\"])")
     phi = float(np.sqrt(constant.real))
     curves = [(f, h, data.force_at(float(level), f)) for level, f, h in
               zip(data.levels, data.frequencies, data.receptances)]
