@@ -241,3 +241,14 @@ def test_a_validation_on_the_reversed_sign_says_where_the_sign_is_stated(tmp_pat
     code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
     (line,) = [line for line in err.splitlines() if "error" in line]
     assert code == 2 and "[validation]" in line and "modal constant -0.47" in line and "NODE:-DIR" in line, err
+
+
+def test_a_study_is_told_its_own_key_for_the_coordinates_of_a_run_file(tmp_path, capsys):
+    """[amplitude] response_controlled = the BRB file, whose runs name no coordinates: the line
+    gives the study's form of the fix, not only the command's option (--coordinates)."""
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(
+        {"study": {"name": "brb-runs"}, "amplitude": {"response_controlled": [str(BRB)], "backbone": "polynomial"}}))
+    code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
+    (line,) = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and "study.toml: [amplitude]" in line, err
+    assert 'coordinates = { "ForcedFrequencyResponses.mat" = ["RESPONSE", "INPUT"] }' in line, line

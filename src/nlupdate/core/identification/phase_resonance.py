@@ -142,7 +142,9 @@ def _read_csv(data: bytes, path: Path, options: ReadOptions) -> PhaseResonancePo
         stated = pairs.pop()
     if stated is None:
         raise MeasurementTableError(f"{path}: names no coordinates (columns response_dof, input_dof); state them with "
-                                    f"--coordinates {path.name}=RESPONSE,INPUT (a sensor along −z as NODE:-uz)")
+                                    f"--coordinates {path.name}=RESPONSE,INPUT (a sensor along −z as NODE:-uz), in a "
+                                    f"study with [amplitude] coordinates = {{ \"{path.name}\" = [\"RESPONSE\", "
+                                    f"\"INPUT\"] }}")
     (response, sign_r), (inp, sign_i) = _signed(stated[0]), _signed(stated[1])
     f, force = values["frequency_hz"], values["force_n"]
     _checked(str(path), f, force, values["response_amplitude"])

@@ -346,7 +346,8 @@ def _run_coordinates(run: dict[str, Any], where: str, path: Path, options: ReadO
     else:
         raise MeasurementTableError(
             f"{where}: the run names no coordinates (fields response_dof, input_dof); state them with --coordinates "
-            f"{path.name}=RESPONSE,INPUT (e.g. tip:uz,tip:uz for a driving point; tip:-uz for a sensor along −z)")
+            f"{path.name}=RESPONSE,INPUT (e.g. tip:uz,tip:uz for a driving point; tip:-uz for a sensor along −z), in a "
+            f"study with the reading table's coordinates = {{ \"{path.name}\" = [\"RESPONSE\", \"INPUT\"] }}")
     (response, sign_r), (inp, sign_i) = _signed(names[0]), _signed(names[1])
     return response, inp, sign_r * sign_i
 
