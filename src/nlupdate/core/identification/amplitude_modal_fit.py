@@ -76,10 +76,13 @@ from nlupdate.core.model.elements import IwanJoint
 @dataclass(frozen=True, eq=False)
 class ModalSamples:
     """Samples of one mode's backbone: modal amplitude a (m·√kg), natural frequency (Hz),
-    damping ratio and the force level (N) each came from; ``input_shape`` φ_f (1/√kg).
+    damping ratio and the force amplitude F (N, the reference unit) at each; ``input_shape`` φ_f (1/√kg).
 
     From FRFs, ``response_amplitude`` holds the resonance amplitude x (m) at the excited
-    coordinate, so that a = x/φ_f and ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`),
+    coordinate and F is the force achieved at the resonance line (a shaker's force dips there:
+    the BRB's 0.1947 N level reaches 0.142 N at its peak), so that a = x/φ_f and
+    ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`); ``level`` is each sample's
+    nominal force level (the level's name, FRF samples only),
     and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
     is φ_r/φ_f of the FRFs' response (1 at the driving point). ``modal`` is False for the
     samples of a record read without a shape at its channel: a is then the record's own
@@ -94,6 +97,7 @@ class ModalSamples:
     shape_free: bool = False
     response_ratio: float = 1.0
     modal: bool = True
+    level: NDArray[np.float64] | None = None
 
     def with_shape(self, input_shape: float) -> "ModalSamples":
         """The same FRF samples for another φ_f (1/√kg)."""
@@ -101,7 +105,7 @@ class ModalSamples:
             raise AmplitudeModelError("only samples from FRFs (with their response amplitudes) can change their shape")
         phi, x, omega = abs(float(input_shape)), self.response_amplitude, 2 * np.pi * self.frequency_hz
         return ModalSamples(x / phi, self.frequency_hz, phi**2 * self.force_n / (2 * omega**2 * x), self.force_n, phi,
-                            x, self.shape_free, self.response_ratio)
+                            x, self.shape_free, self.response_ratio, level=self.level)
 
 
 def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int = 1,
@@ -147,7 +151,7 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
         input_shape = float(np.sqrt(abs(constant.real)))
     phi = abs(float(input_shape))
     ratio = 1.0 if driving else constant.real / phi**2  # φ_r/φ_f
-    peak_hz, peak_x, forces = [], [], []
+    peak_hz, peak_x, forces, levels = [], [], [], []
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre) <= 2.5 * band_fraction * centre
         fb = f[band]
@@ -155,14 +159,17 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
         if fb.size < 3:
             continue
         at_hz, height = resonance_peak(fb, hb)
+        force = float(data.force_at(level, [at_hz])[0])  # the force achieved at the peak, not the level's mean
         peak_hz.append(at_hz)
-        peak_x.append(height * float(level))
-        forces.append(float(level))
+        peak_x.append(height * force)
+        forces.append(force)
+        levels.append(float(level))
     if len(forces) < 2:
         raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
     x, frequency, force = np.array(peak_x) / abs(ratio), np.array(peak_hz), np.array(forces)  # x at the driving point
     omega = 2 * np.pi * frequency
-    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio)
+    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio,
+                        level=np.array(levels))
 
 
 # ---------------------------------------------------------------------------------- fitting

@@ -89,7 +89,7 @@ def _relative_changes(whole: ModalSamples, band: ModalSamples, levels: np.ndarra
     """``ζ_band/ζ_whole(x_band) − 1`` at each of ``levels`` (NaN where the band has no sample)."""
     out = np.full(levels.size, np.nan)
     for i, level in enumerate(levels):
-        at = np.flatnonzero(np.isclose(band.force_n, level, rtol=1e-9))
+        at = np.flatnonzero(np.isclose(band.level, level, rtol=1e-9))
         if at.size:
             k = at[0]
             out[i] = band.damping_ratio[k] / _whole_at(whole, band.response_amplitude[k:k + 1])[0] - 1
@@ -121,7 +121,7 @@ def band_changes(whole: FRFLevels, band: FRFLevels, band_hz: tuple[float, float]
         cut = samples_from_frfs(band, input_shape)
     except (AmplitudeModelError, ValueError):
         return []
-    levels = cut.force_n
+    levels = cut.level
     observed = _relative_changes(reference, cut, levels)
     rng = np.random.default_rng(seed)
     sigma = _noise_levels(whole)
