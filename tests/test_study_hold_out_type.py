@@ -43,6 +43,19 @@ def test_the_study_holds_out_the_ring_down_and_the_archive_carries_it(two_tests,
     summary = json.loads((tmp_path / "out" / "validation.json").read_text())
     assert summary["held_out"], "the levels are still held out beside the type"
     assert_ring_down_predicted(summary["held_out_type"])
+    # the report tells what the study was run for (it showed the held-out levels alone): the
+    # verdict and the largest errors within the fitted amplitudes, in the summary and a section
+    held = summary["held_out_type"]
+    within = [s for s in held["samples"] if s["within_fit"]]
+    largest = {key: max(abs(s[key]["relative_error"]) for s in within) for key in ("natural_frequency_hz",
+                                                                                    "damping_ratio")}
+    report = (tmp_path / "out" / "report.md").read_text()
+    summary_text = report.split("## Summary", 1)[1].split("\n## ", 1)[0]
+    (line,) = [line for line in summary_text.splitlines() if "Held-out test type" in line]
+    assert "ring-down held out" in line and "fitted on stepped-sine" in line, line
+    assert (f"natural frequency {100 * largest['natural_frequency_hz']:.3g} %, damping ratio "
+            f"{100 * largest['damping_ratio']:.3g} %") in line, line
+    assert "### A whole test type held out: ring-down" in report
 
 
 @pytest.mark.parametrize("change, message", [

@@ -155,6 +155,14 @@ def comparison_notes(result) -> list[str]:
     return notes
 
 
+def held_type_worst_line(worst: dict) -> str:
+    """The largest |relative error| of each quantity within the fitted amplitudes (validation.json's
+    ``held_out_type.worst_within_fit``), as ``validate --hold-out-type`` and a study's report say it."""
+    names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency", "modal_amplitude_held": "held amplitude"}
+    return "largest relative error within the fitted amplitudes: " + (
+        ", ".join(f"{names.get(key, key)} {100 * value:.3g} %" for key, value in worst.items()) or "none within")
+
+
 def held_type_lines(summary: dict, unit: str) -> list[str]:
     """What ``nlupdate validate --hold-out-type`` prints of validation.json's
     ``held_out_type`` entry (:meth:`~nlupdate.core.validation.held_type.HeldType.summary`),

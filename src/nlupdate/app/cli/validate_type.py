@@ -26,7 +26,7 @@ from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
 from nlupdate.reporting.jsonfile import write_json
-from nlupdate.reporting.validation_text import held_type_lines
+from nlupdate.reporting.validation_text import held_type_lines, held_type_worst_line
 
 
 def add_type_options(parser: argparse.ArgumentParser) -> None:
@@ -93,7 +93,6 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
         inside = int(result.samples["within_fit"].sum())
         print(f"{len(result.samples)} held-out samples, {inside} within the fitted amplitudes "
               f"{result.fitted_range[0]:.3g}–{result.fitted_range[1]:.3g} m·√kg")
-    worst = ", ".join(f"{name} {100 * value:.3g} %" for name, value in result.worst().items())
-    print(f"largest relative error within the fitted amplitudes: {worst or 'none within'}")
+    print(held_type_worst_line(summary["worst_within_fit"]))
     print(f"wrote {out / 'validation.json'} and {out / 'held_out_type.png'}")
     return 0
