@@ -56,6 +56,20 @@ def test_the_study_holds_out_the_ring_down_and_the_archive_carries_it(two_tests,
     assert (f"natural frequency {100 * largest['natural_frequency_hz']:.3g} %, damping ratio "
             f"{100 * largest['damping_ratio']:.3g} %") in line, line
     assert "### A whole test type held out: ring-down" in report
+    # and compare (so rerun) sees it: another run whose model predicted the ring-down worse differs
+    import shutil
+
+    root = tmp_path / "results"
+    shutil.copytree(tmp_path / "out", root / "held-type" / "20261129T000000Z-0000000a")
+    other = root / "held-type" / "20261129T000001Z-0000000b"
+    shutil.copytree(tmp_path / "out", other)
+    held["worst_within_fit"]["damping_ratio"] *= 2
+    (other / "validation.json").write_text(json.dumps({**summary, "held_out_type": held}))
+    code, out, err = run_cli(capsys, "archive", "compare", "20261129T000000Z", "20261129T000001Z", "--root", root,
+                             "--json")
+    assert code == 0, err
+    changed = [row["field"] for row in json.loads(out)["results"] if row["status"] == "changed"]
+    assert changed == ["ring-down held out: largest |relative error| of damping_ratio within the fit"]
 
 
 @pytest.mark.parametrize("change, message", [

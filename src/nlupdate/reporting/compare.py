@@ -165,7 +165,8 @@ def result_fields(run: ArchivedRun) -> dict[str, dict[str, Any]]:
 
 def _held_out_fields(run: ArchivedRun) -> dict[str, Any]:
     """``[validation]``'s predictions (validation.json): per held-out level and response-controlled
-    run, the model that predicted it, and each quantity's prediction and 95 % band."""
+    run, the model that predicted it, and each quantity's prediction and 95 % band; with
+    ``hold_out_type``, the model fitted without that type and its largest errors on it."""
     path = run.folder / "validation.json"
     if not path.is_file():
         return {}
@@ -182,6 +183,13 @@ def _held_out_fields(run: ArchivedRun) -> dict[str, Any]:
             for end in ("predicted", "low", "high"):
                 value = row[key][end]
                 out[f"{name}: {label} {end}"] = _pair(math.nan if value is None else value)
+    held = validation.get("held_out_type")
+    if held:  # hold_out_type: the model fitted without the type, and its largest errors on it
+        name = f"{held['test_type']} held out"
+        out[f"{name}: linear limit (Hz)"] = _pair(held["model"]["natural_frequency_hz"])
+        out[f"{name}: damping ratio at the limit"] = _pair(held["model"]["damping_ratio"])
+        for key, value in held.get("worst_within_fit", {}).items():
+            out[f"{name}: largest |relative error| of {key} within the fit"] = _pair(value)
     return out
 
 
