@@ -15,6 +15,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from periodic_truth import periodic_truth
 from test_test_type_truth import phase_resonance_point, system, truth
 
 from nlupdate.app.cli import main
@@ -111,6 +112,28 @@ def test_the_f_test_of_the_microslip_rule():
     assert microslip_test(4.0, 4.0, 10) == 1.0
     assert microslip_test(4.0, 12.0, 10) == pytest.approx(3.0**-5, rel=1e-9)
     assert microslip_test(4.0, 12.0, 0) == 1.0
+
+
+def test_an_iwan_fit_of_points_all_in_macroslip_is_not_held_under_the_softening_cap():
+    """Phase resonance of the 2-DOF Iwan system (its 745 Hz mode) at six levels, 12–240 × the
+    slip amplitude (7–133 φ_max), 2 % noise on force and response (ζ to ~3 %, the frequency to
+    1e-4): the stuck mode's 745.08 Hz lies 1.7 % above the lowest point, which the points do
+    not show (they soften by 0.01 % among themselves). The linear limit's cap (above the lowest
+    sample by at most that softening) held f₀ at 733.4 Hz, and the fit, its joint distorted to
+    reach the points, missed the damping by 12.2 %; the cap is now tested against the samples
+    (F-test, p = 4e-5 here) and dropped: 1.4 %. Against the exact driving-point truth of the
+    simulated system (tests/periodic_truth.py: multi-harmonic balance of the whole 2-DOF, 7
+    harmonics) over the points' range: 0.2 % / 5 %."""
+    s = system(2, "iwan")
+    points = locked_points(s, np.geomspace(0.05, 1.0, 6) * 240 * s["slip"])
+    samples = pr_samples(s, points, noise=0.02, seed=1)
+    model = fit_amplitude_model(samples, (("m1", float(s["phi"][0])),), "iwan", frequency_std=1e-4, damping_std=0.03)
+    a = np.geomspace(samples.amplitude.min(), samples.amplitude.max(), 12)
+    f, z = periodic_truth(s, a, harmonics=7, samples=512)
+    assert np.max(np.abs(model.frequency_hz(a) / f - 1)) < 2e-3
+    assert np.max(np.abs(model.damping(a) / z - 1)) < 0.05
+    assert "softening cap" in model.note
+    assert any("linear limit" in w and "not determine" in w for w in model.warnings)  # f₀ below them: a guess
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

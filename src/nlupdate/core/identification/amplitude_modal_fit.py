@@ -30,7 +30,13 @@ held physical: the joint only softens, so f₀ lies at or above every sample (wi
 3 ``frequency_std``), and no higher above the lowest-amplitude sample f_ref than the
 softening measured over all samples, ``f₀ ≤ f_ref(1 + max((f_max − f_min)/f_ref,
 3·frequency_std))`` — an Iwan joint fitted with χ → −1 (it would slip at any amplitude)
-otherwise puts f₀ anywhere above the data. Likewise the linear damping: a joint only adds
+otherwise puts f₀ anywhere above the data. An ``iwan`` fit that ends on that cap is refitted
+without it (f₀ up to √2 × the highest sample's) and the refit kept where the capped one misses
+the samples beyond their noise (:func:`microslip_test`, one constraint): samples all in
+macroslip soften far more below the lowest of them than over them (the 2-DOF Iwan system of
+tests/test_test_type_truth.py at 12–249 × its slip amplitude: 745 Hz stuck, 733.5 Hz at the
+lowest sample, 0.1 Hz over the samples), and the capped fit missed its own phase-resonance
+samples' damping by 11–13 %. Likewise the linear damping: a joint only adds
 damping as it slips, so ζ₀ lies at or below the lowest-amplitude sample's damping ratio
 (within 3 ``damping_std``: :func:`~nlupdate.core.identification.linear_limit.damping_cap`; a
 polynomial fit to the BRB's peaks put it at 5.8 × that, its damping falling from the linear limit). A fit that ends on either bound,
@@ -63,6 +69,7 @@ import scipy.special
 import scipy.stats
 from numpy.typing import NDArray
 
+from nlupdate.core.identification.constrained_lsq import constrained_lsq
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
 from nlupdate.core.identification.frf_peak import resonance_peak
@@ -183,28 +190,6 @@ def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: floa
     return np.where(np.isfinite(out), out, 1e6)
 
 
-def _constrained_lsq(design: NDArray, target: NDArray, weights: NDArray, constraints: NDArray,
-                     bounds: NDArray) -> NDArray:
-    """Coefficients c minimising ``Σ (w (design·c − target))²`` subject to
-    ``constraints·c ≥ bounds``: SLSQP on the problem scaled to order one (the unconstrained
-    solution's magnitudes, the misfit relative to the weighted target, the constraints in
-    units of the largest target)."""
-    matrix, rhs = design * weights[:, None], target * weights
-    start = np.linalg.lstsq(matrix, rhs, rcond=None)[0]
-    if np.all(constraints @ start >= bounds):
-        return start
-    unit = float(np.max(np.abs(target)))
-    scale = np.maximum(np.abs(start), 1e-6 * unit)
-    m, norm = matrix * scale[None, :], float(rhs @ rhs)
-    g, h = constraints * scale[None, :] / unit, bounds / unit
-    solution = scipy.optimize.minimize(
-        lambda u: float(np.sum((m @ u - rhs) ** 2)) / norm, start / scale,
-        jac=lambda u: 2 * (m.T @ (m @ u - rhs)) / norm, method="SLSQP",
-        constraints=[{"type": "ineq", "fun": lambda u: g @ u - h, "jac": lambda u: g}],
-        options={"maxiter": 1000, "ftol": 1e-15})
-    return solution.x * scale
-
-
 #: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
 _POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
 
@@ -243,7 +228,7 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
         fits = []
         for exponent in POLYNOMIAL_EXPONENTS:
             design = (samples.amplitude / a_ref)[:, None] ** (exponent * powers)[None, :]
-            c = _constrained_lsq(design, target, weights, *constraints)
+            c = constrained_lsq(design, target, weights, *constraints)
             fits.append((float(np.sum(((design @ c - target) * weights) ** 2)), exponent, c))
         return min(fits, key=lambda fit: fit[0])
 
@@ -279,12 +264,13 @@ def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, dampi
 
 
 def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
-          fixed: dict[str, float] | None = None) -> tuple[AmplitudeModalModel, float]:
+          fixed: dict[str, float] | None = None, capped: bool = True) -> tuple[AmplitudeModalModel, float]:
     """Best Iwan backbone over the starts; with ``samples.shape_free`` the shape φ_f (the last
-    unknown, as a log) is fitted too and the model's shapes carry it."""
+    unknown, as a log) is fitted too and the model's shapes carry it. ``capped``: f₀ under
+    the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never)."""
     fixed = fixed or {}
     free_shape = samples.shape_free and samples.response_amplitude is not None
-    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA)
+    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA or not capped)
     if free_shape:
         def unpack(t):
             phi = float(np.exp(t[-1]))
@@ -365,19 +351,20 @@ def default_resamples(backbone: str) -> int:
 MICROSLIP_P = 0.05
 
 
-def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int) -> float:
-    """p-value of the F-test of the Iwan fit with β = 0 and φ_max fixed (2 parameters fewer)
-    against the free fit: ``F = ((χ²_0 − χ²)/2)/(χ²/ν)``, ν the free fit's degrees of freedom
+def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int, constraints: int = 2) -> float:
+    """p-value of the F-test of the Iwan fit with β = 0 and φ_max fixed (``constraints`` = 2
+    parameters fewer; 1 for f₀ held on its softening cap) against the free fit:
+    ``F = ((χ²_0 − χ²)/c)/(χ²/ν)``, ν the free fit's degrees of freedom
     (weighted residuals, so the noise level drops out). 1 where ν ≤ 0 (nothing to test: the
-    simpler fit is kept); a small p says the β = 0 fit misses the samples beyond their noise."""
+    simpler fit is kept); a small p says the constrained fit misses the samples beyond their noise."""
     if free_dof <= 0:
         return 1.0
-    excess = max(chi2_reduced - chi2_free, 0.0) / 2
+    excess = max(chi2_reduced - chi2_free, 0.0) / constraints
     if excess == 0.0:
         return 1.0
     if chi2_free <= 0.0:
         return 0.0
-    return float(scipy.stats.f.sf(excess / (chi2_free / free_dof), 2, free_dof))
+    return float(scipy.stats.f.sf(excess / (chi2_free / free_dof), constraints, free_dof))
 
 
 #: how far (a factor either way) an Iwan fit's mode shape may stray from the lowest level's
@@ -418,6 +405,17 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins), law) for law in LINEAR_DAMPING]
     model, chi2, law = min(fits, key=lambda fit: fit[1])
     fitted_shape = samples.shape_free and samples.response_amplitude is not None
+    n, capped, freed = 2 * samples.amplitude.size, True, ""
+    free_dof = n - (6 + int(fitted_shape))  # ω₀, ζ₀, K_T, F_S, χ, β (and φ_f)
+    cap = linear_limit_range(samples, frequency_std)[1]
+    if not jenkins and 2 * np.pi * model.natural_frequency_hz >= cap * (1 - 1e-6):  # on it: do the samples reject it?
+        free = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, other, capped=False), other)
+                for other in LINEAR_DAMPING]
+        best, chi2_capped = min(free, key=lambda fit: fit[1]), chi2
+        if (p_cap := microslip_test(best[1], chi2, free_dof, constraints=1)) < MICROSLIP_P:
+            (model, chi2, law), fits, capped = best, free, False
+            freed = (f"; f0 not held under the softening cap (the capped fit misses the samples beyond the noise: "
+                     f"chi² {chi2_capped:.3g}, F-test p = {p_cap:.2g})")
     stuck_shape = samples.input_shape  # the lowest level's one-mode fit (FRF samples)
     if fitted_shape:  # the fitted φ_f sets the amplitudes of every sample from here on
         samples = samples.with_shape(model.shapes[0][1])
@@ -425,15 +423,13 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
                                samples.input_shape, samples.response_amplitude, shape_free=False)
         shapes = model.shapes
     a_max = float(np.max(samples.amplitude))
-    n = 2 * samples.amplitude.size
     if jenkins:
         note = (f"modal Jenkins backbone: the Iwan joint in its Jenkins limit (beta = {JENKINS_BETA:g} fixed: stuck "
                 f"below phi_max = slip_force/kt, the closed hysteresis loop above)")
     elif a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
         reach = a_max / model.joint.phi_max
         reduced, chi2_reduced = _iwan(samples, shapes, frequency_std, damping_std, mode, law,
-                                      {"beta": 0.0, "phi_max": a_max})
-        free_dof = n - (6 + int(fitted_shape))  # ω₀, ζ₀, K_T, F_S, χ, β (and φ_f)
+                                      {"beta": 0.0, "phi_max": a_max}, capped)
         p_value = microslip_test(chi2, chi2_reduced, free_dof)
         if p_value >= MICROSLIP_P:
             model, chi2 = reduced, chi2_reduced
@@ -449,7 +445,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     else:
         note = "modal Iwan backbone, all parameters fitted"
     others = ", ".join(f"{other} {c:.3g}" for _, c, other in fits if other != law)
-    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values; {others})"
+    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values; {others}){freed}"
     if fitted_shape:
         note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
