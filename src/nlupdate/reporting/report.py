@@ -196,7 +196,11 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
             values = "; ".join(
                 f"{name} = {_with_truth(value, u.std[name] if u else None, truth.get(name), missing=NO_TARGET_STD)}"
                 for name, value in run.parameters.items())
-            out.append(f"* **Best updated model** for the user weights: `{best}`: {values}")
+            untrusted = ident is not None and not ident.trustworthy and result.study.targets is not None \
+                and result.study.targets.from_identification
+            out.append(f"* **Best updated model** for the user weights: `{best}`: {values}" + (
+                " — **its targets are the modes of an identification that is not trustworthy** (Identification "
+                "below)" if untrusted else ""))
         else:
             values = "; ".join(f"{name} = {_not_converged(value, truth.get(name))}"
                                for name, value in run.parameters.items())
