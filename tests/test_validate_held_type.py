@@ -115,10 +115,12 @@ def test_a_type_not_given_or_no_shape_is_one_clear_line(two_tests, capsys):
 
 def test_brb_force_controlled_levels_predicted_from_the_response_controlled_runs(tmp_path, capsys):
     """The Brake–Reuss beam (real data): the four force-controlled levels held out and
-    predicted from the eight response-controlled runs of the same file. The two upper
-    levels (18 and 22 half-power lines) within 2 % in damping and 1 % in peak, every
-    resonance within 0.3 %; the two lower ones' measured damping lies below the runs' at the
-    same amplitude (docs/validation.md)."""
+    predicted from the eight response-controlled runs of the same file, each line at the
+    force the shaker achieved there. The two upper levels (18 and 22 half-power lines) within
+    0.03 Hz in resonance, 6 % in damping and 1 % in peak (measured 2026-11-29: +0.017 and
+    +0.001 Hz, +5.0 and +5.5 %, +0.5 and +0.7 %), every resonance within 0.3 %; the two lower
+    ones' measured curves are read less damped than the runs at the same amplitude
+    (docs/validation.md)."""
     from test_real_measurements import BRB, BRB_COORDINATES
 
     code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES, "--shape",
@@ -132,7 +134,8 @@ def test_brb_force_controlled_levels_predicted_from_the_response_controlled_runs
     for level in levels.values():
         assert abs(level["resonance_hz"]["relative_error"]) < 3e-3
     for top in (0.97, 1.46):
-        assert abs(levels[top]["damping_ratio"]["relative_error"]) < 0.02
+        assert abs(levels[top]["resonance_hz"]["predicted"] - levels[top]["resonance_hz"]["measured"]) < 0.03
+        assert abs(levels[top]["damping_ratio"]["relative_error"]) < 0.06
         assert abs(levels[top]["peak_abs"]["relative_error"]) < 0.01
     assert levels[0.19]["damping_ratio"]["relative_error"] > 0.3  # the runs dissipate more down there
 

@@ -15,8 +15,9 @@ fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
   extrapolation the entry states, ``extrapolation``);
 * phase resonance: the same, and the modal amplitude the model holds at each point's force
   (``2ζ(a)ω(a)²a = |φ_f|F``);
-* stepped sine: each force level's FRF over its measured lines (single-nonlinear-mode theory,
-  :meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.frf`, the mode alone: the other
+* stepped sine: each force level's FRF over its measured lines, each line at the force the
+  shaker achieved there (single-nonlinear-mode theory,
+  :func:`~nlupdate.core.validation.models.frf_at_forces`, the mode alone: the other
   modes' share is not added), read by the same resonance estimator as the measured curve
   (:mod:`nlupdate.core.validation.resonance`, the two read alike: resonance frequency, damping ratio,
   peak |H|).
@@ -54,6 +55,7 @@ from nlupdate.core.identification.backbone_samples import (
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation, repeatability
+from nlupdate.core.validation.models import frf_at_forces
 from nlupdate.core.validation.resonance import read_alike, resonance
 
 #: the test types a whole of which can be held out (a modal table is no test)
@@ -194,11 +196,14 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
     three levels)."""
     repeat = repeatability(data)
     rows = []
+    transfer = model.shape(data.response_dof) / model.shape(data.input_dof)  # φ_r/φ_f
     for level in data.levels:
         f, h = data.curve(level)
-        shown, curve = resonance(f, h), resonance(f, model.frf(f, float(level), data.response_dof, data.input_dof))
+        force = data.force_at(level, f)  # each line at the force the shaker achieved there
+        shown, curve = resonance(f, h), resonance(f, transfer * frf_at_forces(model, f, force, data.input_dof))
         measured, predicted = read_alike(shown, curve), read_alike(curve, shown)  # one estimator on both
-        amplitude = predicted.peak_abs * float(level) / abs(model.shape(data.response_dof))  # a = |X_r|/|φ_r|
+        at_peak = float(np.interp(predicted.resonance_hz, f, force))
+        amplitude = predicted.peak_abs * at_peak / abs(model.shape(data.response_dof))  # a = |X_r|/|φ_r|
         row = {"level": float(level), "half_power_lines": measured.half_power_lines,
                "within_fit": bool(fitted_range[0] * (1 - 1e-9) <= amplitude <= fitted_range[1] * (1 + 1e-9))}
         for name in ("resonance_hz", "damping_ratio", "peak_abs"):
