@@ -262,3 +262,26 @@ def test_the_best_updated_model_says_its_targets_are_not_trustworthy(archive):
     report = (run / "report.md").read_text()
     (line,) = [line for line in report.splitlines() if line.startswith("* **Best updated model**")]
     assert "targets are the modes of an identification that is not trustworthy" in line, line
+
+
+IMPACT = Path(__file__).parent / "data" / "brb" / "HammerImpact_1600Hz.mat"
+
+
+@pytest.mark.parametrize("table, expected", [
+    # a model twice was fitted and judged twice, every warning said twice
+    ({"validation": {"hold_out": "top", "models": ["lines", "lines"]}},
+     "study.toml: [validation] key 'models': expected distinct names"),
+    # an input the table does not have read 'no driving-point FRF at 'nope'; choose a response among []'
+    ({"amplitude": {"measured": True, "input_dof": "nope", "shapes": {"acc3:y": 0.7271}}},
+     "the table has input dofs ['acc3:y']; choose one (input_dof), not 'nope'"),
+    # the hammer record holds three channels: a study names one with its table's key, not --channel
+    ({"amplitude": {"ring_down": [str(IMPACT)]}}, "choose one with --channel NAME (in a study, the reading table's "
+                                                  "channel)"),
+])
+def test_bad_study_input_is_one_line_with_the_studys_own_words(tmp_path, capsys, table, expected):
+    study = {"study": {"name": "brb-bad"},
+             "measured": {"file": str(BRB), "coordinates": {str(BRB): ["acc3:-y", "acc3:y"]}}, **table}
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
+    (line,) = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and "study.toml: [" in line and expected in line, err

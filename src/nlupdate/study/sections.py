@@ -177,7 +177,10 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
     if measured is None:
         raise read.fail(where, None, "a [measured] table: the levels to hold out")
     values = read_declared(read, table, where)
-    for name in values.get("models", ()):
+    models = list(values.get("models", ()))
+    if len(set(models)) < len(models):
+        raise read.fail(where, "models", "distinct names (each model is fitted and judged once)", models)
+    for name in models:
         if name != "auto":
             try:
                 model_fitter(name)

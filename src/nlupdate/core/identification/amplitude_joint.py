@@ -126,8 +126,9 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
         return MeasuredSource(samples, model, None, "N", input_dof, "modal-table")
     inputs = sorted(set(table["input_dof"].astype(str)))
     input_dof = input_dof or (inputs[0] if len(inputs) == 1 else None)
-    if input_dof is None:
-        raise ValueError(f"{name}: the table has input dofs {inputs}; choose one (input_dof)")
+    if input_dof is None or input_dof not in inputs:
+        raise ValueError(f"{name}: the table has input dofs {inputs}; choose one (input_dof)"
+                         + (f", not {input_dof!r}" if input_dof is not None else ""))
     responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
     response_dof = response_dof or (input_dof if input_dof in responses else
                                     responses[0] if len(responses) == 1 else None)

@@ -322,7 +322,8 @@ def _pick_channel(columns: dict[str, NDArray], channel: str | None, path: Path) 
         raise RingDownError(f"{path}: holds time_s only; expected one column per response channel beside it")
     if channel is None:
         if len(channels) > 1:
-            raise RingDownError(f"{path}: holds channels {channels}; choose one with --channel NAME")
+            raise RingDownError(f"{path}: holds channels {channels}; choose one with --channel NAME (in a study, "
+                                f"the reading table's channel)")
         channel = channels[0]
     if channel not in channels:
         raise RingDownError(f"{path}: no channel {channel!r}; it holds {channels}")
