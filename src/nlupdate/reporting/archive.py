@@ -6,7 +6,8 @@
                       commit, seeds, adapter and solver versions, start/end, how the run was
                       orchestrated (flow-run id, tasks computed vs cached), failures and
                       warnings (results not to be trusted as they stand, each
-                      {"subject", "kind", "message", "source"}: nlupdate.study.steps.trust.study_warnings)
+                      {"subject", "kind", "message", "source"}: nlupdate.study.steps.trust.study_warnings,
+                      then the validation's and amplitude model's: report.step_warnings)
     study.toml        the study file as run
     inputs/           a copy of every file the study reads (measured data, model files,
                       decks, identification outputs) as ``inputs/<sha256[:12]>/<name>``,
@@ -52,7 +53,7 @@ from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
 from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
 from nlupdate.reporting.prediction_plots import correlation_figure, measured_frfs_figure, predictions_figure
-from nlupdate.reporting.report import hidden_truth, report_markdown
+from nlupdate.reporting.report import hidden_truth, report_markdown, step_warnings
 from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
 from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
@@ -174,7 +175,7 @@ def build_manifest(result, run_id: str, run: Mapping[str, Any], tables: list[str
         "environment": environment(),
         "run": dict(run),
         "failures": [{"run": f.name, "error": f.error} for f in result.failures],
-        "warnings": [w.as_dict() for w in result.warnings],
+        "warnings": [w.as_dict() for w in result.warnings] + step_warnings(result),
         "tables": tables,
         "plots": dict(plots),
     }

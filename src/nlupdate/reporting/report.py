@@ -167,6 +167,23 @@ def study_warning_lines(result) -> list[str]:
     return lines
 
 
+def step_warnings(result) -> list[dict[str, str]]:
+    """The validation's and the amplitude model's warnings, each as the manifest keeps a
+    warning ({subject, kind, message, source}): every ``warning:`` line of the validation
+    (:func:`verdict_lines`, the held-out type's too) and :func:`amplitude_warnings`."""
+    out = []
+    if result.validation is not None:
+        lines = verdict_lines(result.validation, result.validation.reference_unit)
+        held = _held_type(result.validation)
+        lines += held[1] if held else []
+        out += [{"subject": "validation", "kind": "validation", "message": line.removeprefix("warning: "),
+                 "source": "validation"} for line in lines if line.startswith("warning: ")]
+    if result.amplitude is not None:
+        out += [{"subject": "amplitude", "kind": "amplitude", "message": text, "source": "amplitude model"}
+                for text in amplitude_warnings(result.amplitude)]
+    return out
+
+
 def _warning_lines(result) -> list[str]:
     """The **Warnings** block that opens the summary (nothing when there are none)."""
     warnings = result.warnings
