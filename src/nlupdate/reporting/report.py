@@ -20,8 +20,8 @@ from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_sum
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
-from nlupdate.reporting.validation_text import (error_cells, held_type_lines, held_type_worst_line, in_band_cell,
-                                                repeatability_line, summary_headline, verdict_lines)
+from nlupdate.reporting.validation_text import (error_cells, held_type_said, held_type_section, held_type_summary,
+                                                in_band_cell, repeatability_line, summary_headline, verdict_lines)
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.response.method import describe
 
@@ -159,7 +159,7 @@ def study_warning_lines(result) -> list[str]:
     if result.validation is not None:
         headline = summary_headline(result.validation, result.validation.reference_unit)
         lines += [] if headline is None else [f"validation: {headline}"]
-        held = _held_type(result.validation)
+        held = held_type_said(result.validation)
         lines += [f"validation: {line.removeprefix('warning: ')}" for line in (held[1] if held else ())
                   if line.startswith("warning: ")]
     if result.amplitude is not None:
@@ -174,7 +174,7 @@ def step_warnings(result) -> list[dict[str, str]]:
     out = []
     if result.validation is not None:
         lines = verdict_lines(result.validation, result.validation.reference_unit)
-        held = _held_type(result.validation)
+        held = held_type_said(result.validation)
         lines += held[1] if held else []
         out += [{"subject": "validation", "kind": "validation", "message": line.removeprefix("warning: "),
                  "source": "validation"} for line in lines if line.startswith("warning: ")]
@@ -235,55 +235,10 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         headline = summary_headline(result.validation, result.validation.reference_unit)
         if headline is not None:  # a miss, an extrapolation or a note opens the summary
             out.insert(0, f"* **Validation: {headline}**")
-        out += _held_type_summary(result.validation) + _validation_summary(result.validation)
+        out += held_type_summary(result.validation) + _validation_summary(result.validation)
     if result.fe_validation is not None:
         out += fe_validation_summary(result.fe_validation)
     return out
-
-
-def _held_type(validation) -> tuple[dict, list[str], list[str]] | None:
-    """``[validation] hold_out_type``'s summary (validation.json's ``held_out_type``), its
-    verdict and warning lines and its table rows (:func:`held_type_lines`); None without one."""
-    held = getattr(validation, "held_type", None)
-    if held is None:
-        return None
-    summary = held.summary()
-    lines = held_type_lines(summary, validation.reference_unit)
-    said = [lines[0]] + [line for line in lines[1:] if line.startswith("warning: ")]
-    return summary, said, [line for line in lines[1:] if not line.startswith("warning: ")]
-
-
-def _held_type_summary(validation) -> list[str]:
-    """The summary's line on the held-out test type: its verdict (bold when it warns), what
-    the model was fitted on and the largest errors within the fitted amplitudes."""
-    found = _held_type(validation)
-    if found is None:
-        return []
-    summary, said, _ = found
-    verdict = said[0].removeprefix("warning: ")
-    kinds = ", ".join(dict.fromkeys(entry["test_type"] for entry in summary["fitted_on"]))
-    text = f"{verdict} (model fitted on {kinds}); {held_type_worst_line(summary['worst_within_fit'])}"
-    more = len(said) - 1
-    text += f" ({more} more warning{'s' if more > 1 else ''} in the validation section)" if more else ""
-    return [f"* **Held-out test type**: **{text}**" if said[0].startswith("warning: ")
-            else f"* **Held-out test type**: {text}"]
-
-
-def _held_type_section(validation) -> list[str]:
-    found = _held_type(validation)
-    if found is None:
-        return []
-    summary, said, rows = found
-    model = summary["model"]
-    kinds = ", ".join(f"{entry['source']} ({entry['test_type']}, {entry['samples']})" for entry in summary["fitted_on"])
-    lines = [f"### A whole test type held out: {summary['test_type']}", "",
-             f"The amplitude-dependent modal model ({model['backbone']} backbone) fitted on {kinds} — linear limit "
-             f"{number(model['natural_frequency_hz'], 6)} Hz, {number(100 * model['damping_ratio'], 4)} % — predicts "
-             f"the held-out {summary['test_type']} (validation.json's `held_out_type`, as `nlupdate validate "
-             f"--hold-out-type` writes it):", ""]
-    lines += [f"Warning: {line.removeprefix('warning: ')}" if line.startswith("warning: ") else line for line in said]
-    lines += [""] + (["```", *rows, "```", ""] if rows else [])
-    return lines + [held_type_worst_line(summary["worst_within_fit"]) + ".", ""]
 
 
 def _validation_summary(validation) -> list[str]:
@@ -482,7 +437,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
                   markdown_table(pd.DataFrame(rows)), ""]
         lines += [f"![response-controlled runs]({plots['response_controlled']})", ""] if "response_controlled" in plots \
             else []
-    return lines + _held_type_section(validation)
+    return lines + held_type_section(validation)
 
 
 def _errors(r) -> dict[str, str]:

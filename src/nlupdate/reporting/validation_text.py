@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from nlupdate.reporting.markdown import number
+
 QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
 
 
@@ -247,3 +249,48 @@ def _band(compared: dict, scale: float, decimals: int | None) -> str:
         return ""
     low, high = scale * compared["low"], scale * compared["high"]
     return f" [{low:.{decimals}f}, {high:.{decimals}f}]" if decimals is not None else f" [{low:.3g}, {high:.3g}]"
+
+
+def held_type_said(validation) -> tuple[dict, list[str], list[str]] | None:
+    """``[validation] hold_out_type``'s summary (validation.json's ``held_out_type``), its
+    verdict and warning lines and its table rows (:func:`held_type_lines`); None without one."""
+    held = getattr(validation, "held_type", None)
+    if held is None:
+        return None
+    summary = held.summary()
+    lines = held_type_lines(summary, validation.reference_unit)
+    said = [lines[0]] + [line for line in lines[1:] if line.startswith("warning: ")]
+    return summary, said, [line for line in lines[1:] if not line.startswith("warning: ")]
+
+
+def held_type_summary(validation) -> list[str]:
+    """The summary's line on the held-out test type: its verdict (bold when it warns), what
+    the model was fitted on and the largest errors within the fitted amplitudes."""
+    found = held_type_said(validation)
+    if found is None:
+        return []
+    summary, said, _ = found
+    verdict = said[0].removeprefix("warning: ")
+    kinds = ", ".join(dict.fromkeys(entry["test_type"] for entry in summary["fitted_on"]))
+    text = f"{verdict} (model fitted on {kinds}); {held_type_worst_line(summary['worst_within_fit'])}"
+    more = len(said) - 1
+    text += f" ({more} more warning{'s' if more > 1 else ''} in the validation section)" if more else ""
+    return [f"* **Held-out test type**: **{text}**" if said[0].startswith("warning: ")
+            else f"* **Held-out test type**: {text}"]
+
+
+def held_type_section(validation) -> list[str]:
+    found = held_type_said(validation)
+    if found is None:
+        return []
+    summary, said, rows = found
+    model = summary["model"]
+    kinds = ", ".join(f"{entry['source']} ({entry['test_type']}, {entry['samples']})" for entry in summary["fitted_on"])
+    lines = [f"### A whole test type held out: {summary['test_type']}", "",
+             f"The amplitude-dependent modal model ({model['backbone']} backbone) fitted on {kinds} — linear limit "
+             f"{number(model['natural_frequency_hz'], 6)} Hz, {number(100 * model['damping_ratio'], 4)} % — predicts "
+             f"the held-out {summary['test_type']} (validation.json's `held_out_type`, as `nlupdate validate "
+             f"--hold-out-type` writes it):", ""]
+    lines += [f"Warning: {line.removeprefix('warning: ')}" if line.startswith("warning: ") else line for line in said]
+    lines += [""] + (["```", *rows, "```", ""] if rows else [])
+    return lines + [held_type_worst_line(summary["worst_within_fit"]) + ".", ""]
