@@ -78,9 +78,11 @@ def test_brb_response_controlled_runs_against_its_force_controlled_runs():
     log_a = np.log(held.amplitude[order])
     f_held = np.interp(np.log(forced.amplitude), log_a, held.frequency_hz[order])
     z_held = np.interp(np.log(forced.amplitude), log_a, held.damping_ratio[order])
-    # measured 0.07, 0.17, 0.14, 0.21 Hz (0.4886 N resonates 0.2 Hz below its neighbours) and 0–20 %
+    # each level at the amplitude its achieved force drove (2026-11-29): 0.07, 0.10, 0.13, 0.21 Hz
+    # (0.4886 N resonates 0.2 Hz below its neighbours) and -7.3, -0.6, +0.9, -1.1 % in damping; at
+    # the levels' mean forces the two lower levels sat 1.3 and 1.25 x too high and missed by -19, -20 %
     assert np.max(np.abs(forced.frequency_hz - f_held)) < 0.25
-    assert np.max(np.abs(forced.damping_ratio / z_held - 1)) < 0.25
+    assert np.max(np.abs(forced.damping_ratio / z_held - 1)) < 0.1
 
 
 def test_a_file_without_held_runs_is_refused(tmp_path):
