@@ -167,3 +167,21 @@ def test_a_damping_curve_held_at_zero_has_no_bootstrap_band():
     assert model.damping(6e-4) == 0 and model.damping(4e-4) > 0
     with pytest.raises(AmplitudeModelError, match=r"damping curve is 0 at modal amplitude 0.0006 m·√kg"):
         bootstrap_bands(model, samples, a, lambda draw: model, 5)
+
+
+def test_a_predicted_damping_band_stops_at_zero(tmp_path, capsys):
+    """The BRB's hammer pole held out from its four force-controlled levels alone: the
+    polynomial's damping curve reaches ζ₀ = 0.096 % by extrapolation, its bootstrap and the
+    impact's scatter widen that in quadrature, and the band's lower end came out at −0.032 %,
+    a negative damping ratio. A damping ratio is not negative: the band stops at 0."""
+    from test_real_measurements import BRB, BRB_COORDINATES
+
+    code, _, err = run_cli(capsys, "validate", "--measured", BRB, "--coordinates", BRB_COORDINATES,
+                           "--impact", BRB.parent / "HammerImpact_1600Hz.mat", "--channel", "acc3",
+                           "--response-unit", "m/s^2", "--shape", "acc3=0.7271", "--shape", "acc3:y=0.7271",
+                           "--band", "60:100", "--model", "amplitude-polynomial", "--bootstrap", 50,
+                           "--response-controlled", "off", "--hold-out-type", "impact", "--out", tmp_path / "imp")
+    assert code == 0, err
+    (sample,) = json.loads((tmp_path / "imp" / "validation.json").read_text())["held_out_type"]["samples"]
+    zeta = sample["damping_ratio"]
+    assert 0 <= zeta["low"] < zeta["predicted"] < zeta["high"]

@@ -253,7 +253,8 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
                 test = 1.96 * samples[column].to_numpy() * np.concatenate(
                     [np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(held, noise)])
                 predicted, (low, high) = samples[column].to_numpy(), bands[name]
-                samples[f"{column}_low"] = predicted - np.hypot(predicted - low, test)
+                floor = 0.0 if name == "damping_ratio" else -np.inf  # a damping ratio is not negative
+                samples[f"{column}_low"] = np.maximum(predicted - np.hypot(predicted - low, test), floor)
                 samples[f"{column}_high"] = predicted + np.hypot(high - predicted, test)
     return HeldType(test_type, model, tuple((name, kind, int(s.amplitude.size)) for name, s, _, kind in kept),
                     fitted_range, samples, levels)
