@@ -129,7 +129,7 @@ def main() -> None:
         if args.system and f"{dofs}-jenkins" not in args.system:
             continue
         s, started = system(dofs, "jenkins"), time.process_time()
-        made = ttt.records(s, "jenkins", dofs)
+        made = ttt.records(s, "jenkins")
         tally = {(c, b, n): [] for c in CELLS for b in BANDS for n in truths}
         for seed in range(args.first_seed, args.first_seed + args.seeds):
             every, lines = ttt.samples(s, made, seed)

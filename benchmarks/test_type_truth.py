@@ -8,13 +8,15 @@ Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with ea
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
 closed-form single-nonlinear-mode backbone). Per test type and seed:
 
-* ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: SDOF 3 mm, 2-DOF 240 ×), white
-  noise 2 % of the record's peak, read by the decay fit (``fit_decay``: its samples where the
-  damping is known to 1.5 %) or, with ``--ring-down segments``, in segments (``decay_segments``);
+* ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: 3 ×; the 2-DOF's 240 × until
+  2026-11-29), white noise 2 % of the record's peak, read by the decay fit (``fit_decay``: its
+  samples where the damping is known to 1.5 %) or, with ``--ring-down segments``, in segments
+  (``decay_segments``);
 * impact: an RK4 tap (Jenkins stuck, 0.5 × slip; Iwan 0.05 ×), 2 % noise, ``fit_linear_limit``;
 * phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels (Jenkins 0.5–15 ×
-  its slip amplitude; Iwan from microslip to 3.3 × φ_max, SDOF, and 130 ×, 2-DOF); 2 % noise on
-  the force and on the response amplitude;
+  its slip amplitude; Iwan 0.3–6 ×, from microslip to 3.3 × φ_max, on both systems — the
+  2-DOF's were 12–240 ×, all macroslip, until 2026-11-29); 2 % noise on the force and on the
+  response amplitude;
 * force-controlled stepped sine: multi-harmonic-balance FRFs at the same six levels on 301
   lines over 0.9–1.05 f₀ (``stepped_sine_table``, tests/test_stepped_sine_truth.py), 2 % noise
   (``add_table_noise``), one sample per level (``samples_from_frfs``); with ``--backbone jenkins``
@@ -25,8 +27,8 @@ Printed per system × type: the largest error of the samples themselves and of t
 fitted backbone (``--backbone``, at 60 amplitudes over the range its samples cover), over
 the seeds; then the joint fit of all types (each weighted by its own noise, as ``nlupdate
 amplitude`` does) over all samples' range ("joint") and over each type's own range only
-("joint, covered": without the gaps between types — the 2-DOF Iwan system's impact at
-0.026 a_s and its other types from 12 a_s), and, with each type held out, the model fitted to
+("joint, covered": without the gaps between types — e.g. each Iwan system's impact at
+0.025 a_s below its other types from 0.3 a_s), and, with each type held out, the model fitted to
 the others at the held-out samples' amplitudes within the others' range (as ``--hold-out``
 does, but against the truth; the impact's one sample lies below the others and is predicted
 by the fit's low-amplitude end) — all against the truth.
@@ -47,7 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from test_backbone_forms import locked_points  # noqa: E402
-from test_stepped_sine_truth import stepped_sine_table  # noqa: E402
+from test_stepped_sine_truth import IWAN_LEVELS, LEVELS, stepped_sine_table  # noqa: E402
 from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth  # noqa: E402
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
@@ -62,15 +64,17 @@ from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
 
 
-def records(s: dict, kind: str, dofs: int, extra: tuple[float, ...] = ()) -> dict:
+def records(s: dict, kind: str, extra: tuple[float, ...] = ()) -> dict:
     """The noise-free records of every test type of one system (``extra``: more Jenkins levels,
     × a_s)."""
     slip = s["slip"]
-    start = 30 * slip if kind == "jenkins" else 3e-3 * np.sqrt(2) if dofs == 1 else 240 * slip
-    # levels: the Jenkins joint from stuck to 15 × its slip amplitude; the Iwan joint from
-    # microslip to past 2 × its φ_max (MACROSLIP_REACH: below it an Iwan fit fixes β = 0)
-    amplitude = (np.sort(np.append(np.geomspace(0.5, 15, 6), extra)) * slip if kind == "jenkins"
-                 else np.geomspace(0.05, 1.0, 6) * (6e-3 * np.sqrt(2) if dofs == 1 else 240 * slip))
+    # the Iwan ring-down from 3 a_s (1.7 φ_max: φ_max = 1.8 a_s on both systems), inside the
+    # levels' span, which it decays through towards microslip
+    start = (30 if kind == "jenkins" else 3) * slip
+    # levels (tests/test_stepped_sine_truth.py): the Jenkins joint from stuck to 15 × its slip
+    # amplitude; the Iwan joint from microslip to past 2 × its φ_max (MACROSLIP_REACH: below it
+    # an Iwan fit fixes β = 0)
+    amplitude = (np.sort(np.append(LEVELS, extra)) if kind == "jenkins" else IWAN_LEVELS) * slip
     points = locked_points(s, amplitude)  # (Ω, the force that holds the amplitude at resonance, x)
     return {"decay": free_decay(s, start, 80), "tap": free_decay(s, (0.5 if kind == "jenkins" else 0.05) * slip, 40),
             "points": points, "table": stepped_sine_table(s, points[1])}
@@ -212,7 +216,7 @@ def main() -> None:
         if args.system and f"{dofs}-{kind}" not in args.system:
             continue
         s, started = system(dofs, kind), time.process_time()
-        made = records(s, kind, dofs, tuple(args.extra_level))
+        made = records(s, kind, tuple(args.extra_level))
         rows = {name: [] for name in TYPES + ("joint", "joint, covered")}
         slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):

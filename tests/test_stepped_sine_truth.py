@@ -29,6 +29,10 @@ from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.simulate import simulate_frf_table
 
 LEVELS = np.geomspace(0.5, 15, 6)  # × the slip amplitude: stuck, at the kink, into gross slip
+#: the Iwan joint's six levels, × a_s (SDOF and 2-DOF; φ_max = 1.8 a_s on both): 0.3–6 a_s =
+#: 0.17–3.3 φ_max, from microslip across the damping's peak into macroslip (the 2-DOF's were
+#: 12–240 a_s until 2026-11-29, all macroslip: its joint's microslip had no sample)
+IWAN_LEVELS = np.geomspace(0.05, 1.0, 6) * 6
 
 
 def stepped_sine_table(s: dict, forces: np.ndarray) -> pd.DataFrame:
