@@ -124,7 +124,7 @@ def test_the_brake_reuss_beam_held_out_as_specified(tmp_path, capsys, hold_out):
     assert [entry["level"] for entry in summary["held_out"]] == levels
     for entry in summary["held_out"]:
         for name in ("resonance_hz", "damping_ratio", "peak_abs"):
-            assert set(entry[name]) == {"measured", "predicted", "low", "high"}
+            assert {"measured", "predicted", "low", "high", "informative"} <= set(entry[name])
             assert set(entry["baseline"][name]) == {"measured", "predicted"}
         assert entry["requested"] == "auto" and entry["residual_to_noise"] > 0
         assert entry["resonance_hz"]["low"] < entry["resonance_hz"]["predicted"] < entry["resonance_hz"]["high"]
@@ -176,6 +176,14 @@ def test_a_study_archive_carries_its_held_out_levels(tmp_path, capsys):
     assert json.loads((run / "validation.json").read_text())["held_out"][0]["level"] == 1.46
     report = (run / "report.md").read_text()
     assert "* **Held-out levels** `lines` (1 level): resonance within" in report and "## Held-out levels" in report
+    # the top level's resonance band (±1.3 Hz) holds all four measured resonances (80.04–80.37 Hz): the summary,
+    # its headline and the table say it tests nothing (tests/test_validate_informative.py)
+    assert entry["resonance_hz"]["informative"] is False
+    assert "in its 95 % band at 1 of 1 (1 of them in uninformative bands: they test nothing)" in report
+    summary = report.split("## Summary", 1)[1].split("\n## ", 1)[0]
+    (headline,) = [line for line in summary.splitlines() if line.startswith("* **Validation: ")]
+    assert "lies within its prediction's 95 % band, but 3 of 3 values in band, 1 of them in bands wider" in headline
+    assert "yes (band uninformative)" in report
     assert (run / "plots" / "validation.png").is_file()
 
 

@@ -21,7 +21,8 @@ from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_va
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
 from nlupdate.reporting.validation_text import (error_cells, held_type_said, held_type_section, held_type_summary,
-                                                in_band_cell, repeatability_line, summary_headline, verdict_lines)
+                                                in_band_cell, in_band_counts, repeatability_line, summary_headline,
+                                                verdict_lines)
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.response.method import describe
 
@@ -252,7 +253,7 @@ def _validation_summary(validation) -> list[str]:
             errors = [abs(v.relative_error if relative else v.error) for v in values]
             return max((e for e in errors if np.isfinite(e)), default=float("nan"))
 
-        inside = [r.compared["resonance_hz"].inside for r in rows if r.compared["resonance_hz"].inside is not None]
+        banded, inside, idle = in_band_counts(rows, ("resonance_hz",))
         out.append(f"* **Held-out levels** `{requested}` ({len(rows)} level{'s' if len(rows) > 1 else ''}): resonance "
                    f"within {number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
                    f"{number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
@@ -260,8 +261,9 @@ def _validation_summary(validation) -> list[str]:
                    f"{number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
                    f"{number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
                    f"{number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
-                   f"95 % band at {sum(inside)} of {len(inside)}; test repeatability "
-                   f"{number(validation.repeatability.resonance_hz, 3)} Hz")
+                   f"95 % band at {inside} of {banded}"
+                   + (f" ({idle} of them in uninformative bands: they test nothing)" if idle else "")
+                   + f"; test repeatability {number(validation.repeatability.resonance_hz, 3)} Hz")
     return out
 
 

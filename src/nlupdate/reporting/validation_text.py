@@ -3,7 +3,8 @@
 
 :func:`verdict_lines` opens the output: whether every held-out level (and every
 response-controlled run predicted) lies within its 95 % bands, else each quantity that does
-not, naming level and model; then the extrapolations, each comparison's notes and auto's
+not, naming level and model, and how many of the values in band lie in bands that test
+nothing (:func:`uninformative_clause`; a warning then); then the extrapolations, each comparison's notes and auto's
 warnings — everything that qualifies a number comes before it. :func:`validation_lines` is
 the rest: the test's repeatability, one aligned table per held-out level and model (each
 error with its band, which quantities the measurement lies inside the band of, the residual
@@ -39,8 +40,13 @@ def verdict_lines(validation, unit: str) -> list[str]:
     misses += [f"{r.run} {', '.join(_outside(r))} ({r.label})" for r in validation.response_controlled
                if _outside(r)]
     what = "held-out level" + (" and response-controlled run" if validation.response_controlled else "")
+    idle = uninformative_clause([*validation.held_out, *validation.response_controlled])
     if misses:
-        lines = [f"warning: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
+        lines = [f"warning: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"
+                 + (f"; {idle}" if idle else "")]
+    elif idle:
+        lines = [f"warning: every {what}'s resonance, damping ratio and peak |H| lies within its prediction's 95 % "
+                 f"band, but {idle}"]
     else:
         lines = [f"every {what}'s resonance, damping ratio and peak |H| lies within its prediction's 95 % band"]
     lines += [f"warning: {w}" for w in dict.fromkeys(r.extrapolation for r in (*validation.held_out,
@@ -52,6 +58,27 @@ def verdict_lines(validation, unit: str) -> list[str]:
               for note in comparison_notes(r)]
     lines += [f"warning: response-controlled runs: {note}" for note in validation.response_controlled_notes]
     return lines + [f"warning: {choice.warning}" for choice in validation.choices.values() if choice.warning]
+
+
+def in_band_counts(results, keys: tuple[str, ...] | None = None) -> tuple[int, int, int]:
+    """(values with a band, values inside it, of those the ones whose band is uninformative:
+    :attr:`~nlupdate.core.validation.compared.Compared.informative` False) over ``results``'
+    quantities ``keys`` (every one compared when None)."""
+    compared = [c for r in results for key, c in r.compared.items()
+                if (keys is None or key in keys) and c.inside is not None]
+    inside = [c for c in compared if c.inside]
+    return len(compared), len(inside), sum(c.informative is False for c in inside)
+
+
+def uninformative_clause(results) -> str:
+    """How many in-band values of ``results`` lie in uninformative bands, they test nothing
+    ('' when none does)."""
+    banded, inside, idle = in_band_counts(results)
+    if not idle:
+        return ""
+    return (f"{inside} of {banded} values in band, {idle} of them in bands wider than twice the test's own spread "
+            f"of the quantity over its curves and than its resolution (a resonance band: or than the measured lines): "
+            f"they test nothing")
 
 
 def summary_headline(validation, unit: str) -> str | None:
@@ -97,9 +124,10 @@ def error_cells(compared: dict, bands: bool) -> list[str]:
 
 
 def in_band_cell(compared: dict) -> str:
-    """Per quantity whether the measured value lies in the prediction's band (— without one)."""
-    flags = [c.inside for c in compared.values()]
-    return ", ".join("—" if flag is None else "yes" if flag else "NO" for flag in flags)
+    """Per quantity whether the measured value lies in the prediction's band (— without one),
+    "yes (band uninformative)" where that band tests nothing (:mod:`nlupdate.core.validation.compared`)."""
+    return ", ".join("—" if c.inside is None else "NO" if not c.inside
+                     else "yes (band uninformative)" if c.informative is False else "yes" for c in compared.values())
 
 
 #: The columns: each error with its 95 % band, whether the measured value lies in each band,

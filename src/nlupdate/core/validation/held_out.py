@@ -47,47 +47,9 @@ from nlupdate.progress import ProgressCallback, no_progress
 from nlupdate.core.validation.baseline import baseline_fits, baseline_frf
 from nlupdate.core.validation.auto_choice import (ModelChoice, choose_model, extrapolated, level_extrapolation,
                                                   outside_physical_range)
+from nlupdate.core.validation.compared import QUANTITIES, Compared, measured_spread, widest_band
 from nlupdate.core.validation.models import BASELINE, model_fitter
 from nlupdate.core.validation.resonance import Resonance, read_alike, resonance
-
-QUANTITIES = ("resonance_hz", "damping_ratio", "peak_abs")
-
-
-@dataclass(frozen=True)
-class Compared:
-    """One quantity of a held-out level: measured, predicted and its 95 % band (low, high)."""
-
-    measured: float
-    predicted: float
-    low: float = float("nan")
-    high: float = float("nan")
-
-    @property
-    def error(self) -> float:
-        return self.predicted - self.measured
-
-    @property
-    def relative_error(self) -> float:
-        return self.predicted / self.measured - 1
-
-    @property
-    def inside(self) -> bool | None:
-        """Whether the measured value lies in the band (None without a band)."""
-        if not (np.isfinite(self.low) and np.isfinite(self.high)):
-            return None
-        return bool(self.low <= self.measured <= self.high)
-
-    @property
-    def predicted_inside(self) -> bool | None:
-        """Whether the predicted value lies in its own band (None without a band); a
-        prediction without a value (NaN) is not in it."""
-        if not (np.isfinite(self.low) and np.isfinite(self.high)):
-            return None
-        return bool(self.low <= self.predicted <= self.high)
-
-    def as_dict(self) -> dict[str, float]:
-        return {"measured": self.measured, "predicted": self.predicted, "low": self.low, "high": self.high}
-
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class CurveComparison:
@@ -150,6 +112,11 @@ class Repeatability:
     peak_relative: float = float("nan")
     #: the trend's polynomial degree in log amplitude (its degrees of freedom: levels − degree − 1)
     degree: int = 1
+    #: the spread of each quantity over the curves (:func:`~nlupdate.core.validation.compared.measured_spread`:
+    #: Hz; ln(max/min) of the damping ratio and the peak) — the band an uninformative one exceeds
+    resonance_spread_hz: float = float("nan")
+    damping_spread: float = float("nan")
+    peak_spread: float = float("nan")
 
     @property
     def dof(self) -> int:
@@ -159,6 +126,9 @@ class Repeatability:
         return {"resonance_hz_std": self.resonance_hz, "damping_ratio_std": self.damping_ratio,
                 "damping_ratio_relative_std": self.damping_relative, "peak_abs_relative_std": self.peak_relative,
                 "levels": self.levels, "trend_degree": self.degree,
+                "spread": {"resonance_hz": self.resonance_spread_hz,
+                           "damping_ratio_ln_max_over_min": self.damping_spread,
+                           "peak_abs_ln_max_over_min": self.peak_spread},
                 "method": "residual standard deviation of each measured curve's resonance and damping "
                           "ratio about a polynomial of trend_degree in log(response amplitude at resonance), and of "
                           "log(damping ratio) and log(peak |H|) about the same, levels - degree - 1 degrees of "
@@ -193,7 +163,9 @@ class Validation:
         return {"reference_unit": self.reference_unit, "repeatability": self.repeatability.as_dict(),
                 "auto_choices": {f"{level:g}": c.as_dict() for level, c in self.choices.items()},
                 "bands": "95 %: jackknife over the kept levels and the test's repeatability "
-                         "(nlupdate.core.validation.held_out)",
+                         "(nlupdate.core.validation.held_out); informative false: wider than twice the test's spread "
+                         "of the quantity over its curves and than its resolution 2 x 1.96 sigma (a resonance band: "
+                         "or than the measured lines), so in band tests nothing (nlupdate.core.validation.compared)",
                 "held_out": [r.as_dict() for r in self.held_out],
                 **({"kept_response_controlled_runs": list(self.kept_runs)} if self.kept_runs else {}),
                 **({"response_controlled_repeatability": self.runs_repeatability.as_dict()}
@@ -281,7 +253,8 @@ def repeatability(data: FRFLevels, runs: Sequence = ()) -> Repeatability:
         x = np.log(amplitude[good])
         residual = y[good] - np.polyval(np.polyfit(x, y[good], degree), x)
         out.append(float(np.sqrt(np.sum(residual**2) / (good.sum() - degree - 1))))
-    return Repeatability(out[0], out[1], len(shown), out[2], out[3], degree)
+    spread = measured_spread({name: [getattr(r, name) for r in shown] for name in QUANTITIES})
+    return Repeatability(out[0], out[1], len(shown), out[2], out[3], degree, *spread.values())
 
 
 def _metrics(r: Resonance, other: Resonance | None = None) -> dict[str, float]:
@@ -351,6 +324,8 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
                 "peak_abs": repeat.peak_relative}
     test_dof = repeat.dof
+    spread = {"resonance_hz": repeat.resonance_spread_hz, "damping_ratio": repeat.damping_spread,
+              "peak_abs": repeat.peak_spread}
     compared = {}
     for name in QUANTITIES:
         log = name != "resonance_hz"
@@ -366,7 +341,8 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
             halves.append(t * total if (side is not None or misfit) and np.isfinite(t) else float("nan"))
         low, high = ((centre * np.exp(-halves[0]), centre * np.exp(halves[1])) if log
                      else (centre - halves[0], centre + halves[1]))
-        compared[name] = Compared(measured[name], centre, low, high)
+        compared[name] = Compared(measured[name], centre, low, high, widest_band(name, spread[name], test_std[name], f),
+                                  log)
     # the test's own scatter of the resonance moves the curve along f by σ_f: the larger change of
     # |H| at each line when the curve is shifted either way (a jump moves, it does not grow), so
     # the band does not pinch to nothing where the refitted curves happen to cross

@@ -62,7 +62,7 @@ from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits
 from nlupdate.core.validation.held_out import (
-    Compared, CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits,
+    CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits,
     repeatability, resonance_amplitudes, validate,
 )
 from nlupdate.core.validation.auto_choice import choose_model
@@ -133,8 +133,8 @@ def widened_for_extrapolation(data: FRFLevels, run: HeldRun, comparison: dict) -
     compared = {}
     for key, c in comparison["compared"].items():
         spread = [v for v in values[key] if np.isfinite(v)]
-        compared[key] = (Compared(c.measured, c.predicted, float(np.nanmin([c.low, *spread])),
-                                  float(np.nanmax([c.high, *spread]))) if spread and np.isfinite(c.predicted) else c)
+        compared[key] = (replace(c, low=float(np.nanmin([c.low, *spread])), high=float(np.nanmax([c.high, *spread])))
+                         if spread and np.isfinite(c.predicted) else c)
     widened = dict(comparison, compared=compared)
     if sizes:
         widened.update(abs_low=np.fmin(comparison["abs_low"], np.min(sizes, axis=0)),
