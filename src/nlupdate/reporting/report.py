@@ -153,19 +153,11 @@ def _not_converged(value: float, truth: float | None) -> str:
 
 
 def study_warning_lines(result) -> list[str]:
-    """Every warning the summary carries, one line each, for a terminal: the study's
-    (``result.warnings``), the validation's first (:func:`summary_headline`, with how many more)
-    and the amplitude model's (:func:`amplitude_warnings`)."""
-    lines = [str(w) for w in result.warnings]
-    if result.validation is not None:
-        headline = summary_headline(result.validation, result.validation.reference_unit)
-        lines += [] if headline is None else [f"validation: {headline}"]
-        held = held_type_said(result.validation)
-        lines += [f"validation: {line.removeprefix('warning: ')}" for line in (held[1] if held else ())
-                  if line.startswith("warning: ")]
-    if result.amplitude is not None:
-        lines += [f"amplitude model: {text}" for text in amplitude_warnings(result.amplitude)]
-    return lines
+    """Every warning the archive's manifest carries, one line each, for a terminal: the
+    study's (``result.warnings``), then the validation's and the amplitude model's
+    (:func:`step_warnings`: every one — the validation's first alone, with how many more, hid an
+    extrapolation behind the line saying which bands test nothing)."""
+    return [str(w) for w in result.warnings] + [f"{w['source']}: {w['message']}" for w in step_warnings(result)]
 
 
 def step_warnings(result) -> list[dict[str, str]]:
