@@ -184,9 +184,16 @@ def two_dof_jenkins_records(tmp_path_factory):
     pd.DataFrame({"time_s": t, "m1": noisy(x, 0)}).to_csv(folder / "decay.csv", index=False)
     t, x = free_decay(s, 0.5 * s["slip"], 40)
     pd.DataFrame({"time_s": t, "m1": noisy(x, 1)}).to_csv(folder / "tap.csv", index=False)
+    phase_resonance_csv(s, np.geomspace(0.3, 30, 6), folder / "pr.csv")
+    return s, folder
+
+
+def phase_resonance_csv(s: dict, forces, path) -> None:
+    """Phase-resonance points of system ``s`` at ``forces`` (N) at dof 0, by the multi-harmonic
+    balance (5 harmonics) at 90°, written as `nlupdate amplitude --phase-resonance` reads them."""
     model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
     rows = []
-    for force in np.geomspace(0.3, 30, 6):
+    for force in forces:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", HarmonicTruncationWarning)
             curve = trace_harmonic_balance(model, {0: force}, 0.9 * s["w0"], 1.1 * s["w0"], harmonics=5,
@@ -195,8 +202,7 @@ def two_dof_jenkins_records(tmp_path_factory):
         rows.append({"frequency_hz": omega / (2 * np.pi), "force_n": force, "response_amplitude": abs(x1),
                      "response_phase_deg": np.degrees(np.angle(x1)), "response_unit": "m", "response_dof": "m1",
                      "input_dof": "m1"})
-    pd.DataFrame(rows).to_csv(folder / "pr.csv", index=False)
-    return s, folder
+    pd.DataFrame(rows).to_csv(path, index=False)
 
 
 def run_amplitude(s, folder, out, *extra, backbone="polynomial"):

@@ -17,38 +17,19 @@ no extrapolation stated.
 from __future__ import annotations
 
 import json
-import warnings
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from cli_runs import run_cli
-from nlupdate.core.model.linear import LumpedModel
-from nlupdate.core.model.system import NonlinearSystem
-from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
-from test_test_type_truth import ZETA0, band, free_decay, noisy, phase_resonance_point, system, truth
+from test_test_type_truth import ZETA0, band, free_decay, noisy, phase_resonance_csv, system, truth
 
 
 def stuck_force(s: dict, ratio: float) -> float:
     """The force (N) at dof 0 that holds the stuck mode at ``ratio`` × the slip amplitude at
     phase resonance: 2ζ₀ω₀²a/φ₀."""
     return 2 * ZETA0 * s["w0"] ** 2 * ratio * s["slip"] / s["phi"][0]
-
-
-def phase_resonance_csv(s: dict, forces, path) -> None:
-    model = NonlinearSystem(LumpedModel(s["M"], s["K"], s["C"]), (s["joint"],))
-    rows = []
-    for force in forces:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", HarmonicTruncationWarning)
-            curve = trace_harmonic_balance(model, {0: force}, 0.9 * s["w0"], 1.1 * s["w0"], harmonics=5,
-                                           stability=False)
-        omega, x1 = phase_resonance_point(curve)
-        rows.append({"frequency_hz": omega / (2 * np.pi), "force_n": force, "response_amplitude": abs(x1),
-                     "response_phase_deg": np.degrees(np.angle(x1)), "response_unit": "m", "response_dof": "m1",
-                     "input_dof": "m1"})
-    pd.DataFrame(rows).to_csv(path, index=False)
 
 
 @pytest.fixture(scope="module", params=[1, 2], ids=["sdof", "2dof"])
