@@ -284,6 +284,9 @@ IMPACT = Path(__file__).parent / "data" / "brb" / "HammerImpact_1600Hz.mat"
     # the hammer record holds three channels: a study names one with its table's key, not --channel
     ({"amplitude": {"ring_down": [str(IMPACT)]}}, "choose one with --channel NAME (in a study, the reading table's "
                                                   "channel)"),
+    # a held amplitude with no response-controlled run to hold was accepted and never read
+    ({"amplitude": {"measured": True, "shapes": {"acc3:y": 0.7271}, "held_amplitudes": {"Rc5": 20.0}}},
+     "[amplitude] key 'held_amplitudes': expected nothing without response_controlled files"),
 ])
 def test_bad_study_input_is_one_line_with_the_studys_own_words(tmp_path, capsys, table, expected):
     study = {"study": {"name": "brb-bad"},

@@ -245,6 +245,9 @@ def read_amplitude(read: Reader, data: Mapping[str, Any], measured: object | Non
     if not spec.measured and not spec.file_count:
         raise read.fail(where, None, "a source: `measured = true` or a file in ring_down, impact, "
                                      "response_controlled or phase_resonance")
+    if spec.held_amplitudes and not spec.response_controlled:
+        raise read.fail(where, "held_amplitudes", "nothing without response_controlled files (the held amplitude of "
+                                                  "their runs; no other source reads it)", dict(spec.held_amplitudes))
     if not spec.measured:
         for key in ("input_dof", "response_dof"):
             if key in table:
