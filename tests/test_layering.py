@@ -39,6 +39,7 @@ REPORTING_MAY_CALL = {
     ("nlupdate.core.response.method", "describe"): "the wording of the response method's settings",
     ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
     ("nlupdate.core.measurement.units", "table_reference_unit"): "the unit a table's levels are in (its column)",
+    ("nlupdate.core.updating.runs", "best_ranked"): "which run the study's ranking put first: one owner of 'best'",
 }
 
 

@@ -295,3 +295,31 @@ def test_bad_study_input_is_one_line_with_the_studys_own_words(tmp_path, capsys,
     code, _, err = run_cli(capsys, "update", tmp_path / "study.toml", "--out", tmp_path / "run", "--quiet")
     (line,) = [line for line in err.splitlines() if "error" in line]
     assert code == 2 and "study.toml: [" in line and expected in line, err
+
+
+def test_compare_draws_the_run_the_study_ranked_best(tmp_path, capsys):
+    """With the identified loss factor on the BRB, the study ranks the {k1} run first
+    (weighted |frequency error| 0.0005 % against 0.0011 %) while the {m1} run's prediction
+    has the higher mean FRAC (0.89456 against 0.89450): ``archive compare`` drew and named
+    the higher mean FRAC as each run's best; it draws the run of the archived ranking's
+    rank 1, as ``archive list`` and the report name it, and says so."""
+    study = brb_study()
+    study["prediction"]["loss_factor"] = "identified"
+    del study["validation"]
+    (tmp_path / "study.toml").write_text(tomli_w.dumps(study))
+    run = tmp_path / "results" / "brb-archive" / RUN_ID
+    assert run_cli(capsys, "update", tmp_path / "study.toml", "--out", run, "--quiet")[0] == 0
+    ranking = pd.read_parquet(run / "tables" / "ranking.parquet")
+    ranked = ranking.loc[ranking["rank"] == 1, "candidate"].item()
+    mean_frac = pd.read_parquet(run / "tables" / "correlation.parquet").groupby("model")["frac"].mean()
+    assert mean_frac.drop("initial").idxmax() != ranked  # the case that was drawn wrong
+    from nlupdate.reporting.catalogue import open_run
+    from nlupdate.reporting.compare import best_prediction
+
+    best = best_prediction(open_run(run))
+    assert best.name == ranked and set(best.correlation["model"]) == {ranked}
+    code, out, err = run_cli(capsys, "archive", "compare", run, run, "--root", tmp_path / "results", "--json")
+    assert code == 0, err
+    assert json.loads(out)["plot_note"].endswith("each run's updated model its study ranked best")
+    report = (run / "report.md").read_text()
+    assert f"* **Best updated model** for the user weights: `{ranked}`" in report

@@ -28,6 +28,7 @@ from typing import Any
 
 import pandas as pd
 
+from nlupdate.core.updating.runs import best_ranked
 from nlupdate.files import HOST, inside, name_problem, temporary_writer, writer_alive
 from nlupdate.reporting.archive import MANIFEST
 from nlupdate.fingerprints import file_hash, tree_hash
@@ -194,11 +195,9 @@ def resolve_run(spec: str, root: str | os.PathLike = "results") -> ArchivedRun:
 
 
 def best_candidate(run: ArchivedRun) -> str | None:
-    """The updating run ranked first (None when the study did not update)."""
-    ranking = run.table("ranking")
-    if ranking is None or ranking.empty:
-        return None
-    return str(ranking.sort_values("rank")["candidate"].iloc[0])
+    """The updating run the study ranked best (its archived ranking,
+    :func:`~nlupdate.core.updating.runs.best_ranked`); None when the study did not update."""
+    return best_ranked(run.table("ranking"))
 
 
 def key_results(run: ArchivedRun) -> dict[str, Any]:

@@ -27,7 +27,7 @@ from typing import Any, Iterable, NamedTuple
 import numpy as np
 import pandas as pd
 
-from nlupdate.reporting.catalogue import ArchiveError, ArchivedRun, archived_study_text
+from nlupdate.reporting.catalogue import ArchiveError, ArchivedRun, archived_study_text, best_candidate
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.fingerprints import table_hash
 from nlupdate.reporting.figures import save_figure
@@ -333,15 +333,12 @@ def change_table(rows: Iterable[FieldChange], limit: int = 60) -> pd.DataFrame:
 
 
 def best_prediction(run: ArchivedRun) -> SimpleNamespace | None:
-    """The best updated model's prediction of ``run`` (highest mean FRAC over the force
-    levels) as ``name``, ``table`` (predicted FRFs) and ``correlation``; None without one."""
-    predictions, correlation = run.table("predictions"), run.table("correlation")
-    if predictions is None or correlation is None:
+    """The prediction of the updated model the study ranked best (its archived ranking:
+    :func:`~nlupdate.reporting.catalogue.best_candidate`) as ``name``, ``table`` (predicted
+    FRFs) and ``correlation``; None when the study ranked no updated model or did not predict it."""
+    predictions, correlation, model = run.table("predictions"), run.table("correlation"), best_candidate(run)
+    if predictions is None or correlation is None or model is None or not (predictions["model"] == model).any():
         return None
-    models = [m for m in predictions["model"].unique() if m != "initial"]
-    if not models:
-        return None
-    model = str(correlation[correlation["model"].isin(models)].groupby("model")["frac"].mean().idxmax())
     return SimpleNamespace(name=model, table=predictions[predictions["model"] == model],
                            correlation=correlation[correlation["model"] == model])
 
@@ -372,7 +369,8 @@ def plot_scope(a: ArchivedRun, b: ArchivedRun, pa: SimpleNamespace | None,
     """The curve and force levels both runs' best predictions can be drawn at, against A's
     measurement (and B's)."""
     if pa is None or pb is None:
-        return PlotScope(None, (), "a run has no prediction")
+        return PlotScope(None, (), f"run {'A' if pa is None else 'B'} has no prediction of the updated model its "
+                                   f"study ranked best")
     measured_a, measured_b = curves(a.table("measured")), curves(b.table("measured"))
     if not measured_a:
         return PlotScope(None, (), "run A has no measured data")
@@ -425,10 +423,10 @@ def plot_comparison(a: ArchivedRun, b: ArchivedRun, path: Path) -> tuple[Path | 
         return None, scope.note
     measured_a, measured_b = a.table("measured"), b.table("measured")
     pa.table, pb.table = _at_levels(pa.table, scope.pair, scope.levels), _at_levels(pb.table, scope.pair, scope.levels)
-    pa.name, pb.name = f"A {a.run_id}: {pa.name}", f"B {b.run_id}: {pb.name}"
+    pa.name, pb.name = f"A {a.run_id}: {pa.name} (ranked best)", f"B {b.run_id}: {pb.name} (ranked best)"
     same_data = measured_b is not None and table_hash(measured_a) == table_hash(measured_b)
     other = None if same_data or measured_b is None else ("measured (B)", measured_b)
     styles = [dict(color="C0", lw=1.4), dict(color="C3", lw=1.1, ls="--")]
     title = f"{a.study}: run A vs run B" if same_study(a, b) else f"A {a.study} vs B {b.study}"
     figure = predictions_figure(measured_a, [pa, pb], *scope.pair, title, styles, other, short_names=["A", "B"])
-    return save_figure(figure, path, dpi=110), scope.note
+    return save_figure(figure, path, dpi=110), f"{scope.note}; each run's updated model its study ranked best"

@@ -25,6 +25,7 @@ from nlupdate.reporting.validation_text import (error_cells, held_type_said, hel
                                                 verdict_lines)
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.response.method import describe
+from nlupdate.core.updating.runs import best_ranked
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
                     "propagated through the updating sensitivities for updated parameters); the identified values' "
@@ -199,7 +200,7 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    + ("" if ident.trustworthy else " — **not trustworthy**: the linear FRF differs between the "
                       "levels beyond their noise (Identification below)"))
     if result.runs and result.ranking is not None:
-        best = result.ranking[result.ranking["candidate"] != "initial"].iloc[0]["candidate"]
+        best = best_ranked(result.ranking)
         run = next(r for r in result.runs if r.name == best)
         u = result.uncertainties.get(best)
         if run.converged:

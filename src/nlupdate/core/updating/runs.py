@@ -229,3 +229,14 @@ def rank_candidates(
     frac_rank = ranking["weighted_frac"].rank(method="min", ascending=False) + offset * behind
     ranking["rank_frac"] = frac_rank.rank(method="min").astype("Int64")
     return ranking.sort_values(["rank", "candidate"], kind="mergesort").reset_index(drop=True)
+
+
+def best_ranked(ranking: pd.DataFrame | None) -> str | None:
+    """The study's best updated model: the candidate of a :func:`rank_candidates` table (or
+    the archived ``ranking`` table) with the lowest ``rank`` other than ``initial`` (the
+    initial model is the reference, never the best); None without one. The one owner of
+    "best": the report, the trust warnings, ``archive list`` and ``archive compare`` ask it."""
+    if ranking is None:
+        return None
+    updated = ranking[ranking["candidate"] != "initial"].sort_values("rank", kind="mergesort")
+    return None if updated.empty else str(updated["candidate"].iloc[0])

@@ -11,6 +11,7 @@ from nlupdate.core.identification.trust import TrustWarning
 from nlupdate.core.prediction.predict import LOSS_FACTOR_BOUNDS, loss_factor_bound
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.parameter_warnings import updating_warnings
+from nlupdate.core.updating.runs import best_ranked
 from nlupdate.study.spec import Study
 from nlupdate.study.steps.prediction import Prediction
 from nlupdate.study.steps.updating import Comparison, UpdatingOutcome
@@ -20,9 +21,7 @@ def best_run(updating: UpdatingOutcome | None, comparison: Comparison | None) ->
     """The best-ranked updating run (converged ones rank first), None without runs."""
     if updating is None or not updating.runs or comparison is None:
         return None
-    by_name = {run.name: run for run in updating.runs}
-    name = next((n for n in comparison.ranking["candidate"] if n in by_name), None)
-    return by_name.get(name)
+    return {run.name: run for run in updating.runs}.get(best_ranked(comparison.ranking))
 
 
 def prediction_warning(predictions: Sequence[Prediction], best: str) -> TrustWarning | None:
