@@ -96,6 +96,7 @@ def test_the_plot_holds_only_the_force_levels_both_runs_have(archives, capsys, t
     left_out = sorted(set(TWO_DOF_FORCES) ^ set(VARIANT_FORCES))
     assert report["plot"] == str(tmp_path / "a-vs-b.png") and (tmp_path / "a-vs-b.png").is_file()
     assert report["plot_note"] == (f"response 0, input 0 at {', '.join(f'{f:g}' for f in common)} N (the force levels "
-                                   f"both runs have; {', '.join(f'{f:g}' for f in left_out)} N left out)")
+                                   f"both runs have; {', '.join(f'{f:g}' for f in left_out)} N left out); each run's "
+                                   f"updated model its study ranked best")
     overview = {row["field"]: row for row in report["overview"]}
     assert overview["study"]["b"] == "two-dof-variant" and overview["parameters"]["status"] == "same"
