@@ -239,6 +239,39 @@ def test_the_studys_own_stepped_sine_is_read_as_the_commands_measured(tmp_path, 
     assert pd.read_csv(archive / "amplitude" / "backbone.csv")["natural_frequency_hz_low"].notna().all()
 
 
+
+def test_the_response_controlled_runs_of_the_measured_file_are_read_with_its_coordinates(tmp_path, monkeypatch):
+    """The Brake–Reuss beam's MATLAB file holds force-controlled levels and response-controlled
+    runs, neither naming its coordinates: ``[measured] coordinates`` states them once, and
+    ``[amplitude] response_controlled`` on the same file reads the runs with them (it refused:
+    'the run names no coordinates'), as ``nlupdate amplitude --measured F --response-controlled F
+    --coordinates F=…`` reads both with one declaration - the archive's files equal the
+    command's byte for byte. An ``[amplitude]`` coordinate that contradicts ``[measured]``'s
+    for that file (read the runs with the sensor's sign reversed while the levels were not) is
+    refused."""
+    name = "ForcedFrequencyResponses.mat"
+    (tmp_path / name).write_bytes((BRB / name).read_bytes())
+    study = {"study": {"name": "brb-rc"},
+             "measured": {"file": name, "coordinates": {name: ["acc3:-y", "acc3:y"]}},
+             "amplitude": {"measured": True, "response_controlled": [name], "band_hz": [60.0, 100.0],
+                           "shapes": {"acc3:y": 0.7271}, "backbone": "polynomial", "bootstrap": 20}}
+    (tmp_path / "brb.toml").write_text(tomli_w.dumps(study))
+    archive = write_archive(api.run_study(tmp_path / "brb.toml"), tmp_path / "archive", {"orchestration": "test"})
+    monkeypatch.chdir(tmp_path)
+    assert main(["amplitude", "--measured", name, "--response-controlled", name, "--coordinates",
+                 f"{name}=acc3:-y,acc3:y", "--band", "60:100", "--shape", "acc3:y=0.7271", "--backbone",
+                 "polynomial", "--bootstrap", "20", "--out", "cli"]) == 0
+    for file in FILES:
+        assert (tmp_path / "cli" / file).read_bytes() == (archive / "amplitude" / file).read_bytes(), file
+    points = pd.read_csv(archive / "amplitude" / "backbone_points.csv")
+    assert points["test_type"].value_counts().to_dict() == {"stepped-sine": 4, "response-controlled": 8}
+    study["amplitude"]["coordinates"] = {name: ["acc3:y", "acc3:y"]}
+    (tmp_path / "brb.toml").write_text(tomli_w.dumps(study))
+    with pytest.raises(StudyError, match=r"brb.toml: \[amplitude\] key 'coordinates': expected nothing for a file "
+                                         r"\[measured\] states them for"):
+        load_study(tmp_path / "brb.toml")
+
+
 def test_the_brb_examples_summary_states_the_linear_limits_extrapolation_before_it(tmp_path):
     """examples/brb/amplitude.toml (the published hammer record and response-controlled runs):
     its linear limit lies above the impact's own pole, an extrapolation of the backbone below

@@ -8,6 +8,7 @@ part of the step's cache key).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -74,7 +75,8 @@ class AmplitudeSpec:
     coordinates: Mapping[str, tuple[str, ...]] = setting(
         default_factory=dict, kind="table", form_text='a table { FILE = ["RESPONSE", "INPUT"] }',
         meaning="response and input coordinates of a MATLAB file that names none (response-controlled or "
-                "phase-resonance runs), as `--coordinates`; `NODE:-DIR` along the negative direction")
+                "phase-resonance runs), as `--coordinates`; `NODE:-DIR` along the negative direction. A file "
+                "`[measured]` reads is read with `[measured]`'s statements (coordinates, levels, reference unit)")
     input_dof: str | None = setting(None, kind="string", default_text="the table's only input",
                                     meaning="with `measured`: the excited coordinate, as `--input-dof`")
     response_dof: str | None = setting(None, kind="string", default_text="the driving point, else the only response",
@@ -91,16 +93,21 @@ class AmplitudeSpec:
         None, kind="choice", choices=HELD_TYPES, default_text="none",
         meaning="fit without the sources of this test type and predict them (held_out.csv), as `--hold-out`")
 
-    def sources(self, study_path_of) -> SourceFiles:
+    def sources(self, study_path_of, measured: ReadOptions | None = None) -> SourceFiles:
         """The files of each test type (``study_path_of``: a path as written → the file read)
-        and how to read them."""
+        and how to read them: through ``measured``, the study's ``[measured]`` statements
+        (:meth:`~nlupdate.study.spec.MeasuredSpec.read_options`: a file it reads is read here as
+        there, as ``nlupdate amplitude`` reads every file with one set of options), with this
+        table's ``coordinates`` added."""
         resolved = {key: tuple(str(study_path_of(p)) for p in getattr(self, key)) for key in FILE_KEYS}
-        coordinates = {str(study_path_of(name)): tuple(pair) for name, pair in self.coordinates.items()}
+        base = measured or ReadOptions()
+        coordinates = {**base.coordinates,
+                       **{str(study_path_of(name)): tuple(pair) for name, pair in self.coordinates.items()}}
         held = {self._held_key(name, study_path_of): value for name, value in self.held_amplitudes.items()}
         return SourceFiles(**resolved, ring_down_fit=self.ring_down_fit,
                            band=None if self.band_hz is None else (self.band_hz[0], self.band_hz[1]),
                            response_unit=self.response_unit, channel=self.channel, held=held,
-                           options=ReadOptions(coordinates=coordinates))
+                           options=dataclasses.replace(base, coordinates=coordinates))
 
     def _held_key(self, name: str, study_path_of) -> str:
         """A ``FILE`` or ``FILE#RUN`` key with the file resolved; a run's name as it is."""

@@ -240,6 +240,12 @@ def read_amplitude(read: Reader, data: Mapping[str, Any], measured: object | Non
         if (not isinstance(pair, (list, tuple)) or len(pair) != 2
                 or not all(isinstance(p, str) and p for p in pair)):
             raise read.fail(where, "coordinates", 'a table { FILE = ["RESPONSE", "INPUT"] }', {name: pair})
+    stated = dict(getattr(measured, "coordinates", ()))
+    for name, pair in spec.coordinates.items():
+        path = str(read.path_of(name, record=False))
+        if path in stated and tuple(pair) != stated[path]:
+            raise read.fail(where, "coordinates", f"nothing for a file [measured] states them for (it is read with "
+                                                  f"those: {list(stated[path])})", {name: pair})
     if spec.measured and measured is None:
         raise read.fail(where, "measured", "false without a [measured] table (the stepped sine to take)", True)
     if not spec.measured and not spec.file_count:

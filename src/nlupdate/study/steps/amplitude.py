@@ -54,7 +54,8 @@ def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
     spec = study.amplitude
     written = {str(study.resolve(p)): p for key in FILE_KEYS for p in getattr(spec, key)}
     try:
-        found, channel, notes = read_sources(spec.sources(study.resolve), spec.shapes)
+        options = None if study.measured is None else study.measured.read_options()
+        found, channel, notes = read_sources(spec.sources(study.resolve, options), spec.shapes)
         found = [(written.get(path, path), *rest) for path, *rest in found]
         for path, name in written.items():
             notes = [note.replace(path, name) for note in notes]
