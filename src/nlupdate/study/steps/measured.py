@@ -49,9 +49,12 @@ def measured_table(study: Study) -> pd.DataFrame:
     spec = study.measured
     paths = [spec.file] if spec.file is not None else [path for path, _ in spec.files]
     options = spec.read_options()
-    if study.validation is not None:  # its response-controlled runs are read by [validation], not lost
-        options = dataclasses.replace(options, runs_read_apart=validate_reads_runs_apart(
-            paths, study.validation.response_controlled))
+    # response-controlled runs read by [validation] or [amplitude] are not lost
+    apart = () if study.validation is None else validate_reads_runs_apart(paths, study.validation.response_controlled)
+    if study.amplitude is not None:
+        apart = (*apart, *(str(study.resolve(path)) for path in study.amplitude.response_controlled))
+    if apart:
+        options = dataclasses.replace(options, runs_read_apart=tuple(apart))
     if spec.file is not None:
         return read_frf_table(spec.file, options=options)
     if spec.files:
