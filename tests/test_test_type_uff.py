@@ -160,6 +160,17 @@ def test_amplitude_command_takes_held_amplitudes_and_names_the_run_without_one(t
     assert error.count("\n") == 1 and "rc.uff, dataset 1 (run 'Run 2'): no held response amplitude" in error
 
 
+
+def test_a_held_amplitude_without_response_controlled_runs_is_refused(tmp_path, capsys):
+    """``--held-amplitude`` beside the Brake–Reuss beam's force-controlled levels alone: nothing
+    reads it (it was accepted and the model written as if it had been used)."""
+    brb = Path(__file__).parent / "data" / "brb" / "ForcedFrequencyResponses.mat"
+    assert main(["amplitude", "--measured", str(brb), "--coordinates", f"{brb}=acc3:-y,acc3:y", "--shape",
+                 "acc3:y=0.7271", "--held-amplitude", "Rc5=20", "--out", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "--held-amplitude Rc5=20: expected nothing without --response-controlled" in error
+
+
 @pytest.mark.parametrize("name, expected", [
     ("Run 1", r"rc\.uff, dataset 0 \(run 'Run 1'\): no held response amplitude: expected the controller's target "
               r"with a response unit .* \('ResponseControl 20 m/s2', 'Rc5ms2', 'a=0\.5 g', 'Target_0p1mm'\), or "

@@ -63,6 +63,9 @@ def add_source_options(parser: argparse.ArgumentParser, response_controlled: boo
 def source_files(args: argparse.Namespace) -> SourceFiles:
     """The test-type files and how to read them, as the options state them."""
     held = parse_levels(getattr(args, "held_amplitude", []), "--held-amplitude", "the unit of the run's response record")
+    if held and not getattr(args, "response_controlled", []):
+        raise CliError(f"--held-amplitude {args.held_amplitude[0]}: expected nothing without --response-controlled "
+                       f"FILE (the held amplitude of its runs; no other source reads it)")
     return SourceFiles(tuple(args.ring_down), tuple(args.impact), tuple(getattr(args, "response_controlled", [])),
                        tuple(args.phase_resonance), args.ring_down_fit, parse_band(args.band), args.response_unit,
                        args.channel, held, read_options(args))
