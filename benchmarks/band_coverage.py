@@ -180,7 +180,7 @@ def one_seed(case: str, seed: int, samples: int, hold: str = "interior,top") -> 
             c = r.compared[q]
             rows.append({"case": case, "seed": seed, "kind": "prediction", "quantity": q, "truth_kind": f"{where} level",
                          "value": c.predicted, "low": c.low, "high": c.high, "truth": truth[q],
-                         "residual_ratio": r.residual_to_noise, "bound": False})
+                         "residual_ratio": r.residual_to_noise, "bound": False, "informative": c.informative})
     for row in rows:
         row["has_band"] = not (np.isnan(row["low"]) or np.isnan(row["high"]))
         row["covered"] = bool(row["low"] <= row["truth"] <= row["high"])
@@ -208,9 +208,11 @@ def coverage_table(rows: list[dict[str, Any]]) -> str:
     for (case, kind, quantity, truth), g in frame.groupby(["case", "kind", "quantity", "truth_kind"], sort=False):
         lines.append(f"| {case} | {kind} | {quantity} | {truth} | {100 * g['covered'].mean():.0f} % | {len(g)} | "
                      f"{g['half'].median():.3g} | {g['error'].median():.3g} |")
-    lines += ["", "| case | kind | truth | pooled coverage | bands |", "|---|---|---|---|---|"]
+    lines += ["", "| case | kind | truth | pooled coverage | bands | of the covering bands, uninformative |",
+              "|---|---|---|---|---|---|"]
     for (case, kind, truth), g in frame.groupby(["case", "kind", "truth_kind"], sort=False):
-        lines.append(f"| {case} | {kind} | {truth} | {100 * g['covered'].mean():.1f} % | {len(g)} |")
+        idle = "—" if kind == "parameter" else str(int((g["covered"] & (g["informative"] == False)).sum()))  # noqa: E712
+        lines.append(f"| {case} | {kind} | {truth} | {100 * g['covered'].mean():.1f} % | {len(g)} | {idle} |")
     outside = int((~frame["contains_value"]).sum())
     lines += ["", f"estimates outside their own band: {outside} of {len(frame)}; without a band (no circle-fit "
                   f"damping ratio: fewer than 5 lines at 0.4 max|H|): {unbanded}; residual over noise of the "
