@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from nlupdate.app.cli import CliError
-from nlupdate.core.measurement.band import excited_band_of_table, in_band
+from nlupdate.core.measurement.band import excited_band_of_table, in_band, table_within
 from nlupdate.core.measurement.units import (
     ReadOptions, ReferenceUnitError, table_reference_unit, validate_reads_runs_apart,
 )
@@ -204,12 +204,11 @@ def _excited(table: pd.DataFrame, find_band: bool) -> tuple[pd.DataFrame, str | 
     if not find_band:
         return table, None
     found, reason = excited_band_of_table(table)
-    inside = pd.Series(in_band(table["frequency_hz"], found), index=table.index)
-    if inside.all():
+    cut, left_out = table_within(table, found)
+    if not left_out:
         return table, None
-    return table[inside].reset_index(drop=True), (
-        f"band {found[0]:g}–{found[1]:g} Hz found ({reason}): {int((~inside).sum())} of {len(table)} measured rows "
-        f"outside it left out before any step (choose another with --band LOW:HIGH)")
+    return cut, (f"band {found[0]:g}–{found[1]:g} Hz found ({reason}): {left_out} of {len(table)} measured rows "
+                 f"outside it left out before any step (choose another with --band LOW:HIGH)")
 
 
 def describe_frf_table(table: pd.DataFrame, paths: list[str], calibration: float | None = None) -> str:

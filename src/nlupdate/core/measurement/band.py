@@ -129,3 +129,10 @@ def excited_band_of_table(table: pd.DataFrame) -> tuple[tuple[float, float], str
     if not lows:
         return (float(table["frequency_hz"].min()), float(table["frequency_hz"].max())), "all measured frequencies"
     return (min(lows), max(highs)), "; ".join(sorted(set(reasons)))
+
+
+def table_within(table: pd.DataFrame, band_hz: tuple[float, float]) -> tuple[pd.DataFrame, int]:
+    """(the rows of an FRF table whose frequency lies in ``band_hz`` (Hz, closed), how many
+    rows were left out)."""
+    inside = in_band(table["frequency_hz"], band_hz)
+    return table[inside].reset_index(drop=True), int((~inside).sum())

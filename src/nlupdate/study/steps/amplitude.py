@@ -16,7 +16,7 @@ from nlupdate.core.identification.amplitude_inputs import read_sources
 from nlupdate.core.identification.amplitude_joint import (
     AmplitudeFit, BandCut, backbone_table, fit_sources, measured_source,
 )
-from nlupdate.core.measurement.band import excited_band_of_table, in_band
+from nlupdate.core.measurement.band import excited_band_of_table, table_within
 from nlupdate.study.amplitude import FILE_KEYS
 from nlupdate.study.spec import Study, StudyError
 from nlupdate.study.steps.measured import measured_description
@@ -38,14 +38,14 @@ def _stepped_sine(study: Study, table: pd.DataFrame) -> tuple[pd.DataFrame, str,
     band = study.amplitude.band_hz
     excited, reason = excited_band_of_table(table)
     found, how = ((band[0], band[1]), "band_hz") if band is not None else (excited, reason)
-    inside = in_band(table["frequency_hz"], found)
-    if not inside.any():
+    kept, left_out = table_within(table, found)
+    if kept.empty:
         raise ValueError(f"the [measured] data have no line between {found[0]:g} and {found[1]:g} Hz ({how})")
     note = (f"stepped sine ({_measured_name(study)}): band {found[0]:g}–{found[1]:g} Hz ({how}), "
-            f"{int((~inside).sum())} of {len(table)} measured rows outside it left out")
-    whole = table[in_band(table["frequency_hz"], excited)].reset_index(drop=True)
-    cut = None if band is None or in_band(whole["frequency_hz"], found).all() else BandCut(found, whole)
-    return table[inside].reset_index(drop=True), note, cut
+            f"{left_out} of {len(table)} measured rows outside it left out")
+    whole = table_within(table, excited)[0]
+    cut = None if band is None or not table_within(whole, found)[1] else BandCut(found, whole)
+    return kept, note, cut
 
 
 def amplitude_step(study: Study, measured: pd.DataFrame | None) -> AmplitudeFit:
