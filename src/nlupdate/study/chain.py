@@ -42,6 +42,7 @@ from nlupdate.core.validation.held_out import Validation
 from nlupdate.fe.joint_validation import FEValidation
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.target_uncertainty import ParameterUncertainty
+from nlupdate.core.updating.runs import best_ranked
 
 Results = Mapping[str, Any]
 
@@ -169,11 +170,9 @@ class StudyResult:
 
     @property
     def best(self) -> str | None:
-        """The best-ranked updating run's name (None without updating runs)."""
-        if self.ranking is None:
-            return None
-        ranked = self.ranking[self.ranking["candidate"] != "initial"]
-        return None if ranked.empty else str(ranked["candidate"].iloc[0])
+        """The best-ranked updating run's name (None without updating runs):
+        :func:`~nlupdate.core.updating.runs.best_ranked`."""
+        return best_ranked(self.ranking)
 
     def __repr__(self) -> str:
         """One line: the study, its runs, the best one, predictions and warnings

@@ -12,6 +12,7 @@ from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.measurement.frf_table import force_levels
 from nlupdate.core.prediction.predict import predict_measured
 from nlupdate.core.updating.evaluation import PointEvaluator
+from nlupdate.core.updating.runs import best_ranked
 from nlupdate.fe.adapters.base import ModalResult
 from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.study.spec import Study, StudyError
@@ -59,7 +60,7 @@ def prediction_jobs(study: Study, updating: UpdatingOutcome, comparison: Compari
     by_name = {run.name: run for run in runs}
     choice = study.prediction.candidates
     if choice == "best":
-        names = [name for name in ranking["candidate"] if name in by_name][:1]
+        names = [name for name in [best_ranked(ranking)] if name in by_name]
     elif choice == "all":
         names = list(by_name)
     else:
