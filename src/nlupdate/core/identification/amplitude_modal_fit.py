@@ -7,22 +7,22 @@ the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
   ratio of the mode per force level, as a phase-resonance or one-mode analysis gives them):
   at phase resonance ``2ζω² a = |φ_f| F``, so ``a_i = |φ_f| F_i / (2ζ_i ω_i²)``;
 * **FRFs at several levels** (driving point or transfer): each level's resonance — the peak
-  of |H| after removing the other modes' share ``R − R_m/Ω²`` found by a one-mode fit of the
-  lowest level (:func:`~nlupdate.core.identification.modal_fit.fit_mode_near`) — gives one
+  of |H| after removing the other modes' share R, a constant found with the modal constant P
+  from every level at once (:mod:`~nlupdate.core.identification.level_residual`: a one-mode
+  fit of the lowest level took part of that nonlinear curve for residual terms) — gives one
   sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
   and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
   r ≠ input f) has the modal constant ``P = φ_rφ_f``: its response amplitude becomes the
   driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f
-  only P is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets the scale
+  only P (from every level) is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets the scale
   of a, which no prediction of these FRFs depends on. The points off the peak
   are not used: where a stiff joint changes the mode's shape between stuck and slipping,
   single-mode theory holds at the resonance but not on the flanks (the bolted-beam example's
   exact modal model misses its flanks by 21 % rms, its peaks by ≤ 1.1 %). Without a given
   φ_f an Iwan fit fits φ_f with the backbone (the joint's damping is tied to its softening,
-  which fixes the scale of a), within :data:`SHAPE_RANGE` of the lowest level's modal
-  constant (the peaks fix only φ_f²/ζ; the curves' widths fix ζ, so φ_f may move only as
-  much as a slipping joint changes the shape); a polynomial one uses the lowest level's
-  modal constant.
+  which fixes the scale of a), within :data:`SHAPE_RANGE` of the modal constant read
+  with the other modes' share (the peaks fix only φ_f²/ζ; the curves' widths fix ζ, so φ_f may move only as
+  much as a slipping joint changes the shape); a polynomial one uses that modal constant.
 
 The backbone is then fitted by weighted least squares of the relative errors of ω and ζ
 (standard deviations ``frequency_std`` and ``damping_std``, relative). The linear limit is
@@ -73,8 +73,8 @@ from nlupdate.core.identification.constrained_lsq import constrained_lsq
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
 from nlupdate.core.identification.frf_peak import resonance_peak
+from nlupdate.core.identification.level_residual import frf_residual
 from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
-from nlupdate.core.identification.modal_fit import fit_mode_near
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.model.elements import IwanJoint
@@ -139,30 +139,25 @@ def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int 
 def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
                       band_fraction: float = 0.1) -> ModalSamples:
     """One backbone sample per force level from FRFs at the driving point or a transfer
-    (module docstring): the resonance of each level (peak of |H| within ``band_fraction`` of
-    the lowest level's resonance near ``near_hz``, from every line near its top:
+    (module docstring): the resonance of each level (peak of |H| within ``2.5 band_fraction``
+    of the lowest level's resonance near ``near_hz``, from every line near its top:
     :func:`~nlupdate.core.identification.frf_peak.resonance_peak`), after removing the other
-    modes' share."""
-    f_low, h_low = data.frequencies[0], data.receptances[0]
-    start = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
-    fit = fit_mode_near(f_low, h_low, start, band_fraction=band_fraction)
-    centre = float(fit.natural_frequencies_hz[0])
+    modes' share found from every level
+    (:func:`~nlupdate.core.identification.level_residual.frf_residual`), whose modal constant also
+    gives φ_f when ``input_shape`` is None and φ_r/φ_f of a transfer."""
+    centre, shared = frf_residual(data, near_hz, band_fraction)
     driving = data.response_dof == data.input_dof
-    constant = complex(fit.modal_constants[0])
-    if not (constant.real > 0 if driving else constant.real != 0):
-        raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} FRF "
-                                  f"({data.response_dof}/{data.input_dof}) gives a modal constant {constant:.4g}"
-                                  + ("; give input_shape" if driving else ": no resonance of this mode to sample"))
+    constant = shared.modal_constant
     shape_free = input_shape is None
     if shape_free:
-        input_shape = float(np.sqrt(abs(constant.real)))
+        input_shape = float(np.sqrt(abs(constant)))
     phi = abs(float(input_shape))
-    ratio = 1.0 if driving else constant.real / phi**2  # φ_r/φ_f
+    ratio = 1.0 if driving else constant / phi**2  # φ_r/φ_f
     peak_hz, peak_x, forces, levels = [], [], [], []
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre) <= 2.5 * band_fraction * centre
         fb = f[band]
-        hb = np.abs(h[band] - fit.residual_receptance(fb))
+        hb = np.abs(h[band] - shared.residual)
         if fb.size < 3:
             continue
         at_hz, height = resonance_peak(fb, hb)
@@ -367,8 +362,8 @@ def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int, constra
     return float(scipy.stats.f.sf(excess / (chi2_free / free_dof), constraints, free_dof))
 
 
-#: how far (a factor either way) an Iwan fit's mode shape may stray from the lowest level's
-#: one-mode fit (the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
+#: how far (a factor either way) an Iwan fit's mode shape may stray from the modal constant
+#: read from the levels (a one-mode fit of the lowest level before issue 34; the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
 #: physics, not a convenience: a free shape let the fit shrink φ_f, which scales every
 #: damping ratio by φ_f² and keeps each peak, so a joint that cannot tie the measured damping
 #: to the measured softening (the BRB; a quadratic damper) fitted with ζ₀ → 0 and predicted
@@ -416,7 +411,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
             (model, chi2, law), fits, capped = best, free, False
             freed = (f"; f0 not held under the softening cap (the capped fit misses the samples beyond the noise: "
                      f"chi² {chi2_capped:.3g}, F-test p = {p_cap:.2g})")
-    stuck_shape = samples.input_shape  # the lowest level's one-mode fit (FRF samples)
+    stuck_shape = samples.input_shape  # the modal constant read from the levels (FRF samples)
     if fitted_shape:  # the fitted φ_f sets the amplitudes of every sample from here on
         samples = samples.with_shape(model.shapes[0][1])
         samples = ModalSamples(samples.amplitude, samples.frequency_hz, samples.damping_ratio, samples.force_n,
@@ -455,7 +450,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     ratio = shapes[0][1] / stuck_shape
     if fitted_shape and abs(np.log(ratio)) >= 0.99 * np.log(SHAPE_RANGE):
         warnings += (f"the Iwan fit ends with the mode shape at the excited coordinate on its bound, {shapes[0][1]:.4g} "
-                     f"1/√kg = {ratio:.3g} × the lowest level's one-mode fit ({stuck_shape:.4g} 1/√kg; a joint that "
+                     f"1/√kg = {ratio:.3g} × the modal constant read from the levels ({stuck_shape:.4g} 1/√kg; a joint that "
                      f"slips changes it by a few per cent): the joint cannot tie the measured damping to the measured "
                      f"softening; try the polynomial backbone",)
     return replace(out, warnings=warnings)
