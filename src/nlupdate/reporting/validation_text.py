@@ -73,7 +73,12 @@ def in_band_counts(results, keys: tuple[str, ...] | None = None) -> tuple[int, i
 def uninformative_clause(results) -> str:
     """How many in-band values of ``results`` lie in uninformative bands, they test nothing
     ('' when none does)."""
-    banded, inside, idle = in_band_counts(results)
+    return counted_clause(*in_band_counts(results))
+
+
+def counted_clause(banded: int, inside: int, idle: int) -> str:
+    """:func:`uninformative_clause` of counts (values with a band, inside it, of those in
+    uninformative bands): '' when none is."""
     if not idle:
         return ""
     return (f"{inside} of {banded} values in band, {idle} of them in bands wider than twice the test's own spread "
@@ -126,8 +131,13 @@ def error_cells(compared: dict, bands: bool) -> list[str]:
 def in_band_cell(compared: dict) -> str:
     """Per quantity whether the measured value lies in the prediction's band (— without one),
     "yes (band uninformative)" where that band tests nothing (:mod:`nlupdate.core.validation.compared`)."""
-    return ", ".join("—" if c.inside is None else "NO" if not c.inside
-                     else "yes (band uninformative)" if c.informative is False else "yes" for c in compared.values())
+    return ", ".join(in_band_word(c.inside, c.informative) for c in compared.values())
+
+
+def in_band_word(inside: bool | None, informative: bool | None) -> str:
+    """One quantity's "in band" cell: — (no band), NO, yes, or "yes (band uninformative)"."""
+    return ("—" if inside is None else "NO" if not inside
+            else "yes (band uninformative)" if informative is False else "yes")
 
 
 #: The columns: each error with its 95 % band, whether the measured value lies in each band,
@@ -200,9 +210,11 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
     amplitude (said before anything else); each held-out level or sample whose measured value
     lies outside the prediction's 95 % band; the fitted model's own warnings (its linear limit
     extrapolated or on a bound, a poor fit: ``warning:`` lines, in validation.json only
-    before); then, for a held stepped sine, one aligned row per level (measured, predicted with
-    its band, in band or not), for held impacts one row per impact and quantity (measured and
-    predicted, each with its band, the error, in band or not)."""
+    before); the verdict counts the in-band values whose band tests nothing
+    (:func:`held_type_in_band`, validation.json's ``informative``: the rule of the held-out
+    levels) and warns then; then, for a held stepped sine, one aligned row per level (measured,
+    predicted with its band, in band or not: :func:`in_band_word`), for held impacts one row per
+    impact and quantity (measured and predicted, each with its band, the error, in band or not)."""
     names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
     misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
               for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
@@ -215,18 +227,24 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
         misses += [f"{names[key]} of {entry['source']} (its linear limit)" for entry in extrapolated
                    if entry[key].get("inside") is False]
     what = f"{summary['test_type']} held out"
+    idle = counted_clause(*held_type_in_band(summary))
     if extrapolated:  # first: every number below it qualifies
         banded = all("inside" in entry[key] for entry in extrapolated for key in ("natural_frequency_hz",
                                                                                    "damping_ratio"))
         verdict = (f"measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}" if misses
                    else "measured within the prediction's 95 % band" if banded
                    else "without a band (no bootstrap refits: --bootstrap N)")
-        lines = [f"warning: {what}: {'; '.join(entry['extrapolation'] for entry in extrapolated)}; {verdict}"]
+        lines = [f"warning: {what}: {'; '.join(entry['extrapolation'] for entry in extrapolated)}; {verdict}"
+                 + (f"; {idle}" if idle else "")]
     elif misses:
-        lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"]
+        lines = [f"warning: {what}: measured OUTSIDE the prediction's 95 % band: {'; '.join(misses)}"
+                 + (f"; {idle}" if idle else "")]
     elif not summary["levels"] and not sampled:
         lines = [f"warning: {what}: no held-out sample lies within the fitted amplitudes: each prediction is an "
                  f"extrapolation, without a band"]
+    elif idle:
+        lines = [f"warning: {what}: every measured value within the fitted amplitudes lies within the prediction's "
+                 f"95 % band, but {idle}"]
     else:
         lines = [f"{what}: every measured value within the fitted amplitudes lies within the prediction's 95 % band"]
     lines += [f"warning: the model fitted without {summary['test_type']}: {warning}"
@@ -239,13 +257,26 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
               "predicted [95 % band]", "peak error (%)", "in band f, ζ, peak")]
     for entry in summary["levels"]:
         res, zeta, peak = entry["resonance_hz"], entry["damping_ratio"], entry["peak_abs"]
-        flags = ", ".join("—" if c.get("inside") is None else "yes" if c["inside"] else "NO" for c in (res, zeta, peak))
+        flags = ", ".join(in_band_word(c.get("inside"), c.get("informative")) for c in (res, zeta, peak))
         cells.append((f"{entry['level']:g}", f"{res['measured']:.3f}", f"{res['predicted']:.3f}" + _band(res, 1.0, 2),
                       f"{100 * zeta['measured']:.3g}", f"{100 * zeta['predicted']:.3g}" + _band(zeta, 100.0, None),
                       _percent(100 * peak["relative_error"]),
                       flags + ("" if entry["within_fit"] else " (outside the fitted amplitudes)")))
     widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return lines + ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+
+
+def held_type_in_band(summary: dict) -> tuple[int, int, int]:
+    """:func:`in_band_counts` of validation.json's ``held_out_type`` entry: over every level's
+    quantities, the samples within the fitted amplitudes and the impacts compared at the
+    linear limit (those the verdict judges) — values with a band, inside it, of those in
+    uninformative bands (``informative`` false)."""
+    entries = [*summary["levels"], *(entry for entry in summary["samples"]
+                                     if entry["within_fit"] or "extrapolation" in entry)]
+    compared = [c for entry in entries for key, c in entry.items()
+                if key in (*QUANTITY_NAMES, "natural_frequency_hz") and isinstance(c, dict) and "inside" in c]
+    inside = [c for c in compared if c["inside"]]
+    return len(compared), len(inside), sum(c.get("informative") is False for c in inside)
 
 
 def _impact_rows(samples: list[dict]) -> list[str]:
@@ -266,7 +297,7 @@ def _impact_rows(samples: list[dict]) -> list[str]:
                 f" [{scale * c['low']:.{digits}f}, {scale * c['high']:.{digits}f}]" if "low" in c else "")
             error = (f"{c['error']:+.4f} Hz ({_percent(100 * c['relative_error'])} %)" if key == "natural_frequency_hz"
                      else f"{_percent(100 * c['relative_error'])} %")
-            flag = "—" if "inside" not in c else "yes" if c["inside"] else "NO"
+            flag = in_band_word(c.get("inside"), c.get("informative"))
             cells.append((entry["source"], label, measured, predicted, where, error, flag))
     widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]

@@ -39,6 +39,18 @@ kept fit's noise carried to a = 0 by the model's form, not that form's error bel
 samples). Without resamples, or outside, there is none (absent). An impact's measured
 frequency and damping have their own 95 % band (``measured_low``, ``measured_high``): ± 1.96
 standard errors of its pole (:class:`~nlupdate.core.identification.impact.LinearLimit`).
+
+Whether a band tests anything is judged by the one rule of ``--hold-out LEVELS``
+(:mod:`nlupdate.core.validation.compared`: a band wider than twice the test's spread of the
+quantity and than the test's resolution 2·1.96·σ is *uninformative*; validation.json's
+``informative``). Here the test is the held-out type: the spread is over its own measured
+values (a held stepped sine: its levels' resonance, damping ratio and peak |H|; held samples:
+their natural frequency and damping ratio), σ its own scatter — a stepped sine's
+repeatability, a sample source's noise (:func:`source_noise`: the same σ that widens the
+sample's band) times the measured value for the frequency (Hz), the relative one for the
+damping ratio (judged in its logarithm). A held type of one value (a single impact) has no
+spread: its bands are not judged (the rule's first clause needs two values; the second alone
+says only that the band is wider than the test's resolution, not that it tests nothing).
 """
 from __future__ import annotations
 
@@ -54,6 +66,7 @@ from nlupdate.core.identification.backbone_samples import (
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+from nlupdate.core.validation.compared import QUANTITIES, Compared, measured_spread, widest_band
 from nlupdate.core.validation.held_out import Validation, repeatability
 from nlupdate.core.validation.models import frf_at_forces
 from nlupdate.core.validation.resonance import read_alike, resonance
@@ -105,16 +118,18 @@ class HeldType:
             for name, column in (("natural_frequency_hz", "predicted_frequency_hz"),
                                  ("damping_ratio", "predicted_damping_ratio")):
                 entry[name] = _compared(row[name], row[column], row.get(f"{column}_low"), row.get(f"{column}_high"),
-                                        row.get(f"{name}_low"), row.get(f"{name}_high"))
+                                        row.get(f"{name}_low"), row.get(f"{name}_high"), row.get(f"{name}_widest"),
+                                        name == "damping_ratio")
             if np.isfinite(row["predicted_amplitude"]):
                 entry["modal_amplitude_held"] = _compared(row["modal_amplitude"], row["predicted_amplitude"])
             out["samples"].append(entry)
         for row in self.levels.to_dict("records"):
             entry = {"level": row["level"], "within_fit": bool(row["within_fit"]),
                      "half_power_lines": int(row["half_power_lines"])}
-            for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+            for name in QUANTITIES:
                 entry[name] = _compared(row[f"{name}_measured"], row[f"{name}_predicted"], row.get(f"{name}_low"),
-                                        row.get(f"{name}_high"))
+                                        row.get(f"{name}_high"), widest=row.get(f"{name}_widest"),
+                                        log=name != "resonance_hz")
             out["levels"].append(entry)
         out["worst_within_fit"] = self.worst()
         return out
@@ -136,18 +151,54 @@ class HeldType:
         return worst
 
 
+def _number(value: float | None) -> float:
+    return float("nan") if value is None else float(value)
+
+
 def _compared(measured: float, predicted: float, low: float | None = None, high: float | None = None,
-              measured_low: float | None = None, measured_high: float | None = None) -> dict:
+              measured_low: float | None = None, measured_high: float | None = None, widest: float | None = None,
+              log: bool = False) -> dict:
     """One quantity's entry: measured, predicted, their difference and ratio − 1; the
-    prediction's band (``low``, ``high``, ``inside``: the measured value within) and the
-    measured value's own (``measured_low``, ``measured_high``) where given and finite."""
+    prediction's band (``low``, ``high``, ``inside``: the measured value within) and whether
+    it tests anything (``informative``, ``widest_informative_band``, ``band_width_scale``:
+    :class:`~nlupdate.core.validation.compared.Compared`, ``widest`` its widest informative
+    band, ``log`` judged in the logarithm), and the measured value's own band
+    (``measured_low``, ``measured_high``) where given and finite."""
+    judged = Compared(float(measured), float(predicted), _number(low), _number(high), _number(widest), log)
     out = {"measured": float(measured), "predicted": float(predicted),
            "error": float(predicted - measured), "relative_error": float(predicted / measured - 1)}
-    if low is not None and high is not None and np.isfinite(low) and np.isfinite(high):
-        out.update(low=float(low), high=float(high), inside=bool(low <= measured <= high))
+    if judged.inside is not None:
+        out.update({key: value for key, value in judged.as_dict().items() if key not in out}, inside=judged.inside)
     if measured_low is not None and measured_high is not None and np.isfinite(measured_low) and np.isfinite(
             measured_high):
         out.update(measured_low=float(measured_low), measured_high=float(measured_high))
+    return out
+
+
+def held_spread(samples: pd.DataFrame, levels: pd.DataFrame) -> dict[str, float]:
+    """The held type's spread of each quantity over its measured values
+    (:func:`~nlupdate.core.validation.compared.measured_spread`, module docstring): the levels'
+    resonance, damping ratio and peak |H|, or the samples' natural frequency (under
+    ``resonance_hz``: Hz, as the resonance) and damping ratio."""
+    if len(levels):
+        return measured_spread({name: levels[f"{name}_measured"].to_numpy() for name in QUANTITIES})
+    return measured_spread({"resonance_hz": samples["natural_frequency_hz"].to_numpy(),
+                            "damping_ratio": samples["damping_ratio"].to_numpy()})
+
+
+def sample_widest(samples: pd.DataFrame, noise: np.ndarray) -> dict[str, np.ndarray]:
+    """Per held sample the widest informative band of its natural frequency (Hz) and damping
+    ratio (ln) (:func:`~nlupdate.core.validation.compared.widest_band`): twice the held type's
+    spread, or its resolution 2·1.96·σ — ``noise`` (samples × 2) the held source's relative
+    (frequency, damping) standard deviations; NaN with fewer than two held values (module
+    docstring)."""
+    spread = held_spread(samples, pd.DataFrame())
+    frequency = samples["natural_frequency_hz"].to_numpy()
+    out = {}
+    for k, (name, key) in enumerate((("natural_frequency_hz", "resonance_hz"), ("damping_ratio", "damping_ratio"))):
+        sigma = noise[:, k] * frequency if name == "natural_frequency_hz" else noise[:, k]
+        out[name] = np.array([widest_band(name, spread[key], s, ()) if np.isfinite(spread[key]) else np.nan
+                              for s in sigma])
     return out
 
 
@@ -212,8 +263,15 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
             for name, sigma in (("resonance_hz", repeat.resonance_hz), ("damping_ratio", repeat.damping_ratio)):
                 row[f"{name}_low"], row[f"{name}_high"] = (getattr(predicted, name) - 1.96 * sigma,
                                                            getattr(predicted, name) + 1.96 * sigma)
+        row["lines_hz"] = f
         rows.append(row)
-    return pd.DataFrame(rows)
+    levels = pd.DataFrame(rows)
+    spread = held_spread(pd.DataFrame(), levels)  # the rule of --hold-out LEVELS (module docstring)
+    test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
+                "peak_abs": repeat.peak_relative}
+    for name in QUANTITIES:
+        levels[f"{name}_widest"] = [widest_band(name, spread[name], test_std[name], f) for f in levels["lines_hz"]]
+    return levels.drop(columns="lines_hz")
 
 
 def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tuple[str, float]],
@@ -244,14 +302,16 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
             for k, name in enumerate(("natural_frequency_hz", "damping_ratio")):
                 samples[f"{name}_low"] = samples[name] * (1 - 1.96 * errors[:, k])
                 samples[f"{name}_high"] = samples[name] * (1 + 1.96 * errors[:, k])
+        noise = np.concatenate([np.tile(source_noise(s, stated), (s.amplitude.size, 1))  # the held test's scatter
+                                for _, s, stated, _ in held])
+        for name, widest in sample_widest(samples, noise).items():
+            samples[f"{name}_widest"] = widest
         if resamples > 0:
             bands = sample_bands(model, kept, shapes, backbone, order, samples["predicted_at_amplitude"].to_numpy(),
                                  resamples)
-            noise = [source_noise(s, stated) for _, s, stated, _ in held]  # the held test's own scatter
             for k, (name, column) in enumerate((("natural_frequency_hz", "predicted_frequency_hz"),
                                                 ("damping_ratio", "predicted_damping_ratio"))):
-                test = 1.96 * samples[column].to_numpy() * np.concatenate(
-                    [np.full(s.amplitude.size, n[k]) for (_, s, _, _), n in zip(held, noise)])
+                test = 1.96 * samples[column].to_numpy() * noise[:, k]
                 predicted, (low, high) = samples[column].to_numpy(), bands[name]
                 floor = 0.0 if name == "damping_ratio" else -np.inf  # a damping ratio is not negative
                 samples[f"{column}_low"] = np.maximum(predicted - np.hypot(predicted - low, test), floor)
