@@ -1,6 +1,6 @@
 """Held-out levels of a second public real data set: a nonlinear beam's lock-in stepped-sine runs.
 
-    NLUPDATE_TRANSMITTER_BEAM=FOLDER python benchmarks/validation_transmitter_beam.py [--models ...]
+    NLUPDATE_TRANSMITTER_BEAM=FOLDER python benchmarks/validation_transmitter_beam.py [--models ...] [--write-docs]
     python benchmarks/validation_transmitter_beam.py --data FOLDER --export beam.csv
 
 The data: ``forced_data.mat`` of github.com/haller-group/SSMLearn
@@ -24,8 +24,9 @@ coordinates: validate's one-mode models see only its modal constant, which is po
 
 Prints the measured resonance, damping ratio (circle fit), half-power lines and peak per level, then
 (:mod:`benchmarks.validation_table`) the ``--hold-out each`` and ``--hold-out top`` tables,
-model × level with the baseline beside, and the test's repeatability. docs/validation.md
-holds its output.
+model × level with the baseline beside, how many of the values lie in their band and how
+many of those in uninformative bands, and the test's repeatability. ``--write-docs`` writes
+the output into its block of docs/validation.md (benchmarks/docs_block.py).
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ import scipy.io
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks import docs_block  # noqa: E402
 from benchmarks.validation_table import print_validation_tables  # noqa: E402
 
 if TYPE_CHECKING:
@@ -51,7 +53,8 @@ if TYPE_CHECKING:
 
 FILE_NAME = "forced_data.mat"
 ENVIRONMENT_VARIABLE = "NLUPDATE_TRANSMITTER_BEAM"
-DEFAULT_FOLDER = Path(__file__).resolve().parents[1] / "tests" / "data" / "transmitter_beam"
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_FOLDER = ROOT / "tests" / "data" / "transmitter_beam"
 #: response velocity amplitude (m/s) per volt of the lock-in's RMS output: 4 · range (10) mm/s
 #: per V, × √2 from RMS to amplitude (the SSMLearn example's conversion)
 VELOCITY_PER_VOLT = 0.04 * np.sqrt(2.0)
@@ -124,13 +127,12 @@ def measured_levels(csv: Path) -> "FRFLevels":
 
 
 def main(argv: list[str] | None = None) -> int:
-    from nlupdate.core.validation.resonance import resonance
-
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", help=f"folder holding {FILE_NAME} (default: ${ENVIRONMENT_VARIABLE}, else "
                                        f"tests/data/transmitter_beam)")
     parser.add_argument("--export", metavar="CSV", help="write the measured-FRF table as CSV and stop")
     parser.add_argument("--models", default="lines,amplitude-polynomial,amplitude-iwan,auto")
+    docs_block.add_option(parser)
     args = parser.parse_args(argv)
     table = lockin_table(data_file(args.data))
     if args.export:
@@ -138,6 +140,16 @@ def main(argv: list[str] | None = None) -> int:
         levels = ", ".join(f"{v:g}" for v in sorted(set(table["force_level_n"])))
         print(f"wrote {args.export}: {len(table)} lines, levels {levels} V")
         return 0
+    with docs_block.writing_docs(args.write_docs, "validation_transmitter_beam.py", argv,
+                                 ROOT / "docs" / "validation.md"):
+        print_tables(table, [m.strip() for m in args.models.split(",") if m.strip()])
+    return 0
+
+
+def print_tables(table: pd.DataFrame, models: list[str]) -> None:
+    """The measured resonances per level, then the held-out tables of ``models``."""
+    from nlupdate.core.validation.resonance import resonance
+
     with tempfile.TemporaryDirectory() as folder:
         csv = Path(folder) / "transmitter_beam.csv"
         table.to_csv(csv, index=False)
@@ -150,10 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         r = resonance(f, h)
         print(f"| {level:g} | {r.resonance_hz:.4f} | {100 * r.damping_ratio:.4f} | {r.half_power_lines} | "
               f"{r.peak_abs:.4e} |")
-    models = [m.strip() for m in args.models.split(",") if m.strip()]
     print()
     print_validation_tables(data, models, "V")
-    return 0
 
 
 if __name__ == "__main__":
