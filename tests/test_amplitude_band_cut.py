@@ -4,15 +4,19 @@
 * On the Brake–Reuss beam (tests/data/brb, 41 lines over 79.2–81.2 Hz at each of four force
   levels) ``nlupdate amplitude --band 80:80.6`` read three of the four levels' damping ratios
   8–25 % away from what the file's whole band gives at the same response amplitude, and printed
-  a confident model; it now warns first, naming each such level and both values. The file's whole
-  band (no ``--band``, or ``--band 79.2:81.2``) gives no such warning.
+  a confident model; it now warns first, naming each such level and both values. Since issue 34
+  read the other modes' share from every level (not from a one-mode fit of the lowest level
+  over the lines the band keeps) the band moves the four levels' damping by −5.8, −4.5, +0.2
+  and +3.9 % (measured), and the warning names the 0.1947 N level. The file's whole band (no
+  ``--band``, or ``--band 79.2:81.2``) gives no such warning.
 * The warning is about a real error: a single-mode stepped sine in closed form
   (tests/single_mode_reference.py: ω(a) softening 0.3 %, ζ(a) from 0.12 % to 0.47 %, a
   background of a rigid-body mass line and a mode at 250 Hz, 0.3 % noise) whose damping at
   each response amplitude is known. A band ending below the resonances (79.2–80.2 Hz) reads
-  the damping 6–32 % wrong where the whole band reads it within 2.1 %, and the check names
-  every level; a band that keeps the resonance (79.5–81.0 Hz) reads it within 2 % and is
-  not named.
+  the two lower levels' damping 47 % and 11 % wrong where the whole band reads every level
+  within 0.16 % (6–32 % and 2.0 % before issue 34's residual fix, every level), and the check
+  names those two and not the others (read within 3.1 %); a band that keeps the resonance
+  (79.5–81.0 Hz) reads it within 0.16 % and is not named.
 """
 from __future__ import annotations
 
@@ -69,7 +73,7 @@ def test_a_narrow_band_on_the_brb_warns_first_naming_each_level_and_both_values(
     assert not any(WARNING in line for line in whole_lines)
     parts = warning.split(" — ", 1)[1].split(": the samples depend", 1)[0].split("; ")
     named = [part.split(": ", 1)[0] for part in parts]
-    assert {"0.1947 N", "0.4886 N"} <= set(named) and len(named) >= 3, named  # the levels the band cuts most
+    assert "0.1947 N" in named, named  # the level the band cuts most
     by_level = dict(zip((f"{level:g} N" for level in (0.1947, 0.4886, 0.9699, 1.46)), band["damping_ratio"]))
     for part in parts:
         name, values = part.split(": ", 1)
@@ -121,28 +125,31 @@ def damping_errors(data) -> np.ndarray:
 
 
 def test_where_the_check_names_a_level_the_bands_damping_is_wrong(simulated):
-    """79.2–80.2 Hz ends below the resonances (80.20–80.32 Hz): every level named, each band
-    value 5 % or more off the truth where the whole band's is within 2.5 %; the warning's
-    values are the band's samples."""
+    """79.2–80.2 Hz ends below the resonances (80.20–80.32 Hz): the levels whose band value
+    is 5 % or more off the truth are named (the two lowest, measured 47 % and 11 %), the
+    others (within 3.1 %) not, where the whole band's is within 0.5 % (measured 0.16 %); the
+    warning's values are the band's samples."""
     band = (79.2, 80.2)
     whole_errors = damping_errors(simulated)
     band_errors = damping_errors(simulated.within(band))
-    assert np.abs(whole_errors).max() < 0.025
+    assert np.abs(whole_errors).max() < 0.005
     changes = band_changes(simulated, simulated.within(band), band)
-    assert [c.significant for c in changes] == [True] * 4
+    assert [c.significant for c in changes] == [True, True, False, False]
     for change, error, whole_error in zip(changes, band_errors, whole_errors):
-        assert abs(error) > 0.05 and abs(error) > 2 * abs(whole_error)
-        assert np.sign(change.change) == np.sign(error - whole_error)
+        assert (abs(error) > MIN_CHANGE) == change.significant
+        if change.significant:
+            assert abs(error) > 2 * abs(whole_error) and np.sign(change.change) == np.sign(error - whole_error)
     text = band_warning(changes, band, (79.2, 81.2))
-    assert text is not None and all(f"{100 * z:.4g} %" in text for z in samples_from_frfs(simulated.within(band))
-                                    .damping_ratio)
+    named = [z for z, c in zip(samples_from_frfs(simulated.within(band)).damping_ratio, changes) if c.significant]
+    assert text is not None and all(f"{100 * z:.4g} %" in text for z in named)
 
 
 def test_a_band_that_keeps_the_resonance_is_not_named(simulated):
     """79.5–81.0 Hz leaves out lines on both sides but keeps every resonance: its damping is
-    within 2 % of the truth and no level is named; the whole band compares nothing."""
+    within 0.5 % of the truth (measured 0.16 %; 1.9 % before issue 34's residual fix) and no
+    level is named; the whole band compares nothing."""
     band = (79.5, 81.0)
-    assert np.abs(damping_errors(simulated.within(band))).max() < 0.02
+    assert np.abs(damping_errors(simulated.within(band))).max() < 0.005
     assert not any(c.significant for c in band_changes(simulated, simulated.within(band), band))
     assert band_warning(band_changes(simulated, simulated.within(band), band), band, (79.2, 81.2)) is None
     assert band_changes(simulated, simulated, (79.2, 81.2)) == []
@@ -163,7 +170,7 @@ def test_a_studys_band_hz_warns_as_the_command_does(tmp_path):
     warnings = json.loads((archive / "amplitude" / "amplitude_model.json").read_text())["warnings"]
     said = [w for w in warnings if WARNING in w]
     assert len(said) == 1 and said[0].startswith("the band 80–80.6 Hz changes")
-    assert all(f"{level:g} N: " in said[0] for level in (0.1947, 0.4886))
+    assert "0.1947 N: " in said[0]
     summary = (archive / "report.md").read_text().split("## Summary", 1)[1].split("\n## ", 1)[0].splitlines()
     number = next(k for k, line in enumerate(summary) if line.startswith("* **Amplitude model** (mode 1"))
     assert f"* **Amplitude model: {said[0]}**" in summary[:number], summary

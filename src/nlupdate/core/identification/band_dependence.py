@@ -4,12 +4,13 @@
 lines outside the band before any step, and each force level's sample (its resonance
 frequency, amplitude and damping ratio:
 :func:`~nlupdate.core.identification.amplitude_modal_fit.samples_from_frfs`) is read from
-what is left. A band cut into the resonance changes that reading: the lowest level's one-mode
-fit (the shape φ_f when it is not given, and the other modes' share removed from every level)
-has its two residual terms nearly collinear over a few per cent of frequency, and a level whose
-peak lies outside the band is read at the band's edge. On the Brake–Reuss beam (tests/data/brb,
-41 lines over 79.2–81.2 Hz) ``--band 80:80.6`` lowers every damping ratio by 22–31 %, with
-no sign of it in the output (docs/ring-down.md, "A band cut into the resonance").
+what is left. A band cut into the resonance changes that reading: the other modes' share and
+the modal constant (the shape φ_f when it is not given) are read from the lines near each
+level's top (:mod:`~nlupdate.core.identification.level_residual`), which the band may cut, and
+a level whose peak lies outside the band is read at the band's edge. On the Brake–Reuss beam
+(tests/data/brb, 41 lines over 79.2–81.2 Hz) ``--band 80:80.6`` moves the four damping ratios
+by −5.8, −4.5, +0.2 and +3.9 % (measured; −25, −17, −4 and −8 % while the share came from a
+one-mode fit of the lowest level), with no sign of it in the output (docs/ring-down.md, "A band cut into the resonance").
 
 :func:`band_changes` reads the samples again on the lines the file gives without the band
 (``whole``: the file's excited band, as the command reads it without ``--band``) and compares,
@@ -23,8 +24,8 @@ the measurement's noise alone changes it by — the same comparison repeated on
 relative noise (:func:`~nlupdate.core.measurement.noise.estimate_noise_fraction`; 0 when a
 level has too few lines to estimate it) — and :data:`MIN_CHANGE`, the accuracy a damping
 sample is asked for (:data:`~nlupdate.core.identification.amplitude_joint.POOR_FIT`): the
-BRB's noise is 0.2–0.5 %, and every cut band changes its damping by more than that noise's
-own effect (0.1–0.7 %), down to −3 % for 79.2–80.6 Hz. The whole band itself is never
+BRB's noise is 0.2–0.5 %, and a cut band changes its damping by more than that noise's own
+effect (its 3 standard deviations: 0.4–1.4 %), −1.2 … −3.7 % for 79.2–80.6 Hz (none named). The whole band itself is never
 compared (nothing left out, nothing changed).
 """
 from __future__ import annotations
@@ -156,5 +157,5 @@ def band_warning(changes: list[BandChange], band_hz: tuple[float, float], whole_
                      f"({100 * c.change:+.3g} %, noise alone ±{100 * NOISE_SCORE * c.noise:.2g} %)" for c in found)
     return (f"the band {band_hz[0]:g}–{band_hz[1]:g} Hz changes the stepped sine's damping ratios from what the "
             f"file's {whole_hz[0]:g}–{whole_hz[1]:g} Hz gives at the same response amplitude — {each}: the samples "
-            f"depend on where the band ends (the lowest level's one-mode fit, or a level's peak, is read "
-            f"differently); widen the band, or leave --band (band_hz) out")
+            f"depend on where the band ends (the other modes' share and the shape read from the levels' "
+            f"tops, or a level's peak, are read differently); widen the band, or leave --band (band_hz) out")
