@@ -38,7 +38,7 @@ def test_no_target_std_reports_the_value_and_why(tmp_path):
     text = report(tmp_path, None)
     assert "± –" not in text
     best = next(line for line in text.splitlines() if line.startswith("* **Best updated model**"))
-    value = re.search(r"k1 = (\S+) \(no uncertainty: the targets state no std_hz\)$", best)
+    value = re.search(r"k1 = (\S+) N/m \(no uncertainty: the targets state no std_hz\)$", best)  # its declared unit
     assert value, best
     assert float(value.group(1)) == pytest.approx(TRUE_K1, rel=1e-3)
     assert "No ± on the updated values: the targets state no std_hz" in text
@@ -47,7 +47,7 @@ def test_no_target_std_reports_the_value_and_why(tmp_path):
 def test_target_std_gives_a_plus_minus(tmp_path):
     text = report(tmp_path, [0.5])
     best = next(line for line in text.splitlines() if line.startswith("* **Best updated model**"))
-    value, std = map(float, re.search(r"k1 = (\S+) ± (\S+)$", best).groups())
+    value, std = map(float, re.search(r"k1 = (\S+) ± (\S+) N/m$", best).groups())
     assert value == pytest.approx(TRUE_K1, rel=1e-3)
     # linearised: σ_k1 = σ_f / (∂f2/∂k1), the derivative by central differences of the eigenvalue
     h = 1e3

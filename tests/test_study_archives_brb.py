@@ -154,6 +154,15 @@ def test_a_loss_factor_fitted_onto_its_bound_is_a_warning(tmp_path, capsys):
     lines = [line for line in report.splitlines() if line.startswith("* **Prediction**")]
     assert len(lines) == 3 and all("loss factor 0.2, fitted to the 0.1947 N measurement, on the upper bound" in line
                                    for line in lines), lines
+    # the Jenkins fit ran off with kf (9e47 N/m, 1e41× its start): said so, not printed as a number, in the
+    # summary, the identification table, the manifest and the terminal (it read 'kf = 8.955e+47')
+    (diverged,) = [w for w in manifest["warnings"] if w["kind"] == "diverged"]
+    assert diverged["subject"] == "kf" and f"warning: identification: {diverged['message']}" in out.splitlines()
+    identified = next(line for line in report.splitlines() if line.startswith("* **Identified**"))
+    assert re.search(r"kf diverged \(\d\.\d+e\+4\d N/m\): the data support no finite value of it;", identified)
+    assert "kf = " not in identified and re.search(r"slip_force = \S+ ± \S+ N", identified)
+    assert re.search(r"^\| kf \| N/m \| kf diverged \(.*\| – \| none \(diverged\) \|", report, re.MULTILINE)
+    assert not re.search(r"8\.9\d*e\+47(?! N/m\): the data support no finite)", report)
 
 
 def test_the_correctly_signed_beam_fits_its_loss_factor_inside_the_search(archive):
@@ -217,7 +226,13 @@ def test_a_study_per_volt_names_its_levels_in_volts(tmp_path, capsys):
     assert "The reference is the excitation voltage" in report
     assert "0.1947 V (low) and 3 high levels (0.4886–1.46 V)" in report
     assert report.count("fitted to the 0.1947 V measurement") == 3 and "| force level (V) |" in report
-    assert not re.search(r"\d N\b|\(N\)", report), re.findall(r".{40}(?:\d N\b|\(N\)).{10}", report)
+    # the summary's values carry their units, per volt where the element's declares N (they had none)
+    identified = next(line for line in report.splitlines() if line.startswith("* **Identified**"))
+    assert re.search(r"kf = \S+ ± \S+ V/m;", identified) and re.search(r"slip_force = \S+ ± \S+ V\b", identified)
+    # the updated model is physical: k1 in the N/m its [[parameters]] entry declares, the only N left
+    physical = re.sub(r"\bk1 = [^;(|]*?N/m|\| k1 \(N/m\) \|", "", report)
+    assert re.search(r"\bk1 = \S+ ± \S+ N/m", report)
+    assert not re.search(r"\d N\b|\(N\)", physical), re.findall(r".{40}(?:\d N\b|\(N\)).{10}", physical)
     code, out, err = run_cli(capsys, "archive", "compare", run, run, "--root", tmp_path / "results", "--all")
     assert code == 0, err
     assert "force levels (V): 0.1947, 0.4886, 0.9699, 1.46" in out and "initial at 0.1947 V" in out

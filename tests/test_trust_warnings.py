@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -202,7 +203,11 @@ def test_a_study_carries_the_warnings_into_manifest_report_and_identification_js
     assert first.startswith("The updating run did not converge") and "k1 on its upper bound 700000" in first
     assert rest.strip().startswith("Warnings") and "k1 = 700000 ended on its upper bound" in summary
     updated = next(line for line in summary.splitlines() if "No converged updated model" in line)
-    assert "k1 = 7e+05 (not converged" in updated and "±" not in updated
+    assert "k1 = 7e+05 N/m (not converged" in updated and "±" not in updated  # the unit [[parameters]] declares
+    # each identified value with the unit its element declares (the summary read 'kf = 1785 ± 12', no unit)
+    identified_line = next(line for line in summary.splitlines() if line.startswith("* Identified"))
+    for name, unit in (("k3", "N/m³"), ("kf", "N/m"), ("slip_force", "N")):
+        assert re.search(rf"\b{name} = \S+ ± \S+ {unit}(;|$)", identified_line), (name, identified_line)
     assert "on the bound of k1" in (folder / "report.md").read_text()
     assert json.loads((folder / "identification.json").read_text())["warnings"] == []
 
@@ -253,3 +258,36 @@ def test_a_one_mode_fit_that_misses_its_curve_is_named():
     (warning,) = mode_fit_warnings([blend])
     assert warning.kind == "mode_fit_poor" and warning.subject == "linear_f1_hz, linear_eta1"
     assert f"{float(blend.loss_factors[0]):.4g}" in warning.message
+
+
+def test_a_parameter_the_fit_ran_off_with_is_said_to_have_diverged_not_printed(tmp_path, capsys):
+    """The Brake–Reuss beam read with its sensor's sign reversed (acc3:y against acc3:y),
+    Jenkins identified: the improved PRD fit, unbounded, carried kf from its start (8.4e6 N/m)
+    to 9e47 N/m — every level then slips at Fs/kf ≈ 1e-49 m, where kf acts on nothing. It
+    printed 'kf = 8.95461e+47 N/m (95 % [0, 9.27e+48] …)' with only the levels' NOT
+    TRUSTWORTHY above it. Now the terminal, identification.json and its warnings say it
+    diverged; the correctly signed beam (kf 1785 N/m, 0.55× its start) is printed as before."""
+    from cli_runs import run_cli
+    from test_real_measurements import BRB
+
+    printed = {}
+    for sign in ("", "-"):
+        out = tmp_path / f"sign{sign}"
+        code, text, err = run_cli(capsys, "identify", "--measured", BRB, "--coordinates", f"{BRB}=acc3:{sign}y,acc3:y",
+                                  "--elements", "jenkins", "--samples", "2", "--out", out)
+        assert code == 0, err
+        printed[sign] = text.splitlines(), json.loads((out / "identification.json").read_text())
+    lines, summary = printed[""]
+    kf = summary["parameters"]["kf"]
+    assert kf["value"] > 1e40 and kf["diverged"] == f"kf diverged ({kf['value']:.3g} N/m): the data support no finite " \
+                                                     f"value of it"
+    assert kf["diverged"] in lines and not any(line.startswith("kf = ") for line in lines)
+    (warning,) = [w for w in summary["warnings"] if w["kind"] == "diverged"]
+    assert warning["subject"] == "kf" and "beyond the factor 1e6" in warning["message"]
+    assert f"warning: identification: {warning['message']}" in lines
+    assert lines.index(f"warning: identification: {warning['message']}") < lines.index(kf["diverged"])
+    assert "diverged" not in summary["parameters"]["slip_force"]
+    lines, summary = printed["-"]
+    assert not [w for w in summary["warnings"] if w["kind"] == "diverged"]
+    assert 1000 < summary["parameters"]["kf"]["value"] < 3000 and "diverged" not in summary["parameters"]["kf"]
+    assert any(line.startswith("kf = 1784.") and " N/m (95 % [" in line for line in lines)

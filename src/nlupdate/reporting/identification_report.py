@@ -39,8 +39,12 @@ def identification_section(ident, truth: Mapping[str, float], plots: Mapping[str
     lines += ["", f"Noise level {100 * ident.noise_fraction:.3g} % ({ident.noise_source}). "
                   + monte_carlo_note(ident.uncertainty), ""]
     stats = ident.uncertainty.parameters
-    rows = [{"parameter": name, "value": st.value, "Monte-Carlo std": st.std,
-             "95 % interval": f"[{number(st.ci95[0])}, {number(st.ci95[1])}]"
+    diverged = ident.diverged  # no estimate: what the number means stands in its place
+    rows = [{"parameter": name, "unit": ident.unit_of(name) or "–",
+             "value": diverged.get(name, st.value),
+             "Monte-Carlo std": "–" if name in diverged else st.std,
+             "95 % interval": "none (diverged)" if name in diverged else
+                              f"[{number(st.ci95[0])}, {number(st.ci95[1])}]"
                               + (f" (one-sided: {st.bound.why})" if st.bound is not None else ""),
              **({"truth": truth.get(name, float("nan"))} if truth else {})}
             for name, st in stats.items() if name in ident.parameters()]

@@ -148,9 +148,9 @@ def none_converged_line(runs) -> tuple[str, str] | None:
                   f"parameters.")
 
 
-def _not_converged(value: float, truth: float | None) -> str:
-    """A value where a run stopped: no ±, since it is no result."""
-    return f"{number(value)} (not converged{f'; truth {number(truth)}' if truth is not None else ''})"
+def _not_converged(value: float, truth: float | None, unit: str = "") -> str:
+    """A value where a run stopped (in ``unit``): no ±, since it is no result."""
+    return f"{number(value)}{' ' + unit if unit else ''} (not converged{f'; truth {number(truth)}' if truth is not None else ''})"
 
 
 def study_warning_lines(result) -> list[str]:
@@ -188,13 +188,32 @@ def _warning_lines(result) -> list[str]:
     return lines + [""]
 
 
+def declared_unit(study, name: str) -> str:
+    """The unit an updating parameter's ``[[parameters]]`` entry declares ('' when none does)."""
+    declared = {p.name: p.unit for p in study.parameters}
+    return "" if declared.get(name, "") in ("", "1", "-") else declared[name]
+
+
+def _with_unit(name: str, unit: str) -> str:
+    """A table column's name with its unit: ``k1 (N/m)``."""
+    return f"{name} ({unit})" if unit else name
+
+
+def _identified(ident, name: str, truth: float | None) -> str:
+    """One identified parameter as the summary states it: ``value ± std unit`` (the unit its
+    element declares, per volt with a V reference: ``Identification.unit_of``), or, when the fit
+    ran off with it, what that means instead of the number (``Identification.diverged``)."""
+    s = ident.uncertainty.parameters[name]
+    if name in ident.diverged:
+        return ident.diverged[name]
+    return f"{name} = " + _with_truth(s.value, s.std, truth, unit=ident.unit_of(name), missing="no Monte-Carlo uncertainty")
+
+
 def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
     out = [] if result.amplitude is None else amplitude_summary(result.amplitude)
     ident = result.identification
     if ident is not None:
-        stats = ident.uncertainty.parameters
-        parts = [f"{name} = {_with_truth(s.value, s.std, truth.get(name), missing='no Monte-Carlo uncertainty')}"
-                 for name, s in stats.items()
+        parts = [_identified(ident, name, truth.get(name)) for name in ident.uncertainty.parameters
                  if name in ident.parameters()]
         out.append(f"* **Identified** ({ident.model_description}, {ident.settings.method.upper()}): " + "; ".join(parts)
                    + ("" if ident.trustworthy else " — **not trustworthy**: the linear FRF differs between the "
@@ -205,7 +224,8 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         u = result.uncertainties.get(best)
         if run.converged:
             values = "; ".join(
-                f"{name} = {_with_truth(value, u.std[name] if u else None, truth.get(name), missing=NO_TARGET_STD)}"
+                f"{name} = " + _with_truth(value, u.std[name] if u else None, truth.get(name),
+                                           unit=declared_unit(result.study, name), missing=NO_TARGET_STD)
                 for name, value in run.parameters.items())
             untrusted = ident is not None and not ident.trustworthy and result.study.targets is not None \
                 and result.study.targets.from_identification
@@ -213,7 +233,7 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                 " — **its targets are the modes of an identification that is not trustworthy** (Identification "
                 "below)" if untrusted else ""))
         else:
-            values = "; ".join(f"{name} = {_not_converged(value, truth.get(name))}"
+            values = "; ".join(f"{name} = {_not_converged(value, truth.get(name), declared_unit(result.study, name))}"
                                for name, value in run.parameters.items())
             out.append(f"* **No converged updated model**; the best-ranked run `{best}` did not converge "
                        f"({run.stop}): {values}")
@@ -295,8 +315,9 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
         rows.append({
             "run": run.name, "converged": converged, "iterations": run.iterations,
             "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
-            **{name: (_with_truth(v, stds[name], None, missing="") if run.converged
-                      else _not_converged(v, None)) for name, v in run.parameters.items()},
+            **{_with_unit(name, declared_unit(result.study, name)): (
+                _with_truth(v, stds[name], None, missing="") if run.converged else _not_converged(v, None))
+               for name, v in run.parameters.items()},
         })
     frame = pd.DataFrame(rows).fillna("–")
     lines += [markdown_table(frame), ""]

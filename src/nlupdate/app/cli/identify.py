@@ -140,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
     out = folder.final
     # the bad news first (docs/commands.md): the levels' disagreement, every other warning and a
     # poor fit before the defaults and the numbers they qualify
-    for warning in sorted(identification.warnings, key=lambda w: w.kind != "levels_disagree"):
+    warnings = identification.warnings
+    for warning in sorted(warnings, key=lambda w: (w.kind != "levels_disagree", w.kind != "diverged")):
         print(f"warning: {warning}")
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     if verdict == "poor":
@@ -149,7 +150,11 @@ def run(args: argparse.Namespace) -> int:
               f"{out / 'fit.png'} shows the residual against amplitude")
     for key, value in defaults.items():
         print(f"default {key}: {value}")
+    diverged = identification.diverged
     for name, stats in identification.uncertainty.parameters.items():
+        if name in diverged:  # no estimate: what the number means, not the number
+            print(diverged[name])
+            continue
         suffix = f" {parameter_unit(name, unit)}" if parameter_unit(name, unit) else ""
         print(f"{name} = {stats.value:.6g}{suffix} (95 % [{stats.ci95[0]:.6g}, {stats.ci95[1]:.6g}]; Monte Carlo "
               f"std {stats.std:.3g}, median {stats.median:.6g})")

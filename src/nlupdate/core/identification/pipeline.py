@@ -51,13 +51,14 @@ from nlupdate.core.identification.prd import IdentificationError, PRDResult
 from nlupdate.core.identification.settings import MAX_MONTE_CARLO_SAMPLES, IdentificationSettings
 from nlupdate.core.identification.summary import identification_summary, linear_frf_table, residual_in_noise_units
 from nlupdate.core.identification.trust import (
-    TrustWarning, consistency_warnings, dissipation_warnings, excitation_warnings, fit_verdict, identification_warnings,
-    mode_fit_warnings, sign_warnings,
+    TrustWarning, consistency_warnings, dissipation_warnings, diverged_names, diverged_text, excitation_warnings,
+    fit_verdict, identification_warnings, mode_fit_warnings, sign_warnings,
 )
 from nlupdate.core.identification.uncertainty import CurveBand, Uncertainty, monte_carlo
 from nlupdate.core.measurement.band import COHERENCE_THRESHOLD, Band, excited_band
 from nlupdate.core.measurement.coherence import noise_fraction_from_coherence, noise_fraction_from_std
 from nlupdate.core.measurement.noise import estimate_noise_fraction
+from nlupdate.core.measurement.units import parameter_unit
 from nlupdate.progress import ProgressCallback, no_progress
 
 
@@ -179,6 +180,19 @@ class Identification:
     def parameters(self) -> dict[str, float]:
         """Identified nonlinearity parameters (SI) by name."""
         return self.result.parameters()
+
+    @property
+    def diverged(self) -> dict[str, str]:
+        """Each parameter the fit ran off with (a ``diverged`` warning) → what its number means,
+        to stand where the number would (:func:`~nlupdate.core.identification.trust.diverged_text`)."""
+        stats = self.uncertainty.parameters
+        return {name: diverged_text(name, stats[name].value if name in stats else self.parameters()[name],
+                                    self.reference_unit) for name in diverged_names(self.warnings)}
+
+    def unit_of(self, name: str) -> str:
+        """The unit of parameter ``name`` as its element declares it, per volt with a V reference
+        (:func:`~nlupdate.core.measurement.units.parameter_unit`; '' when dimensionless)."""
+        return parameter_unit(name, self.reference_unit)
 
     def elements(self, dofs: tuple[int, ...]) -> list:
         """Forward-model elements at model coordinate(s) ``dofs``."""

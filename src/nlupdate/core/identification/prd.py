@@ -65,6 +65,9 @@ ESTIMATORS = ("improved", "naive")
 
 #: Relative half-width of the improved estimator's frequency window around f_e (1 %).
 DEFAULT_HALF_WINDOW = 0.01
+#: The bounded (naive, equation-error) fits keep each log-parameter within this factor of its
+#: start; the improved fit, unbounded, has diverged where it carries one further (:func:`diverged`).
+SEARCH_FACTOR = 1e6
 
 
 class IdentificationError(ValueError):
@@ -127,8 +130,11 @@ class PRDResult:
     when there are no spare degrees of freedom). amplitude_low_max: the largest
     low-force amplitude the fit used (m; a Jenkins slider slipping there would show).
     at_bound: parameters that ended on the bounds of a bounded fit (naive physical fits
-    keep log-parameters within a factor 1e6 of their start). point_force_n: the high
-    force level (N) each PRD point was measured at.
+    keep log-parameters within a factor :data:`SEARCH_FACTOR` of their start). diverged:
+    (name, start value) of each log-parameter the unbounded improved fit carried further than
+    that factor from where it started — beyond the box of the bounded fits: the fit ran off,
+    the value is no estimate (:func:`diverged`). point_force_n: the high force level (N)
+    each PRD point was measured at.
     """
 
     method: str
@@ -148,6 +154,7 @@ class PRDResult:
     amplitude_low_max: float | None = None
     at_bound: tuple[str, ...] = ()
     point_force_n: NDArray[np.float64] | None = None
+    diverged: tuple[tuple[str, float], ...] = ()
 
     @property
     def omega(self) -> float:
@@ -308,9 +315,9 @@ def fit_y_points(
     positive = np.array(["k3" not in name for name in model.names])  # log-parameters
     for start in model.initial_guesses(amplitude, y, float(np.median(a_low)), float(np.median(om))):
         scale = np.maximum(np.abs(start), 1.0)
-        # log-parameters stay within a factor 1e6 of the start (keeps an unidentifiable
+        # log-parameters stay within a factor SEARCH_FACTOR of the start (keeps an unidentifiable
         # parameter, e.g. a slip force never reached, from running off to overflow)
-        span = np.where(positive, np.log(1e6), np.inf)
+        span = np.where(positive, np.log(SEARCH_FACTOR), np.inf)
         try:
             solution = scipy.optimize.least_squares(
                 lambda q: residual(q * scale), start / scale, method="trf",
@@ -321,6 +328,19 @@ def fit_y_points(
         if best is None or solution.cost < best[0]:
             best = (solution.cost, solution.x * scale, np.asarray(solution.active_mask) != 0)
     return best[1], tuple(name for name, on_bound in zip(model.names, best[2]) if on_bound)
+
+
+def diverged(model: Model, start: NDArray, p: NDArray) -> tuple[tuple[str, float], ...]:
+    """(name, start value) of each log-parameter (a positive one of a physical model) that
+    ``p`` puts further than :data:`SEARCH_FACTOR` from its ``start`` (both fitted vectors):
+    beyond the box the bounded fits keep, where no fit of the same data moves a parameter it
+    determines (on the BRB its Jenkins kf moves 0.55× from its start; with the sensor's sign
+    reversed 1e41×, to 9e47 N/m)."""
+    if not isinstance(model, PhysicalModel):
+        return ()
+    positive = np.array([pos for _, _, pos in model._slots])
+    moved = positive & (np.abs(np.asarray(p, float) - np.asarray(start, float)) > np.log(SEARCH_FACTOR))
+    return tuple((name, float(value)) for name, value, far in zip(model.names, model.values(start), moved) if far)
 
 
 def residual_noise_fraction(residual: NDArray, noise_scale: NDArray, n_parameters: int) -> float | None:
@@ -390,6 +410,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         scale[2 * n_z :] = np.maximum(scale[2 * n_z :], 1.0)
     solution = scipy.optimize.least_squares(lambda q: residual(q * scale), theta0 / scale, method="lm",
                                             jac=lambda q: residual.jacobian(q * scale) * scale[None, :])
+    started = theta0
     # Safeguard against a poor start (seen once in 100 noisy §3.1 data sets at 760 Hz, where
     # the fit ran to kf → 1e12 with a residual noise level of 33 %): if the residuals are
     # far above the noise level of the low-force points about their smooth fit, restart
@@ -406,7 +427,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
             retry = scipy.optimize.least_squares(lambda q: residual(q * scale), start / scale, method="lm",
                                                  jac=lambda q: residual.jacobian(q * scale) * scale[None, :])
             if retry.cost < solution.cost:
-                solution = retry
+                solution, started = retry, start
     theta = solution.x * scale
     n_res, n_par = solution.fun.size, theta.size
     sigma2 = 2 * solution.cost / max(n_res - n_par, 1)
@@ -432,6 +453,7 @@ def prd_improved(data: FRFLevels, setup: PRDSetup, model: Model, half_window: fl
         noise_fraction=float(np.sqrt(2 * sigma2)), z_coefficients=z,
         residual_noise_fraction=float(np.sqrt(2 * sigma2)) if n_res > n_par else None,
         amplitude_low_max=float(np.max(np.abs(low_response))), point_force_n=np.tile(window.levels.astype(float), window.f_high.size),
+        diverged=diverged(model, started[2 * n_z :], p),
         extras={"half_window": half_window, "window_hz": (float(fe * (1 - half_window)), float(fe * (1 + half_window))),
                 "n_low_points": int(window.f_low.size), "n_high_points": int(window.x_high.size),
                 "z_degree": window.degree},

@@ -20,7 +20,9 @@ numbers its outputs and plots show (the plots themselves: :mod:`nlupdate.reporti
   :data:`nlupdate.core.model.elements.ELEMENT_TYPES`;
 * ``parameters``: per parameter ``{"value", "mean", "std", "ci95", "mc_median"}`` (and
   ``bound``, the limit a value sits on, its ``ci95`` then one-sided; docs/methods.md §4,
-  Intervals) and ``uncertainty`` (how the statistics were made, ``residual_ratio``,
+  Intervals; ``diverged``, what the number means when the fit ran off with it — ``kf
+  diverged (8.95e+47 N/m): the data support no finite value of it``: no estimate, its
+  ``ci95`` no band) and ``uncertainty`` (how the statistics were made, ``residual_ratio``,
   ``jackknife_fits``); ``noise_fraction`` (the noise level used) and
   ``fit_residual`` (the noise level the fit's residuals imply, and its ratio to it);
 * ``fit``: ``"poor"`` when that ratio exceeds 5 or the placement check failed (the model
@@ -47,7 +49,8 @@ from numpy.typing import ArrayLike
 
 from nlupdate.core.identification.dfmodels import PhysicalModel
 from nlupdate.core.identification.methods import METHODS
-from nlupdate.core.identification.trust import POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, fit_verdict
+from nlupdate.core.identification.trust import (POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, diverged_names,
+                                               diverged_text, fit_verdict)
 from nlupdate.core.measurement.units import parameter_unit, units_block
 
 JSON_NAME = "identification.json"
@@ -110,6 +113,7 @@ def identification_summary(identification: Any) -> dict[str, Any]:
                                    "linear_natural_frequency_hz": choice.linear_natural_frequency_hz,
                                    "reason": choice.reason}
     stats = identification.uncertainty.parameters
+    diverged = diverged_names(warnings)
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     if not identification.trustworthy:
         verdict = "poor"
@@ -117,7 +121,9 @@ def identification_summary(identification: Any) -> dict[str, Any]:
     out.update({
         "linear_from_level_n": identification.linear_from_level_n,
         "linear_from_levels_n": list(identification.linear_from_levels_n),
-        "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, identification.reference_unit))
+        "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, identification.reference_unit),
+                                  **({"diverged": diverged_text(name, stats[name].value, identification.reference_unit)}
+                                     if name in diverged else {}))
                        for name in r.parameters()},
         "uncertainty": dict(identification.uncertainty.as_dict(),
                             held_fixed="excitation frequency / band, force levels, model and the modes' start values"),

@@ -16,7 +16,6 @@ A fit always returns numbers; these checks say when the numbers are not measurem
 
   - a naive PRD/DDF fit of physical elements keeps every log-parameter within a factor
     1e6 of its start; a parameter that ends on that box (``at_bound`` of the fit);
-  - a log-parameter at the end of the number range (e^±699 and beyond: it ran off);
   - a Jenkins slip force at the edges of what the data can show. The PRD relies on the
     low force leaving the slider stuck, so the data say ``slip_force > kf·A₁`` (A₁: the
     largest low-force amplitude the fit used), and the fit's start is clipped to at
@@ -30,6 +29,16 @@ A fit always returns numbers; these checks say when the numbers are not measurem
     or above ``kf·A_max/1.1`` (A_max: the largest high-force amplitude) means no
     measured level slips (or barely): the data bound it from below only.
 
+* ``diverged`` — a log-parameter (a positive element parameter) the fit ran off with: the
+  improved PRD fit, unbounded, carried it further than the factor 1e6 the bounded fits keep
+  from its start (:func:`~nlupdate.core.identification.prd.diverged`), or it reached the end
+  of the number range (e^±699). Its number is no estimate of anything and is not printed as
+  one: :func:`diverged_text` says what it means (``kf diverged (8.95e+47 N/m): the data
+  support no finite value of it``) wherever the value would stand — the terminal, the
+  report, identification.json (``diverged``). Seen: the BRB read with its sensor's sign
+  reversed, Jenkins kf from a start of 8.4e6 N/m to 9e47 N/m (every level then slips at
+  Fs/kf ≈ 1e-49 m, where kf has no effect); the correctly signed beam moves kf 0.55× from
+  its start.
 * ``not_identifiable`` — parameters the data cannot show were fixed, and why (an Iwan joint
   no level drives into macroslip: :func:`~nlupdate.core.identification.dfmodels.iwan_identifiability`),
   or an Iwan joint fitted at χ ≤ −0.98, which acts as a Jenkins element whose K_T and β the
@@ -77,7 +86,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -100,7 +109,7 @@ class TrustWarning:
     """One reason not to trust a result as it stands.
 
     subject: what it is about (a parameter name, ``fit``, ``run`` or ``prediction``); kind:
-    ``at_bound``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
+    ``at_bound``, ``diverged``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
     ``residual_above_noise``, ``not_converged`` (an updating run), ``prediction_worse``
     (the best model predicts worse than the initial one) or ``loss_factor_at_bound`` (the
     predictions' low-force loss factor fit ended on its search's bound);
@@ -174,10 +183,33 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str, uni
     return out
 
 
+def diverged_text(name: str, value: float, reference_unit: str = "N") -> str:
+    """What a diverged parameter's number means, where the number would stand: ``kf diverged
+    (8.95e+47 N/m): the data support no finite value of it`` (units per volt with a V reference)."""
+    unit = parameter_unit(name, reference_unit)
+    return f"{name} diverged ({value:.3g}{' ' + unit if unit else ''}): the data support no finite value of it"
+
+
+def diverged_names(warnings: Sequence[TrustWarning]) -> set[str]:
+    """The parameters ``warnings`` call diverged."""
+    return {w.subject for w in warnings if w.kind == "diverged"}
+
+
 def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: str = "N") -> list[TrustWarning]:
     out = []
     flagged = set()
+    for name, start in getattr(result, "diverged", ()):
+        flagged.add(name)
+        value = values.get(name, float("nan"))
+        where = f"{start:.4g} {parameter_unit(name, unit)}".rstrip()
+        out.append(TrustWarning(name, "diverged", f"{diverged_text(name, value, unit)} — the fit carried it "
+                                f"{value / start:.2g}× from where it started ({where}), beyond the factor 1e6 "
+                                f"within which the bounded fits keep it: the number is no estimate (a sensor's sign "
+                                f"reversed, or an element the data do not show); its interval is no band either",
+                                source))
     for name in getattr(result, "at_bound", ()):
+        if name in flagged:
+            continue
         flagged.add(name)
         out.append(TrustWarning(name, "at_bound",
                                 f"{name} = {values.get(name, float('nan')):.4g} ended on a bound of the fit (log-parameters "
@@ -190,9 +222,9 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: st
                 continue
             if abs(np.log(value)) >= LOG_LIMIT:
                 flagged.add(name)
-                out.append(TrustWarning(name, "at_bound",
-                                        f"{name} = {value:.4g} ran off to the end of the number range: the data do not "
-                                        f"determine it", source))
+                out.append(TrustWarning(name, "diverged", f"{diverged_text(name, value, unit)} — it ran off to the "
+                                                          f"end of the number range: the number is no estimate",
+                                        source))
     return out + [w for w in _slip_force_warnings(result, values, source, unit) if w.subject not in flagged]
 
 
