@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
+from nlupdate.core.identification.level_residual import frf_residual
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
 from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits, baseline_frf
@@ -271,7 +272,8 @@ def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
     def fit_on(kept: FRFLevels) -> Fitted:
         order = min(2, kept.levels.size - 1)  # a polynomial through one sample per level
         model = amplitude_model_from_frfs(kept, backbone, order=order)
-        return _single_mode(model, lowest_level_fit(kept).residual_receptance, kept.input_dof)
+        residual = frf_residual(kept)[1].residual  # the share its samples were read without
+        return _single_mode(model, lambda f: np.full(np.shape(f), residual, dtype=complex), kept.input_dof)
 
     return fit_on
 
