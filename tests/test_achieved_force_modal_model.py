@@ -106,13 +106,12 @@ def test_each_sample_sits_at_the_amplitude_the_force_achieved_at_the_peak_drove(
 
 def test_another_modes_share_is_removed_from_every_level():
     """The same mode with a linear mode at 100 Hz beside it (:func:`other_mode`, 11 % of the
-    lowest peak): its share is removed (a constant found from every level at once, with the
-    modal constant), the samples still within 1 % of the truth. With φ_f = 1 given: within
-    0.02 % in amplitude and damping (measured). Read without a shape, φ_f comes from the
-    modal constant found with the share, 0.998 for 1 (the share changes by 1 % of the peak
-    over the band, which a constant cannot follow): amplitude 0.23-0.25 % high, damping
-    0.56-0.61 % low. The peaks read with no share removed are 2.0-5.3 % high in amplitude,
-    2.5-7.9 % low in damping; with the old lowest-level fit's share, 3.2-5.7 % and 4.3-8.7 %."""
+    lowest peak): its share is removed (found from every level at once, with the modal
+    constant), the samples still within 1 % of the truth — measured as without the other mode,
+    0.16-0.25 % high in amplitude and 0.21-0.41 % low in damping, with φ_f given or read from
+    the modal constant (1.00002 for 1). The peaks read with no share removed are 2.0-5.3 %
+    high in amplitude, 2.5-7.9 % low in damping; with the old lowest-level fit's share,
+    3.2-5.7 % and 4.3-8.7 %."""
     data, reached = measured(dip=0.0, other=other_mode)
     for shape in (1.0, None):
         samples = samples_from_frfs(data, input_shape=shape)

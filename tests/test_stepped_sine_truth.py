@@ -65,9 +65,15 @@ def test_every_level_of_the_stepped_sine_on_the_truth(jenkins):
     8.8e-4 / 1.1 %, 2-DOF 2.9e-4 / 1.5 %; the former three-point peak 5.2e-3 / 24 % and
     1.6e-3 / 13 %, its damping 1–5 % low on average at every level and its amplitude as
     much high, which at the kink put a stuck level on the slipping side); noise-free within
-    5e-4 / 0.5 % (measured 4.2e-4 / 0.2 %, 1.1e-4 / 0.4 %)."""
+    7e-4 / 0.5 % (measured 6.2e-4 / 0.4 %, 1.2e-4 / 0.3 %). Since issue 34 the other modes'
+    share is read from every level (nlupdate.core.identification.level_residual), not from
+    a one-mode fit of the lowest level — exact here, where that level is stuck (linear), and
+    2.8-4.9 % off in amplitude where it is not: the SDOF's level whose lines cross the kink
+    (0.98-1.96 a_s) reads 6.2e-4 in frequency noise-free (4.2e-4 before, bound 5e-4), and
+    with noise SDOF 1.1e-3 / 1.3 %, 2-DOF 3.6e-4 / 1.8 % (8 seeds, measured) — a small
+    loss on this system, stated, for the bias removed on a nonlinear lowest level."""
     s, table = jenkins
-    for seed, bounds in [(None, (5e-4, 0.005))] + [(seed, (2e-3, 0.05)) for seed in range(8)]:
+    for seed, bounds in [(None, (7e-4, 0.005))] + [(seed, (2e-3, 0.05)) for seed in range(8)]:
         samples = stepped_sine_samples(s, table, seed)
         f, z = truth(s, samples.amplitude)
         assert samples.amplitude.size == LEVELS.size

@@ -157,7 +157,7 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre) <= 2.5 * band_fraction * centre
         fb = f[band]
-        hb = np.abs(h[band] - shared.residual)
+        hb = np.abs(h[band] - shared.receptance(fb))
         if fb.size < 3:
             continue
         at_hz, height = resonance_peak(fb, hb)

@@ -40,7 +40,6 @@ import scipy.optimize
 
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.level_residual import PEAK_FRACTION, polynomial_misfits
 from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_over_band
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.model.single_mode import natural_and_damping
@@ -48,6 +47,8 @@ from nlupdate.core.model.single_mode import natural_and_damping
 if TYPE_CHECKING:
     from nlupdate.core.identification.response_controlled import HeldRun
 
+#: Lines whose modal |H| is below this fraction of their level's peak are left out.
+PEAK_FRACTION = 0.5
 
 
 def lowest_level_fit(data: FRFLevels, residual_mass: bool = False) -> ModalFit:
@@ -138,9 +139,12 @@ def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float =
             samples, _ = samples_from_lines(data, fit, unit * complex(x[0], x[1]), runs)
         except AmplitudeModelError:
             return 1e12
-        misfit = polynomial_misfits(samples.amplitude, samples.frequency_hz, samples.damping_ratio, order,
-                                    frequency_std, damping_std)
-        return float(np.sum(misfit**2)) / samples.amplitude.size
+        design = (samples.amplitude / samples.amplitude.max())[:, None] ** np.arange(order + 1)[None, :]
+        total = 0.0
+        for values, std in ((samples.frequency_hz, frequency_std), (samples.damping_ratio, damping_std)):
+            misfit = values - design @ np.linalg.lstsq(design, values, rcond=None)[0]
+            total += float(np.mean((misfit / (std * values)) ** 2))
+        return total if np.isfinite(total) else 1e12
 
     best = scipy.optimize.minimize(scatter, np.zeros(2), method="Nelder-Mead",
                                    options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 600})

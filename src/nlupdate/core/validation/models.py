@@ -272,8 +272,8 @@ def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
     def fit_on(kept: FRFLevels) -> Fitted:
         order = min(2, kept.levels.size - 1)  # a polynomial through one sample per level
         model = amplitude_model_from_frfs(kept, backbone, order=order)
-        residual = frf_residual(kept)[1].residual  # the share its samples were read without
-        return _single_mode(model, lambda f: np.full(np.shape(f), residual, dtype=complex), kept.input_dof)
+        share = frf_residual(kept)[1]  # the other modes' share its samples were read without
+        return _single_mode(model, share.receptance, kept.input_dof)
 
     return fit_on
 
