@@ -63,6 +63,11 @@ from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 #: the order of each level's polynomials in a/a_max (over the whole band a level spans about
 #: a decade of amplitude)
 ORDER = 4
+#: bounds of the fit's unknowns: R and S within half the largest peak (in hundredths of it),
+#: P within a factor 2 of the one-mode fit's (a band that leaves out the resonances, e.g.
+#: 79.2–80.2 Hz below the closed form's 80.2–80.3 Hz of tests/test_amplitude_band_cut.py,
+#: determines neither: unbounded, the fit ran off to a damping 40 × the truth)
+LIMITS = np.array([50.0, 50.0, np.log(2.0), 50.0, 50.0])
 
 
 @dataclass(frozen=True)
@@ -125,7 +130,8 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
 
     ends = []
     for start in (0j, complex(start_residual)):
-        fit = scipy.optimize.least_squares(misfits, np.array([start.real / unit, start.imag / unit, 0.0, 0.0, 0.0]))
+        x0 = np.clip([start.real / unit, start.imag / unit, 0.0, 0.0, 0.0], -0.99 * LIMITS, 0.99 * LIMITS)
+        fit = scipy.optimize.least_squares(misfits, x0, bounds=(-LIMITS, LIMITS))
         ends.append((2 * float(fit.cost), fit.x))
     scatter, x = min(ends, key=lambda end: end[0])
     out = share(x)
