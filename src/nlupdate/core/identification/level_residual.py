@@ -42,7 +42,9 @@ Jenkins systems (2 % noise, 8 seeds; tests/test_stepped_sine_truth.py): every le
 1.1e-3 in frequency and 1.3 % in damping (SDOF), 3.6e-4 and 1.8 % (2-DOF), against 8.8e-4 /
 1.1 % and 2.9e-4 / 1.5 % with the lowest level's fit (exact there: that level is stuck);
 noise-free the SDOF's level whose lines cross the stick–slip kink (0.98–1.96 a_s) 6.2e-4 in
-frequency (4.2e-4 before). On the Brake–Reuss beam (tests/data/brb) P gives φ_f = 0.696
+frequency (4.2e-4 before); the Iwan systems of benchmarks/test_type_truth.py, whose lowest
+level is in microslip: SDOF 5.5e-4 / 3.7 % (8.9e-4 / 4.2 % before), 2-DOF 2.9e-4 / 2.7 %
+(3.5e-4 / 2.6 %). On the Brake–Reuss beam (tests/data/brb) P gives φ_f = 0.696
 1/√kg, against the response-controlled runs' own one-mode modal constants 0.702–0.732 (runs'
 |A|/P 1.02–1.11; the lowest level's one-mode fit: 0.628 with R − R_m/Ω², 0.688 with R alone),
 and the share runs from +2.1 to −8.7 µm/N (real part) over 79.2–81.2 Hz, where the runs' own
