@@ -7,8 +7,8 @@ the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
   ratio of the mode per force level, as a phase-resonance or one-mode analysis gives them):
   at phase resonance ``2ζω² a = |φ_f| F``, so ``a_i = |φ_f| F_i / (2ζ_i ω_i²)``;
 * **FRFs at several levels** (driving point or transfer): each level's resonance — the peak
-  of |H| after removing the other modes' share R, a constant found with the modal constant P
-  from every level at once (:mod:`~nlupdate.core.identification.level_residual`: a one-mode
+  of |H| after removing the other modes' share R + S·(f²/f_c² − 1), found with the modal
+  constant P from every line of every level at once (:mod:`~nlupdate.core.identification.level_residual`: a one-mode
   fit of the lowest level took part of that nonlinear curve for residual terms) — gives one
   sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
   and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
