@@ -57,9 +57,10 @@ from test_test_type_truth import system, truth  # noqa: E402
 
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model  # noqa: E402
 from nlupdate.core.identification.backbone_samples import backbone_curve, join_samples, own_fit_for, source_noise  # noqa: E402
-from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, sample_fit_residual  # noqa: E402
+from nlupdate.core.identification.joint_band import covariance_band, sample_fit_residual  # noqa: E402
 from nlupdate.core.identification.line_band import line_refinement_band  # noqa: E402
 from nlupdate.core.identification.line_refine import refine_at_law, refine_on_lines, refinement_residual  # noqa: E402
+from nlupdate.core.identification.sample_residuals import amplitude_std  # noqa: E402
 
 KINK = (1 / 1.03, 1.5)
 #: ``--sample-law``: the refinement keeps the sample fit's linear-damping law (as before)

@@ -59,6 +59,7 @@ from nlupdate.core.identification.decay_fit import fit_decay  # noqa: E402
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
 from nlupdate.core.identification.line_refine import SteppedSineLines, refine_on_lines, stepped_sine_lines  # noqa: E402
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
+from nlupdate.core.identification.sample_residuals import EIV_BACKBONES, sample_noise  # noqa: E402
 from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
@@ -172,9 +173,10 @@ def fit(s: dict, chosen: dict[str, tuple[ModalSamples, tuple[float, float] | Non
     joined = join_samples([c[0] for c in chosen.values()])
     own_fit = own_fit_for(backbone, shapes)
     noise = [source_noise(smp, stated, own_fit) for smp, stated in chosen.values()]
-    f_std = np.concatenate([np.full(smp.amplitude.size, n[0]) for (smp, _), n in zip(chosen.values(), noise)])
-    z_std = np.concatenate([np.full(smp.amplitude.size, n[1]) for (smp, _), n in zip(chosen.values(), noise)])
-    model = fit_amplitude_model(joined, shapes, backbone, 2, frequency_std=f_std, damping_std=z_std)
+    f_std, z_std, a_std = sample_noise(list(chosen), [smp.amplitude.size for smp, _ in chosen.values()], noise,
+                                       backbone in EIV_BACKBONES)
+    model = fit_amplitude_model(joined, shapes, backbone, 2, frequency_std=f_std, damping_std=z_std,
+                                amplitude_std=a_std)
     if lines is None or backbone != "jenkins" or "stepped-sine" not in chosen:
         return model
     names = [n for n in chosen if n != "stepped-sine"]

@@ -53,9 +53,10 @@ from nlupdate.core.identification.backbone_samples import (
 )
 from nlupdate.core.identification.band_dependence import band_changes, band_warning
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.joint_band import amplitude_std, covariance_band, joint_fixed, sample_fit_residual
+from nlupdate.core.identification.joint_band import covariance_band, joint_fixed, sample_fit_residual
 from nlupdate.core.identification.line_band import line_refinement_band
 from nlupdate.core.identification.line_refine import line_misfit, refine_on_lines, stepped_sine_lines
+from nlupdate.core.identification.sample_residuals import EIV_BACKBONES, amplitude_std, sample_noise
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
 from nlupdate.progress import ProgressCallback, no_progress
@@ -225,11 +226,14 @@ class AmplitudeFit:
         return names
 
 
-def _one_source_model(samples: ModalSamples, shapes, options: FitOptions) -> AmplitudeModalModel:
-    """The fit to one source's samples; one sample (an impact's pole) is the linear limit
-    alone, with no amplitude dependence (a polynomial of no terms)."""
+def _one_source_model(samples: ModalSamples, shapes, options: FitOptions, kind: str = "") -> AmplitudeModalModel:
+    """The fit to one source's samples of test type ``kind`` (phase resonance: its noisy amplitudes,
+    :mod:`~nlupdate.core.identification.sample_residuals`); one sample (an impact's pole) is the linear
+    limit alone, with no amplitude dependence (a polynomial of no terms)."""
     if samples.amplitude.size > 1:
-        return fit_amplitude_model(samples, shapes, options.backbone, options.order, mode=options.mode)
+        stds = sample_noise([kind], [samples.amplitude.size], [DEFAULT_NOISE], options.backbone in EIV_BACKBONES)
+        return fit_amplitude_model(samples, shapes, options.backbone, options.order, *stds[:2], mode=options.mode,
+                                   amplitude_std=stds[2])
     return AmplitudeModalModel(float(samples.frequency_hz[0]), float(samples.damping_ratio[0]), shapes,
                                reference_amplitude=float(samples.amplitude[0]), mode=options.mode,
                                note="the linear limit of one impact or low-level record: no amplitude dependence "
@@ -288,16 +292,17 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
     elif options.hold_out:
         raise ValueError(f"hold-out {options.hold_out}: no source of that type is given")
     if len(points) == 1 and (model is None or held):
-        model = _one_source_model(samples, shapes_fit, options)
+        model = _one_source_model(samples, shapes_fit, options, points[0][3])
     # several sources: one backbone fitted jointly, each source weighted by its own noise
     own_fit = own_fit_for(options.backbone, shapes_fit)
     noises = [source_noise(s, stated, own_fit) for _, s, stated, _ in points]
 
     def joint_fit(chosen: list[int]) -> AmplitudeModalModel:
         """The model of the sources at ``chosen``, each weighted by its noise."""
-        stds = [np.concatenate([np.full(points[i][1].amplitude.size, noises[i][k]) for i in chosen]) for k in (0, 1)]
+        f_std, z_std, a_std = sample_noise([points[i][3] for i in chosen], [points[i][1].amplitude.size for i in chosen],
+                                           [noises[i] for i in chosen], options.backbone in EIV_BACKBONES)
         return fit_amplitude_model(join_samples([points[i][1] for i in chosen]), shapes_fit, options.backbone,
-                                   options.order, *stds, mode=options.mode)
+                                   options.order, f_std, z_std, mode=options.mode, amplitude_std=a_std)
 
     noise: tuple = DEFAULT_NOISE
     agreement = None

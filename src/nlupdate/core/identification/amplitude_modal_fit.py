@@ -75,6 +75,7 @@ from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
 from nlupdate.core.identification.frf_peak import resonance_peak
 from nlupdate.core.identification.level_residual import frf_residual
 from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
+from nlupdate.core.identification.sample_residuals import noisy_residual, sample_residual
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
 from nlupdate.core.model.elements import IwanJoint
@@ -175,16 +176,6 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
 
 
 # ---------------------------------------------------------------------------------- fitting
-def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
-    """Weighted relative misfits of ``samples`` about the curves ``model_omega_zeta(a) → (ω, ζ)``:
-    frequencies over ``frequency_std``, then damping ratios over ``damping_std`` (non-finite: 1e6)."""
-    omega, zeta = model_omega_zeta(samples.amplitude)
-    r_f = (omega / (2 * np.pi * samples.frequency_hz) - 1) / frequency_std
-    r_z = (zeta / samples.damping_ratio - 1) / damping_std
-    out = np.concatenate([r_f, r_z])
-    return np.where(np.isfinite(out), out, 1e6)
-
-
 #: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
 _POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
 
@@ -259,12 +250,15 @@ def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, dampi
 
 
 def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
-          fixed: dict[str, float] | None = None, capped: bool = True) -> tuple[AmplitudeModalModel, float]:
+          fixed: dict[str, float] | None = None, capped: bool = True,
+          amplitude_std: NDArray | None = None) -> tuple[AmplitudeModalModel, float]:
     """Best Iwan backbone over the starts; with ``samples.shape_free`` the shape φ_f (the last
     unknown, as a log) is fitted too and the model's shapes carry it. ``capped``: f₀ under
-    the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never)."""
-    fixed = fixed or {}
-    free_shape = samples.shape_free and samples.response_amplitude is not None
+    the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never);
+    ``amplitude_std``: the samples' relative amplitude noise (:mod:`.sample_residuals`)."""
+    fixed, free_shape, n = fixed or {}, samples.shape_free and samples.response_amplitude is not None, samples.amplitude.size
+    a_std = np.zeros(n) if amplitude_std is None else np.broadcast_to(np.asarray(amplitude_std, float), (n,))
+    noisy, stds = a_std > 0, [np.broadcast_to(np.asarray(std, float), (n,)) for std in (frequency_std, damping_std)]
     omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA or not capped)
     if free_shape:
         def unpack(t):
@@ -303,19 +297,24 @@ def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: floa
                         theta.append(np.log(beta))
                     if free_shape:
                         theta.append(np.log(samples.input_shape))
+                    unknowns = len(theta)  # then the noisy samples' log true amplitudes (iwan_model ignores them)
+                    theta.extend(np.log(samples.amplitude[noisy]))
 
                     def residual(t):
                         with np.errstate(all="ignore"):
                             try:
                                 model, data = unpack(t)
                             except (ValueError, OverflowError):
-                                return np.full(2 * samples.amplitude.size, 1e6)
+                                return np.full(2 * n + int(noisy.sum()), 1e6)
+                            if noisy.any():
+                                return noisy_residual(model.omega_zeta, data.amplitude, data.frequency_hz,
+                                                      data.damping_ratio, t[unknowns:], noisy, *stds, a_std)
                             return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
 
                     lower, upper = np.full(len(theta), -np.inf), np.full(len(theta), np.inf)
                     lower[0], upper[0] = log_range
                     if free_shape:  # the shape a slipping joint gives: a few per cent from the stuck one
-                        lower[-1], upper[-1] = np.log(samples.input_shape) + np.log(SHAPE_RANGE) * np.array([-1, 1])
+                        lower[unknowns - 1], upper[unknowns - 1] = np.log(samples.input_shape) + np.log(SHAPE_RANGE) * np.array([-1, 1])
                     solution = scipy.optimize.least_squares(residual, np.array(theta), method="trf", max_nfev=400,
                                                             bounds=(lower, upper))
                     if best is None or solution.cost < best.cost:
@@ -373,7 +372,7 @@ SHAPE_RANGE = 1.1
 
 def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
                         order: int = 2, frequency_std: float | NDArray = 1e-3, damping_std: float | NDArray = 0.05,
-                        mode: int = 1) -> AmplitudeModalModel:
+                        mode: int = 1, amplitude_std: float | NDArray | None = None) -> AmplitudeModalModel:
     """The amplitude-dependent model of ``backbone`` fitted to ``samples`` (module docstring).
 
     ``frequency_std``, ``damping_std``: relative standard deviations of the samples' natural
@@ -381,11 +380,18 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     sources each weighted by its own noise: :mod:`~nlupdate.core.identification.backbone_samples`).
 
     ``shapes``: the mode's mass-normalised shape (1/√kg) at named coordinates, the excited
-    one included (its magnitude must be the samples' ``input_shape``)."""
+    one included (its magnitude must be the samples' ``input_shape``).
+
+    ``amplitude_std``: each sample's relative amplitude noise, below its damping ratio's; the
+    Iwan fits then fit the true amplitudes where it is > 0 (:mod:`.sample_residuals`)."""
     if backbone not in FIT_BACKBONES:
         raise AmplitudeModelError(f"backbone must be one of {list(FIT_BACKBONES)}, got {backbone!r}")
     if np.any(np.asarray(frequency_std) <= 0) or np.any(np.asarray(damping_std) <= 0):
         raise AmplitudeModelError("frequency_std and damping_std must be > 0 (relative standard deviations)")
+    if amplitude_std is not None and (np.any(np.asarray(amplitude_std) < 0) or samples.shape_free or
+                                      np.any(np.asarray(amplitude_std) >= np.asarray(damping_std))):
+        raise AmplitudeModelError("amplitude_std must be ≥ 0 and below damping_std (the amplitude's share of the "
+                                  "damping ratio's noise), with the mode shape given")
     shapes = tuple((str(n), float(v)) for n, v in shapes)
     if backbone == "polynomial":
         if int(order) < 1:
@@ -397,14 +403,15 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     if samples.amplitude.size < 3:
         raise AmplitudeModelError(f"the {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
     jenkins = {"beta": JENKINS_BETA, "chi": JENKINS_CHI} if backbone == "jenkins" else {}
-    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins), law) for law in LINEAR_DAMPING]
+    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins, amplitude_std=amplitude_std), law)
+            for law in LINEAR_DAMPING]
     model, chi2, law = min(fits, key=lambda fit: fit[1])
     fitted_shape = samples.shape_free and samples.response_amplitude is not None
     n, capped, freed = 2 * samples.amplitude.size, True, ""
     free_dof = n - (6 + int(fitted_shape))  # ω₀, ζ₀, K_T, F_S, χ, β (and φ_f)
     cap = linear_limit_range(samples, frequency_std)[1]
     if not jenkins and 2 * np.pi * model.natural_frequency_hz >= cap * (1 - 1e-6):  # on it: do the samples reject it?
-        free = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, other, capped=False), other)
+        free = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, other, None, False, amplitude_std), other)
                 for other in LINEAR_DAMPING]
         best, chi2_capped = min(free, key=lambda fit: fit[1]), chi2
         if (p_cap := microslip_test(best[1], chi2, free_dof, constraints=1)) < MICROSLIP_P:
@@ -424,7 +431,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     elif a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
         reach = a_max / model.joint.phi_max
         reduced, chi2_reduced = _iwan(samples, shapes, frequency_std, damping_std, mode, law,
-                                      {"beta": 0.0, "phi_max": a_max}, capped)
+                                      {"beta": 0.0, "phi_max": a_max}, capped, amplitude_std)
         p_value = microslip_test(chi2, chi2_reduced, free_dof)
         if p_value >= MICROSLIP_P:
             model, chi2 = reduced, chi2_reduced

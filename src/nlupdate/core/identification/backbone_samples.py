@@ -61,7 +61,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, ModalSamples, fit_amplitude_model
 from nlupdate.core.identification.bands import band_arrays
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
@@ -75,6 +75,14 @@ DEFAULT_NOISE = (1e-3, 0.05)
 DISAGREEMENT = 3.0
 #: fewer samples than this cannot show their own scatter (module docstring)
 MIN_SCATTER_SAMPLES = 5
+#: the backbones whose sources' noise is their scatter about their own fit (module docstring)
+OWN_FIT_BACKBONES = ("jenkins", "iwan")
+
+
+def _per_quantity(model: AmplitudeModalModel) -> int:
+    """Parameters per fitted quantity (frequency, damping) of a modal-joint fit: the ``jenkins``
+    backbone's 4 (β, χ fixed) or the Iwan's 6, over two quantities."""
+    return 2 if model.joint is not None and model.joint.beta >= JENKINS_BETA * (1 - 1e-9) else 3
 
 
 def join_samples(parts: list[ModalSamples]) -> ModalSamples:
@@ -185,10 +193,11 @@ def displacement_samples(samples: ModalSamples, unit: str) -> ModalSamples:
 
 def own_fit_for(backbone: str, shapes) -> Callable[[ModalSamples], AmplitudeModalModel] | None:
     """The fit :func:`source_noise` takes a source's scatter about for ``backbone``: the
-    ``jenkins`` backbone's own (module docstring); None (a quadratic in ln a) for the others."""
-    if backbone != "jenkins":
+    ``jenkins`` and ``iwan`` backbones' own (module docstring); None (a quadratic in ln a) for
+    the polynomial."""
+    if backbone not in OWN_FIT_BACKBONES:
         return None
-    return lambda samples: fit_amplitude_model(samples, shapes, "jenkins")
+    return lambda samples: fit_amplitude_model(samples, shapes, backbone)
 
 
 def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = None,
@@ -211,9 +220,9 @@ def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = Non
             if fitted is None:  # relative scatter: about ln y's own quadratic
                 residual = np.log(y) - np.polyval(np.polyfit(x, np.log(y), 2), x)
                 spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - 3))))
-            else:  # about the source's own fit (4 parameters for 2n values: 2 per quantity)
+            else:  # about the source's own fit (Jenkins 4, Iwan 6 parameters for 2n values: 2 or 3 per quantity)
                 residual = np.log(y / fitted)
-                spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - 2))))
+                spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - _per_quantity(model)))))
         f_std, z_std = spreads
     else:
         f_std, z_std = DEFAULT_NOISE

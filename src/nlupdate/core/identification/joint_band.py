@@ -16,7 +16,7 @@ kink"). Here the band is that of the estimator itself:
 * the covariance is ``s²(JᵀJ)⁻¹`` with ``s² = Σr²/ν``, ν = m − p degrees of freedom (the
   residual's own scale: the stated noise need not be right);
 * errors in the variables: a phase-resonance point's modal amplitude is its measured
-  response over φ, as noisy as its damping ratio (:data:`NOISY_AMPLITUDE_SHARE`), and the fit
+  response over φ, as noisy as its damping ratio (:data:`~nlupdate.core.identification.sample_residuals.NOISY_AMPLITUDE_SHARE`), and the fit
   takes it as exact. A relative amplitude error δ moves the point's misfits by
   ``δ·(∂ln ω/∂ln a, ∂ln ζ/∂ln a)`` — next to the kink ∂ln ζ/∂ln a reaches ~13, so the point
   that places a_s carries several times its stated damping noise. That adds
@@ -52,18 +52,12 @@ import numpy as np
 import scipy.special
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import (
-    JENKINS_BETA, JENKINS_CHI, ModalSamples, iwan_model, sample_residual,
-)
+from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, JENKINS_CHI, ModalSamples, iwan_model
+from nlupdate.core.identification.sample_residuals import sample_residual
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 
 #: parameter draws per band
 DRAWS = 4000
-#: test types whose samples' modal amplitudes carry the response's noise, and the share of
-#: their damping ratio's relative noise taken as that: a phase-resonance point's amplitude
-#: is its response over φ, its damping ratio the force over the response, so with force and
-#: response equally noisy the amplitude carries 1/√2 of the damping ratio's noise
-NOISY_AMPLITUDE_SHARE = {"phase-resonance": 1 / np.sqrt(2)}
 #: central-difference step in the unknowns (logs and logits)
 _STEP = 1e-4
 #: the viscous share w of the rest of the structure's damping at each linear-damping law
@@ -100,13 +94,6 @@ def sample_fit_residual(model: AmplitudeModalModel, samples: ModalSamples, frequ
     (:func:`~nlupdate.core.identification.amplitude_modal_fit.sample_residual`)."""
     unpack = model_from_unknowns(model)
     return lambda theta: sample_residual(unpack(theta).omega_zeta, samples, frequency_std, damping_std)
-
-
-def amplitude_std(kinds: list[str], damping_std: NDArray) -> NDArray:
-    """Each sample's relative amplitude noise from its test type ``kinds`` and its damping
-    ratio's relative standard deviation (:data:`NOISY_AMPLITUDE_SHARE`; 0 for the others)."""
-    share = np.array([NOISY_AMPLITUDE_SHARE.get(kind, 0.0) for kind in kinds])
-    return share * np.broadcast_to(np.asarray(damping_std, float), share.shape)
 
 
 def mixed_law_residual(model: AmplitudeModalModel,
