@@ -91,7 +91,7 @@ LONGEST_MODULES = (
     "test_identification_prd.py", "test_periodic_truth.py", "test_partition.py", "test_backbone_forms.py",
     "test_readme_identify.py", "test_solver_vs_time_integration.py", "test_answer_from_cache.py",
     "test_time_integration.py", "test_archive_compare_studies.py", "test_study_archives_brb.py", "test_impact.py",
-    "test_joint_sources.py", "test_noisy_amplitudes.py",
+    "test_joint_sources.py", "test_noisy_amplitudes.py", "test_amplitude_trust.py",
     "test_validate_auto_extrapolation.py", "test_optional_dask.py", "test_updating_stops.py", "test_bad_input.py",
     "test_discovery_places.py", "test_discovery_microslip.py", "test_response_controlled.py", "test_mapdl.py",
     "test_discovery_jacobian.py", "test_reporting_archive.py", "test_ring_down.py", "test_validate_line_forces.py",

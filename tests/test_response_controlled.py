@@ -128,7 +128,7 @@ def test_a_ring_down_read_without_a_shape_is_not_put_on_the_runs_modal_scale(tmp
                  "m/s^2", "--backbone", "polynomial", "--bootstrap", "0"]
     joined = main([*ring_down, "--response-controlled", str(BRB), "--coordinates", f"{BRB}=acc3:-y,acc3:y",
                    "--out", str(tmp_path / "joined")])
-    assert joined == 2 and "--shape CHANNEL=VALUE" in capsys.readouterr().err
+    assert joined == 2 and "--shape acc3=VALUE" in capsys.readouterr().err
     predicted = main([*ring_down, "--forces", "0.5", "--freqs", "79:82:31", "--out", str(tmp_path / "predicted")])
     assert predicted == 2 and "--shape acc3=VALUE" in capsys.readouterr().err
     assert main([*ring_down, "--out", str(tmp_path / "alone")]) == 0

@@ -14,7 +14,7 @@ import pandas as pd
 from nlupdate.core.identification.amplitude_joint import POOR_FIT, AmplitudeFit
 from nlupdate.core.identification.amplitude_modal_fit import KINKED_BACKBONES
 from nlupdate.core.identification.backbone_samples import DISAGREEMENT, MIN_SCATTER_SAMPLES
-from nlupdate.reporting.backbone_plots import plot_sources
+from nlupdate.reporting.backbone_plots import modal_amplitude_unit, plot_sources
 from nlupdate.reporting.markdown import markdown_table
 
 
@@ -75,11 +75,12 @@ def _held_lines(fit: AmplitudeFit) -> list[str]:
     return lines
 
 
-def _amplitudes(samples) -> str:
-    """The amplitudes the samples cover, in their unit: modal (m·√kg), or a record's own (m)
-    when it was read without a shape (:attr:`ModalSamples.modal`)."""
+def _amplitudes(samples, unit: str = "N") -> str:
+    """The amplitudes the samples cover, in their unit: modal (m·√kg; per volt, ``unit`` "V",
+    m·√(kg·V/N): :func:`modal_amplitude_unit`), or a record's own (m) when it was read without
+    a shape (:attr:`ModalSamples.modal`)."""
     span = f"{samples.amplitude.min():.3g}–{samples.amplitude.max():.3g}"
-    return f"modal amplitudes {span} m·√kg" if samples.modal else \
+    return f"modal amplitudes {span} {modal_amplitude_unit(unit)}" if samples.modal else \
         f"amplitudes {span} m at the record's channel (no shape given: not modal)"
 
 
@@ -92,7 +93,7 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     lines += [f"warning: {warning}" for warning in model.warnings]
     lines.append(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
                  f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, "
-                 f"{_amplitudes(samples)})")
+                 f"{_amplitudes(samples, fit.unit)})")
     if model.joint is not None:
         j = model.joint
         lines.append(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {fit.unit}/√kg, "
@@ -138,7 +139,7 @@ def amplitude_summary(fit: AmplitudeFit) -> list[str]:
     kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
     lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
                  f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; "
-                 f"{_amplitudes(samples)}")
+                 f"{_amplitudes(samples, fit.unit)}")
     unchecked = _unchecked_line(fit)  # not bad news in itself: what the check could not test
     return lines + ([f"* Amplitude model: {unchecked}"] if unchecked else [])
 

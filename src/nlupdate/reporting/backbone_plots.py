@@ -18,6 +18,26 @@ from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, label_thin
 _MARKERS = "os^vDP*Xh<>"
 
 
+def modal_amplitude_unit(reference_unit: str = "N") -> str:
+    """The unit of a modal amplitude a = x/φ: m·√kg for a mass-normalised shape φ (1/√kg) of
+    FRFs per newton; per volt (``reference_unit`` "V": FRFs in m/V, φ² in 1/kg · N/V) a is
+    in m·√(kg·V/N), which a reader of "m·√kg" would take for a physical modal amplitude."""
+    return "m·√kg" if reference_unit == "N" else f"m·√(kg·{reference_unit}/N)"
+
+
+def model_title(model: AmplitudeModalModel) -> str:
+    """A figure's title: the linear limit, and — when the fit warns about it (extrapolated
+    below every sample, on a bound, a stiffening backbone) — that the numbers are not
+    determined by the samples, so the title does not read as a confident answer the
+    terminal contradicts."""
+    title = (f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
+             f"ζ₀ = {100 * model.damping_ratio:.3g} %")
+    if model.warnings:
+        title += (f"\nNOT determined by the samples ({len(model.warnings)} warning(s): the terminal, "
+                  f"amplitude_model.json's warnings)")
+    return title
+
+
 def _short(name: str) -> str:
     return Path(name.split(",")[0]).name + (" …" if "," in name else "")
 
@@ -59,11 +79,12 @@ def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples
         ax.axvspan(a[0], amplitudes.min(), **EXTRAPOLATION_FILL, label="no samples (extrapolated or held)")
         ax.axvspan(amplitudes.max(), a[-1], **EXTRAPOLATION_FILL)
         ax.set_xlim(a[0], a[-1])
-        ax.set_xlabel("modal amplitude a (m·√kg)")
+        ax.set_xlabel(f"modal amplitude a ({modal_amplitude_unit(model.reference_unit)})"
+                      if all(s.modal for _, s in parts) else
+                      "amplitude at the record's channel (m; no --shape given: not modal)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
-        ax.set_title(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
-                     f"ζ₀ = {100 * model.damping_ratio:.3g} %", fontsize=10)
+        ax.set_title(model_title(model), fontsize=10, color="firebrick" if model.warnings else "black")
         label_thin_bands(fig)
         fig.legend(loc="outside lower center", ncols=2, fontsize=7, frameon=False)
         paths.append(save_figure(fig, folder / name))

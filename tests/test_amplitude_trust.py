@@ -1,0 +1,124 @@
+"""What ``nlupdate amplitude`` says about how far to trust its model, checked on data whose
+answer is known:
+
+* the modal amplitude of FRFs per volt is in m·√(kg·V/N), not m·√kg (the printed range and the
+  figures' axis said m·√kg, the unit of a physical modal amplitude, for the transmitter
+  beam's m/V curves); the same curves per newton keep m·√kg and the same numbers;
+* a figure whose model carries warnings (a linear limit extrapolated, on a bound, a stiffening
+  backbone) says in its title that the linear limit is not determined, instead of stating it
+  as the answer the terminal contradicts;
+* a ring-down or impact record read without a shape at its channel, joined with modal
+  samples, is refused in one line naming the file and the ``--shape`` to give (the line named
+  neither).
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nlupdate.app.cli import main
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.measurement.frf_files import write_frf_table
+from nlupdate.core.measurement.frf_table import frf_table
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+from nlupdate.reporting import backbone_plots
+from single_mode_reference import amplitude
+
+BRB = Path(__file__).parent / "data" / "brb"
+LEVELS = (0.2, 0.5, 1.0, 1.5)
+F = np.linspace(78.0, 82.0, 81)
+A_REF = 1e-4  # m: the closed-form mode's amplitude scale (unit modal mass, shape 1)
+
+
+def _denominator(a, omega):
+    """ω(a)² − Ω² + 2iζ(a)ω(a)Ω of a mode softening 0.3 % and damping 0.2 → 0.4 % over a = A_REF."""
+    w = 2 * np.pi * 80.0 * (1 - 0.003 * np.asarray(a) / A_REF)
+    zeta = 0.002 * (1 + np.asarray(a) / A_REF)
+    return w**2 - omega**2 + 2j * zeta * w * omega
+
+
+def _table(unit: str) -> pd.DataFrame:
+    grid = np.geomspace(1e-8, 1e-2, 4000)
+    rows = [frf_table(F, level, "0", "0", np.array([1 / _denominator(amplitude(_denominator, level, 2 * np.pi * f,
+                                                                                    grid), 2 * np.pi * f) for f in F]))
+            for level in LEVELS]
+    return pd.concat(rows, ignore_index=True).assign(reference_unit=unit)
+
+
+def _amplitude(unit: str, tmp_path: Path, capsys) -> tuple[str, dict]:
+    path = tmp_path / f"{unit}.parquet"
+    write_frf_table(_table(unit), path)
+    assert main(["amplitude", "--measured", str(path), "--backbone", "polynomial", "--bootstrap", "0",
+                 "--out", str(tmp_path / unit)]) == 0
+    printed = capsys.readouterr().out
+    line = next(text for text in printed.splitlines() if text.startswith("mode 1: linear limit"))
+    return line, json.loads((tmp_path / unit / "amplitude_model.json").read_text())
+
+
+def test_a_model_of_frfs_per_volt_states_its_modal_amplitude_per_volt(tmp_path, capsys):
+    per_newton, model_n = _amplitude("N", tmp_path, capsys)
+    per_volt, model_v = _amplitude("V", tmp_path, capsys)
+    span = r"modal amplitudes ([\d.e+-]+)–([\d.e+-]+) "
+    assert re.search(span + r"m·√kg\)", per_newton), per_newton
+    assert re.search(span + r"m·√\(kg·V/N\)\)", per_volt), per_volt  # it said m·√kg
+    # the same numbers: the unit is what differs; and they are the closed form's (shape 1, unit mass)
+    assert re.search(span, per_newton).groups() == re.search(span, per_volt).groups()
+    low, high = map(float, re.search(span, per_newton).groups())
+    grid = np.geomspace(1e-8, 1e-2, 4000)  # each level's largest amplitude over its lines, in closed form
+    peaks = [max(amplitude(_denominator, level, 2 * np.pi * f, grid) for f in F) for level in (LEVELS[0], LEVELS[-1])]
+    assert np.allclose([low, high], peaks, rtol=0.05), (low, high, peaks)
+    assert model_v["reference_unit"] == "V" and model_n["reference_unit"] == "N"
+
+
+def _model(warnings: tuple[str, ...], unit: str = "N") -> AmplitudeModalModel:
+    return AmplitudeModalModel(natural_frequency_hz=80.0, damping_ratio=0.002, shapes=(("0", 1.0),),
+                               frequency_coefficients=(-0.003,), damping_coefficients=(0.002,),
+                               reference_amplitude=A_REF, warnings=warnings, reference_unit=unit)
+
+
+def _figures(model: AmplitudeModalModel, tmp_path: Path, monkeypatch) -> list:
+    a = np.geomspace(0.3 * A_REF, A_REF, 5)
+    samples = ModalSamples(a, model.frequency_hz(a), model.damping(a), np.ones(5), 1.0)
+    curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
+                          "damping_ratio": model.damping(a)})
+    for column in ("natural_frequency_hz", "damping_ratio"):
+        curve[f"{column}_low"], curve[f"{column}_high"] = curve[column] * 0.99, curve[column] * 1.01
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    drawn = []
+    original = backbone_plots.save_figure
+    monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+    backbone_plots.plot_sources(model, [("levels.csv (stepped-sine)", samples)], curve, tmp_path)
+    return drawn
+
+
+def test_the_figures_say_when_the_linear_limit_is_not_determined(tmp_path, monkeypatch):
+    warned = "the linear damping ratio ζ₀ = 0.002 % is the damping curve's extrapolation below every sample"
+    for figure in _figures(_model((warned,)), tmp_path, monkeypatch):
+        title = figure.axes[0].get_title()
+        assert "linear limit 80 Hz" in title and "NOT determined" in title and "1 warning" in title, title
+    for figure in _figures(_model(()), tmp_path / "ok", monkeypatch)[-2:]:
+        assert "NOT determined" not in figure.axes[0].get_title()
+
+
+def test_the_figures_label_a_per_volt_modal_amplitude(tmp_path, monkeypatch):
+    (frequency, damping) = _figures(_model((), "V"), tmp_path, monkeypatch)
+    assert frequency.axes[0].get_xlabel() == "modal amplitude a (m·√(kg·V/N))"
+    assert damping.axes[0].get_xlabel() == "modal amplitude a (m·√(kg·V/N))"
+    (frequency, _) = _figures(_model((), "N"), tmp_path / "n", monkeypatch)[-2:]
+    assert frequency.axes[0].get_xlabel() == "modal amplitude a (m·√kg)"
+
+
+def test_an_impact_without_its_channels_shape_is_refused_naming_the_file_and_the_option(tmp_path, capsys):
+    """The BRB's hammer impact (acc3, m/s²) with its response-controlled runs, the shape given
+    only under the runs' coordinate acc3:y: the record's amplitudes are in m, not modal."""
+    runs, impact = BRB / "ForcedFrequencyResponses.mat", BRB / "HammerImpact_1600Hz.mat"
+    code = main(["amplitude", "--response-controlled", str(runs), "--coordinates", f"{runs}=acc3:-y,acc3:y",
+                 "--shape", "acc3:y=0.7271", "--impact", str(impact), "--channel", "acc3", "--response-unit", "m/s^2",
+                 "--backbone", "polynomial", "--out", str(tmp_path / "out")])
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code != 0 and not (tmp_path / "out").exists()
+    assert str(impact) in error and "--shape acc3=VALUE" in error and "acc3:y=0.7271" in error, error
