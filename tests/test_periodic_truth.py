@@ -103,18 +103,23 @@ def test_the_two_dofs_driving_point_records_lie_on_the_truth():
     six peaks (3-harmonic balance, ``samples_from_frfs``) and the phase-resonance points
     (5 harmonics, 90° by interpolation between traced points) lie within 0.2 % and 0.1 % of
     the periodic truth in damping (measured 0.17 %, 0.09 %: those estimators' own errors),
-    where they are 0.28–0.42 % and 0.20–0.41 % above the closed form in macroslip."""
+    where the points are 0.20–0.41 % above the closed form in macroslip. The peaks were 0.28–0.42 %
+    above it while the other modes' share came from a one-mode fit of the lowest level (stuck,
+    linear: exact here); read from every level (issue 34, a closed form whose lowest level is
+    not linear read 3.8–7.5 % off before) they are 0.10–0.17 % below the periodic truth
+    (measured): −0.05 … +0.28 % against the closed form, still rising above it into macroslip
+    — the mode's shape changes as the joint slips, which the single-mode share takes in part."""
     s = system(2, "jenkins")
     psi = s["phi"][0]
     omega, force, x1 = locked_points(s, LEVELS * s["slip"])  # as benchmarks/test_type_truth.py records
     peaks = samples_from_frfs(FRFLevels.from_table(stepped_sine_table(s, force), "0", "0"), psi)
     amplitude = np.abs(x1) / psi
-    for a, z, bound in ((peaks.amplitude, peaks.damping_ratio, 0.002),
-                        (amplitude, psi * force / (2 * omega**2 * amplitude), 0.001)):
+    for a, z, bound, above in ((peaks.amplitude, peaks.damping_ratio, 0.002, (-0.001, 0.0025)),
+                               (amplitude, psi * force / (2 * omega**2 * amplitude), 0.001, (0.0019, 0.004))):
         slipping = a > 1.5 * s["slip"]
         assert np.abs(z / periodic_truth(s, a)[1] - 1).max() < bound
         closed = z[slipping] / truth(s, a[slipping])[1] - 1
-        assert closed.min() > 0.0019 and closed.max() > 0.004
+        assert closed.min() > above[0] and closed.max() > above[1]
 
 
 def test_the_one_harmonic_truth_is_the_closed_form_on_the_sdof_and_near_the_truth_on_the_two_dof():
