@@ -49,6 +49,9 @@ level is in microslip: SDOF 5.5e-4 / 3.7 % (8.9e-4 / 4.2 % before), 2-DOF 2.9e-4
 |A|/P 1.02–1.11; the lowest level's one-mode fit: 0.628 with R − R_m/Ω², 0.688 with R alone),
 and the share runs from +2.1 to −8.7 µm/N (real part) over 79.2–81.2 Hz, where the runs' own
 fits put it at −4 … −9 µm/N.
+On the bolted T-beam example (tests/test_bolted_beam_example.py, an FE model with an Iwan
+joint at its tip, 1 % noise, 3 seeds) P gives φ_f = 2.77 1/√kg against the FE shape's
+2.794 (the lowest level's one-mode fit: 2.63).
 """
 from __future__ import annotations
 
