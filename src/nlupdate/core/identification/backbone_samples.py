@@ -27,8 +27,10 @@ Joint fit of several sources (stepped sine, response-controlled runs, phase reso
 ring-downs, impacts). Each source is weighted by its own noise: the relative standard
 deviations of its frequencies and damping ratios are the scatter of their logarithms about a
 quadratic in ln a fitted to that source alone (``√(Σr²/(n − 3))``, n ≥ 5 samples; in ln ζ, as
-damping that grows as a power of a is no quadratic in ln a) — with the ``jenkins`` backbone
-about that source's own Jenkins fit instead (``√(Σr²/(n − 2))``: a quadratic cannot follow the
+damping that grows as a power of a is no quadratic in ln a) — with the ``iwan`` backbone about
+its own Iwan fit (``√(Σr²/(n − 3))``: six phase-resonance points of the Iwan SDOF, 2.8 % noisy
+in ζ, scatter 11–15 % about a quadratic, which misses ζ(a)'s kink at φ_max) and with the
+``jenkins`` backbone about its own Jenkins fit (``√(Σr²/(n − 2))``: a quadratic cannot follow the
 stick–slip kink, and took the 1–3 % scatter of six phase-resonance points of a Jenkins SDOF
 for 40 % in ζ and 0.7 % in frequency, so the noisier ring-down outweighed them: held out,
 the steady-state types were predicted 5.4 % off in damping away from the kink; about their
