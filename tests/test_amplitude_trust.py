@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from nlupdate.app.cli import main
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
@@ -122,3 +123,42 @@ def test_an_impact_without_its_channels_shape_is_refused_naming_the_file_and_the
     error = capsys.readouterr().err.strip().splitlines()[-1]
     assert code != 0 and not (tmp_path / "out").exists()
     assert str(impact) in error and "--shape acc3=VALUE" in error and "acc3:y=0.7271" in error, error
+
+
+def test_validate_prints_each_held_sample_beside_its_prediction():
+    """A ring-down held out of a mode linear in a (tests/test_held_type_bands.py: f = 10 Hz ·
+    (1 − 0.02 a/A), ζ = 0.5 % (1 + 2a/A), measured to 1e-5 and 0.5 %): the terminal gave only the
+    largest errors; each of the 12 samples now has its row, its numbers the truth's."""
+    from nlupdate.reporting.validation_text import held_type_lines
+    from test_held_type_bands import A, held_out, truth
+
+    summary = held_out((1e-5, 0.005))
+    lines = held_type_lines(summary, "N")
+    header = next(k for k, line in enumerate(lines) if line.startswith("modal amplitude (m·√kg)"))
+    rows = lines[header + 1:]
+    assert len(rows) == len(summary["samples"]) == 12
+    for row, entry in zip(rows, summary["samples"]):
+        cells = row.split()
+        a = float(cells[0])
+        f, zeta = truth(np.array([a]))
+        assert a == pytest.approx(entry["modal_amplitude"], rel=2e-3) and 0.40 * A <= a * (1 + 2e-3)
+        assert float(cells[1]) == pytest.approx(f[0], abs=2e-3)  # measured, to the printed 3 decimals
+        assert float(cells[2]) == pytest.approx(f[0], abs=2e-3)  # predicted: the model of the right form
+        assert row.endswith("yes, yes")
+
+
+def test_an_impacts_frequency_error_is_printed_to_the_digits_it_has():
+    """The BRB's impact against the linear limit of the fit of its other tests (80.5797 Hz
+    measured, 80.6175 Hz predicted: +0.0378 Hz, +0.047 %): the row said "(+0.0 %)"."""
+    from nlupdate.reporting.validation_text import held_type_lines
+
+    measured, predicted = 80.57967619, 80.61749787
+    entry = {"source": "tap.mat", "modal_amplitude": 3.6e-6, "within_fit": False, "predicted_at_modal_amplitude": 0.0,
+             "extrapolation": "the impact tap.mat lies below every kept sample",
+             "natural_frequency_hz": {"measured": measured, "predicted": predicted, "error": predicted - measured,
+                                      "relative_error": predicted / measured - 1},
+             "damping_ratio": {"measured": 0.0014165, "predicted": 0.0016135, "error": 1.97e-4,
+                               "relative_error": 0.0016135 / 0.0014165 - 1}}
+    summary = {"test_type": "impact", "samples": [entry], "levels": [], "model": {}}
+    (row,) = [line for line in held_type_lines(summary, "N") if "natural frequency" in line and "tap.mat" in line]
+    assert "+0.0378 Hz (+0.047 %)" in row, row

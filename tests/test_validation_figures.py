@@ -180,11 +180,12 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
                         "0.1947 N damping ratio")
     assert lines[2].split() == ["0.1947", "80.262", "80.383", "[80.08,", "80.68]", "0.119", "0.249", "[0.136,",
                                 "0.361]", "-25.0", "yes,", "NO,", "—"]
-    sample = {"within_fit": True, "natural_frequency_hz": compared(80.4, 80.41, 80.3, 80.5),
+    sample = {"within_fit": True, "modal_amplitude": 1e-4, "natural_frequency_hz": compared(80.4, 80.41, 80.3, 80.5),
               "damping_ratio": compared(0.002, 0.0016, 0.0017, 0.0019)}
     lines = held_type_lines({"test_type": "ring-down", "levels": [], "samples": [sample, sample], "model": {}}, "N")
-    assert lines == ["warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 of "
-                     "the 2 held-out samples within the fitted amplitudes"]
+    assert lines[0] == ("warning: ring-down held out: measured OUTSIDE the prediction's 95 % band: damping ratio of 2 "
+                        "of the 2 held-out samples within the fitted amplitudes")
+    assert len(lines) == 4 and lines[3].split()[-2:] == ["yes,", "NO"]  # then one row per sample
     outside = {**sample, "within_fit": False, "source": "tap.csv", "modal_amplitude": 2e-3,
                "predicted_at_modal_amplitude": 2e-3}  # an impact above the fitted amplitudes
     assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside], "model": {}}, "N")[0] == (

@@ -252,7 +252,7 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
     if summary["test_type"] == "impact":
         return lines + _impact_rows(summary["samples"])
     if not summary["levels"]:
-        return lines
+        return lines + _sample_rows(summary["samples"])
     cells = [(f"level ({unit})", "resonance (Hz): measured", "predicted [95 % band]", "damping (%): measured",
               "predicted [95 % band]", "peak error (%)", "in band f, ζ, peak")]
     for entry in summary["levels"]:
@@ -295,12 +295,30 @@ def _impact_rows(samples: list[dict]) -> list[str]:
                 if "measured_low" in c else "")
             predicted = f"{scale * c['predicted']:.{digits}f} {unit}" + (
                 f" [{scale * c['low']:.{digits}f}, {scale * c['high']:.{digits}f}]" if "low" in c else "")
-            error = (f"{c['error']:+.4f} Hz ({_percent(100 * c['relative_error'])} %)" if key == "natural_frequency_hz"
+            error = (f"{c['error']:+.4f} Hz ({100 * c['relative_error']:+.3f} %)" if key == "natural_frequency_hz"
                      else f"{_percent(100 * c['relative_error'])} %")
             flag = in_band_word(c.get("inside"), c.get("informative"))
             cells.append((entry["source"], label, measured, predicted, where, error, flag))
     widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+
+
+def _sample_rows(samples: list[dict]) -> list[str]:
+    """One aligned row per held sample (a ring-down's, a response-controlled run's, a
+    phase-resonance point's): its modal amplitude, measured and predicted frequency and damping
+    ratio with the prediction's band, the errors, in band or not — validation.json's
+    ``samples``, which the terminal summarised in one line of the largest errors."""
+    cells = [("modal amplitude (m·√kg)", "frequency (Hz): measured", "predicted [95 % band]", "error (%)",
+              "damping (%): measured", "predicted [95 % band]", "error (%)", "in band f, ζ")]
+    for entry in samples:
+        f, zeta = entry["natural_frequency_hz"], entry["damping_ratio"]
+        flags = ", ".join(in_band_word(c.get("inside"), c.get("informative")) for c in (f, zeta))
+        cells.append((f"{entry['modal_amplitude']:.3g}", f"{f['measured']:.3f}", f"{f['predicted']:.3f}" + _band(f, 1.0, 2),
+                      f"{100 * f['relative_error']:+.3f}", f"{100 * zeta['measured']:.3g}",
+                      f"{100 * zeta['predicted']:.3g}" + _band(zeta, 100.0, None), _percent(100 * zeta["relative_error"]),
+                      flags if entry["within_fit"] else "— (outside the fitted amplitudes: extrapolated)"))
+    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
+    return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells] if samples else []
 
 
 def _band(compared: dict, scale: float, decimals: int | None) -> str:
