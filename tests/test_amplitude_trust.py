@@ -162,3 +162,24 @@ def test_an_impacts_frequency_error_is_printed_to_the_digits_it_has():
     summary = {"test_type": "impact", "samples": [entry], "levels": [], "model": {}}
     (row,) = [line for line in held_type_lines(summary, "N") if "natural frequency" in line and "tap.mat" in line]
     assert "+0.0378 Hz (+0.047 %)" in row, row
+
+
+def test_the_summary_figure_stars_the_extrapolated_levels():
+    """validate --hold-out each on four levels: the lowest and the highest held-out level lie
+    outside the kept ones (the terminal warns so; on the BRB 0.1947 and 1.46 N) — the summary
+    figure drew them like the interior ones while response_controlled.png starred its runs."""
+    from types import SimpleNamespace
+
+    from nlupdate.reporting.validation_plots import summary_figure
+    from test_validation_figures import REPEAT, _held
+
+    levels = (0.1947, 0.4886, 0.9699, 1.46)
+    held = [_held(level) for level in levels]
+    for result in held:
+        kept = [v for v in levels if v != result.level]
+        result.kept = tuple(kept)
+        result.extrapolation = "an extrapolation" if not min(kept) < result.level < max(kept) else ""
+    figure = summary_figure(SimpleNamespace(reference_unit="N", held_out=held, repeatability=REPEAT))
+    for ax in figure.axes:
+        assert [t.get_text() for t in ax.get_xticklabels()] == ["0.1947*", "0.4886", "0.9699", "1.46*"]
+        assert ax.get_xlabel() == "held-out level (N); *: extrapolated"

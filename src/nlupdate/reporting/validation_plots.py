@@ -69,11 +69,16 @@ def _levels(levels, unit: str) -> str:
 
 
 def summary_figure(validation) -> Figure:
-    """Errors per held-out level and model (:class:`~nlupdate.core.validation.held_out.Validation`)."""
+    """Errors per held-out level and model (:class:`~nlupdate.core.validation.held_out.Validation`);
+    a level outside the kept levels (an extrapolation, whose band does not measure the form's
+    error) is starred on the axis, as :func:`response_controlled_figure` stars its runs."""
     unit = validation.reference_unit
     levels = sorted({r.level for r in validation.held_out})
-    figure = _error_panels(validation.held_out, lambda r: levels.index(r.level), [f"{v:g}" for v in levels],
-                           f"held-out level ({unit})", validation.repeatability)
+    outside = {r.level for r in validation.held_out if r.extrapolation}  # outside the kept levels, as runs are starred
+    figure = _error_panels(validation.held_out, lambda r: levels.index(r.level),
+                           [f"{v:g}" + ("*" if v in outside else "") for v in levels],
+                           f"held-out level ({unit}); *: extrapolated" if outside else f"held-out level ({unit})",
+                           validation.repeatability)
     figure.suptitle("prediction errors at held-out levels (bars: 95 % bands; squares: log-amplitude baseline)",
                     fontsize=10)
     return figure
