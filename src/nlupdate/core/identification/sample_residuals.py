@@ -34,13 +34,10 @@ a and ζ from one height, but their amplitude is read from a fit over many lines
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
-if TYPE_CHECKING:
-    from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 
 #: test types whose samples' modal amplitudes carry the response's noise, and the share of
 #: their damping ratio's relative noise taken as that: a phase-resonance point's amplitude
@@ -62,8 +59,10 @@ LOCKED_FREQUENCY_STD = {"phase-resonance": 1e-5}
 EIV_BACKBONES = ("iwan",)
 
 
-def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
-    """Weighted relative misfits of ``samples`` about the curves ``model_omega_zeta(a) → (ω, ζ)``:
+def sample_residual(model_omega_zeta, samples, frequency_std: float, damping_std: float) -> NDArray:
+    """Weighted relative misfits of ``samples`` (a
+    :class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`, which imports this
+    module) about the curves ``model_omega_zeta(a) → (ω, ζ)``:
     frequencies over ``frequency_std``, then damping ratios over ``damping_std`` (non-finite: 1e6)."""
     omega, zeta = model_omega_zeta(samples.amplitude)
     r_f = (omega / (2 * np.pi * samples.frequency_hz) - 1) / frequency_std
