@@ -183,3 +183,25 @@ def test_the_summary_figure_stars_the_extrapolated_levels():
     for ax in figure.axes:
         assert [t.get_text() for t in ax.get_xticklabels()] == ["0.1947*", "0.4886", "0.9699", "1.46*"]
         assert ax.get_xlabel() == "held-out level (N); *: extrapolated"
+
+
+def test_an_all_in_band_verdict_on_an_extrapolated_level_is_a_warning():
+    """validate --hold-out top (the transmitter beam's 0.45 V, every value in its band): the
+    first line read "every held-out level's … lies within its prediction's 95 % band", a pass,
+    and the warning that the level is an extrapolation came after it. The first line now says so."""
+    from types import SimpleNamespace
+
+    from nlupdate.core.validation.held_out import Compared
+    from nlupdate.reporting.validation_text import verdict_lines
+
+    inside = {"resonance_hz": Compared(42.74, 42.755, 42.73, 42.79), "damping_ratio": Compared(7.8e-4, 7.1e-4, 4e-4, 1e-3)}
+    top = SimpleNamespace(level=0.45, label="auto → amplitude-polynomial", compared=inside, half_power_lines=9, note="",
+                          extrapolation="held-out level 0.45 V lies above the highest kept level (0.1–0.3 V)")
+    interior = SimpleNamespace(**{**vars(top), "level": 0.2, "extrapolation": ""})
+    validation = SimpleNamespace(held_out=[top], response_controlled=(), choices={}, response_controlled_notes=())
+    first, second = verdict_lines(validation, "V")
+    assert first.startswith("warning: every held-out level's") and "0.45 V lies outside what the fit kept" in first
+    assert second == f"warning: {top.extrapolation}"
+    validation.held_out = [interior]  # inside the kept levels: the pass stands
+    assert verdict_lines(validation, "V") == ["every held-out level's resonance, damping ratio and peak |H| lies within "
+                                              "its prediction's 95 % band"]
