@@ -205,3 +205,13 @@ def test_an_all_in_band_verdict_on_an_extrapolated_level_is_a_warning():
     validation.held_out = [interior]  # inside the kept levels: the pass stands
     assert verdict_lines(validation, "V") == ["every held-out level's resonance, damping ratio and peak |H| lies within "
                                               "its prediction's 95 % band"]
+
+
+def test_a_held_out_level_outside_the_kept_ones_says_so_on_its_figure():
+    from nlupdate.reporting.validation_plots import held_out_figure
+    from test_validation_figures import _held
+
+    top = _held(1.46)
+    top.extrapolation = "held-out level 1.46 N lies above the highest kept level (0.5–1 N): an extrapolation"
+    assert "EXTRAPOLATED" in held_out_figure(top, "N").axes[0].get_title()
+    assert "EXTRAPOLATED" not in held_out_figure(_held(0.7), "N").axes[0].get_title()  # between the kept 0.5 and 1 N

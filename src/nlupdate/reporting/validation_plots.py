@@ -55,8 +55,11 @@ def held_out_figure(result, unit: str = "N", evidence: str = "") -> Figure:
     ax.semilogy(f, base, color="0.35", ls="--", lw=1.2, label="log-amplitude baseline")
     ax.set_ylim(bottom, top)
     c = result.compared
+    outside = bool(getattr(result, "extrapolation", ""))  # the terminal's warning, on the figure it qualifies
     ax.set_title(f"held-out level {result.level:g} {unit}: resonance {c['resonance_hz'].measured:.3f} Hz measured, "
-                 f"{c['resonance_hz'].predicted:.3f} Hz predicted", fontsize=9)
+                 f"{c['resonance_hz'].predicted:.3f} Hz predicted"
+                 + ("\nEXTRAPOLATED: outside the kept levels (the band does not measure the form's error)"
+                    if outside else ""), fontsize=9, color="firebrick" if outside else "black")
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"|H| (m/{unit})")
     ax.grid(True, which="both", alpha=0.3)
