@@ -73,6 +73,9 @@ def test_a_model_of_frfs_per_volt_states_its_modal_amplitude_per_volt(tmp_path, 
     peaks = [max(amplitude(_denominator, level, 2 * np.pi * f, grid) for f in F) for level in (LEVELS[0], LEVELS[-1])]
     assert np.allclose([low, high], peaks, rtol=0.05), (low, high, peaks)
     assert model_v["reference_unit"] == "V" and model_n["reference_unit"] == "N"
+    # amplitude_model.json's units alike (they said m*sqrt(kg) per volt)
+    assert model_n["units"].startswith("modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg)")
+    assert model_v["units"].startswith("modal amplitude a in m*sqrt(kg*V/N)") and "shapes in 1/sqrt(kg*V/N)" in model_v["units"]
 
 
 def _model(warnings: tuple[str, ...], unit: str = "N") -> AmplitudeModalModel:

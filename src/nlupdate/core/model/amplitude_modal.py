@@ -376,9 +376,11 @@ class AmplitudeModalModel:
             "kind": "amplitude_dependent_mode", "mode": self.mode, "backbone": self.backbone,
             "natural_frequency_hz": self.natural_frequency_hz, "damping_ratio": self.damping_ratio,
             "shapes": {name: value for name, value in self.shapes},
-            "units": "modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg), frequencies in Hz"
-                     + ("; per volt: the levels are in V and every N of the forces and of the joint's slip_force is V"
-                        if self.reference_unit == "V" else ""),
+            "units": ("modal amplitude a in m*sqrt(kg) (mass-normalised mode), shapes in 1/sqrt(kg), frequencies in Hz"
+                      if self.reference_unit == "N" else
+                      "modal amplitude a in m*sqrt(kg*V/N) (mass-normalised mode of FRFs per volt), shapes in "
+                      "1/sqrt(kg*V/N), frequencies in Hz; per volt: the levels are in V and every N of the forces and "
+                      "of the joint's slip_force is V"),
             "reference_unit": self.reference_unit,
         }
         if self.joint is not None:
