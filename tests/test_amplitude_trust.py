@@ -218,3 +218,24 @@ def test_a_held_out_level_outside_the_kept_ones_says_so_on_its_figure():
     top.extrapolation = "held-out level 1.46 N lies above the highest kept level (0.5–1 N): an extrapolation"
     assert "EXTRAPOLATED" in held_out_figure(top, "N").axes[0].get_title()
     assert "EXTRAPOLATED" not in held_out_figure(_held(0.7), "N").axes[0].get_title()  # between the kept 0.5 and 1 N
+
+
+def test_the_residual_column_is_explained():
+    """The tables' last column, residual/noise (on the BRB 20–728 for the models, up to 2e3 for the
+    baseline), was printed without a word of what it is."""
+    from types import SimpleNamespace
+
+    from nlupdate.core.validation.held_out import Compared
+    from nlupdate.reporting.validation_text import validation_lines
+    from test_validation_figures import REPEAT
+
+    compared = {"resonance_hz": Compared(80.0, 80.1, 79.8, 80.4), "damping_ratio": Compared(2e-3, 2.2e-3, 1.5e-3, 3e-3),
+                "peak_abs": Compared(1e-4, 1.1e-4, 0.8e-4, 1.4e-4)}
+    held = SimpleNamespace(level=0.49, label="lines", compared=compared, baseline=compared, residual_to_noise=728.0,
+                           baseline_residual_to_noise=570.0)
+    lines = validation_lines(SimpleNamespace(held_out=[held], response_controlled=(), choices={},
+                                             repeatability=REPEAT), "N")
+    header = next(line for line in lines if line.startswith("level (N)"))
+    assert header.rstrip().endswith("residual/noise")
+    assert any(line.startswith("residual/noise: the RMS over the curve's lines of |H predicted − H measured| over "
+                               "the measurement noise") for line in lines)

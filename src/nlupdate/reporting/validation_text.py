@@ -185,9 +185,17 @@ def validation_lines(validation, unit: str) -> list[str]:
         lines += _table("response-controlled run", "held X (µm)",
                         [(r.run, f"{1e6 * r.held_m:.3g}", r.label, r.compared, r.baseline, r.residual_to_noise,
                           r.baseline_residual_to_noise) for r in runs])
+    lines.append(RESIDUAL_LEGEND)
     for level, choice in validation.choices.items():
         lines.append(f"auto at {level:g} {unit}: {choice.name} — {choice.reason}")
     return lines
+
+
+#: What the tables' last column is (validation.json's ``residual_to_noise``): printed bare, a
+#: 728 or 4.94e+03 beside errors of a few per cent said nothing a user could act on.
+RESIDUAL_LEGEND = ("residual/noise: the RMS over the curve's lines of |H predicted − H measured| over the measurement "
+                   "noise there (the curve's estimated relative noise × |H|): about 1 is a prediction within the noise "
+                   "of every line; compare a model's with the baseline's below it")
 
 
 def comparison_notes(result) -> list[str]:
