@@ -103,7 +103,7 @@ def test_the_figures_say_when_the_linear_limit_is_not_determined(tmp_path, monke
     warned = "the linear damping ratio ζ₀ = 0.002 % is the damping curve's extrapolation below every sample"
     for figure in _figures(_model((warned,)), tmp_path, monkeypatch):
         title = figure.axes[0].get_title()
-        assert "linear limit 80 Hz" in title and "NOT determined" in title and "1 warning" in title, title
+        assert "linear limit 80 Hz" in title and "NOT determined" in title and "see the warnings" in title, title
     for figure in _figures(_model(()), tmp_path / "ok", monkeypatch)[-2:]:
         assert "NOT determined" not in figure.axes[0].get_title()
 
@@ -239,3 +239,22 @@ def test_the_residual_column_is_explained():
     assert header.rstrip().endswith("residual/noise")
     assert any(line.startswith("residual/noise: the RMS over the curve's lines of |H predicted − H measured| over "
                                "the measurement noise") for line in lines)
+
+
+def test_a_fit_without_bands_says_so_in_the_legend(tmp_path, monkeypatch):
+    """The iwan backbone's default (--bootstrap 0): backbone.csv's band columns are NaN and the
+    figures drew the curve alone, as if it were certain; the legend now says there is no band."""
+    model = _model(())
+    a = np.geomspace(0.3 * A_REF, A_REF, 5)
+    samples = ModalSamples(a, model.frequency_hz(a), model.damping(a), np.ones(5), 1.0)
+    curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
+                          "damping_ratio": model.damping(a)})
+    for column in ("natural_frequency_hz", "damping_ratio"):
+        curve[f"{column}_low"] = curve[f"{column}_high"] = np.nan
+    drawn = []
+    original = backbone_plots.save_figure
+    monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+    backbone_plots.plot_sources(model, [("levels.csv (stepped-sine)", samples)], curve, tmp_path)
+    for figure in drawn:
+        labels = [t.get_text() for legend in figure.legends for t in legend.get_texts()]
+        assert "no 95 % band (no bootstrap refits: --bootstrap N)" in labels, labels

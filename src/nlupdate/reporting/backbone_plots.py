@@ -33,8 +33,7 @@ def model_title(model: AmplitudeModalModel) -> str:
     title = (f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
              f"ζ₀ = {100 * model.damping_ratio:.3g} %")
     if model.warnings:
-        title += (f"\nNOT determined by the samples ({len(model.warnings)} warning(s): the terminal, "
-                  f"amplitude_model.json's warnings)")
+        title += "\nNOT determined by the samples: see the warnings (terminal, amplitude_model.json)"
     return title
 
 
@@ -76,6 +75,8 @@ def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples
         if np.all(np.isfinite(low)) and np.all(np.isfinite(high)):
             band_fill(ax, curve["modal_amplitude"], scale * low, scale * high, "95 % band of the fit (bootstrap)",
                       color="tab:blue", alpha=0.2, zorder=1)
+        else:  # say so: a curve without a band reads as a certain one
+            ax.plot([], [], " ", label="no 95 % band (no bootstrap refits: --bootstrap N)")
         ax.axvspan(a[0], amplitudes.min(), **EXTRAPOLATION_FILL, label="no samples (extrapolated or held)")
         ax.axvspan(amplitudes.max(), a[-1], **EXTRAPOLATION_FILL)
         ax.set_xlim(a[0], a[-1])
