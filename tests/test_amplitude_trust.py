@@ -258,3 +258,17 @@ def test_a_fit_without_bands_says_so_in_the_legend(tmp_path, monkeypatch):
     for figure in drawn:
         labels = [t.get_text() for legend in figure.legends for t in legend.get_texts()]
         assert "no 95 % band (no bootstrap refits: --bootstrap N)" in labels, labels
+
+
+def test_frfs_joining_the_runs_without_a_shape_are_refused_with_the_runs_value(tmp_path, capsys):
+    """The BRB's levels and its response-controlled runs, no --shape: the runs take 0.7271 1/√kg
+    from their lowest run's modal constant (0.65-0.8 by scipy's one-mode fit alone,
+    tests/test_response_controlled.py) and print it; the refusal of the levels asked for
+    --shape acc3:y=VALUE without it. It now offers the value the runs read."""
+    runs = BRB / "ForcedFrequencyResponses.mat"
+    code = main(["amplitude", "--measured", str(runs), "--response-controlled", str(runs), "--coordinates",
+                 f"{runs}=acc3:-y,acc3:y", "--backbone", "polynomial", "--out", str(tmp_path / "out")])
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code != 0 and not (tmp_path / "out").exists()
+    offered = re.search(r"e\.g\. --shape acc3:y=([\d.]+)$", error)
+    assert offered and 0.65 < float(offered[1]) < 0.8, error
