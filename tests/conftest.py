@@ -34,6 +34,11 @@ os.environ["PREFECT_HOME"] = tempfile.mkdtemp(prefix="nlupdate-test-prefect-")
 os.environ["NLUPDATE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="nlupdate-test-config-")
 #: the two folders this process made (each pytest-xdist worker imports this file and makes its own)
 _SESSION_FOLDERS = (os.environ["PREFECT_HOME"], os.environ["NLUPDATE_CONFIG_DIR"])
+# the session's references computed once (tests/reference_cache.py): made by the first process,
+# which the pytest-xdist workers inherit it from, and removed by that process
+if not os.environ.get("NLUPDATE_TEST_REFERENCE_CACHE"):
+    os.environ["NLUPDATE_TEST_REFERENCE_CACHE"] = tempfile.mkdtemp(prefix="nlupdate-test-references-")
+    _SESSION_FOLDERS += (os.environ["NLUPDATE_TEST_REFERENCE_CACHE"],)
 os.environ.pop("NLUPDATE_CACHE_SECRET_FILE", None)
 os.environ.pop("PREFECT_API_URL", None)
 # a run's Prefect server stops when no run of the session uses it (kept 300 s otherwise),
@@ -57,8 +62,8 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
-    """Remove the session's Prefect home (its database: ~30 MB) and nlupdate folder; the
-    session server has stopped by now."""
+    """Remove the session's Prefect home (its database: ~30 MB), nlupdate folder and (in the
+    process that made it) folder of references; the session server has stopped by now."""
     for folder in _SESSION_FOLDERS:
         shutil.rmtree(folder, ignore_errors=True)
     while _TEMPLATE:

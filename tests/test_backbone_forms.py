@@ -29,7 +29,10 @@ from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.harmonic_balance import trace_harmonic_balance
 
+from reference_cache import session_cached
 
+
+@session_cached  # computed once per session: other modules take the same reference
 def locked_points(s: dict, amplitude: np.ndarray, harmonics: int = 5) -> list[np.ndarray]:
     """(Ω rad/s, force N, complex first harmonic of dof 0, m) at 90° for the forces that hold the
     modal ``amplitude`` at resonance on the truth."""

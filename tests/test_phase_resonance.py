@@ -30,6 +30,8 @@ from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
 
+from reference_cache import session_cached
+
 M, F0, ZETA = 2.0, 10.0, 0.01
 K = M * (2 * np.pi * F0) ** 2
 C = 2 * ZETA * np.sqrt(K * M)
@@ -40,6 +42,7 @@ IWAN = IwanJoint((0,), slip_force=0.1 * K * 1e-3, kt=0.1 * K, chi=-0.5, beta=0.5
 FORCES = np.geomspace(0.01, 0.16, 9)  # N: A from 0.06 to 1 mm
 
 
+@session_cached  # computed once per session: other modules take the same reference
 def locked_points(element, forces, phase_deg: float = -90.0, mkc: tuple[float, float, float] = (M, K, C)):
     """(Ω rad/s, F N, X₁ complex m) where the first harmonic of x is ``phase_deg`` from the
     force, on the SDOF of mass, stiffness and damping ``mkc``."""

@@ -19,11 +19,14 @@ from nlupdate.app.cli import main
 from nlupdate.core.identification.ring_down import RingDownError, estimate_ring_down, read_ring_down
 from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
 
+from reference_cache import session_cached
+
 M, F0, ZETA = 2.0, 10.0, 0.005
 K = M * (2 * np.pi * F0) ** 2
 C = 2 * ZETA * np.sqrt(K * M)
 
 
+@session_cached  # computed once per session: other modules take the same reference
 def free_decay(element, x0: float, periods: float, steps: int = 200, every: int = 2):
     """RK4 of ``m ẍ + c ẋ + k x + g(x, state) = 0`` from x0 at rest; ``steps`` per period."""
     dt = 1 / F0 / steps

@@ -28,6 +28,8 @@ from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.simulate import simulate_frf_table
 
+from reference_cache import session_cached
+
 LEVELS = np.geomspace(0.5, 15, 6)  # × the slip amplitude: stuck, at the kink, into gross slip
 #: the Iwan joint's six levels, × a_s (SDOF and 2-DOF; φ_max = 1.8 a_s on both): 0.3–6 a_s =
 #: 0.17–3.3 φ_max, from microslip across the damping's peak into macroslip (the 2-DOF's were
@@ -35,6 +37,7 @@ LEVELS = np.geomspace(0.5, 15, 6)  # × the slip amplitude: stuck, at the kink, 
 IWAN_LEVELS = np.geomspace(0.05, 1.0, 6) * 6
 
 
+@session_cached  # computed once per session: other modules take the same reference
 def stepped_sine_table(s: dict, forces: np.ndarray) -> pd.DataFrame:
     """The system's driving-point FRFs at dof 0 by harmonic balance at ``forces`` (N), 301
     lines over 0.9–1.05 f₀ (module docstring)."""

@@ -33,6 +33,8 @@ from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
 
+from reference_cache import session_cached
+
 SYSTEMS = [(1, "jenkins"), (1, "iwan"), (2, "jenkins"), (2, "iwan")]
 ZETA0 = 0.005
 
@@ -64,6 +66,7 @@ def truth(s: dict, a) -> tuple[np.ndarray, np.ndarray]:
     return w / (2 * np.pi), (2 * ZETA0 * s["w0"] + psi**2 * nu.imag / w) / (2 * w)
 
 
+@session_cached  # computed once per session: other modules take the same reference
 def free_decay(s: dict, a0: float, periods: float, steps: int = 200, every: int = 2):
     """RK4 from modal amplitude ``a0`` in the mode, at rest: (time s, displacement of dof 0, m)."""
     minv, k, c, joint = np.linalg.inv(s["M"]), s["K"], s["C"], s["joint"]
