@@ -98,7 +98,7 @@ def test_brb_hammer_ring_down_is_named_against_the_shaker_runs(tmp_path):
     2.7e-5) reach no amplitude of each other, so neither is checked (it read +0.04 standard
     errors whatever the impact's frequency: docs/ring-down.md)."""
     brb = Path(__file__).parent / "data" / "brb"
-    impact, runs = brb / "HammerImpact.mat", brb / "ForcedFrequencyResponses.mat"
+    impact, runs = brb / "HammerImpact_1600Hz.mat", brb / "ForcedFrequencyResponses.mat"
     out = tmp_path / "brb"
     assert main(["amplitude", "--ring-down", str(impact), "--impact", str(impact), "--channel", "acc3", "--band",
                  "60:100", "--response-unit", "m/s^2", "--shape", "acc3=0.7271", "--response-controlled", str(runs),
