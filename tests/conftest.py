@@ -75,36 +75,39 @@ def pytest_unconfigure(config):
 #: pyproject.toml; pytest-xdist would otherwise order modules by their number of tests and
 #: leave long modules of few tests for the end), so the two workers finish together. The
 #: first four hold the slow suite's longest tests; the rest are in the order of their
-#: default-suite times (every test's wall time in a whole default-suite run on 2026-11-29,
-#: summed per module; the two workers then ended 3.4 s apart).
+#: default-suite times (every test's wall time, setup included, in a whole default-suite run
+#: on 2026-11-29 16:03-16:22 UTC at load 5, summed per module: test_validate_held_impact,
+#: test_backbone_forms and test_study_archives_brb, 54-59 s there, had been 48th-60th), then
+#: the modules under 8 s there (or newer than it; test_noisy_amplitudes ~30 s by its author)
+#: in the order they were given. test_amplitude_band_cut and test_validate grew after it (a
+#: run at 16:31-17:06: 47 and 45 s of CPU, as test_validate_response_controlled's 51 s) and
+#: stand beside that module.
 LONGEST_MODULES = (
     "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py", "test_hill_reduction.py",
-    "test_flows.py", "test_schedule.py", "test_interrupts.py", "test_crash_safety.py", "test_validate.py",
-    "test_kept_server.py", "test_decay_fit.py", "test_validate_response_controlled.py",
-    "test_iwan_identification.py", "test_harmonic_balance.py", "test_progress.py", "test_reporting_plots.py",
-    "test_discovery_hard.py", "test_tanh_friction.py", "test_stepped_sine_truth.py",
-    "test_linear_frf_consistency.py", "test_archive_cli.py", "test_real_measurements.py", "test_discovery_modal.py",
-    "test_examples.py", "test_doc_snippets.py", "test_time_history.py", "test_server_app.py",
-    "test_iwan_response.py", "test_study_amplitude.py", "test_amplitude_limits.py", "test_amplitude_modal.py",
-    "test_amplitude_band_cut.py",
-    "test_discovery.py", "test_circle_fit.py", "test_hb_cli_study.py", "test_line_band.py",
-    "test_frf_speed_benchmark.py", "test_demo_identification.py", "test_examples_py.py",
-    "test_identification_single_frequency.py", "test_trust_warnings.py", "test_runner.py",
-    "test_transmitter_beam.py", "test_calculix.py", "test_discovery_cli.py", "test_backbone_samples.py",
-    "test_full_band_export.py", "test_validate_held_impact.py", "test_test_type_truth.py", "test_joint_band.py",
-    "test_layering.py",
-    "test_identification_prd.py", "test_periodic_truth.py", "test_partition.py", "test_backbone_forms.py",
-    "test_readme_identify.py", "test_solver_vs_time_integration.py", "test_answer_from_cache.py",
-    "test_time_integration.py", "test_archive_compare_studies.py", "test_study_archives_brb.py", "test_impact.py",
-    "test_joint_sources.py", "test_noisy_amplitudes.py", "test_amplitude_trust.py",
-    "test_validate_auto_extrapolation.py", "test_optional_dask.py", "test_updating_stops.py", "test_bad_input.py",
-    "test_discovery_places.py", "test_discovery_microslip.py", "test_response_controlled.py", "test_mapdl.py",
-    "test_discovery_jacobian.py", "test_reporting_archive.py", "test_ring_down.py", "test_validate_line_forces.py",
-    "test_bolted_beam_example.py", "test_identification_cli.py", "test_validate_linear_limit.py",
-    "test_study_update.py", "test_docs_blocks.py", "test_study_validation_impact.py", "test_closed_form_roots.py",
-    "test_validate_held_type.py", "test_validate_informative.py", "test_archive_safety.py", "test_cli_chain.py",
-    "test_calculix_example.py",
-    "test_held_runs_truth.py", "test_study_hold_out_type.py", "test_weak_messages.py", "test_line_background.py",
+    "test_flows.py", "test_schedule.py", "test_interrupts.py", "test_validate_held_impact.py",
+    "test_backbone_forms.py", "test_study_archives_brb.py", "test_demo_identification.py", "test_crash_safety.py",
+    "test_validate_response_controlled.py", "test_amplitude_band_cut.py", "test_validate.py",
+    "test_harmonic_balance.py", "test_examples_py.py", "test_real_measurements.py",
+    "test_identification_single_frequency.py", "test_discovery.py", "test_stepped_sine_truth.py",
+    "test_linear_frf_consistency.py", "test_progress.py", "test_examples.py", "test_iwan_identification.py",
+    "test_periodic_truth.py", "test_archive_cli.py", "test_hb_cli_study.py", "test_decay_fit.py",
+    "test_amplitude_modal.py", "test_iwan_response.py", "test_kept_server.py", "test_noisy_amplitudes.py",
+    "test_test_type_truth.py", "test_discovery_hard.py", "test_readme_identify.py", "test_amplitude_limits.py",
+    "test_joint_band.py", "test_doc_snippets.py", "test_trust_warnings.py", "test_full_band_export.py",
+    "test_archive_compare_studies.py", "test_discovery_modal.py", "test_solver_vs_time_integration.py",
+    "test_layering.py", "test_backbone_samples.py", "test_identification_prd.py", "test_time_integration.py",
+    "test_line_band.py", "test_circle_fit.py", "test_frf_speed_benchmark.py", "test_answer_from_cache.py",
+    "test_partition.py", "test_tanh_friction.py", "test_optional_dask.py", "test_time_history.py",
+    "test_validate_line_forces.py", "test_impact.py", "test_reporting_archive.py", "test_discovery_places.py",
+    "test_bolted_beam_example.py", "test_ring_down.py", "test_joint_sources.py", "test_study_update.py",
+    "test_calculix.py", "test_reporting_plots.py", "test_validate_informative.py", "test_server_app.py",
+    "test_updating_stops.py", "test_identification_cli.py", "test_docs_blocks.py", "test_validate_held_type.py",
+    "test_discovery_cli.py", "test_validate_linear_limit.py", "test_response_controlled.py",
+    "test_study_amplitude.py", "test_runner.py", "test_discovery_microslip.py",
+    "test_validate_auto_extrapolation.py", "test_calculix_example.py", "test_held_runs_truth.py",
+    "test_bad_input.py", "test_archive_safety.py", "test_weak_messages.py", "test_transmitter_beam.py",
+    "test_amplitude_trust.py", "test_mapdl.py", "test_discovery_jacobian.py", "test_study_validation_impact.py",
+    "test_closed_form_roots.py", "test_cli_chain.py", "test_study_hold_out_type.py", "test_line_background.py",
     "test_input_expansion.py", "test_phase_resonance.py", "test_element_registry.py", "test_calculix_reduction.py",
     "test_test_type_uff.py", "test_result_reprs.py", "test_bands.py", "test_study_schema.py",
 )
