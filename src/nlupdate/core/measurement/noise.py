@@ -69,15 +69,26 @@ def contiguous_stretches(frequency_hz: ArrayLike, jump: float = 3.0) -> list[NDA
     positive = steps > 0
     if f.size < 3 or not positive.any():
         return [order] if f.size else []
-    cuts = []
     distinct = np.flatnonzero(positive)
-    for position, i in enumerate(distinct):
-        before = steps[distinct[max(position - 4, 0) : position]]
-        after = steps[distinct[position + 1 : position + 5]]
-        typical = max([float(np.median(side)) for side in (before, after) if side.size], default=np.inf)
-        if steps[i] > jump * typical:
-            cuts.append(i + 1)
+    d = steps[distinct]  # the steps between distinct frequencies, each with its four before and after
+    padded = np.concatenate([np.full(4, np.nan), d, np.full(4, np.nan)])
+    at = np.arange(d.size)[:, None]
+    typical = np.fmax(_row_medians(padded[at + np.arange(4)]), _row_medians(padded[at + 5 + np.arange(4)]))
+    cuts = distinct[d > jump * np.where(np.isnan(typical), np.inf, typical)] + 1
     return [piece for piece in np.split(order, cuts) if piece.size]
+
+
+def _row_medians(rows: NDArray) -> NDArray:
+    """``np.median`` of each row's values (NaN marks an absent one; NaN for a row of none):
+    the middle value, or the mean of the middle two as ``np.median`` takes it (equal bits)."""
+    ordered = np.sort(rows, axis=1)  # NaN last
+    count = np.sum(~np.isnan(ordered), axis=1)
+    index = np.arange(ordered.shape[0])
+    out = np.full(ordered.shape[0], np.nan)
+    odd, even = count % 2 == 1, (count % 2 == 0) & (count > 0)
+    out[odd] = ordered[index[odd], count[odd] // 2]
+    out[even] = (ordered[index[even], count[even] // 2 - 1] + ordered[index[even], count[even] // 2]) / 2
+    return out
 
 
 _DEGREE = 3  # polynomial fitted to 1/H̃ over a window
