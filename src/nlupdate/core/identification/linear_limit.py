@@ -25,7 +25,8 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
     docstring): f₀ outside :func:`linear_limit_range` (an Iwan fit's bound: on it), ζ₀ ≤ 0,
     below 1 % of the damping ratio of the lowest-amplitude sample or at or above
     :func:`damping_cap`."""
-    out = list(extrapolation_warning(model, samples, frequency_std, damping_std))
+    stiff = stiffening_warning(model, samples, frequency_std)  # said first
+    out = list(stiff) + list(extrapolation_warning(model, samples, frequency_std, damping_std))
     low, high = (w / (2 * np.pi) for w in linear_limit_range(samples, frequency_std))
     f0 = model.natural_frequency_hz
     f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
@@ -34,7 +35,7 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
                    f"sample's {f_ref:.5g} Hz plus the softening measured over all samples): the samples do not show "
                    f"the joint stuck at the lowest level, so they do not determine the linear limit; measure lower "
                    f"levels")
-    elif f0 < low - 1e-3 * (high - low):
+    elif f0 < low - 1e-3 * (high - low) and not stiff:
         out.append(f"the linear limit {f0:.5g} Hz lies below the highest sample's frequency "
                    f"{float(samples.frequency_hz.max()):.5g} Hz: the backbone stiffens, which a joint does not do")
     zeta = model.damping_ratio if fitted_zeta is None else fitted_zeta
@@ -49,6 +50,61 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
                    f"limit, which a joint (it only adds damping as it slips) does not do; the samples do not determine "
                    f"ζ₀")
     return tuple(out)
+
+
+#: the samples' frequency trend is a measured stiffening beyond this many of its standard errors
+STIFFENING_LIMIT = 2.0
+
+
+def frequency_trend(samples: ModalSamples, frequency_std: float | NDArray) -> tuple[float, float]:
+    """(slope, standard error) of the samples' natural frequency (Hz) against their modal
+    amplitude a (Hz per m·√kg), a straight line by least squares. The standard error is the
+    larger of the residuals' own (n − 2 degrees of freedom, from 3 samples) and the one the
+    relative noise ``frequency_std`` per sample gives: a trend is measured only beyond both the
+    samples' scatter and the noise the fit assumes."""
+    a, f = np.asarray(samples.amplitude, float), np.asarray(samples.frequency_hz, float)
+    if a.size < 2 or np.ptp(a) <= 0:
+        return 0.0, float("inf")
+    sxx = float(np.sum((a - a.mean()) ** 2))
+    slope = float(np.sum((a - a.mean()) * (f - f.mean())) / sxx)
+    assumed = float(np.median(np.asarray(frequency_std, float) * f)) / np.sqrt(sxx)
+    if a.size < 3:
+        return slope, assumed
+    residual = f - f.mean() - slope * (a - a.mean())
+    return slope, max(assumed, float(np.sqrt(np.sum(residual ** 2) / (a.size - 2) / sxx)))
+
+
+def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
+                       frequency_std: float | NDArray) -> tuple[str, ...]:
+    """A warning (empty when none) that the model's backbone rises over the measured amplitudes,
+    which a joint in microslip does not do (it only softens). Judged by the samples' own trend
+    (:func:`frequency_trend`), not a fixed fraction: a slope more than :data:`STIFFENING_LIMIT`
+    standard errors above 0 is a measured stiffening (a hardening contact or geometric
+    nonlinearity, or the test's repeatability drifting with the levels — not a joint's
+    microslip); a model that rises over the samples while their slope is within its error (the
+    BRB's four force levels: 80.26, 80.04, 80.26, 80.33 Hz, slope +0.048 ± 0.067 Hz per
+    10⁻⁴ m·√kg, and the polynomial's 80.13 → 80.31 Hz) resolves no amplitude dependence: its
+    rise is the form's fit to the scatter. A softening model says nothing."""
+    a = np.asarray(samples.amplitude, float)
+    if a.size < 2:
+        return ()
+    ends = np.array([a.min(), a.max()])
+    f_low, f_high = (float(v) for v in model.frequency_hz(ends))
+    slope, std = frequency_trend(samples, frequency_std)
+    t = slope / std
+    trend = (f"the samples' frequency rises {slope * np.ptp(a):+.3g} Hz from {ends[0]:.3g} to {ends[1]:.3g} m·√kg "
+             f"({t:+.2g} standard errors of their straight-line slope)")
+    if t > STIFFENING_LIMIT:
+        return (f"the backbone stiffens over the measured amplitudes, beyond the samples' noise: {trend}, the model "
+                f"{f_low:.6g} → {f_high:.6g} Hz; a joint in microslip only softens, so this is a hardening contact "
+                f"(or geometric stiffening) or the test's repeatability drifting with the levels, not the joint's "
+                f"microslip: the model's joint parameters and linear limit do not describe a friction joint",)
+    if f_high > f_low and t > -STIFFENING_LIMIT:
+        return (f"the model's backbone rises over the measured amplitudes, {f_low:.6g} → {f_high:.6g} Hz, which a joint "
+                f"in microslip does not do, while {trend}: within their scatter, the samples resolve no amplitude "
+                f"dependence (neither a joint's softening nor a stiffening); the rise is the backbone form's fit to "
+                f"the test's repeatability, not a measured nonlinearity",)
+    return ()
 
 
 #: the linear limit is reported as extrapolated beyond this many standard errors of the
