@@ -16,6 +16,7 @@ from nlupdate.core.identification.amplitude_modal_fit import KINKED_BACKBONES
 from nlupdate.core.identification.backbone_samples import DISAGREEMENT, MIN_SCATTER_SAMPLES
 from nlupdate.reporting.backbone_plots import modal_amplitude_unit, plot_sources
 from nlupdate.reporting.markdown import markdown_table
+from nlupdate.reporting.model_numbers import damping_text, joint_text, linear_limit_text
 
 
 def plot_amplitude_fit(fit: AmplitudeFit, folder: Path) -> tuple[Path, Path]:
@@ -91,13 +92,11 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
     model, samples = fit.model, fit.samples
     lines = [f"warning: {text}" for text in (_disagreement_line(fit), _unchecked_line(fit), _poor_line(fit)) if text]
     lines += [f"warning: {warning}" for warning in model.warnings]
-    lines.append(f"mode {model.mode}: linear limit {model.natural_frequency_hz:.6g} Hz, damping ratio "
-                 f"{100 * model.damping_ratio:.4g} % ({model.backbone} backbone, {samples.amplitude.size} samples, "
+    lines.append(f"mode {model.mode}: {linear_limit_text(model)}, damping ratio {damping_text(model)} "
+                 f"({model.backbone} backbone, {samples.amplitude.size} samples, "
                  f"{_amplitudes(samples, fit.unit)})")
     if model.joint is not None:
-        j = model.joint
-        lines.append(f"modal joint: kt = {j.kt:.6g} rad²/s², slip_force = {j.slip_force:.6g} {fit.unit}/√kg, "
-                     f"chi = {j.chi:.4g}, beta = {j.beta:.4g}")
+        lines.append(f"modal joint: {joint_text(model, fit.unit)}")
     if model.note:
         lines.append(f"note: {model.note}")
     if fit.options.backbone in KINKED_BACKBONES and fit.samples.amplitude.size > 1:
@@ -137,8 +136,8 @@ def amplitude_summary(fit: AmplitudeFit) -> list[str]:
     lines = [f"* **Amplitude model: {text}**" for text in amplitude_warnings(fit)]
     model, samples = fit.model, fit.samples
     kinds = ", ".join(dict.fromkeys(kind for _, _, _, kind in fit.points))
-    lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): linear limit "
-                 f"{model.natural_frequency_hz:.6g} Hz, damping ratio {100 * model.damping_ratio:.4g} %; "
+    lines.append(f"* **Amplitude model** (mode {model.mode}, {model.backbone} backbone, {kinds}): "
+                 f"{linear_limit_text(model)}, damping ratio {damping_text(model)}; "
                  f"{_amplitudes(samples, fit.unit)}")
     unchecked = _unchecked_line(fit)  # not bad news in itself: what the check could not test
     return lines + ([f"* Amplitude model: {unchecked}"] if unchecked else [])

@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, label_thin_bands, save_figure
+from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
 
 _MARKERS = "os^vDP*Xh<>"
 
@@ -30,8 +31,7 @@ def model_title(model: AmplitudeModalModel) -> str:
     below every sample, on a bound, a stiffening backbone) — that the numbers are not
     determined by the samples, so the title does not read as a confident answer the
     terminal contradicts."""
-    title = (f"mode {model.mode}: linear limit {model.natural_frequency_hz:.5g} Hz, "
-             f"ζ₀ = {100 * model.damping_ratio:.3g} %")
+    title = f"mode {model.mode}: {linear_limit_text(model, 5)}, ζ₀ = {damping_text(model, 3)}"
     if model.warnings:
         title += "\nNOT determined by the samples: see the warnings (terminal, amplitude_model.json)"
     return title

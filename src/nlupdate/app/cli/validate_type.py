@@ -26,6 +26,7 @@ from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
 from nlupdate.reporting.jsonfile import write_json
+from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
 from nlupdate.reporting.validation_text import held_type_lines, held_type_worst_line
 
 
@@ -85,8 +86,8 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
         print(line, file=sys.stderr)
     table = [line for line in table if not line.startswith("warning:")]
     kinds = ", ".join(f"{name} ({kind}, {n})" for name, kind, n in result.fitted_on)
-    print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: linear limit "
-          f"{result.model.natural_frequency_hz:.6g} Hz, {100 * result.model.damping_ratio:.4g} %")
+    print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: "
+          f"{linear_limit_text(result.model)}, {damping_text(result.model)}")
     for line in table:
         print(line)
     if not len(result.levels):

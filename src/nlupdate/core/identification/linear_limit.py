@@ -19,6 +19,22 @@ class ModalSamples(Protocol):
     damping_ratio: NDArray
 
 
+#: a linear damping ratio below this is the fit's bound ζ₀ ≥ 0 reached, not a value (the transmitter
+#: beam's polynomial fit ended at 1.377e-22, printed "1.377e-20 %")
+ZETA_FLOOR = 1e-9
+#: the words of the warning that f₀ is on (at or above) its upper physical bound; the reports
+#: print such an f₀ as a one-sided "≥" (:mod:`nlupdate.reporting.model_numbers`)
+F0_AT_UPPER_BOUND = "sits at or above its physical bound"
+
+
+def zeta_text(zeta: float, digits: int = 4) -> str:
+    """A damping ratio (fraction) as printed, in percent; at or below :data:`ZETA_FLOOR` it is its
+    bound 0, which the samples do not determine, not a number."""
+    if zeta <= ZETA_FLOOR:
+        return "0 (at its bound ζ₀ ≥ 0: the samples do not determine it)"
+    return f"{100 * zeta:.{digits}g} %"
+
+
 def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float,
                           fitted_zeta: float | None = None, damping_std: float | NDArray = 0.05) -> tuple[str, ...]:
     """What is unphysical or undetermined about a fitted model's linear limit (module
@@ -31,7 +47,7 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
     f0 = model.natural_frequency_hz
     f_ref = float(samples.frequency_hz[np.argmin(samples.amplitude)])
     if f0 >= high - 1e-3 * (high - low):
-        out.append(f"the linear limit {f0:.5g} Hz sits at or above its physical bound {high:.5g} Hz (the lowest-amplitude "
+        out.append(f"the linear limit {f0:.5g} Hz {F0_AT_UPPER_BOUND} {high:.5g} Hz (the lowest-amplitude "
                    f"sample's {f_ref:.5g} Hz plus the softening measured over all samples): the samples do not show "
                    f"the joint stuck at the lowest level, so they do not determine the linear limit; measure lower "
                    f"levels")
@@ -41,11 +57,11 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
     zeta = model.damping_ratio if fitted_zeta is None else fitted_zeta
     z_ref = float(samples.damping_ratio[np.argmin(samples.amplitude)])
     if zeta < 0.01 * z_ref:
-        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is below 1 % of the damping measured at the lowest "
-                   f"level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data do not "
-                   f"determine the linear damping" + (" (kept at 0)" if zeta <= 0 else ""))
+        out.append(f"the linear damping ratio ζ₀ = {zeta_text(max(zeta, 0.0), 3)} is below 1 % of the damping measured "
+                   f"at the lowest level ({100 * z_ref:.3g} %): the fit gives the joint all of the damping, and the data "
+                   f"do not determine the linear damping" + (" (kept at 0)" if zeta < 0 else ""))
     elif zeta >= 0.999 * damping_cap(samples, damping_std):
-        out.append(f"the linear damping ratio ζ₀ = {100 * zeta:.3g} % is at or above the damping measured at the lowest "
+        out.append(f"the linear damping ratio ζ₀ = {zeta_text(zeta, 3)} is at or above the damping measured at the lowest "
                    f"level ({100 * z_ref:.3g} %, its bound): the damping curve falls with amplitude from the linear "
                    f"limit, which a joint (it only adds damping as it slips) does not do; the samples do not determine "
                    f"ζ₀")
@@ -150,7 +166,7 @@ def extrapolation_warning(model: AmplitudeModalModel, samples: ModalSamples,
                    f"do not show the mode linear (a joint in microslip keeps softening towards a → 0, a stuck one does "
                    f"not): quote the model at that amplitude, or measure lower")
     if abs(z_gap) > EXTRAPOLATION_LIMIT:
-        out.append(f"the linear damping ratio ζ₀ = {100 * z0:.4g} % is the damping curve's extrapolation below every "
+        out.append(f"the linear damping ratio ζ₀ = {zeta_text(z0)} is the damping curve's extrapolation below every "
                    f"sample: {100 * (z0 - z_low):+.3g} % ({z_gap:+.3g} standard errors of the lowest-amplitude sample, "
                    f"{100 * float(samples.damping_ratio[lowest]):.4g} % at {a_low:.3g} m·√kg) from the model there; "
                    f"the data do not determine the linear damping: quote the model at that amplitude, or measure lower")
