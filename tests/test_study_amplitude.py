@@ -120,7 +120,7 @@ def test_a_source_that_disagrees_opens_the_summary(records, tmp_path):
         "decay.csv": True, "tap.csv": True, "tap2.csv": True, "tap_stiff.csv": False}
     summary = (archive / "report.md").read_text().split("## Summary", 1)[1]
     first = next(line for line in summary.splitlines() if line.startswith("* "))
-    assert first.startswith("* **Amplitude model: tap_stiff.csv disagree(s) with the joint fit"), first
+    assert first.startswith("* **Amplitude model: tap_stiff.csv disagrees with the joint fit"), first
 
 
 def test_a_held_out_type_is_predicted_as_the_command_predicts_it(records, tmp_path, monkeypatch):

@@ -156,7 +156,7 @@ def test_the_printed_amplitude_fit_opens_with_its_bad_news():
                           options=SimpleNamespace(backbone="polynomial"),
                           disagreeing=lambda: ["rd.csv"], poor=lambda: True, misfit=lambda: (0.0013, 0.101))
     lines = amplitude_lines(fit)
-    assert lines[0].startswith("warning: rd.csv disagree(s) with the joint fit")
+    assert lines[0].startswith("warning: rd.csv disagrees with the joint fit")
     assert lines[1].startswith("warning: the model misses its samples by 0.13 % in frequency and 10.1 % in damping")
     assert lines[2].startswith("mode 1: linear limit 80.6 Hz")
     assert "rd.csv (ring-down): 6 sample(s), mean misfit +0.01 % in frequency (+3.6 standard errors), +23 % in " \

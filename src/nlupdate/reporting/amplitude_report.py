@@ -33,7 +33,7 @@ def _disagreement_line(fit: AmplitudeFit) -> str | None:
     odd = fit.disagreeing()
     if not odd:
         return None
-    return (f"{', '.join(odd)} disagree(s) with the joint fit by more than {DISAGREEMENT:g} standard errors "
+    return (f"{', '.join(odd)} {'disagrees' if len(odd) == 1 else 'disagree'} with the joint fit by more than {DISAGREEMENT:g} standard errors "
             f"(consistency.csv): a test-type effect (e.g. shaker–structure interaction, a drift between tests) or a "
             f"wrong shape or unit")
 
@@ -46,8 +46,10 @@ def _unchecked_line(fit: AmplitudeFit) -> str | None:
              if row.consistent and row.compared_with == "none"]
     if not alone:
         return None
-    return (f"{', '.join(alone)}: no other agreeing source reaches its amplitudes, so the consistency check cannot "
-            f"test it (consistency.csv: compared_with none); the joint fit follows it there")
+    one = len(alone) == 1
+    return (f"{', '.join(alone)}: no other agreeing source has samples within {'its' if one else 'their'} amplitude "
+            f"range, so the consistency check cannot test {'it' if one else 'them'} (consistency.csv: compared_with "
+            f"none); the joint fit follows {'it' if one else 'them'} there")
 
 
 def _poor_line(fit: AmplitudeFit) -> str | None:
@@ -114,7 +116,7 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
         for row in fit.agreement.itertuples():
             if row.compared_with == "none":
                 lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), not checked (no other agreeing "
-                             f"source reaches its amplitudes; the joint fit follows it there)")
+                             f"source has samples within its amplitude range; the joint fit follows it there)")
                 continue
             lines.append(f"{row.source} ({row.test_type}): {row.samples} sample(s), mean misfit "
                          f"{100 * row.frequency_offset:+.2g} % in frequency ({row.frequency_score:+.2g} standard "

@@ -228,7 +228,8 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
                                 frequency_exponent=p_f, damping_exponent=p_z,
                                 note=f"polynomial backbone of order {order} in (a/a_ref)^{p_f:g} and damping curve in "
                                      f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for "
-                                     f"{samples.amplitude.size} values each), fitted to amplitudes up to a_ref = "
+                                     f"{samples.amplitude.size} values each, {samples.amplitude.size - order - 1} "
+                                     f"degree{'' if samples.amplitude.size - order == 2 else 's'} of freedom each), fitted to amplitudes up to a_ref = "
                                      f"{a_ref:.4g} m·√kg and held at their values there beyond")
     return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
 
@@ -409,6 +410,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     fitted_shape = samples.shape_free and samples.response_amplitude is not None
     n, capped, freed = 2 * samples.amplitude.size, True, ""
     free_dof = n - (6 + int(fitted_shape))  # ω₀, ζ₀, K_T, F_S, χ, β (and φ_f)
+    dof = free_dof + 2 * bool(jenkins)  # the note's: two parameters fewer where β and χ (or φ_max) are fixed
     cap = linear_limit_range(samples, frequency_std)[1]
     if not jenkins and 2 * np.pi * model.natural_frequency_hz >= cap * (1 - 1e-6):  # on it: do the samples reject it?
         free = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, other, None, False, amplitude_std), other)
@@ -434,7 +436,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
                                       {"beta": 0.0, "phi_max": a_max}, capped, amplitude_std)
         p_value = microslip_test(chi2, chi2_reduced, free_dof)
         if p_value >= MICROSLIP_P:
-            model, chi2 = reduced, chi2_reduced
+            model, chi2, dof = reduced, chi2_reduced, free_dof + 2
             why = ("too few samples to test it" if free_dof <= 0 else
                    f"the fit with beta = 0 is as good within the noise: F-test p = {p_value:.2g} ≥ {MICROSLIP_P:g}")
             note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
@@ -447,7 +449,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     else:
         note = "modal Iwan backbone, all parameters fitted"
     others = ", ".join(f"{other} {c:.3g}" for _, c, other in fits if other != law)
-    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values; {others}){freed}"
+    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values, {dof} degrees of freedom; {others}){freed}"
     if fitted_shape:
         note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
