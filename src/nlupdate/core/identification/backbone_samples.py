@@ -19,7 +19,19 @@ leaves one degree of freedom, and its misfits are a fraction of the noise: on fo
 a closed-form backbone with 5 % noise in ζ the residual bootstrap's bands held the truth at 27
 % of the amplitudes, 4 % wide (tests/test_amplitude_extrapolation.py) — so their misfits are
 drawn from the noise the fit assumed (normal, ``noise``: the defaults 1e-3 and 5 % or a
-source's stated errors) instead. Without resamples the band columns are NaN. A fitted
+source's stated errors) instead. From :data:`MIN_SCATTER_SAMPLES` on, the misfits drawn are
+scaled by :func:`small_sample_scale`, ``√(n/(n − p))·t₀.₉₇₅(n − p)/1.96`` (p the parameters
+fitted to the quantity): n misfits about a curve of p parameters spread only √((n − p)/n) of
+the noise (the leverage correction of the residual bootstrap), and that spread is known from
+n − p degrees of freedom (Student's t, as a regression's interval of its mean response). Six
+samples of a quadratic — a stepped sine's six levels — took 2.3 × the raw misfits, twelve
+1.33 ×, fifty 1.06 ×. On six samples of a closed-form backbone inside the polynomial family
+(5e-5 and 0.5 % noise, 200 seeds) the raw misfits' bands held the truth at 72 % (frequency)
+and 71 % (damping) of the points, the scaled ones at 95 % and 90.5 %
+(tests/test_bootstrap_small_samples.py); on the Iwan SDOF of tests/test_validate_held_type.py
+(its ring-down held out, predicted from the six-level stepped sine at 0.5 % noise, 8 seeds)
+the ring-down's frequencies were inside their bands at 71 % of the samples, now 96 %.
+Without resamples the band columns are NaN. A fitted
 damping curve held at 0 at a sample (ζ is kept ≥ 0) leaves no relative misfit there: refused
 (:class:`AmplitudeModelError`, one line naming the amplitude).
 
@@ -85,6 +97,27 @@ def _per_quantity(model: AmplitudeModalModel) -> int:
     """Parameters per fitted quantity (frequency, damping) of a modal-joint fit: the ``jenkins``
     backbone's 4 (β, χ fixed) or the Iwan's 6, over two quantities."""
     return 2 if model.joint is not None and model.joint.beta >= JENKINS_BETA * (1 - 1e-9) else 3
+
+
+def _fitted_per_quantity(model: AmplitudeModalModel) -> tuple[int, int]:
+    """Parameters fitted to the frequencies and to the damping ratios: a polynomial backbone's
+    f₀ (ζ₀) and its coefficients, a modal-joint fit's :func:`_per_quantity` each."""
+    if model.joint is not None:
+        return _per_quantity(model), _per_quantity(model)
+    return 1 + len(model.frequency_coefficients), 1 + len(model.damping_coefficients)
+
+
+def small_sample_scale(n: int, parameters: int) -> float:
+    """Factor on the misfits a residual bootstrap draws from n samples of a fit with
+    ``parameters`` per quantity (module docstring, "Bands"): ``√(n/(n − p))`` (the misfits'
+    spread is √((n − p)/n) of the noise's) times ``t₀.₉₇₅(n − p)/1.96`` (the noise known from n − p
+    degrees of freedom only); NaN without a degree of freedom."""
+    dof = n - parameters
+    if dof < 1:
+        return float("nan")
+    import scipy.stats  # here: importing it costs 0.3 s
+
+    return float(np.sqrt(n / dof) * scipy.stats.t.ppf(0.975, dof) / scipy.stats.norm.ppf(0.975))
 
 
 def join_samples(parts: list[ModalSamples]) -> ModalSamples:
@@ -160,13 +193,15 @@ def _bootstrap(model: AmplitudeModalModel, samples: ModalSamples, amplitude: np.
         raise AmplitudeModelError(f"bootstrap band: the fitted damping curve is 0 at modal amplitude {at} m·√kg, so "
                                   f"the samples' relative misfits there are undefined; another backbone, or no band "
                                   f"(--bootstrap 0)")
-    misfit_f, misfit_z = samples.frequency_hz / f_fit - 1, samples.damping_ratio / z_fit - 1
     n = samples.amplitude.size
+    scale_f, scale_z = (small_sample_scale(n, p) for p in _fitted_per_quantity(model))
+    misfit_f = scale_f * (samples.frequency_hz / f_fit - 1)
+    misfit_z = scale_z * (samples.damping_ratio / z_fit - 1)
     f_std, z_std = (np.broadcast_to(np.asarray(std, float), (n,)) for std in noise)
     frequencies, dampings = [], []
     for done in range(1, resamples + 1):
-        if n < MIN_SCATTER_SAMPLES:  # too few to show their scatter: the noise the fit assumed
-            df, dz = f_std * rng.standard_normal(n), z_std * rng.standard_normal(n)
+        if n < MIN_SCATTER_SAMPLES or not np.isfinite(scale_f * scale_z):  # too few to show their scatter:
+            df, dz = f_std * rng.standard_normal(n), z_std * rng.standard_normal(n)  # the noise the fit assumed
         else:
             pick = rng.integers(0, n, n)  # a sample's two misfits together
             df, dz = misfit_f[pick], misfit_z[pick]
