@@ -87,3 +87,31 @@ def test_a_band_wide_enough_to_hold_any_value_of_the_held_test_is_flagged(wide):
                               "within the prediction's 95 % band, but 24 of 24 values in band, 12 of them in bands "
                               "wider than twice the test's own spread")
     assert verdict.endswith("they test nothing")
+
+
+def held_impact(kept_a: np.ndarray, kept_noise: tuple[float, float], order: int) -> dict:
+    """A single impact (the truth at 1e-6 A: its linear limit, 10 Hz and 0.5 %, to 1e-5 and
+    0.5 %) held out of response-controlled runs at ``kept_a``."""
+    impact = ("tap", samples(np.array([1e-6 * A]), (1e-5, 0.005), 5), (1e-5, 0.005), "impact")
+    kept = ("runs", samples(kept_a, kept_noise, 2), kept_noise, "response-controlled")
+    return hold_out_type([kept, impact], "impact", (("0", PHI),), backbone="polynomial", order=order,
+                         resamples=60).summary()
+
+
+def test_a_single_held_value_is_judged_against_the_kept_sources_spread():
+    """One value has no spread of its own: its band is judged against twice the kept runs' spread
+    (module docstring of held_type). Runs over 0.1–1 A measured to 1e-5: the linear limit's band
+    (±0.0002 Hz) holds the truth and is informative. Runs over 0.5–1 A only, to 0.3 %, extrapolated
+    to a = 0 by a quadratic: a 0.8 Hz band against the runs' 0.13 Hz spread — it holds any linear
+    limit the runs make plausible — flagged, and the damping band reaching 0 too (before: not judged)."""
+    (tight,) = held_impact(np.geomspace(0.1, 1.0, 16) * A, (1e-5, 0.005), 1)["samples"]
+    for name in ("natural_frequency_hz", "damping_ratio"):
+        assert tight[name]["inside"] and tight[name]["informative"] is True, tight[name]
+    summary = held_impact(np.geomspace(0.5, 1.0, 6) * A, (3e-3, 0.005), 2)
+    (wide,) = summary["samples"]
+    first = held_type_lines(summary, "N")[0]
+    assert first.startswith("warning:") and "the kept sources' spread" in first and "test nothing" in first, first
+    f = wide["natural_frequency_hz"]
+    kept_f = truth(np.geomspace(0.5, 1.0, 6) * A)[0]
+    assert f["inside"] and f["high"] - f["low"] > 2 * np.ptp(kept_f), f
+    assert f["informative"] is False and wide["damping_ratio"]["informative"] is False, wide

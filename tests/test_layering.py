@@ -40,6 +40,8 @@ REPORTING_MAY_CALL = {
     ("nlupdate.study", "study_from_text"): "the catalogue loads an archived study to rerun it",
     ("nlupdate.core.measurement.units", "table_reference_unit"): "the unit a table's levels are in (its column)",
     ("nlupdate.core.updating.runs", "best_ranked"): "which run the study's ranking put first: one owner of 'best'",
+    ("nlupdate.core.identification.linear_limit", "zeta_text"): "the wording of a damping ratio at its bound 0: one "
+                                                                 "owner with the fit's warnings",
 }
 
 

@@ -90,14 +90,16 @@ def uninformative_clause(results) -> str:
     return counted_clause(*in_band_counts(results))
 
 
-def counted_clause(banded: int, inside: int, idle: int) -> str:
+def counted_clause(banded: int, inside: int, idle: int, single: bool = False) -> str:
     """:func:`uninformative_clause` of counts (values with a band, inside it, of those in
-    uninformative bands): '' when none is."""
+    uninformative bands): '' when none is. ``single``: the held test is one value, judged against
+    the kept sources' spread (:mod:`nlupdate.core.validation.held_type`)."""
     if not idle:
         return ""
-    return (f"{inside} of {banded} values in band, {idle} of them in bands wider than twice the test's own spread "
-            f"of the quantity over its curves and than its resolution (a resonance band: or than the measured lines): "
-            f"they test nothing")
+    spread = ("the kept sources' spread of the quantity (one held value has none of its own) and than its own "
+              "resolution" if single else "the test's own spread of the quantity over its curves and than its "
+              "resolution (a resonance band: or than the measured lines)")
+    return f"{inside} of {banded} values in band, {idle} of them in bands wider than twice {spread}: they test nothing"
 
 
 def summary_headline(validation, unit: str) -> str | None:
@@ -249,7 +251,7 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
         misses += [f"{names[key]} of {entry['source']} (its linear limit)" for entry in extrapolated
                    if entry[key].get("inside") is False]
     what = f"{summary['test_type']} held out"
-    idle = counted_clause(*held_type_in_band(summary))
+    idle = counted_clause(*held_type_in_band(summary), single=len(summary["samples"]) == 1 and not summary["levels"])
     if extrapolated:  # first: every number below it qualifies
         banded = all("inside" in entry[key] for entry in extrapolated for key in ("natural_frequency_hz",
                                                                                    "damping_ratio"))
