@@ -84,7 +84,7 @@ def pytest_unconfigure(config):
 #: stand beside that module.
 LONGEST_MODULES = (
     "test_brb_example.py", "test_reduction_nonlinear.py", "test_fe_validation.py", "test_hill_reduction.py",
-    "test_flows.py", "test_model_numbers.py", "test_stiffening_warning.py", "test_schedule.py", "test_interrupts.py", "test_validate_held_impact.py",
+    "test_flows.py", "test_model_numbers.py", "test_stiffening_warning.py", "test_held_flat_beyond.py", "test_schedule.py", "test_interrupts.py", "test_validate_held_impact.py",
     "test_backbone_forms.py", "test_study_archives_brb.py", "test_demo_identification.py", "test_crash_safety.py",
     "test_validate_response_controlled.py", "test_amplitude_band_cut.py", "test_validate.py",
     "test_harmonic_balance.py", "test_examples_py.py", "test_real_measurements.py",

@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
+from nlupdate.core.validation.held_out import FLAT_BEYOND
 from nlupdate.reporting.figures import MEASURED_STYLE
 
 _MODEL_COLOURS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
@@ -59,7 +60,9 @@ def held_out_figure(result, unit: str = "N", evidence: str = "") -> Figure:
     ax.set_title(f"held-out level {result.level:g} {unit}: resonance {c['resonance_hz'].measured:.3f} Hz measured, "
                  f"{c['resonance_hz'].predicted:.3f} Hz predicted"
                  + ("\nEXTRAPOLATED: outside the kept levels (the band does not measure the form's error)"
-                    if outside else ""), fontsize=9, color="firebrick" if outside else "black")
+                    if outside else "")
+                 + ("\nthe polynomial backbone is held flat beyond the largest kept sample (the curve's kinks)"
+                    if outside and FLAT_BEYOND in result.extrapolation else ""), fontsize=9, color="firebrick" if outside else "black")
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"|H| (m/{unit})")
     ax.grid(True, which="both", alpha=0.3)

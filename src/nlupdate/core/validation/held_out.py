@@ -219,6 +219,13 @@ def hold_out_levels(data: FRFLevels, hold_out: str | Sequence[float]) -> tuple[f
 #: (a joint's backbone may turn: the BRB's falls, then rises), not a straight line.
 PARABOLA_FROM = 6
 
+#: appended to a level's extrapolation warning when the ``amplitude-polynomial`` model predicts it
+#: above the kept levels: its backbone is held beyond the largest kept sample (the transmitter
+#: beam's 0.45 V prediction kinked at 42.725 and 42.787 Hz, where its response crossed it)
+FLAT_BEYOND = ("; the polynomial backbone and damping curve are held at their values at the largest kept sample "
+               "beyond it, so the prediction is flat in amplitude there (its FRF kinks where the response crosses "
+               "that amplitude)")
+
 
 def resonance_amplitudes(data: FRFLevels) -> NDArray[np.float64]:
     """Per level of ``data`` the response amplitude its curve reached at resonance (m for a
@@ -428,8 +435,11 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
             note = "; ".join(filter(None, [f"the extrapolation leaves the physical range: {why}", note]))
     misfit = kept_misfit(fitted, data, kept_levels) if needs_misfit(f, curves) else None
     base = baseline_frf(baseline_fits(data, kept_levels), level, f)
+    extrapolation = level_extrapolation(kept, level)
+    if extrapolation and model == "amplitude-polynomial" and level > max(kept_levels):
+        extrapolation += FLAT_BEYOND
     return HeldOut(level=float(level), kept=kept_levels, model=model, requested=requested or model, note=note,
-                   extrapolation=level_extrapolation(kept, level), **curve_comparison(data, f, h, predicted, curves,
+                   extrapolation=extrapolation, **curve_comparison(data, f, h, predicted, curves,
                                                                                       base, repeat, misfit))
 
 
