@@ -106,7 +106,8 @@ def amplitude_lines(fit: AmplitudeFit) -> list[str]:
                      "phase-resonance points' amplitude noise included; the kink moves with the slip amplitude)")
     elif fit.resamples and fit.samples.amplitude.size < MIN_SCATTER_SAMPLES:
         lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits with misfits drawn from "
-                     f"the noise the fit assumed ({fit.samples.amplitude.size} samples cannot show their own scatter)")
+                     f"the noise the fit assumed ({fit.samples.amplitude.size} samples cannot show their own scatter; wider than "
+                     f"it where the fit's chi² lies far below its degrees of freedom: docs/ring-down.md, 'The bands')")
     elif fit.resamples:
         lines.append(f"note: backbone.csv's *_low/*_high bands: 95 % of {fit.resamples} refits of a residual bootstrap")
     else:
