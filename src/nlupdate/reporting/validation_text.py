@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.reporting.markdown import number
+from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
 
 QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
 
@@ -387,9 +389,10 @@ def held_type_section(validation) -> list[str]:
     summary, said, rows = found
     model = summary["model"]
     kinds = ", ".join(f"{entry['source']} ({entry['test_type']}, {entry['samples']})" for entry in summary["fitted_on"])
+    fitted = AmplitudeModalModel.from_dict(model)
     lines = [f"### A whole test type held out: {summary['test_type']}", "",
-             f"The amplitude-dependent modal model ({model['backbone']} backbone) fitted on {kinds} — linear limit "
-             f"{number(model['natural_frequency_hz'], 6)} Hz, {number(100 * model['damping_ratio'], 4)} % — predicts "
+             f"The amplitude-dependent modal model ({model['backbone']} backbone) fitted on {kinds} — "
+             f"{linear_limit_text(fitted)}, {damping_text(fitted)} — predicts "
              f"the held-out {summary['test_type']} (validation.json's `held_out_type`, as `nlupdate validate "
              f"--hold-out-type` writes it):", ""]
     lines += [f"Warning: {line.removeprefix('warning: ')}" if line.startswith("warning: ") else line for line in said]
