@@ -99,8 +99,9 @@ def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
     nonlinearity, or the test's repeatability drifting with the levels — not a joint's
     microslip); a model that rises over the samples while their slope is within its error (the
     BRB's four force levels: 80.26, 80.04, 80.26, 80.33 Hz, slope +0.048 ± 0.067 Hz per
-    10⁻⁴ m·√kg, and the polynomial's 80.13 → 80.31 Hz) resolves no amplitude dependence: its
-    rise is the form's fit to the scatter. A softening model says nothing."""
+    10⁻⁴ m·√kg, and the polynomial's 80.15 → 80.31 Hz) shows no softening: its rise is the form
+    following the scatter, or a hardening the samples cannot tell from it. A softening model
+    says nothing."""
     a = np.asarray(samples.amplitude, float)
     if a.size < 2:
         return ()
@@ -117,9 +118,9 @@ def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
                 f"microslip: the model's joint parameters and linear limit do not describe a friction joint",)
     if f_high > f_low and t > -STIFFENING_LIMIT:
         return (f"the model's backbone rises over the measured amplitudes, {f_low:.6g} → {f_high:.6g} Hz, which a joint "
-                f"in microslip does not do, while {trend}: within their scatter, the samples resolve no amplitude "
-                f"dependence (neither a joint's softening nor a stiffening); the rise is the backbone form's fit to "
-                f"the test's repeatability, not a measured nonlinearity",)
+                f"in microslip does not do (it only softens), while {trend}: not beyond their scatter, so the rise is "
+                f"the backbone form following the test's repeatability, or a hardening contact these samples cannot "
+                f"tell from it — not the joint's microslip; the samples show no softening",)
     return ()
 
 
