@@ -109,8 +109,8 @@ def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
     f_low, f_high = (float(v) for v in model.frequency_hz(ends))
     slope, std = frequency_trend(samples, frequency_std)
     t = slope / std
-    trend = (f"the samples' frequency rises {slope * np.ptp(a):+.3g} Hz from {ends[0]:.3g} to {ends[1]:.3g} m·√kg "
-             f"({t:+.2g} standard errors of their straight-line slope)")
+    trend = (f"the samples' straight line changes their frequency by {slope * np.ptp(a):+.3g} Hz over their "
+             f"amplitudes {ends[0]:.3g}–{ends[1]:.3g} ({t:+.2g} standard errors of its slope)")
     if t > STIFFENING_LIMIT:
         return (f"the backbone stiffens over the measured amplitudes, beyond the samples' noise: {trend}, the model "
                 f"{f_low:.6g} → {f_high:.6g} Hz; a joint in microslip only softens, so this is a hardening contact "
@@ -120,7 +120,7 @@ def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
         return (f"the model's backbone rises over the measured amplitudes, {f_low:.6g} → {f_high:.6g} Hz, which a joint "
                 f"in microslip does not do (it only softens), while {trend}: not beyond their scatter, so the rise is "
                 f"the backbone form following the test's repeatability, or a hardening contact these samples cannot "
-                f"tell from it — not the joint's microslip; the samples show no softening",)
+                f"tell from it — not the joint's microslip; the samples show no softening beyond their scatter",)
     return ()
 
 
