@@ -11,11 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from test_backbone_forms import curve_error, locked_points
-from test_stepped_sine_truth import IWAN_LEVELS, stepped_sine_samples, stepped_sine_table
+from test_stepped_sine_truth import IWAN_LEVELS
 from test_test_type_truth import system, truth
 
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
-from nlupdate.core.identification.backbone_samples import DEFAULT_NOISE, own_fit_for, pooled_spread, source_noise
+from nlupdate.core.identification.backbone_samples import own_fit_for, source_noise
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance
 from nlupdate.core.identification.sample_residuals import noisy_residual, sample_noise, sample_residual
 
@@ -120,31 +120,3 @@ def test_the_iwan_fit_of_six_noisy_points_over_eight_seeds(iwan_points, dofs, bo
         exact.append(curve_error(s, own_fit(s, samples, errors_in_variables=False), low, high)[1])
     assert max(errors) < bound
     assert max(exact) > bound or not exact_above
-
-
-def test_a_few_samples_noise_is_pooled_with_the_default_noise():
-    """The scatter of ν degrees of freedom pooled with the default noise held as one degree of
-    freedom: the scale of σ²'s posterior under a scaled-inverse-χ² prior (ν₀ = 1, σ₀ = the
-    default), which tends to the scatter as ν grows; on ν = 3 the 2-DOF Iwan stepped-sine peaks'
-    frequency scatter (7.2e-5: seed 3 below) becomes 5.0e-4."""
-    assert pooled_spread(3 * 7.2e-5**2, 3, DEFAULT_NOISE[0], 0.0) == pytest.approx(7.2e-5)
-    assert pooled_spread(3 * 7.2e-5**2, 3, DEFAULT_NOISE[0], 1.0) == pytest.approx(5.0e-4, rel=0.02)
-    assert pooled_spread(10_000 * 2e-4**2, 10_000, DEFAULT_NOISE[0], 1.0) == pytest.approx(2e-4, rel=0.02)
-
-
-def test_the_2dof_iwan_stepped_sines_own_fit_one_peak_cannot_place_phi_max(iwan_points):
-    """2-DOF Iwan stepped sine (six peaks of HB FRFs, 2 % complex noise per line, the benchmark's
-    seed 3): its peaks lie within 1.1 % in ζ and 2.2e-4 in frequency of the truth, but weighted
-    by their scatter about their own Iwan fit (frequency 7.2e-5 from three degrees of freedom,
-    ζ at its 1 % floor) the one peak 2.2e-4 off put φ_max 7.6 % high and the damping 5.6 % off;
-    with the frequency scatter pooled with the default 1e-3 (``pooled_spread``: 5.0e-4) the
-    damping is within 5 % of the truth (measured 0.9 %) and φ_max within 5 %."""
-    s, points = iwan_points[2]
-    samples = stepped_sine_samples(s, stepped_sine_table(s, points[1]), 3)
-    shapes = (("m1", float(s["phi"][0])),)
-    noise = source_noise(samples, None, own_fit_for("iwan", shapes))
-    f_std, z_std, a_std = sample_noise(["stepped-sine"], [samples.amplitude.size], [noise], True)
-    model = fit_amplitude_model(samples, shapes, "iwan", 2, f_std, z_std, amplitude_std=a_std)
-    error_f, error_z = curve_error(s, model, samples.amplitude.min(), samples.amplitude.max())
-    assert error_f < 2e-3 and error_z < 0.05
-    assert model.joint.phi_max == pytest.approx(1.8 * s["slip"], rel=0.05)

@@ -49,25 +49,7 @@ the steady-state types were predicted 5.4 % off in damping away from the kink; a
 own fits, 3.0 %) —, or the
 standard errors a source states (an impact's pole), or, for fewer samples, the fit's defaults
 (1e-3 and 5 %); floors of :data:`NOISE_FLOOR` keep one smooth source from taking all the
-weight. Few samples: a scatter from ν = n − p degrees of freedom is itself uncertain (from
-three, one estimate in twenty is below 0.34 of the noise: χ²₃'s 5 % quantile), and a source
-weighted by one that came out small is fitted through its one sample that is off. The frequency
-scatter about an ``iwan`` own fit (three parameters a quantity) is pooled with the default 1e-3
-held as one degree of freedom (:data:`PRIOR_DOF`), ``σ² = (ν₀σ₀² + Σr²)/(ν₀ + ν)``
-(:func:`pooled_spread`: the scale of σ²'s posterior under a scaled-inverse-χ² prior of scale σ₀
-and ν₀ degrees of freedom), which goes to the scatter as ν grows. The damping ratio's is not:
-its floor (1 %) already bounds it at about a reading's precision, while the frequency's floor
-(1e-5, for ring-downs and locked frequencies) is 10–20 times below a stepped-sine peak's; pooled
-with 5 % as well, the 2-DOF Iwan joint fit went 2.8 → 3.4 % and its stepped sine held out 4.7 →
-5.2 % (the 5 % default is above the sources' 0.4–2.8 % damping noise). The scatter about a
-quadratic or a Jenkins fit (or an Iwan fit at its Jenkins limit, two parameters a quantity: four
-degrees of freedom of six samples) is not pooled: not measured with it (six Jenkins
-phase-resonance points, 7.8e-5 from the truth in frequency, would read 4.5e-4). The six
-stepped-sine peaks of the 2-DOF Iwan truth (seed 3: within 1.1 % in ζ and 2.2e-4 in frequency)
-scattered 7.2e-5 in frequency about their own Iwan fit, and weighted so (ζ at the floor) the one
-peak 2.2e-4 off put φ_max 7.6 % high and the damping 5.6 % off; pooled (5.0e-4) the fit is 0.9 %
-off (docs/ring-down.md, "The Iwan fits at φ_max").
-Consistency: each source's mean relative misfit in frequency and in damping is
+weight. Consistency: each source's mean relative misfit in frequency and in damping is
 compared with its standard error (its noise/√n); the source farthest beyond
 :data:`DISAGREEMENT` standard errors is named and the rest refitted without it, until the
 sources left agree — a source off by a test-type effect (e.g. ring-down damping above
@@ -103,9 +85,6 @@ from nlupdate.progress import ProgressCallback, no_progress
 NOISE_FLOOR = (1e-5, 0.01)
 #: default relative standard deviations of a source with too few samples to show its scatter
 DEFAULT_NOISE = (1e-3, 0.05)
-#: degrees of freedom :data:`DEFAULT_NOISE` counts for when pooled with a source's scatter about
-#: its own fit, (frequency, damping ratio) (module docstring, "Few samples")
-PRIOR_DOF = (1.0, 0.0)
 #: a source's mean misfit beyond this many standard errors disagrees with the joint fit
 DISAGREEMENT = 3.0
 #: fewer samples than this cannot show their own scatter (module docstring)
@@ -258,13 +237,6 @@ def own_fit_for(backbone: str, shapes) -> Callable[[ModalSamples], AmplitudeModa
     return lambda samples: fit_amplitude_model(samples, shapes, backbone)
 
 
-def pooled_spread(squares: float, dof: int, prior: float, prior_dof: float) -> float:
-    """A relative standard deviation from ``squares`` (the sum of a source's squared relative
-    misfits, ``dof`` degrees of freedom) pooled with ``prior`` held as ``prior_dof`` degrees of
-    freedom (module docstring, "Few samples"): ``√((ν₀σ₀² + Σr²)/(ν₀ + ν))``."""
-    return float(np.sqrt((prior_dof * prior**2 + squares) / (prior_dof + dof)))
-
-
 def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = None,
                  own_fit: Callable[[ModalSamples], AmplitudeModalModel] | None = None) -> tuple[float, float]:
     """(frequency, damping-ratio) relative standard deviations of one source (module
@@ -280,20 +252,14 @@ def source_noise(samples: ModalSamples, stated: tuple[float, float] | None = Non
             except AmplitudeModelError:
                 model = None
         spreads = []
-        for y, fitted, prior, prior_dof in (
-                (samples.frequency_hz, None if model is None else model.frequency_hz(samples.amplitude),
-                 DEFAULT_NOISE[0], PRIOR_DOF[0]),
-                (samples.damping_ratio, None if model is None else model.damping(samples.amplitude),
-                 DEFAULT_NOISE[1], PRIOR_DOF[1])):
+        for y, fitted in ((samples.frequency_hz, None if model is None else model.frequency_hz(samples.amplitude)),
+                          (samples.damping_ratio, None if model is None else model.damping(samples.amplitude))):
             if fitted is None:  # relative scatter: about ln y's own quadratic
                 residual = np.log(y) - np.polyval(np.polyfit(x, np.log(y), 2), x)
-                dof = y.size - 3
+                spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - 3))))
             else:  # about the source's own fit (Jenkins 4, Iwan 6 parameters for 2n values: 2 or 3 per quantity)
                 residual = np.log(y / fitted)
-                dof = y.size - _per_quantity(model)
-            # the defaults pooled in about an Iwan own fit only (module docstring, "Few samples")
-            iwan = model is not None and _per_quantity(model) == 3
-            spreads.append(pooled_spread(float(np.sum(residual**2)), dof, prior, prior_dof if iwan else 0.0))
+                spreads.append(float(np.sqrt(np.sum(residual**2) / (y.size - _per_quantity(model)))))
         f_std, z_std = spreads
     else:
         f_std, z_std = DEFAULT_NOISE
