@@ -13,9 +13,9 @@ the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
   sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
   and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
   r ≠ input f) has the modal constant ``P = φ_rφ_f``: its response amplitude becomes the
-  driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f
-  only P (from every level) is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets the scale
-  of a, which no prediction of these FRFs depends on. The points off the peak
+  driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f only P
+  (from every level) is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets
+  the scale of a, which no prediction of these FRFs depends on. The points off the peak
   are not used: where a stiff joint changes the mode's shape between stuck and slipping,
   single-mode theory holds at the resonance but not on the flanks (the bolted-beam example's
   exact modal model misses its flanks by 21 % rms, its peaks by ≤ 1.1 %). Without a given
@@ -38,10 +38,9 @@ tests/test_test_type_truth.py at 12–249 × its slip amplitude: 745 Hz stuck, 7
 lowest sample, 0.1 Hz over the samples), and the capped fit missed its own phase-resonance
 samples' damping by 11–13 %. Likewise the linear damping: a joint only adds
 damping as it slips, so ζ₀ lies at or below the lowest-amplitude sample's damping ratio
-(within 3 ``damping_std``: :func:`~nlupdate.core.identification.linear_limit.damping_cap`; a
-polynomial fit to the BRB's peaks put it at 5.8 × that, its damping falling from the linear limit). A fit that ends on either bound,
-or with ζ₀ below 1 % of the lowest sample's damping ratio (the joint then takes all the
-damping and the linear damping is not determined), gets a warning on the model.
+(within 3 ``damping_std``: :func:`~nlupdate.core.identification.linear_limit.damping_cap`; the
+BRB's polynomial put it at 5.8 × that). A fit on either bound, or with ζ₀ below 1 % of the
+lowest sample's (the joint takes all the damping: ζ₀ undetermined), gets a warning.
 
 * ``polynomial`` of ``order`` (linear least squares for f₀, c_k and ζ₀, d_k);
 * ``iwan``: ω₀, ζ₀ and the modal joint (K_T < ω₀², F_S, χ, β), from several starts, with
@@ -50,9 +49,8 @@ damping and the linear damping is not determined), gets a warning on the model.
   that stay below ``MACROSLIP_REACH × φ_max`` may show only χ and R' of the joint; the fit is
   then repeated with β = 0 and φ_max at the largest amplitude (the smallest joint that
   keeps every sample in microslip), and that fit is taken when it is as good within the
-  noise (:func:`microslip_test`, or too few samples to test) — the free fit is kept where
-  the samples reject it (noise-free phase resonance of an Iwan SDOF up to 1.7 φ_max: the
-  β = 0 fit missed the damping by 12 %, the free one recovers χ and β); the ``note`` says which;
+  noise (:func:`microslip_test`, or too few samples to test) — else the free fit (an Iwan SDOF's
+  phase resonance to 1.7 φ_max: β = 0 missed ζ by 12 %, the free fit recovers χ, β); ``note`` says which;
 * ``jenkins``: the same fit with β fixed at :data:`JENKINS_BETA` (the Iwan joint's Jenkins
   limit: stuck below φ_max = F_S/K_T, the closed hysteresis loop's energy above), for a
   joint that sticks and slips at one force, whose kink neither other form follows.
@@ -227,10 +225,10 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
                                 damping_coefficients=tuple(coefficients_z[1:]), reference_amplitude=a_ref, mode=mode,
                                 frequency_exponent=p_f, damping_exponent=p_z,
                                 note=f"polynomial backbone of order {order} in (a/a_ref)^{p_f:g} and damping curve in "
-                                     f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for "
-                                     f"{samples.amplitude.size} values each, {samples.amplitude.size - order - 1} "
-                                     f"degree{'' if samples.amplitude.size - order == 2 else 's'} of freedom each), fitted to amplitudes up to a_ref = "
-                                     f"{a_ref:.4g} m·√kg and held at their values there beyond")
+                                     f"(a/a_ref)^{p_z:g} (chi² {chi2_f:.3g} and {chi2_z:.3g} for {samples.amplitude.size} "
+                                     f"values each, {(d := samples.amplitude.size - order - 1)} degree{'s' * (d != 1)} of "
+                                     f"freedom each), fitted to amplitudes up to a_ref = {a_ref:.4g} m·√kg and held at "
+                                     f"their values there beyond")
     return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
 
 
