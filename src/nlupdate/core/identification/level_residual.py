@@ -55,7 +55,7 @@ joint at its tip, 1 % noise, 3 seeds) P gives φ_f = 2.77 1/√kg against the FE
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
@@ -108,7 +108,7 @@ def _level_misfits(amplitude: NDArray, stiffness: NDArray, omega: NDArray, order
 
 
 def level_residual(data: FRFLevels, modal_constant: float, start_residual: complex, centre_hz: float,
-                   half_band: float, order: int = ORDER) -> LevelResidual:
+                   half_band: float) -> LevelResidual:
     """R, S and P of ``data``'s mode (module docstring) from every line within
     ``centre_hz·(1 ± half_band)`` of every level, started from no share and from
     ``start_residual`` (a one-mode fit's share at the centre), each with P =
@@ -129,7 +129,7 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
         out = []
         for f, h, force in curves:
             modal = h - trial.receptance(f)
-            out.append(_level_misfits(np.abs(modal) * force, trial.modal_constant / modal, 2 * np.pi * f, order))
+            out.append(_level_misfits(np.abs(modal) * force, trial.modal_constant / modal, 2 * np.pi * f, ORDER))
         misfit = np.concatenate(out)
         return np.where(np.isfinite(misfit), misfit, 1e6)
 
@@ -139,8 +139,7 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
         fit = scipy.optimize.least_squares(misfits, x0, bounds=(-LIMITS, LIMITS))
         ends.append((2 * float(fit.cost), fit.x))
     scatter, x = min(ends, key=lambda end: end[0])
-    out = share(x)
-    return LevelResidual(out.residual, out.slope, centre_hz, out.modal_constant, scatter)
+    return replace(share(x), scatter=scatter)
 
 
 def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1) -> tuple[float, LevelResidual]:
