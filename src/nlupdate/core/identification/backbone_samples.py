@@ -75,8 +75,9 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
 from nlupdate.core.identification.bands import band_arrays
+from nlupdate.core.identification.joint_band import joint_fixed
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.progress import ProgressCallback, no_progress
@@ -95,8 +96,9 @@ OWN_FIT_BACKBONES = ("jenkins", "iwan")
 
 def _per_quantity(model: AmplitudeModalModel) -> int:
     """Parameters per fitted quantity (frequency, damping) of a modal-joint fit: the ``jenkins``
-    backbone's 4 (β, χ fixed) or the Iwan's 6, over two quantities."""
-    return 2 if model.joint is not None and model.joint.beta >= JENKINS_BETA * (1 - 1e-9) else 3
+    backbone's 4 (β, χ fixed: :func:`~nlupdate.core.identification.joint_band.joint_fixed`) or
+    the Iwan's 6, over two quantities."""
+    return 2 if model.joint is not None and joint_fixed(model) else 3
 
 
 def _fitted_per_quantity(model: AmplitudeModalModel) -> tuple[int, int]:
