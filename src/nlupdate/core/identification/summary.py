@@ -49,8 +49,7 @@ from numpy.typing import ArrayLike
 
 from nlupdate.core.identification.dfmodels import PhysicalModel
 from nlupdate.core.identification.methods import METHODS
-from nlupdate.core.identification.trust import (POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, diverged_names,
-                                               diverged_text, fit_verdict)
+from nlupdate.core.identification.trust import POOR_FIT_FACTOR, RESIDUAL_FACTOR, RESIDUAL_FLOOR, fit_verdict
 from nlupdate.core.measurement.units import parameter_unit, units_block
 
 JSON_NAME = "identification.json"
@@ -113,7 +112,7 @@ def identification_summary(identification: Any) -> dict[str, Any]:
                                    "linear_natural_frequency_hz": choice.linear_natural_frequency_hz,
                                    "reason": choice.reason}
     stats = identification.uncertainty.parameters
-    diverged = diverged_names(warnings)
+    diverged = identification.diverged  # what a diverged parameter's number means, as the terminal prints it
     verdict, ratio = fit_verdict(identification.residual_noise_fraction, identification.noise_fraction)
     if not identification.trustworthy:
         verdict = "poor"
@@ -122,8 +121,7 @@ def identification_summary(identification: Any) -> dict[str, Any]:
         "linear_from_level_n": identification.linear_from_level_n,
         "linear_from_levels_n": list(identification.linear_from_levels_n),
         "parameters": {name: dict(stats[name].as_dict(), unit=parameter_unit(name, identification.reference_unit),
-                                  **({"diverged": diverged_text(name, stats[name].value, identification.reference_unit)}
-                                     if name in diverged else {}))
+                                  **({"diverged": diverged[name]} if name in diverged else {}))
                        for name in r.parameters()},
         "uncertainty": dict(identification.uncertainty.as_dict(),
                             held_fixed="excitation frequency / band, force levels, model and the modes' start values"),
