@@ -122,6 +122,13 @@ class Repeatability:
     def dof(self) -> int:
         return max(self.levels - self.degree - 1, 0)
 
+    @property
+    def test_std(self) -> dict[str, float]:
+        """Per quantity the scatter its band and its resolution take: Hz for the resonance, relative
+        (1σ of ln) for the damping ratio and the peak."""
+        return {"resonance_hz": self.resonance_hz, "damping_ratio": self.damping_relative,
+                "peak_abs": self.peak_relative}
+
     def as_dict(self) -> dict:
         return {"resonance_hz_std": self.resonance_hz, "damping_ratio_std": self.damping_ratio,
                 "damping_ratio_relative_std": self.damping_relative, "peak_abs_relative_std": self.peak_relative,
@@ -328,8 +335,7 @@ def bands(frequency_hz: NDArray, measured: dict[str, float], predicted: NDArray,
     n = len(curves)
     # resonance in Hz; damping ratio and peak, positive, in log (a band that never reaches 0,
     # asymmetric as a relative scatter is)
-    test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
-                "peak_abs": repeat.peak_relative}
+    test_std = repeat.test_std
     test_dof = repeat.dof
     spread = {"resonance_hz": repeat.resonance_spread_hz, "damping_ratio": repeat.damping_spread,
               "peak_abs": repeat.peak_spread}

@@ -276,10 +276,9 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
         rows.append(row)
     levels = pd.DataFrame(rows)
     spread = held_spread(pd.DataFrame(), levels)  # the rule of --hold-out LEVELS (module docstring)
-    test_std = {"resonance_hz": repeat.resonance_hz, "damping_ratio": repeat.damping_relative,
-                "peak_abs": repeat.peak_relative}
     for name in QUANTITIES:
-        levels[f"{name}_widest"] = [widest_band(name, spread[name], test_std[name], f) for f in levels["lines_hz"]]
+        levels[f"{name}_widest"] = [widest_band(name, spread[name], repeat.test_std[name], f)
+                                    for f in levels["lines_hz"]]
     return levels.drop(columns="lines_hz")
 
 
