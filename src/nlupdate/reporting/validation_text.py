@@ -171,6 +171,11 @@ def _table(first: str, second: str, rows) -> list[str]:
     for a, b, label, compared, baseline, residual, base_residual in rows:
         cells.append((a, b, label, *error_cells(compared, True), in_band_cell(compared), f"{residual:.3g}"))
         cells.append(("", "", "baseline (log-amplitude)", *error_cells(baseline, False), "", f"{base_residual:.3g}"))
+    return _aligned(cells)
+
+
+def _aligned(cells: list[tuple[str, ...]]) -> list[str]:
+    """Rows of cells as text, each column as wide as its widest cell; a column empty throughout is left out."""
     widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths) if w).rstrip() for row in cells]
 
@@ -288,8 +293,7 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
                       f"{100 * zeta['measured']:.3g}", f"{100 * zeta['predicted']:.3g}" + _band(zeta, 100.0, None),
                       _percent(100 * peak["relative_error"]),
                       flags + ("" if entry["within_fit"] else " (outside the fitted amplitudes)")))
-    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
-    return lines + ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+    return lines + _aligned(cells)
 
 
 def held_type_in_band(summary: dict) -> tuple[int, int, int]:
@@ -325,8 +329,7 @@ def _impact_rows(samples: list[dict]) -> list[str]:
                      else f"{_percent(100 * c['relative_error'])} %")
             flag = in_band_word(c.get("inside"), c.get("informative"))
             cells.append((entry["source"], label, measured, predicted, where, error, flag))
-    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
-    return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells]
+    return _aligned(cells)
 
 
 def _sample_rows(samples: list[dict]) -> list[str]:
@@ -343,8 +346,7 @@ def _sample_rows(samples: list[dict]) -> list[str]:
                       f"{100 * f['relative_error']:+.3f}", f"{100 * zeta['measured']:.3g}",
                       f"{100 * zeta['predicted']:.3g}" + _band(zeta, 100.0, None), _percent(100 * zeta["relative_error"]),
                       flags if entry["within_fit"] else "— (outside the fitted amplitudes: extrapolated)"))
-    widths = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
-    return ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in cells] if samples else []
+    return _aligned(cells) if samples else []
 
 
 def _band(compared: dict, scale: float, decimals: int | None) -> str:
