@@ -20,6 +20,8 @@ from nlupdate.reporting.markdown import number
 from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
 
 QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
+#: the quantities a held-out test type is judged on: a held stepped sine's, and a held sample's frequency
+HELD_NAMES = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
 
 
 def _outside(result) -> list[str]:
@@ -229,7 +231,7 @@ def comparison_notes(result) -> list[str]:
 def held_type_worst_line(worst: dict) -> str:
     """The largest |relative error| of each quantity within the fitted amplitudes (validation.json's
     ``held_out_type.worst_within_fit``), as ``validate --hold-out-type`` and a study's report say it."""
-    names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency", "modal_amplitude_held": "held amplitude"}
+    names = {**HELD_NAMES, "modal_amplitude_held": "held amplitude"}
     return "largest relative error within the fitted amplitudes: " + (
         ", ".join(f"{names.get(key, key)} {100 * value:.3g} %" for key, value in worst.items()) or "none within")
 
@@ -246,7 +248,7 @@ def held_type_lines(summary: dict, unit: str) -> list[str]:
     levels) and warns then; then, for a held stepped sine, one aligned row per level (measured,
     predicted with its band, in band or not: :func:`in_band_word`), for held impacts one row per
     impact and quantity (measured and predicted, each with its band, the error, in band or not)."""
-    names = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
+    names = HELD_NAMES
     misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
               for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
     sampled = [entry for entry in summary["samples"] if entry["within_fit"]]
@@ -304,7 +306,7 @@ def held_type_in_band(summary: dict) -> tuple[int, int, int]:
     entries = [*summary["levels"], *(entry for entry in summary["samples"]
                                      if entry["within_fit"] or "extrapolation" in entry)]
     compared = [c for entry in entries for key, c in entry.items()
-                if key in (*QUANTITY_NAMES, "natural_frequency_hz") and isinstance(c, dict) and "inside" in c]
+                if key in HELD_NAMES and isinstance(c, dict) and "inside" in c]
     inside = [c for c in compared if c["inside"]]
     return len(compared), len(inside), sum(c.get("informative") is False for c in inside)
 
