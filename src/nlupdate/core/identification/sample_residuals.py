@@ -109,7 +109,7 @@ def sample_noise(kinds: Sequence[str], sizes: Sequence[int], noises: Sequence[tu
                  errors_in_variables: bool) -> tuple[NDArray, NDArray, NDArray | None]:
     """Per-sample relative (frequency, damping ratio, amplitude) standard deviations of sources of
     test types ``kinds`` with ``sizes`` samples and (frequency, damping) noise ``noises`` each, in
-    order; with ``errors_in_variables`` (the ``iwan`` and ``jenkins`` fits) the noisy amplitudes
+    order; with ``errors_in_variables`` (the :data:`EIV_BACKBONES` fits) the noisy amplitudes
     and locked frequencies of the module docstring, else None for the amplitudes."""
     each = np.repeat(np.asarray(kinds, dtype=object), sizes)
     f_std, z_std = (np.repeat([n[k] for n in noises], sizes).astype(float) for k in (0, 1))
