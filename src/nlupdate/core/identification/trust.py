@@ -92,6 +92,7 @@ import numpy as np
 
 from nlupdate.core.identification.consistency import SPREAD_LIMIT
 from nlupdate.core.identification.dfmodels import PhysicalModel
+from nlupdate.core.identification.prd import SEARCH_FACTOR
 from nlupdate.core.model.elements import ELEMENT_TYPES
 from nlupdate.core.measurement.units import parameter_unit
 
@@ -183,6 +184,10 @@ def _slip_force_warnings(result: Any, values: dict[str, float], source: str, uni
     return out
 
 
+#: the bounded fits' box (:data:`~nlupdate.core.identification.prd.SEARCH_FACTOR`) as the warnings print it: "1e6"
+_SEARCH = f"1e{np.log10(SEARCH_FACTOR):.0f}"
+
+
 def diverged_text(name: str, value: float, reference_unit: str = "N") -> str:
     """What a diverged parameter's number means, where the number would stand: ``kf diverged
     (8.95e+47 N/m): the data support no finite value of it`` (units per volt with a V reference)."""
@@ -203,7 +208,7 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: st
         value = values.get(name, float("nan"))
         where = f"{start:.4g} {parameter_unit(name, unit)}".rstrip()
         out.append(TrustWarning(name, "diverged", f"{diverged_text(name, value, unit)} — the fit carried it "
-                                f"{value / start:.2g}× from where it started ({where}), beyond the factor 1e6 "
+                                f"{value / start:.2g}× from where it started ({where}), beyond the factor {_SEARCH} "
                                 f"within which the bounded fits keep it: the number is no estimate (a sensor's sign "
                                 f"reversed, or an element the data do not show); its interval is no band either",
                                 source))
@@ -213,7 +218,8 @@ def _bound_warnings(result: Any, values: dict[str, float], source: str, unit: st
         flagged.add(name)
         out.append(TrustWarning(name, "at_bound",
                                 f"{name} = {values.get(name, float('nan')):.4g} ended on a bound of the fit (log-parameters "
-                                f"are kept within a factor 1e6 of their start): the data do not determine it", source))
+                                f"are kept within a factor {_SEARCH} of their start): the data do not determine it",
+                                source))
     model = getattr(result, "physical", None) or getattr(result, "model", None)
     if isinstance(model, PhysicalModel):
         positive = {name: pos for (_, name, pos) in model._slots}
