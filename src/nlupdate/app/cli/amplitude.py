@@ -111,24 +111,6 @@ def _check_record_shapes(rings: list, channel: str | None, shapes: dict[str, flo
                    f"ways, a record's channel and an FRF's coordinate such as {name}:y, needs its shape under both)")
 
 
-def _check_measured_shape(measured, rings: list, coordinate: str, shapes: dict[str, float], name: str) -> None:
-    """Refuse FRFs whose shape is to be fitted joining other sources (no common amplitude
-    scale), saying which value the other sources read when they read one: the
-    response-controlled runs print the shape they took from their lowest run's modal constant,
-    and the refusal that followed asked for ``--shape COORD=VALUE`` without it (the value is
-    offered when the runs' coordinate, ``coordinate``, is the FRFs' excited one)."""
-    if not rings or not measured.samples.shape_free:
-        return
-    read = [(source, samples.input_shape) for source, samples, _, kind in rings
-            if kind == "response-controlled" and np.isfinite(samples.input_shape) and coordinate == measured.input_dof]
-    hint = "" if not read else (f"; {read[0][0]} (response-controlled) took {read[0][1]:.4g} 1/√kg from its lowest "
-                                f"run's modal constant: e.g. --shape {measured.input_dof}={read[0][1]:.4g}")
-    raise CliError(f"{name}: joining its FRFs with other sources needs the mass-normalised mode shape at the excited "
-                   f"coordinate {measured.input_dof}: give --shape {measured.input_dof}=VALUE (1/√kg; shapes given at: "
-                   f"{', '.join(shapes) or 'none'}), the same for every source, or their modal amplitudes have no common "
-                   f"scale{hint}")
-
-
 def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") -> Path:
     """|H| the model predicts (lines) against the measured curves (dots) over the predicted
     band; a level measured and predicted shares its colour."""
@@ -171,7 +153,6 @@ def run(args: argparse.Namespace) -> int:
         print_notes(notes)
         cut = None if whole is None else BandCut(parse_band(args.band), whole)
         measured = measured_source(table, shapes, options, sources(args), args.input_dof, args.response_dof, cut)
-        _check_measured_shape(measured, rings, channel, shapes, sources(args))
     fit = fit_sources(rings, channel, shapes, options, measured, sources(args) if args.measured else "")
     predicted = None
     if args.forces is not None and not fit.samples.modal:

@@ -258,6 +258,21 @@ def _refined(model: AmplitudeModalModel, measured: MeasuredSource, points: list,
     return refine_on_lines(model, lines, others, noise[0][keep], noise[1][keep])[0]
 
 
+def _shape_needed(name: str, input_dof: str, sources: list[Source], channel: str, shapes: Mapping[str, float]) -> str:
+    """The refusal of FRFs (``name``) whose shape is to be fitted joining other ``sources``: no
+    common amplitude scale. It says which value the other sources read when they read one: the
+    response-controlled runs print the shape they took from their lowest run's modal constant
+    (offered when the runs' coordinate ``channel`` is the FRFs' excited one, ``input_dof``)."""
+    read = [(source, samples.input_shape) for source, samples, _, kind in sources
+            if kind == "response-controlled" and np.isfinite(samples.input_shape) and channel == input_dof]
+    hint = "" if not read else (f"; {read[0][0]} (response-controlled) took {read[0][1]:.4g} 1/√kg from its lowest "
+                                f"run's modal constant: e.g. --shape {input_dof}={read[0][1]:.4g}")
+    return (f"{name}: joining its FRFs with other sources needs the mass-normalised mode shape at the excited "
+            f"coordinate {input_dof}: give --shape {input_dof}=VALUE (1/√kg; shapes given at: "
+            f"{', '.join(shapes) or 'none'}), the same for every source, or their modal amplitudes have no common "
+            f"scale{hint}")
+
+
 def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float], options: FitOptions,
                 measured: MeasuredSource | None = None, measured_name: str = "") -> AmplitudeFit:
     """The model of the measured part (``measured``, named ``measured_name``) and the other
@@ -277,11 +292,7 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
         shapes_fit = model.shapes
         if sources:  # the measured samples and the other sources, fitted together at the given shape
             if samples.shape_free:
-                given = ", ".join(shapes) or "none"
-                raise AmplitudeModelError(
-                    f"{measured_name}: joining its FRFs with other sources needs the mass-normalised mode shape at "
-                    f"the excited coordinate {input_dof} (--shape {input_dof}=VALUE, 1/√kg; shapes given at: "
-                    f"{given}): without it their modal amplitudes have no common scale")
+                raise AmplitudeModelError(_shape_needed(measured_name, input_dof, sources, channel, shapes))
             samples = join_samples([s for _, s, _, _ in points])
     held = [p for p in points if p[3] == options.hold_out]
     if held:
