@@ -3,7 +3,7 @@ Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with ea
 
     python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03] [--kink-inside]]
                                          [--at-samples] [--extra-level 1.3] [--stepped-sine lines|peaks]
-                                         [--ring-down decay|segments]
+                                         [--ring-down decay|segments] [--iwan-levels N]
 
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
 closed-form single-nonlinear-mode backbone). Per test type and seed:
@@ -65,9 +65,9 @@ from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
 
 
-def records(s: dict, kind: str, extra: tuple[float, ...] = ()) -> dict:
+def records(s: dict, kind: str, extra: tuple[float, ...] = (), iwan_levels: int = IWAN_LEVELS.size) -> dict:
     """The noise-free records of every test type of one system (``extra``: more Jenkins levels,
-    × a_s)."""
+    × a_s; ``iwan_levels``: the Iwan levels' number, spread geometrically over the same span)."""
     slip = s["slip"]
     # the Iwan ring-down from 3 a_s (1.7 φ_max: φ_max = 1.8 a_s on both systems), inside the
     # levels' span, which it decays through towards microslip
@@ -75,7 +75,8 @@ def records(s: dict, kind: str, extra: tuple[float, ...] = ()) -> dict:
     # levels (tests/test_stepped_sine_truth.py): the Jenkins joint from stuck to 15 × its slip
     # amplitude; the Iwan joint from microslip to past 2 × its φ_max (MACROSLIP_REACH: below it
     # an Iwan fit fixes β = 0)
-    amplitude = (np.sort(np.append(LEVELS, extra)) if kind == "jenkins" else IWAN_LEVELS) * slip
+    amplitude = (np.sort(np.append(LEVELS, extra)) if kind == "jenkins"
+                 else np.geomspace(IWAN_LEVELS[0], IWAN_LEVELS[-1], iwan_levels)) * slip
     points = locked_points(s, amplitude)  # (Ω, the force that holds the amplitude at resonance, x)
     return {"decay": free_decay(s, start, 80), "tap": free_decay(s, (0.5 if kind == "jenkins" else 0.05) * slip, 40),
             "points": points, "table": stepped_sine_table(s, points[1])}
@@ -201,6 +202,9 @@ def main() -> None:
                         help="how the ring-down is read: the decay fit (default) or segments")
     parser.add_argument("--extra-level", type=float, action="append", default=[], metavar="X",
                         help="one more phase-resonance and stepped-sine level at X × a_s (Jenkins systems; repeatable)")
+    parser.add_argument("--iwan-levels", type=int, default=IWAN_LEVELS.size, metavar="N",
+                        help="the Iwan systems' phase-resonance and stepped-sine levels: N spread geometrically "
+                             "over the same 0.3–6 a_s (default the six of IWAN_LEVELS)")
     parser.add_argument("--kink-inside", action="store_true",
                         help="with --kink: only the amplitudes within the band instead of those outside it")
     parser.add_argument("--stepped-sine", default="lines", choices=("lines", "peaks"),
@@ -218,7 +222,7 @@ def main() -> None:
         if args.system and f"{dofs}-{kind}" not in args.system:
             continue
         s, started = system(dofs, kind), time.process_time()
-        made = records(s, kind, tuple(args.extra_level))
+        made = records(s, kind, tuple(args.extra_level), args.iwan_levels)
         rows = {name: [] for name in TYPES + ("joint", "joint, covered")}
         slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):
