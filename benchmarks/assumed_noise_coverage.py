@@ -12,8 +12,9 @@ import sys
 
 import numpy as np
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import bootstrap_bands
+from nlupdate.core.identification.modal_samples import ModalSamples
 
 AMPLITUDE = np.array([0.484, 0.7, 0.93, 1.15]) * 1e-3  # m·√(kg·V/N)
 MIDDLE = np.array([0.8e-3])

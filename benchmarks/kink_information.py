@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_stepped_sine_truth import IWAN_LEVELS  # noqa: E402
 from test_test_type_truth import system, truth  # noqa: E402
 
-from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, JENKINS_CHI, iwan_model  # noqa: E402
+from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI, iwan_model  # noqa: E402
 
 FIXED = {"beta": JENKINS_BETA, "chi": JENKINS_CHI}
 

@@ -14,12 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.frf_peak import resonance_peak
+from nlupdate.core.identification.modal_samples import samples_from_frfs
+from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.core.validation.held_type import stepped_sine_levels
-from nlupdate.core.measurement.frf_table import frf_table
 from single_mode_reference import amplitude
 
 F0, Z0 = 80.0, 0.002          # linear limit: Hz, damping ratio

@@ -34,8 +34,8 @@ import tomli_w
 
 from nlupdate.app import api
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
 from nlupdate.core.identification.band_dependence import MIN_CHANGE, band_changes, band_warning
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.measurement.noise import add_frf_noise
 from nlupdate.reporting.archive import write_archive
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import _scores, consistency, join_samples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from test_ring_down import IWAN, M, df_backbone
 
 PHI = 1 / np.sqrt(M)

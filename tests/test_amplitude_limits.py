@@ -14,12 +14,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs, fit_amplitude_model
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.elements import IwanJoint
 from nlupdate.core.model.linear import LumpedModel
-from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.core.model.system import NonlinearSystem
+from nlupdate.core.response.simulate import simulate_frf_table
 
 K = 9e5
 STIFFNESS = np.array([[2 * K, -K], [-K, K]])
@@ -139,7 +140,7 @@ def test_the_linear_damping_of_the_brb_stays_at_or_below_its_lowest_level():
     the reference is that measured sample (ζ = φ²F/(2ω²x) at the 0.19 N peak): 0.172 % since
     issue 34 read the other modes' share and φ_f from every level (φ_f 0.628 → 0.696 1/√kg,
     ζ ∝ φ_f²; 0.139 % before)."""
-    from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
+    from nlupdate.core.identification.modal_samples import samples_from_frfs
     from test_real_measurements import brb_levels
 
     data = brb_levels()

@@ -14,10 +14,9 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from nlupdate.core.identification.amplitude_modal_fit import (
-    amplitude_model_from_frfs, amplitude_model_from_modal_table, samples_from_modal_table,
-)
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs, amplitude_model_from_modal_table
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import samples_from_modal_table
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.measurement.modal_table import modal_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, read_amplitude_model, write_amplitude_model

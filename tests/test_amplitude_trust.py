@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.core.measurement.frf_table import frf_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel

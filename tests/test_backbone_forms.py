@@ -19,10 +19,9 @@ from periodic_truth import periodic_truth
 from test_test_type_truth import phase_resonance_point, system, truth
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import (
-    JENKINS_BETA, JENKINS_CHI, fit_amplitude_model, microslip_test,
-)
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model, microslip_test
 from nlupdate.core.identification.backbone_samples import own_fit_for, source_noise
+from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance
 from nlupdate.core.model.elements import IwanJoint, JenkinsFriction
 from nlupdate.core.model.linear import LumpedModel

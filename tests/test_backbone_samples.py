@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.backbone_samples import backbone_curve
+from nlupdate.core.identification.modal_samples import ModalSamples
 
 A = np.geomspace(1e-4, 1e-3, 30)
 U = A / A.max()

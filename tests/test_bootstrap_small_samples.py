@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.validation.held_type import fit_sources, sample_bands
 
 A = 1e-3

@@ -21,10 +21,11 @@ from test_backbone_forms import locked_points
 from test_stepped_sine_truth import LEVELS, stepped_sine_table
 from test_test_type_truth import system
 
-from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model, samples_from_frfs
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.joint_band import covariance_band, joint_unknowns, mixed_law_residual
 from nlupdate.core.identification.line_band import jackknife_halfwidth, line_refinement_band
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.identification.line_refine import (
     refine_at_law, refine_on_lines, refinement_residual, stepped_sine_lines,
 )

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.reporting.backbone_plots import model_title
 from nlupdate.reporting.model_numbers import damping_text
 

@@ -12,8 +12,8 @@ from test_backbone_forms import locked_points
 from test_stepped_sine_truth import IWAN_LEVELS, LEVELS, stepped_sine_table
 from test_test_type_truth import system, truth
 
-from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 
 STEPS = 200  # RK4 steps a period
 

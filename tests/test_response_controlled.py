@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from nlupdate.core.identification.amplitude_modal_fit import samples_from_frfs
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled, samples_from_held_runs
 from nlupdate.core.measurement.frf_files import read_frf_tables
 from nlupdate.core.measurement.frf_table import MeasurementTableError

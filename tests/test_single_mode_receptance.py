@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 from test_test_type_truth import ZETA0, system, truth
 
-from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, JENKINS_CHI
+from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI
 from nlupdate.core.model import single_mode
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.core.model.elements import IwanJoint

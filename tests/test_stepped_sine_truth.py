@@ -20,9 +20,10 @@ from test_backbone_forms import locked_points
 from test_test_type_truth import system, truth
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs
-from nlupdate.core.identification.line_refine import refine_on_lines, stepped_sine_lines
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.line_refine import refine_on_lines, stepped_sine_lines
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs
 from nlupdate.core.measurement.noise import add_table_noise
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from nlupdate.app.cli import main
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
+from nlupdate.core.identification.modal_samples import ModalSamples
 
 from test_test_type_truth import system, truth
 

@@ -20,8 +20,9 @@ import pandas as pd
 import pytest
 
 from cli_runs import run_cli
-from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs, samples_from_frfs
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.model.elements import JenkinsFriction
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem

@@ -138,7 +138,7 @@ def test_a_damping_curve_held_at_zero_has_no_bootstrap_band():
     draw there: one line naming the amplitude, where it was an SVD failure of the refits
     ('SVD did not converge', exit 2: the polynomial fit of the 2-DOF Jenkins truth above with
     --bootstrap 20). ζ(a) = 1 % − 2 %·a/(1e-3 m·√kg) is 0 from 5e-4 m·√kg."""
-    from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+    from nlupdate.core.identification.modal_samples import ModalSamples
     from nlupdate.core.identification.backbone_samples import bootstrap_bands
     from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 

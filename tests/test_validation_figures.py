@@ -24,7 +24,7 @@ import pytest
 from matplotlib.collections import PolyCollection
 from matplotlib.patches import Rectangle
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.core.validation.held_out import Compared, Repeatability
 from nlupdate.reporting.backbone_plots import plot_sources

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, label_thin_bands, save_figure
 from nlupdate.reporting.model_numbers import damping_text, linear_limit_text

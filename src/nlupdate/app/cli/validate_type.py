@@ -19,7 +19,8 @@ from nlupdate.app.cli import CliError
 from nlupdate.app.cli.amplitude import _shapes
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
-from nlupdate.core.identification.amplitude_modal_fit import default_resamples, samples_from_frfs
+from nlupdate.core.identification.amplitude_modal_fit import default_resamples
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, hold_out_type
 from nlupdate.files import atomic_directory

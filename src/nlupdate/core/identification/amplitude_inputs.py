@@ -18,10 +18,10 @@ from typing import Mapping
 
 import numpy as np
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.backbone_samples import displacement_samples, join_samples
 from nlupdate.core.identification.decay_fit import fit_decay
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit, split_force
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.phase_resonance import read_phase_resonance, samples_from_phase_resonance
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import RingDownError, estimate_ring_down, read_channels, read_ring_down

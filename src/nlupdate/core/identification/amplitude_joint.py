@@ -44,9 +44,9 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import Source
 from nlupdate.core.identification.amplitude_modal_fit import (
-    KINKED_BACKBONES, ModalSamples, amplitude_model_from_frfs, default_resamples, fit_amplitude_model,
-    samples_from_frfs, samples_from_modal_table,
+    KINKED_BACKBONES, amplitude_model_from_frfs, default_resamples, fit_amplitude_model,
 )
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
 from nlupdate.core.identification.backbone_samples import (
     DEFAULT_NOISE, backbone_curve, backbone_points, consistency, held_out_errors, join_samples, own_fit_for,
     source_noise,

@@ -1,30 +1,8 @@
-"""Identify an amplitude-dependent modal model (:mod:`nlupdate.core.model.amplitude_modal`) of one mode.
+"""Identify an amplitude-dependent modal model (:mod:`nlupdate.core.model.amplitude_modal`) of one mode
+from samples of its backbone and damping curve (:mod:`~nlupdate.core.identification.modal_samples`:
+from a modal table or from FRFs at several levels).
 
-Two kinds of data give samples ``(a_i, ω_i, ζ_i)`` of the backbone and damping curve, with
-the mass-normalised shape φ_f (1/√kg) of the mode at the excited coordinate:
-
-* a **modal table** (:mod:`nlupdate.core.measurement.modal_table`: natural frequency and damping
-  ratio of the mode per force level, as a phase-resonance or one-mode analysis gives them):
-  at phase resonance ``2ζω² a = |φ_f| F``, so ``a_i = |φ_f| F_i / (2ζ_i ω_i²)``;
-* **FRFs at several levels** (driving point or transfer): each level's resonance — the peak
-  of |H| after removing the other modes' share R + S·(f²/f_c² − 1), found with the modal
-  constant P from every line of every level at once (:mod:`~nlupdate.core.identification.level_residual`: a one-mode
-  fit of the lowest level took part of that nonlinear curve for residual terms) — gives one
-  sample: ω_i the peak frequency, x_i = |H_peak|F_i the amplitude there, ``a_i = x_i/|φ_f|``
-  and ``ζ_i = φ_f²F_i/(2ω_i²x_i)`` (at resonance |H| = φ_f²/(2ζω²)). A transfer FRF (response
-  r ≠ input f) has the modal constant ``P = φ_rφ_f``: its response amplitude becomes the
-  driving point's, ``x_f = x_r|φ_f/φ_r|``, and the formulas above hold; without a given φ_f only P
-  (from every level) is known, and the split is taken equal (|φ_r| = |φ_f| = √|P|) — that sets
-  the scale of a, which no prediction of these FRFs depends on. The points off the peak
-  are not used: where a stiff joint changes the mode's shape between stuck and slipping,
-  single-mode theory holds at the resonance but not on the flanks (the bolted-beam example's
-  exact modal model misses its flanks by 21 % rms, its peaks by ≤ 1.1 %). Without a given
-  φ_f an Iwan fit fits φ_f with the backbone (the joint's damping is tied to its softening,
-  which fixes the scale of a), within :data:`SHAPE_RANGE` of the modal constant read
-  with the other modes' share (the peaks fix only φ_f²/ζ; the curves' widths fix ζ, so φ_f may move only as
-  much as a slipping joint changes the shape); a polynomial one uses that modal constant.
-
-The backbone is then fitted by weighted least squares of the relative errors of ω and ζ
+The backbone is fitted by weighted least squares of the relative errors of ω and ζ
 (standard deviations ``frequency_std`` and ``damping_std``, relative). The linear limit is
 held physical: the joint only softens, so f₀ lies at or above every sample (within
 3 ``frequency_std``), and no higher above the lowest-amplitude sample f_ref than the
@@ -54,126 +32,28 @@ lowest sample's (the joint takes all the damping: ζ₀ undetermined), gets a wa
 * ``jenkins``: the same fit with β fixed at :data:`JENKINS_BETA` (the Iwan joint's Jenkins
   limit: stuck below φ_max = F_S/K_T, the closed hysteresis loop's energy above), for a
   joint that sticks and slips at one force, whose kink neither other form follows.
+
+The Iwan least-squares problem itself (unknowns, starts, bounds):
+:mod:`~nlupdate.core.identification.iwan_backbone_fit`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
 import pandas as pd
-import scipy.optimize
-import scipy.special
 import scipy.stats
 from numpy.typing import NDArray
 
 from nlupdate.core.identification.constrained_lsq import constrained_lsq
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
-from nlupdate.core.identification.frf_peak import resonance_peak
-from nlupdate.core.identification.level_residual import frf_residual
+from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI, SHAPE_RANGE, fit_iwan
 from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
-from nlupdate.core.identification.sample_residuals import noisy_residual, sample_residual
-from nlupdate.core.measurement.modal_table import validate_modal_table
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
 from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
-from nlupdate.core.model.elements import IwanJoint
 
-
-@dataclass(frozen=True, eq=False)
-class ModalSamples:
-    """Samples of one mode's backbone: modal amplitude a (m·√kg), natural frequency (Hz),
-    damping ratio and the force amplitude F (N, the reference unit) at each; ``input_shape`` φ_f (1/√kg).
-
-    From FRFs, ``response_amplitude`` holds the resonance amplitude x (m) at the excited
-    coordinate and F is the force achieved at the resonance line (a shaker's force dips there:
-    the BRB's 0.1947 N level reaches 0.142 N at its peak), so that a = x/φ_f and
-    ζ = φ_f²F/(2ω²x) follow for any φ_f (:meth:`with_shape`); ``level`` is each sample's
-    nominal force level (the level's name, FRF samples only),
-    and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
-    is φ_r/φ_f of the FRFs' response (1 at the driving point). ``modal`` is False for the
-    samples of a record read without a shape at its channel: a is then the record's own
-    amplitude (m), on no common scale with modal samples (φ_r = 1 is assumed, not known)."""
-
-    amplitude: NDArray[np.float64]
-    frequency_hz: NDArray[np.float64]
-    damping_ratio: NDArray[np.float64]
-    force_n: NDArray[np.float64]
-    input_shape: float
-    response_amplitude: NDArray[np.float64] | None = None
-    shape_free: bool = False
-    response_ratio: float = 1.0
-    modal: bool = True
-    level: NDArray[np.float64] | None = None
-
-    def with_shape(self, input_shape: float) -> "ModalSamples":
-        """The same FRF samples for another φ_f (1/√kg)."""
-        if self.response_amplitude is None:
-            raise AmplitudeModelError("only samples from FRFs (with their response amplitudes) can change their shape")
-        phi, x, omega = abs(float(input_shape)), self.response_amplitude, 2 * np.pi * self.frequency_hz
-        return ModalSamples(x / phi, self.frequency_hz, phi**2 * self.force_n / (2 * omega**2 * x), self.force_n, phi,
-                            x, self.shape_free, self.response_ratio, level=self.level)
-
-
-def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int = 1,
-                             source: str = "<modal table>") -> ModalSamples:
-    """Backbone samples of ``mode`` from a modal table (phase resonance: module docstring)."""
-    clean = validate_modal_table(table, source)
-    rows = clean[clean["mode"] == int(mode)]
-    if len(rows) < 2:
-        raise AmplitudeModelError(f"{source}: mode {mode} appears at {len(rows)} force level(s); an amplitude-dependent "
-                                  "model needs two or more")
-    if not (np.isfinite(input_shape) and input_shape != 0):
-        raise AmplitudeModelError(f"input_shape: the mass-normalised mode shape at the excited coordinate (1/√kg, ≠ 0), "
-                                  f"got {input_shape}")
-    force = rows["force_level_n"].to_numpy(dtype=float)
-    frequency = rows["natural_frequency_hz"].to_numpy(dtype=float)
-    zeta = rows["damping_ratio"].to_numpy(dtype=float)
-    if np.any(zeta <= 0):
-        raise AmplitudeModelError(f"{source}: mode {mode} has a damping ratio of 0; the phase-resonance amplitude "
-                                  "|φ_f|F/(2ζω²) needs ζ > 0")
-    amplitude = abs(input_shape) * force / (2 * zeta * (2 * np.pi * frequency) ** 2)
-    return ModalSamples(amplitude, frequency, zeta, force, abs(float(input_shape)))
-
-
-def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
-                      band_fraction: float = 0.1) -> ModalSamples:
-    """One backbone sample per force level from FRFs at the driving point or a transfer
-    (module docstring): the resonance of each level (peak of |H| within ``2.5 band_fraction``
-    of the lowest level's resonance near ``near_hz``, from every line near its top:
-    :func:`~nlupdate.core.identification.frf_peak.resonance_peak`), after removing the other
-    modes' share found from every level
-    (:func:`~nlupdate.core.identification.level_residual.frf_residual`), whose modal constant also
-    gives φ_f when ``input_shape`` is None and φ_r/φ_f of a transfer."""
-    centre, shared = frf_residual(data, near_hz, band_fraction)
-    driving = data.response_dof == data.input_dof
-    constant = shared.modal_constant
-    shape_free = input_shape is None
-    if shape_free:
-        input_shape = float(np.sqrt(abs(constant)))
-    phi = abs(float(input_shape))
-    ratio = 1.0 if driving else constant / phi**2  # φ_r/φ_f
-    peak_hz, peak_x, forces, levels = [], [], [], []
-    for level, f, h in zip(data.levels, data.frequencies, data.receptances):
-        band = np.abs(f - centre) <= 2.5 * band_fraction * centre
-        fb = f[band]
-        hb = np.abs(h[band] - shared.receptance(fb))
-        if fb.size < 3:
-            continue
-        at_hz, height = resonance_peak(fb, hb)
-        force = float(data.force_at(level, [at_hz])[0])  # the force achieved at the peak, not the level's mean
-        peak_hz.append(at_hz)
-        peak_x.append(height * force)
-        forces.append(force)
-        levels.append(float(level))
-    if len(forces) < 2:
-        raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
-    x, frequency, force = np.array(peak_x) / abs(ratio), np.array(peak_hz), np.array(forces)  # x at the driving point
-    omega = 2 * np.pi * frequency
-    return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio,
-                        level=np.array(levels))
-
-
-# ---------------------------------------------------------------------------------- fitting
 #: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
 _POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
 
@@ -232,100 +112,7 @@ def _polynomial(samples: ModalSamples, shapes, order: int, frequency_std: float,
     return replace(model, warnings=linear_limit_warnings(model, samples, frequency_std, z0, damping_std))
 
 
-def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
-    """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
-    logit(−χ) (χ ∈ (−1, 0), or fixed), log β (or fixed)."""
-    values = iter(theta)
-    w0 = float(np.exp(next(values)))
-    z0 = float(np.exp(next(values)))
-    kt = float(scipy.special.expit(next(values))) * w0**2
-    slip = None if "phi_max" in fixed else float(np.exp(next(values)))
-    chi = fixed["chi"] if "chi" in fixed else -float(np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9))
-    beta = fixed["beta"] if "beta" in fixed else float(np.exp(next(values)))
-    if slip is None:
-        slip = fixed["phi_max"] * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
-    joint = IwanJoint((0,), slip_force=slip, kt=kt, chi=chi, beta=beta)
-    return AmplitudeModalModel(w0 / (2 * np.pi), z0, shapes, joint=joint, mode=mode, linear_damping=damping)
 
-
-def _iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
-          fixed: dict[str, float] | None = None, capped: bool = True,
-          amplitude_std: NDArray | None = None) -> tuple[AmplitudeModalModel, float]:
-    """Best Iwan backbone over the starts; with ``samples.shape_free`` the shape φ_f (the last
-    unknown, as a log) is fitted too and the model's shapes carry it. ``capped``: f₀ under
-    the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never);
-    ``amplitude_std``: the samples' relative amplitude noise (:mod:`.sample_residuals`)."""
-    fixed, free_shape, n = fixed or {}, samples.shape_free and samples.response_amplitude is not None, samples.amplitude.size
-    a_std = np.zeros(n) if amplitude_std is None else np.broadcast_to(np.asarray(amplitude_std, float), (n,))
-    noisy, stds = a_std > 0, [np.broadcast_to(np.asarray(std, float), (n,)) for std in (frequency_std, damping_std)]
-    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA or not capped)
-    if free_shape:
-        def unpack(t):
-            phi = float(np.exp(t[-1]))
-            scaled = ((shapes[0][0], phi),) + tuple((n, v * phi / shapes[0][1]) for n, v in shapes[1:])
-            return iwan_model(t[:-1], scaled, fixed, mode, damping), samples.with_shape(phi)
-    else:
-        def unpack(t):
-            return iwan_model(t, shapes, fixed, mode, damping), samples
-    z_low = float(samples.damping_ratio[np.argmin(samples.amplitude)])
-    a_max = float(np.max(samples.amplitude))
-    # log ω₀ is held in linear_limit_range by the trust region's own bounds: a logistic map
-    # onto that narrow range (1.5 Hz for a Jenkins SDOF at 81 Hz) made ω₀'s column ~300 × weaker
-    # than under log ω₀, the first step went into ζ₀ and φ_f instead (ζ₀ 0.0074 → 0.35), and the
-    # fit stalled at ζ₀ → 1 with φ_f 22.7 × the truth
-    log_range = np.log(omega_range)
-    inside = log_range + np.array([0.02, -0.02]) * (log_range[1] - log_range[0])
-    w0 = float(np.exp(np.clip(np.log(2 * np.pi * float(np.max(samples.frequency_hz)) * 1.001), *inside)))
-    best = None
-    for share in (0.05, 0.3):
-        # φ_max from a tenth of the largest amplitude (FRFs into gross slip: a Jenkins SDOF
-        # measured up to 0.08 N has it at 1.4 %) to four times it; one start where it is fixed
-        for reach in ((0.1, 1.0, 4.0) if "phi_max" not in fixed else (1.0,)):
-            for chi in ((-0.3, -0.7) if "chi" not in fixed else (fixed["chi"],)):
-                for beta in ((0.1, 1.0) if "beta" not in fixed else (fixed["beta"],)):
-                    kt = share * w0**2
-                    phi_max = fixed.get("phi_max", reach * a_max)
-                    slip = phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
-                    theta = [np.log(w0), np.log(max(min(z_low, 0.5), 1e-5)),
-                             scipy.special.logit(share)]
-                    if "phi_max" not in fixed:
-                        theta.append(np.log(slip))
-                    if "chi" not in fixed:
-                        theta.append(scipy.special.logit(-chi))
-                    if "beta" not in fixed:
-                        theta.append(np.log(beta))
-                    if free_shape:
-                        theta.append(np.log(samples.input_shape))
-                    unknowns = len(theta)  # then the noisy samples' log true amplitudes (iwan_model ignores them)
-                    theta.extend(np.log(samples.amplitude[noisy]))
-
-                    def residual(t):
-                        with np.errstate(all="ignore"):
-                            try:
-                                model, data = unpack(t)
-                            except (ValueError, OverflowError):
-                                return np.full(2 * n + int(noisy.sum()), 1e6)
-                            if noisy.any():
-                                return noisy_residual(model.omega_zeta, data.amplitude, data.frequency_hz,
-                                                      data.damping_ratio, t[unknowns:], noisy, *stds, a_std)
-                            return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
-
-                    lower, upper = np.full(len(theta), -np.inf), np.full(len(theta), np.inf)
-                    lower[0], upper[0] = log_range
-                    if free_shape:  # the shape a slipping joint gives: a few per cent from the stuck one
-                        lower[unknowns - 1], upper[unknowns - 1] = np.log(samples.input_shape) + np.log(SHAPE_RANGE) * np.array([-1, 1])
-                    solution = scipy.optimize.least_squares(residual, np.array(theta), method="trf", max_nfev=400,
-                                                            bounds=(lower, upper))
-                    if best is None or solution.cost < best.cost:
-                        best = solution
-    return unpack(best.x)[0], float(2 * best.cost)
-
-
-#: β of the ``jenkins`` backbone: the Iwan joint's continuous part is K_T/(1+β), so its
-#: describing function is a Jenkins element's (k_f = K_T, F_s = F_S) within ~1/β
-JENKINS_BETA = 1e6
-#: χ of the ``jenkins`` backbone (it only shapes the continuous part, which β makes negligible)
-JENKINS_CHI = -0.5
 #: the backbones :func:`fit_amplitude_model` fits: the model's, and ``jenkins`` (an Iwan joint
 #: in its Jenkins limit, stored as an ``iwan`` backbone)
 FIT_BACKBONES = BACKBONES + ("jenkins",)
@@ -359,14 +146,6 @@ def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int, constra
         return 0.0
     return float(scipy.stats.f.sf(excess / (chi2_free / free_dof), constraints, free_dof))
 
-
-#: how far (a factor either way) an Iwan fit's mode shape may stray from the modal constant
-#: read from the levels (a one-mode fit of the lowest level before issue 34; the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
-#: physics, not a convenience: a free shape let the fit shrink φ_f, which scales every
-#: damping ratio by φ_f² and keeps each peak, so a joint that cannot tie the measured damping
-#: to the measured softening (the BRB; a quadratic damper) fitted with ζ₀ → 0 and predicted
-#: curves 5–15 × too narrow (held-out damping −80 … −95 %)
-SHAPE_RANGE = 1.1
 
 
 def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float]], backbone: str = "iwan",
@@ -402,7 +181,8 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     if samples.amplitude.size < 3:
         raise AmplitudeModelError(f"the {backbone} backbone needs at least 3 samples, got {samples.amplitude.size}")
     jenkins = {"beta": JENKINS_BETA, "chi": JENKINS_CHI} if backbone == "jenkins" else {}
-    fits = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins, amplitude_std=amplitude_std), law)
+    fits = [(*fit_iwan(samples, shapes, frequency_std, damping_std, mode, law, jenkins, amplitude_std=amplitude_std),
+             law)
             for law in LINEAR_DAMPING]
     model, chi2, law = min(fits, key=lambda fit: fit[1])
     fitted_shape = samples.shape_free and samples.response_amplitude is not None
@@ -411,7 +191,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     dof = free_dof + 2 * bool(jenkins)  # the note's: two parameters fewer where β and χ (or φ_max) are fixed
     cap = linear_limit_range(samples, frequency_std)[1]
     if not jenkins and 2 * np.pi * model.natural_frequency_hz >= cap * (1 - 1e-6):  # on it: do the samples reject it?
-        free = [(*_iwan(samples, shapes, frequency_std, damping_std, mode, other, None, False, amplitude_std), other)
+        free = [(*fit_iwan(samples, shapes, frequency_std, damping_std, mode, other, None, False, amplitude_std), other)
                 for other in LINEAR_DAMPING]
         best, chi2_capped = min(free, key=lambda fit: fit[1]), chi2
         if (p_cap := microslip_test(best[1], chi2, free_dof, constraints=1)) < MICROSLIP_P:
@@ -430,7 +210,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
                 f"below phi_max = slip_force/kt, the closed hysteresis loop above)")
     elif a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
         reach = a_max / model.joint.phi_max
-        reduced, chi2_reduced = _iwan(samples, shapes, frequency_std, damping_std, mode, law,
+        reduced, chi2_reduced = fit_iwan(samples, shapes, frequency_std, damping_std, mode, law,
                                       {"beta": 0.0, "phi_max": a_max}, capped, amplitude_std)
         p_value = microslip_test(chi2, chi2_reduced, free_dof)
         if p_value >= MICROSLIP_P:

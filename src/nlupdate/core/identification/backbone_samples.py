@@ -1,6 +1,6 @@
 """Backbone samples of one mode from several sources, and the tables ``nlupdate amplitude`` writes.
 
-Samples (:class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`) from a modal
+Samples (:class:`~nlupdate.core.identification.modal_samples.ModalSamples`) from a modal
 table, FRFs, ring-downs (:mod:`nlupdate.core.identification.ring_down`) and response-controlled
 runs (:mod:`nlupdate.core.identification.response_controlled`) join into one set when they share
 the scale of the modal amplitude (the mode shape given); ``backbone_points.csv`` lists every
@@ -75,9 +75,10 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.bands import band_arrays
 from nlupdate.core.identification.joint_band import joint_fixed
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.measurement.units import RESPONSE_UNIT_LABELS
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 from nlupdate.progress import ProgressCallback, no_progress

@@ -3,7 +3,7 @@
 ``nlupdate amplitude --band`` (a study's ``[amplitude] band_hz``) leaves out the measured
 lines outside the band before any step, and each force level's sample (its resonance
 frequency, amplitude and damping ratio:
-:func:`~nlupdate.core.identification.amplitude_modal_fit.samples_from_frfs`) is read from
+:func:`~nlupdate.core.identification.modal_samples.samples_from_frfs`) is read from
 what is left. A band cut into the resonance changes that reading: the other modes' share and
 the modal constant (the shape φ_f when it is not given) are read from the lines near each
 level's top (:mod:`~nlupdate.core.identification.level_residual`), which the band may cut, and
@@ -38,8 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, samples_from_frfs
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs
 from nlupdate.core.measurement.band import in_band
 from nlupdate.core.measurement.noise import estimate_noise_fraction
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError

@@ -69,8 +69,9 @@ import scipy.optimize
 import scipy.signal
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, microslip_test
+from nlupdate.core.identification.amplitude_modal_fit import microslip_test
 from nlupdate.core.identification.impact import _decay, decay_segments
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.ring_down import RingDownError, analytic_band_pass
 
 #: powers of r in σ(a) and ω_d(a) − ω_c, in the order they are added (module docstring)

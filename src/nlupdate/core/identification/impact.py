@@ -60,7 +60,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.ring_down import (
     RingDownError, _filter_tail, _trims, _uniform_rate, analytic_band_pass, default_band,
 )

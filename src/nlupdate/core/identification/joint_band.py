@@ -52,7 +52,8 @@ import numpy as np
 import scipy.special
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import JENKINS_BETA, JENKINS_CHI, ModalSamples, iwan_model
+from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI, iwan_model
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.sample_residuals import sample_residual
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
 
@@ -73,7 +74,7 @@ def joint_fixed(model: AmplitudeModalModel) -> dict[str, float]:
 
 
 def joint_unknowns(model: AmplitudeModalModel) -> NDArray:
-    """The unknowns of :func:`~nlupdate.core.identification.amplitude_modal_fit.iwan_model` for
+    """The unknowns of :func:`~nlupdate.core.identification.iwan_backbone_fit.iwan_model` for
     ``model``: log ω₀, log ζ₀, logit(K_T/ω₀²), log F_S (and logit(−χ), log β unless Jenkins)."""
     joint, w0 = model.joint, 2 * np.pi * model.natural_frequency_hz
     theta = [np.log(w0), np.log(model.damping_ratio), scipy.special.logit(joint.kt / w0**2), np.log(joint.slip_force)]
@@ -91,7 +92,7 @@ def model_from_unknowns(model: AmplitudeModalModel) -> Callable[[NDArray], Ampli
 def sample_fit_residual(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: float | NDArray,
                         damping_std: float | NDArray) -> Callable[[NDArray], NDArray]:
     """θ → the weighted misfits the sample fit minimised
-    (:func:`~nlupdate.core.identification.amplitude_modal_fit.sample_residual`)."""
+    (:func:`~nlupdate.core.identification.sample_residuals.sample_residual`)."""
     unpack = model_from_unknowns(model)
     return lambda theta: sample_residual(unpack(theta).omega_zeta, samples, frequency_std, damping_std)
 

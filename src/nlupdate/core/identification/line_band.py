@@ -38,7 +38,7 @@ import scipy.optimize
 import scipy.stats
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.joint_band import (
     DRAWS, covariance_band, joint_unknowns, mixed_law_residual, model_from_unknowns,
 )

@@ -1,6 +1,6 @@
 """A modal joint backbone refined on every line of a force-controlled stepped sine (output error).
 
-One sample per level (the peak, :func:`~nlupdate.core.identification.amplitude_modal_fit.samples_from_frfs`)
+One sample per level (the peak, :func:`~nlupdate.core.identification.modal_samples.samples_from_frfs`)
 sees a Jenkins joint's stick–slip kink only where a level happens to peak, and its damping
 just above the slip amplitude a_s changes 12.7 × faster than a_s (docs/ring-down.md, "Near
 the stick–slip kink"): six levels at 2 % noise placed a_s within about ±3 %, the damping up
@@ -53,10 +53,11 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, sample_residual
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.joint_band import joint_unknowns, model_from_unknowns
 from nlupdate.core.identification.line_samples import PEAK_FRACTION, lowest_level_fit
+from nlupdate.core.identification.modal_samples import ModalSamples
+from nlupdate.core.identification.sample_residuals import sample_residual
 from nlupdate.core.model.amplitude_modal import LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
 
 #: Newton steps in ln a per line (each at most :data:`_STEP` in ln a)

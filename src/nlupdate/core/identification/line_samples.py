@@ -38,9 +38,9 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 import scipy.optimize
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_over_band
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.model.single_mode import natural_and_damping
 

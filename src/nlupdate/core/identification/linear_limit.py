@@ -12,7 +12,7 @@ from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 
 
 class ModalSamples(Protocol):
-    """What the bounds read of :class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`."""
+    """What the bounds read of :class:`~nlupdate.core.identification.modal_samples.ModalSamples`."""
 
     amplitude: NDArray
     frequency_hz: NDArray

@@ -66,7 +66,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.matfile import (
     _RUN_FIELDS, _raw_variables, _run_coordinates, _run_groups, _run_units, _run_vector, _signed,

@@ -47,10 +47,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
 from nlupdate.core.identification.modal_fit import fit_mode_near
-from nlupdate.input_files import read_input_bytes, sniff
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.measurement.frf_table import MeasurementTableError
+from nlupdate.input_files import read_input_bytes, sniff
 from nlupdate.core.measurement.matfile import (
     _RUN_FIELDS, _raw_variables, _run_coordinates, _run_groups, _run_units, _run_vector, _spread,
 )

@@ -61,7 +61,7 @@ must be kept out with an explicit ``band_hz``.
 
 Samples. :meth:`RingDownEstimate.samples` keeps samples a window apart (the estimates
 within one window are not independent) as
-:class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples` for the backbone fits
+:class:`~nlupdate.core.identification.modal_samples.ModalSamples` for the backbone fits
 (``force_n`` is 0: a free decay has no force).
 
 Limits (measured, tests/test_ring_down.py; SDOF at 10 Hz, ζ_lin = 0.5 %, joint stiffness
@@ -104,10 +104,10 @@ import pandas as pd
 import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples
-from nlupdate.input_files import read_input_bytes, sniff
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.time_history import csv_frame
+from nlupdate.input_files import read_input_bytes, sniff
 
 #: the filter's impulse response counts as ended below this fraction of its peak
 IMPULSE_FLOOR = 1e-3

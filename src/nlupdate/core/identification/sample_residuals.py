@@ -61,7 +61,7 @@ EIV_BACKBONES = ("iwan",)
 
 def sample_residual(model_omega_zeta, samples, frequency_std: float, damping_std: float) -> NDArray:
     """Weighted relative misfits of ``samples`` (a
-    :class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`, which imports this
+    :class:`~nlupdate.core.identification.modal_samples.ModalSamples`, which imports this
     module) about the curves ``model_omega_zeta(a) → (ω, ζ)``:
     frequencies over ``frequency_std``, then damping ratios over ``damping_std`` (non-finite: 1e6)."""
     omega, zeta = model_omega_zeta(samples.amplitude)

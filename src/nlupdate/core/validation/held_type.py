@@ -3,7 +3,7 @@ predict the held-out type's own observables (docs/validation.md, "A whole test t
 
 The sources are those of ``nlupdate amplitude`` (stepped sine, response-controlled runs, phase
 resonance, ring-downs, impacts), each a list of backbone samples
-(:class:`~nlupdate.core.identification.amplitude_modal_fit.ModalSamples`). The kept sources are
+(:class:`~nlupdate.core.identification.modal_samples.ModalSamples`). The kept sources are
 fitted jointly, each weighted by its own noise
 (:func:`~nlupdate.core.identification.backbone_samples.source_noise`; one source alone with the
 fit's default weights, as ``nlupdate amplitude`` does). What is predicted:
@@ -66,7 +66,8 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
+from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.backbone_samples import (
     TEST_TYPES, bootstrap_bands, held_out_errors, join_samples, own_fit_for, source_noise,
 )

@@ -46,13 +46,14 @@ from typing import Callable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, amplitude_model_from_frfs
+from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
 from nlupdate.core.identification.level_residual import frf_residual
-from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
-from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits, baseline_frf
+from nlupdate.core.identification.modal_samples import ModalSamples
+from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits, baseline_frf
 
 #: frequency (Hz), level → receptance (m/N, or per volt)
 Predictor = Callable[[NDArray, float], NDArray[np.complex128]]

@@ -5,15 +5,16 @@ import dataclasses
 
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import default_resamples, samples_from_frfs
+from nlupdate.core.identification.amplitude_modal_fit import default_resamples
 from nlupdate.core.identification.backbone_samples import displacement_samples
 from nlupdate.core.identification.data import FRFLevels
+from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation
-from nlupdate.core.validation.impact_limit import impact_linear_limit
 from nlupdate.core.validation.held_response import validate_measured
+from nlupdate.core.validation.impact_limit import impact_linear_limit
 from nlupdate.core.validation.held_type import (
     BACKBONE_OF_MODEL, HeldType, Source, TypedValidation, hold_out_type,
 )
