@@ -3,6 +3,7 @@ confident number (issue 34 item 4; the new-user walk's items 3 and 4)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +11,10 @@ import numpy as np
 from nlupdate.app.cli import main
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.modal_samples import ModalSamples
+from nlupdate.core.model.amplitude_modal import LOWER_BOUNDED, AmplitudeModalModel
+from nlupdate.core.model.elements import IwanJoint
 from nlupdate.reporting.backbone_plots import model_title
-from nlupdate.reporting.model_numbers import damping_text
+from nlupdate.reporting.model_numbers import damping_text, joint_text
 
 BRB = Path(__file__).parent / "data" / "brb"
 
@@ -43,3 +46,33 @@ def test_brb_default_iwan_prints_its_bounded_parameters_one_sided(tmp_path, caps
     assert "linear limit ≥ " in mode and "upper physical bound" in mode, mode
     assert "chi = 0 (at its bound" in joint_line and "e-09" not in joint_line, joint_line
     assert "kt ≥" in joint_line and "slip_force ≥" in joint_line, joint_line
+
+
+def _iwan_samples(reach: float) -> ModalSamples:
+    """Six samples of a modal Iwan backbone (truth: 120 Hz, ζ₀ 0.3 %, K_T = 0.3 ω₀², χ = −0.5,
+    β = 0.5, φ_max = 1e-3 m·√kg) at amplitudes up to ``reach`` × φ_max, with 0.01 % and 1 %
+    relative noise (seed 3) on the frequencies and damping ratios."""
+    w0 = 2 * np.pi * 120.0
+    joint = IwanJoint((0,), slip_force=1e-3 * 0.3 * w0**2 * (0.5 + 0.5 / 1.5) / 1.5, kt=0.3 * w0**2, chi=-0.5, beta=0.5)
+    truth = AmplitudeModalModel(120.0, 0.003, (("x", 1.0),), joint=joint)
+    a = np.geomspace(0.02, reach, 6) * joint.phi_max
+    omega, zeta = truth.omega_zeta(a)
+    noise = np.random.default_rng(3).standard_normal((2, a.size))
+    return ModalSamples(a, omega / (2 * np.pi) * (1 + 1e-4 * noise[0]), zeta * (1 + 1e-2 * noise[1]), np.ones_like(a), 1.0)
+
+
+def test_the_fits_lower_bounds_are_a_field_the_terminal_and_the_file_read():
+    """Samples all in microslip (≤ 0.3 φ_max): the fit fixes β = 0 and φ_max at the largest
+    amplitude, and its ``lower_bounds`` names K_T and F_S, which the joint's line prints '≥' with
+    the reason; into macroslip (8 φ_max) it fits all four and names none. The line follows the
+    field, not the note's words, and the field survives amplitude_model.json."""
+    micro = fit_amplitude_model(_iwan_samples(0.3), [("x", 1.0)], "iwan", frequency_std=1e-4, damping_std=1e-2)
+    assert micro.lower_bounds == LOWER_BOUNDED == ("kt", "slip_force") and micro.joint.beta == 0
+    line = joint_text(micro)
+    assert line.startswith(f"kt ≥ {micro.joint.kt:.6g} rad²/s², slip_force ≥ {micro.joint.slip_force:.6g} N/√kg "
+                           "(lower bounds: beta fixed at 0, no sample reaches macroslip), "), line
+    reread = AmplitudeModalModel.from_dict(json.loads(json.dumps(micro.to_dict())))
+    assert reread.lower_bounds == micro.lower_bounds and joint_text(reread) == line
+    assert joint_text(replace(micro, lower_bounds=())).startswith(f"kt = {micro.joint.kt:.6g} rad²/s², slip_force = ")
+    macro = fit_amplitude_model(_iwan_samples(8.0), [("x", 1.0)], "iwan", frequency_std=1e-4, damping_std=1e-2)
+    assert macro.lower_bounds == () and "lower bounds" not in joint_text(macro) and macro.joint.beta > 0

@@ -33,11 +33,10 @@ def joint_text(model: AmplitudeModalModel, unit: str = "N") -> str:
     """The modal Iwan joint's parameters, each on a bound named with its side: χ at 0 (the
     samples' dissipation grows at least as fast as a uniform slip-force density's) or at −1 (a
     Jenkins element), β = 0 (no macroslip stiffness), and K_T, F_S as lower bounds where the fit
-    fixed β = 0 and φ_max at the largest amplitude (its note says so)."""
-    j = model.joint
-    lower = j.beta == 0 and "lower bounds" in model.note
-    kt = f"kt {'≥' if lower else '='} {j.kt:.6g} rad²/s²"
-    slip = f"slip_force {'≥' if lower else '='} {j.slip_force:.6g} {unit}/√kg"
+    fixed β = 0 and φ_max at the largest amplitude (the model's ``lower_bounds``)."""
+    j, lower = model.joint, model.lower_bounds
+    kt = f"kt {'≥' if 'kt' in lower else '='} {j.kt:.6g} rad²/s²"
+    slip = f"slip_force {'≥' if 'slip_force' in lower else '='} {j.slip_force:.6g} {unit}/√kg"
     if j.chi >= -CHI_BOUND:
         chi = ("chi = 0 (at its bound −1 < chi ≤ 0: the samples would take it to chi ≥ 0, a dissipation growing at "
                "least as fast as a uniform slip-force density's; not determined)")

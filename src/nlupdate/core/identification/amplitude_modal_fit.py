@@ -52,7 +52,9 @@ from nlupdate.core.identification.dfmodels import MACROSLIP_REACH
 from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI, SHAPE_RANGE, fit_iwan
 from nlupdate.core.identification.linear_limit import damping_cap, linear_limit_range, linear_limit_warnings
 from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
-from nlupdate.core.model.amplitude_modal import BACKBONES, LINEAR_DAMPING, AmplitudeModalModel, AmplitudeModelError
+from nlupdate.core.model.amplitude_modal import (
+    BACKBONES, LINEAR_DAMPING, LOWER_BOUNDED, AmplitudeModalModel, AmplitudeModelError,
+)
 
 #: points of [0, a_ref] where the polynomial backbone is held monotone and its damping ≥ 0
 _POLYNOMIAL_CHECKS = np.linspace(0.0, 1.0, 101)
@@ -204,22 +206,23 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         samples = ModalSamples(samples.amplitude, samples.frequency_hz, samples.damping_ratio, samples.force_n,
                                samples.input_shape, samples.response_amplitude, shape_free=False)
         shapes = model.shapes
-    a_max = float(np.max(samples.amplitude))
+    a_max, lower_bounds = float(np.max(samples.amplitude)), ()
     if jenkins:
         note = (f"modal Jenkins backbone: the Iwan joint in its Jenkins limit (beta = {JENKINS_BETA:g} fixed: stuck "
                 f"below phi_max = slip_force/kt, the closed hysteresis loop above)")
     elif a_max < MACROSLIP_REACH * model.joint.phi_max or n <= 6:
         reach = a_max / model.joint.phi_max
         reduced, chi2_reduced = fit_iwan(samples, shapes, frequency_std, damping_std, mode, law,
-                                      {"beta": 0.0, "phi_max": a_max}, capped, amplitude_std)
+                                         {"beta": 0.0, "phi_max": a_max}, capped, amplitude_std)
         p_value = microslip_test(chi2, chi2_reduced, free_dof)
         if p_value >= MICROSLIP_P:
-            model, chi2, dof = reduced, chi2_reduced, free_dof + 2
+            model, chi2, dof, lower_bounds = reduced, chi2_reduced, free_dof + 2, LOWER_BOUNDED
             why = ("too few samples to test it" if free_dof <= 0 else
                    f"the fit with beta = 0 is as good within the noise: F-test p = {p_value:.2g} ≥ {MICROSLIP_P:g}")
             note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
                     f"the φ_max of a free fit; {MACROSLIP_REACH:g} × needed) and {why}: the data determine chi and R' "
-                    f"only; fixed beta = 0 and phi_max = the largest amplitude, so kt and slip_force are lower bounds")
+                    f"only; fixed beta = 0 and phi_max = the largest amplitude, so {' and '.join(lower_bounds)} are lower "
+                    f"bounds")
         else:
             note = (f"modal Iwan backbone, all parameters fitted (the largest modal amplitude is {reach:.2g} × the "
                     f"fit's φ_max, below {MACROSLIP_REACH:g} ×, but the fit with beta = 0 is worse beyond the noise: "
@@ -232,7 +235,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
     out = AmplitudeModalModel(model.natural_frequency_hz, model.damping_ratio, shapes, joint=model.joint, mode=mode,
-                              linear_damping=law, note=note)
+                              linear_damping=law, note=note, lower_bounds=lower_bounds)
     warnings = linear_limit_warnings(out, samples, frequency_std, damping_std=damping_std)
     ratio = shapes[0][1] / stuck_shape
     if fitted_shape and abs(np.log(ratio)) >= 0.99 * np.log(SHAPE_RANGE):

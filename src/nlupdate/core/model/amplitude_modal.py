@@ -77,6 +77,9 @@ LINEAR_DAMPING = ("viscous", "structural")
 #: (monotone, so no second resonance branch; what ``nlupdate validate`` needs to predict a
 #: level above the fitted ones).
 BEYOND_REFERENCE = ("hold", "continued")
+#: The Iwan joint's parameters a fit in microslip only bounds from below (fixed β = 0 and φ_max
+#: at the largest amplitude: a larger joint fits as well); a model's ``lower_bounds`` names them.
+LOWER_BOUNDED = ("kt", "slip_force")
 _CURVE_POINTS = 1500
 
 
@@ -98,6 +101,9 @@ class AmplitudeModalModel:
     what the fit could not establish (one sentence each, e.g. a linear limit at its bound);
     reference_unit: "N", or "V" for a model of FRFs per volt (forces, the joint's F_S and the
     shapes' N then per volt: V where N would stand).
+    lower_bounds: the joint's parameters the fit determines only from below (:data:`LOWER_BOUNDED`
+    names them): ``("kt", "slip_force")`` where it fixed β = 0 and φ_max at the largest amplitude
+    because no sample reaches macroslip; empty otherwise.
     """
 
     natural_frequency_hz: float
@@ -115,6 +121,7 @@ class AmplitudeModalModel:
     note: str = field(default="", compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)
     reference_unit: str = "N"
+    lower_bounds: tuple[str, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         f0, zeta = float(self.natural_frequency_hz), float(self.damping_ratio)
@@ -132,6 +139,9 @@ class AmplitudeModalModel:
                 raise AmplitudeModelError(
                     f"joint kt = {self.joint.kt:.4g} rad²/s² must be below ω₀² = {(2 * np.pi * f0) ** 2:.4g} (the mode "
                     "without the joint would have no stiffness)")
+        if not set(self.lower_bounds) <= set(LOWER_BOUNDED) or (self.lower_bounds and self.joint is None):
+            raise AmplitudeModelError(f"lower_bounds: names of the Iwan joint's parameters {list(LOWER_BOUNDED)} (with a "
+                                      f"joint), got {list(self.lower_bounds)}")
         if self.reference_unit not in ("N", "V"):
             raise AmplitudeModelError(f"reference_unit must be 'N' or 'V', got {self.reference_unit!r}")
         if self.linear_damping not in LINEAR_DAMPING:
@@ -399,6 +409,8 @@ class AmplitudeModalModel:
             out["note"] = self.note
         if self.warnings:
             out["warnings"] = list(self.warnings)
+        if self.lower_bounds:
+            out["lower_bounds"] = list(self.lower_bounds)
         return out
 
     @classmethod
@@ -408,7 +420,8 @@ class AmplitudeModalModel:
             common = dict(natural_frequency_hz=float(data["natural_frequency_hz"]),
                           damping_ratio=float(data["damping_ratio"]), shapes=shapes, mode=int(data.get("mode", 1)),
                           note=str(data.get("note", "")), warnings=tuple(str(w) for w in data.get("warnings", ())),
-                          reference_unit=str(data.get("reference_unit", "N")))
+                          reference_unit=str(data.get("reference_unit", "N")),
+                          lower_bounds=tuple(str(name) for name in data.get("lower_bounds", ())))
             if data.get("backbone") == "iwan":
                 j = data["joint"]
                 joint = IwanJoint((0,), slip_force=j["slip_force"], kt=j["kt"], chi=j["chi"], beta=j["beta"])
