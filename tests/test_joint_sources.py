@@ -124,3 +124,32 @@ def test_brb_stepped_sine_joined_without_its_shape_names_the_coordinate(tmp_path
     error = err.strip().splitlines()[-1]
     assert str(runs) in error and "excited coordinate acc3:y" in error, error
     assert "--shape acc3:y=VALUE" in error and "shapes given at: acc3)" in error, error
+
+
+def test_brb_hammer_record_without_its_shape_is_refused_by_name(tmp_path, capsys):
+    """The hammer record read at acc3 without a shape has amplitudes in m, the response-controlled
+    runs modal ones (their shape from the lowest run's modal constant): no common scale. The fit
+    refuses it (one owner of the rule: backbone_samples.check_common_scale), and the one line on
+    stderr names the file, the channel and the form of the option that fixes it."""
+    brb = Path(__file__).parent / "data" / "brb"
+    impact, runs = brb / "HammerImpact_1600Hz.mat", brb / "ForcedFrequencyResponses.mat"
+    assert main(["amplitude", "--ring-down", str(impact), "--channel", "acc3", "--band", "60:100", "--response-unit",
+                 "m/s^2", "--response-controlled", str(runs), "--coordinates", f"{runs}=acc3:-y,acc3:y",
+                 "--out", str(tmp_path / "amm")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.startswith(f"nlupdate amplitude: error: {impact}: no mode shape at channel acc3, "), error
+    assert "give --shape acc3=VALUE (mass-normalised, 1/√kg; shapes given: none" in error, error
+
+
+def test_a_record_without_its_shape_is_refused_by_name_when_a_type_is_held_out(tests_of_one_mode):
+    """validate --hold-out-type joins its kept sources through the same rule, which names the file."""
+    from nlupdate.core.identification.amplitude_inputs import SourceFiles, read_sources
+    from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+    from nlupdate.core.validation.held_type import fit_sources
+
+    folder = tests_of_one_mode
+    ring, _, _ = read_sources(SourceFiles(ring_down=(str(folder / "decay.csv"),), band=(7.0, 13.0)), {})  # in m
+    points, _, _ = read_sources(SourceFiles(phase_resonance=(str(folder / "pr.csv"),)), {"x": PHI})  # modal
+    with pytest.raises(AmplitudeModelError, match=rf"^{folder / 'decay.csv'}: no mode shape at channel x, .*"
+                                                  r"give --shape x=VALUE \(mass-normalised, 1/√kg; shapes given: x="):
+        fit_sources(ring + points, (("x", PHI),), "polynomial")

@@ -95,22 +95,6 @@ def _shapes(texts: list[str]) -> dict[str, float]:
     return shapes
 
 
-def _check_record_shapes(rings: list, channel: str | None, shapes: dict[str, float], measured: bool) -> None:
-    """Refuse, naming the files and the channel, ring-down and impact records read without a
-    shape (amplitudes in m at their channel) that are to join modal samples (FRFs, runs,
-    phase resonance, or records with a shape): their amplitudes have no common scale. The
-    joint fit refused it too, in a line that named neither the file nor the channel."""
-    loose = [name for name, samples, _, _ in rings if not samples.modal]
-    if not loose or not (measured or any(samples.modal for _, samples, _, _ in rings)):
-        return
-    given = ", ".join(f"{name}={value:g}" for name, value in shapes.items()) or "none"
-    name = channel or "CHANNEL"
-    raise CliError(f"{', '.join(dict.fromkeys(loose))}: no mode shape at {'channel ' + channel if channel else 'its channel'}"
-                   f", so its amplitudes are in m, not modal, and cannot join the modal samples of the other sources; "
-                   f"give --shape {name}=VALUE (mass-normalised, 1/√kg; shapes given: {given} — one sensor named two "
-                   f"ways, a record's channel and an FRF's coordinate such as {name}:y, needs its shape under both)")
-
-
 def _plot_prediction(predicted, data: FRFLevels, path: Path, unit: str = "N") -> Path:
     """|H| the model predicts (lines) against the measured curves (dots) over the predicted
     band; a level measured and predicted shares its colour."""
@@ -146,7 +130,6 @@ def run(args: argparse.Namespace) -> int:
                        "--response-controlled FILE, --phase-resonance FILE, --impact FILE")
     options = FitOptions(args.backbone, args.order, args.mode, args.bootstrap, args.hold_out)
     rings, channel = read_sources(args, shapes)
-    _check_record_shapes(rings, args.channel, shapes, bool(args.measured))
     measured = None
     if args.measured:
         table, whole, notes = measured_tables(args, modal=True, find_band=True)

@@ -72,7 +72,7 @@ def _units_note(channel: str, shapes: Mapping[str, float], unit: str) -> str:
 
 def _record_samples(samples: ModalSamples, channel: str, shapes: Mapping[str, float], unit: str) -> ModalSamples:
     """A ring-down's or impact's samples as displacement, not modal without a shape at ``channel``."""
-    return dataclasses.replace(displacement_samples(samples, unit), modal=channel in shapes)
+    return dataclasses.replace(displacement_samples(samples, unit), modal=channel in shapes, channel=channel)
 
 
 def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[Source], str, list[str]]:

@@ -48,8 +48,8 @@ from nlupdate.core.identification.amplitude_modal_fit import (
 )
 from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
 from nlupdate.core.identification.backbone_samples import (
-    DEFAULT_NOISE, backbone_curve, backbone_points, consistency, held_out_errors, join_samples, own_fit_for,
-    source_noise,
+    DEFAULT_NOISE, backbone_curve, backbone_points, check_common_scale, consistency, held_out_errors, join_samples,
+    own_fit_for, source_noise,
 )
 from nlupdate.core.identification.band_dependence import band_changes, band_warning
 from nlupdate.core.identification.data import FRFLevels
@@ -281,6 +281,8 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
     if measured is None and not sources:
         raise ValueError("no source: give stepped-sine data or a ring-down, response-controlled, phase-resonance "
                          "or impact file")
+    named = ([(measured_name, measured.samples)] if measured is not None else []) + [(n, s) for n, s, _, _ in sources]
+    check_common_scale([s for _, s in named], [n for n, _ in named], shapes)  # records without a shape, named
     if measured is None:  # the sensor's coordinate stands for the input of any predicted FRF (a driving point)
         samples = join_samples([s for _, s, _, _ in sources])
         shapes_fit = ((channel, samples.input_shape),)

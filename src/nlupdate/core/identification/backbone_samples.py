@@ -70,7 +70,7 @@ put a true impact a decade below the other samples 35 standard errors off.
 """
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -123,22 +123,42 @@ def small_sample_scale(n: int, parameters: int) -> float:
     return float(np.sqrt(n / dof) * scipy.stats.t.ppf(0.975, dof) / scipy.stats.norm.ppf(0.975))
 
 
-def join_samples(parts: list[ModalSamples]) -> ModalSamples:
+def check_common_scale(parts: Sequence[ModalSamples], names: Sequence[str] = (),
+                       shapes: Mapping[str, float] | None = None) -> None:
+    """Refuse (one line) records read without the mode shape at their channel (``modal``
+    False: amplitudes in m at that channel) joining modal samples: no common amplitude scale.
+    ``names``: each part's source (a file), named in the refusal with the records' channel
+    (:attr:`ModalSamples.channel`) and the ``shapes`` given (coordinate → 1/√kg)."""
+    if len({p.modal for p in parts}) < 2:
+        return
+    loose = [(name, p.channel) for name, p in zip(names, parts) if not p.modal]
+    files = ", ".join(dict.fromkeys(name for name, _ in loose)) or "a ring-down or impact record"
+    channels = list(dict.fromkeys(channel for _, channel in loose if channel))
+    channel = channels[0] if len(channels) == 1 else ""
+    given = ", ".join(f"{name}={value:g}" for name, value in (shapes or {}).items()) or "none"
+    option = channel or "CHANNEL"
+    raise AmplitudeModelError(
+        f"{files}: no mode shape at {'channel ' + channel if channel else 'its channel'}, so its amplitudes are in m, "
+        f"not modal, and cannot join the modal samples of the other sources; give --shape {option}=VALUE "
+        f"(mass-normalised, 1/√kg; shapes given: {given} — one sensor named two ways, a record's channel and an FRF's "
+        f"coordinate such as {option}:y, needs its shape under both)")
+
+
+def join_samples(parts: list[ModalSamples], names: Sequence[str] = (),
+                 shapes: Mapping[str, float] | None = None) -> ModalSamples:
     """One set of samples from several sources at the same modal-amplitude scale (each with
-    its shape given: FRF samples whose shape is to be fitted cannot join others)."""
+    its shape given: FRF samples whose shape is to be fitted cannot join others; records
+    without one neither, :func:`check_common_scale`, ``names`` and ``shapes`` naming them)."""
     if any(p.shape_free for p in parts):
         raise AmplitudeModelError("joining FRF samples with other sources needs the mode shape at the excited "
                                   "coordinate (--shape NAME=VALUE): without it their modal amplitudes have no common "
                                   "scale")
-    if len({p.modal for p in parts}) > 1:
-        raise AmplitudeModelError("joining a ring-down or impact record read without the mode shape at its channel "
-                                  "(its amplitudes in m, not modal) with modal samples needs that shape (--shape "
-                                  "CHANNEL=VALUE, 1/√kg): without it their amplitudes have no common scale")
+    check_common_scale(parts, names, shapes)
     if len(parts) == 1:
         return parts[0]
     return ModalSamples(np.concatenate([p.amplitude for p in parts]), np.concatenate([p.frequency_hz for p in parts]),
                         np.concatenate([p.damping_ratio for p in parts]), np.concatenate([p.force_n for p in parts]),
-                        parts[0].input_shape, modal=parts[0].modal)
+                        parts[0].input_shape, modal=parts[0].modal, channel=parts[0].channel)
 
 
 def backbone_points(parts: list[tuple[str, ModalSamples] | tuple[str, ModalSamples, str]]) -> pd.DataFrame:
@@ -228,7 +248,8 @@ def displacement_samples(samples: ModalSamples, unit: str) -> ModalSamples:
     power, factor = RESPONSE_UNIT_LABELS[unit]
     omega = 2 * np.pi * samples.frequency_hz
     return ModalSamples(samples.amplitude * factor / omega**power, samples.frequency_hz, samples.damping_ratio,
-                        samples.force_n, samples.input_shape, modal=samples.modal)
+                        samples.force_n, samples.input_shape, modal=samples.modal,
+                        channel=samples.channel)
 
 
 def own_fit_for(backbone: str, shapes) -> Callable[[ModalSamples], AmplitudeModalModel] | None:

@@ -52,7 +52,8 @@ class ModalSamples:
     and ``shape_free`` says φ_f was not given (an Iwan fit then fits it); ``response_ratio``
     is φ_r/φ_f of the FRFs' response (1 at the driving point). ``modal`` is False for the
     samples of a record read without a shape at its channel: a is then the record's own
-    amplitude (m), on no common scale with modal samples (φ_r = 1 is assumed, not known)."""
+    amplitude (m), on no common scale with modal samples (φ_r = 1 is assumed, not known);
+    ``channel`` is then the record's channel (what a refusal to join them names)."""
 
     amplitude: NDArray[np.float64]
     frequency_hz: NDArray[np.float64]
@@ -64,6 +65,7 @@ class ModalSamples:
     response_ratio: float = 1.0
     modal: bool = True
     level: NDArray[np.float64] | None = None
+    channel: str = ""
 
     def with_shape(self, input_shape: float) -> "ModalSamples":
         """The same FRF samples for another φ_f (1/√kg)."""

@@ -226,7 +226,7 @@ def fit_sources(kept: Sequence[Source], shapes: Sequence[tuple[str, float]], bac
                 order: int = 2, mode: int = 1) -> AmplitudeModalModel:
     """The amplitude model of the kept sources jointly, each weighted by its noise (module
     docstring)."""
-    samples = join_samples([s for _, s, _, _ in kept])
+    samples = join_samples([s for _, s, _, _ in kept], [name for name, _, _, _ in kept], dict(shapes))
     if samples.amplitude.size < 2:
         raise AmplitudeModelError("the sources kept give one sample (an impact's linear limit): a backbone needs "
                                   "more; keep another test type")
