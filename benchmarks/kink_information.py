@@ -4,7 +4,7 @@ Cramér–Rao bound on ln a_s (docs/ring-down.md, "The kink from the stepped sin
 amplitude φ_max (docs/ring-down.md, "The Iwan fits at φ_max").
 
     python benchmarks/kink_information.py [--extra N ...]
-    python benchmarks/kink_information.py --joint iwan [--seeds 8] [--frequency-noise 1e-6]
+    python benchmarks/kink_information.py --joint iwan [--seeds 8] [--frequency-noise 1e-6] [--levels N]
 
 The Jenkins systems of tests/test_test_type_truth.py, their modal Jenkins backbone at the truth
 (``iwan_model`` with β = 10⁶: ω₀, ζ₀ viscous, K_T, F_S), phase-resonance points at the
@@ -17,7 +17,8 @@ smallest scatter any unbiased estimator can have.
 
 ``--joint iwan``: the Iwan systems (χ = −0.5, β = 0.5; φ_max = 1.8 a_s), their modal Iwan
 backbone at the truth (ω₀, ζ₀ viscous, K_T, F_S, χ, β: six unknowns) and the benchmark's six
-levels (0.3–6 a_s, ``IWAN_LEVELS``), the same noise and unknowns. Printed per system: the
+levels (0.3–6 a_s, ``IWAN_LEVELS``; ``--levels N``: N spread geometrically over the same span),
+the same noise and unknowns. Printed per system: the
 bound's largest standard deviation of ln ζ(a) over the levels' span and where; and, drawing
 the six parameters from the bound's normal distribution (``--draws``), the largest relative
 damping error over 60 amplitudes across that span (as the benchmark's own fits are judged),
@@ -85,13 +86,15 @@ def bound(dofs: int, levels: np.ndarray, noise: float = 0.02, frequency_noise: f
 
 
 def iwan_damping_bound(dofs: int, noise: float = 0.02, frequency_noise: float = 1e-6, seeds: int = 8,
-                       draws: int = 4000, seed: int = 0) -> dict:
-    """The Iwan system's damping-curve bound over the levels' span (module docstring): the
-    largest sd of ln ζ and its amplitude (× a_s), the median largest error over the span, and
-    of the largest over ``seeds`` draws its median, 90th percentile and share within 5 %."""
+                       draws: int = 4000, seed: int = 0, levels: int = IWAN_LEVELS.size) -> dict:
+    """The Iwan system's damping-curve bound over the levels' span (module docstring) from
+    ``levels`` points spread geometrically over ``IWAN_LEVELS``' span: the largest sd of ln ζ and
+    its amplitude (× a_s), the median largest error over the span, and of the largest over
+    ``seeds`` draws its median, 90th percentile and share within 5 %."""
     s = system(dofs, "iwan")
     theta, shapes = truth_unknowns(s, "iwan"), (("0", float(s["phi"][0])),)
-    cov = parameter_covariance(s, theta, {}, IWAN_LEVELS, noise, frequency_noise)
+    cov = parameter_covariance(s, theta, {}, np.geomspace(IWAN_LEVELS[0], IWAN_LEVELS[-1], levels), noise,
+                               frequency_noise)
     a = np.geomspace(IWAN_LEVELS[0], IWAN_LEVELS[-1], 60) * s["slip"]
     z_true = truth(s, a)[1]
 
@@ -120,13 +123,15 @@ def main() -> None:
     parser.add_argument("--joint", default="jenkins", choices=("jenkins", "iwan"))
     parser.add_argument("--seeds", type=int, default=8, help="--joint iwan: the seeds the largest error is over")
     parser.add_argument("--draws", type=int, default=4000, help="--joint iwan: parameter draws")
+    parser.add_argument("--levels", type=int, default=IWAN_LEVELS.size,
+                        help="--joint iwan: this many points over 0.3–6 a_s, geometrically (default the six)")
     args = parser.parse_args()
     if args.joint == "iwan":
         noise = 1e-6 if args.frequency_noise is None else args.frequency_noise
         print(f"system   sd(ln ζ) largest, at a/a_s   largest |Δζ/ζ| over 0.3–6 a_s: median   over {args.seeds} "
               f"seeds: median, 90 %, within 5 %")
         for dofs in (1, 2):
-            b = iwan_damping_bound(dofs, frequency_noise=noise, seeds=args.seeds, draws=args.draws)
+            b = iwan_damping_bound(dofs, frequency_noise=noise, seeds=args.seeds, draws=args.draws, levels=args.levels)
             print(f"{dofs}-DOF    {b['sd']:8.4f} at {b['at']:.2f}            {b['median']:6.3f}                     "
                   f"{b['seeds_median']:.3f}, {b['seeds_p90']:.3f}, {b['within']:.0%}")
         return
