@@ -85,8 +85,8 @@ def test_held_runs_of_a_duffing_sdof_are_predicted_from_its_force_controlled_lev
 
 def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
     """The note of ``with_held_runs``: each run's modal constant over the φ_f² the single-mode
-    models take from the lowest level. Closed form: the Duffing SDOF's runs have the unit
-    mass's modal constant 1 (and the lowest level's one-mode fit 1.0002), so the note says
+    models take from every level at once. Closed form: the Duffing SDOF's runs have the unit
+    mass's modal constant 1 (and the levels' P 1.0000), so the note says
     1.00; runs of a mode whose modal constant is 1.3 × (the BRB's runs are 1.25–1.36 × its
     lowest level's fit) say 1.30 — and their damping, read from the width, is predicted as
     well as before while their peak is 1.3 × the prediction's."""
@@ -96,7 +96,7 @@ def test_the_runs_modal_constants_are_stated_beside_the_one_the_models_take():
     for scale in (1.0, 1.3):  # held between the levels' resonance amplitudes
         runs = duffing_held_runs(f, np.sqrt(peaks[:-1] * peaks[1:])[:2], scale)
         note = modal_constant_note(data, runs)
-        ratios = [float(v) for v in note.split("RMS): ")[1].split(";")[0].split(", ")]
+        ratios = [float(v) for v in note.split("at once: ")[1].split(";")[0].split(", ")]
         assert ratios == pytest.approx([scale, scale], abs=0.005), note
         out = with_held_runs(validate(data, "top", ["lines"]), data, runs, ["lines"])
         assert note in out.response_controlled_notes
@@ -380,7 +380,7 @@ def test_kept_runs_of_another_test_type_shape_the_backbone_without_shifting_it()
     carries the offset (0.1795 Hz against the exact 0.1798 Hz)."""
     import pandas as pd
 
-    from nlupdate.core.identification.line_samples import lowest_level_fit, samples_from_lines
+    from nlupdate.core.identification.line_samples import samples_from_lines
     from nlupdate.core.validation.models import lines_model, model_fitter, run_model
 
     levels, stiffer = (0.25, 0.5, 0.75, 1.0), 1.004
@@ -397,9 +397,8 @@ def test_kept_runs_of_another_test_type_shape_the_backbone_without_shifting_it()
     truth, ours = resonance(f, exact[1.0]), resonance(f, predicted)
     assert abs(ours.resonance_hz - truth.resonance_hz) < 0.03, (ours, truth)
     assert abs(ours.damping_ratio / truth.damping_ratio - 1) < 0.02, (ours, truth)
-    fit = lowest_level_fit(kept)
-    samples, _ = samples_from_lines(kept, fit, 0.0, runs)
-    first_run = samples_from_lines(kept, fit, 0.0)[0].amplitude.size
+    samples, share = samples_from_lines(kept, runs=runs)
+    first_run = samples_from_lines(kept, share)[0].amplitude.size
     shift = run_model(samples, "x", first_run).omega0 - lines_model(samples, "x", first_run=first_run).omega0
     assert shift / (2 * np.pi) == pytest.approx(np.sqrt(DUFFING_K) / (2 * np.pi) * (np.sqrt(stiffer) - 1), rel=0.1)
 

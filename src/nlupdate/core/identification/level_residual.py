@@ -156,6 +156,9 @@ def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: f
     if not (constant.real > 0 if driving else constant.real != 0):
         raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} FRF "
                                   f"({data.response_dof}/{data.input_dof}) gives a modal constant {constant:.4g}"
-                                  + ("; give input_shape" if driving else ": no resonance of this mode to sample"))
+                                  + (": no driving-point resonance to take φ_f from (a driving point's is positive: a "
+                                     "sensor or force along the negative direction is stated as NODE:-DIR in the "
+                                     "coordinates, e.g. [\"acc3:-y\", \"acc3:y\"]; or give input_shape)" if driving
+                                     else ": no resonance of this mode to sample"))
     start_residual = complex(fit.residual_receptance(np.array([centre]))[0])
     return centre, level_residual(data, constant.real, start_residual, centre, 2.5 * band_fraction)

@@ -6,8 +6,11 @@ force F (the force achieved at that line) and receptance H at the driving point 
 
     (ω(a)² − Ω² + 2iζ(a)ω(a)²)·q = φ_f F,     X_f = φ_f q,     a = |q|,
 
-after the other modes' share (the constant residual of a one-mode fit of the lowest level) is
-removed from H. With ``D = φ_f²/H_mode`` each line gives one point of the backbone and of
+after the other modes' share is removed from H. That share and the modal constant φ_f² are
+found from every line of every level at once
+(:func:`~nlupdate.core.identification.level_residual.frf_residual`, the amplitude models'
+too: one owner), not from a linear one-mode fit of the lowest level, itself a nonlinear curve.
+With ``D = φ_f²/H_mode`` each line gives one point of the backbone and of
 the damping curve at its own amplitude:
 
     ω(a)² = Re D + Ω²,     ζ(a) = Im D / (2ω(a)²),     a = |H_mode|·F/|φ_f|
@@ -22,9 +25,11 @@ The peak alone gives one point per level; the lines around it give the curves ov
 amplitudes each sweep passes through, so a few levels cover a decade of amplitude densely.
 A line far from resonance carries little: D is large there and its noise (a fraction of
 |D|) swamps ``Re D + Ω²``; only the lines where |H_mode| is at least :data:`PEAK_FRACTION`
-of the level's peak are used (the half-power band and a little beyond). φ_f comes from the
-one-mode fit of the lowest level, ``√Re A`` (the stuck mode's shape; a joint that slips
-changes it by a few per cent, which scales every amplitude alike).
+of the level's peak are used (the half-power band and a little beyond). φ_f = √P, P the
+modal constant of :func:`~nlupdate.core.identification.level_residual.frf_residual` (the
+lowest level's one-mode fit, which the ``lines`` models took before, missed that curve by
+15.9 % RMS on the Brake–Reuss beam and put φ_f² 2.4 % below P, the response-controlled runs'
+own modal constants 1.04–1.13 × it; docs/validation.md, "Run 2's damping").
 
 Response-controlled runs (``runs``: :class:`~nlupdate.core.identification.response_controlled.HeldRun`,
 the same driving point) obey the same equation line by line with the force the controller
@@ -39,7 +44,7 @@ import numpy as np
 import scipy.optimize
 
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.modal_fit import ModalFit, fit_mode_over_band
+from nlupdate.core.identification.level_residual import LevelResidual, frf_residual
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.model.single_mode import natural_and_damping
@@ -49,28 +54,6 @@ if TYPE_CHECKING:
 
 #: Lines whose modal |H| is below this fraction of their level's peak are left out.
 PEAK_FRACTION = 0.5
-
-
-def lowest_level_fit(data: FRFLevels, residual_mass: bool = False) -> ModalFit:
-    """One-mode fit of the lowest level over its whole measured band (its peak at the centre
-    of the fit's band, the band as wide as the data), the other modes' share a **constant**
-    complex receptance R (no residual mass R_m/ω²).
-
-    Over a stepped-sine band of a few per cent R and R_m/ω² are nearly collinear, and the
-    lowest level is itself a nonlinear curve: with both, the fit bends the other modes' share
-    across the band to take up the curve's asymmetry and leaves the modal constant short
-    (on the Brake–Reuss beam R − R_m/ω² ran +2.8 → −60.8 µm/N over 2 Hz where the
-    response-controlled runs' own fits put it flat at −4 … −9 µm/N, and φ_f² came out
-    1.25–1.36 × below the runs' modal constants, every predicted width as much too narrow;
-    docs/validation.md, "Run 2's damping"). The slope is not resolved over such a band; a
-    constant is.
-
-    ``residual_mass``: R_m/ω² beside R, as before issue 34 — for the line refinement
-    (:mod:`~nlupdate.core.identification.line_refine`), which takes only this fit's residual
-    (φ_f is given to it) and whose band held the truth with it: with the constant alone the
-    2-DOF's seed 3 (tests/test_line_band.py, a true second mode above) held it at 71 % of the
-    amplitudes off the kink instead of 100 % (measured)."""
-    return fit_mode_over_band(data.frequencies[0], data.receptances[0], lower_residual=residual_mass)
 
 
 def _curve_samples(f: np.ndarray, modal: np.ndarray, force: np.ndarray, phi: float) -> tuple[np.ndarray, ...]:
@@ -84,23 +67,18 @@ def _curve_samples(f: np.ndarray, modal: np.ndarray, force: np.ndarray, phi: flo
     return (response / phi)[good], (w / (2 * np.pi))[good], zeta[good], line_force[good], response[good]
 
 
-def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None, background: complex = 0.0,
-                       runs: Sequence["HeldRun"] = ()) -> tuple[ModalSamples, ModalFit]:
+def samples_from_lines(data: FRFLevels, share: LevelResidual | None = None, background: complex = 0.0,
+                       runs: Sequence["HeldRun"] = ()) -> tuple[ModalSamples, LevelResidual]:
     """(one sample per usable line of every level and of every response-controlled run of
-    ``runs``, the one-mode fit that gave φ_f and the residual terms) from driving-point FRFs
-    (module docstring); ``background`` (m/N) is a constant receptance removed with the
-    residual terms (:func:`background_for_lines`)."""
+    ``runs``, the other modes' share and modal constant P they were read with: ``share``, by
+    default :func:`~nlupdate.core.identification.level_residual.frf_residual` of ``data``)
+    from driving-point FRFs (module docstring); ``background`` (m/N) is a constant receptance
+    removed with the share (:func:`background_for_lines`)."""
     if data.response_dof != data.input_dof:
         raise AmplitudeModelError(f"FRFs of response {data.response_dof!r} / input {data.input_dof!r}: line samples "
                                   "need the driving-point FRF")
-    fit = fit or lowest_level_fit(data)
-    constant = complex(fit.modal_constants[0])
-    if not constant.real > 0:
-        raise AmplitudeModelError(f"the one-mode fit of the {data.levels[0]:g} {data.reference_unit} curve gives a "
-                                  f"modal constant {constant:.4g}: no driving-point resonance to take φ_f from (a "
-                                  "driving point's is positive: a sensor or force along the negative direction is "
-                                  "stated as NODE:-DIR in the coordinates, e.g. [\"acc3:-y\", \"acc3:y\"])")
-    phi = float(np.sqrt(constant.real))
+    share = share or frf_residual(data)[1]  # P > 0 at a driving point: frf_residual refuses another sign
+    phi = float(np.sqrt(share.modal_constant))
     curves = [(f, h, data.force_at(float(level), f)) for level, f, h in
               zip(data.levels, data.frequencies, data.receptances)]
     for run in runs:
@@ -108,35 +86,38 @@ def samples_from_lines(data: FRFLevels, fit: ModalFit | None = None, background:
             raise AmplitudeModelError(f"response-controlled run {run.name}: at {run.response_dof}/{run.input_dof}, "
                                       f"not the driving point {data.input_dof} of the force-controlled curves")
         curves.append((run.frequency_hz, run.h, np.asarray(run.force_n, dtype=float)))
-    parts = [_curve_samples(f, h - fit.residual_receptance(f) - background, force, phi) for f, h, force in curves]
+    parts = [_curve_samples(f, h - share.receptance(f) - background, force, phi) for f, h, force in curves]
     amplitude, frequency, damping, force, response = (np.concatenate(column) for column in zip(*parts))
     samples = ModalSamples(amplitude, frequency, damping, force, phi, response, shape_free=False)
     if samples.amplitude.size < 3 or not np.all(samples.damping_ratio > 0):
         bad = int(np.count_nonzero(samples.damping_ratio <= 0))
         raise AmplitudeModelError(f"{samples.amplitude.size} line samples, {bad} with zero or negative damping: "
                                   f"the curves do not show one resonance of the driving point")
-    return samples, fit
+    return samples, share
 
 
 def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float = 2.5e-4,
-                         damping_std: float = 0.05, runs: Sequence["HeldRun"] = ()) -> tuple[complex, ModalFit]:
-    """(the constant complex receptance B (m/N) beside the residual terms of the lowest
-    level's one-mode fit that makes the line samples of every level one curve, that fit).
+                         damping_std: float = 0.05, runs: Sequence["HeldRun"] = ()) -> tuple[complex, LevelResidual]:
+    """(the constant complex receptance B (m/N) beside the other modes' share of
+    :func:`~nlupdate.core.identification.level_residual.frf_residual` that makes the line
+    samples of every level one curve, that share).
 
     Single-mode theory gives every line the same ω(a), ζ(a) whichever flank of whichever
     level (or response-controlled run of ``runs``) it lies on; an error in the other modes'
-    share shows as samples that disagree (the flanks of one level at equal amplitude). B minimises the scatter of the samples about
-    polynomials of ``order`` in a/a_ref (least squares of the relative misfits of the
-    frequency over ``frequency_std`` and of the damping ratio over ``damping_std``), by
-    Nelder–Mead from B = 0 in units of the residual terms' size at the lowest level's peak."""
-    fit = lowest_level_fit(data)
+    share shows as samples that disagree (the flanks of one level at equal amplitude). The
+    share is found with each level on its own curves; B minimises the scatter of the samples
+    about one set of polynomials of ``order`` in a/a_ref through every level (least squares
+    of the relative misfits of the frequency over ``frequency_std`` and of the damping ratio
+    over ``damping_std``), by Nelder–Mead from B = 0 in units of the share's size at the
+    lowest level's peak."""
+    share = frf_residual(data)[1]
     f_low, h_low = data.frequencies[0], data.receptances[0]
     peak = float(f_low[int(np.argmax(np.abs(h_low)))])
-    unit = abs(complex(fit.residual_receptance(np.array([peak]))[0])) + 1e-3 * float(np.max(np.abs(h_low)))
+    unit = abs(complex(share.receptance(np.array([peak]))[0])) + 1e-3 * float(np.max(np.abs(h_low)))
 
     def scatter(x: np.ndarray) -> float:
         try:
-            samples, _ = samples_from_lines(data, fit, unit * complex(x[0], x[1]), runs)
+            samples, _ = samples_from_lines(data, share, unit * complex(x[0], x[1]), runs)
         except AmplitudeModelError:
             return 1e12
         design = (samples.amplitude / samples.amplitude.max())[:, None] ** np.arange(order + 1)[None, :]
@@ -149,4 +130,4 @@ def background_for_lines(data: FRFLevels, order: int = 2, frequency_std: float =
     best = scipy.optimize.minimize(scatter, np.zeros(2), method="Nelder-Mead",
                                    options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 600})
     x = best.x if best.fun < scatter(np.zeros(2)) else np.zeros(2)
-    return unit * complex(x[0], x[1]), fit
+    return unit * complex(x[0], x[1]), share

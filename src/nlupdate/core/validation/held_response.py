@@ -18,12 +18,13 @@ levels and the runs (:func:`~nlupdate.core.validation.held_out.repeatability`: t
 types differ by 0.08–0.14 Hz at equal amplitude on the BRB, part of the test's scatter).
 
 A note states each run's modal constant against the one the single-mode models take from
-the lowest force-controlled level (:func:`modal_constant_note`): a run's damping ratio is
-read from its curve's width, which the modal constant does not set, while a prediction's
-width scales with it — on the BRB the runs' were 1.25–1.36 × that one while that fit took a residual
-mass beside its constant, and run 2's damping was predicted 18 % low with its peak within
-2.3 %; with a constant residual alone (issue 34) 1.04–1.13 ×, run 2 −6.6 % from the levels and
-the impact (docs/validation.md, "Run 2's damping").
+every line of every force-controlled level at once (:func:`modal_constant_note`): a run's
+damping ratio is read from its curve's width, which the modal constant does not set, while a
+prediction's width scales with it — on the BRB the runs' were 1.25–1.36 × the lowest level's
+one-mode fit's while that fit took a residual mass beside its constant, and run 2's damping
+was predicted 18 % low with its peak within 2.3 %; with a constant residual alone 1.04–1.13 ×,
+run 2 −6.6 % from the levels and the impact; with the constant of every level (issue 34)
+1.02–1.11 ×, run 2 −4.1 % (docs/validation.md, "Run 2's damping").
 
 **Extrapolation.** A run held outside the amplitudes the kept data cover — below the lowest
 force-controlled level's response amplitude at resonance
@@ -55,7 +56,7 @@ from typing import Sequence
 import numpy as np
 
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.line_samples import lowest_level_fit
+from nlupdate.core.identification.level_residual import frf_residual
 from nlupdate.core.identification.modal_fit import fit_mode_over_band
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
 from nlupdate.core.measurement.frf_table import MeasurementTableError
@@ -178,11 +179,12 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
 
 def modal_constant_note(data: FRFLevels, runs: Sequence[HeldRun]) -> str:
     """Each run's modal constant (|A| of a one-mode fit of the run, a linear curve) over φ_f²
-    (Re A of the lowest force-controlled level's one-mode fit, the single-mode models'; with
-    that fit's RMS misfit of its curve): one line for ``response_controlled_notes``; '' when
-    no run can be fitted."""
+    (the modal constant P the single-mode models take from every line of every
+    force-controlled level at once,
+    :func:`~nlupdate.core.identification.level_residual.frf_residual`): one line for
+    ``response_controlled_notes``; '' when no run can be fitted."""
     try:
-        fit = lowest_level_fit(data)
+        constant = frf_residual(data)[1].modal_constant
     except ValueError:
         return ""
     ratios = []
@@ -191,13 +193,12 @@ def modal_constant_note(data: FRFLevels, runs: Sequence[HeldRun]) -> str:
             own = fit_mode_over_band(run.frequency_hz, run.h)
         except ValueError:
             continue
-        ratios.append(abs(complex(own.modal_constants[0])) / float(fit.modal_constants[0].real))
+        ratios.append(abs(complex(own.modal_constants[0])) / constant)
     if not ratios:
         return ""
-    return (f"modal constants: each run's one-mode fit over the φ_f² the single-mode models take from the "
-            f"{data.levels[0]:g} {data.reference_unit} level's one-mode fit (which misses that curve by "
-            f"{100 * fit.relative_rms_error:.1f} % RMS): {', '.join(f'{r:.2f}' for r in ratios)}; a run's damping "
-            f"ratio is read from its curve's width, which the modal constant does not set, a prediction's width "
+    return (f"modal constants: each run's one-mode fit over the φ_f² the single-mode models take from every line of "
+            f"the {data.levels.size} force-controlled levels at once: {', '.join(f'{r:.2f}' for r in ratios)}; a run's "
+            f"damping ratio is read from its curve's width, which the modal constant does not set, a prediction's width "
             f"scales with φ_f²: where a run's peak is predicted well, a ratio r leaves its predicted damping about "
             f"r times too small")
 

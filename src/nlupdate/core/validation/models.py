@@ -6,10 +6,12 @@ and returns a predictor of the receptance at any level over any grid:
 * ``lines`` — one nonlinear mode whose natural frequency and damping ratio are
   polynomials (order 2) in the modal amplitude, fitted to a sample from every line near
   each resonance (:mod:`nlupdate.core.identification.line_samples`) and continued beyond the
-  largest fitted amplitude until they would turn back; the other modes' share is the
-  lowest level's residual terms;
-* ``lines-background`` — ``lines`` with a constant complex receptance added to those
-  residual terms, the one that makes every level's line samples one curve
+  largest fitted amplitude until they would turn back; the other modes' share and the modal
+  constant φ_f² are those found from every line of every level at once
+  (:func:`~nlupdate.core.identification.level_residual.frf_residual`), as for the
+  ``amplitude-*`` models;
+* ``lines-background`` — ``lines`` with a constant complex receptance added to that
+  share, the one that makes every level's line samples one curve
   (:func:`~nlupdate.core.identification.line_samples.background_for_lines`);
 * ``amplitude-polynomial``, ``amplitude-iwan``, ``amplitude-jenkins`` (the Iwan joint in its
   Jenkins limit) — the same single-mode model fitted to one sample per level, the resonance peak (:func:`~nlupdate.core.identification.amplitude_modal_fit.amplitude_model_from_frfs`,
@@ -48,8 +50,8 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
-from nlupdate.core.identification.level_residual import frf_residual
-from nlupdate.core.identification.line_samples import background_for_lines, lowest_level_fit, samples_from_lines
+from nlupdate.core.identification.level_residual import LevelResidual, frf_residual
+from nlupdate.core.identification.line_samples import background_for_lines, samples_from_lines
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.response_controlled import HeldRun
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
@@ -250,23 +252,23 @@ def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDA
     return Fitted(at_force, at_response, per_line_force=True)
 
 
-def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], fit, background: complex) -> Fitted:
+def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], share: LevelResidual, background: complex) -> Fitted:
     """:func:`_single_mode` of the line samples of ``kept`` (and of the kept ``runs``, with
-    their test type's offsets: :func:`lines_model`) after ``fit``'s residual terms and the
-    constant ``background``."""
-    samples, _ = samples_from_lines(kept, fit, background, runs)
-    first_run = samples_from_lines(kept, fit, background)[0].amplitude.size if runs else None
+    their test type's offsets: :func:`lines_model`) read with ``share``'s modal constant
+    after its other modes' share and the constant ``background``."""
+    samples, _ = samples_from_lines(kept, share, background, runs)
+    first_run = samples_from_lines(kept, share, background)[0].amplitude.size if runs else None
     models = _lines_models(samples, kept.input_dof, LINES_ORDER, first_run, kept.linear_limit)
-    return _single_mode(models[0], lambda f: fit.residual_receptance(f) + background, kept.input_dof, models[1])
+    return _single_mode(models[0], lambda f: share.receptance(f) + background, kept.input_dof, models[1])
 
 
 def _lines(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
-    return _lines_fitted(kept, runs, lowest_level_fit(kept), 0.0)
+    return _lines_fitted(kept, runs, frf_residual(kept)[1], 0.0)
 
 
 def _lines_background(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
-    background, fit = background_for_lines(kept, LINES_ORDER, runs=runs)
-    return _lines_fitted(kept, runs, fit, background)
+    background, share = background_for_lines(kept, LINES_ORDER, runs=runs)
+    return _lines_fitted(kept, runs, share, background)
 
 
 def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
