@@ -68,7 +68,7 @@ def main() -> int:
                       "quadratic, held": dataclasses.replace(quadratic, beyond_reference="hold"),
                       "straight line, continued": lines_model(samples, dof, 1),
                       "Iwan on the line samples": fit_amplitude_model(samples, ((dof, samples.input_shape),), "iwan")}
-        curves = {name: frf_at_forces(model, f, force, dof) + fit.residual_receptance(f) + background
+        curves = {name: frf_at_forces(model, f, force, dof) + fit.receptance(f) + background
                   for name, model in candidates.items()}
         curves["amplitude-iwan"] = model_fitter("amplitude-iwan")(kept)(f, top, force)
     print(f"Brake–Reuss beam, {top:g} N from {', '.join(f'{v:g}' for v in kept.levels)} N "
