@@ -57,13 +57,13 @@ def row_cells(r) -> str:
 
 def print_notes(rows: Sequence[tuple[str, object]]) -> None:
     """How many of the table's values lie in their band and how many of those in a band that
-    tests nothing (:func:`~nlupdate.reporting.validation_text.in_band_counts`), then what a
+    tests nothing (:func:`~nlupdate.core.validation.verdict.in_band`), then what a
     table cannot show of each (name, prediction) — no predicted value, a prediction outside
     its own band, a half-power band of few lines, the model's note — as ``nlupdate validate``
     notes it."""
-    from nlupdate.reporting.validation_text import comparison_notes, in_band_counts
+    from nlupdate.core.validation.verdict import comparison_notes, in_band
 
-    banded, inside, idle = in_band_counts([r for _, r in rows])
+    banded, inside, idle = in_band([r for _, r in rows])
     print(f"\nin band: {inside} of {banded} values, {idle} of them in uninformative bands (they test nothing), "
           f"{inside - idle} in informative ones")
     lines = [f"note at {name} ({r.label}): {note}" for name, r in rows for note in comparison_notes(r)]

@@ -132,7 +132,7 @@ def test_validate_prints_each_held_sample_beside_its_prediction():
     """A ring-down held out of a mode linear in a (tests/test_held_type_bands.py: f = 10 Hz ·
     (1 − 0.02 a/A), ζ = 0.5 % (1 + 2a/A), measured to 1e-5 and 0.5 %): the terminal gave only the
     largest errors; each of the 12 samples now has its row, its numbers the truth's."""
-    from nlupdate.reporting.validation_text import held_type_lines
+    from test_held_type_bands import held_type_lines
     from test_held_type_bands import A, held_out, truth
 
     summary = held_out((1e-5, 0.005))
@@ -153,7 +153,7 @@ def test_validate_prints_each_held_sample_beside_its_prediction():
 def test_an_impacts_frequency_error_is_printed_to_the_digits_it_has():
     """The BRB's impact against the linear limit of the fit of its other tests (80.5797 Hz
     measured, 80.6175 Hz predicted: +0.0378 Hz, +0.047 %): the row said "(+0.0 %)"."""
-    from nlupdate.reporting.validation_text import held_type_lines
+    from test_held_type_bands import held_type_lines
 
     measured, predicted = 80.57967619, 80.61749787
     entry = {"source": "tap.mat", "modal_amplitude": 3.6e-6, "within_fit": False, "predicted_at_modal_amplitude": 0.0,
@@ -195,7 +195,11 @@ def test_an_all_in_band_verdict_on_an_extrapolated_level_is_a_warning():
     from types import SimpleNamespace
 
     from nlupdate.core.validation.held_out import Compared
-    from nlupdate.reporting.validation_text import verdict_lines
+    from nlupdate.core.validation.verdict import said
+    from nlupdate.reporting.validation_text import said_line
+
+    def verdict_lines(validation, unit):
+        return [said_line(line) for line in said(validation, unit)]
 
     inside = {"resonance_hz": Compared(42.74, 42.755, 42.73, 42.79), "damping_ratio": Compared(7.8e-4, 7.1e-4, 4e-4, 1e-3)}
     top = SimpleNamespace(level=0.45, label="auto → amplitude-polynomial", compared=inside, half_power_lines=9, note="",

@@ -24,10 +24,17 @@ import pytest
 
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.validation.held_type import hold_out_type
-from nlupdate.reporting.validation_text import held_type_lines
+from nlupdate.core.validation.verdict import held_type_said
+from nlupdate.reporting.validation_text import held_type_rows, said_line
 
 A = 1e-3
 PHI = 1 / np.sqrt(2.0)
+
+
+def held_type_lines(summary: dict, unit: str = "N") -> list[str]:
+    """What ``validate --hold-out-type`` prints of validation.json's ``held_out_type`` entry: what
+    it says before its table (the verdict, the model's warnings), then the table."""
+    return [said_line(line) for line in held_type_said(summary, unit)] + held_type_rows(summary, unit)
 
 
 def truth(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -166,7 +166,7 @@ def test_the_printed_amplitude_fit_opens_with_its_bad_news():
 def test_a_held_out_type_opens_with_the_values_outside_their_bands():
     """``validate --hold-out-type``: the first line names each level (or the samples) whose
     measured value lies outside the prediction's band; the table gives the bands."""
-    from nlupdate.reporting.validation_text import held_type_lines
+    from test_held_type_bands import held_type_lines
 
     def compared(measured, predicted, low=None, high=None):
         out = {"measured": measured, "predicted": predicted, "error": predicted - measured,

@@ -20,9 +20,8 @@ from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_sum
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
 from nlupdate.reporting.markdown import markdown_table, number
-from nlupdate.reporting.validation_text import (error_cells, held_type_said, held_type_section, held_type_summary,
-                                                in_band_cell, in_band_counts, repeatability_line, summary_headline,
-                                                verdict_lines)
+from nlupdate.reporting.validation_text import (error_cells, held_type_section, held_type_summary, in_band_cell,
+                                                repeatability_line, said_markdown, summary_headline)
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.response.method import describe
 from nlupdate.core.updating.runs import best_ranked
@@ -163,15 +162,13 @@ def study_warning_lines(result) -> list[str]:
 
 def step_warnings(result) -> list[dict[str, str]]:
     """The validation's and the amplitude model's warnings, each as the manifest keeps a
-    warning ({subject, kind, message, source}): every ``warning:`` line of the validation
-    (:func:`verdict_lines`, the held-out type's too) and :func:`amplitude_warnings`."""
+    warning ({subject, kind, message, source}): every warning the validation says
+    (:meth:`~nlupdate.core.validation.held_out.Validation.said`, the held-out type's too) and
+    :func:`amplitude_warnings`."""
     out = []
     if result.validation is not None:
-        lines = verdict_lines(result.validation, result.validation.reference_unit)
-        held = held_type_said(result.validation)
-        lines += held[1] if held else []
-        out += [{"subject": "validation", "kind": "validation", "message": line.removeprefix("warning: "),
-                 "source": "validation"} for line in lines if line.startswith("warning: ")]
+        out += [{"subject": "validation", "kind": "validation", "message": line.text, "source": "validation"}
+                for line in result.validation.warnings()]
     if result.amplitude is not None:
         out += [{"subject": "amplitude", "kind": "amplitude", "message": text, "source": "amplitude model"}
                 for text in amplitude_warnings(result.amplitude)]
@@ -246,7 +243,7 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
                    f"mean {number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
                    + _single_frequency_levels(c))
     if result.validation is not None:
-        headline = summary_headline(result.validation, result.validation.reference_unit)
+        headline = summary_headline(result.validation.said())
         if headline is not None:  # a miss, an extrapolation or a note opens the summary
             out.insert(0, f"* **Validation: {headline}**")
         out += held_type_summary(result.validation) + _validation_summary(result.validation)
@@ -256,24 +253,16 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
 
 
 def _validation_summary(validation) -> list[str]:
-    """One line per model: its largest held-out errors beside the baseline's."""
+    """One line per model: its largest held-out errors beside the baseline's
+    (:meth:`~nlupdate.core.validation.held_out.Validation.worst_by_model`)."""
     out = []
-    for requested in dict.fromkeys(r.requested for r in validation.held_out):
-        rows = [r for r in validation.held_out if r.requested == requested]
-
-        def worst(rows, name, relative, source="compared"):
-            values = [getattr(r, source)[name] for r in rows]
-            errors = [abs(v.relative_error if relative else v.error) for v in values]
-            return max((e for e in errors if np.isfinite(e)), default=float("nan"))
-
-        banded, inside, idle = in_band_counts(rows, ("resonance_hz",))
-        out.append(f"* **Held-out levels** `{requested}` ({len(rows)} level{'s' if len(rows) > 1 else ''}): resonance "
-                   f"within {number(worst(rows, 'resonance_hz', False), 3)} Hz (baseline "
-                   f"{number(worst(rows, 'resonance_hz', False, 'baseline'), 3)}), damping within "
-                   f"{number(100 * worst(rows, 'damping_ratio', True), 3)} % (baseline "
-                   f"{number(100 * worst(rows, 'damping_ratio', True, 'baseline'), 3)} %), peak within "
-                   f"{number(100 * worst(rows, 'peak_abs', True), 3)} % (baseline "
-                   f"{number(100 * worst(rows, 'peak_abs', True, 'baseline'), 3)} %); measured resonance in its "
+    for w in validation.worst_by_model():
+        model, base, (banded, inside, idle) = w.model, w.baseline, w.resonance
+        out.append(f"* **Held-out levels** `{w.requested}` ({w.levels} level{'s' if w.levels > 1 else ''}): resonance "
+                   f"within {number(model['resonance_hz'], 3)} Hz (baseline {number(base['resonance_hz'], 3)}), "
+                   f"damping within {number(100 * model['damping_ratio'], 3)} % (baseline "
+                   f"{number(100 * base['damping_ratio'], 3)} %), peak within {number(100 * model['peak_abs'], 3)} % "
+                   f"(baseline {number(100 * base['peak_abs'], 3)} %); measured resonance in its "
                    f"95 % band at {inside} of {banded}"
                    + (f" ({idle} of them in uninformative bands: they test nothing)" if idle else "")
                    + f"; test repeatability {number(validation.repeatability.resonance_hz, 3)} Hz")
@@ -440,8 +429,7 @@ def _validation_section(validation, plots: Mapping[str, str]) -> list[str]:
     lines.append("")
     # the verdict and what qualifies the numbers (extrapolations, each comparison's notes, auto's
     # refusals) before the tables, as the terminal prints them
-    lines += [f"Warning: {line.removeprefix('warning: ')}" if line.startswith("warning: ") else line
-              for line in verdict_lines(validation, unit)] + [""]
+    lines += [said_markdown(line) for line in validation.said(unit)] + [""]
     rows = [{f"level ({unit})": number(r.level), **_errors(r)} for r in validation.held_out]
     lines += [markdown_table(pd.DataFrame(rows)), ""]
     if "validation" in plots:

@@ -46,7 +46,7 @@ from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
-from nlupdate.reporting.validation_text import validation_lines, verdict_lines
+from nlupdate.reporting.validation_text import said_line, validation_lines
 from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.impact_limit import LIMIT_MODELS, impact_linear_limit, refused_model
 from nlupdate.core.validation.models import AUTO_CANDIDATES, MODELS
@@ -171,10 +171,8 @@ def run(args: argparse.Namespace) -> int:
         save_figure(summary_figure(validation), folder / "validation.png")
         if validation.response_controlled:
             save_figure(response_controlled_figure(validation), folder / "response_controlled.png")
-    verdict = verdict_lines(validation, unit)
-    print(verdict[0], file=sys.stderr if verdict[0].startswith("warning:") else sys.stdout)
-    for line in verdict[1:]:
-        print(line, file=sys.stderr)
+    for line in validation.said(unit):  # the verdict, then what qualifies the numbers: warnings on stderr
+        print(said_line(line), file=sys.stderr if line.warns else sys.stdout)
     for line in validation_lines(validation, unit):
         print(line)
     print(f"wrote {out / 'validation.json'}, {out / 'predicted_frf.parquet'} and the plots")

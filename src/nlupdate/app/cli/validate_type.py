@@ -28,7 +28,7 @@ from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
-from nlupdate.reporting.validation_text import held_type_lines, held_type_worst_line
+from nlupdate.reporting.validation_text import held_type_rows, held_type_worst_line, said_line
 
 
 def add_type_options(parser: argparse.ArgumentParser) -> None:
@@ -81,15 +81,12 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
     with atomic_directory(out, on_exists="replace") as archive:
         write_json({"held_out_type": summary}, archive.path / "validation.json")
         save_figure(held_type_figure(result, unit), archive.path / "held_out_type.png")
-    verdict, *table = held_type_lines(summary, unit)
-    print(verdict, file=sys.stderr if verdict.startswith("warning:") else sys.stdout)
-    for line in [line for line in table if line.startswith("warning:")]:  # before the numbers they qualify
-        print(line, file=sys.stderr)
-    table = [line for line in table if not line.startswith("warning:")]
+    for line in result.said(unit):  # the verdict, the model's warnings: before the numbers they qualify
+        print(said_line(line), file=sys.stderr if line.warns else sys.stdout)
     kinds = ", ".join(f"{name} ({kind}, {n})" for name, kind, n in result.fitted_on)
     print(f"{args.hold_out_type} held out; {result.model.backbone} model fitted on {kinds}: "
           f"{linear_limit_text(result.model)}, {damping_text(result.model)}")
-    for line in table:
+    for line in held_type_rows(summary, unit):
         print(line)
     if not len(result.levels):
         inside = int(result.samples["within_fit"].sum())

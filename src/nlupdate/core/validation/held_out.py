@@ -50,6 +50,7 @@ from nlupdate.core.validation.auto_choice import (ModelChoice, choose_model, ext
 from nlupdate.core.validation.compared import QUANTITIES, Compared, measured_spread, widest_band
 from nlupdate.core.validation.models import BASELINE, model_fitter
 from nlupdate.core.validation.resonance import Resonance, read_alike, resonance
+from nlupdate.core.validation.verdict import Judged
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class CurveComparison:
@@ -143,9 +144,9 @@ class Repeatability:
 
 
 @dataclass(frozen=True, eq=False)
-class Validation:
+class Validation(Judged):
     """Every held-out level under every model, the test's repeatability and, for ``auto``,
-    the choice made (one per held-out level)."""
+    the choice made (one per held-out level); what it says and its largest errors: :class:`Judged`."""
 
     held_out: tuple[HeldOut, ...]
     repeatability: Repeatability

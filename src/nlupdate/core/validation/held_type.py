@@ -77,6 +77,7 @@ from nlupdate.core.validation.compared import QUANTITIES, Compared, measured_spr
 from nlupdate.core.validation.held_out import Validation, repeatability
 from nlupdate.core.validation.models import frf_at_forces
 from nlupdate.core.validation.resonance import read_alike, resonance
+from nlupdate.core.validation.verdict import Said, held_type_said
 
 #: the test types a whole of which can be held out (a modal table is no test)
 HELD_TYPES = tuple(t for t in TEST_TYPES if t != "modal-table")
@@ -140,6 +141,11 @@ class HeldType:
             out["levels"].append(entry)
         out["worst_within_fit"] = self.worst()
         return out
+
+    def said(self, unit: str) -> list[Said]:
+        """What it says before its table, levels in ``unit`` (:func:`~nlupdate.core.validation.verdict.held_type_said`
+        of :meth:`summary`)."""
+        return held_type_said(self.summary(), unit)
 
     def worst(self) -> dict[str, float]:
         """Largest |relative error| of each predicted quantity over what lies within the fit."""
@@ -336,6 +342,11 @@ class TypedValidation(Validation):
     as ``nlupdate validate --hold-out-type`` writes it."""
 
     held_type: HeldType | None = None
+
+    def warnings(self) -> list[Said]:
+        """The held-out levels' warnings, then the held-out type's (:meth:`HeldType.said`)."""
+        held = [] if self.held_type is None else [line for line in self.held_type.said(self.reference_unit) if line.warns]
+        return super().warnings() + held
 
     def summary(self) -> dict:
         out = super().summary()
