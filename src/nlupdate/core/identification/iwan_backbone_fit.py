@@ -4,9 +4,15 @@ keep): the model's unknowns (:func:`iwan_model`), the starts, the bounds on ω�
 of :func:`~nlupdate.core.identification.linear_limit.linear_limit_range`) and on a fitted mode
 shape (:data:`SHAPE_RANGE`), and the weighted residuals of
 :mod:`~nlupdate.core.identification.sample_residuals` (errors in variables where the amplitudes
-are noisy).
+are noisy) with their Jacobian in closed form (:func:`iwan_curves`: the joint's describing
+function differentiated in its parameters,
+:meth:`~nlupdate.core.model.elements.IwanJoint.describing_function_gradient`). The Jacobian by
+2-point differences took 60 % of the fits' time (one residual per unknown per step); the
+closed form costs about one residual (benchmarks/iwan_fit_jacobian.py).
 """
 from __future__ import annotations
+
+from typing import Callable, NamedTuple
 
 import numpy as np
 import scipy.optimize
@@ -15,7 +21,9 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.linear_limit import linear_limit_range
 from nlupdate.core.identification.modal_samples import ModalSamples
-from nlupdate.core.identification.sample_residuals import noisy_residual, sample_residual
+from nlupdate.core.identification.sample_residuals import (
+    Curves, noisy_residual, noisy_residual_jacobian, sample_residual, sample_residual_jacobian,
+)
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.core.model.elements import IwanJoint
 
@@ -50,25 +58,128 @@ def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, dampi
     return AmplitudeModalModel(w0 / (2 * np.pi), z0, shapes, joint=joint, mode=mode, linear_damping=damping)
 
 
-def fit_iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
-          fixed: dict[str, float] | None = None, capped: bool = True,
-          amplitude_std: NDArray | None = None) -> tuple[AmplitudeModalModel, float]:
-    """Best Iwan backbone over the starts; with ``samples.shape_free`` the shape φ_f (the last
-    unknown, as a log) is fitted too and the model's shapes carry it. ``capped``: f₀ under
-    the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never);
-    ``amplitude_std``: the samples' relative amplitude noise (:mod:`.sample_residuals`)."""
+def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, float], amplitude: NDArray) -> Curves:
+    """The curves ω(a), ζ(a) of ``model`` = :func:`iwan_model` (``theta``, ``fixed``) at
+    ``amplitude`` (m·√kg) with their derivatives in ``theta`` and in a
+    (:data:`~nlupdate.core.identification.sample_residuals.Curves`): ω² = ω₀² − K_T + Re ν,
+    ζ = ζ₀(ω₀/ω)^k + Im ν/(2ω²) (k = 1 viscous, 2 structural), ν's derivatives from the joint
+    (:meth:`~nlupdate.core.model.elements.IwanJoint.describing_function_gradient`) through the
+    maps of :func:`iwan_model` (a χ on its clip has no derivative)."""
+    joint, w0, z0, a = model.joint, model.omega0, model.damping_ratio, np.asarray(amplitude, float)
+    kt, slip, chi, beta = joint.kt, joint.slip_force, joint.chi, joint.beta
+    p = len(theta)
+    d = np.zeros((6, p))  # ∂/∂θ of ln ω₀, ln ζ₀, K_T, F_S, χ, β
+    d[0, 0], d[1, 1], d[2, 0], d[2, 2] = 1.0, 1.0, 2 * kt, kt * (1 - kt / w0**2)
+    k = 3
+    if "phi_max" not in fixed:
+        d[3, k], k = slip, k + 1
+    if "chi" not in fixed:
+        e = float(scipy.special.expit(theta[k]))
+        d[4, k], k = (-e * (1 - e) if 1e-9 < e < 1 - 1e-9 else 0.0), k + 1
+    if "beta" not in fixed:
+        d[5, k] = beta
+    if "phi_max" in fixed:  # F_S = φ_max K_T (β + c)/(1 + β), c = (χ+1)/(χ+2)
+        c, phi = (chi + 1) / (chi + 2), fixed["phi_max"]
+        d[3] = slip / kt * d[2] + phi * kt / ((1 + beta) * (chi + 2) ** 2) * d[4] + phi * kt * (1 - c) / np.square(1 + beta) * d[5]
+    nu, nu_a, gradient = joint.describing_function_gradient(a)
+    d_nu = np.column_stack([gradient[name] for name in ("kt", "slip_force", "chi", "beta")]) @ d[2:]
+    omega = np.sqrt(np.maximum(w0**2 - kt + nu.real, 0.0))
+    power = 1 if model.linear_damping == "viscous" else 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d_omega = (2 * w0**2 * d[0] - d[2] + d_nu.real) / (2 * omega[:, None])
+        linear = z0 * (w0 / omega) ** power
+        zeta = linear + nu.imag / (2 * omega**2)
+        d_zeta = (linear[:, None] * (d[1] + power * d[0]) + d_nu.imag / (2 * omega[:, None] ** 2)
+                  - (power * linear + nu.imag / omega**2)[:, None] * d_omega / omega[:, None])
+        omega_a = nu_a.real / (2 * omega)
+        zeta_a = nu_a.imag / (2 * omega**2) - (power * linear + nu.imag / omega**2) * omega_a / omega
+    return omega, zeta, d_omega, d_zeta, omega_a, zeta_a
+
+
+class IwanProblem(NamedTuple):
+    """One Iwan backbone's least-squares problem (:func:`iwan_problem`): ``unpack(θ)`` → (model,
+    samples: with a fitted shape, the samples at it), the weighted ``residual(θ)`` and its
+    ``jacobian(θ)``, how many unknowns are the model's (the last of them ln φ_f where
+    ``shape``), then one log true amplitude for each of the samples ``noisy`` (a mask)."""
+
+    unpack: Callable[[NDArray], tuple[AmplitudeModalModel, ModalSamples]]
+    residual: Callable[[NDArray], NDArray]
+    jacobian: Callable[[NDArray], NDArray]
+    unknowns: int
+    shape: bool
+    noisy: NDArray
+
+
+def iwan_problem(samples: ModalSamples, shapes, frequency_std: float | NDArray, damping_std: float | NDArray,
+                 mode: int, damping: str, fixed: dict[str, float] | None = None,
+                 amplitude_std: NDArray | None = None) -> IwanProblem:
+    """The residuals of an Iwan backbone with ``damping`` linear damping and the parameters
+    ``fixed`` (``beta``, ``chi``, ``phi_max``) about ``samples``, and their Jacobian; with
+    ``samples.shape_free`` (FRF samples) the shape φ_f is the last of the model's unknowns (as
+    a log) and the model's shapes carry it; ``amplitude_std``: the samples' relative amplitude
+    noise (:mod:`.sample_residuals`: their log true amplitudes are unknowns too)."""
     fixed, free_shape, n = fixed or {}, samples.shape_free and samples.response_amplitude is not None, samples.amplitude.size
     a_std = np.zeros(n) if amplitude_std is None else np.broadcast_to(np.asarray(amplitude_std, float), (n,))
     noisy, stds = a_std > 0, [np.broadcast_to(np.asarray(std, float), (n,)) for std in (frequency_std, damping_std)]
-    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA or not capped)
+    unknowns = 3 + sum(name not in fixed for name in ("phi_max", "chi", "beta")) + int(free_shape)
+    rows = 2 * n + int(noisy.sum())
     if free_shape:
         def unpack(t):
-            phi = float(np.exp(t[-1]))
-            scaled = ((shapes[0][0], phi),) + tuple((n, v * phi / shapes[0][1]) for n, v in shapes[1:])
-            return iwan_model(t[:-1], scaled, fixed, mode, damping), samples.with_shape(phi)
+            phi = float(np.exp(t[unknowns - 1]))
+            scaled = ((shapes[0][0], phi),) + tuple((name, v * phi / shapes[0][1]) for name, v in shapes[1:])
+            return iwan_model(t[:unknowns - 1], scaled, fixed, mode, damping), samples.with_shape(phi)
     else:
         def unpack(t):
-            return iwan_model(t, shapes, fixed, mode, damping), samples
+            return iwan_model(t[:unknowns], shapes, fixed, mode, damping), samples
+
+    last: dict = {}
+
+    def cached(t):
+        """``unpack(t)``, None where the unknowns give no model; the last one kept (scipy asks
+        for the Jacobian where it has just evaluated the residuals)."""
+        if last.get("t") is None or not np.array_equal(last["t"], t):
+            try:
+                last["model"] = unpack(t)
+            except (ValueError, OverflowError):
+                last["model"] = None
+            last["t"] = np.array(t)
+        return last["model"]
+
+    def residual(t):
+        with np.errstate(all="ignore"):
+            if (unpacked := cached(t)) is None:
+                return np.full(rows, 1e6)
+            model, data = unpacked
+            if noisy.any():
+                return noisy_residual(model.omega_zeta, data.amplitude, data.frequency_hz, data.damping_ratio,
+                                      t[unknowns:], noisy, *stds, a_std)
+            return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
+
+    def jacobian(t):
+        with np.errstate(all="ignore"):
+            if (unpacked := cached(t)) is None:
+                return np.zeros((rows, len(t)))
+            model, data = unpacked
+            theta = t[:unknowns - int(free_shape)]
+            if noisy.any():
+                at = data.amplitude.copy()
+                at[noisy] = np.exp(t[unknowns:])
+                return noisy_residual_jacobian(iwan_curves(model, theta, fixed, at), data.amplitude, data.frequency_hz,
+                                               data.damping_ratio, t[unknowns:], noisy, *stds, a_std)
+            return sample_residual_jacobian(iwan_curves(model, theta, fixed, data.amplitude), data, *stds,
+                                            shape=free_shape)
+
+    return IwanProblem(unpack, residual, jacobian, unknowns, free_shape, noisy)
+
+
+def fit_iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
+             fixed: dict[str, float] | None = None, capped: bool = True,
+             amplitude_std: NDArray | None = None) -> tuple[AmplitudeModalModel, float]:
+    """Best Iwan backbone over the starts (the problem: :func:`iwan_problem`). ``capped``: f₀
+    under the softening cap of :func:`linear_limit_range` (the ``jenkins`` backbone never)."""
+    fixed = fixed or {}
+    problem = iwan_problem(samples, shapes, frequency_std, damping_std, mode, damping, fixed, amplitude_std)
+    omega_range = linear_limit_range(samples, frequency_std, fixed.get("beta") == JENKINS_BETA or not capped)
     z_low = float(samples.damping_ratio[np.argmin(samples.amplitude)])
     a_max = float(np.max(samples.amplitude))
     # log ω₀ is held in linear_limit_range by the trust region's own bounds: a logistic map
@@ -96,29 +207,18 @@ def fit_iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: f
                         theta.append(scipy.special.logit(-chi))
                     if "beta" not in fixed:
                         theta.append(np.log(beta))
-                    if free_shape:
+                    if problem.shape:
                         theta.append(np.log(samples.input_shape))
-                    unknowns = len(theta)  # then the noisy samples' log true amplitudes (iwan_model ignores them)
-                    theta.extend(np.log(samples.amplitude[noisy]))
-
-                    def residual(t):
-                        with np.errstate(all="ignore"):
-                            try:
-                                model, data = unpack(t)
-                            except (ValueError, OverflowError):
-                                return np.full(2 * n + int(noisy.sum()), 1e6)
-                            if noisy.any():
-                                return noisy_residual(model.omega_zeta, data.amplitude, data.frequency_hz,
-                                                      data.damping_ratio, t[unknowns:], noisy, *stds, a_std)
-                            return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
+                    theta.extend(np.log(samples.amplitude[problem.noisy]))  # the noisy samples' log true amplitudes
 
                     lower, upper = np.full(len(theta), -np.inf), np.full(len(theta), np.inf)
                     lower[0], upper[0] = log_range
-                    if free_shape:  # the shape a slipping joint gives: a few per cent from the stuck one
-                        lower[unknowns - 1], upper[unknowns - 1] = np.log(samples.input_shape) + np.log(SHAPE_RANGE) * np.array([-1, 1])
-                    solution = scipy.optimize.least_squares(residual, np.array(theta), method="trf", max_nfev=400,
-                                                            bounds=(lower, upper))
+                    if problem.shape:  # the shape a slipping joint gives: a few per cent from the stuck one
+                        lower[problem.unknowns - 1], upper[problem.unknowns - 1] = (
+                            np.log(samples.input_shape) + np.log(SHAPE_RANGE) * np.array([-1, 1]))
+                    solution = scipy.optimize.least_squares(problem.residual, np.array(theta), problem.jacobian,
+                                                            method="trf", max_nfev=400, bounds=(lower, upper))
                     if best is None or solution.cost < best.cost:
                         best = solution
-    return unpack(best.x)[0], float(2 * best.cost)
+    return problem.unpack(best.x)[0], float(2 * best.cost)
 

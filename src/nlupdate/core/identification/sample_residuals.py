@@ -71,6 +71,33 @@ def sample_residual(model_omega_zeta, samples, frequency_std: float, damping_std
     return np.where(np.isfinite(out), out, 1e6)
 
 
+#: a model's curves at n amplitudes and their derivatives, for the residuals' Jacobians:
+#: ω (rad/s), ζ, ∂ω/∂θ and ∂ζ/∂θ (n, p) in the model's p unknowns θ, then ∂ω/∂a and ∂ζ/∂a
+Curves = tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray]
+
+
+def _finite_rows(jacobian: NDArray, residual: NDArray) -> NDArray:
+    """``jacobian`` with the rows of residuals that are not finite (set to 1e6, a constant) and
+    any entry that is not finite at 0."""
+    return np.where(np.isfinite(residual)[:, None] & np.isfinite(jacobian), jacobian, 0.0)
+
+
+def sample_residual_jacobian(curves: Curves, samples, frequency_std: float | NDArray, damping_std: float | NDArray,
+                             shape: bool = False) -> NDArray:
+    """∂/∂θ of :func:`sample_residual` (rows as its values), ``curves`` (:data:`Curves`) taken at
+    the samples' amplitudes. With ``shape``, one more column: ∂/∂ln φ_f of samples from FRFs,
+    whose a ∝ 1/φ_f and ζ_i ∝ φ_f² (:meth:`~nlupdate.core.identification.modal_samples.ModalSamples.with_shape`)."""
+    omega, zeta, d_omega, d_zeta, omega_a, zeta_a = curves
+    w_f = 1 / (2 * np.pi * samples.frequency_hz * frequency_std)
+    w_z = 1 / (samples.damping_ratio * damping_std)
+    if shape:
+        a = samples.amplitude
+        d_omega = np.column_stack([d_omega, -a * omega_a])
+        d_zeta = np.column_stack([d_zeta, -a * zeta_a - 2 * zeta])
+    residual = np.concatenate([omega * w_f, zeta * w_z])
+    return _finite_rows(np.vstack([d_omega * w_f[:, None], d_zeta * w_z[:, None]]), residual)
+
+
 def amplitude_std(kinds: Sequence[str], damping_std: NDArray) -> NDArray:
     """Each sample's relative amplitude noise from its test type ``kinds`` and its damping
     ratio's relative standard deviation (:data:`NOISY_AMPLITUDE_SHARE`; 0 for the others)."""
@@ -103,6 +130,29 @@ def noisy_residual(omega_zeta: Callable[[NDArray], tuple[NDArray, NDArray]], amp
     r_a = (at[noisy] / amplitude[noisy] - 1) / amplitude_std[noisy]
     out = np.concatenate([r_f, r_z, r_a])
     return np.where(np.isfinite(out), out, 1e6)
+
+
+def noisy_residual_jacobian(curves: Curves, amplitude: NDArray, frequency_hz: NDArray, damping_ratio: NDArray,
+                            log_true: NDArray, noisy: NDArray, frequency_std: NDArray, damping_std: NDArray,
+                            amplitude_std: NDArray) -> NDArray:
+    """∂/∂(θ, log_true) of :func:`noisy_residual` (rows as its values), ``curves``
+    (:data:`Curves`) taken at the amplitudes it evaluates (the noisy samples' at ``exp(log_true)``)."""
+    omega, zeta, d_omega, d_zeta, omega_a, zeta_a = curves
+    at = amplitude.copy()
+    at[noisy] = np.exp(log_true)
+    n, m = amplitude.size, int(np.count_nonzero(noisy))
+    w_f = 1 / (2 * np.pi * frequency_hz * frequency_std)
+    force_std = np.sqrt(np.maximum(damping_std**2 - amplitude_std**2, 0.0))
+    w_z = np.where(noisy, at / (damping_ratio * amplitude * np.where(noisy, force_std, 1.0)),
+                   1 / (damping_ratio * damping_std))  # ∂r_z/∂ζ
+    own = np.zeros((n, m))  # each noisy sample's column: its own rows only
+    own[np.flatnonzero(noisy), np.arange(m)] = 1.0
+    alpha = at[noisy]
+    rows_f = np.hstack([d_omega * w_f[:, None], own * (omega_a * at * w_f)[:, None]])
+    rows_z = np.hstack([d_zeta * w_z[:, None], own * ((zeta_a * at + zeta) * w_z)[:, None]])
+    rows_a = np.hstack([np.zeros((m, d_omega.shape[1])), np.diag(alpha / (amplitude[noisy] * amplitude_std[noisy]))])
+    residual = np.concatenate([omega * w_f, zeta * w_z, alpha])
+    return _finite_rows(np.vstack([rows_f, rows_z, rows_a]), residual)
 
 
 def sample_noise(kinds: Sequence[str], sizes: Sequence[int], noises: Sequence[tuple[float, float]],

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from math import pi
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import scipy.special
@@ -46,6 +46,41 @@ def _unit_jenkins_df(amplitude: NDArray, slip: NDArray) -> NDArray[np.complex128
     return real + 1j * imag
 
 
+#: terms of the two series of :func:`_scaled_incomplete_beta_da` (each ≤ 2⁻⁴⁰ ≈ 1e-12 of its
+#: first), their n (a column) and (1 − t)^½ = Σ c_n t^n's coefficients
+_SERIES_TERMS = 40
+_SERIES_N = np.arange(_SERIES_TERMS, dtype=float)[:, None]
+_SERIES_C = np.cumprod(np.concatenate([[1.0], (_SERIES_N[1:, 0] - 1.5) / _SERIES_N[1:, 0]]))[:, None]
+
+
+def _scaled_incomplete_beta_da(r: NDArray, a: float) -> NDArray:
+    """``r^(3/2 − a) ∂B(r; a, 3/2)/∂a`` for 0 < r ≤ 1 (B(r; a, 3/2) = ∫₀^r t^(a−1)(1−t)^½ dt, the
+    incomplete beta function of the Iwan DF; the factor keeps it finite as r → 0). Below r = ½
+    the series of (1−t)^½ = Σ c_n t^n integrated term by term, ``Σ c_n r^(n+3/2) (ln r/(a+n) −
+    1/(a+n)²)``; above, B(a, 3/2)(ψ(a) − ψ(a + 3/2)) less the tail ∫_r^1, whose integrand
+    (1−u)^(a−1) u^½ (u = 1 − t) is expanded in u ≤ ½ with coefficients d_n = (1−a)_n/n!
+    differentiated in a (by their recursion where a is an integer, a factor then 0)."""
+    n, r = _SERIES_N, np.asarray(r, dtype=float).ravel()
+    low = r <= 0.5
+    out = np.zeros(r.shape)
+    if np.any(low):
+        x = r[low]
+        out[low] = np.sum(_SERIES_C * x ** (n + 1.5) * (np.log(x) / (a + n) - 1 / (a + n) ** 2), axis=0)
+    if not np.all(low):
+        k = n[1:, 0]
+        if a != round(a):  # d_n = Π_{k≤n} (k−a)/k, so d_n' = −d_n Σ_{k≤n} 1/(k−a)
+            d = np.cumprod(np.concatenate([[1.0], (k - a) / k]))
+            dd = -d * np.concatenate([[0.0], np.cumsum(1 / (k - a))])
+        else:
+            d, dd = np.ones(_SERIES_TERMS), np.zeros(_SERIES_TERMS)
+            for m in range(1, _SERIES_TERMS):
+                d[m], dd[m] = d[m - 1] * (m - a) / m, (dd[m - 1] * (m - a) - d[m - 1]) / m
+        x = r[~low]
+        complete = scipy.special.beta(a, 1.5) * (scipy.special.digamma(a) - scipy.special.digamma(a + 1.5))
+        out[~low] = (complete - (dd / (n[:, 0] + 1.5)) @ (1.0 - x) ** (n + 1.5)) * x ** (1.5 - a)
+    return out
+
+
 #: The most Jenkins sliders of an Iwan joint's time-domain realisation: each is a state per
 #: time step; beyond this the realisation's error (O(1/sliders²)) is below any measurement.
 MAX_IWAN_SLIDERS = 100_000
@@ -64,6 +99,15 @@ def _iwan_sliders(phi_max: float, continuous: float, chi: float, concentrated: f
     stiffness.setflags(write=False)
     slip.setflags(write=False)
     return stiffness, slip
+
+
+class DFGradient(NamedTuple):
+    """An Iwan joint's describing function ν (N/m) at amplitudes A, ∂ν/∂A (N/m²) and ∂ν/∂p for
+    each parameter p (``kt``, ``slip_force``, ``chi``, ``beta``) with the others held."""
+
+    value: NDArray[np.complex128]
+    amplitude: NDArray[np.complex128]
+    parameters: dict[str, NDArray[np.complex128]]
 
 
 @dataclass(frozen=True)
@@ -200,23 +244,61 @@ class IwanJoint(CycleElement):
         return chi, r, s, np.arccos(1.0 - 2.0 * r), g, np.where(macro, scaled, s ** (chi + 1) * complete)
 
     def describing_function(self, amplitude, omega=0.0):
-        a = amplitude_array(amplitude)
-        chi, r, s, b, g, j = self._parts(a)
+        return self._value(self._parts(amplitude_array(amplitude)))
+
+    def _value(self, parts) -> NDArray[np.complex128]:
+        """ν from :meth:`_parts` (class docstring)."""
+        chi, r, s, b, g, j = parts
         real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * self._continuous / pi * j
         imag = 4 * g / pi * ((chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3)) + self.beta * (1 - r))
         return real + 1j * imag
 
     def describing_function_derivatives(self, amplitude, omega=0.0):
         a = amplitude_array(amplitude)
-        chi, r, s, b, g, j = self._parts(a)
+        d_da = self._slope(a, self._parts(a))
+        return d_da, np.zeros_like(d_da)
+
+    def _slope(self, a: NDArray, parts) -> NDArray[np.complex128]:
+        """∂ν/∂A at amplitudes ``a`` from their :meth:`_parts`."""
+        chi, r, s, b, g, j = parts
         beta, k0 = self.beta, self._continuous
         root = np.sqrt(np.maximum(1 - r, 0.0))
         d_real = (-8 / pi * (1 + beta) * g * np.sqrt(np.maximum(r * (1 - r), 0.0)) / a
                   - 8 * k0 / (pi * a) * ((chi + 1) * j - s ** (chi + 1) * r**1.5 * root))
         micro_imag = 4 * (chi + 1) ** 2 * k0 * s ** (chi + 1) / (pi * a * (chi + 2) * (chi + 3))
         macro_imag = 4 * g / (pi * a) * ((chi + 1) * (-1 / (chi + 2) + 2 * r / (chi + 3)) + beta * (2 * r - 1))
-        d_da = d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
-        return d_da, np.zeros_like(d_da)
+        return d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
+
+    def describing_function_gradient(self, amplitude: ArrayLike) -> DFGradient:
+        """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each parameter p of ``kt``, ``slip_force``,
+        ``chi`` and ``beta``, the other three held (:class:`DFGradient`). From ν = K_T N(A/φ_max; χ, β) (class docstring): at fixed
+        φ_max, ∂ν/∂ln K_T = ν, ∂ν/∂ln φ_max = −A ∂ν/∂A, and χ and β enter N only through 1/(1+β),
+        the power s^(χ+1), the polynomial in χ of Im ν and J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
+        ``∂J/∂χ = J(ln s + ψ(χ+5/2) − ψ(χ+4))`` in microslip and ``−J ln r + r^−(χ+1) ∂B/∂a`` in
+        macroslip (:func:`_scaled_incomplete_beta_da`); then φ_max's own dependence on K_T, F_S,
+        χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``)."""
+        a = amplitude_array(amplitude)
+        parts = self._parts(a)
+        chi, r, s, b, g, j = parts
+        kt, beta, nu, nu_a = self.kt, self.beta, self._value(parts), self._slope(a, parts)
+        d_phi = -a * nu_a  # ∂ν/∂ln φ_max
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_s = np.where(s > 0, np.log(np.where(s > 0, s, 1.0)), 0.0)
+        power = s ** (chi + 1)
+        p = (chi + 1) * power * (1 / (chi + 2) - r / (chi + 3))
+        dp = power * ((1 / (chi + 2) - r / (chi + 3)) * (1 + (chi + 1) * log_s)
+                      + (chi + 1) * (r / (chi + 3) ** 2 - 1 / (chi + 2) ** 2))
+        macro = r < 1.0
+        digammas = scipy.special.digamma(chi + 2.5) - scipy.special.digamma(chi + 4.0)
+        dj = j * (log_s + digammas)
+        if np.any(macro):
+            dj = np.where(macro, -j * np.log(r) + _scaled_incomplete_beta_da(r, chi + 2.5), dj)
+        d_beta = kt / (pi * np.square(1 + beta)) * (8 * j + 4j * r * ((1 - r) - p))  # at fixed φ_max (β may be huge)
+        d_chi = kt / (pi * (1 + beta)) * (-8 * dj + 4j * r * dp)
+        c = (chi + 1) / (chi + 2)
+        return DFGradient(nu, nu_a, {"kt": (nu - d_phi) / kt, "slip_force": d_phi / self.slip_force,
+                                     "chi": d_chi - d_phi / ((chi + 2) ** 2 * (beta + c)),
+                                     "beta": d_beta + d_phi * (1 / (1 + beta) - 1 / (beta + c))})
 
     # -- time domain --------------------------------------------------------------------
     def realisation(self) -> tuple[NDArray, NDArray]:
