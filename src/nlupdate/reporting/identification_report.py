@@ -3,7 +3,6 @@ linear FRF and its modes (method-specific wording from
 :data:`~nlupdate.core.identification.methods.METHODS`)."""
 from __future__ import annotations
 
-import re
 from typing import Mapping
 
 import pandas as pd
@@ -98,11 +97,8 @@ def monte_carlo_note(uncertainty) -> str:
             f"the spread of the {n - failed} results, and the intervals and the plots' bands are built from them")
     if not failed:
         return text + " (none failed)."
-    grouped: dict[str, int] = {}
-    for message, count in uncertainty.failures.items():  # one reason, whatever the numbers in parentheses
-        reason = re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])
-        grouped[reason] = grouped.get(reason, 0) + count
-    reasons = "; ".join(f"{count} × {reason}" for reason, count in sorted(grouped.items(), key=lambda g: -g[1])[:3])
+    grouped = uncertainty.failure_reasons()  # one reason, whatever the numbers in parentheses
+    reasons = "; ".join(f"{count} × {reason}" for reason, count in grouped[:3])
     more = len(grouped) - 3
     reasons += f"; {more} other reason{'s' if more > 1 else ''}" if more > 0 else ""
     return (text + f". {failed} sample{'s' if failed > 1 else ''} failed and {'are' if failed > 1 else 'is'} left "

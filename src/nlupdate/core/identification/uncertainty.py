@@ -31,6 +31,7 @@ get a 95 % band the same way (:class:`CurveBand`).
 """
 from __future__ import annotations
 
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Mapping, Sequence
@@ -138,6 +139,15 @@ class Uncertainty:
     curves: dict[str, CurveBand] = field(default_factory=dict)
     residual_ratio: float | None = None
     jackknife_fits: int = 0
+
+    def failure_reasons(self) -> list[tuple[str, int]]:
+        """(reason, count) of the failed samples, most frequent first: a failure's message without
+        its exception name and its parenthesised numbers (a band's edges), so one reason is
+        counted once whatever the numbers."""
+        grouped: Counter[str] = Counter()
+        for message, count in self.failures.items():
+            grouped[re.sub(r" \([^()]*\)", "", message.split(": ", 1)[-1])] += count
+        return grouped.most_common()
 
     def as_dict(self) -> dict[str, Any]:
         return {
