@@ -237,10 +237,10 @@ def _summary_lines(result, truth: Mapping[str, float]) -> list[str]:
         if u is not None and u.note:
             out.append(f"  ({u.note})")
     for prediction in result.predictions:
-        c = prediction.correlation
+        c = prediction.summary
         out.append(f"* **Prediction** `{prediction.name}` (loss factor {number(prediction.loss_factor, 3)}, "
-                   f"{prediction.loss_factor_source}): FRAC per level min {number(c['frac'].min(), 3)}, "
-                   f"mean {number(c['frac'].mean(), 3)} over {_count(int(c['frac'].notna().sum()), 'level')}"
+                   f"{prediction.loss_factor_source}): FRAC per level min {number(c.frac_min, 3)}, "
+                   f"mean {number(c.frac_mean, 3)} over {_count(c.frac_levels, 'level')}"
                    + _single_frequency_levels(c))
     if result.validation is not None:
         headline = summary_headline(result.validation.said())
@@ -273,13 +273,12 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
-def _single_frequency_levels(correlation) -> str:
+def _single_frequency_levels(summary) -> str:
     """The levels measured at single frequencies (no FRAC): their largest relative error."""
-    single = correlation[correlation["frac"].isna()]
-    if single.empty:
+    if not summary.single_levels:
         return ""
-    return (f"; {_count(len(single), 'single-frequency level')} (no FRAC): relative FRF error up to "
-            f"{number(single['normalised_error'].max(), 3)}")
+    return (f"; {_count(summary.single_levels, 'single-frequency level')} (no FRAC): relative FRF error up to "
+            f"{number(summary.single_error_max, 3)}")
 
 
 def _targets_section(result) -> list[str]:

@@ -8,6 +8,8 @@ nonlinearity grows with force.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
@@ -40,3 +42,24 @@ def correlate_levels(measured: pd.DataFrame, predicted: pd.DataFrame, response_d
                        peak_amplitude_ratio=errors.model_amplitude / errors.reference_amplitude)
         rows.append(row)
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+@dataclass(frozen=True)
+class LevelSummary:
+    """A correlation over the levels at a glance: FRAC's smallest and mean value over the
+    ``frac_levels`` levels that have one, and the ``single_levels`` levels measured at too few
+    lines for a FRAC (single-frequency) with their largest normalised FRF error (NaN without)."""
+
+    frac_min: float
+    frac_mean: float
+    frac_levels: int
+    single_levels: int
+    single_error_max: float
+
+
+def summarise_levels(correlation: pd.DataFrame) -> LevelSummary:
+    """:class:`LevelSummary` of :func:`correlate_levels`' table."""
+    single = correlation[correlation["frac"].isna()]
+    return LevelSummary(float(correlation["frac"].min()), float(correlation["frac"].mean()),
+                        int(correlation["frac"].notna().sum()), len(single),
+                        float(single["normalised_error"].max()) if len(single) else float("nan"))

@@ -8,6 +8,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from nlupdate.core.correlation.levels import LevelSummary, summarise_levels
 from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.measurement.frf_table import force_levels
 from nlupdate.core.prediction.predict import predict_measured
@@ -43,6 +44,11 @@ class Prediction:
     loss_factor_source: str
     table: pd.DataFrame
     correlation: pd.DataFrame
+
+    @property
+    def summary(self) -> LevelSummary:
+        """The correlation at a glance (:func:`~nlupdate.core.correlation.levels.summarise_levels`)."""
+        return summarise_levels(self.correlation)
 
 
 def prediction_adapter(study: Study) -> AdapterSpec:
