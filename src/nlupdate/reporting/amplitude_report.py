@@ -62,20 +62,14 @@ def _poor_line(fit: AmplitudeFit) -> str | None:
 
 
 def _held_lines(fit: AmplitudeFit) -> list[str]:
-    lines = []
-    if fit.held_errors is None:
-        return lines
-    for source, all_rows in fit.held_errors.groupby("source", sort=False):
-        for inside, rows in all_rows.groupby("within_fit", sort=False):
-            worst = rows[["frequency_error", "damping_error", "amplitude_error"]].abs().max()
-            lines.append(f"held out {source} ({rows['test_type'].iloc[0]}): predicted within "
-                         f"{100 * worst['frequency_error']:.3g} % in frequency and {100 * worst['damping_error']:.3g} % "
-                         f"in damping ratio" + (f", {100 * worst['amplitude_error']:.3g} % in amplitude at its forces"
-                                                if np.isfinite(worst["amplitude_error"]) else "")
-                         + f" ({len(rows)} samples {'within' if inside else 'outside'} the fitted amplitudes)"
-                         + (": an impact below them, against the model's linear limit (a = 0), an extrapolation"
-                            if (rows["predicted_at_amplitude"] == 0).all() else ""))
-    return lines
+    """What the model predicts for each held-out source (:meth:`AmplitudeFit.held_worst`)."""
+    return [f"held out {w.source} ({w.test_type}): predicted within {100 * w.frequency_error:.3g} % in frequency and "
+            f"{100 * w.damping_error:.3g} % in damping ratio"
+            + (f", {100 * w.amplitude_error:.3g} % in amplitude at its forces" if np.isfinite(w.amplitude_error) else "")
+            + f" ({w.samples} samples {'within' if w.within_fit else 'outside'} the fitted amplitudes)"
+            + (": an impact below them, against the model's linear limit (a = 0), an extrapolation"
+               if w.at_linear_limit else "")
+            for w in fit.held_worst()]
 
 
 def _amplitudes(samples, unit: str = "N") -> str:

@@ -155,6 +155,23 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
     return MeasuredSource(samples, model, data, unit, input_dof, "stepped-sine", (warning,) if warning else ())
 
 
+@dataclass(frozen=True)
+class HeldWorst:
+    """One held-out source's samples within (or outside) the fitted amplitudes: how many, the
+    largest |relative error| of the predicted frequency, damping ratio and, for phase
+    resonance, amplitude at its force (NaN for the others), and whether every prediction is
+    read at a = 0 (an impact below the fitted samples, against the model's linear limit)."""
+
+    source: str
+    test_type: str
+    within_fit: bool
+    samples: int
+    frequency_error: float
+    damping_error: float
+    amplitude_error: float
+    at_linear_limit: bool
+
+
 @dataclass(frozen=True, eq=False)
 class AmplitudeFit:
     """The model of one mode and what it was fitted to.
@@ -196,6 +213,20 @@ class AmplitudeFit:
     def poor(self) -> bool:
         """Whether the model misses its samples by more than :data:`POOR_FIT` (rms)."""
         return any(value > bound for value, bound in zip(self.misfit(), POOR_FIT))
+
+    def held_worst(self) -> list[HeldWorst]:
+        """:class:`HeldWorst` of :attr:`held_errors` per held-out source, in order, and within or
+        outside the fitted amplitudes (empty when nothing is held out)."""
+        out: list[HeldWorst] = []
+        if self.held_errors is None:
+            return out
+        for source, all_rows in self.held_errors.groupby("source", sort=False):
+            for inside, rows in all_rows.groupby("within_fit", sort=False):
+                worst = rows[["frequency_error", "damping_error", "amplitude_error"]].abs().max()
+                out.append(HeldWorst(str(source), str(rows["test_type"].iloc[0]), bool(inside), len(rows),
+                                     float(worst["frequency_error"]), float(worst["damping_error"]),
+                                     float(worst["amplitude_error"]), bool((rows["predicted_at_amplitude"] == 0).all())))
+        return out
 
     def disagreeing(self) -> list[str]:
         """The sources that disagree with the joint fit beyond their uncertainty, by file (with
