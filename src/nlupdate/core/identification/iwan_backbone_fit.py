@@ -17,7 +17,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 import scipy.optimize
 import scipy.special
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.identification.linear_limit import linear_limit_range
 from nlupdate.core.identification.modal_samples import ModalSamples
@@ -42,18 +42,37 @@ JENKINS_CHI = -0.5
 SHAPE_RANGE = 1.1
 
 
-def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
-    """Model from unknowns: log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max),
-    logit(−χ) (χ ∈ (−1, 0), or fixed), log β (or fixed)."""
-    values = iter(theta)
-    w0 = float(np.exp(next(values)))
-    z0 = float(np.exp(next(values)))
-    kt = float(scipy.special.expit(next(values))) * w0**2
-    slip = None if "phi_max" in fixed else float(np.exp(next(values)))
-    chi = fixed["chi"] if "chi" in fixed else -float(np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9))
-    beta = fixed["beta"] if "beta" in fixed else float(np.exp(next(values)))
+def iwan_parameters(theta: ArrayLike, fixed: dict[str, float]) -> tuple[NDArray, ...]:
+    """(ω₀ rad/s, ζ₀, K_T, F_S, χ, β) of unknowns θ on the last axis (leading axes: many θ at
+    once): log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max), logit(−χ) (χ ∈ (−1,
+    0), or fixed), log β (or fixed)."""
+    values = iter(np.moveaxis(np.asarray(theta, dtype=float), -1, 0))
+    w0 = np.exp(next(values))
+    z0 = np.exp(next(values))
+    kt = scipy.special.expit(next(values)) * w0**2
+    slip = None if "phi_max" in fixed else np.exp(next(values))
+    chi = fixed["chi"] if "chi" in fixed else -np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9)
+    beta = fixed["beta"] if "beta" in fixed else np.exp(next(values))
     if slip is None:
         slip = fixed["phi_max"] * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+    return w0, z0, kt, slip, chi, beta
+
+
+def iwan_models_exist(w0: NDArray, z0: NDArray, kt: NDArray, slip: NDArray, beta: NDArray) -> NDArray:
+    """Where :func:`iwan_parameters`' values make a model (:func:`iwan_model` refuses the others):
+    the checks of :class:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel` and
+    :class:`~nlupdate.core.model.elements.IwanJoint` that those values can fail (f₀ finite and
+    > 0, 0 ≤ ζ₀ < 1, 0 < K_T < ω₀² as the model reads ω₀ back from f₀, F_S finite and > 0, β finite;
+    the χ of the map is always inside (−1, 0])."""
+    f0 = w0 / (2 * np.pi)
+    with np.errstate(invalid="ignore", over="ignore"):
+        return (np.isfinite(f0) & (f0 > 0) & np.isfinite(z0) & (z0 < 1) & np.isfinite(kt) & (kt > 0)
+                & (kt < (2 * np.pi * f0) ** 2) & np.isfinite(slip) & (slip > 0) & np.isfinite(beta))
+
+
+def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
+    """Model from unknowns θ (:func:`iwan_parameters`)."""
+    w0, z0, kt, slip, chi, beta = (float(v) for v in iwan_parameters(theta, fixed))
     joint = IwanJoint((0,), slip_force=slip, kt=kt, chi=chi, beta=beta)
     return AmplitudeModalModel(w0 / (2 * np.pi), z0, shapes, joint=joint, mode=mode, linear_damping=damping)
 

@@ -52,15 +52,20 @@ import numpy as np
 import scipy.special
 from numpy.typing import NDArray
 
-from nlupdate.core.identification.iwan_backbone_fit import JENKINS_BETA, JENKINS_CHI, iwan_model
+from nlupdate.core.identification.iwan_backbone_fit import (
+    JENKINS_BETA, JENKINS_CHI, iwan_model, iwan_models_exist, iwan_parameters,
+)
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.sample_residuals import sample_residual
-from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, joint_omega_zeta
+from nlupdate.core.model.elements.iwan import iwan_describing_function
 
 #: parameter draws per band
 DRAWS = 4000
 #: central-difference step in the unknowns (logs and logits)
 _STEP = 1e-4
+#: draws whose curves are evaluated together (a few MB per array for a few hundred amplitudes)
+_CHUNK = 500
 #: the viscous share w of the rest of the structure's damping at each linear-damping law
 #: (the band's mixed law: ζ_lin = ζ₀[(1 − w)ω₀²/ω² + w ω₀/ω], module docstring)
 VISCOUS_SHARE = {"viscous": 1.0, "structural": 0.0}
@@ -113,17 +118,26 @@ def mixed_law_residual(model: AmplitudeModalModel,
     return residual
 
 
-def _mixed_law_curves(model: AmplitudeModalModel) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
-    """((θ, w), a) → (ω, ζ) of ``model``'s unknowns θ at the mixed law of viscous share w."""
-    structural = model_from_unknowns(replace(model, linear_damping="structural"))
-    viscous = model_from_unknowns(replace(model, linear_damping="viscous"))
-
-    def curves(unknowns: NDArray, amplitude: NDArray) -> tuple[NDArray, NDArray]:
-        w, z_s = structural(unknowns[:-1]).omega_zeta(amplitude)
-        z_v = viscous(unknowns[:-1]).omega_zeta(amplitude)[1]
-        return w, z_s + unknowns[-1] * (z_v - z_s)
-
-    return curves
+def _draw_curves(model: AmplitudeModalModel, unknowns: NDArray, amplitude: NDArray,
+                 law_free: bool) -> tuple[NDArray, NDArray]:
+    """ω (rad/s) and ζ at ``amplitude`` of the models of many ``unknowns`` at once (rows: θ, then
+    with ``law_free`` the viscous share w: ζ the mixture of the two laws' curves, module
+    docstring), all rows evaluated together (:func:`~nlupdate.core.model.elements.iwan.iwan_describing_function`);
+    NaN rows where the unknowns make no model (:func:`~nlupdate.core.identification.iwan_backbone_fit.iwan_models_exist`)."""
+    theta = unknowns[:, :-1] if law_free else unknowns
+    with np.errstate(all="ignore"):
+        w0, z0, kt, slip, chi, beta = iwan_parameters(theta, joint_fixed(model))
+        exist = iwan_models_exist(w0, z0, kt, slip, beta)
+        omega0 = 2 * np.pi * (w0 / (2 * np.pi))  # ω₀ as a model reads it back from its f₀
+        column = [np.asarray(v)[:, None] if np.ndim(v) else v for v in (omega0, z0, kt, slip, chi, beta)]
+        omega0, z0, kt, slip, chi, beta = column
+        nu = iwan_describing_function(amplitude[None, :], kt, slip, chi, beta)
+        if law_free:
+            omega, z_s = joint_omega_zeta(omega0, z0, kt, nu, "structural")
+            zeta = z_s + unknowns[:, -1:] * (joint_omega_zeta(omega0, z0, kt, nu, "viscous")[1] - z_s)
+        else:
+            omega, zeta = joint_omega_zeta(omega0, z0, kt, nu, model.linear_damping)
+    return np.where(exist[:, None], omega, np.nan), np.where(exist[:, None], zeta, np.nan)
 
 
 def _eiv_meat(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: NDArray, damping_std: NDArray,
@@ -161,12 +175,7 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
     amplitude = np.asarray(amplitude, dtype=float)
     theta = joint_unknowns(model)
     if law_free:
-        theta, curves = np.append(theta, VISCOUS_SHARE[model.linear_damping]), _mixed_law_curves(model)
-    else:
-        unpack = model_from_unknowns(model)
-
-        def curves(unknowns: NDArray, a: NDArray) -> tuple[NDArray, NDArray]:
-            return unpack(unknowns).omega_zeta(a)
+        theta = np.append(theta, VISCOUS_SHARE[model.linear_damping])
     r0 = residual(theta)
     p, m = theta.size, r0.size
     nan = np.full(amplitude.size, np.nan)
@@ -191,14 +200,10 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
         return nan, nan, nan, nan
     rng = np.random.default_rng(seed)
     shifts = (rng.standard_normal((draws, p)) @ root.T) / np.sqrt(rng.chisquare(dof, (draws, 1)) / dof)
-    f, z = np.full((draws, amplitude.size), np.nan), np.full((draws, amplitude.size), np.nan)
-    for i, shift in enumerate(shifts):
-        with np.errstate(all="ignore"):
-            try:
-                w, zeta = curves(theta + shift, amplitude)
-            except (ValueError, OverflowError):
-                continue
-        f[i], z[i] = w / (2 * np.pi), zeta
+    f, z = np.empty((draws, amplitude.size)), np.empty((draws, amplitude.size))
+    for start in range(0, draws, _CHUNK):  # the draws' curves together, a chunk at a time
+        w, z[start:start + _CHUNK] = _draw_curves(model, theta + shifts[start:start + _CHUNK], amplitude, law_free)
+        f[start:start + _CHUNK] = w / (2 * np.pi)
     f_fit, z_fit = model.frequency_hz(amplitude), model.damping(amplitude)
     f_low, f_high = np.nanpercentile(f, [2.5, 97.5], axis=0)
     z_low, z_high = np.nanpercentile(z, [2.5, 97.5], axis=0)

@@ -87,6 +87,19 @@ class AmplitudeModelError(ValueError):
     """An amplitude-dependent modal model that cannot be used (the message says why)."""
 
 
+def joint_omega_zeta(omega0: ArrayLike, damping_ratio: ArrayLike, kt: ArrayLike, nu: NDArray,
+                     linear_damping: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """ω(a) (rad/s) and ζ(a) of an ``iwan`` backbone from its joint's describing function ν(a)
+    (N/m in modal units, rad²/s²): ``ω² = ω₀² − K_T + Re ν``, ``ζ = ζ₀ω₀/ω`` (viscous) or
+    ``ζ₀ω₀²/ω²`` (structural) ``+ Im ν/(2ω²)``; the parameters may be arrays that broadcast
+    with ν (many models at once)."""
+    omega = np.sqrt(np.maximum(omega0**2 - kt + nu.real, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        linear = damping_ratio * omega0 / omega if linear_damping == "viscous" else damping_ratio * omega0**2 / omega**2
+        zeta = linear + nu.imag / (2 * omega**2)
+    return omega, zeta
+
+
 @dataclass(frozen=True)
 class AmplitudeModalModel:
     """One nonlinear mode: natural frequency and damping ratio against modal amplitude.
@@ -185,12 +198,7 @@ class AmplitudeModalModel:
         a = np.asarray(amplitude, dtype=float)
         w0, z0 = self.omega0, self.damping_ratio
         if self.joint is not None:
-            nu = self.joint.describing_function(a)
-            omega = np.sqrt(np.maximum(w0**2 - self.joint.kt + nu.real, 0.0))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                linear = z0 * w0 / omega if self.linear_damping == "viscous" else z0 * w0**2 / omega**2
-                zeta = linear + nu.imag / (2 * omega**2)
-            return omega, zeta
+            return joint_omega_zeta(w0, z0, self.joint.kt, self.joint.describing_function(a), self.linear_damping)
         x = a / self.reference_amplitude
         omega = w0 * (1 + _series(self.frequency_coefficients, x, self.frequency_exponent, self.beyond_reference))
         zeta = np.maximum(z0 + _series(self.damping_coefficients, x, self.damping_exponent, self.beyond_reference), 0.0)

@@ -101,6 +101,50 @@ def _iwan_sliders(phi_max: float, continuous: float, chi: float, concentrated: f
     return stiffness, slip
 
 
+def _phi_max(kt, slip_force, chi, beta):
+    """φ_max = F_S (1+β) / (K_T (β + (χ+1)/(χ+2))) (m) of parameters that broadcast."""
+    return slip_force * (1 + beta) / (kt * (beta + (chi + 1) / (chi + 2)))
+
+
+def _df_parts(a: NDArray, kt, slip_force, chi, beta):
+    """The DF's pieces at amplitudes ``a`` (m) of the joint(s) of parameters ``kt``,
+    ``slip_force``, ``chi``, ``beta`` (scalars, or arrays that broadcast with ``a``), written with
+    ratios in [0, 1] only so that they stay finite for any valid parameters (a φ_max that
+    underflows included): χ; r = min(1, φ_max/A); s = min(1, A/φ_max); b = arccos(1 − 2r);
+    ``g = K_T r/(1+β)`` (N/m; in macroslip ``F_S/((β + (χ+1)/(χ+2)) A)``, exact however small
+    φ_max is); and ``J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2)`` (B the incomplete beta function,
+    complete where r = 1: microslip; ``r^1.5/(χ+5/2)`` to O(r) for r < 1e-12)."""
+    phi = _phi_max(kt, slip_force, chi, beta)
+    macro = a > phi
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        r = np.where(macro, phi / a, 1.0)
+        s = np.where(macro, 1.0, a / np.where(macro, 1.0, phi))
+        g = np.where(macro, slip_force / ((beta + (chi + 1) / (chi + 2)) * a), kt / (1 + beta))
+    complete = scipy.special.beta(chi + 2.5, 1.5)
+    if not np.any(macro):
+        return chi, r, s, np.full(r.shape, pi), g, s ** (chi + 1) * complete
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        scaled = np.where(r > 1e-12, scipy.special.betainc(chi + 2.5, 1.5, r) * complete * r ** -(chi + 1),
+                          r**1.5 / (chi + 2.5))
+    return chi, r, s, np.arccos(1.0 - 2.0 * r), g, np.where(macro, scaled, s ** (chi + 1) * complete)
+
+
+def _df_value(parts, kt, beta) -> NDArray[np.complex128]:
+    """ν (N/m) from :func:`_df_parts` (class docstring of :class:`IwanJoint`)."""
+    chi, r, s, b, g, j = parts
+    real = kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * (kt / (1 + beta)) / pi * j
+    imag = 4 * g / pi * ((chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3)) + beta * (1 - r))
+    return real + 1j * imag
+
+
+def iwan_describing_function(amplitude: ArrayLike, kt: ArrayLike, slip_force: ArrayLike, chi: ArrayLike,
+                             beta: ArrayLike) -> NDArray[np.complex128]:
+    """:meth:`IwanJoint.describing_function` (N/m) of many joints at once: the parameters (valid
+    ones: :class:`IwanJoint`) broadcast with the amplitudes (m), e.g. draws of a fit (a column)
+    against an amplitude grid (a row)."""
+    return _df_value(_df_parts(np.asarray(amplitude, dtype=float), kt, slip_force, chi, beta), kt, beta)
+
+
 class DFGradient(NamedTuple):
     """An Iwan joint's describing function ν (N/m) at amplitudes A, ∂ν/∂A (N/m²) and ∂ν/∂p for
     each parameter p (``kt``, ``slip_force``, ``chi``, ``beta``) with the others held."""
@@ -188,8 +232,7 @@ class IwanJoint(CycleElement):
     @property
     def phi_max(self) -> float:
         """Largest slip displacement (m): the joint is in macroslip beyond it."""
-        chi, beta = self.chi, self.beta
-        return self.slip_force * (1 + beta) / (self.kt * (beta + (chi + 1) / (chi + 2)))
+        return _phi_max(self.kt, self.slip_force, self.chi, self.beta)
 
     @property
     def r_prime(self) -> float:
@@ -222,36 +265,15 @@ class IwanJoint(CycleElement):
 
     # -- describing function ------------------------------------------------------------
     def _parts(self, a: NDArray):
-        """The DF's pieces at amplitudes ``a`` (m), written with ratios in [0, 1] only so that
-        they stay finite for any valid parameters (a φ_max that underflows included):
-        χ; r = min(1, φ_max/A); s = min(1, A/φ_max); b = arccos(1 − 2r);
-        ``g = K_T r/(1+β)`` (N/m; in macroslip ``F_S/((β + (χ+1)/(χ+2)) A)``, exact however
-        small φ_max is); and ``J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2)`` (B the incomplete
-        beta function, complete where r = 1: microslip; ``r^1.5/(χ+5/2)`` to O(r) for
-        r < 1e-12)."""
-        phi, chi, beta = self.phi_max, self.chi, self.beta
-        macro = a > phi
-        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-            r = np.where(macro, phi / a, 1.0)
-            s = np.where(macro, 1.0, a / np.where(macro, 1.0, phi))
-            g = np.where(macro, self.slip_force / ((beta + (chi + 1) / (chi + 2)) * a), self._continuous)
-        complete = scipy.special.beta(chi + 2.5, 1.5)
-        if not np.any(macro):
-            return chi, r, s, np.full(r.shape, pi), g, s ** (chi + 1) * complete
-        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-            scaled = np.where(r > 1e-12, scipy.special.betainc(chi + 2.5, 1.5, r) * complete * r ** -(chi + 1),
-                              r**1.5 / (chi + 2.5))
-        return chi, r, s, np.arccos(1.0 - 2.0 * r), g, np.where(macro, scaled, s ** (chi + 1) * complete)
+        """The DF's pieces at amplitudes ``a`` (m): :func:`_df_parts`."""
+        return _df_parts(a, self.kt, self.slip_force, self.chi, self.beta)
 
     def describing_function(self, amplitude, omega=0.0):
         return self._value(self._parts(amplitude_array(amplitude)))
 
     def _value(self, parts) -> NDArray[np.complex128]:
         """ν from :meth:`_parts` (class docstring)."""
-        chi, r, s, b, g, j = parts
-        real = self.kt * (b - 0.5 * np.sin(2 * b)) / pi - 8 * self._continuous / pi * j
-        imag = 4 * g / pi * ((chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3)) + self.beta * (1 - r))
-        return real + 1j * imag
+        return _df_value(parts, self.kt, self.beta)
 
     def describing_function_derivatives(self, amplitude, omega=0.0):
         a = amplitude_array(amplitude)
