@@ -160,3 +160,18 @@ def test_a_record_without_its_shape_is_refused_by_name_when_a_type_is_held_out(t
     with pytest.raises(AmplitudeModelError, match=rf"^{folder / 'decay.csv'}: no mode shape at channel x, .*"
                                                   r"give --shape x=VALUE \(mass-normalised, 1/√kg; shapes given: x="):
         fit_sources(ring + points, (("x", PHI),), "polynomial")
+
+
+def test_a_negative_bootstrap_is_refused_alike_by_amplitude_and_validate(tests_of_one_mode, tmp_path, capsys):
+    """One owner of the rule (backbone_samples.bootstrap_refits): both commands refuse
+    --bootstrap -1 in the same line naming the option and the expected form."""
+    folder = tests_of_one_mode
+    common = ["--ring-down", str(folder / "decay.csv"), "--phase-resonance", str(folder / "pr.csv"), "--shape",
+              f"x={PHI}", "--band", "7:13", "--bootstrap", "-1"]
+    assert main(["amplitude", *common, "--out", str(tmp_path / "a")]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "nlupdate amplitude: error: --bootstrap -1: expected a number of refits ≥ 0")
+    assert main(["validate", *common, "--hold-out-type", "ring-down", "--model", "amplitude-polynomial",
+                 "--out", str(tmp_path / "v")]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "nlupdate validate: error: --bootstrap -1: expected a number of refits ≥ 0")

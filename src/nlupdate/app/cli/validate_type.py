@@ -19,7 +19,7 @@ from nlupdate.app.cli import CliError
 from nlupdate.app.cli.amplitude import _shapes
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
-from nlupdate.core.identification.amplitude_modal_fit import default_resamples
+from nlupdate.core.identification.backbone_samples import bootstrap_refits
 from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, hold_out_type
@@ -53,9 +53,10 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
     backbone = BACKBONE_OF_MODEL.get(args.model)
     if backbone is None:
         raise CliError(f"--model {args.model}: with --hold-out-type, one of {', '.join(BACKBONE_OF_MODEL)}")
-    resamples = default_resamples(backbone) if args.bootstrap is None else args.bootstrap
-    if resamples < 0:
-        raise CliError(f"--bootstrap {resamples}: expected a number of refits ≥ 0")
+    try:
+        resamples = bootstrap_refits(args.bootstrap, backbone)
+    except ValueError as error:
+        raise CliError(str(error)) from None
     shapes = _shapes(args.shape)
     sources, data = [], None
     if args.measured:

@@ -44,12 +44,12 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import Source
 from nlupdate.core.identification.amplitude_modal_fit import (
-    KINKED_BACKBONES, amplitude_model_from_frfs, default_resamples, fit_amplitude_model,
+    KINKED_BACKBONES, amplitude_model_from_frfs, fit_amplitude_model,
 )
 from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
 from nlupdate.core.identification.backbone_samples import (
-    DEFAULT_NOISE, backbone_curve, backbone_points, check_common_scale, consistency, held_out_errors, join_samples,
-    own_fit_for, source_noise,
+    DEFAULT_NOISE, backbone_curve, backbone_points, bootstrap_refits, check_common_scale, consistency, held_out_errors,
+    join_samples, own_fit_for, source_noise,
 )
 from nlupdate.core.identification.band_dependence import band_changes, band_warning
 from nlupdate.core.identification.data import FRFLevels
@@ -357,9 +357,7 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
         agreement = consistency(model, [(name, s, kind) for name, s, _, kind in points], noises, joint_fit)
     if _refines_on_lines(measured, options) and points[0][3] == "stepped-sine" and measured.data is not None:
         model = _refined(model, measured, points, noise)
-    resamples = default_resamples(options.backbone) if options.bootstrap is None else options.bootstrap
-    if resamples < 0:
-        raise ValueError(f"bootstrap {resamples}: expected a number of refits ≥ 0")
+    resamples = bootstrap_refits(options.bootstrap, options.backbone)
     if samples.amplitude.size == 1:
         resamples = 0  # one linear limit: nothing to resample
     held_errors = None

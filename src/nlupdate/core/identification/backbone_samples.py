@@ -75,7 +75,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
+from nlupdate.core.identification.amplitude_modal_fit import default_resamples, fit_amplitude_model
 from nlupdate.core.identification.bands import band_arrays
 from nlupdate.core.identification.joint_band import joint_fixed
 from nlupdate.core.identification.modal_samples import ModalSamples
@@ -121,6 +121,16 @@ def small_sample_scale(n: int, parameters: int) -> float:
     import scipy.stats  # here: importing it costs 0.3 s
 
     return float(np.sqrt(n / dof) * scipy.stats.t.ppf(0.975, dof) / scipy.stats.norm.ppf(0.975))
+
+
+def bootstrap_refits(bootstrap: int | None, backbone: str) -> int:
+    """The residual-bootstrap refits for a fit's 95 % bands: ``bootstrap`` as asked, or the
+    ``backbone``'s default (:func:`~nlupdate.core.identification.amplitude_modal_fit.default_resamples`)
+    when None; ValueError (one line, naming ``--bootstrap``) below 0."""
+    refits = default_resamples(backbone) if bootstrap is None else bootstrap
+    if refits < 0:
+        raise ValueError(f"--bootstrap {refits}: expected a number of refits ≥ 0")
+    return refits
 
 
 def check_common_scale(parts: Sequence[ModalSamples], names: Sequence[str] = (),
