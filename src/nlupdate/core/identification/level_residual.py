@@ -100,11 +100,9 @@ def _level_misfits(amplitude: NDArray, stiffness: NDArray, omega: NDArray, order
     is |D| times H's relative noise)."""
     design = (amplitude / np.max(amplitude))[:, None] ** np.arange(order + 1)[None, :]
     weight = 1 / np.abs(stiffness)
-    out = []
-    for values in (stiffness.real + omega**2, stiffness.imag):
-        coefficients = np.linalg.lstsq(design * weight[:, None], values * weight, rcond=None)[0]
-        out.append((values - design @ coefficients) * weight)
-    return np.concatenate(out)
+    values = np.column_stack([stiffness.real + omega**2, stiffness.imag])
+    coefficients = np.linalg.lstsq(design * weight[:, None], values * weight[:, None], rcond=None)[0]  # both at once
+    return ((values - design @ coefficients) * weight[:, None]).ravel(order="F")
 
 
 def level_residual(data: FRFLevels, modal_constant: float, start_residual: complex, centre_hz: float,
