@@ -201,6 +201,13 @@ def test_identify_input_dof_out_of_range_names_the_option(measured, tmp_path):
     assert_nothing_written(tmp_path)
 
 
+def test_validate_input_dof_out_of_range_names_file_and_option(measured, tmp_path):
+    """validate reads its curve's input by the rule identify reads it by (frf_table.table_input)."""
+    result = nlupdate("validate", "--measured", measured, "--input-dof", "7", "--out", tmp_path / "v")
+    assert_one_clear_line(result, 2, f"{measured}: --input-dof 7: the table has input_dof 0")
+    assert_nothing_written(tmp_path)
+
+
 @pytest.mark.parametrize("extra, fragment", [
     (["--seed", "-5"], "argument --seed: expected an integer ≥ 0"),
     (["--samples", "0"], "argument --samples: expected an integer in [2, 100000], got '0'"),

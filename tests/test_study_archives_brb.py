@@ -295,7 +295,10 @@ IMPACT = Path(__file__).parent / "data" / "brb" / "HammerImpact_1600Hz.mat"
      "study.toml: [validation] key 'models': expected distinct names"),
     # an input the table does not have read 'no driving-point FRF at 'nope'; choose a response among []'
     ({"amplitude": {"measured": True, "input_dof": "nope", "shapes": {"acc3:y": 0.7271}}},
-     "the table has input dofs ['acc3:y']; choose one (input_dof), not 'nope'"),
+     "input_dof nope: the table has input_dof acc3:y"),
+    # the held-out levels' input is chosen by the rule every reader of a measured table follows
+    ({"validation": {"hold_out": "top", "input_dof": "nope"}},
+     "study.toml: [validation] input_dof nope: the table has input_dof acc3:y"),
     # the hammer record holds three channels: a study names one with its table's key, not --channel
     ({"amplitude": {"ring_down": [str(IMPACT)]}}, "choose one with --channel NAME (in a study, the reading table's "
                                                   "channel)"),

@@ -42,7 +42,7 @@ from nlupdate.files import atomic_directory
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.impact import LinearLimit
 from nlupdate.core.identification.ring_down import RingDownError
-from nlupdate.core.measurement.frf_table import frf_table, validate_frf_table
+from nlupdate.core.measurement.frf_table import MeasurementTableError, frf_table, table_input, validate_frf_table
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.validation_plots import held_out_figure, response_controlled_figure, summary_figure
@@ -78,12 +78,10 @@ def _models(text: str) -> list[str]:
 
 
 def _curve(table: pd.DataFrame, input_dof: str | None, sources: str) -> FRFLevels:
-    inputs = sorted(set(table["input_dof"].astype(str)))
-    input_dof = input_dof or (inputs[0] if len(inputs) == 1 else None)
-    if input_dof is None:
-        raise CliError(f"{sources}: the table has input dofs {inputs}; choose one with --input-dof")
-    if input_dof not in inputs:
-        raise CliError(f"--input-dof {input_dof}: {sources} has input_dof {', '.join(inputs)}")
+    try:
+        input_dof = table_input(table, input_dof, "--input-dof")
+    except MeasurementTableError as error:
+        raise CliError(f"{sources}: {error}") from None
     if input_dof not in set(table["response_dof"].astype(str)):
         raise CliError(f"{sources}: no driving-point FRF at {input_dof} (response_dof "
                        f"{', '.join(sorted(set(table['response_dof'].astype(str))))}); validate needs it")

@@ -57,6 +57,7 @@ from nlupdate.core.identification.joint_band import covariance_band, joint_fixed
 from nlupdate.core.identification.line_band import line_refinement_band
 from nlupdate.core.identification.line_refine import line_misfit, refine_on_lines, stepped_sine_lines
 from nlupdate.core.identification.sample_residuals import EIV_BACKBONES, amplitude_std, sample_noise
+from nlupdate.core.measurement.frf_table import MeasurementTableError, measured_pair
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
 from nlupdate.progress import ProgressCallback, no_progress
@@ -125,17 +126,10 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
         samples = samples_from_modal_table(table, shapes[input_dof], options.mode, name)
         model = fit_amplitude_model(samples, tuple(shapes.items()), options.backbone, options.order, mode=options.mode)
         return MeasuredSource(samples, model, None, "N", input_dof, "modal-table")
-    inputs = sorted(set(table["input_dof"].astype(str)))
-    input_dof = input_dof or (inputs[0] if len(inputs) == 1 else None)
-    if input_dof is None or input_dof not in inputs:
-        raise ValueError(f"{name}: the table has input dofs {inputs}; choose one (input_dof)"
-                         + (f", not {input_dof!r}" if input_dof is not None else ""))
-    responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
-    response_dof = response_dof or (input_dof if input_dof in responses else
-                                    responses[0] if len(responses) == 1 else None)
-    if response_dof is None:
-        raise ValueError(f"{name}: no driving-point FRF at {input_dof!r}; choose a response among {responses} "
-                         f"(response_dof)")
+    try:  # the driving point at the table's (only) input, or the input's only response
+        response_dof, input_dof, _ = measured_pair(table, input_dof, response_dof)
+    except MeasurementTableError as error:
+        raise ValueError(f"{name}: {error}") from None
     data = FRFLevels.from_table(table, response_dof, input_dof)
     samples = samples_from_frfs(data, shapes.get(input_dof))
     model = amplitude_model_from_frfs(data, options.backbone, shapes.get(input_dof), options.order, mode=options.mode)

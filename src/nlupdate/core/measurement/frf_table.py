@@ -283,6 +283,20 @@ def select_frf(
 
 
 
+def table_input(table: pd.DataFrame, input_dof: str | None = None, name: str = "input_dof") -> str:
+    """The input a measured-FRF table is read at: ``input_dof``, one the table has, or its only
+    one when None. Raises :class:`MeasurementTableError` naming the option (``name``, as the
+    caller's user writes it) and the table's inputs."""
+    inputs = sorted(set(table["input_dof"].astype(str)))
+    if input_dof is None:
+        if len(inputs) != 1:
+            raise MeasurementTableError(f"the table has several input dofs {inputs}; choose one with {name}")
+        return inputs[0]
+    if str(input_dof) not in inputs:
+        raise MeasurementTableError(f"{name} {input_dof}: the table has input_dof {', '.join(inputs)}")
+    return str(input_dof)
+
+
 def measured_pair(table: pd.DataFrame, input_dof: str | None = None, response_dof: str | None = None,
                   names: tuple[str, str] = ("input_dof", "response_dof")) -> tuple[str, str, dict[str, str]]:
     """The (response, input) curve of a measured-FRF table that one identification works
@@ -292,15 +306,8 @@ def measured_pair(table: pd.DataFrame, input_dof: str | None = None, response_do
     the input's and the response's, as the caller's user writes them) and what the table
     has."""
     input_name, response_name = names
-    inputs = sorted(set(table["input_dof"].astype(str)))
-    defaults: dict[str, str] = {}
-    if input_dof is None:
-        if len(inputs) != 1:
-            raise MeasurementTableError(f"the table has several input dofs {inputs}; choose one with {input_name}")
-        input_dof = defaults["input_dof"] = inputs[0]
-    elif str(input_dof) not in inputs:
-        raise MeasurementTableError(f"{input_name} {input_dof}: the table has input_dof {', '.join(inputs)}")
-    input_dof = str(input_dof)
+    given, input_dof = input_dof, table_input(table, input_dof, input_name)
+    defaults: dict[str, str] = {"input_dof": input_dof} if given is None else {}
     responses = sorted(set(table.loc[table["input_dof"].astype(str) == input_dof, "response_dof"].astype(str)))
     if response_dof is None:
         if input_dof in responses:

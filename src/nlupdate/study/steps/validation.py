@@ -9,6 +9,7 @@ from nlupdate.core.identification.amplitude_modal_fit import default_resamples
 from nlupdate.core.identification.backbone_samples import displacement_samples
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.modal_samples import samples_from_frfs
+from nlupdate.core.measurement.frf_table import MeasurementTableError, table_input
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
@@ -26,11 +27,12 @@ def validation_step(study: Study, table: pd.DataFrame) -> Validation:
     (:func:`nlupdate.core.validation.held_out.validate`), with ``impact``'s linear limit kept
     beside them as ``nlupdate validate --impact`` keeps it."""
     spec = study.validation
-    inputs = sorted(set(table["input_dof"].astype(str)))
-    input_dof = spec.input_dof or (study.identification.input_dof if study.identification is not None else None) \
-        or (inputs[0] if len(inputs) == 1 else None)
-    if input_dof is None:
-        raise StudyError(f"{study.path}: [validation] input_dof: the measured table has input dofs {inputs}; name one")
+    try:
+        input_dof = table_input(table, spec.input_dof or (study.identification.input_dof
+                                                          if study.identification is not None else None),
+                                "[validation] input_dof")
+    except MeasurementTableError as error:
+        raise StudyError(f"{study.path}: {error}") from None
     measured = study.measured
     paths = [measured.file] if measured.file is not None else [path for path, _ in measured.files]
     try:
