@@ -175,3 +175,12 @@ def test_a_negative_bootstrap_is_refused_alike_by_amplitude_and_validate(tests_o
                  "--out", str(tmp_path / "v")]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         "nlupdate validate: error: --bootstrap -1: expected a number of refits ≥ 0")
+
+
+@pytest.mark.parametrize("value", ["0", "inf", "nan"])
+def test_a_shape_of_zero_or_not_finite_is_refused_as_a_study_refuses_it(tests_of_one_mode, tmp_path, capsys, value):
+    """--shape takes what [amplitude] and [validation] shapes take (modal_samples.usable_shape)."""
+    assert main(["amplitude", "--ring-down", str(tests_of_one_mode / "decay.csv"), "--shape", f"x={value}",
+                 "--out", str(tmp_path / "a")]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        f"nlupdate amplitude: error: --shape 'x={value}': expected NAME=VALUE with a finite shape ≠ 0 (1/√kg)")

@@ -145,7 +145,8 @@ def test_a_held_out_type_is_predicted_as_the_command_predicts_it(records, tmp_pa
      "[amplitude] key 'ring_down': expected existing files (relative to the study file), got 'missing.csv'"),
     ({"measured": True}, "[amplitude] key 'measured': expected false without a [measured] table"),
     ({"band_hz": [13.0, 7.0]}, "[amplitude] key 'band_hz': expected [LOW, HIGH] in Hz with LOW < HIGH, got [13.0, 7.0]"),
-    ({"shapes": {"m1": 0.0}}, "[amplitude] key 'shapes': expected a table { coordinate = shape ≠ 0 (1/√kg) }"),
+    ({"shapes": {"m1": 0.0}}, "[amplitude] key 'shapes': expected a table { coordinate = shape }, each a finite shape "
+                              "≠ 0 (1/√kg)"),
     ({"input_dof": "m1"}, "[amplitude] key 'input_dof': expected nothing unless measured = true, got 'm1'"),
     ({"coordinates": {"run.mat": ["acc3:y"]}},
      "[amplitude] key 'coordinates': expected a table { FILE = [\"RESPONSE\", \"INPUT\"] }"),

@@ -77,6 +77,9 @@ def test_the_study_holds_out_the_ring_down_and_the_archive_carries_it(two_tests,
     ('hold_out_type = "sweep"', "[validation] key 'hold_out_type': expected one of ['stepped-sine', "),
     ('models = ["lines"]', "[validation] key 'models': expected with hold_out_type, a first model among"),
     ("shapes = {{}}", "[validation] key 'shapes': expected with hold_out_type, the mode shape"),
+    # a shape of 0 was taken, and every modal amplitude divided by it (as --shape and [amplitude] refuse it)
+    ('shapes = {{ "0" = 0.0 }}', "[validation] key 'shapes': expected a table { coordinate = shape }, each a finite "
+                                 "shape ≠ 0 (1/√kg), got {'0': 0.0}"),
 ])
 def test_a_wrong_hold_out_type_table_is_one_line(two_tests, tmp_path, capsys, change, message):  # noqa: F811
     text = STUDY.format(folder=two_tests, phi=float(PHI))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Mapping
 
+from nlupdate.core.identification.modal_samples import SHAPE_FORM, usable_shape
 from nlupdate.core.identification.settings import IdentificationSettings
 from nlupdate.core.response.method import samples_form, valid_samples
 from nlupdate.core.updating.optimisation import OptimisationOptions
@@ -168,6 +169,14 @@ def read_prediction(read: Reader, data: Mapping[str, Any], identification: Ident
     return spec
 
 
+def _check_shapes(read: Reader, where: str, shapes: Mapping[str, float]) -> None:
+    """Every shape of ``[where] shapes`` usable (:data:`~nlupdate.core.identification.modal_samples.SHAPE_FORM`, as
+    ``--shape`` takes it)."""
+    for name, value in shapes.items():
+        if not usable_shape(value):
+            raise read.fail(where, "shapes", f"a table {{ coordinate = shape }}, each {SHAPE_FORM}", {name: value})
+
+
 def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> ValidationSpec | None:
     """``[validation]`` (:class:`~nlupdate.study.spec.ValidationSpec`); it needs measured data."""
     table = read.table(data, "validation")
@@ -213,6 +222,7 @@ def read_validation(read: Reader, data: Mapping[str, Any], measured: Any) -> Val
     if not spec.shapes:
         raise read.fail(where, "shapes", "with hold_out_type, the mode shape at each source's coordinate: "
                                          "{ \"<coordinate>\" = value (1/√kg) }")
+    _check_shapes(read, where, spec.shapes)
     ring_down = tuple(read.path_of(path) for path in spec.ring_down)
     for written, path in zip(spec.ring_down, ring_down):
         if not read.redirect and not path.is_file():
@@ -233,9 +243,7 @@ def read_amplitude(read: Reader, data: Mapping[str, Any], measured: object | Non
     spec = build(read, where, cls, values)
     if spec.band_hz is not None and not spec.band_hz[0] < spec.band_hz[1]:
         raise read.fail(where, "band_hz", "[LOW, HIGH] in Hz with LOW < HIGH", list(spec.band_hz))
-    for name, value in spec.shapes.items():
-        if value == 0:
-            raise read.fail(where, "shapes", "a table { coordinate = shape ≠ 0 (1/√kg) }", {name: value})
+    _check_shapes(read, where, spec.shapes)
     for name, pair in spec.coordinates.items():
         if (not isinstance(pair, (list, tuple)) or len(pair) != 2
                 or not all(isinstance(p, str) and p for p in pair)):

@@ -42,6 +42,7 @@ from nlupdate.core.identification.amplitude_joint import (
 )
 from nlupdate.core.identification.amplitude_modal_fit import FIT_BACKBONES
 from nlupdate.core.identification.backbone_samples import TEST_TYPES
+from nlupdate.core.identification.modal_samples import SHAPE_FORM, usable_shape
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.frf_files import write_frf_table
 from nlupdate.files import atomic_directory
@@ -90,8 +91,8 @@ def _shapes(texts: list[str]) -> dict[str, float]:
             shapes[name.strip()] = float(value)
         except ValueError:
             raise CliError(f"--shape {text!r}: expected NAME=VALUE (mass-normalised shape in 1/√kg)") from None
-        if not name.strip() or not np.isfinite(shapes[name.strip()]) or shapes[name.strip()] == 0:
-            raise CliError(f"--shape {text!r}: expected NAME=VALUE with a finite shape ≠ 0 (1/√kg)")
+        if not name.strip() or not usable_shape(shapes[name.strip()]):
+            raise CliError(f"--shape {text!r}: expected NAME=VALUE with {SHAPE_FORM}")
     return shapes
 
 

@@ -39,6 +39,15 @@ from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 
 
+#: what a mass-normalised mode shape given at a coordinate must be: a modal amplitude divides by it
+SHAPE_FORM = "a finite shape ≠ 0 (1/√kg)"
+
+
+def usable_shape(value: float) -> bool:
+    """Whether a given shape value (1/√kg) is :data:`SHAPE_FORM`."""
+    return bool(np.isfinite(value)) and value != 0
+
+
 @dataclass(frozen=True, eq=False)
 class ModalSamples:
     """Samples of one mode's backbone: modal amplitude a (m·√kg), natural frequency (Hz),
