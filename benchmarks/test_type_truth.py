@@ -3,7 +3,8 @@ Jenkins and an Iwan joint, with 2 % noise, over seeds; and the joint fit with ea
 
     python benchmarks/test_type_truth.py [--seeds 8] [--backbone polynomial|iwan|jenkins] [--kink 1.5 [--kink-below 1.03] [--kink-inside]]
                                          [--at-samples] [--extra-level 1.3] [--stepped-sine lines|peaks]
-                                         [--ring-down decay|segments] [--iwan-levels N]
+                                         [--ring-down decay|segments] [--ring-down-own curve|samples]
+                                         [--iwan-levels N]
 
 Systems, records and truth: tests/test_test_type_truth.py (RK4 ring-downs and taps, the
 closed-form single-nonlinear-mode backbone). Per test type and seed:
@@ -11,13 +12,15 @@ closed-form single-nonlinear-mode backbone). Per test type and seed:
 * ring-down: RK4 from 30 × the Jenkins slip amplitude (Iwan: 3 ×; the 2-DOF's 240 × until
   2026-11-29), white noise 2 % of the record's peak, read by the decay fit (``fit_decay``: its
   samples where the damping is known to 1.5 %) or, with ``--ring-down segments``, in segments
-  (``decay_segments``);
+  (``decay_segments``); its own fit is made on the decay fit's curve over its samples' range
+  (``CURVE_POINTS``; ``--ring-down-own samples``: on the samples);
 * impact: an RK4 tap (Jenkins stuck, 0.5 × slip; Iwan 0.05 ×), 2 % noise, ``fit_linear_limit``;
-* phase resonance: multi-harmonic balance (5 harmonics) at 90°, six levels (Jenkins 0.5–15 ×
-  its slip amplitude; Iwan 0.3–6 ×, from microslip to 3.3 × φ_max, on both systems — the
-  2-DOF's were 12–240 ×, all macroslip, until 2026-11-29); 2 % noise on the force and on the
-  response amplitude;
-* force-controlled stepped sine: multi-harmonic-balance FRFs at the same six levels on 301
+* phase resonance: multi-harmonic balance (5 harmonics) at 90°, at levels: Jenkins six, 0.5–15 ×
+  its slip amplitude; Iwan sixteen (``ISSUE_LEVELS``; ``--iwan-levels 6``: the six of
+  ``IWAN_LEVELS``, the design until 2026-11-29) over 0.3–6 ×, from microslip to 3.3 × φ_max, on
+  both systems (the 2-DOF's were 12–240 ×, all macroslip, until 2026-11-29); 2 % noise on the
+  force and on the response amplitude;
+* force-controlled stepped sine: multi-harmonic-balance FRFs at the same levels on 301
   lines over 0.9–1.05 f₀ (``stepped_sine_table``, tests/test_stepped_sine_truth.py), 2 % noise
   (``add_table_noise``), one sample per level (``samples_from_frfs``); with ``--backbone jenkins``
   every fit that includes the stepped sine is refined on its lines (``refine_on_lines``, the
@@ -52,20 +55,33 @@ from test_backbone_forms import locked_points  # noqa: E402
 from test_stepped_sine_truth import IWAN_LEVELS, LEVELS, stepped_sine_table  # noqa: E402
 from test_test_type_truth import SYSTEMS, band, free_decay, noisy, system, truth  # noqa: E402
 
-from nlupdate.core.identification.amplitude_modal_fit import ModalSamples, fit_amplitude_model, samples_from_frfs  # noqa: E402
+from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model  # noqa: E402
 from nlupdate.core.identification.backbone_samples import join_samples, own_fit_for, source_noise  # noqa: E402
 from nlupdate.core.identification.data import FRFLevels  # noqa: E402
 from nlupdate.core.identification.decay_fit import fit_decay  # noqa: E402
 from nlupdate.core.identification.impact import decay_segments, fit_linear_limit  # noqa: E402
 from nlupdate.core.identification.line_refine import SteppedSineLines, refine_on_lines, stepped_sine_lines  # noqa: E402
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs  # noqa: E402
 from nlupdate.core.identification.phase_resonance import PhaseResonancePoints, samples_from_phase_resonance  # noqa: E402
 from nlupdate.core.identification.sample_residuals import EIV_BACKBONES, sample_noise  # noqa: E402
 from nlupdate.core.measurement.noise import add_table_noise  # noqa: E402
 
 TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
+#: the ring-down's own fit (read by the decay fit) is made on its decay curve at this many amplitudes
+#: spread geometrically over its samples' range — more than the Iwan form's six unknowns, so the
+#: refit follows the one fitted curve instead of being free between its two or three samples a
+#: factor 1.5 apart (16 and 30 give the same within 0.1 points: docs/ring-down.md, "The ring-down's
+#: own fit on its decay curve"); ``--ring-down-own samples``: on the samples, as before
+CURVE_POINTS = 8
+#: the Iwan systems' phase-resonance and stepped-sine levels: this many spread geometrically over
+#: 0.3–6 a_s (ratio 1.22: the six of ``IWAN_LEVELS`` with two more between each; one of them, as one
+#: of the six, at 1.82 a_s, by φ_max = 1.8 a_s). Six cannot meet issue 37's 5 % in damping: the
+#: Cramér–Rao bound of six points at 2 % noise puts the median of the SDOF's largest error over
+#: 8 seeds at 6.0 % (``kink_information.py --joint iwan --levels N``; docs/ring-down.md, "More levels")
+ISSUE_LEVELS = 16
 
 
-def records(s: dict, kind: str, extra: tuple[float, ...] = (), iwan_levels: int = IWAN_LEVELS.size) -> dict:
+def records(s: dict, kind: str, extra: tuple[float, ...] = (), iwan_levels: int = ISSUE_LEVELS) -> dict:
     """The noise-free records of every test type of one system (``extra``: more Jenkins levels,
     × a_s; ``iwan_levels``: the Iwan levels' number, spread geometrically over the same span)."""
     slip = s["slip"]
@@ -84,14 +100,19 @@ def records(s: dict, kind: str, extra: tuple[float, ...] = (), iwan_levels: int 
 
 def samples(s: dict, made: dict, seed: int,
             ring_down: str = "decay") -> tuple[dict[str, tuple[ModalSamples, tuple[float, float] | None]],
-                                               SteppedSineLines]:
-    """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by), and
-    the stepped sine's lines (the same noisy FRFs)."""
+                                               SteppedSineLines, ModalSamples | None]:
+    """Each type's samples with 2 % noise (and the stated noise the joint fit weighs it by), the
+    stepped sine's lines (the same noisy FRFs), and the ring-down's decay curve at
+    :data:`CURVE_POINTS` amplitudes over its samples' range (None when read in segments)."""
     psi, rng = s["phi"][0], np.random.default_rng(1000 + seed)
     t, x = made["decay"]
+    curve = None
     if ring_down == "decay":
         fit = fit_decay(t, noisy(x, seed), band(s), shape=psi)
         ring = (fit.samples(), fit.stated_noise())
+        a = np.geomspace(ring[0].amplitude.min(), ring[0].amplitude.max(), CURVE_POINTS)
+        f, zeta = fit.curves(a)[:2]
+        curve = ModalSamples(a, f, zeta, np.zeros(a.size), fit.shape)
     else:
         parts = decay_segments(t, {"x": noisy(x, seed)}, band(s), shape=psi)
         ring = (join_samples([p.samples() for p in parts]),
@@ -108,7 +129,7 @@ def samples(s: dict, made: dict, seed: int,
     frfs = samples_from_frfs(data, psi)
     return {"ring-down": ring, "impact": (tap.samples(), (tap.frequency_std_hz / tap.frequency_hz,
                                                           tap.damping_std / tap.damping_ratio)),
-            "phase-resonance": (pr, None), "stepped-sine": (frfs, None)}, stepped_sine_lines(data, psi)
+            "phase-resonance": (pr, None), "stepped-sine": (frfs, None)}, stepped_sine_lines(data, psi), curve
 
 
 #: with ``--kink K`` (and ``--kink-below B``), amplitudes within [a_s/B, K·a_s] of the Jenkins slip
@@ -188,6 +209,39 @@ def fit(s: dict, chosen: dict[str, tuple[ModalSamples, tuple[float, float] | Non
     return refine_on_lines(model, lines, others, f_std[keep], z_std[keep])[0]
 
 
+def seed_rows(s: dict, every: dict[str, tuple[ModalSamples, tuple[float, float] | None]],
+              lines: SteppedSineLines | None, curve: ModalSamples | None, backbone: str,
+              at_samples: bool = False) -> tuple[dict[str, tuple[float, ...]], dict[str, float]]:
+    """One seed's errors against the truth (module docstring): per type (and "joint", "joint,
+    covered") the row (samples f, ζ; own fit f, ζ; lowest and highest amplitude × a_s; held out
+    f, ζ), relative and NaN where there is none; and each fit's slip error (:func:`slip_error`).
+    ``curve``: the ring-down's own fit is made on it (:data:`CURVE_POINTS`) instead of its samples."""
+    rows, slips = {}, {}
+    for name, (smp, stated) in every.items():
+        on = curve if name == "ring-down" and curve is not None else smp
+        own_model = fit(s, {name: (on, stated)}, backbone, lines) if on.amplitude.size >= 3 else None
+        own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(), smp.amplitude if at_samples else None)
+               if own_model is not None else (np.nan, np.nan))
+        rest = {other: every[other] for other in TYPES if other != name}
+        model = fit(s, rest, backbone, lines)
+        slips[f"own {name}"], slips[f"without {name}"] = slip_error(s, own_model), slip_error(s, model)
+        low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest.values()))
+        if name == "impact":  # the linear limit lies below every other type: the models' a → 0 end
+            low = smp.amplitude.min()
+        high = min(smp.amplitude.max(), max(r[0].amplitude.max() for r in rest.values()))
+        held = curve_errors(s, model, low, high, smp.amplitude) if low <= high else (np.nan, np.nan)
+        rows[name] = (*sample_errors(s, smp), *own, smp.amplitude.min() / s["slip"], smp.amplitude.max() / s["slip"],
+                      *held)
+    joined = join_samples([smp for smp, _ in every.values()])
+    model = fit(s, every, backbone, lines)
+    slips["joint"] = slip_error(s, model)
+    span = (joined.amplitude.min() / s["slip"], joined.amplitude.max() / s["slip"])
+    rows["joint"] = (np.nan, np.nan, *curve_errors(s, model, joined.amplitude.min(), joined.amplitude.max()), *span,
+                     np.nan, np.nan)
+    rows["joint, covered"] = (np.nan, np.nan, *covered_errors(s, model, every), *span, np.nan, np.nan)
+    return rows, slips
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=8)
@@ -202,9 +256,12 @@ def main() -> None:
                         help="how the ring-down is read: the decay fit (default) or segments")
     parser.add_argument("--extra-level", type=float, action="append", default=[], metavar="X",
                         help="one more phase-resonance and stepped-sine level at X × a_s (Jenkins systems; repeatable)")
-    parser.add_argument("--iwan-levels", type=int, default=IWAN_LEVELS.size, metavar="N",
+    parser.add_argument("--ring-down-own", default="curve", choices=("curve", "samples"),
+                        help="the ring-down's own fit (decay fit) on its decay curve at CURVE_POINTS amplitudes over "
+                             "its samples' range (default) or on its samples a factor 1.5 apart (as before 2026-11-29)")
+    parser.add_argument("--iwan-levels", type=int, default=ISSUE_LEVELS, metavar="N",
                         help="the Iwan systems' phase-resonance and stepped-sine levels: N spread geometrically "
-                             "over the same 0.3–6 a_s (default the six of IWAN_LEVELS)")
+                             "over 0.3–6 a_s (default ISSUE_LEVELS, 16; 6: IWAN_LEVELS, the design until 2026-11-29)")
     parser.add_argument("--kink-inside", action="store_true",
                         help="with --kink: only the amplitudes within the band instead of those outside it")
     parser.add_argument("--stepped-sine", default="lines", choices=("lines", "peaks"),
@@ -226,32 +283,13 @@ def main() -> None:
         rows = {name: [] for name in TYPES + ("joint", "joint, covered")}
         slips: dict[str, list[float]] = {}
         for seed in range(args.seeds):
-            every, lines = samples(s, made, seed, args.ring_down)
-            lines = lines if args.stepped_sine == "lines" else None
-            for name, (smp, stated) in every.items():
-                own_model = fit(s, {name: (smp, stated)}, args.backbone, lines) if smp.amplitude.size >= 3 else None
-                own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(),
-                                    smp.amplitude if args.at_samples else None)
-                       if own_model is not None else (np.nan, np.nan))
-                rest = {other: every[other] for other in TYPES if other != name}
-                model = fit(s, rest, args.backbone, lines)
-                slips.setdefault(f"own {name}", []).append(slip_error(s, own_model))
-                slips.setdefault(f"without {name}", []).append(slip_error(s, model))
-                low = max(smp.amplitude.min(), min(r[0].amplitude.min() for r in rest.values()))
-                if name == "impact":  # the linear limit lies below every other type: the models' a → 0 end
-                    low = smp.amplitude.min()
-                high = min(smp.amplitude.max(), max(r[0].amplitude.max() for r in rest.values()))
-                held = curve_errors(s, model, low, high, smp.amplitude) if low <= high else (np.nan, np.nan)
-                rows[name].append((*sample_errors(s, smp), *own, smp.amplitude.min() / s["slip"],
-                                   smp.amplitude.max() / s["slip"], *held))
-            joined = join_samples([smp for smp, _ in every.values()])
-            model = fit(s, every, args.backbone, lines)
-            slips.setdefault("joint", []).append(slip_error(s, model))
-            rows["joint"].append((np.nan, np.nan, *curve_errors(s, model, joined.amplitude.min(), joined.amplitude.max()),
-                                  joined.amplitude.min() / s["slip"], joined.amplitude.max() / s["slip"], np.nan,
-                                  np.nan))
-            rows["joint, covered"].append((np.nan, np.nan, *covered_errors(s, model, every), rows["joint"][-1][4],
-                                           rows["joint"][-1][5], np.nan, np.nan))
+            every, lines, curve = samples(s, made, seed, args.ring_down)
+            errors, slip = seed_rows(s, every, lines if args.stepped_sine == "lines" else None,
+                                     curve if args.ring_down_own == "curve" else None, args.backbone, args.at_samples)
+            for name, row in errors.items():
+                rows[name].append(row)
+            for name, value in slip.items():
+                slips.setdefault(name, []).append(value)
         for name, values in rows.items():
             v = np.array(values, dtype=float)
             with warnings.catch_warnings():

@@ -19,7 +19,9 @@ masses and springs (m1 = 0.1, m2 = 0.5 kg, 1e6 N/m), k_t = 8e4 N/m, F_s = 1 N, i
 """
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -34,6 +36,8 @@ from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.harmonic_balance import HarmonicTruncationWarning, trace_harmonic_balance
 
 from reference_cache import session_cached
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 SYSTEMS = [(1, "jenkins"), (1, "iwan"), (2, "jenkins"), (2, "iwan")]
 ZETA0 = 0.005
@@ -267,3 +271,52 @@ def test_two_dof_jenkins_held_out_types_predicted_by_the_joint_fit(two_dof_jenki
         frame = pd.read_csv(out / "held_out.csv")
         assert set(frame["test_type"]) == {held}
         assert frame["frequency_error"].abs().max() < bounds[0] and frame["damping_error"].abs().max() < bounds[1]
+
+
+def _benchmark():
+    """benchmarks/test_type_truth.py (imported here: it imports this module's systems and truth)."""
+    import test_type_truth
+
+    return test_type_truth
+
+
+def test_sdof_iwan_own_fits_on_the_benchmark_design():
+    """Issue 37's bounds on the benchmark's design (docs/ring-down.md, "More levels"): the SDOF
+    Iwan system's phase resonance and stepped sine at sixteen levels over 0.3–6 a_s
+    (``ISSUE_LEVELS``), its ring-down from 3 a_s read by the decay fit, 2 % noise, seed 0:
+    each type's own modal Iwan backbone within 0.2 % in frequency and 5 % in damping of the
+    closed-form truth at 60 amplitudes over its samples' range — the ring-down's fitted on its
+    decay curve (``CURVE_POINTS``; measured 2.2e-4 / 2.5 %, 1.9e-4 / 3.3 %, 5.0e-5 / 2.7 %).
+    The eight seeds of both systems, held out and joint too: the slow test below."""
+    bench, s = _benchmark(), system(1, "iwan")
+    every, _, curve = bench.samples(s, bench.records(s, "iwan"), 0)
+    assert every["phase-resonance"][0].amplitude.size == bench.ISSUE_LEVELS == 16
+    for name in ("phase-resonance", "stepped-sine", "ring-down"):
+        smp, stated = every[name]
+        model = bench.fit(s, {name: (curve if name == "ring-down" else smp, stated)}, "iwan")
+        f_error, z_error = bench.curve_errors(s, model, smp.amplitude.min(), smp.amplitude.max())
+        assert f_error < 2e-3 and z_error < 0.05, (name, f_error, z_error)
+
+
+@pytest.mark.slow  # 8 seeds × 10 Iwan fits a system: 180-210 s CPU each (load 3-5)
+@pytest.mark.parametrize("dofs", [1, 2])
+def test_iwan_every_type_own_held_out_and_joint_on_the_benchmark_design(dofs):
+    """Issue 37's "What must be shown" on the Iwan systems at the benchmark's design (the fast
+    test above), seeds 0–7, against the closed-form truth: every type's own backbone (the
+    phase resonance, the stepped sine, the ring-down on its decay curve), every type held out
+    and predicted by the fit of the others at its samples' amplitudes, the impact's linear
+    limit, and the joint fit of all four types over the whole span and over each type's range —
+    each within 0.2 % in frequency and 5 % in damping on every seed (measured, largest over
+    the seeds: docs/ring-down.md, "More levels")."""
+    bench, s = _benchmark(), system(dofs, "iwan")
+    made = bench.records(s, "iwan")
+    for seed in range(8):
+        every, _, curve = bench.samples(s, made, seed)
+        rows, _ = bench.seed_rows(s, every, None, curve, "iwan")
+        for name, row in rows.items():
+            checked = {"own fit": row[2:4], "held out": row[6:8]}
+            if name == "impact":
+                checked["linear limit"] = row[0:2]
+            for what, (f_error, z_error) in checked.items():
+                if np.isfinite(f_error):
+                    assert f_error < 2e-3 and z_error < 0.05, (seed, name, what, f_error, z_error)
