@@ -106,3 +106,22 @@ def test_keys_of_the_type_hold_out_need_it(two_tests, tmp_path):  # noqa: F811
     study.write_text(f'[measured]\nfile = "{two_tests}/stepped.parquet"\n[validation]\nshapes = {{ "0" = 1.0 }}\n')
     with pytest.raises(StudyError, match=r"\[validation\] key 'shapes': expected nothing unless hold_out_type"):
         load_study(study)
+
+
+def test_a_shape_missing_at_the_stepped_sines_input_is_named_by_study_and_command(two_tests, tmp_path, capsys):  # noqa: F811
+    """One rule (held_type.stepped_sine_source) for the study's [validation] and validate
+    --hold-out-type: the stepped sine's modal amplitudes need the shape at its input '0'; each
+    says so in its own words (the key, the option)."""
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(folder=two_tests, phi=float(PHI)).replace('shapes = { "0" =', 'shapes = { "x" ='))
+    code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "out", "--quiet")
+    (line,) = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and line.endswith(
+        "study.toml: [validation] key 'shapes': the stepped sine's modal amplitude needs the mass-normalised shape "
+        "(1/√kg) at its input '0'; got ['x']"), err
+    code, _, err = run_cli(capsys, "validate", "--measured", two_tests / "stepped.parquet", "--ring-down",
+                           two_tests / "decay.csv", "--shape", f"x={float(PHI)}", "--model", "amplitude-polynomial",
+                           "--hold-out-type", "ring-down", "--out", tmp_path / "v")
+    assert code == 2 and err.strip().splitlines()[-1] == (
+        "nlupdate validate: error: --shape 0=VALUE: the stepped sine's modal amplitude needs the mass-normalised "
+        "shape (1/√kg) at its input '0'"), err

@@ -20,9 +20,9 @@ from nlupdate.app.cli.amplitude import _shapes
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
 from nlupdate.core.identification.backbone_samples import bootstrap_refits
-from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
-from nlupdate.core.validation.held_type import BACKBONE_OF_MODEL, HELD_TYPES, hold_out_type
+from nlupdate.core.validation.held_type import (BACKBONE_OF_MODEL, HELD_TYPES, MissingShape, hold_out_type,
+                                               stepped_sine_source)
 from nlupdate.files import atomic_directory
 from nlupdate.reporting.figures import save_figure
 from nlupdate.reporting.held_type_plots import held_type_figure
@@ -63,11 +63,10 @@ def run_held_type(args: argparse.Namespace, out: Path, curve) -> int:
         table, notes = measured_table(args, find_band=True)
         print_notes(notes)
         data = curve(table, args.input_dof, ", ".join(args.measured))
-        if data.input_dof not in shapes:
-            raise CliError(f"--shape {data.input_dof}=VALUE: the stepped sine's modal amplitude needs the "
-                           f"mass-normalised shape (1/√kg) at its input {data.input_dof!r}")
-        sources.append((", ".join(args.measured), samples_from_frfs(data, shapes[data.input_dof]), None,
-                        "stepped-sine"))
+        try:
+            sources.append(stepped_sine_source(", ".join(args.measured), data, shapes))
+        except MissingShape as error:
+            raise CliError(f"--shape {error.coordinate}=VALUE: {error}") from None
     reader = argparse.Namespace(**vars(args))
     reader.response_controlled = ([p for p in args.measured or [] if p.lower().endswith(".mat")]
                                   if args.response_controlled != "off" else [])  # auto (None: the default), kept

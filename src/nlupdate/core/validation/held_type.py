@@ -61,13 +61,13 @@ polynomial's 79.95–80.64 Hz (0.69 Hz) is not flagged; before, neither was judg
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
-from nlupdate.core.identification.modal_samples import ModalSamples
+from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs
 from nlupdate.core.identification.backbone_samples import (
     TEST_TYPES, bootstrap_bands, held_out_errors, join_samples, own_fit_for, source_noise,
 )
@@ -88,6 +88,23 @@ BACKBONE_OF_MODEL = {"auto": "iwan", "amplitude-iwan": "iwan", "amplitude-polyno
 #: (source name, samples, stated relative (frequency, damping) standard deviations or None, test type)
 Source = tuple[str, ModalSamples, "tuple[float, float] | None", str]
 
+
+
+class MissingShape(AmplitudeModelError):
+    """A source's modal amplitudes need the mass-normalised shape at ``coordinate``, which was not given."""
+
+    def __init__(self, coordinate: str, message: str):
+        super().__init__(message)
+        self.coordinate = coordinate
+
+
+def stepped_sine_source(name: str, data: FRFLevels, shapes: Mapping[str, float]) -> Source:
+    """The stepped sine ``data`` (named ``name``) as a source of the type hold-out: one sample
+    per level at the shape given at its input (:class:`MissingShape` without one)."""
+    if data.input_dof not in shapes:
+        raise MissingShape(data.input_dof, f"the stepped sine's modal amplitude needs the mass-normalised shape "
+                                           f"(1/√kg) at its input {data.input_dof!r}")
+    return name, samples_from_frfs(data, shapes[data.input_dof]), None, "stepped-sine"
 
 
 @dataclass(frozen=True, eq=False)

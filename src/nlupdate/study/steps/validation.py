@@ -8,7 +8,6 @@ import pandas as pd
 from nlupdate.core.identification.amplitude_modal_fit import default_resamples
 from nlupdate.core.identification.backbone_samples import displacement_samples
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.modal_samples import samples_from_frfs
 from nlupdate.core.measurement.frf_table import MeasurementTableError, table_input
 from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
 from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
@@ -17,7 +16,7 @@ from nlupdate.core.validation.held_out import Validation
 from nlupdate.core.validation.held_response import validate_measured
 from nlupdate.core.validation.impact_limit import impact_linear_limit
 from nlupdate.core.validation.held_type import (
-    BACKBONE_OF_MODEL, HeldType, Source, TypedValidation, hold_out_type,
+    BACKBONE_OF_MODEL, HeldType, MissingShape, Source, TypedValidation, hold_out_type, stepped_sine_source,
 )
 from nlupdate.study.spec import Study, StudyError
 
@@ -57,11 +56,10 @@ def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
     (:func:`~nlupdate.core.validation.held_type.hold_out_type`)."""
     spec = study.validation
     shapes = dict(spec.shapes)
-    if data.input_dof not in shapes:
-        raise StudyError(f"{study.path}: [validation] key 'shapes': expected the mode shape at the stepped sine's input "
-                         f"{data.input_dof!r} (1/√kg), got {sorted(shapes)}")
-    sources: list[Source] = [(", ".join(paths) or "[measured]", samples_from_frfs(data, shapes[data.input_dof]), None,
-                              "stepped-sine")]
+    try:
+        sources: list[Source] = [stepped_sine_source(", ".join(paths) or "[measured]", data, shapes)]
+    except MissingShape as error:
+        raise StudyError(f"{study.path}: [validation] key 'shapes': {error}; got {sorted(shapes)}") from None
     for path in [p for p in paths if p.lower().endswith(".mat")] if spec.response_controlled != "off" else []:
         runs = read_response_controlled(path, study.measured.read_options())
         sources.append((path, samples_from_held_runs(runs, shapes.get(runs[0].response_dof)), None,
