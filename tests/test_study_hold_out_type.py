@@ -125,3 +125,21 @@ def test_a_shape_missing_at_the_stepped_sines_input_is_named_by_study_and_comman
     assert code == 2 and err.strip().splitlines()[-1] == (
         "nlupdate validate: error: --shape 0=VALUE: the stepped sine's modal amplitude needs the mass-normalised "
         "shape (1/√kg) at its input '0'"), err
+
+
+def test_a_ring_down_without_its_shape_is_refused_as_the_command_refuses_it(two_tests, tmp_path, capsys):  # noqa: F811
+    """The study reads its sources as ``validate --hold-out-type`` does (amplitude_inputs.read_sources):
+    a ring-down at a channel without a shape has amplitudes in m, which cannot join the stepped
+    sine's modal ones. It was read as modal (φ = 1 at its channel assumed), and, held out, predicted
+    at its amplitude in m as if modal; the scale is now checked over every source, held ones too."""
+    import pandas as pd
+
+    decay = pd.read_csv(two_tests / "decay.csv").rename(columns={"0": "x"})
+    decay.to_csv(tmp_path / "decay_x.csv", index=False)
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(folder=two_tests, phi=float(PHI)).replace(str(two_tests / "decay.csv"),
+                                                                            str(tmp_path / "decay_x.csv")))
+    code, _, err = run_cli(capsys, "update", study, "--out", tmp_path / "out", "--quiet")
+    (line,) = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and f"[validation]: {tmp_path / 'decay_x.csv'}: no mode shape at channel x, so its amplitudes " \
+                         f"are in m, not modal" in line, err

@@ -69,7 +69,7 @@ import pandas as pd
 from nlupdate.core.identification.amplitude_modal_fit import fit_amplitude_model
 from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs
 from nlupdate.core.identification.backbone_samples import (
-    TEST_TYPES, bootstrap_bands, held_out_errors, join_samples, own_fit_for, source_noise,
+    TEST_TYPES, bootstrap_bands, check_common_scale, held_out_errors, join_samples, own_fit_for, source_noise,
 )
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError
@@ -312,6 +312,7 @@ def hold_out_type(sources: Sequence[Source], test_type: str, shapes: Sequence[tu
     """Fit on every source not of ``test_type`` and predict those of it (module docstring);
     ``data``: the stepped-sine curves, needed when ``test_type`` is ``stepped-sine``;
     ``resamples``: bootstrap refits for the bands of sample predictions (0: none)."""
+    check_common_scale([s for _, s, _, _ in sources], [name for name, _, _, _ in sources], dict(shapes))  # held too
     held = [s for s in sources if s[3] == test_type]
     kept = [s for s in sources if s[3] != test_type]
     if not held:

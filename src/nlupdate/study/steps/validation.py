@@ -5,12 +5,10 @@ import dataclasses
 
 import pandas as pd
 
+from nlupdate.core.identification.amplitude_inputs import SourceFiles, read_sources
 from nlupdate.core.identification.amplitude_modal_fit import default_resamples
-from nlupdate.core.identification.backbone_samples import displacement_samples
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.frf_table import MeasurementTableError, table_input
-from nlupdate.core.identification.response_controlled import read_response_controlled, samples_from_held_runs
-from nlupdate.core.identification.ring_down import estimate_ring_down, read_ring_down
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_out import Validation
 from nlupdate.core.validation.held_response import validate_measured
@@ -52,7 +50,8 @@ def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
     """``[validation] hold_out_type``: the sources ``nlupdate validate --hold-out-type`` reads
     — the measured stepped sine, the response-controlled runs of its MATLAB files (with
     ``response_controlled`` auto or kept), the ``ring_down`` records (displacement, m; band found from
-    the record) — one held out by the amplitude-dependent modal model of the others
+    the record; :func:`~nlupdate.core.identification.amplitude_inputs.read_sources`, as the command
+    reads them) — one held out by the amplitude-dependent modal model of the others
     (:func:`~nlupdate.core.validation.held_type.hold_out_type`)."""
     spec = study.validation
     shapes = dict(spec.shapes)
@@ -60,14 +59,10 @@ def held_type(study: Study, data: FRFLevels, paths: list[str]) -> HeldType:
         sources: list[Source] = [stepped_sine_source(", ".join(paths) or "[measured]", data, shapes)]
     except MissingShape as error:
         raise StudyError(f"{study.path}: [validation] key 'shapes': {error}; got {sorted(shapes)}") from None
-    for path in [p for p in paths if p.lower().endswith(".mat")] if spec.response_controlled != "off" else []:
-        runs = read_response_controlled(path, study.measured.read_options())
-        sources.append((path, samples_from_held_runs(runs, shapes.get(runs[0].response_dof)), None,
-                        "response-controlled"))
-    for path in spec.ring_down:
-        record = read_ring_down(path)
-        estimate = estimate_ring_down(record.time_s, record.response, None, shapes.get(record.channel), source=path)
-        sources.append((path, displacement_samples(estimate.samples(), "m"), None, "ring-down"))
+    runs = tuple(p for p in paths if p.lower().endswith(".mat")) if spec.response_controlled != "off" else ()
+    read, _, _ = read_sources(SourceFiles(ring_down=tuple(spec.ring_down), response_controlled=runs,
+                                          options=study.measured.read_options()), shapes)  # as the command reads them
+    sources += [s for kind in ("response-controlled", "ring-down") for s in read if s[3] == kind]
     backbone = BACKBONE_OF_MODEL[spec.models[0]]
     return hold_out_type(sources, spec.hold_out_type, tuple(shapes.items()), data, backbone,
                          resamples=default_resamples(backbone))
