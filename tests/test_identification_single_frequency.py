@@ -292,3 +292,16 @@ def test_the_monte_carlo_intervals_cover_the_truth_at_one_frequency_per_level():
             low, high = identification.uncertainty.parameters[name].ci95
             hits[name] += low <= value <= high
     assert all(count >= 8 for count in hits.values()), hits
+
+
+def test_the_report_names_the_extracted_mode_nearest_the_chosen_frequency():
+    """Which extracted mode the report quotes beside the chosen frequency (Identification.nearest_mode):
+    the one whose natural frequency lies nearest, the first of two equally near; none without modes."""
+    from types import SimpleNamespace
+
+    from nlupdate.core.identification.pipeline import Identification
+
+    ident = SimpleNamespace(modes=[0, 1, 2], natural_frequencies_hz=np.array([40.0, 62.0, 118.0]))
+    assert Identification.nearest_mode(ident, 55.0) == 1 and Identification.nearest_mode(ident, 51.0) == 0
+    assert Identification.nearest_mode(ident, 200.0) == 2
+    assert Identification.nearest_mode(SimpleNamespace(modes=[]), 55.0) is None

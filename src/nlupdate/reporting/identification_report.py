@@ -25,9 +25,9 @@ def identification_section(ident, truth: Mapping[str, float], plots: Mapping[str
     if ident.frequency_choice is not None:  # the method fits at one excitation frequency, chosen by the program
         choice = ident.frequency_choice
         final = ""
-        if ident.modes and choice.linear_natural_frequency_hz is not None:
-            nearest = min(range(len(ident.modes)), key=lambda i: abs(
-                ident.natural_frequencies_hz[i] - choice.linear_natural_frequency_hz))
+        nearest = None if choice.linear_natural_frequency_hz is None else \
+            ident.nearest_mode(choice.linear_natural_frequency_hz)
+        if nearest is not None:
             final = (f"; identified at {r.setup.frequency_hz:g} Hz, the extracted FRF puts that mode at "
                      f"{number(ident.natural_frequencies_hz[nearest])} ± "
                      f"{number(ident.natural_frequency_std_hz[nearest], 2)} Hz (table below)")

@@ -142,6 +142,12 @@ class Identification:
         """Monte-Carlo standard deviation (Hz) of each natural frequency."""
         return np.array([self.uncertainty.parameters[f"linear_f{i + 1}_hz"].std for i in range(len(self.modes))])
 
+    def nearest_mode(self, frequency_hz: float) -> int | None:
+        """The index of the extracted FRF's mode nearest ``frequency_hz`` (Hz); None without modes."""
+        if not self.modes:
+            return None
+        return int(np.argmin(np.abs(self.natural_frequencies_hz - frequency_hz)))
+
     @property
     def loss_factors(self) -> NDArray[np.float64]:
         """Loss factors of the linear modes of the extracted FRF."""
