@@ -85,3 +85,15 @@ def test_existing_output_is_replaced_only_when_asked(tmp_path):
         (archive.path / "new.txt").write_text("new")
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".nlupdate-output.json", "new.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_the_hidden_truth_of_the_demo_is_what_its_study_file_states():
+    """Study.hidden_truth (what the report and the convergence plot print beside every estimate):
+    the demo's [measured.simulate] parameters and its elements' numbers, as src/nlupdate/data/demo.toml
+    writes them; none for a study on measured data."""
+    import dataclasses
+
+    demo = load_study(Path(__file__).parents[1] / "src" / "nlupdate" / "data" / "demo.toml")
+    assert demo.hidden_truth == {"E": 195e9, "h2": 1.45e-3, "k3": 3e9, "kf": 3e4, "slip_force": 0.5}
+    measured = demo.measured.__class__(file="x.parquet")
+    assert dataclasses.replace(demo, measured=measured).hidden_truth == {}

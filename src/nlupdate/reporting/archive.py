@@ -53,7 +53,7 @@ from nlupdate.reporting.jsonfile import write_json
 from nlupdate.reporting.manifest import environment
 from nlupdate.reporting.identification_plots import fit_figure, linear_frf_figure
 from nlupdate.reporting.prediction_plots import correlation_figure, measured_frfs_figure, predictions_figure
-from nlupdate.reporting.report import hidden_truth, report_markdown, step_warnings
+from nlupdate.reporting.report import report_markdown, step_warnings
 from nlupdate.reporting.styles import run_styles
 from nlupdate.reporting.tables import study_tables
 from nlupdate.reporting.updating_plots import candidate_frfs_figure, convergence_figure, frequency_errors_figure
@@ -218,7 +218,7 @@ def archive_figures(result) -> list[tuple[str, str, Callable[[], Figure]]]:
         sigma = target_sigma_pct(result)
         plots.append(("convergence", "convergence.png",
                       lambda: convergence_figure(study_tables(result)["histories"], styles, study.parameters,
-                                                 hidden_truth(study), sigma)))
+                                                 study.hidden_truth, sigma)))
         plots.append(("frequency_errors", "frequency_errors.png",
                       lambda: frequency_errors_figure(result.comparison, styles, sigma)))
         frfs = result.candidate_frfs

@@ -37,19 +37,6 @@ def _plot_files(plots: Mapping[str, str]) -> list[str]:
     return ["* `plots/*.png` — " + ", ".join(f"`{name}`" for name in names)] if names else []
 
 
-def hidden_truth(study) -> dict[str, float]:
-    """Truth values of a simulated study (adapter parameters and element parameters), by name."""
-    sim = study.measured.simulate if study.measured is not None else None
-    if sim is None or sim.model_file is not None:
-        return {}
-    truth = dict(sim.parameters)
-    for element in sim.elements:
-        for key, value in element.items():
-            if key not in ("type", "dofs") and isinstance(value, (int, float)):
-                truth[key] = float(value)
-    return truth
-
-
 #: why an updated parameter has no ± (the table's note and the summary say it)
 NO_TARGET_STD = "no uncertainty: the targets state no std_hz"
 
@@ -73,7 +60,7 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
     """The report of a :class:`~nlupdate.study.sequential.StudyResult` with its manifest; ``plots``
     maps plot keys to their paths relative to the archive."""
     study = result.study
-    truth = hidden_truth(study)
+    truth = study.hidden_truth
     run = manifest.get("run", {})
     lines = [f"# Study `{study.name}`", ""]
     if study.description:

@@ -380,6 +380,19 @@ class Study:
     def parameter(self, name: str) -> Parameter:
         return next(p for p in self.parameters if p.name == name)
 
+    @property
+    def hidden_truth(self) -> dict[str, float]:
+        """The truth of a simulated study, by name: its adapter parameters and its elements'
+        numeric parameters (none for a measured study or a truth from a model file)."""
+        sim = self.measured.simulate if self.measured is not None else None
+        if sim is None or sim.model_file is not None:
+            return {}
+        truth = dict(sim.parameters)
+        for element in sim.elements:
+            truth.update({key: float(value) for key, value in element.items()
+                          if key not in ("type", "dofs") and isinstance(value, (int, float))})
+        return truth
+
 
 @contextlib.contextmanager
 def inputs_read_once(study: Study) -> Iterator[Study]:
