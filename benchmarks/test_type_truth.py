@@ -75,7 +75,7 @@ TYPES = ("ring-down", "impact", "phase-resonance", "stepped-sine")
 CURVE_POINTS = 8
 #: the Iwan systems' phase-resonance and stepped-sine levels: this many spread geometrically over
 #: 0.3–6 a_s (ratio 1.22: the six of ``IWAN_LEVELS`` with two more between each; one of them, as one
-#: of the six, at 1.82 a_s, by φ_max = 1.8 a_s). Six cannot meet issue 37's 5 % in damping: the
+#: of the six, at 1.81 a_s, by φ_max = 1.8 a_s). Six cannot meet issue 37's 5 % in damping: the
 #: Cramér–Rao bound of six points at 2 % noise puts the median of the SDOF's largest error over
 #: 8 seeds at 6.0 % (``kink_information.py --joint iwan --levels N``; docs/ring-down.md, "More levels")
 ISSUE_LEVELS = 16
