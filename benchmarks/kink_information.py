@@ -16,9 +16,10 @@ Printed: the bound's standard deviation of ln a_s (the slip amplitude φ_max = F
 smallest scatter any unbiased estimator can have.
 
 ``--joint iwan``: the Iwan systems (χ = −0.5, β = 0.5; φ_max = 1.8 a_s), their modal Iwan
-backbone at the truth (ω₀, ζ₀ viscous, K_T, F_S, χ, β: six unknowns) and the benchmark's six
-levels (0.3–6 a_s, ``IWAN_LEVELS``; ``--levels N``: N spread geometrically over the same span),
-the same noise and unknowns. Printed per system: the
+backbone at the truth (ω₀, ζ₀ viscous, K_T, F_S, χ, β: six unknowns) and six levels over 0.3–6
+a_s (``IWAN_LEVELS``, the benchmark's design until 2026-11-29; ``--levels N``: N spread
+geometrically over the same span — ``--levels 16`` is the benchmark's design now, its
+``ISSUE_LEVELS``), the same noise and unknowns. Printed per system: the
 bound's largest standard deviation of ln ζ(a) over the levels' span and where; and, drawing
 the six parameters from the bound's normal distribution (``--draws``), the largest relative
 damping error over 60 amplitudes across that span (as the benchmark's own fits are judged),
