@@ -184,6 +184,23 @@ def test_the_prediction_keywords_of_the_api_are_the_declared_defaults():
         assert keywords[name].default == declared_keys("prediction")[name][0].default, name
 
 
+def test_the_api_and_the_study_take_an_identified_loss_factor_alike():
+    """``loss_factor = "identified"`` is the mean loss factor of the extracted linear modes, one
+    rule (prediction.predict.chosen_loss_factor) for ``nlupdate.predict`` and ``[prediction]``;
+    a number and ``low_force_fit`` pass through to the prediction."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from nlupdate.core.prediction.predict import LOSS_FACTOR_SOURCES, chosen_loss_factor
+
+    identification = SimpleNamespace(loss_factors=np.array([0.01, 0.04]))
+    assert chosen_loss_factor("identified", identification) == 0.025
+    assert chosen_loss_factor("low_force_fit", identification) == "low_force_fit"
+    assert chosen_loss_factor(0.03, identification) == 0.03
+    assert declared_keys("prediction")["loss_factor"][1].choices == LOSS_FACTOR_SOURCES
+
+
 def test_the_update_api_takes_every_declared_option_of_the_methods():
     """``nlupdate.update``'s further keywords are the updating methods' declared settings:
     each one, given at its declared default, is taken by the run, and ``formula`` left out is

@@ -26,6 +26,7 @@ from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.fingerprints import text_hash
 from nlupdate.core.identification.pipeline import IdentificationSettings
+from nlupdate.core.prediction.predict import LOSS_FACTOR_SOURCES
 from nlupdate.input_files import pinned, snapshot
 from nlupdate.core.response.harmonic_balance import HarmonicSettings
 from nlupdate.study.reader import StudyError
@@ -41,7 +42,6 @@ __all__ = [
     "Study", "StudyError", "TargetsSpec", "inputs_read_once",
 ]
 
-LOSS_FACTOR_SOURCES = ("low_force_fit", "identified")
 
 
 @dataclass(frozen=True)

@@ -191,6 +191,17 @@ class LevelPredictions:
         return "\n".join(lines)
 
 
+#: the loss-factor settings a prediction takes by name (else a number): fitted to the lowest level, or the
+#: identification's extracted modes
+LOSS_FACTOR_SOURCES = ("low_force_fit", "identified")
+
+
+def chosen_loss_factor(setting: float | str, identification) -> float | str:
+    """The ``loss_factor`` :func:`predict_measured` takes for a setting: ``"identified"``, the mean
+    loss factor of ``identification``'s extracted linear modes; a number or ``"low_force_fit"`` as given."""
+    return float(np.mean(identification.loss_factors)) if setting == "identified" else setting
+
+
 def predict_measured(
     modes: ModalResult,
     elements: Sequence,

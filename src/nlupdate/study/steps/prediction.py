@@ -5,13 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
-import numpy as np
 import pandas as pd
 
 from nlupdate.core.correlation.levels import LevelSummary, summarise_levels
 from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.measurement.frf_table import force_levels
-from nlupdate.core.prediction.predict import predict_measured
+from nlupdate.core.prediction.predict import chosen_loss_factor, predict_measured
 from nlupdate.core.updating.evaluation import PointEvaluator
 from nlupdate.core.updating.runs import best_ranked
 from nlupdate.fe.adapters.base import ModalResult
@@ -112,11 +111,9 @@ def predict_model(
                              f"prediction model {coordinates}; set [adapter.options] or [prediction.adapter_options] "
                              f"coordinates")
     elements = identification.elements((coordinates.index(model_response),))
-    setting = study.prediction.loss_factor
-    if setting == "identified":
-        setting = float(np.mean(identification.loss_factors))
     found = predict_measured(modes, elements, table, response, inp, model_response_dof=model_response,
-                             model_input_dof=model_input, loss_factor=setting,
+                             model_input_dof=model_input,
+                             loss_factor=chosen_loss_factor(study.prediction.loss_factor, identification),
                              force_levels_n=prediction_levels(study, table), sweep=study.prediction.sweep,
                              harmonic_balance=study.prediction.harmonic_balance)
     source = ("the extracted linear FRF's modes (identification)" if study.prediction.loss_factor == "identified"
