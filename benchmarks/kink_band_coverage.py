@@ -133,7 +133,7 @@ def main() -> None:
         made = ttt.records(s, "jenkins")
         tally = {(c, b, n): [] for c in CELLS for b in BANDS for n in truths}
         for seed in range(args.first_seed, args.first_seed + args.seeds):
-            every, lines = ttt.samples(s, made, seed)
+            every, lines, _ = ttt.samples(s, made, seed)  # its own ring-down cell on the samples, as measured
             cases = {"own phase-resonance": ({"phase-resonance": every["phase-resonance"]}, None),
                      "own ring-down": ({"ring-down": every["ring-down"]}, None),
                      "own stepped-sine": ({"stepped-sine": every["stepped-sine"]}, None),
