@@ -99,7 +99,8 @@ def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, flo
         d[5, k] = beta
     if "phi_max" in fixed:  # F_S = φ_max K_T (β + c)/(1 + β), c = (χ+1)/(χ+2)
         c, phi = (chi + 1) / (chi + 2), fixed["phi_max"]
-        d[3] = slip / kt * d[2] + phi * kt / ((1 + beta) * (chi + 2) ** 2) * d[4] + phi * kt * (1 - c) / np.square(1 + beta) * d[5]
+        d[3] = (slip / kt * d[2] + phi * kt / ((1 + beta) * (chi + 2) ** 2) * d[4]
+                + phi * kt * (1 - c) / np.square(1 + beta) * d[5])
     nu, nu_a, gradient = joint.describing_function_gradient(a)
     d_nu = np.column_stack([gradient[name] for name in ("kt", "slip_force", "chi", "beta")]) @ d[2:]
     omega = np.sqrt(np.maximum(w0**2 - kt + nu.real, 0.0))

@@ -122,8 +122,9 @@ def _draw_curves(model: AmplitudeModalModel, unknowns: NDArray, amplitude: NDArr
                  law_free: bool) -> tuple[NDArray, NDArray]:
     """ω (rad/s) and ζ at ``amplitude`` of the models of many ``unknowns`` at once (rows: θ, then
     with ``law_free`` the viscous share w: ζ the mixture of the two laws' curves, module
-    docstring), all rows evaluated together (:func:`~nlupdate.core.model.elements.iwan.iwan_describing_function`);
-    NaN rows where the unknowns make no model (:func:`~nlupdate.core.identification.iwan_backbone_fit.iwan_models_exist`)."""
+    docstring), all rows evaluated together
+    (:func:`~nlupdate.core.model.elements.iwan.iwan_describing_function`); NaN rows where the
+    unknowns make no model (:func:`~nlupdate.core.identification.iwan_backbone_fit.iwan_models_exist`)."""
     theta = unknowns[:, :-1] if law_free else unknowns
     with np.errstate(all="ignore"):
         w0, z0, kt, slip, chi, beta = iwan_parameters(theta, joint_fixed(model))

@@ -86,7 +86,8 @@ def sample_residual_jacobian(curves: Curves, samples, frequency_std: float | NDA
                              shape: bool = False) -> NDArray:
     """∂/∂θ of :func:`sample_residual` (rows as its values), ``curves`` (:data:`Curves`) taken at
     the samples' amplitudes. With ``shape``, one more column: ∂/∂ln φ_f of samples from FRFs,
-    whose a ∝ 1/φ_f and ζ_i ∝ φ_f² (:meth:`~nlupdate.core.identification.modal_samples.ModalSamples.with_shape`)."""
+    whose a ∝ 1/φ_f and ζ_i ∝ φ_f²
+    (:meth:`~nlupdate.core.identification.modal_samples.ModalSamples.with_shape`)."""
     omega, zeta, d_omega, d_zeta, omega_a, zeta_a = curves
     w_f = 1 / (2 * np.pi * samples.frequency_hz * frequency_std)
     w_z = 1 / (samples.damping_ratio * damping_std)

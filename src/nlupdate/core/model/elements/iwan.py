@@ -293,9 +293,10 @@ class IwanJoint(CycleElement):
 
     def describing_function_gradient(self, amplitude: ArrayLike) -> DFGradient:
         """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each parameter p of ``kt``, ``slip_force``,
-        ``chi`` and ``beta``, the other three held (:class:`DFGradient`). From ν = K_T N(A/φ_max; χ, β) (class docstring): at fixed
-        φ_max, ∂ν/∂ln K_T = ν, ∂ν/∂ln φ_max = −A ∂ν/∂A, and χ and β enter N only through 1/(1+β),
-        the power s^(χ+1), the polynomial in χ of Im ν and J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
+        ``chi`` and ``beta``, the other three held (:class:`DFGradient`). From ν = K_T N(A/φ_max;
+        χ, β) (class docstring): at fixed φ_max, ∂ν/∂ln K_T = ν, ∂ν/∂ln φ_max = −A ∂ν/∂A, and χ and
+        β enter N only through 1/(1+β), the power s^(χ+1), the polynomial in χ of Im ν and
+        J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
         ``∂J/∂χ = J(ln s + ψ(χ+5/2) − ψ(χ+4))`` in microslip and ``−J ln r + r^−(χ+1) ∂B/∂a`` in
         macroslip (:func:`_scaled_incomplete_beta_da`); then φ_max's own dependence on K_T, F_S,
         χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``)."""
