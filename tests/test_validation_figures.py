@@ -152,7 +152,7 @@ def test_the_printed_amplitude_fit_opens_with_its_bad_news():
                               "damping_offset": [0.234, 0.0014], "damping_score": [66.0, 0.17],
                               "consistent": [False, True]})
     fit = SimpleNamespace(model=model, samples=ModalSamples(a, model.frequency_hz(a), model.damping(a), np.ones(6), 0.7),
-                          agreement=agreement, resamples=200, held_errors=None, unit="N",
+                          agreement=agreement, resamples=200, held_errors=None, held_worst=lambda: [], unit="N",
                           options=SimpleNamespace(backbone="polynomial"),
                           disagreeing=lambda: ["rd.csv"], poor=lambda: True, misfit=lambda: (0.0013, 0.101))
     lines = amplitude_lines(fit)
