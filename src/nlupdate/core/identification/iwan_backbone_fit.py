@@ -101,8 +101,9 @@ def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, flo
         c, phi = (chi + 1) / (chi + 2), fixed["phi_max"]
         d[3] = (slip / kt * d[2] + phi * kt / ((1 + beta) * (chi + 2) ** 2) * d[4]
                 + phi * kt * (1 - c) / np.square(1 + beta) * d[5])
-    nu, nu_a, gradient = joint.describing_function_gradient(a)
-    d_nu = np.column_stack([gradient[name] for name in ("kt", "slip_force", "chi", "beta")]) @ d[2:]
+    names = ("kt", "slip_force", "beta") + ("chi",) * ("chi" not in fixed)  # a fixed χ's row of d is 0
+    nu, nu_a, gradient = joint.describing_function_gradient(a, names)
+    d_nu = np.column_stack([gradient[name] for name in names]) @ d[[2, 3, 5, 4][:len(names)]]
     omega = np.sqrt(np.maximum(w0**2 - kt + nu.real, 0.0))
     power = 1 if model.linear_damping == "viscous" else 2
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from math import pi
-from typing import ClassVar, NamedTuple
+from typing import ClassVar, NamedTuple, Sequence
 
 import numpy as np
 import scipy.special
@@ -291,12 +291,13 @@ class IwanJoint(CycleElement):
         macro_imag = 4 * g / (pi * a) * ((chi + 1) * (-1 / (chi + 2) + 2 * r / (chi + 3)) + beta * (2 * r - 1))
         return d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
 
-    def describing_function_gradient(self, amplitude: ArrayLike) -> DFGradient:
-        """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each parameter p of ``kt``, ``slip_force``,
-        ``chi`` and ``beta``, the other three held (:class:`DFGradient`). From ν = K_T N(A/φ_max;
-        χ, β) (class docstring): at fixed φ_max, ∂ν/∂ln K_T = ν, ∂ν/∂ln φ_max = −A ∂ν/∂A, and χ and
-        β enter N only through 1/(1+β), the power s^(χ+1), the polynomial in χ of Im ν and
-        J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
+    def describing_function_gradient(self, amplitude: ArrayLike,
+                                     parameters: Sequence[str] = ("kt", "slip_force", "chi", "beta")) -> DFGradient:
+        """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each p of ``parameters`` (of ``kt``,
+        ``slip_force``, ``chi`` and ``beta``; χ's costs most), the other three held
+        (:class:`DFGradient`). From ν = K_T N(A/φ_max; χ, β) (class docstring): at fixed φ_max,
+        ∂ν/∂ln K_T = ν, ∂ν/∂ln φ_max = −A ∂ν/∂A, and χ and β enter N only through 1/(1+β), the
+        power s^(χ+1), the polynomial in χ of Im ν and J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
         ``∂J/∂χ = J(ln s + ψ(χ+5/2) − ψ(χ+4))`` in microslip and ``−J ln r + r^−(χ+1) ∂B/∂a`` in
         macroslip (:func:`_scaled_incomplete_beta_da`); then φ_max's own dependence on K_T, F_S,
         χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``)."""
@@ -305,10 +306,22 @@ class IwanJoint(CycleElement):
         chi, r, s, b, g, j = parts
         kt, beta, nu, nu_a = self.kt, self.beta, self._value(parts), self._slope(a, parts)
         d_phi = -a * nu_a  # ∂ν/∂ln φ_max
+        c = (chi + 1) / (chi + 2)
+        p = (chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3))
+        d_beta = kt / (pi * np.square(1 + beta)) * (8 * j + 4j * r * ((1 - r) - p))  # at fixed φ_max (β may be huge)
+        out = {"kt": (nu - d_phi) / kt, "slip_force": d_phi / self.slip_force,
+               "beta": d_beta + d_phi * (1 / (1 + beta) - 1 / (beta + c))}
+        if "chi" in parameters:
+            out["chi"] = self._chi_derivative(parts) - d_phi / ((chi + 2) ** 2 * (beta + c))
+        return DFGradient(nu, nu_a, {name: out[name] for name in parameters})
+
+    def _chi_derivative(self, parts) -> NDArray[np.complex128]:
+        """∂ν/∂χ at fixed K_T, φ_max and β from the DF's :meth:`_parts`
+        (:meth:`describing_function_gradient`)."""
+        chi, r, s, b, g, j = parts
         with np.errstate(divide="ignore", invalid="ignore"):
             log_s = np.where(s > 0, np.log(np.where(s > 0, s, 1.0)), 0.0)
         power = s ** (chi + 1)
-        p = (chi + 1) * power * (1 / (chi + 2) - r / (chi + 3))
         dp = power * ((1 / (chi + 2) - r / (chi + 3)) * (1 + (chi + 1) * log_s)
                       + (chi + 1) * (r / (chi + 3) ** 2 - 1 / (chi + 2) ** 2))
         macro = r < 1.0
@@ -316,12 +329,7 @@ class IwanJoint(CycleElement):
         dj = j * (log_s + digammas)
         if np.any(macro):
             dj = np.where(macro, -j * np.log(r) + _scaled_incomplete_beta_da(r, chi + 2.5), dj)
-        d_beta = kt / (pi * np.square(1 + beta)) * (8 * j + 4j * r * ((1 - r) - p))  # at fixed φ_max (β may be huge)
-        d_chi = kt / (pi * (1 + beta)) * (-8 * dj + 4j * r * dp)
-        c = (chi + 1) / (chi + 2)
-        return DFGradient(nu, nu_a, {"kt": (nu - d_phi) / kt, "slip_force": d_phi / self.slip_force,
-                                     "chi": d_chi - d_phi / ((chi + 2) ** 2 * (beta + c)),
-                                     "beta": d_beta + d_phi * (1 / (1 + beta) - 1 / (beta + c))})
+        return self.kt / (pi * (1 + self.beta)) * (-8 * dj + 4j * r * dp)
 
     # -- time domain --------------------------------------------------------------------
     def realisation(self) -> tuple[NDArray, NDArray]:
