@@ -173,7 +173,7 @@ class HeldType:
             if len(inside) and inside[column].notna().any():
                 worst[name] = float(inside[column].abs().max())
         levels = self.levels[self.levels["within_fit"]] if len(self.levels) else self.levels
-        for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+        for name in QUANTITIES:
             if len(levels):
                 errors = levels[f"{name}_predicted"] / levels[f"{name}_measured"] - 1
                 if errors.notna().any():
@@ -290,7 +290,7 @@ def stepped_sine_levels(model: AmplitudeModalModel, data: FRFLevels, fitted_rang
         amplitude = predicted.peak_abs * at_peak / abs(model.shape(data.response_dof))  # a = |X_r|/|φ_r|
         row = {"level": float(level), "half_power_lines": measured.half_power_lines,
                "within_fit": bool(fitted_range[0] * (1 - 1e-9) <= amplitude <= fitted_range[1] * (1 + 1e-9))}
-        for name in ("resonance_hz", "damping_ratio", "peak_abs"):
+        for name in QUANTITIES:
             row[f"{name}_measured"], row[f"{name}_predicted"] = getattr(measured, name), getattr(predicted, name)
         if np.isfinite(repeat.resonance_hz):
             for name, sigma in (("resonance_hz", repeat.resonance_hz), ("damping_ratio", repeat.damping_ratio)):

@@ -20,8 +20,10 @@ from typing import Iterable, NamedTuple
 
 import numpy as np
 
+from nlupdate.core.validation.compared import QUANTITIES
+
 #: the held-out levels' quantities, as the lines name them
-QUANTITY_NAMES = {"resonance_hz": "resonance", "damping_ratio": "damping ratio", "peak_abs": "peak |H|"}
+QUANTITY_NAMES = dict(zip(QUANTITIES, ("resonance", "damping ratio", "peak |H|")))
 #: the quantities a held-out test type is judged on: a held stepped sine's, and a held sample's frequency
 HELD_NAMES = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
 #: below this many lines in the measured half-power band its damping ratio is said to be poorly resolved
@@ -167,7 +169,7 @@ def held_type_said(summary: dict, unit: str) -> list[Said]:
     extrapolated or on a bound, a poor fit)."""
     names = HELD_NAMES
     misses = [f"{entry['level']:g} {unit} {names[key]}" for entry in summary["levels"]
-              for key in ("resonance_hz", "damping_ratio", "peak_abs") if entry[key].get("inside") is False]
+              for key in QUANTITIES if entry[key].get("inside") is False]
     sampled = [entry for entry in summary["samples"] if entry["within_fit"]]
     extrapolated = [entry for entry in summary["samples"] if "extrapolation" in entry]
     for key in ("natural_frequency_hz", "damping_ratio"):
@@ -228,7 +230,7 @@ def worst_by_model(validation) -> list[ModelWorst]:
         for source in ("compared", "baseline"):
             worst[source] = {name: _largest(abs(getattr(r, source)[name].relative_error if name != "resonance_hz"
                                                 else getattr(r, source)[name].error) for r in rows)
-                             for name in ("resonance_hz", "damping_ratio", "peak_abs")}
+                             for name in QUANTITIES}
         out.append(ModelWorst(requested, len(rows), worst["compared"], worst["baseline"],
                               in_band(rows, ("resonance_hz",))))
     return out
