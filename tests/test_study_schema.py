@@ -201,6 +201,24 @@ def test_the_api_and_the_study_take_an_identified_loss_factor_alike():
     assert declared_keys("prediction")["loss_factor"][1].choices == LOSS_FACTOR_SOURCES
 
 
+def test_a_driving_point_renamed_in_the_model_names_its_input_too():
+    """One rule (prediction.predict.model_dofs) for ``nlupdate.predict`` and a study's
+    ``[targets]``: ``model_response_dof`` alone at a driving point (the two-DOF study's measured
+    "0"/"0" is the model's "x1") names the model's input too; the study needed both keys."""
+    from nlupdate.core.prediction.predict import model_dofs
+    from nlupdate.study import load_study
+    from nlupdate.study.steps.measured import model_pair
+
+    source = Path(__file__).parent / "data" / "studies" / "two_dof.toml"
+    text = source.read_text()
+    assert 'model_input_dof = "x1"\n' in text
+    without = study_from_text(text.replace('model_input_dof = "x1"\n', ""), source)
+    assert without.targets.model_input_dof is None
+    assert model_pair(without) == ("x1", "x1") == model_pair(load_study(source))
+    assert model_dofs("0", "0", "x1") == ("x1", "x1") and model_dofs("1", "0", "x1") == ("x1", "0")
+    assert model_dofs("1", "0") == ("1", "0") and model_dofs("0", "0", "x1", "x2") == ("x1", "x2")
+
+
 def test_the_update_api_takes_every_declared_option_of_the_methods():
     """``nlupdate.update``'s further keywords are the updating methods' declared settings:
     each one, given at its declared default, is taken by the run, and ``formula`` left out is

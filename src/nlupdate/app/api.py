@@ -297,20 +297,18 @@ def predict(
     Returns :class:`~nlupdate.core.prediction.predict.LevelPredictions`: ``loss_factor``,
     ``table`` (predicted receptances, m/N) and ``correlation`` (per level: ``frac``,
     ``normalised_error``, ``peak_frequency_error_pct``, ``peak_amplitude_ratio``)."""
-    from nlupdate.core.prediction.predict import chosen_loss_factor, predict_measured
+    from nlupdate.core.prediction.predict import chosen_loss_factor, model_dofs, predict_measured
 
     final = getattr(modes, "final", modes)
     response = str(response_dof or identification.settings.response_dof)
     inp = str(input_dof or identification.settings.input_dof)
-    model_response = str(model_response_dof or response)
+    model_response, model_input = model_dofs(response, inp, model_response_dof or None, model_input_dof)
     coordinates = list(final.coordinates)
     if model_response not in coordinates:
         raise ValueError(f"model_response_dof {model_response!r} is not a coordinate of the FE model {coordinates}")
     elements = identification.elements((coordinates.index(model_response),))
-    if model_input_dof is None:  # a driving point named in the model names its input too
-        model_input_dof = model_response if response == inp else inp
     return predict_measured(final, elements, _measurements(measured), response, inp, model_response_dof=model_response,
-                            model_input_dof=str(model_input_dof),
+                            model_input_dof=model_input,
                             loss_factor=chosen_loss_factor(loss_factor, identification),
                             force_levels_n=force_levels_n, sweep=sweep,
                             harmonic_balance=harmonic_balance)

@@ -282,7 +282,8 @@ class TargetsSpec:
                                     meaning="the measured curve's input (as `response_dof`)")
     model_response_dof: str | None = setting(None, kind="string", default_text="`response_dof`",
                                              meaning="the same response coordinate named as in the FE model")
-    model_input_dof: str | None = setting(None, kind="string", default_text="`input_dof`",
+    model_input_dof: str | None = setting(None, kind="string",
+                                          default_text="`input_dof`; at a driving point `model_response_dof`",
                                           meaning="the same input coordinate named as in the FE model")
     weights: tuple[float, ...] | None = setting(
         None, kind="numbers", min_length=1, default_text="`1` each",

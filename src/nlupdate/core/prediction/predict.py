@@ -196,6 +196,18 @@ class LevelPredictions:
 LOSS_FACTOR_SOURCES = ("low_force_fit", "identified")
 
 
+def model_dofs(response_dof: str, input_dof: str, model_response_dof: str | None = None,
+               model_input_dof: str | None = None) -> tuple[str, str]:
+    """The FE model's names of a measured curve's (response, input): as given, else the measured
+    names — but a driving point renamed in the model (``model_response_dof`` alone) names its
+    input too."""
+    response, inp = str(response_dof), str(input_dof)
+    model_response = response if model_response_dof is None else str(model_response_dof)
+    if model_input_dof is None:
+        model_input_dof = model_response if response == inp else inp
+    return model_response, str(model_input_dof)
+
+
 def chosen_loss_factor(setting: float | str, identification) -> float | str:
     """The ``loss_factor`` :func:`predict_measured` takes for a setting: ``"identified"``, the mean
     loss factor of ``identification``'s extracted linear modes; a number or ``"low_force_fit"`` as given."""
@@ -227,8 +239,7 @@ def predict_measured(
     docstring). Solver: describing function, or harmonic balance with ``harmonic_balance``.
     """
     response, inp = str(response_dof), str(input_dof)
-    model_response = response if model_response_dof is None else str(model_response_dof)
-    model_input = inp if model_input_dof is None else str(model_input_dof)
+    model_response, model_input = model_dofs(response, inp, model_response_dof, model_input_dof)
     curve = measured[(measured["response_dof"].astype(str) == response) & (measured["input_dof"].astype(str) == inp)]
     levels = tuple(float(v) for v in (np.unique(curve["force_level_n"].to_numpy(dtype=float))
                                       if force_levels_n is None else force_levels_n))

@@ -13,6 +13,7 @@ from nlupdate.core.measurement.frf_files import read_frf_table, read_frf_tables
 from nlupdate.core.measurement.time_history import estimate_frf, read_time_record
 from nlupdate.core.measurement.units import calibrated, validate_reads_runs_apart
 from nlupdate.core.model.model_file import element_from_table, load_system
+from nlupdate.core.prediction.predict import model_dofs
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.fe.adapters.registry import build_adapter
@@ -90,9 +91,8 @@ def measured_pair(study: Study) -> tuple[str, str]:
 
 
 def model_pair(study: Study) -> tuple[str, str]:
-    """(response, input) names of the measured curve's coordinates in the FE model."""
-    response, inp = measured_pair(study)
+    """(response, input) names of the measured curve's coordinates in the FE model
+    (:func:`~nlupdate.core.prediction.predict.model_dofs`: a driving point renamed by
+    ``[targets] model_response_dof`` alone names its input too)."""
     t = study.targets
-    if t is None:
-        return response, inp
-    return t.model_response_dof or response, t.model_input_dof or inp
+    return model_dofs(*measured_pair(study), *((t.model_response_dof, t.model_input_dof) if t is not None else ()))
