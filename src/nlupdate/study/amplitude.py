@@ -15,6 +15,7 @@ from typing import Mapping
 from nlupdate.core.identification.amplitude_inputs import RING_DOWN_FITS, SourceFiles
 from nlupdate.core.identification.amplitude_joint import FitOptions
 from nlupdate.core.identification.amplitude_modal_fit import FIT_BACKBONES
+from nlupdate.core.identification.backbone_samples import BOOTSTRAP_DEFAULT
 from nlupdate.core.measurement.units import ReadOptions
 from nlupdate.core.validation.held_type import HELD_TYPES
 from nlupdate.settings import setting
@@ -87,7 +88,7 @@ class AmplitudeSpec:
     order: int = setting(2, kind="integer", minimum=1, meaning="polynomial order, as `--order`")
     mode: int = setting(1, kind="integer", minimum=1, meaning="the mode's number (in a modal table and the model)")
     bootstrap: int | None = setting(
-        None, kind="integer", minimum=0, unit="refits", default_text="200 for the polynomial backbone, 0 for the others",
+        None, kind="integer", minimum=0, unit="refits", default_text=BOOTSTRAP_DEFAULT,
         meaning="refits of a residual bootstrap for backbone.csv's 95 % bands (0: none, NaN), as `--bootstrap`")
     hold_out_type: str | None = setting(
         None, kind="choice", choices=HELD_TYPES, default_text="none",

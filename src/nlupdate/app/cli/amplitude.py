@@ -41,7 +41,7 @@ from nlupdate.core.identification.amplitude_joint import (
     BandCut, FitOptions, backbone_table, fit_sources, measured_source,
 )
 from nlupdate.core.identification.amplitude_modal_fit import FIT_BACKBONES
-from nlupdate.core.identification.backbone_samples import TEST_TYPES
+from nlupdate.core.identification.backbone_samples import BOOTSTRAP_DEFAULT, TEST_TYPES
 from nlupdate.core.identification.modal_samples import SHAPE_FORM, usable_shape
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.frf_files import write_frf_table
@@ -73,8 +73,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "its slip amplitude, for a joint that sticks and slips at one force)")
     parser.add_argument("--order", type=positive_int, default=DECLARED.order, help=f"polynomial order (default {DECLARED.order})")
     parser.add_argument("--bootstrap", type=int, metavar="N",
-                        help="refits of a residual bootstrap for the bands of backbone.csv (default 200 for the "
-                             "polynomial backbone, 0 for iwan: about a second per refit; 0: no bands, NaN)")
+                        help=f"refits of a residual bootstrap for the bands of backbone.csv (default {BOOTSTRAP_DEFAULT}: "
+                             f"about a second per refit; 0: no bands, NaN)")
     parser.add_argument("--forces", help="levels to predict FRFs at, comma-separated (in the reference unit: N, or V "
                                          "for FRFs per volt)")
     parser.add_argument("--freqs", help="frequency grid (Hz) of the predictions: START:STOP:COUNT or F1,F2,…")

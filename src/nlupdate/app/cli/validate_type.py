@@ -19,7 +19,7 @@ from nlupdate.app.cli import CliError
 from nlupdate.app.cli.amplitude import _shapes
 from nlupdate.app.cli.amplitude_sources import add_source_options, read_sources
 from nlupdate.app.cli.measured import measured_table, print_notes
-from nlupdate.core.identification.backbone_samples import bootstrap_refits
+from nlupdate.core.identification.backbone_samples import BOOTSTRAP_DEFAULT, bootstrap_refits
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.validation.held_type import (BACKBONE_OF_MODEL, HELD_TYPES, MissingShape, hold_out_type,
                                                stepped_sine_source)
@@ -39,9 +39,9 @@ def add_type_options(parser: argparse.ArgumentParser) -> None:
                              "sensors")
     add_source_options(parser, response_controlled=False)
     parser.add_argument("--bootstrap", type=int, metavar="N",
-                        help="with --hold-out-type: refits of a residual bootstrap for the 95 %% bands of the held "
-                             "samples' predictions (default 200 for amplitude-polynomial, 0 for amplitude-iwan and "
-                             "-jenkins: about a second per refit; 0: no bands)")
+                        help=f"with --hold-out-type: refits of a residual bootstrap for the 95 %% bands of the held "
+                             f"samples' predictions (default {BOOTSTRAP_DEFAULT}: about a second per refit; 0: no "
+                             f"bands)")
     parser.add_argument("--shape", action="append", default=[], metavar="NAME=VALUE",
                         help="with --hold-out-type: mass-normalised mode shape (1/√kg) at a coordinate (the stepped "
                              "sine's input, a ring-down's channel), for one modal amplitude across the types")

@@ -123,6 +123,11 @@ def small_sample_scale(n: int, parameters: int) -> float:
     return float(np.sqrt(n / dof) * scipy.stats.t.ppf(0.975, dof) / scipy.stats.norm.ppf(0.975))
 
 
+#: the refits :func:`bootstrap_refits` takes when none are asked for, as the options' help and the docs say it
+BOOTSTRAP_DEFAULT = (f"{default_resamples('polynomial')} for the polynomial backbone, {default_resamples('iwan')} for "
+                     f"the others")
+
+
 def bootstrap_refits(bootstrap: int | None, backbone: str) -> int:
     """The residual-bootstrap refits for a fit's 95 % bands: ``bootstrap`` as asked, or the
     ``backbone``'s default (:func:`~nlupdate.core.identification.amplitude_modal_fit.default_resamples`)
