@@ -220,8 +220,8 @@ def seed_rows(s: dict, every: dict[str, tuple[ModalSamples, tuple[float, float] 
     for name, (smp, stated) in every.items():
         on = curve if name == "ring-down" and curve is not None else smp
         own_model = fit(s, {name: (on, stated)}, backbone, lines) if on.amplitude.size >= 3 else None
-        own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(), smp.amplitude if at_samples else None)
-               if own_model is not None else (np.nan, np.nan))
+        own = (curve_errors(s, own_model, smp.amplitude.min(), smp.amplitude.max(),
+                            smp.amplitude if at_samples else None) if own_model is not None else (np.nan, np.nan))
         rest = {other: every[other] for other in TYPES if other != name}
         model = fit(s, rest, backbone, lines)
         slips[f"own {name}"], slips[f"without {name}"] = slip_error(s, own_model), slip_error(s, model)

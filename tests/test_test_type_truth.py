@@ -298,7 +298,7 @@ def test_sdof_iwan_own_fits_on_the_benchmark_design():
         assert f_error < 2e-3 and z_error < 0.05, (name, f_error, z_error)
 
 
-@pytest.mark.slow  # 8 seeds × 8 Iwan fits (and their sources' own fits): 122 and 92 s wall, 156 s CPU for both (load 1-3)
+@pytest.mark.slow  # 8 seeds × 8 Iwan fits (and their sources' own): 122 and 92 s wall, 156 s CPU for both (load 1-3)
 @pytest.mark.parametrize("dofs", [1, 2])
 def test_iwan_every_type_own_held_out_and_joint_on_the_benchmark_design(dofs):
     """Issue 37's "What must be shown" on the Iwan systems at the benchmark's design (the fast
