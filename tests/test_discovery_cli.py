@@ -120,3 +120,18 @@ def test_failure_while_writing_leaves_nothing(tmp_path, capsys, monkeypatch):
 
     monkeypatch.setattr("nlupdate.app.cli.discover.write_discovery", half_written)
     assert "disk full" in _bad_run(tmp_path, capsys, extra=("--max-effects", "1"))
+
+
+def test_the_commands_defaults_are_the_discoverys_own():
+    """discover's options default to DiscoveryOptions' values and offer its choices (each was a
+    second literal copy in the CLI)."""
+    from nlupdate.app.cli import build_parser
+    from nlupdate.core.discovery import DiscoveryOptions
+    from nlupdate.core.discovery.candidates import CRITERIA
+
+    args = build_parser().parse_args(["discover", "--model", "m.toml", "--measured", "x.csv", "--out", "o"])
+    own = DiscoveryOptions()
+    for name in ("criterion", "max_effects", "frequency_uncertainty", "damping_uncertainty"):
+        assert getattr(args, name) == getattr(own, name), name
+    actions = {a.dest: a for a in build_parser()._subparsers._group_actions[0].choices["discover"]._actions}
+    assert tuple(actions["criterion"].choices) == CRITERIA and tuple(actions["sweep"].choices) == ("up", "down", "unknown")

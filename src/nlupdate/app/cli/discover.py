@@ -19,7 +19,9 @@ from nlupdate.app.cli.harmonics import add_harmonic_options, harmonic_settings
 from nlupdate.app.cli.output import add_overwrite_option, checked_output, writable_folder
 from nlupdate.app.cli.run import add_execution_options, prefect_errors
 from nlupdate.core.discovery import DiscoveryOptions, ModelSolveError, discover
+from nlupdate.core.discovery.candidates import CRITERIA
 from nlupdate.core.discovery.effects import EFFECT_NAMES
+from nlupdate.core.measurement.frf_table import SWEEP_DIRECTIONS
 from nlupdate.core.discovery.outputs import JSON_NAME as DISCOVERY_JSON, write_discovery
 from nlupdate.core.measurement.units import parameter_unit, table_reference_unit, units_block
 from nlupdate.reporting.jsonfile import write_json
@@ -27,6 +29,10 @@ from nlupdate.app.cli.measured import add_measured_options, measured_table, prin
 from nlupdate.core.model.model_file import load_system
 from nlupdate.files import atomic_directory
 from nlupdate.core.response.method import RESPONSE_METHODS
+
+
+#: the discovery's own defaults, which the options show and pass on
+DEFAULTS = DiscoveryOptions()
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,21 +48,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="run as a Prefect flow (candidate fits as cached parallel tasks) and archive the run under "
                             "ROOT/discovery-<model>/<UTC time>-<hash>/")
     parser.add_argument("--effects", help=f"comma-separated subset of the library (default all: {','.join(EFFECT_NAMES)})")
-    parser.add_argument("--criterion", choices=("bic", "aic"), default="bic", help="information criterion (default bic)")
-    parser.add_argument("--max-effects", type=positive_int, default=3, help="most effects to add (default 3)")
+    parser.add_argument("--criterion", choices=CRITERIA, default=DEFAULTS.criterion,
+                        help=f"information criterion (default {DEFAULTS.criterion})")
+    parser.add_argument("--max-effects", type=positive_int, default=DEFAULTS.max_effects,
+                        help=f"most effects to add (default {DEFAULTS.max_effects})")
     parser.add_argument("--noise-fraction", type=non_negative_float,
                         help="FRF noise std / |H| (default: estimated from the measured FRFs)")
-    parser.add_argument("--sweep", choices=("up", "down", "unknown"),
+    parser.add_argument("--sweep", choices=SWEEP_DIRECTIONS,
                         help="how the test reached each frequency (default: the table's sweep_direction column, else "
                              "unknown); every point is compared with the model's nearest stable solution, the direction "
                              "only marks points that follow another branch")
     parser.add_argument("--method", choices=RESPONSE_METHODS, default="continuation",
                         help="how the model is simulated against measured FRFs (default continuation: describing "
                              "function; hb: harmonic balance); the candidates' fits are describing-function fits")
-    parser.add_argument("--frequency-uncertainty", type=non_negative_float, default=0.002,
-                        help="modal table: relative std of the natural frequencies (default 0.002)")
-    parser.add_argument("--damping-uncertainty", type=non_negative_float, default=0.05,
-                        help="modal table: relative std of the damping ratios (default 0.05)")
+    parser.add_argument("--frequency-uncertainty", type=non_negative_float, default=DEFAULTS.frequency_uncertainty,
+                        help=f"modal table: relative std of the natural frequencies (default "
+                             f"{DEFAULTS.frequency_uncertainty:g})")
+    parser.add_argument("--damping-uncertainty", type=non_negative_float, default=DEFAULTS.damping_uncertainty,
+                        help=f"modal table: relative std of the damping ratios (default {DEFAULTS.damping_uncertainty:g})")
     add_overwrite_option(parser)
     add_harmonic_options(parser)
     add_execution_options(parser)

@@ -23,13 +23,12 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.core.discovery.errors import MeasuredDataError
-from nlupdate.core.measurement.frf_table import MeasurementTableError, validate_frf_table
+from nlupdate.core.measurement.frf_table import SWEEP_DIRECTIONS, MeasurementTableError, validate_frf_table
 from nlupdate.core.measurement.noise import NoiseEstimate, estimate_table_noise
 from nlupdate.core.model.linear import LinearModel
 
 _MIN_POINTS_PER_LEVEL = 5
 _NOISE_WINDOW = 9
-SWEEP_DIRECTIONS = ("up", "down", "unknown")
 
 ONE_LEVEL_REASON = (
     "discovery needs FRFs at two or more force levels: a missing nonlinearity shows only as a change of "
