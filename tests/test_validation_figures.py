@@ -139,6 +139,45 @@ def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path
         assert figure.axes[0].get_legend() is None
 
 
+def test_a_source_keeps_its_marker_and_colour_whichever_other_source_is_held_out(tmp_path, monkeypatch):
+    """The BRB's impact was an orange square beside the ring-down and a blue circle with the
+    ring-down held out: its look came from its place among the fitted sources."""
+    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
+                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
+                                reference_amplitude=4e-4)
+    a = np.geomspace(3e-5, 4e-4, 6)
+
+    def samples(k: float) -> ModalSamples:
+        return ModalSamples(a * k, model.frequency_hz(a * k), model.damping(a * k), np.ones(6), 0.7)
+
+    ring_down, impact, runs = ("rd.csv (ring-down)", samples(1.0)), ("tap.csv (impact)", samples(0.1)), \
+        ("rc.mat (response-controlled)", samples(0.9))
+    curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
+                          "damping_ratio": model.damping(a)})
+    for column in ("natural_frequency_hz", "damping_ratio"):
+        curve[f"{column}_low"], curve[f"{column}_high"] = curve[column] * 0.99, curve[column] * 1.01
+    from nlupdate.reporting import backbone_plots
+
+    drawn = []
+    original = backbone_plots.save_figure
+    monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+
+    def looks() -> dict[str, tuple]:
+        lines = drawn[-1].axes[0].get_lines()
+        return {line.get_label().split(":")[0]: (line.get_marker(), line.get_markeredgecolor(), line.get_markerfacecolor())
+                for line in lines if ".csv" in line.get_label() or ".mat" in line.get_label()}
+
+    (tmp_path / "all").mkdir(), (tmp_path / "held").mkdir()
+    plot_sources(model, [ring_down, impact, runs], curve, tmp_path / "all")
+    every = looks()
+    plot_sources(model, [impact, runs], curve, tmp_path / "held", held=[ring_down])
+    held = looks()
+    for source in ("tap.csv (impact)", "rc.mat (response-controlled)"):
+        assert held[source] == every[source]
+    assert held["rd.csv (ring-down)"][0] == every["rd.csv (ring-down)"][0]  # the same marker, filled grey
+    assert len({look[:2] for look in every.values()}) == 3
+
+
 def test_the_printed_amplitude_fit_opens_with_its_bad_news():
     from nlupdate.reporting.amplitude_report import amplitude_lines
 

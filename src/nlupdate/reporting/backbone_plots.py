@@ -11,10 +11,12 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from nlupdate.core.identification.backbone_samples import TEST_TYPES
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.reporting.figures import EXTRAPOLATION_FILL, band_fill, label_thin_bands, save_figure
 from nlupdate.reporting.model_numbers import damping_text, linear_limit_text
+from nlupdate.reporting.styles import COLOURS
 
 _MARKERS = "os^vDP*Xh<>"
 
@@ -37,6 +39,18 @@ def model_title(model: AmplitudeModalModel) -> str:
     return title
 
 
+def _source_styles(names: list[str]) -> dict[str, tuple[str, str]]:
+    """Source name ("FILE (test-type)") → (marker, colour), ordered by test type and name, not
+    by the source's place among the fitted ones: a source keeps its look whichever other source
+    is held out (the impact was an orange square beside the ring-down, a blue circle with the
+    ring-down held out)."""
+    def key(name: str) -> tuple[int, str]:
+        kind = name.rsplit("(", 1)[-1].rstrip(")")
+        return (TEST_TYPES.index(kind) if kind in TEST_TYPES else len(TEST_TYPES), name)
+    return {name: (_MARKERS[k % len(_MARKERS)], COLOURS[k % len(COLOURS)])
+            for k, name in enumerate(sorted(set(names), key=key))}
+
+
 def _short(name: str) -> str:
     return Path(name.split(",")[0]).name + (" …" if "," in name else "")
 
@@ -53,21 +67,22 @@ def plot_sources(model: AmplitudeModalModel, parts: list[tuple[str, ModalSamples
     amplitudes = np.concatenate([s.amplitude for _, s in parts])
     every = np.concatenate([amplitudes, *[s.amplitude for _, s in held]])
     a = np.geomspace(every.min() / 3, every.max() * 3, 300)
+    styles = _source_styles([source for source, _ in [*parts, *held]])
     paths = []
     for column, scale, label, name in (("natural_frequency_hz", 1.0, "natural frequency (Hz)", "backbone.png"),
                                        ("damping_ratio", 100.0, "damping ratio (%)", "damping.png")):
         fig = Figure(figsize=(8.5, 5.4), layout="constrained")
         ax = fig.subplots()
-        for k, (source, samples) in enumerate(parts):
+        for source, samples in parts:
             values = samples.frequency_hz if column == "natural_frequency_hz" else samples.damping_ratio
             odd = " — DISAGREES with the fit" if source in disagreeing else ""
-            ax.semilogx(samples.amplitude, scale * values, _MARKERS[k % len(_MARKERS)], ms=5, mfc="none", zorder=3,
+            marker, colour = styles[source]
+            ax.semilogx(samples.amplitude, scale * values, marker, ms=5, mfc="none", color=colour, zorder=3,
                         label=f"{_short(source)}: {samples.amplitude.size} sample(s){odd}")
-        for k, (source, samples) in enumerate(held):
+        for source, samples in held:
             values = samples.frequency_hz if column == "natural_frequency_hz" else samples.damping_ratio
-            ax.semilogx(samples.amplitude, scale * values, _MARKERS[(len(parts) + k) % len(_MARKERS)], ms=5,
-                        color="0.45", zorder=3, label=f"{_short(source)}: {samples.amplitude.size} sample(s), held out "
-                                                      f"(not fitted)")
+            ax.semilogx(samples.amplitude, scale * values, styles[source][0], ms=5, color="0.45", zorder=3,
+                        label=f"{_short(source)}: {samples.amplitude.size} sample(s), held out (not fitted)")
         fitted = model.frequency_hz(a) if column == "natural_frequency_hz" else model.damping(a)
         ax.semilogx(a, scale * fitted, "-", color="black", lw=1.2, zorder=2,
                     label=f"{model.backbone} fit, " + ("the sources not held out" if held else "all sources"))
