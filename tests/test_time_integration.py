@@ -8,6 +8,7 @@ from nlupdate.core.model.elements import CubicStiffness, JenkinsFriction
 from nlupdate.core.model.linear import LumpedModel
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.core.response.time_integration import TimeIntegrationError, steady_state_response, time_sweep
+from nlupdate.core.response.time_operators import Operators
 
 
 def chain_matrices(n: int, k: float = 1.0, m: float = 1.0):
@@ -47,6 +48,20 @@ def test_modal_model_matches_its_modal_receptance():
     reference = modal.receptance(omega, range(3), [2])[:, :, 0] * 2.0
     assert result.converged.all()
     assert np.max(relative_error(result.x, reference)) < 1e-3
+
+
+def test_the_steps_motion_at_the_nonlinear_dofs_is_their_coordinates_of_each_half_of_the_state():
+    """``Operators.nonlinear_motion`` (the time step's one indexing) gives exactly what
+    ``nonlinear_coordinates`` gives for the displacements and the velocities, lumped and modal."""
+    mass, stiffness = chain_matrices(6)
+    lumped = LumpedModel.with_loss_factor(mass, stiffness, 0.03)
+    for model, dofs in ((lumped, (1, 4)), (lumped.to_modal(4, coordinates=[1, 3, 5]), (0, 2))):
+        ops = Operators(NonlinearSystem(model, (CubicStiffness(dofs, k3=1.0), JenkinsFriction((dofs[0],), kf=1.0,
+                                                                                              slip_force=1.0))))
+        y = np.random.default_rng(0).standard_normal((2 * ops.n_q, 5))
+        x, v = ops.nonlinear_motion(y)
+        assert np.array_equal(x, ops.nonlinear_coordinates(y[:ops.n_q]))
+        assert np.array_equal(v, ops.nonlinear_coordinates(y[ops.n_q:]))
 
 
 def test_sparse_model_with_diagonal_mass_matches_receptance():

@@ -82,6 +82,8 @@ class Operators:
             (e, pos[e.dofs[0]], pos[e.dofs[1]] if len(e.dofs) == 2 else -1) for e in system.elements
         ]
         self.p_a = None if self.identity else self.p[self.a_idx]
+        # rows of y = [q; q̇] holding the nonlinear dofs' displacements, then their velocities (q = x)
+        self._motion_idx = np.concatenate([self.a_idx, n + self.a_idx]) if self.identity else None
         self.b_a = self.input_columns(list(self.a))
         self.weights = np.array([self._connectivity_weight(e) for e, _, _ in self.elements])
 
@@ -172,6 +174,15 @@ class Operators:
     def nonlinear_coordinates(self, q: NDArray) -> NDArray:
         """Displacements at the nonlinear dofs (first axis of q is the coordinate)."""
         return q[self.a_idx] if self.identity else np.tensordot(self.p_a, q, axes=(1, 0))
+
+    def nonlinear_motion(self, y: NDArray) -> tuple[NDArray, NDArray]:
+        """Displacements and velocities at the nonlinear dofs from states ``y = [q; q̇]``
+        (2 n_q, n_cases): :meth:`nonlinear_coordinates` of both halves, in one indexing for a
+        lumped model (the time step's hot path)."""
+        if self.identity:
+            both = y[self._motion_idx]
+            return both[:self.a_idx.size], both[self.a_idx.size:]
+        return self.p_a @ y[:self.n_q], self.p_a @ y[self.n_q:]
 
     def linear_response(self, model, omega: NDArray, forced: tuple[int, ...], force: NDArray) -> NDArray:
         """Linear first harmonics in integration coordinates, (n_q, n_cases)."""

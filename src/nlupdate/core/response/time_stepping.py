@@ -161,9 +161,8 @@ def _derivative(ops: Operators, batch: Batch, y: NDArray, c: float, s: float, in
     if ops.a_d is not None:
         acc -= (ops.a_d @ y[n:]) * inv_w
     if ops.elements:
-        xa = ops.nonlinear_coordinates(y[:n])
-        va = ops.nonlinear_coordinates(y[n:])
-        g = np.zeros_like(xa)
+        xa, va = ops.nonlinear_motion(y)
+        g = np.zeros(xa.shape)
         for index, (element, r, j) in enumerate(ops.elements):
             f, _ = element.force(_relative(r, j, xa), _relative(r, j, va), batch.states[index], batch.omega)
             g[r] += f
@@ -175,9 +174,7 @@ def _derivative(ops: Operators, batch: Batch, y: NDArray, c: float, s: float, in
 
 def _commit_states(ops: Operators, batch: Batch, y: NDArray) -> None:
     """Return mapping at the end of a step: commit the new element states."""
-    n = ops.n_q
-    xa = ops.nonlinear_coordinates(y[:n])
-    va = ops.nonlinear_coordinates(y[n:])
+    xa, va = ops.nonlinear_motion(y)
     for index, (element, r, j) in enumerate(ops.elements):
         if batch.states[index] is not None:
             _, batch.states[index] = element.force(
