@@ -130,7 +130,7 @@ def main() -> None:
         if args.system and f"{dofs}-jenkins" not in args.system:
             continue
         s, started = system(dofs, "jenkins"), time.process_time()
-        made = ttt.records(s, "jenkins")
+        made = ttt.records(s, "jenkins", levels=6, span=(0.5, 15.0))  # the six levels its figures were made at
         tally = {(c, b, n): [] for c in CELLS for b in BANDS for n in truths}
         for seed in range(args.first_seed, args.first_seed + args.seeds):
             every, lines, _ = ttt.samples(s, made, seed)  # its own ring-down cell on the samples, as measured

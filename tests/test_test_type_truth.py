@@ -313,10 +313,75 @@ def test_iwan_every_type_own_held_out_and_joint_on_the_benchmark_design(dofs):
     for seed in range(8):
         every, _, curve = bench.samples(s, made, seed)
         rows, _ = bench.seed_rows(s, every, None, curve, "iwan")
-        for name, row in rows.items():
+        for name, row in rows["all"].items():
             checked = {"own fit": row[2:4], "held out": row[6:8]}
             if name == "impact":
                 checked["linear limit"] = row[0:2]
             for what, (f_error, z_error) in checked.items():
                 if np.isfinite(f_error):
                     assert f_error < 2e-3 and z_error < 0.05, (seed, name, what, f_error, z_error)
+
+
+#: the Jenkins systems' kink band, × a_s (docs/ring-down.md, "Near the stick–slip kink")
+KINK_BAND = (1.03, 1.5)
+
+
+def test_sdof_jenkins_fits_with_the_lines_on_the_benchmark_design():
+    """Issue 37's bounds on the SDOF Jenkins system at the benchmark's one design (sixteen
+    phase-resonance and stepped-sine levels over 0.3–6 a_s, ``ISSUE_LEVELS``), 2 % noise, seed 0,
+    against the closed-form truth at 60 amplitudes over each fit's range: the stepped sine's own
+    fit (refined on its lines) and the joint fit of all four types within 0.2 % / 5 % over the
+    whole range, the stick–slip kink included (measured 3.5e-5 / 1.2 % and 3.3e-5 / 0.8 %), and
+    the phase resonance's own fit off the kink band [a_s/1.03, 1.5 a_s] (2.1e-4 / 0.6 %; inside it
+    the damping follows its slip amplitude, which sixteen points with 2 % noise place to about
+    1.3 %: docs/ring-down.md, "The Jenkins systems at sixteen levels"). The eight seeds of both
+    systems: the slow test below."""
+    bench, s = _benchmark(), system(1, "jenkins")
+    every, lines, _ = bench.samples(s, bench.records(s, "jenkins"), 0)
+    assert every["stepped-sine"][0].amplitude.size == bench.ISSUE_LEVELS
+    joined = bench.join_samples([smp for smp, _ in every.values()])
+    smp = every["stepped-sine"][0]
+    for model, low, high in ((bench.fit(s, {"stepped-sine": every["stepped-sine"]}, "jenkins", lines),
+                              smp.amplitude.min(), smp.amplitude.max()),
+                             (bench.fit(s, every, "jenkins", lines), joined.amplitude.min(), joined.amplitude.max())):
+        f_error, z_error = bench.curve_errors(s, model, low, high)
+        assert f_error < 2e-3 and z_error < 0.05, (f_error, z_error)
+    smp = every["phase-resonance"][0]
+    model = bench.fit(s, {"phase-resonance": every["phase-resonance"]}, "jenkins", lines)
+    a = np.geomspace(smp.amplitude.min(), smp.amplitude.max(), 60)
+    off = a[(a <= s["slip"] / KINK_BAND[0]) | (a >= KINK_BAND[1] * s["slip"])]
+    f, z = truth(s, off)
+    assert np.max(np.abs(model.frequency_hz(off) / f - 1)) < 2e-3
+    assert np.max(np.abs(model.damping(off) / z - 1)) < 0.05
+
+
+@pytest.mark.slow  # 8 seeds × 9 Jenkins fits, most refined on 16 levels' lines: 30–33 s CPU a system
+@pytest.mark.parametrize("dofs", [1, 2])
+def test_jenkins_every_type_own_held_out_and_joint_on_the_benchmark_design(dofs, monkeypatch):
+    """Issue 37's "What must be shown" on the Jenkins systems at the benchmark's design, seeds
+    0–7, against the closed-form truth (docs/ring-down.md, "The Jenkins systems at sixteen
+    levels"): every own, held-out and joint fit within 0.2 % in frequency everywhere and 5 % in
+    damping off the kink band [a_s/1.03, 1.5 a_s]; inside it every fit that has the stepped sine's
+    lines (its own, the joint one, the other types held out) and the ring-down and impact
+    (no samples there). Not asserted, because not met: inside the band, the phase resonance's own
+    fit and the stepped sine held out (predicted without its lines) — the slip amplitude placed by
+    phase-resonance points alone, at their Cramér–Rao bound (benchmarks/kink_information.py
+    --levels 16)."""
+    bench, s = _benchmark(), system(dofs, "jenkins")
+    monkeypatch.setattr(bench, "KINK", KINK_BAND[1])
+    monkeypatch.setattr(bench, "KINK_BELOW", KINK_BAND[0])
+    monkeypatch.setattr(bench, "PARTS", ("off", "in"))
+    made = bench.records(s, "jenkins")
+    unmet = {("in", "phase-resonance", "own fit"), ("in", "stepped-sine", "held out")}
+    for seed in range(8):
+        every, lines, curve = bench.samples(s, made, seed)
+        rows, _ = bench.seed_rows(s, every, lines, curve, "jenkins")
+        for part, named in rows.items():
+            for name, row in named.items():
+                checked = {"own fit": row[2:4], "held out": row[6:8]}
+                if name == "impact":
+                    checked["linear limit"] = row[0:2]
+                for what, (f_error, z_error) in checked.items():
+                    if np.isfinite(f_error):
+                        assert f_error < 2e-3, (seed, part, name, what, f_error)
+                        assert (part, name, what) in unmet or z_error < 0.05, (seed, part, name, what, z_error)
