@@ -355,7 +355,7 @@ def test_sdof_jenkins_fits_with_the_lines_on_the_benchmark_design():
     assert np.max(np.abs(model.damping(off) / z - 1)) < 0.05
 
 
-@pytest.mark.slow  # 8 seeds × 9 Jenkins fits, most refined on 16 levels' lines: 30–33 s CPU a system
+@pytest.mark.slow  # 8 seeds × 9 Jenkins fits, most on 16 levels' lines: 45–48 s wall a system (load 5–7)
 @pytest.mark.parametrize("dofs", [1, 2])
 def test_jenkins_every_type_own_held_out_and_joint_on_the_benchmark_design(dofs, monkeypatch):
     """Issue 37's "What must be shown" on the Jenkins systems at the benchmark's design, seeds
