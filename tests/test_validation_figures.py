@@ -230,3 +230,25 @@ def test_a_held_out_type_opens_with_the_values_outside_their_bands():
     assert held_type_lines({"test_type": "impact", "levels": [], "samples": [outside], "model": {}}, "N")[0] == (
         "warning: impact held out: no held-out sample lies within the fitted amplitudes: each prediction is an "
         "extrapolation, without a band")
+
+
+def test_a_held_sample_figure_is_grey_to_the_axis_edges_beyond_the_fitted_amplitudes():
+    """The grey spans stopped short of the axes' automatic margins, leaving a white strip at
+    each end that read as fitted amplitudes (the BRB's runs held out from levels and ring-down)."""
+    from matplotlib.patches import Rectangle
+
+    from nlupdate.reporting.held_type_plots import held_type_figure
+
+    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
+                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
+                                reference_amplitude=4e-4)
+    a = np.geomspace(2.7e-5, 4.4e-4, 8)
+    samples = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
+                            "predicted_frequency_hz": model.frequency_hz(a), "damping_ratio": model.damping(a),
+                            "predicted_damping_ratio": model.damping(a)})
+    result = SimpleNamespace(test_type="response-controlled", levels=pd.DataFrame(), samples=samples,
+                             fitted_range=(3.1e-5, 3.7e-4), model=model,
+                             fitted_on=[("levels.mat", "stepped-sine", 4), ("tap.mat", "ring-down", 8)])
+    for ax in held_type_figure(result).axes:
+        spans = sorted((p.get_x(), p.get_x() + p.get_width()) for p in ax.patches if isinstance(p, Rectangle))
+        assert ax.get_xlim()[0] == pytest.approx(spans[0][0]) and ax.get_xlim()[1] == pytest.approx(spans[-1][1])

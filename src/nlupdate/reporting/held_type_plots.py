@@ -56,6 +56,7 @@ def held_type_figure(result: HeldType, unit: str = "N") -> Figure:
                 ax.fill_between(a[order], scale * rows[f"{column}_low"].to_numpy()[order],
                                 scale * rows[f"{column}_high"].to_numpy()[order], color="tab:orange", alpha=0.3,
                                 label="95 % band (fit bootstrap ⊕ test scatter)")
+            ax.set_xlim(grid[0], grid[-1])  # the grey spans reach the axis' edges: no white margin reads as fitted
             ax.set_xlabel("modal amplitude (m·√kg)")
             ax.set_ylabel(label)
     for ax in axes:
