@@ -28,8 +28,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlupdate.core.validation.circle_fit import (MIN_CIRCLE_LINES, circle_fit_damping, circle_window, jump_in_run,
-                                                 jump_steps)
+from nlupdate.core.validation.circle_fit import (MIN_CIRCLE_LINES, angle_misfit, angle_misfit_jacobian,
+                                                 circle_fit_damping, circle_window, jump_in_run, jump_steps)
 from nlupdate.core.validation.resonance import read_alike, resonance
 
 LINES = np.round(np.arange(79.2, 81.2001, 0.05), 4)  # the BRB's 41 lines
@@ -38,6 +38,22 @@ LINES = np.round(np.arange(79.2, 81.2001, 0.05), 4)  # the BRB's 41 lines
 def sdof(f: np.ndarray, fn: float, zeta: float, modal_constant: complex = 1.0) -> np.ndarray:
     w, wn = 2 * np.pi * f, 2 * np.pi * fn
     return modal_constant / (wn**2 - w**2 + 2j * zeta * wn * w)
+
+
+def test_the_angle_fits_jacobian_is_its_central_differences():
+    """The closed-form Jacobian the angle fit uses, against central differences of the misfit
+    (steps 1e-6 of each parameter's scale; within 1e-6 of each column's largest), both signs, at and off
+    the resonance."""
+    w = 2 * np.pi * LINES
+    psi = np.random.default_rng(0).uniform(-3.0, 3.0, w.size)
+    for p in ([2 * np.pi * 80.2, 0.003, 0.4], [2 * np.pi * 79.5, 0.02, -1.0]):
+        p = np.array(p)
+        for sign in (1.0, -1.0):
+            steps = 1e-6 * np.array([1e-3 * p[0], p[1], 1.0])
+            numeric = np.column_stack([(angle_misfit(p + d, w, psi, sign) - angle_misfit(p - d, w, psi, sign)) / (2 * h)
+                                       for d, h in zip(np.diag(steps), steps)])
+            error = np.abs(angle_misfit_jacobian(p, w, psi, sign) - numeric) / np.abs(numeric).max(axis=0)
+            assert error.max() < 1e-6, error.max(axis=0)
 
 
 @pytest.mark.parametrize("zeta", [0.0010, 0.0013, 0.003, 0.01, 0.05])

@@ -111,6 +111,22 @@ def jump_in_run(frequency_hz: ArrayLike, h: ArrayLike, zeta: float) -> bool:
     return bool(jump_steps(frequency_hz, h, zeta).size)
 
 
+def angle_misfit(p: np.ndarray, w: np.ndarray, psi: np.ndarray, sign: float) -> np.ndarray:
+    """The circle fit's angle residual (rad) at the lines ``w`` (rad/s) for ``p`` = (ω_r rad/s,
+    ζ, the angle's offset rad): ``2 arctan((ω_r² − ω²)/(2ζω_rω)) − sign·(ψ − offset)``, ψ the
+    points' unwrapped angles about the circle's centre (:func:`circle_fit_damping`)."""
+    return 2 * np.arctan((p[0] ** 2 - w**2) / (2 * p[1] * p[0] * w)) - sign * (psi - p[2])
+
+
+def angle_misfit_jacobian(p: np.ndarray, w: np.ndarray, psi: np.ndarray, sign: float) -> np.ndarray:
+    """∂(:func:`angle_misfit`)/∂p in closed form, one row per line: with
+    u = (ω_r² − ω²)/(2ζω_rω), ∂u/∂ω_r = 1/(2ζω) + ω/(2ζω_r²) and ∂u/∂ζ = −u/ζ."""
+    u = (p[0] ** 2 - w**2) / (2 * p[1] * p[0] * w)
+    slope = 2 / (1 + u**2)
+    return np.column_stack([slope * (1 / (2 * p[1] * w) + w / (2 * p[1] * p[0] ** 2)), -slope * u / p[1],
+                            np.full(w.shape, float(sign))])
+
+
 def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float = float("nan")) -> float:
     """Damping ratio (fraction of critical) of the receptance ``h`` (complex, any unit per
     force) over ``frequency_hz`` (Hz, strictly increasing, finite lines only) by the modal
@@ -135,10 +151,8 @@ def circle_fit_damping(frequency_hz: ArrayLike, h: ArrayLike, start_zeta: float 
         start_zeta = float(np.clip((w[-1] - w[0]) / (4 * 2.29 * wn), 1e-5, 0.4))
     best = None
     for sign in (1.0, -1.0):
-        def misfit(p: np.ndarray, sign: float = sign) -> np.ndarray:
-            return 2 * np.arctan((p[0] ** 2 - w**2) / (2 * p[1] * p[0] * w)) - sign * (psi - p[2])
-
-        fit = least_squares(misfit, [wn, start_zeta, psi[k]], x_scale=[wn * 1e-3, start_zeta, 1.0], xtol=1e-12,
+        fit = least_squares(angle_misfit, [wn, start_zeta, psi[k]], jac=angle_misfit_jacobian, args=(w, psi, sign),
+                            x_scale=[wn * 1e-3, start_zeta, 1.0], xtol=1e-12,
                             bounds=([0, 1e-6, -np.inf], [np.inf, 0.5, np.inf]))
         best = fit if best is None or fit.cost < best.cost else best
     return float(best.x[1])
