@@ -24,7 +24,7 @@ from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.sample_residuals import (
     Curves, noisy_residual, noisy_residual_jacobian, sample_residual, sample_residual_jacobian,
 )
-from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, joint_omega_zeta
 from nlupdate.core.model.elements import IwanJoint
 
 #: β of the ``jenkins`` backbone: the Iwan joint's continuous part is K_T/(1+β), so its
@@ -104,12 +104,11 @@ def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, flo
     names = ("kt", "slip_force", "beta") + ("chi",) * ("chi" not in fixed)  # a fixed χ's row of d is 0
     nu, nu_a, gradient = joint.describing_function_gradient(a, names)
     d_nu = np.column_stack([gradient[name] for name in names]) @ d[[2, 3, 5, 4][:len(names)]]
-    omega = np.sqrt(np.maximum(w0**2 - kt + nu.real, 0.0))
+    omega, zeta = joint_omega_zeta(w0, z0, kt, nu, model.linear_damping)  # the model's own curves
     power = 1 if model.linear_damping == "viscous" else 2
     with np.errstate(divide="ignore", invalid="ignore"):
         d_omega = (2 * w0**2 * d[0] - d[2] + d_nu.real) / (2 * omega[:, None])
-        linear = z0 * (w0 / omega) ** power
-        zeta = linear + nu.imag / (2 * omega**2)
+        linear = z0 * (w0 / omega) ** power  # ζ's linear part
         d_zeta = (linear[:, None] * (d[1] + power * d[0]) + d_nu.imag / (2 * omega[:, None] ** 2)
                   - (power * linear + nu.imag / omega**2)[:, None] * d_omega / omega[:, None])
         omega_a = nu_a.real / (2 * omega)
