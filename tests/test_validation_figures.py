@@ -108,22 +108,38 @@ def test_the_response_controlled_figure_uses_the_pooled_repeatability():
         validation).get_suptitle()
 
 
-def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path, monkeypatch):
-    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
-                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
-                                reference_amplitude=4e-4)
-    a = np.geomspace(3e-5, 4e-4, 6)
-    parts = [(f"{name} ({kind})", ModalSamples(a * k, model.frequency_hz(a * k), model.damping(a * k), np.ones(6), 0.7))
-             for k, (name, kind) in zip((1.0, 0.9), (("rd.csv", "ring-down"), ("rc.mat", "response-controlled")))]
+def _backbone_model() -> AmplitudeModalModel:
+    """A softening, more damped polynomial backbone near the BRB's mode (80.6 Hz, 0.14 %)."""
+    return AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
+                               frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
+                               reference_amplitude=4e-4)
+
+
+def _banded_curve(model: AmplitudeModalModel, a: np.ndarray) -> pd.DataFrame:
+    """backbone.csv's columns for ``model`` at ``a``, with a ±1 % band."""
     curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
                           "damping_ratio": model.damping(a)})
     for column in ("natural_frequency_hz", "damping_ratio"):
         curve[f"{column}_low"], curve[f"{column}_high"] = curve[column] * 0.99, curve[column] * 1.01
+    return curve
+
+
+def _drawn_figures(monkeypatch) -> list:
+    """The figures backbone_plots saves from now on, in order (each still saved)."""
     from nlupdate.reporting import backbone_plots
 
-    drawn = []
+    drawn: list = []
     original = backbone_plots.save_figure
     monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+    return drawn
+
+
+def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path, monkeypatch):
+    model = _backbone_model()
+    a = np.geomspace(3e-5, 4e-4, 6)
+    parts = [(f"{name} ({kind})", ModalSamples(a * k, model.frequency_hz(a * k), model.damping(a * k), np.ones(6), 0.7))
+             for k, (name, kind) in zip((1.0, 0.9), (("rd.csv", "ring-down"), ("rc.mat", "response-controlled")))]
+    curve, drawn = _banded_curve(model, a), _drawn_figures(monkeypatch)
     held = [("tap.csv (impact)", ModalSamples(a[:1] / 10, model.frequency_hz(a[:1] / 10), model.damping(a[:1] / 10),
                                                np.ones(1), 0.7))]
     paths = plot_sources(model, parts, curve, tmp_path, frozenset({"rd.csv (ring-down)"}), held)
@@ -142,9 +158,7 @@ def test_the_backbone_figures_mark_every_source_and_the_disagreeing_one(tmp_path
 def test_a_source_keeps_its_marker_and_colour_whichever_other_source_is_held_out(tmp_path, monkeypatch):
     """The BRB's impact was an orange square beside the ring-down and a blue circle with the
     ring-down held out: its look came from its place among the fitted sources."""
-    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
-                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
-                                reference_amplitude=4e-4)
+    model = _backbone_model()
     a = np.geomspace(3e-5, 4e-4, 6)
 
     def samples(k: float) -> ModalSamples:
@@ -152,15 +166,7 @@ def test_a_source_keeps_its_marker_and_colour_whichever_other_source_is_held_out
 
     ring_down, impact, runs = ("rd.csv (ring-down)", samples(1.0)), ("tap.csv (impact)", samples(0.1)), \
         ("rc.mat (response-controlled)", samples(0.9))
-    curve = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
-                          "damping_ratio": model.damping(a)})
-    for column in ("natural_frequency_hz", "damping_ratio"):
-        curve[f"{column}_low"], curve[f"{column}_high"] = curve[column] * 0.99, curve[column] * 1.01
-    from nlupdate.reporting import backbone_plots
-
-    drawn = []
-    original = backbone_plots.save_figure
-    monkeypatch.setattr(backbone_plots, "save_figure", lambda fig, path: drawn.append(fig) or original(fig, path))
+    curve, drawn = _banded_curve(model, a), _drawn_figures(monkeypatch)
 
     def looks() -> dict[str, tuple]:
         lines = drawn[-1].axes[0].get_lines()
@@ -181,9 +187,7 @@ def test_a_source_keeps_its_marker_and_colour_whichever_other_source_is_held_out
 def test_the_printed_amplitude_fit_opens_with_its_bad_news():
     from nlupdate.reporting.amplitude_report import amplitude_lines
 
-    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
-                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
-                                reference_amplitude=4e-4)
+    model = _backbone_model()
     a = np.geomspace(3e-5, 4e-4, 6)
     agreement = pd.DataFrame({"source": ["rd.csv", "rc.mat"], "test_type": ["ring-down", "response-controlled"],
                               "samples": [6, 6], "compared_with": ["agreeing sources"] * 2,
@@ -239,9 +243,7 @@ def test_a_held_sample_figure_is_grey_to_the_axis_edges_beyond_the_fitted_amplit
 
     from nlupdate.reporting.held_type_plots import held_type_figure
 
-    model = AmplitudeModalModel(natural_frequency_hz=80.6, damping_ratio=0.0014, shapes=(("acc3", 0.7),),
-                                frequency_coefficients=(-0.004,), damping_coefficients=(0.004,),
-                                reference_amplitude=4e-4)
+    model = _backbone_model()
     a = np.geomspace(2.7e-5, 4.4e-4, 8)
     samples = pd.DataFrame({"modal_amplitude": a, "natural_frequency_hz": model.frequency_hz(a),
                             "predicted_frequency_hz": model.frequency_hz(a), "damping_ratio": model.damping(a),
