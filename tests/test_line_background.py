@@ -29,7 +29,7 @@ def test_the_background_is_found_and_the_top_level_predicted(share):
     data = FRFLevels.from_table(table, "x", "x")
     found, share = background_for_lines(data.subset(LEVELS[:-1]))
     total = found + complex(share.receptance(np.array([90.0]))[0])  # the levels' share and B
-    assert abs(total - background) < 0.005 * peak  # measured ≤ 1.7e-6 × peak (≤ 0.0036 × with the lowest level's fit)
+    assert abs(total - background) < 1e-4 * peak  # measured ≤ 1.7e-6 × peak (≤ 0.0036 × with the lowest level's fit)
     (top,) = validate(data, "top", ["lines-background"]).held_out
     c = top.compared
     assert abs(c["resonance_hz"].error) < 0.01  # measured ≤ 0.0012 Hz (0.0625 Hz lines; 0.0022 Hz before)
