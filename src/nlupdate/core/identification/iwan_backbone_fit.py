@@ -26,6 +26,7 @@ from nlupdate.core.identification.sample_residuals import (
 )
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, joint_omega_zeta
 from nlupdate.core.model.elements import IwanJoint
+from nlupdate.core.model.elements.iwan import slip_force_at
 
 #: β of the ``jenkins`` backbone: the Iwan joint's continuous part is K_T/(1+β), so its
 #: describing function is a Jenkins element's (k_f = K_T, F_s = F_S) within ~1/β
@@ -54,7 +55,7 @@ def iwan_parameters(theta: ArrayLike, fixed: dict[str, float]) -> tuple[NDArray,
     chi = fixed["chi"] if "chi" in fixed else -np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9)
     beta = fixed["beta"] if "beta" in fixed else np.exp(next(values))
     if slip is None:
-        slip = fixed["phi_max"] * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+        slip = slip_force_at(fixed["phi_max"], kt, chi, beta)
     return w0, z0, kt, slip, chi, beta
 
 
@@ -218,7 +219,7 @@ def fit_iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: f
                 for beta in ((0.1, 1.0) if "beta" not in fixed else (fixed["beta"],)):
                     kt = share * w0**2
                     phi_max = fixed.get("phi_max", reach * a_max)
-                    slip = phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+                    slip = slip_force_at(phi_max, kt, chi, beta)
                     theta = [np.log(w0), np.log(max(min(z_low, 0.5), 1e-5)),
                              scipy.special.logit(share)]
                     if "phi_max" not in fixed:

@@ -106,6 +106,12 @@ def _phi_max(kt, slip_force, chi, beta):
     return slip_force * (1 + beta) / (kt * (beta + (chi + 1) / (chi + 2)))
 
 
+def slip_force_at(phi_max: ArrayLike, kt: ArrayLike, chi: ArrayLike, beta: ArrayLike) -> NDArray:
+    """F_S (N) of the joint whose largest slip displacement is ``phi_max`` (m), :attr:`IwanJoint.phi_max`
+    inverted: ``F_S = φ_max K_T (β + (χ+1)/(χ+2))/(1+β)``; parameters that broadcast."""
+    return phi_max * kt * (beta + (chi + 1) / (chi + 2)) / (1 + beta)
+
+
 def _df_parts(a: NDArray, kt, slip_force, chi, beta):
     """The DF's pieces at amplitudes ``a`` (m) of the joint(s) of parameters ``kt``,
     ``slip_force``, ``chi``, ``beta`` (scalars, or arrays that broadcast with ``a``), written with
@@ -386,7 +392,7 @@ class IwanJoint(CycleElement):
     def with_alternative(cls, kwargs, alternative, value):
         """F_S from a fixed φ_max (:attr:`phi_max` inverted)."""
         chi, beta = kwargs["chi"], kwargs["beta"]
-        return {**kwargs, "slip_force": value * kwargs["kt"] * (beta + (chi + 1) / (chi + 2)) / (1 + beta)}
+        return {**kwargs, "slip_force": slip_force_at(value, kwargs["kt"], chi, beta)}
 
     def refit_when_unseen(self, amplitude_max):
         """Below ``MACROSLIP_REACH × φ_max`` the data determine χ and
@@ -429,7 +435,7 @@ class IwanJoint(CycleElement):
     def effect_values(cls, scale, shape):
         """Shape φ_max, with χ = −0.5 and β = 0.5 to start (the fit refines all four)."""
         chi, beta = START_CHI, START_BETA
-        return np.array([scale, shape * scale * (beta + (chi + 1) / (chi + 2)) / (1 + beta), chi, beta])
+        return np.array([scale, slip_force_at(shape, scale, chi, beta), chi, beta])
 
 
 def masing_branches(element: "IwanJoint", u: NDArray, fourier):
