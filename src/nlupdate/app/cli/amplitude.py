@@ -3,8 +3,8 @@
 
 From a modal table (CSV: force level, mode, natural frequency, damping ratio per row) and the
 mode's mass-normalised shape at the excited coordinate (--shape NAME=VALUE, 1/√kg), or from a
-measured-FRF table (driving point, several force levels; the shape then comes from a one-mode
-fit of the lowest level unless given), fit the natural frequency and damping ratio against
+measured-FRF table (driving point, several force levels; the shape then comes from the modal
+constant found with the other modes' share from every level at once unless given), fit the natural frequency and damping ratio against
 modal amplitude (--backbone iwan: a modal Iwan joint; jenkins: its Jenkins limit; polynomial: of
 --order) and write
 DIR/amplitude_model.json (usable as [targets] amplitude_models in a study: its linear limit),

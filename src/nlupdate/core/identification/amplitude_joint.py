@@ -110,8 +110,8 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
                     cut: BandCut | None = None) -> MeasuredSource:
     """The single-nonlinear-mode fit of a measured table (``name`` its files, for messages): a
     modal table needs the shape at its excited coordinate; an FRF table is read at its driving
-    point (or the only response) and its shape comes from a one-mode fit of the lowest level
-    unless given. With ``cut`` (the band the table was cut to and the table without it), a
+    point (or the only response) and its shape comes from the modal constant of every level at
+    once (:func:`~nlupdate.core.identification.level_residual.frf_residual`) unless given. With ``cut`` (the band the table was cut to and the table without it), a
     warning when the band changes the levels' damping ratios beyond the noise
     (:mod:`~nlupdate.core.identification.band_dependence`). ValueError (one line) when the
     coordinates are ambiguous."""

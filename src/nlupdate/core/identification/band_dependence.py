@@ -116,7 +116,8 @@ def band_changes(whole: FRFLevels, band: FRFLevels, band_hz: tuple[float, float]
     """The damping ratio of each level of ``band`` (the FRFs the band keeps) against
     ``whole`` (the lines the file gives without the band) at the same response amplitude,
     with the noise's own effect (module docstring); ``input_shape`` as the samples are read
-    (None: from the lowest level's fit). Empty when the band leaves out none of ``whole``'s
+    (None: from the modal constant of every level at once,
+    :func:`~nlupdate.core.identification.level_residual.frf_residual`). Empty when the band leaves out none of ``whole``'s
     lines or either reading has no samples."""
     if all(in_band(f, band_hz).all() for f in whole.frequencies):
         return []
