@@ -34,8 +34,9 @@ JENKINS_BETA = 1e6
 #: χ of the ``jenkins`` backbone (it only shapes the continuous part, which β makes negligible)
 JENKINS_CHI = -0.5
 
-#: how far (a factor either way) an Iwan fit's mode shape may stray from the modal constant
-#: read from the levels (a one-mode fit of the lowest level before issue 34; the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
+#: how far (a factor either way) an Iwan fit's mode shape may stray from √P, P the modal
+#: constant read from every level at once (level_residual; a one-mode fit of the lowest level
+#: before issue 34; the bolted-beam example: 2.78–2.85 against 2.63 1/√kg). The bound is the
 #: physics, not a convenience: a free shape let the fit shrink φ_f, which scales every
 #: damping ratio by φ_f² and keeps each peak, so a joint that cannot tie the measured damping
 #: to the measured softening (the BRB; a quadratic damper) fitted with ζ₀ → 0 and predicted
