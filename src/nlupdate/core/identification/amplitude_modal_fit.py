@@ -200,7 +200,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
             (model, chi2, law), fits, capped = best, free, False
             freed = (f"; f0 not held under the softening cap (the capped fit misses the samples beyond the noise: "
                      f"chi² {chi2_capped:.3g}, F-test p = {p_cap:.2g})")
-    stuck_shape = samples.input_shape  # the modal constant read from the levels (FRF samples)
+    stuck_shape = samples.input_shape  # √P, P the modal constant read from the levels (FRF samples)
     if fitted_shape:  # the fitted φ_f sets the amplitudes of every sample from here on
         samples = samples.with_shape(model.shapes[0][1])
         samples = ModalSamples(samples.amplitude, samples.frequency_hz, samples.damping_ratio, samples.force_n,
@@ -240,7 +240,7 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
     ratio = shapes[0][1] / stuck_shape
     if fitted_shape and abs(np.log(ratio)) >= 0.99 * np.log(SHAPE_RANGE):
         warnings += (f"the Iwan fit ends with the mode shape at the excited coordinate on its bound, {shapes[0][1]:.4g} "
-                     f"1/√kg = {ratio:.3g} × the modal constant read from the levels ({stuck_shape:.4g} 1/√kg; a joint that "
+                     f"1/√kg = {ratio:.3g} × the shape the levels' modal constant gives ({stuck_shape:.4g} 1/√kg; a joint that "
                      f"slips changes it by a few per cent): the joint cannot tie the measured damping to the measured "
                      f"softening; try the polynomial backbone",)
     return replace(out, warnings=warnings)
