@@ -7,6 +7,7 @@ on it: its API (on 127.0.0.1) answers for the flow run and its task runs.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -204,3 +205,54 @@ def test_a_second_run_uses_the_kept_server_and_both_are_in_its_api(own_home, tmp
         if pid is not None and not gone(pid):
             os.kill(pid, signal.SIGTERM)
             assert wait_until(lambda: gone(pid))
+
+
+TAKEN_FIRST = """
+import socket, sys, time
+from nlupdate.orchestration.flows import server
+taken = socket.socket()
+taken.bind(("127.0.0.1", 0))
+taken.listen()
+ports = [taken.getsockname()[1]]
+free = server._free_port
+server._free_port = lambda: ports.pop() if ports else free()
+kept = server.KeptServer()
+kept.wait(120)
+print(kept.pid, kept.port, flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_server_that_cannot_bind_its_port_is_replaced_once_for_runs_waiting_on_it(own_home):
+    """The first run's server finds its port taken (uvicorn exits with code 3) and, before
+    the first run notices (it is stopped: SIGSTOP), a second run comes for the server: the
+    second starts one under the start lock, and the first, let go on, uses that one — both
+    end on one server, which answers (before, the second found no live server and failed,
+    or started its own beside the first's replacement: two servers for one database, as the
+    suite saw under load)."""
+    home, env = own_home
+    env = {**env, "NLUPDATE_PREFECT_SERVER_KEEP_S": "3"}
+    record = home / "nlupdate-server" / "server.json"
+    first = subprocess.Popen([sys.executable, "-c", TAKEN_FIRST], env=env, text=True, stdout=subprocess.PIPE)
+    holders = [first]
+    try:
+        assert wait_until(record.exists)
+        doomed = int(json.loads(record.read_text())["pid"])
+        first.send_signal(signal.SIGSTOP)
+        assert wait_until(lambda: gone(doomed))  # its port was taken: it exits, unseen by the first run
+        holders.append(subprocess.Popen([sys.executable, "-c", HOLD], env=env, text=True, stdout=subprocess.PIPE))
+        second = holders[1].stdout.readline().split()
+        first.send_signal(signal.SIGCONT)
+        answers = [first.stdout.readline().split(), second]
+        assert answers[0] == answers[1] and len(answers[0]) == 2, answers
+        pid, port = map(int, answers[0])
+        assert pid != doomed
+        assert httpx.get(f"http://127.0.0.1:{port}/api/health").status_code == 200
+        assert json.loads(record.read_text()) == {"pid": pid, "port": port}
+    finally:
+        first.send_signal(signal.SIGCONT)
+        for holder in holders:
+            holder.kill()
+            holder.wait()
+        with contextlib.suppress(OSError, ValueError, KeyError):
+            os.kill(int(json.loads(record.read_text())["pid"]), signal.SIGTERM)

@@ -134,8 +134,8 @@ class RunServer:
     away while the run reports its end; its output goes to ``server.log`` in ``folder``.
 
     Started without importing Prefect here (the server process imports it itself, at the
-    same time as this process imports what the run needs); :meth:`wait` returns once the
-    API answers."""
+    same time as this process imports what the run needs); :meth:`KeptServer.wait` returns
+    once the API answers."""
 
     def __init__(self, folder: Path, keep_s: float) -> None:
         self.folder, self.keep_s = folder, keep_s
@@ -173,26 +173,6 @@ class RunServer:
         server_lease.write_record(self.folder, process.pid, self.port)
         return process
 
-    def wait(self, timeout_s: float) -> None:
-        """Return once ``/api/health`` answers 200; RuntimeError when the process ends first
-        or ``timeout_s`` passes (a port taken meanwhile — uvicorn's exit code 3 — is retried
-        on another)."""
-        deadline = time.monotonic() + timeout_s
-        with httpx.Client(timeout=5.0) as client:
-            while time.monotonic() < deadline:
-                code = self.process.poll()
-                if code == 3:
-                    self.port = _free_port()
-                    self.process = self._spawn()
-                elif code is not None:
-                    raise RuntimeError(f"the server process exited with code {code} (its output: "
-                                       f"{self.folder / 'server.log'})")
-                with contextlib.suppress(httpx.TransportError):
-                    if client.get(f"{self.api_url}/health").status_code == 200:
-                        return
-                time.sleep(0.05)
-        raise RuntimeError(f"the server did not answer within {timeout_s:g} s")
-
     def stop(self) -> None:
         if self.process is not None:
             self.process.terminate()
@@ -229,23 +209,36 @@ class KeptServer:
         return f"http://127.0.0.1:{self.port}/api"
 
     def wait(self, timeout_s: float) -> None:
-        """Return once the server answers (see :meth:`RunServer.wait`)."""
-        if self.started is not None:
-            self.started.wait(timeout_s)
-            self.pid, self.port = self.started.process.pid, self.started.port
-            return
+        """Return once the server answers ``/api/health``; RuntimeError when the server this
+        run started exits (but for a port taken before it bound: uvicorn's exit code 3) or
+        ``timeout_s`` passes. A server that could not bind its port, or a kept one that ended
+        before it answered, is replaced by :meth:`_take_over`, under the start lock: two runs
+        waiting on it then end on one server (a run that found no live server there started
+        its own beside the starter's new one, under load, before)."""
         deadline = time.monotonic() + timeout_s
         with httpx.Client(timeout=5.0) as client:
             while time.monotonic() < deadline:
+                code = None if self.started is None else self.started.process.poll()
+                if code is not None and code != 3:
+                    raise RuntimeError(f"the server process exited with code {code} (its output: "
+                                       f"{self.folder / 'server.log'})")
+                if code == 3 or (self.started is None and server_lease.read_record(self.folder)
+                                 != {"pid": self.pid, "port": self.port}):
+                    self._take_over()
                 with contextlib.suppress(httpx.TransportError):
                     if client.get(f"{self.api_url}/health").status_code == 200:
                         return
-                record = server_lease.read_record(self.folder)  # its starter may have moved it to another port
-                if record is None:
-                    raise RuntimeError("the kept server's process ended before it answered")
-                self.pid, self.port = record["pid"], record["port"]
                 time.sleep(0.05)
         raise RuntimeError(f"the server did not answer within {timeout_s:g} s")
+
+    def _take_over(self) -> None:
+        """Under the start lock: use the server the record names if it runs (another run's,
+        or this one's starter moved it to another port), else start one."""
+        with server_lease.starting(self.folder):
+            record = server_lease.read_record(self.folder)
+            self.started = None if record else RunServer(self.folder, self.keep_s)
+            self.pid, self.port = (record["pid"], record["port"]) if record else (self.started.process.pid,
+                                                                                   self.started.port)
 
     def describe(self) -> str:
         """How long the server stays, for the run's line."""
