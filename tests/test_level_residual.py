@@ -51,3 +51,29 @@ def test_the_share_on_a_cut_brb_band_does_not_hinge_on_rounding(monkeypatch):
     monkeypatch.setattr(module, "STARTS", dense)
     smallest = module.frf_residual(FRFLevels.from_table(table, *pair))[1].scatter
     assert scatters[0] <= smallest * (1 + 1e-4), (scatters[0], smallest)
+
+
+def test_a_share_on_its_bound_is_said():
+    """The BRB cut to 80–80.6 Hz: the smallest minimum has the slope's imaginary part at its
+    bound (−50 hundredths of the peak), so the band does not determine the share; the fit
+    names S as on its bound and the samples read with it carry one warning saying so and
+    what to do, as does validate's lines model. (The closed-form mode over 79–81 Hz does not:
+    tests/test_achieved_force_modal_model.py.)"""
+    from nlupdate.app import api
+    from nlupdate.core.identification import level_residual as module
+    from nlupdate.core.identification.data import FRFLevels
+    from nlupdate.core.identification.modal_samples import samples_from_frfs
+    from test_real_measurements import BRB
+
+    table = api.load_measurements(BRB, coordinates={BRB.name: ("acc3:-y", "acc3:y")})
+    table = table[(table["frequency_hz"] >= 80.0) & (table["frequency_hz"] <= 80.6)]
+    data = FRFLevels.from_table(table, *table[["response_dof", "input_dof"]].iloc[0])
+    share = module.frf_residual(data)[1]
+    unit = 1e-2 * max(float(np.max(np.abs(h))) for h in data.receptances)
+    assert "S" in share.at_bound
+    assert abs(share.slope.imag / unit) >= 0.99 * module.LIMITS[4]  # on the box, as named
+    warnings = samples_from_frfs(data).warnings
+    assert len(warnings) == 1 and "slope S" in warnings[0] and "wider band" in warnings[0]
+    assert f"between 80 and {max(f.max() for f in data.frequencies):.5g} Hz" in warnings[0]
+    from nlupdate.core.validation.models import model_fitter
+    assert model_fitter("lines")(data).note == warnings[0]  # validate's note on the lines model

@@ -146,7 +146,8 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
         warning = None if whole is None else band_warning(
             band_changes(whole, data, cut.band_hz, shapes.get(input_dof)), cut.band_hz,
             (float(f.min()), float(f.max())), unit)
-    return MeasuredSource(samples, model, data, unit, input_dof, "stepped-sine", (warning,) if warning else ())
+    return MeasuredSource(samples, model, data, unit, input_dof, "stepped-sine",
+                          ((warning,) if warning else ()) + samples.warnings)
 
 
 @dataclass(frozen=True)

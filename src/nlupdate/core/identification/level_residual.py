@@ -78,6 +78,13 @@ LIMITS = np.array([50.0, 50.0, np.log(2.0), 50.0, 50.0])
 #: P₀ ended at a scatter 29 × the smallest, or at it, as a change of 1e-15 in the misfits went
 #: (tests/test_level_residual.py); the two starts at P₀ ± 20 % reach the smallest either way.
 STARTS = (("none", 0.0), ("none", 0.2), ("none", -0.2), ("one-mode", 0.0))
+#: an unknown whose end is within this fraction of :data:`LIMITS` of the box's edge is on its bound:
+#: the band's lines do not determine it (the BRB cut to 80–80.6 Hz: the slope's imaginary part at −50)
+BOUND_FRACTION = 0.01
+#: the unknowns :attr:`LevelResidual.at_bound` names, each with the indices of its parts in the fit's x
+UNKNOWNS = (("R", (0, 1)), ("ln P", (2,)), ("S", (3, 4)))
+_WORDS = {"R": "the other modes' share R", "S": "the share's slope S (its change across the band)",
+          "ln P": "the modal constant P"}
 
 
 @dataclass(frozen=True)
@@ -92,6 +99,11 @@ class LevelResidual:
     centre_hz: float
     modal_constant: float
     scatter: float
+    #: the unknowns ("R", "ln P", "S") that ended within :data:`BOUND_FRACTION` of their box
+    #: :data:`LIMITS`: the band's lines do not determine them (:func:`bound_warning`)
+    at_bound: tuple[str, ...] = ()
+    #: the lowest and highest line (Hz) the fit read
+    band_hz: tuple[float, float] = (float("nan"), float("nan"))
 
     def receptance(self, frequency_hz: NDArray) -> NDArray[np.complex128]:
         """The other modes' share (receptance units) at ``frequency_hz`` (Hz)."""
@@ -143,7 +155,23 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
         fit = scipy.optimize.least_squares(misfits, x0, bounds=(-LIMITS, LIMITS))
         ends.append((2 * float(fit.cost), fit.x))
     scatter, x = min(ends, key=lambda end: end[0])
-    return replace(share(x), scatter=scatter)
+    on_edge = np.abs(x) >= (1 - BOUND_FRACTION) * LIMITS
+    lines = np.concatenate([f for f, _, _ in curves])
+    return replace(share(x), scatter=scatter, band_hz=(float(lines.min()), float(lines.max())),
+                   at_bound=tuple(name for name, parts in UNKNOWNS if np.any(on_edge[list(parts)])))
+
+
+def bound_warning(share: LevelResidual) -> str | None:
+    """One line saying which of ``share``'s unknowns ended on the fit's box (the lines it was
+    read from do not determine them) and what to do; None when none did."""
+    if not share.at_bound:
+        return None
+    named = " and ".join(_WORDS[name] for name in share.at_bound)
+    return (f"the other modes' share and modal constant read from every line of every level between {share.band_hz[0]:.5g} "
+            f"and {share.band_hz[1]:.5g} Hz end with {named} on the bound of the fit's box: the band's lines do not "
+            f"determine {'them' if len(share.at_bound) > 1 else 'it'}, and the samples, damping ratios and linear "
+            "limit read with it are one of many that fit; measure or keep a wider band (both flanks of the "
+            "resonance at every level)")
 
 
 def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1) -> tuple[float, LevelResidual]:

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.frf_peak import resonance_peak
-from nlupdate.core.identification.level_residual import frf_residual
+from nlupdate.core.identification.level_residual import bound_warning, frf_residual
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 
@@ -62,7 +62,9 @@ class ModalSamples:
     is φ_r/φ_f of the FRFs' response (1 at the driving point). ``modal`` is False for the
     samples of a record read without a shape at its channel: a is then the record's own
     amplitude (m), on no common scale with modal samples (φ_r = 1 is assumed, not known);
-    ``channel`` is then the record's channel (what a refusal to join them names)."""
+    ``channel`` is then the record's channel (what a refusal to join them names). ``warnings``:
+    what the reading warns of (from FRFs: the other modes' share on the bound of its fit,
+    :func:`~nlupdate.core.identification.level_residual.bound_warning`)."""
 
     amplitude: NDArray[np.float64]
     frequency_hz: NDArray[np.float64]
@@ -75,6 +77,7 @@ class ModalSamples:
     modal: bool = True
     level: NDArray[np.float64] | None = None
     channel: str = ""
+    warnings: tuple[str, ...] = ()
 
     def with_shape(self, input_shape: float) -> "ModalSamples":
         """The same FRF samples for another φ_f (1/√kg)."""
@@ -82,7 +85,7 @@ class ModalSamples:
             raise AmplitudeModelError("only samples from FRFs (with their response amplitudes) can change their shape")
         phi, x, omega = abs(float(input_shape)), self.response_amplitude, 2 * np.pi * self.frequency_hz
         return ModalSamples(x / phi, self.frequency_hz, phi**2 * self.force_n / (2 * omega**2 * x), self.force_n, phi,
-                            x, self.shape_free, self.response_ratio, level=self.level)
+                            x, self.shape_free, self.response_ratio, level=self.level, warnings=self.warnings)
 
 
 def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int = 1,
@@ -140,5 +143,6 @@ def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz
         raise AmplitudeModelError("fewer than two force levels show the resonance; measure around it at two or more levels")
     x, frequency, force = np.array(peak_x) / abs(ratio), np.array(peak_hz), np.array(forces)  # x at the driving point
     omega = 2 * np.pi * frequency
+    warning = bound_warning(shared)
     return ModalSamples(x / phi, frequency, phi**2 * force / (2 * omega**2 * x), force, phi, x, shape_free, ratio,
-                        level=np.array(levels))
+                        level=np.array(levels), warnings=(warning,) if warning else ())

@@ -173,7 +173,8 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
         comparison, warning = widened_for_extrapolation(
             data, run, curve_comparison(data, f, h, predicted, curves, base, repeat, misfit))
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
-                                  requested=requested or model, **comparison, note=note, extrapolation=warning))
+                                  requested=requested or model, **comparison,
+                                  note="; ".join(filter(None, [fitted.note, note])), extrapolation=warning))
     return out
 
 

@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
 from nlupdate.core.identification.data import FRFLevels, LinearLimitLike
-from nlupdate.core.identification.level_residual import LevelResidual, frf_residual
+from nlupdate.core.identification.level_residual import LevelResidual, bound_warning, frf_residual
 from nlupdate.core.identification.line_samples import background_for_lines, samples_from_lines
 from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.response_controlled import HeldRun
@@ -78,6 +78,9 @@ class Fitted:
     at_response: Predictor | None = None
     #: whether ``at_force`` takes one force per line (else the nominal level only)
     per_line_force: bool = False
+    #: what the fit warns of (the other modes' share on its fit's bound:
+    #: :func:`~nlupdate.core.identification.level_residual.bound_warning`), '' if nothing
+    note: str = ""
 
     def __call__(self, frequency_hz: NDArray, level: float, force: NDArray | None = None) -> NDArray[np.complex128]:
         """The receptance at ``level``; ``force`` (one per line of ``frequency_hz``, the
@@ -239,9 +242,10 @@ def _lines_models(samples: ModalSamples, input_dof: str, order: int, first_run: 
 
 
 def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDArray], dof: str,
-                 held_model: AmplitudeModalModel | None = None) -> Fitted:
+                 held_model: AmplitudeModalModel | None = None, share: LevelResidual | None = None) -> Fitted:
     """:class:`Fitted` of a single-mode model plus the other modes' share ``background``;
-    ``held_model`` the one response-controlled runs are predicted with (``model`` if None)."""
+    ``held_model`` the one response-controlled runs are predicted with (``model`` if None);
+    ``share`` the fit of that share, whose bound its note says."""
     def at_force(frequency_hz: NDArray, force: float | NDArray) -> NDArray[np.complex128]:
         f = np.asarray(frequency_hz, dtype=float)
         return frf_at_forces(model, f, force, dof) + background(f)
@@ -249,7 +253,7 @@ def _single_mode(model: AmplitudeModalModel, background: Callable[[NDArray], NDA
     def at_response(frequency_hz: NDArray, amplitude_m: float | NDArray) -> NDArray[np.complex128]:
         return held_receptance(held_model or model, background, dof, frequency_hz, amplitude_m)
 
-    return Fitted(at_force, at_response, per_line_force=True)
+    return Fitted(at_force, at_response, per_line_force=True, note=(share and bound_warning(share)) or "")
 
 
 def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], share: LevelResidual, background: complex) -> Fitted:
@@ -259,7 +263,7 @@ def _lines_fitted(kept: FRFLevels, runs: Sequence[HeldRun], share: LevelResidual
     samples, _ = samples_from_lines(kept, share, background, runs)
     first_run = samples_from_lines(kept, share, background)[0].amplitude.size if runs else None
     models = _lines_models(samples, kept.input_dof, LINES_ORDER, first_run, kept.linear_limit)
-    return _single_mode(models[0], lambda f: share.receptance(f) + background, kept.input_dof, models[1])
+    return _single_mode(models[0], lambda f: share.receptance(f) + background, kept.input_dof, models[1], share)
 
 
 def _lines(kept: FRFLevels, runs: Sequence[HeldRun] = ()) -> Fitted:
@@ -276,7 +280,7 @@ def _amplitude(backbone: str) -> Callable[[FRFLevels], Fitted]:
         order = min(2, kept.levels.size - 1)  # a polynomial through one sample per level
         model = amplitude_model_from_frfs(kept, backbone, order=order)
         share = frf_residual(kept)[1]  # the other modes' share its samples were read without
-        return _single_mode(model, share.receptance, kept.input_dof)
+        return _single_mode(model, share.receptance, kept.input_dof, share=share)
 
     return fit_on
 
