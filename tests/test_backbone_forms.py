@@ -9,6 +9,8 @@ force law) at the force that holds each amplitude, interpolated to 90°.
 """
 from __future__ import annotations
 
+import re
+
 import json
 import warnings
 
@@ -106,6 +108,13 @@ def test_beta_zero_is_taken_where_the_samples_cannot_tell(iwan_sdof):
     assert "fixed beta = 0" in model.note and model.joint.beta == 0
     error_f, error_z = curve_error(s, model, samples.amplitude.min(), samples.amplitude.max())
     assert error_f < 2e-3 and error_z < 0.05
+    # the note gives the law chosen by the free fits' chi² and then the kept (beta = 0) fit's own,
+    # not the kept fit's beside the other law's free fit (which read as if the worse law were kept)
+    free = re.search(r"the free fits' chi² (\w+) ([\d.e+-]+), (\w+) ([\d.e+-]+)", model.note)
+    kept = re.search(r"the kept fit with beta = 0: chi² ([\d.e+-]+)", model.note)
+    assert free and kept, model.note
+    assert free[1] == model.linear_damping and float(free[2]) <= float(free[4])
+    assert float(kept[1]) >= float(free[2]) * (1 - 1e-2)  # fewer unknowns: no better than the free fit
 
 
 def test_the_f_test_of_the_microslip_rule():

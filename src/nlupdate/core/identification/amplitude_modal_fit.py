@@ -133,6 +133,11 @@ def default_resamples(backbone: str) -> int:
 MICROSLIP_P = 0.05
 
 
+#: what the β = 0 note adds when the free fit has one degree of freedom: its F-test then has little power
+LITTLE_POWER = (" (the free fit has 1 degree of freedom: the F-test has little power, and β = 0 is kept unless the "
+                "samples reject it strongly)")
+
+
 def microslip_test(chi2_free: float, chi2_reduced: float, free_dof: int, constraints: int = 2) -> float:
     """p-value of the F-test of the Iwan fit with β = 0 and φ_max fixed (``constraints`` = 2
     parameters fewer; 1 for f₀ held on its softening cap) against the free fit:
@@ -218,7 +223,8 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         if p_value >= MICROSLIP_P:
             model, chi2, dof, lower_bounds = reduced, chi2_reduced, free_dof + 2, LOWER_BOUNDED
             why = ("too few samples to test it" if free_dof <= 0 else
-                   f"the fit with beta = 0 is as good within the noise: F-test p = {p_value:.2g} ≥ {MICROSLIP_P:g}")
+                   f"the fit with beta = 0 is as good within the noise: F-test p = {p_value:.2g} ≥ {MICROSLIP_P:g}"
+                   + (LITTLE_POWER if free_dof == 1 else ""))
             note = (f"no sample reaches the joint's macroslip (largest modal amplitude {a_max:.4g} m·√kg, {reach:.2g} × "
                     f"the φ_max of a free fit; {MACROSLIP_REACH:g} × needed) and {why}: the data determine chi and R' "
                     f"only; fixed beta = 0 and phi_max = the largest amplitude, so {' and '.join(lower_bounds)} are lower "
@@ -226,11 +232,14 @@ def fit_amplitude_model(samples: ModalSamples, shapes: Sequence[tuple[str, float
         else:
             note = (f"modal Iwan backbone, all parameters fitted (the largest modal amplitude is {reach:.2g} × the "
                     f"fit's φ_max, below {MACROSLIP_REACH:g} ×, but the fit with beta = 0 is worse beyond the noise: "
-                    f"chi² {chi2_reduced:.3g} against {chi2:.3g}, F-test p = {p_value:.2g})")
+                    f"chi² {chi2_reduced:.3g} against {chi2:.3g}, F-test p = {p_value:.2g}"
+                    f"{LITTLE_POWER if free_dof == 1 else ''})")
     else:
         note = "modal Iwan backbone, all parameters fitted"
-    others = ", ".join(f"{other} {c:.3g}" for _, c, other in fits if other != law)
-    note += f"; {law} linear damping (chi² {chi2:.3g} for {n} values, {dof} degrees of freedom; {others}){freed}"
+    chosen = ", ".join(f"{other} {c:.3g}" for _, c, other in sorted(fits, key=lambda fit: fit[2] != law))
+    kept = "the kept fit with beta = 0" if lower_bounds else "the kept fit"
+    note += (f"; {law} linear damping (the free fits' chi² {chosen}: the smaller's law is kept; {kept}: chi² "
+             f"{chi2:.3g} for {n} values, {dof} degrees of freedom){freed}")
     if fitted_shape:
         note += (f"; the mode shape at the excited coordinate fitted with the backbone: {shapes[0][1]:.4g} 1/√kg "
                  f"(the Iwan joint ties its damping to its softening, which fixes the amplitude scale)")
