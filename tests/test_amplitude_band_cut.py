@@ -149,6 +149,8 @@ def test_where_the_check_names_a_level_the_bands_damping_is_wrong(simulated):
     text = band_warning(changes, band, (79.2, 81.2))
     named = [z for z, c in zip(samples_from_frfs(simulated.within(band)).damping_ratio, changes) if c.significant]
     assert text is not None and all(f"{100 * z:.4g} %" in text for z in named)
+    # the share's fit ends on its box there (P: the band leaves out the resonances), and says so
+    assert "modal constant P" in samples_from_frfs(simulated.within(band)).warnings[0]
 
 
 def test_a_band_that_keeps_the_resonance_is_not_named(simulated):
@@ -160,6 +162,7 @@ def test_a_band_that_keeps_the_resonance_is_not_named(simulated):
     assert not any(c.significant for c in band_changes(simulated, simulated.within(band), band))
     assert band_warning(band_changes(simulated, simulated.within(band), band), band, (79.2, 81.2)) is None
     assert band_changes(simulated, simulated, (79.2, 81.2)) == []
+    assert samples_from_frfs(simulated.within(band)).warnings == ()  # the share's fit inside its box
 
 
 def test_a_studys_band_hz_warns_as_the_command_does(tmp_path):
