@@ -83,6 +83,13 @@ CASES = {  # fixed parameters, shape fitted, amplitude noise, linear damping
 }
 
 
+def test_an_unknown_gradient_parameter_is_refused_in_one_line_naming_the_accepted():
+    joint = IwanJoint((0,), slip_force=1.0, kt=100.0, chi=-0.5, beta=0.5)
+    with pytest.raises(ValueError, match=r"\['phi_max'\] not among \['kt', 'slip_force', 'chi', 'beta'\]") as error:
+        joint.describing_function_gradient(np.array([1e-3]), ("kt", "phi_max"))
+    assert "\n" not in str(error.value)
+
+
 @pytest.mark.parametrize("case", CASES)
 @pytest.mark.parametrize("phi_max", [0.5e-3, 0.999 * 3e-3, 1.0005 * 3e-3, 1e-2])
 def test_the_fits_jacobian_is_the_finite_difference_of_its_residuals(case, phi_max):

@@ -12,7 +12,7 @@ closed form costs about one residual (benchmarks/iwan_fit_jacobian.py).
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 import scipy.optimize
@@ -72,7 +72,7 @@ def iwan_models_exist(w0: NDArray, z0: NDArray, kt: NDArray, slip: NDArray, beta
                 & (kt < (2 * np.pi * f0) ** 2) & np.isfinite(slip) & (slip > 0) & np.isfinite(beta))
 
 
-def iwan_model(theta: NDArray, shapes, fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
+def iwan_model(theta: NDArray, shapes: Sequence[tuple[str, float]], fixed: dict[str, float], mode: int, damping: str) -> AmplitudeModalModel:
     """Model from unknowns θ (:func:`iwan_parameters`)."""
     w0, z0, kt, slip, chi, beta = (float(v) for v in iwan_parameters(theta, fixed))
     joint = IwanJoint((0,), slip_force=slip, kt=kt, chi=chi, beta=beta)
@@ -132,7 +132,7 @@ class IwanProblem(NamedTuple):
     noisy: NDArray
 
 
-def iwan_problem(samples: ModalSamples, shapes, frequency_std: float | NDArray, damping_std: float | NDArray,
+def iwan_problem(samples: ModalSamples, shapes: Sequence[tuple[str, float]], frequency_std: float | NDArray, damping_std: float | NDArray,
                  mode: int, damping: str, fixed: dict[str, float] | None = None,
                  amplitude_std: NDArray | None = None) -> IwanProblem:
     """The residuals of an Iwan backbone with ``damping`` linear damping and the parameters
@@ -194,7 +194,7 @@ def iwan_problem(samples: ModalSamples, shapes, frequency_std: float | NDArray, 
     return IwanProblem(unpack, residual, jacobian, unknowns, free_shape, noisy)
 
 
-def fit_iwan(samples: ModalSamples, shapes, frequency_std: float, damping_std: float, mode: int, damping: str,
+def fit_iwan(samples: ModalSamples, shapes: Sequence[tuple[str, float]], frequency_std: float, damping_std: float, mode: int, damping: str,
              fixed: dict[str, float] | None = None, capped: bool = True,
              amplitude_std: NDArray | None = None) -> tuple[AmplitudeModalModel, float]:
     """Best Iwan backbone over the starts (the problem: :func:`iwan_problem`). ``capped``: f₀

@@ -34,10 +34,13 @@ a and ζ from one height, but their amplitude is read from a fit over many lines
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # the samples' module needs no residuals, but keep this one free of its imports
+    from nlupdate.core.identification.modal_samples import ModalSamples
 
 #: test types whose samples' modal amplitudes carry the response's noise, and the share of
 #: their damping ratio's relative noise taken as that: a phase-resonance point's amplitude
@@ -59,7 +62,7 @@ LOCKED_FREQUENCY_STD = {"phase-resonance": 1e-5}
 EIV_BACKBONES = ("iwan",)
 
 
-def sample_residual(model_omega_zeta, samples, frequency_std: float, damping_std: float) -> NDArray:
+def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
     """Weighted relative misfits of ``samples`` (a
     :class:`~nlupdate.core.identification.modal_samples.ModalSamples`, which imports this
     module) about the curves ``model_omega_zeta(a) → (ω, ζ)``:
@@ -82,7 +85,7 @@ def _finite_rows(jacobian: NDArray, residual: NDArray) -> NDArray:
     return np.where(np.isfinite(residual)[:, None] & np.isfinite(jacobian), jacobian, 0.0)
 
 
-def sample_residual_jacobian(curves: Curves, samples, frequency_std: float | NDArray, damping_std: float | NDArray,
+def sample_residual_jacobian(curves: Curves, samples: ModalSamples, frequency_std: float | NDArray, damping_std: float | NDArray,
                              shape: bool = False) -> NDArray:
     """∂/∂θ of :func:`sample_residual` (rows as its values), ``curves`` (:data:`Curves`) taken at
     the samples' amplitudes. With ``shape``, one more column: ∂/∂ln φ_f of samples from FRFs,

@@ -23,7 +23,7 @@ the multi-harmonic balance instead (a model without elements is linear: the cont
 from __future__ import annotations
 
 import dataclasses
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 import pandas as pd
@@ -39,6 +39,9 @@ from nlupdate.core.response.harmonic_balance import HarmonicSettings
 from nlupdate.core.model.linear import dof_index
 from nlupdate.core.response.simulate import simulate_frf_table
 from nlupdate.core.response.sweep import frequency_sweep
+
+if TYPE_CHECKING:
+    from nlupdate.core.identification.pipeline import Identification
 
 LOSS_FACTOR_BOUNDS = (1e-4, 0.2)
 #: how close (relative) a fitted η must be to a bound to count as on it: twice the search's
@@ -208,7 +211,7 @@ def model_dofs(response_dof: str, input_dof: str, model_response_dof: str | None
     return model_response, str(model_input_dof)
 
 
-def chosen_loss_factor(setting: float | str, identification) -> float | str:
+def chosen_loss_factor(setting: float | str, identification: Identification) -> float | str:
     """The ``loss_factor`` :func:`predict_measured` takes for a setting: ``"identified"``, the mean
     loss factor of ``identification``'s extracted linear modes; a number or ``"low_force_fit"`` as given."""
     return float(np.mean(identification.loss_factors)) if setting == "identified" else setting

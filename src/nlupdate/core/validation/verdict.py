@@ -16,14 +16,14 @@ these; the archive's manifest keeps every warning's text.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable, NamedTuple
+from typing import Any, Iterable, Mapping, NamedTuple, Protocol
 
 import numpy as np
 
-from nlupdate.core.validation.compared import QUANTITIES
+from nlupdate.core.validation.compared import QUANTITIES, Compared
 
 #: the held-out levels' quantities, as the lines name them
-QUANTITY_NAMES = dict(zip(QUANTITIES, ("resonance", "damping ratio", "peak |H|")))
+QUANTITY_NAMES = dict(zip(QUANTITIES, ("resonance", "damping ratio", "peak |H|"), strict=True))
 #: the quantities a held-out test type is judged on: a held stepped sine's, and a held sample's frequency
 HELD_NAMES = {**QUANTITY_NAMES, "natural_frequency_hz": "natural frequency"}
 #: below this many lines in the measured half-power band its damping ratio is said to be poorly resolved
@@ -40,6 +40,20 @@ class Said:
     kind: str
     warns: bool
     text: str
+
+
+class Comparison(Protocol):
+    """What the verdict reads of one comparison, a held-out level's or a predicted run's
+    (:class:`~nlupdate.core.validation.held_out.CurveComparison`, which imports this module)."""
+
+    @property
+    def compared(self) -> Mapping[str, Compared]: ...
+
+    @property
+    def half_power_lines(self) -> int: ...
+
+    @property
+    def note(self) -> str: ...
 
 
 class InBand(NamedTuple):
@@ -72,14 +86,14 @@ def counted_clause(counts: InBand, single: bool = False) -> str:
             f"{spread}: they test nothing")
 
 
-def outside(result) -> list[str]:
+def outside(result: Comparison) -> list[str]:
     """The quantities (names) of one comparison whose measured value lies outside the band, or
     that have no predicted value."""
     return [QUANTITY_NAMES[key] for key, c in result.compared.items()
             if c.inside is False or not np.isfinite(c.predicted)]
 
 
-def comparison_notes(result) -> list[str]:
+def comparison_notes(result: Comparison) -> list[str]:
     """What the table cannot show of one comparison: no predicted value, the prediction
     outside its own band, a half-power band of few lines, the model's own note."""
     notes = []
@@ -98,7 +112,7 @@ def comparison_notes(result) -> list[str]:
     return notes
 
 
-def _extrapolated_clause(validation, unit: str) -> str:
+def _extrapolated_clause(validation: Judged, unit: str) -> str:
     """The held-out levels and runs outside what the fit kept ('' when none is): an all-in-band
     verdict on them alone read as a confident pass (the transmitter beam's ``--hold-out top``:
     "every held-out level … lies within its prediction's 95 % band", the warning that 0.45 V
@@ -111,7 +125,7 @@ def _extrapolated_clause(validation, unit: str) -> str:
             f"not measure the form's error")
 
 
-def said(validation, unit: str) -> list[Said]:
+def said(validation: Judged, unit: str) -> list[Said]:
     """The verdict — every held-out level (and predicted run) inside its bands, or each one
     that is not, naming level and model, with how many in-band values test nothing — then each
     held-out level outside the kept levels and each response-controlled run outside the kept
@@ -221,7 +235,7 @@ def _largest(values) -> float:
     return max((v for v in values if np.isfinite(v)), default=float("nan"))
 
 
-def worst_by_model(validation) -> list[ModelWorst]:
+def worst_by_model(validation: Judged) -> list[ModelWorst]:
     """:class:`ModelWorst` per requested model of ``validation``'s held-out levels, in the order requested."""
     out = []
     for requested in dict.fromkeys(r.requested for r in validation.held_out):
@@ -239,6 +253,13 @@ def worst_by_model(validation) -> list[ModelWorst]:
 class Judged:
     """What a :class:`~nlupdate.core.validation.held_out.Validation` says and its largest
     errors, as methods of the result (reporting renders them)."""
+
+    #: what the functions above read of it (the dataclass Validation's fields)
+    held_out: tuple[Any, ...]
+    response_controlled: tuple[Any, ...]
+    response_controlled_notes: tuple[str, ...]
+    choices: dict[float, Any]
+    reference_unit: str
 
     def said(self, unit: str | None = None) -> list[Said]:
         """:func:`said`, levels in ``unit`` (the validation's reference unit when None)."""

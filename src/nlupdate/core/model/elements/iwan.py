@@ -151,6 +151,10 @@ def iwan_describing_function(amplitude: ArrayLike, kt: ArrayLike, slip_force: Ar
     return _df_value(_df_parts(np.asarray(amplitude, dtype=float), kt, slip_force, chi, beta), kt, beta)
 
 
+#: the parameters :meth:`IwanJoint.describing_function_gradient` differentiates by
+GRADIENT_PARAMETERS = ("kt", "slip_force", "chi", "beta")
+
+
 class DFGradient(NamedTuple):
     """An Iwan joint's describing function ν (N/m) at amplitudes A, ∂ν/∂A (N/m²) and ∂ν/∂p for
     each parameter p (``kt``, ``slip_force``, ``chi``, ``beta``) with the others held."""
@@ -298,7 +302,7 @@ class IwanJoint(CycleElement):
         return d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
 
     def describing_function_gradient(self, amplitude: ArrayLike,
-                                     parameters: Sequence[str] = ("kt", "slip_force", "chi", "beta")) -> DFGradient:
+                                     parameters: Sequence[str] = GRADIENT_PARAMETERS) -> DFGradient:
         """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each p of ``parameters`` (of ``kt``,
         ``slip_force``, ``chi`` and ``beta``; χ's costs most), the other three held
         (:class:`DFGradient`). From ν = K_T N(A/φ_max; χ, β) (class docstring): at fixed φ_max,
@@ -307,6 +311,8 @@ class IwanJoint(CycleElement):
         ``∂J/∂χ = J(ln s + ψ(χ+5/2) − ψ(χ+4))`` in microslip and ``−J ln r + r^−(χ+1) ∂B/∂a`` in
         macroslip (:func:`_scaled_incomplete_beta_da`); then φ_max's own dependence on K_T, F_S,
         χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``)."""
+        if unknown := [name for name in parameters if name not in GRADIENT_PARAMETERS]:
+            raise ValueError(f"describing_function_gradient: parameters {unknown} not among {list(GRADIENT_PARAMETERS)}")
         a = amplitude_array(amplitude)
         parts = self._parts(a)
         chi, r, s, b, g, j = parts
