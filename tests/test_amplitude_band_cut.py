@@ -92,6 +92,18 @@ def test_a_narrow_band_on_the_brb_warns_first_naming_each_level_and_both_values(
             assert 0 < said_whole < whole["damping_ratio"].min()
 
 
+def test_a_share_on_its_box_is_said_only_where_the_cut_changes_the_damping(tmp_path):
+    """On the BRB the share's slope S ends on the fit's box for 79.5–81 Hz and for 80.1–80.5 Hz.
+    The first cut moves no level's damping beyond the noise (at most 0.8 % from the file's
+    whole band): no warning — the whole band measured what the cut changed. The second moves
+    them 6–35 %: the band's warning first, then the cause, the share on its box."""
+    SHARE = "on the bound of the fit's box"
+    quiet = run_amplitude(tmp_path / "wide", "--band", "79.5:81")
+    assert not any(SHARE in line or WARNING in line for line in quiet), quiet
+    loud = [line for line in run_amplitude(tmp_path / "narrow", "--band", "80.1:80.5") if line.startswith("warning:")]
+    assert WARNING in loud[0] and SHARE in loud[1] and "slope S" in loud[1], loud
+
+
 def test_the_files_whole_band_gives_no_band_warning(tmp_path):
     """``--band`` spanning every line the file holds changes nothing and warns of nothing."""
     lines = run_amplitude(tmp_path / "all", "--band", "79.2:81.2")
