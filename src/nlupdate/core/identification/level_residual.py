@@ -167,11 +167,13 @@ def bound_warning(share: LevelResidual) -> str | None:
     if not share.at_bound:
         return None
     named = " and ".join(_WORDS[name] for name in share.at_bound)
+    them = "them" if len(share.at_bound) > 1 else "it"
     return (f"the other modes' share and modal constant read from every line of every level between {share.band_hz[0]:.5g} "
-            f"and {share.band_hz[1]:.5g} Hz end with {named} on the bound of the fit's box: the band's lines do not "
-            f"determine {'them' if len(share.at_bound) > 1 else 'it'}, and the samples, damping ratios and linear "
-            "limit read with it are one of many that fit; measure or keep a wider band (both flanks of the "
-            "resonance at every level)")
+            f"and {share.band_hz[1]:.5g} Hz end with {named} on the bound of the fit's box: the lines do not determine "
+            f"{them} — too narrow a band, or curves that one mode and a linear share do not hold (a neighbouring mode, "
+            f"a nonlinearity beyond the single-mode form) — and the samples, damping ratios and linear limit read with "
+            f"{them} are one of many that fit; keep a wider band (both flanks of the resonance at every level) where "
+            "the file has one")
 
 
 def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1) -> tuple[float, LevelResidual]:
