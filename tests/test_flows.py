@@ -386,11 +386,11 @@ def test_a_server_that_cannot_start_or_answer_is_one_clear_error(monkeypatch, tm
     started = []
 
     def broken(self, timeout_s):
-        started.append(self.process)
+        started.append(self.started.process)
         raise RuntimeError("the server did not answer within 120 s")
 
     folder = own_server_folder(monkeypatch, tmp_path)
-    monkeypatch.setattr(server.RunServer, "wait", broken)
+    monkeypatch.setattr(server.KeptServer, "wait", broken)
     before = list(server._STARTED)  # the session's server, when a test before started it
     with pytest.raises(ServerError, match="could not start a Prefect server .*prefect server start"):
         with prefect_api(lambda message: None):
