@@ -436,7 +436,7 @@ def predict_held_out(data: FRFLevels, level: float, model: str, repeat: Repeatab
     fitted = fit(kept)
     predicted = fitted(f, level, force)
     curves, note = refits(fit, kept_levels, data, lambda inner: inner(f, level, force))
-    note = "; ".join(filter(None, [fitted.note, note]))  # the fit's own warning first
+    note = fitted.noted(note)
     if model != BASELINE and extrapolated(kept, level):
         why = outside_physical_range(kept, fitted, level)
         if why is not None:

@@ -174,7 +174,7 @@ def predict_held_runs(data: FRFLevels, runs: Sequence[HeldRun], model: str, repe
             data, run, curve_comparison(data, f, h, predicted, curves, base, repeat, misfit))
         out.append(HeldPrediction(run=run.name, held_m=run.held_m, levels=levels, model=model,
                                   requested=requested or model, **comparison,
-                                  note="; ".join(filter(None, [fitted.note, note])), extrapolation=warning))
+                                  note=fitted.noted(note), extrapolation=warning))
     return out
 
 

@@ -82,6 +82,10 @@ class Fitted:
     #: :func:`~nlupdate.core.identification.level_residual.bound_warning`), '' if nothing
     note: str = ""
 
+    def noted(self, note: str) -> str:
+        """``note`` of a comparison with the fit's own warning (:attr:`note`) before it."""
+        return "; ".join(filter(None, [self.note, note]))
+
     def __call__(self, frequency_hz: NDArray, level: float, force: NDArray | None = None) -> NDArray[np.complex128]:
         """The receptance at ``level``; ``force`` (one per line of ``frequency_hz``, the
         reference unit) the force achieved at each line, used where the model can."""
