@@ -163,7 +163,8 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
 
 def bound_warning(share: LevelResidual) -> str | None:
     """One line saying which of ``share``'s unknowns ended on the fit's box (the lines it was
-    read from do not determine them) and what to do; None when none did."""
+    read from do not determine them: too narrow a band, or curves one mode and a linear share
+    do not hold — the fit cannot tell which) and what to do; None when none did."""
     if not share.at_bound:
         return None
     named = " and ".join(_WORDS[name] for name in share.at_bound)
