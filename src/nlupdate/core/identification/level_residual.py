@@ -64,6 +64,7 @@ from numpy.typing import NDArray
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.modal_fit import fit_mode_near
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+from nlupdate.core.run_cache import remembered_in_run
 
 #: the order of each level's polynomials in a/a_max (over the whole band a level spans about
 #: a decade of amplitude)
@@ -177,6 +178,7 @@ def bound_warning(share: LevelResidual) -> str | None:
             "the file has one")
 
 
+@remembered_in_run  # every model, refit and sample of one validation that keeps these levels
 def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1) -> tuple[float, LevelResidual]:
     """(the mode's centre (Hz), its other modes' share and modal constant from every level:
     :func:`level_residual`) for the mode near

@@ -37,6 +37,7 @@ from nlupdate.core.identification.frf_peak import resonance_peak
 from nlupdate.core.identification.level_residual import bound_warning, frf_residual
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
+from nlupdate.core.run_cache import remembered_in_run
 
 
 #: what a mass-normalised mode shape given at a coordinate must be: a modal amplitude divides by it
@@ -109,6 +110,7 @@ def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int 
     return ModalSamples(amplitude, frequency, zeta, force, abs(float(input_shape)))
 
 
+@remembered_in_run  # the amplitude-* models of one validation share the kept levels' samples
 def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
                       band_fraction: float = 0.1) -> ModalSamples:
     """One backbone sample per force level from FRFs at the driving point or a transfer

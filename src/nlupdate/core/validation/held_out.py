@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.measurement.noise import estimate_noise_fraction
+from nlupdate.core.run_cache import one_run
 from nlupdate.progress import ProgressCallback, no_progress
 from nlupdate.core.validation.baseline import baseline_fits, baseline_frf
 from nlupdate.core.validation.auto_choice import (ModelChoice, choose_model, extrapolated, level_extrapolation,
@@ -468,6 +469,7 @@ def curve_comparison(data: FRFLevels, f: NDArray, h: NDArray, predicted: NDArray
                 abs_low=abs_low, abs_high=abs_high, baseline_frf=base)
 
 
+@one_run()  # its models, refits and comparisons share the kept levels' shares and curves' resonances
 def validate(data: FRFLevels, hold_out: str | Sequence[float] = "each", models: Sequence[str] = ("auto",),
              progress: ProgressCallback = no_progress, runs: Sequence = ()) -> Validation:
     """Every level ``hold_out`` names, predicted by every model of ``models`` (``auto``:

@@ -61,6 +61,7 @@ from nlupdate.core.identification.modal_fit import fit_mode_over_band
 from nlupdate.core.identification.response_controlled import HeldRun, read_response_controlled
 from nlupdate.core.measurement.frf_table import MeasurementTableError
 from nlupdate.core.measurement.units import ReadOptions
+from nlupdate.core.run_cache import one_run
 from nlupdate.core.validation.baseline import baseline_at_response, baseline_fits
 from nlupdate.core.validation.held_out import (
     CurveComparison, Repeatability, Validation, curve_comparison, kept_misfit, needs_misfit, refits,
@@ -253,6 +254,7 @@ def held_runs_of(paths: Sequence[str | Path], options: ReadOptions, data: FRFLev
 RESPONSE_CONTROLLED = ("auto", "off", "kept")
 
 
+@one_run()  # the held-out levels and the held runs share fits of the same levels (core/run_cache.py)
 def validate_measured(data: FRFLevels, hold_out, models: Sequence[str], response_controlled: str,
                       paths: Sequence[str | Path], options: ReadOptions,
                       progress: ProgressCallback = no_progress) -> Validation:

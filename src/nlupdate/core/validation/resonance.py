@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlupdate.core.correlation.metrics import peak
+from nlupdate.core.run_cache import remembered_in_run
 from nlupdate.core.validation.circle_fit import circle_fit_damping, jump_in_run
 
 #: Fewer lines than this inside the half-power band: the damping ratio is poorly resolved.
@@ -56,6 +57,7 @@ class Resonance:
         return self.half_power_lines >= MIN_HALF_POWER_LINES
 
 
+@remembered_in_run  # a measured curve enters every comparison, refit and repeatability of a validation
 def resonance(frequency_hz: ArrayLike, h: ArrayLike) -> Resonance:
     """:class:`Resonance` of the curve ``h`` (complex or magnitude) over ``frequency_hz``
     (strictly increasing, Hz; ``h`` a receptance for the circle fit); NaN lines are ignored."""
