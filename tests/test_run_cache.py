@@ -24,10 +24,13 @@ def test_each_distinct_input_is_computed_once_within_a_run_and_every_call_outsid
         bits = scaled(np.array([1.0, np.nextafter(2.0, 3.0)]))  # one bit apart: another input
         with one_run():  # a nested block shares the outer one's results
             inner = scaled(np.array([1.0, 2.0]))
+        defaulted = scaled(np.array([1.0, 2.0]), 0.0)  # the same input as the first: its default given
+        named = scaled(values=np.array([1.0, 2.0]), offset=1.0)  # as ``other``, by name
     assert len(calls) == 3
-    for result in (first, again, inner):
+    for result in (first, again, inner, defaulted):
         np.testing.assert_array_equal(result["out"], [2.0, 4.0])
     np.testing.assert_array_equal(other["out"], [3.0, 5.0])
+    np.testing.assert_array_equal(named["out"], [3.0, 5.0])
     assert bits["out"][1] == 2 * np.nextafter(2.0, 3.0)
 
     calls.clear()

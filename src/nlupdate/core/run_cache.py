@@ -7,19 +7,22 @@ measured curve for every comparison it enters. A function decorated with
 :func:`remembered_in_run` computes each distinct input once while a :func:`one_run` block
 is open (in the thread that opened it) and returns a copy of that result after; outside one
 it is the function itself, so a test that changes a module's settings between calls sees
-them. The key is the SHA-256 of the pickled arguments — their whole content, every bit of
-every float — so a hit is the result of the same computation; a call whose arguments do not
-pickle, or that raises, is not remembered.
+them. The key is the arguments' fingerprint (:func:`nlupdate.fingerprints.fingerprint`: their
+whole content, every bit of every float, arrays by their bytes), each argument bound to its
+parameter and the defaults filled in, so ``f(x)`` and ``f(x, default)`` are one input and a
+hit is the result of the same computation; a call whose arguments have no fingerprint, or
+that raises, is not remembered.
 """
 from __future__ import annotations
 
 import copy
 import functools
-import hashlib
-import pickle
+import inspect
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Callable, Iterator, TypeVar
+
+from nlupdate.fingerprints import fingerprint
 
 T = TypeVar("T")
 
@@ -43,16 +46,20 @@ def one_run() -> Iterator[None]:
 def remembered_in_run(function: Callable[..., T]) -> Callable[..., T]:
     """``function`` (pure: its result depends on its arguments alone) remembered within
     :func:`one_run` (module docstring)."""
+    signature = inspect.signature(function)
+
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
         store = _store.get()
         if store is None:
             return function(*args, **kwargs)
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
         try:
-            content = pickle.dumps((args, sorted(kwargs.items())), protocol=pickle.HIGHEST_PROTOCOL)
-        except (pickle.PicklingError, TypeError, AttributeError):
+            content = fingerprint(dict(bound.arguments))
+        except TypeError:  # an argument with no canonical form (a function, say)
             return function(*args, **kwargs)
-        key = (function.__module__, function.__qualname__, hashlib.sha256(content).digest())
+        key = (function.__module__, function.__qualname__, content)
         if key not in store:
             store[key] = function(*args, **kwargs)
         return copy.deepcopy(store[key])  # a caller that changes its result in place changes no other's

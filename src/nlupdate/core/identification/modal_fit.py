@@ -38,6 +38,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlupdate.core.correlation.metrics import natural_frequencies
+from nlupdate.core.run_cache import remembered_in_run
 
 
 @dataclass(frozen=True)
@@ -246,6 +247,7 @@ def resonance_crossings(frequency_hz: ArrayLike, h: ArrayLike, window: int | Non
     return np.array([np.mean(group) for group in merged])
 
 
+@remembered_in_run  # a validation fits the same lowest level for every set of kept levels that holds it
 def fit_mode_near(
     frequency_hz: ArrayLike,
     h: ArrayLike,
