@@ -48,16 +48,24 @@ def iwan_parameters(theta: ArrayLike, fixed: dict[str, float]) -> tuple[NDArray,
     """(ω₀ rad/s, ζ₀, K_T, F_S, χ, β) of unknowns θ on the last axis (leading axes: many θ at
     once): log ω₀, log ζ₀, logit(K_T/ω₀²), then (log F_S or fixed φ_max), logit(−χ) (χ ∈ (−1,
     0), or fixed), log β (or fixed)."""
-    values = iter(np.moveaxis(np.asarray(theta, dtype=float), -1, 0))
+    theta = np.asarray(theta, dtype=float)
+    values = iter(theta if theta.ndim == 1 else np.moveaxis(theta, -1, 0))  # one θ (a fit's step): its scalars
     w0 = np.exp(next(values))
     z0 = np.exp(next(values))
     kt = scipy.special.expit(next(values)) * w0**2
     slip = None if "phi_max" in fixed else np.exp(next(values))
-    chi = fixed["chi"] if "chi" in fixed else -np.clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9)
+    chi = fixed["chi"] if "chi" in fixed else -_clip(scipy.special.expit(next(values)), 1e-9, 1 - 1e-9)
     beta = fixed["beta"] if "beta" in fixed else np.exp(next(values))
     if slip is None:
         slip = slip_force_at(fixed["phi_max"], kt, chi, beta)
     return w0, z0, kt, slip, chi, beta
+
+
+def _clip(value, low: float, high: float):
+    """np.clip of ``value``; of one number, without its dispatch (a fit takes one θ per step)."""
+    if np.ndim(value) == 0:
+        return min(max(value, low), high)
+    return np.clip(value, low, high)
 
 
 def iwan_models_exist(w0: NDArray, z0: NDArray, kt: NDArray, slip: NDArray, beta: NDArray) -> NDArray:
@@ -79,13 +87,17 @@ def iwan_model(theta: NDArray, shapes: Sequence[tuple[str, float]], fixed: dict[
     return AmplitudeModalModel(w0 / (2 * np.pi), z0, shapes, joint=joint, mode=mode, linear_damping=damping)
 
 
-def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, float], amplitude: NDArray) -> Curves:
+def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, float], amplitude: NDArray,
+                known: tuple | None = None) -> Curves:
     """The curves ω(a), ζ(a) of ``model`` = :func:`iwan_model` (``theta``, ``fixed``) at
     ``amplitude`` (m·√kg) with their derivatives in ``theta`` and in a
     (:data:`~nlupdate.core.identification.sample_residuals.Curves`): ω² = ω₀² − K_T + Re ν,
     ζ = ζ₀(ω₀/ω)^k + Im ν/(2ω²) (k = 1 viscous, 2 structural), ν's derivatives from the joint
     (:meth:`~nlupdate.core.model.elements.IwanJoint.describing_function_gradient`) through the
-    maps of :func:`iwan_model` (a χ on its clip has no derivative)."""
+    maps of :func:`iwan_model` (a χ on its clip has no derivative). ``known``: (ν, its pieces,
+    ω, ζ) at ``amplitude`` — the joint's
+    :meth:`~nlupdate.core.model.elements.IwanJoint.describing_function_and_parts` and the
+    model's curves from them —, if at hand."""
     joint, w0, z0, a = model.joint, model.omega0, model.damping_ratio, np.asarray(amplitude, float)
     kt, slip, chi, beta = joint.kt, joint.slip_force, joint.chi, joint.beta
     p = len(theta)
@@ -104,9 +116,10 @@ def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, flo
         d[3] = (slip / kt * d[2] + phi * kt / ((1 + beta) * (chi + 2) ** 2) * d[4]
                 + phi * kt * (1 - c) / np.square(1 + beta) * d[5])
     names = ("kt", "slip_force", "beta") + ("chi",) * ("chi" not in fixed)  # a fixed χ's row of d is 0
-    nu, nu_a, gradient = joint.describing_function_gradient(a, names)
+    nu, nu_a, gradient = joint.describing_function_gradient(a, names, None if known is None else known[:2])
     d_nu = np.column_stack([gradient[name] for name in names]) @ d[[2, 3, 5, 4][:len(names)]]
-    omega, zeta = joint_omega_zeta(w0, z0, kt, nu, model.linear_damping)  # the model's own curves
+    omega, zeta = (joint_omega_zeta(w0, z0, kt, nu, model.linear_damping) if known is None  # the model's own curves
+                   else known[2:])
     power = 1 if model.linear_damping == "viscous" else 2
     with np.errstate(divide="ignore", invalid="ignore"):
         d_omega = (2 * w0**2 * d[0] - d[2] + d_nu.real) / (2 * omega[:, None])
@@ -158,14 +171,29 @@ def iwan_problem(samples: ModalSamples, shapes: Sequence[tuple[str, float]], fre
 
     def cached(t):
         """``unpack(t)``, None where the unknowns give no model; the last one kept (scipy asks
-        for the Jacobian where it has just evaluated the residuals)."""
+        for the Jacobian where it has just evaluated the residuals), with the joint's describing
+        function at the samples' amplitudes once the residuals have computed it (``df``)."""
         if last.get("t") is None or not np.array_equal(last["t"], t):
             try:
                 last["model"] = unpack(t)
             except (ValueError, OverflowError):
                 last["model"] = None
-            last["t"] = np.array(t)
+            last["t"], last["df"] = np.array(t), None
         return last["model"]
+
+    def omega_zeta(model: AmplitudeModalModel, amplitude: NDArray) -> tuple[NDArray, NDArray]:
+        """``model.omega_zeta(amplitude)`` (ω = √(ω₀² − K_T + Re ν), :func:`joint_omega_zeta`,
+        as :func:`iwan_curves` reads it), keeping the describing function and its pieces for the
+        Jacobian at the same unknowns."""
+        nu, parts = model.joint.describing_function_and_parts(np.asarray(amplitude, dtype=float))
+        omega, zeta = joint_omega_zeta(model.omega0, model.damping_ratio, model.joint.kt, nu, model.linear_damping)
+        last["df"] = (amplitude, nu, parts, omega, zeta)
+        return omega, zeta
+
+    def known_df(amplitude: NDArray) -> tuple | None:
+        """(ν, its pieces, ω, ζ) as the residuals computed them at ``amplitude``, if they did."""
+        df = last.get("df")
+        return df[1:] if df is not None and df[0] is amplitude else None
 
     def residual(t):
         with np.errstate(all="ignore"):
@@ -175,7 +203,7 @@ def iwan_problem(samples: ModalSamples, shapes: Sequence[tuple[str, float]], fre
             if noisy.any():
                 return noisy_residual(model.omega_zeta, data.amplitude, data.frequency_hz, data.damping_ratio,
                                       t[unknowns:], noisy, *stds, a_std)
-            return sample_residual(model.omega_zeta, data, frequency_std, damping_std)
+            return sample_residual(lambda a: omega_zeta(model, a), data, frequency_std, damping_std)
 
     def jacobian(t):
         with np.errstate(all="ignore"):
@@ -188,8 +216,8 @@ def iwan_problem(samples: ModalSamples, shapes: Sequence[tuple[str, float]], fre
                 at[noisy] = np.exp(t[unknowns:])
                 return noisy_residual_jacobian(iwan_curves(model, theta, fixed, at), data.amplitude, data.frequency_hz,
                                                data.damping_ratio, t[unknowns:], noisy, *stds, a_std)
-            return sample_residual_jacobian(iwan_curves(model, theta, fixed, data.amplitude), data, *stds,
-                                            shape=free_shape)
+            return sample_residual_jacobian(iwan_curves(model, theta, fixed, data.amplitude, known_df(data.amplitude)),
+                                            data, *stds, shape=free_shape)
 
     return IwanProblem(unpack, residual, jacobian, unknowns, free_shape, noisy)
 

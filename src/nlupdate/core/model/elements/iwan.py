@@ -279,7 +279,15 @@ class IwanJoint(CycleElement):
         return _df_parts(a, self.kt, self.slip_force, self.chi, self.beta)
 
     def describing_function(self, amplitude, omega=0.0):
-        return self._value(self._parts(amplitude_array(amplitude)))
+        return self.describing_function_and_parts(amplitude)[0]
+
+    def describing_function_and_parts(self, amplitude: ArrayLike) -> tuple[NDArray[np.complex128], tuple]:
+        """(:meth:`describing_function` at ``amplitude``, the pieces it was computed from:
+        :meth:`describing_function_gradient` at the same amplitudes takes them as ``known``
+        instead of computing them again — a fit asks for the gradient where it has just
+        evaluated ν)."""
+        parts = self._parts(amplitude_array(amplitude))
+        return self._value(parts), parts
 
     def _value(self, parts) -> NDArray[np.complex128]:
         """ν from :meth:`_parts` (class docstring)."""
@@ -301,8 +309,8 @@ class IwanJoint(CycleElement):
         macro_imag = 4 * g / (pi * a) * ((chi + 1) * (-1 / (chi + 2) + 2 * r / (chi + 3)) + beta * (2 * r - 1))
         return d_real + 1j * np.where(a > self.phi_max, macro_imag, micro_imag)
 
-    def describing_function_gradient(self, amplitude: ArrayLike,
-                                     parameters: Sequence[str] = GRADIENT_PARAMETERS) -> DFGradient:
+    def describing_function_gradient(self, amplitude: ArrayLike, parameters: Sequence[str] = GRADIENT_PARAMETERS,
+                                     known: tuple[NDArray[np.complex128], tuple] | None = None) -> DFGradient:
         """ν, ∂ν/∂A and ∂ν/∂p at amplitudes A (m) for each p of ``parameters`` (of ``kt``,
         ``slip_force``, ``chi`` and ``beta``; χ's costs most), the other three held
         (:class:`DFGradient`). From ν = K_T N(A/φ_max; χ, β) (class docstring): at fixed φ_max,
@@ -310,13 +318,15 @@ class IwanJoint(CycleElement):
         power s^(χ+1), the polynomial in χ of Im ν and J = (A/φ_max)^(χ+1) B(r; χ+5/2, 3/2),
         ``∂J/∂χ = J(ln s + ψ(χ+5/2) − ψ(χ+4))`` in microslip and ``−J ln r + r^−(χ+1) ∂B/∂a`` in
         macroslip (:func:`_scaled_incomplete_beta_da`); then φ_max's own dependence on K_T, F_S,
-        χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``)."""
+        χ and β (``ln φ_max = ln F_S + ln(1+β) − ln K_T − ln(β + (χ+1)/(χ+2))``). ``known``: this
+        joint's :meth:`describing_function_and_parts` at these amplitudes, if at hand."""
         if unknown := [name for name in parameters if name not in GRADIENT_PARAMETERS]:
             raise ValueError(f"describing_function_gradient: parameters {unknown} not among {list(GRADIENT_PARAMETERS)}")
         a = amplitude_array(amplitude)
-        parts = self._parts(a)
+        nu, parts = known if known is not None else (None, self._parts(a))
         chi, r, s, b, g, j = parts
-        kt, beta, nu, nu_a = self.kt, self.beta, self._value(parts), self._slope(a, parts)
+        kt, beta, nu_a = self.kt, self.beta, self._slope(a, parts)
+        nu = self._value(parts) if nu is None else nu
         d_phi = -a * nu_a  # ∂ν/∂ln φ_max
         c = (chi + 1) / (chi + 2)
         p = (chi + 1) * s ** (chi + 1) * (1 / (chi + 2) - r / (chi + 3))
