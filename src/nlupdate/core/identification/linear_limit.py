@@ -71,6 +71,11 @@ def linear_limit_warnings(model: AmplitudeModalModel, samples: ModalSamples, fre
 #: the samples' frequency trend is a measured stiffening beyond this many of its standard errors
 STIFFENING_LIMIT = 2.0
 
+#: a backbone "rises" over the samples only by more than this fraction of its frequency: a
+#: flat backbone's ends differ by the fit's round-off (42.8 Hz → 42.8 + 5e-14 Hz on one CPU's
+#: BLAS kernels, 5e-14 lower on another's), which no measurement resolves
+RISE_RESOLUTION = 1e-9
+
 
 def frequency_trend(samples: ModalSamples, frequency_std: float | NDArray) -> tuple[float, float]:
     """(slope, standard error) of the samples' natural frequency (Hz) against their modal
@@ -116,7 +121,7 @@ def stiffening_warning(model: AmplitudeModalModel, samples: ModalSamples,
                 f"{f_low:.6g} → {f_high:.6g} Hz; a joint in microslip only softens, so this is a hardening contact "
                 f"(or geometric stiffening) or the test's repeatability drifting with the levels, not the joint's "
                 f"microslip: the model's joint parameters and linear limit do not describe a friction joint",)
-    if f_high > f_low and t > -STIFFENING_LIMIT:
+    if f_high - f_low > RISE_RESOLUTION * f_low and t > -STIFFENING_LIMIT:
         return (f"the model's backbone rises over the measured amplitudes, {f_low:.6g} → {f_high:.6g} Hz, which a joint "
                 f"in microslip does not do (it only softens), while {trend}: not beyond their scatter, so the rise is "
                 f"the backbone form following the test's repeatability, or a hardening contact these samples cannot "
