@@ -57,7 +57,8 @@ def test_a_share_on_its_bound_is_said():
     """The BRB cut to 80–80.6 Hz: the smallest minimum has the slope's imaginary part at its
     bound (−50 hundredths of the peak), so the band does not determine the share; the fit
     names S as on its bound and the samples read with it carry one warning saying so and
-    what to do, as does validate's lines model. (The closed-form mode over 79–81 Hz does not:
+    what to do, as do validate's lines model and the Python API's amplitude model (which
+    dropped it before). (The closed-form mode over 79–81 Hz does not:
     tests/test_achieved_force_modal_model.py.)"""
     from nlupdate.app import api
     from nlupdate.core.identification import level_residual as module
@@ -77,3 +78,5 @@ def test_a_share_on_its_bound_is_said():
     assert f"between 80 and {max(f.max() for f in data.frequencies):.5g} Hz" in warnings[0]
     from nlupdate.core.validation.models import model_fitter
     assert model_fitter("lines")(data).note == warnings[0]  # validate's note on the lines model
+    from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
+    assert amplitude_model_from_frfs(data, "polynomial").warnings[0] == warnings[0]  # the Python API's model too

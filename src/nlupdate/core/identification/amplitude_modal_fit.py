@@ -277,12 +277,15 @@ def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_sha
     Without ``input_shape`` an Iwan backbone fits the shape φ_f too; a polynomial one takes
     the modal constant read with the other modes' share from every level (T-beam example,
     tests/test_bolted_beam_example.py, 1 % noise: 2.77 against the FE shape's 2.79 1/√kg; the
-    lowest level's one-mode fit, the *stuck* mode's shape, gave 2.63)."""
+    lowest level's one-mode fit, the *stuck* mode's shape, gave 2.63). The samples' warnings
+    (the other modes' share on its box: :func:`~nlupdate.core.identification.level_residual.bound_warning`)
+    come first among the model's, as ``nlupdate amplitude`` prints them."""
     samples = samples_from_frfs(data, input_shape, near_hz)
     shapes = ((data.input_dof, samples.input_shape),)
     if data.response_dof != data.input_dof:
         shapes += ((data.response_dof, samples.response_ratio * samples.input_shape),)
     model = fit_amplitude_model(samples, shapes, backbone, order, frequency_std=1e-3, damping_std=0.05, mode=mode)
+    model = replace(model, warnings=samples.warnings + model.warnings)  # the samples' own first: they are in question
     if data.response_dof == data.input_dof:
         return model
     split = ("the split taken equal, |φ_r| = |φ_f|, which sets the scale of the modal amplitude and of the joint's "
