@@ -91,7 +91,7 @@ def read_sources(files: SourceFiles, shapes: Mapping[str, float]) -> tuple[list[
             samples = _record_samples(fit.samples(), channel, shapes, unit)
             stated = fit.stated_noise()
             notes.append(f"{path}: channel {channel}, decay fit over {fit.window_s[0]:.3g}–{fit.window_s[1]:.3g} s, "
-                         f"{samples.amplitude.size} samples where its damping is known to 1.5 % (median standard "
+                         f"{samples.amplitude.size} samples where its damping is known to 1.5 % (largest standard "
                          f"errors {stated[0]:.2g} in frequency, {100 * stated[1]:.2g} % in damping)"
                          f"{_units_note(channel, shapes, unit)}")
         elif files.ring_down_fit == "segments":
