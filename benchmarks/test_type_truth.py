@@ -214,6 +214,9 @@ def fit(s: dict, chosen: dict[str, tuple[ModalSamples, tuple[float, float] | Non
         return refine_on_lines(model, lines)[0]
     others = join_samples([chosen[n][0] for n in names])
     keep = np.concatenate([np.full(smp.amplitude.size, n != "stepped-sine") for n, (smp, _) in chosen.items()])
+    # the refinement takes the other sources' samples at their amplitudes and own noise, as
+    # nlupdate amplitude does (amplitude_joint._refined), not the sample fit's locked frequencies
+    f_std, z_std, _ = sample_noise(list(chosen), [smp.amplitude.size for smp, _ in chosen.values()], noise, False)
     return refine_on_lines(model, lines, others, f_std[keep], z_std[keep])[0]
 
 

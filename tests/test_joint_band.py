@@ -52,15 +52,19 @@ def _coverage(s, points):
 
 def test_phase_resonance_band_holds_the_kink(sdof):
     """backbone.csv's band of the phase resonance's own Jenkins fit holds the damping truth
-    inside the kink band [a_s/1.03, 1.5 a_s] (measured 42 of 49 amplitudes, 85.7 %) and at
-    85–99 % over the whole range (92.5 % of 400); the same band with the amplitudes taken as
-    exact (no errors in the variables) holds it at 53 % inside the kink band. Before, the
-    ``jenkins`` backbone's band was NaN unless bootstrapped, and the bootstrap held 25 %
-    inside it (one seed; docs/ring-down.md)."""
+    inside the kink band [a_s/1.03, 1.5 a_s] (measured 43 of 49 amplitudes, 87.8 %) and at
+    85–99 % over the whole range (96.5 % of 400). The fit takes the points' true amplitudes as
+    unknowns and the band is its own estimator's (``noisy_fit_residual``, since 2026-11-29
+    evening). With the amplitudes taken as exact in fit and band the sandwich band held 85.7 %
+    and 92.5 %, and without the sandwich 53 % inside the kink band; around the fit with the
+    amplitudes fitted the band of the exact-amplitude residual holds 99.3 % over the range,
+    above the 99 % asserted: the band of another estimator, wider than this fit's scatter.
+    Before, the ``jenkins`` backbone's band was NaN unless bootstrapped, and the bootstrap held
+    25 % inside it (one seed; docs/ring-down.md)."""
     held, exact, inside = _coverage(*sdof)
     assert held[inside].mean() >= 0.80
     assert 0.85 <= held.mean() <= 0.99
-    assert exact[inside].mean() < 0.70
+    assert exact.mean() > 0.99
 
 
 def _looped_curves(model, unknowns, amplitude, law_free):

@@ -53,10 +53,12 @@ from nlupdate.core.identification.backbone_samples import (
 )
 from nlupdate.core.identification.band_dependence import band_changes, band_warning
 from nlupdate.core.identification.data import FRFLevels
-from nlupdate.core.identification.joint_band import covariance_band, joint_fixed, sample_fit_residual
+from nlupdate.core.identification.joint_band import covariance_band, joint_fixed, noisy_fit_residual, sample_fit_residual
 from nlupdate.core.identification.line_band import line_refinement_band
 from nlupdate.core.identification.line_refine import line_misfit, refine_on_lines, stepped_sine_lines
-from nlupdate.core.identification.sample_residuals import EIV_BACKBONES, amplitude_std, sample_noise
+from nlupdate.core.identification.sample_residuals import (
+    EIV_BACKBONES, amplitude_std, locked_frequency_std, sample_noise,
+)
 from nlupdate.core.measurement.frf_table import MeasurementTableError, measured_pair
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
@@ -372,7 +374,9 @@ def fit_sources(sources: list[Source], channel: str, shapes: Mapping[str, float]
 def joint_covariance_band(fit: AmplitudeFit, amplitude: np.ndarray) -> tuple[np.ndarray, ...]:
     """(frequency low, high, damping low, high) of a ``jenkins`` fit at ``amplitude`` from the
     linearised residual of the estimator that gave it (module docstring): the line refinement
-    when the fit was refined on the stepped sine's lines, else the weighted sample fit."""
+    when the fit was refined on the stepped sine's lines, else the weighted sample fit — with
+    noisy amplitudes (phase resonance) its errors-in-variables residual, the true amplitudes
+    nuisance unknowns (:func:`~nlupdate.core.identification.joint_band.noisy_fit_residual`)."""
     model = fit.model
     kinds = [p[3] for p in fit.points for _ in range(p[1].amplitude.size)]
     f_std, z_std = (np.broadcast_to(np.asarray(n, float), (len(kinds),)) for n in fit.noise)
@@ -380,6 +384,9 @@ def joint_covariance_band(fit: AmplitudeFit, amplitude: np.ndarray) -> tuple[np.
     first = fit.points[0]
     refined = (fit.data is not None and fit.data.response_dof == fit.data.input_dof and first[3] == "stepped-sine"
                and not first[1].shape_free)  # as fit_sources refines (_refines_on_lines)
+    if not refined and a_std.any() and fit.options.backbone in EIV_BACKBONES:  # the fit's own estimator
+        residual, true = noisy_fit_residual(model, fit.samples, locked_frequency_std(kinds, f_std), z_std, a_std)
+        return covariance_band(model, residual, amplitude, nuisance=true)
     if not refined:
         noisy = (fit.samples, f_std, z_std, a_std) if a_std.any() else None
         return covariance_band(model, sample_fit_residual(model, fit.samples, f_std, z_std), amplitude,

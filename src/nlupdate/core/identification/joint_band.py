@@ -16,8 +16,12 @@ kink"). Here the band is that of the estimator itself:
 * the covariance is ``s²(JᵀJ)⁻¹`` with ``s² = Σr²/ν``, ν = m − p degrees of freedom (the
   residual's own scale: the stated noise need not be right);
 * errors in the variables: a phase-resonance point's modal amplitude is its measured
-  response over φ, as noisy as its damping ratio (:data:`~nlupdate.core.identification.sample_residuals.NOISY_AMPLITUDE_SHARE`), and the fit
-  takes it as exact. A relative amplitude error δ moves the point's misfits by
+  response over φ, as noisy as its damping ratio (:data:`~nlupdate.core.identification.sample_residuals.NOISY_AMPLITUDE_SHARE`), and the
+  residual here takes it as exact (the line refinement does; a sample fit that fits the true
+  amplitudes, :mod:`~nlupdate.core.identification.sample_residuals`, is banded by its own
+  residual instead, those amplitudes nuisance unknowns: :func:`noisy_fit_residual`, its
+  phase-resonance band holding the truth at 88 % of the kink band's amplitudes and 96.5 % over
+  the range, tests/test_joint_band.py). A relative amplitude error δ moves the point's misfits by
   ``δ·(∂ln ω/∂ln a, ∂ln ζ/∂ln a)`` — next to the kink ∂ln ζ/∂ln a reaches ~13, so the point
   that places a_s carries several times its stated damping noise. That adds
   ``Jᵀ_s Σ_a J_s`` to the covariance's middle (the sandwich ``(JᵀJ)⁻¹(JᵀJ + Jᵀ_s Σ_a J_s)(JᵀJ)⁻¹``,
@@ -49,6 +53,7 @@ from dataclasses import replace
 from typing import Callable
 
 import numpy as np
+import scipy.optimize
 import scipy.special
 from numpy.typing import NDArray
 
@@ -56,7 +61,7 @@ from nlupdate.core.identification.iwan_backbone_fit import (
     JENKINS_BETA, JENKINS_CHI, iwan_model, iwan_models_exist, iwan_parameters,
 )
 from nlupdate.core.identification.modal_samples import ModalSamples
-from nlupdate.core.identification.sample_residuals import sample_residual
+from nlupdate.core.identification.sample_residuals import noisy_residual, sample_residual
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, joint_omega_zeta
 from nlupdate.core.model.elements.iwan import iwan_describing_function
 
@@ -100,6 +105,29 @@ def sample_fit_residual(model: AmplitudeModalModel, samples: ModalSamples, frequ
     (:func:`~nlupdate.core.identification.sample_residuals.sample_residual`)."""
     unpack = model_from_unknowns(model)
     return lambda theta: sample_residual(unpack(theta).omega_zeta, samples, frequency_std, damping_std)
+
+
+def noisy_fit_residual(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: NDArray,
+                       damping_std: NDArray, amplitude_std: NDArray) -> tuple[Callable[[NDArray], NDArray], NDArray]:
+    """(θ and the noisy samples' log true amplitudes → the weighted misfits the errors-in-variables
+    sample fit minimised (:func:`~nlupdate.core.identification.sample_residuals.noisy_residual`),
+    those log true amplitudes at ``model``'s θ: the fit's nuisance unknowns for
+    :func:`covariance_band`). The standard deviations are the fit's own, per sample (the locked
+    frequencies' of :func:`~nlupdate.core.identification.sample_residuals.sample_noise`)."""
+    unpack, p = model_from_unknowns(model), joint_unknowns(model).size
+    n = samples.amplitude.size
+    stds = [np.broadcast_to(np.asarray(v, float), (n,)) for v in (frequency_std, damping_std, amplitude_std)]
+    noisy = stds[2] > 0
+
+    def residual(unknowns: NDArray) -> NDArray:
+        return noisy_residual(unpack(unknowns[:p]).omega_zeta, samples.amplitude, samples.frequency_hz,
+                              samples.damping_ratio, unknowns[p:], noisy, *stds)
+
+    theta = joint_unknowns(model)
+    start = np.log(samples.amplitude[noisy])
+    with np.errstate(all="ignore"):
+        true = scipy.optimize.least_squares(lambda u: residual(np.concatenate([theta, u])), start).x
+    return residual, true
 
 
 def mixed_law_residual(model: AmplitudeModalModel,
@@ -164,7 +192,7 @@ def _eiv_meat(model: AmplitudeModalModel, samples: ModalSamples, frequency_std: 
 def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], NDArray], amplitude: NDArray,
                     draws: int = DRAWS, seed: int = 0,
                     noisy_amplitudes: tuple[ModalSamples, NDArray, NDArray, NDArray] | None = None,
-                    law_free: bool = False) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+                    law_free: bool = False, nuisance: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """(frequency low, high (Hz), damping low, high) of ``model`` at ``amplitude`` (module
     docstring); ``residual``: θ → the weighted residual the fit minimised. ``noisy_amplitudes``:
     (samples, their frequency and damping standard deviations in the fit, their amplitudes'
@@ -172,22 +200,28 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
     amplitudes are measured with noise (module docstring: errors in the variables). NaN where
     the covariance cannot be formed (no degrees of freedom, a singular Jacobian). ``law_free``:
     ``residual`` takes the viscous share w after θ (:func:`mixed_law_residual`) and the band
-    holds the linear-damping law's uncertainty (module docstring)."""
+    holds the linear-damping law's uncertainty (module docstring). ``nuisance``: more unknowns
+    ``residual`` takes after θ, at their fitted values (the errors-in-variables fit's log true
+    amplitudes, :func:`noisy_fit_residual`): in the Jacobian and the degrees of freedom, not drawn
+    (θ's covariance is its block of the whole)."""
     amplitude = np.asarray(amplitude, dtype=float)
     theta = joint_unknowns(model)
     if law_free:
         theta = np.append(theta, VISCOUS_SHARE[model.linear_damping])
-    r0 = residual(theta)
-    p, m = theta.size, r0.size
+    p = theta.size
+    extra = np.zeros(0) if nuisance is None else np.asarray(nuisance, float)
+    full = np.concatenate([theta, extra])
+    r0 = residual(full)
+    q, m = full.size, r0.size
     nan = np.full(amplitude.size, np.nan)
-    if m <= p:
+    if m <= q:
         return nan, nan, nan, nan
-    jac = np.empty((m, p))
-    for j in range(p):
-        step = np.zeros(p)
+    jac = np.empty((m, q))
+    for j in range(q):
+        step = np.zeros(q)
         step[j] = _STEP
-        jac[:, j] = (residual(theta + step) - residual(theta - step)) / (2 * _STEP)
-    dof = m - p
+        jac[:, j] = (residual(full + step) - residual(full - step)) / (2 * _STEP)
+    dof = m - q
     meat = jac.T @ jac
     if noisy_amplitudes is not None:
         tail = jac[m - 2 * noisy_amplitudes[0].amplitude.size:]
@@ -195,7 +229,7 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
     meat = float(r0 @ r0) / dof * meat
     try:
         bread = np.linalg.pinv(jac.T @ jac)
-        cov = bread @ meat @ bread
+        cov = (bread @ meat @ bread)[:p, :p]
         root = np.linalg.cholesky(cov + 1e-12 * np.eye(p) * np.max(np.abs(np.diag(cov))))
     except np.linalg.LinAlgError:
         return nan, nan, nan, nan

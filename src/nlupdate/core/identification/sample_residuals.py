@@ -27,8 +27,17 @@ F-tests on the fit's χ² (:func:`~nlupdate.core.identification.amplitude_modal_
 are unchanged.
 
 Which samples: :data:`NOISY_AMPLITUDE_SHARE` by test type (phase resonance, the force and the
-response equally noisy: σ_a = σ_ζ/√2); the 95 % band of a Jenkins fit carries the same noise in
-its covariance (:mod:`~nlupdate.core.identification.joint_band`). Stepped-sine peaks also take
+response equally noisy: σ_a = σ_ζ/√2). Which fits: :data:`EIV_BACKBONES`, the modal-joint
+sample fits (``iwan`` and ``jenkins``). A ``jenkins`` fit refined on a stepped sine's lines
+(:mod:`~nlupdate.core.identification.line_refine`) takes the other sources' samples at their
+amplitudes there, and its 95 % band carries their noise in its covariance; the band of a fit
+made here is this residual's, the true amplitudes nuisance unknowns
+(:func:`~nlupdate.core.identification.joint_band.noisy_fit_residual`). With the amplitudes
+exact the phase-resonance points of the
+Jenkins SDOF of tests/test_test_type_truth.py placed the slip amplitude with a scatter of
+1.28 % over 24 seeds, twice the Cramér–Rao bound of those points (0.65 %,
+``benchmarks/kink_information.py``); fitted, 0.64 % (docs/ring-down.md, "Efficient at the
+kink"). Stepped-sine peaks also take
 a and ζ from one height, but their amplitude is read from a fit over many lines
 (:mod:`~nlupdate.core.identification.frf_peak`), not one reading; they are left as they were.
 """
@@ -57,9 +66,9 @@ NOISY_AMPLITUDE_SHARE = {"phase-resonance": 1 / np.sqrt(2)}
 #: the 2-DOF Iwan's six points kept φ_max 5–9 % off and the damping 6.2 % off on one seed of 8,
 #: 4.8 % at 1e-5 (docs/ring-down.md, "The Iwan fits at φ_max")
 LOCKED_FREQUENCY_STD = {"phase-resonance": 1e-5}
-#: the backbones fitted with the noisy samples' true amplitudes unknown (the ``jenkins`` fits
-#: keep the amplitudes exact; their 95 % band carries the amplitudes' noise instead)
-EIV_BACKBONES = ("iwan",)
+#: the backbones fitted with the noisy samples' true amplitudes unknown (module docstring; the
+#: ``jenkins`` fits kept them exact until 2026-11-29, at twice the bound's scatter of a_s)
+EIV_BACKBONES = ("iwan", "jenkins")
 
 
 def sample_residual(model_omega_zeta, samples: ModalSamples, frequency_std: float, damping_std: float) -> NDArray:
