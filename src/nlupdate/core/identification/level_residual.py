@@ -77,7 +77,8 @@ LIMITS = np.array([50.0, 50.0, np.log(2.0), 50.0, 50.0])
 #: The fit's starts: (share, ln(P/P₀)) — no share or the one-mode fit's, with P₀ and 20 % either
 #: side. The problem has separate minima: on the BRB cut to 80–80.6 Hz the start from no share at
 #: P₀ ended at a scatter 29 × the smallest, or at it, as a change of 1e-15 in the misfits went
-#: (tests/test_level_residual.py); the two starts at P₀ ± 20 % reach the smallest either way.
+#: (tests/test_level_residual.py); the two starts at P₀ ± 20 % reach the smallest either way. A noisy
+#: copy of data already fitted starts from that fit's end alone instead (:func:`level_residual`'s ``start``).
 STARTS = (("none", 0.0), ("none", 0.2), ("none", -0.2), ("one-mode", 0.0))
 #: an unknown whose end is within this fraction of :data:`LIMITS` of the box's edge is on its bound:
 #: the band's lines do not determine it (the BRB cut to 80–80.6 Hz: the slope's imaginary part at −50)
@@ -124,11 +125,17 @@ def _level_misfits(amplitude: NDArray, stiffness: NDArray, omega: NDArray, order
 
 
 def level_residual(data: FRFLevels, modal_constant: float, start_residual: complex, centre_hz: float,
-                   half_band: float) -> LevelResidual:
+                   half_band: float, start: LevelResidual | None = None) -> LevelResidual:
     """R, S and P of ``data``'s mode (module docstring) from every line within
     ``centre_hz·(1 ± half_band)`` of every level, from the :data:`STARTS`: no share or
     ``start_residual`` (a one-mode fit's share at the centre), P = ``modal_constant`` (its
-    sign is kept) or 20 % either side; the end with the smallest scatter is taken."""
+    sign is kept) or 20 % either side; the end with the smallest scatter is taken.
+
+    With ``start`` (another fit's end, e.g. the clean data's where ``data`` is a noisy copy of
+    them: :func:`~nlupdate.core.identification.band_dependence.band_changes`) the fit starts
+    from that end alone — its share restated about ``centre_hz`` (the same line
+    R + S·(f²/f_c² − 1)) and its |P| — and ends at the minimum nearest it, not at the smallest
+    of the :data:`STARTS`' ends."""
     curves = []
     for level, f, h in zip(data.levels, data.frequencies, data.receptances):
         band = np.abs(f - centre_hz) <= half_band * centre_hz
@@ -149,11 +156,18 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
         misfit = np.concatenate(out)
         return np.where(np.isfinite(misfit), misfit, 1e6)
 
+    starts = []
+    if start is None:
+        for share_start, log_p in STARTS:
+            r = complex(start_residual) if share_start == "one-mode" else 0j
+            starts.append([r.real / unit, r.imag / unit, log_p, 0.0, 0.0])
+    else:  # the same share about this fit's centre: R + S·(c²/c₀² − 1) and S·c²/c₀²
+        r, s = complex(start.receptance(np.array([centre_hz]))[0]), start.slope * (centre_hz / start.centre_hz) ** 2
+        starts.append([r.real / unit, r.imag / unit, np.log(abs(start.modal_constant / modal_constant)),
+                       s.real / unit, s.imag / unit])
     ends = []
-    for share_start, log_p in STARTS:
-        start = complex(start_residual) if share_start == "one-mode" else 0j
-        x0 = np.clip([start.real / unit, start.imag / unit, log_p, 0.0, 0.0], -0.99 * LIMITS, 0.99 * LIMITS)
-        fit = scipy.optimize.least_squares(misfits, x0, bounds=(-LIMITS, LIMITS))
+    for x0 in starts:
+        fit = scipy.optimize.least_squares(misfits, np.clip(x0, -0.99 * LIMITS, 0.99 * LIMITS), bounds=(-LIMITS, LIMITS))
         ends.append((2 * float(fit.cost), fit.x))
     scatter, x = min(ends, key=lambda end: end[0])
     on_edge = np.abs(x) >= (1 - BOUND_FRACTION) * LIMITS
@@ -179,14 +193,16 @@ def bound_warning(share: LevelResidual) -> str | None:
 
 
 @remembered_in_run  # every model, refit and sample of one validation that keeps these levels
-def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1) -> tuple[float, LevelResidual]:
+def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: float = 0.1,
+                 start: LevelResidual | None = None) -> tuple[float, LevelResidual]:
     """(the mode's centre (Hz), its other modes' share and modal constant from every level:
     :func:`level_residual`) for the mode near
     ``near_hz`` (default: the lowest level's peak), started from a one-mode fit of the
-    lowest level over ``near_hz·(1 ± band_fraction)``, which also gives the centre."""
+    lowest level over ``near_hz·(1 ± band_fraction)``, which also gives the centre — or, with
+    ``start``, from that end alone (:func:`level_residual`)."""
     f_low, h_low = data.frequencies[0], data.receptances[0]
-    start = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
-    fit = fit_mode_near(f_low, h_low, start, band_fraction=band_fraction)
+    near = float(f_low[np.argmax(np.abs(h_low))]) if near_hz is None else float(near_hz)
+    fit = fit_mode_near(f_low, h_low, near, band_fraction=band_fraction)
     centre = float(fit.natural_frequencies_hz[0])
     driving = data.response_dof == data.input_dof
     constant = complex(fit.modal_constants[0])
@@ -198,4 +214,4 @@ def frf_residual(data: FRFLevels, near_hz: float | None = None, band_fraction: f
                                      "coordinates, e.g. [\"acc3:-y\", \"acc3:y\"]; or give input_shape)" if driving
                                      else ": no resonance of this mode to sample"))
     start_residual = complex(fit.residual_receptance(np.array([centre]))[0])
-    return centre, level_residual(data, constant.real, start_residual, centre, 2.5 * band_fraction)
+    return centre, level_residual(data, constant.real, start_residual, centre, 2.5 * band_fraction, start)

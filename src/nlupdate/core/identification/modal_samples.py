@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.identification.data import FRFLevels
 from nlupdate.core.identification.frf_peak import resonance_peak
-from nlupdate.core.identification.level_residual import bound_warning, frf_residual
+from nlupdate.core.identification.level_residual import LevelResidual, bound_warning, frf_residual
 from nlupdate.core.measurement.modal_table import validate_modal_table
 from nlupdate.core.model.amplitude_modal import AmplitudeModelError
 from nlupdate.core.run_cache import remembered_in_run
@@ -112,15 +112,16 @@ def samples_from_modal_table(table: pd.DataFrame, input_shape: float, mode: int 
 
 @remembered_in_run  # the amplitude-* models of one validation share the kept levels' samples
 def samples_from_frfs(data: FRFLevels, input_shape: float | None = None, near_hz: float | None = None,
-                      band_fraction: float = 0.1) -> ModalSamples:
+                      band_fraction: float = 0.1, start: LevelResidual | None = None) -> ModalSamples:
     """One backbone sample per force level from FRFs at the driving point or a transfer
     (module docstring): the resonance of each level (peak of |H| within ``2.5 band_fraction``
     of the lowest level's resonance near ``near_hz``, from every line near its top:
     :func:`~nlupdate.core.identification.frf_peak.resonance_peak`), after removing the other
     modes' share found from every level
     (:func:`~nlupdate.core.identification.level_residual.frf_residual`), whose modal constant also
-    gives φ_f when ``input_shape`` is None and φ_r/φ_f of a transfer."""
-    centre, shared = frf_residual(data, near_hz, band_fraction)
+    gives φ_f when ``input_shape`` is None and φ_r/φ_f of a transfer; ``start``: that share's
+    fit starts from this end alone (a noisy copy's from the clean data's: :func:`frf_residual`)."""
+    centre, shared = frf_residual(data, near_hz, band_fraction, start)
     driving = data.response_dof == data.input_dof
     constant = shared.modal_constant
     shape_free = input_shape is None
