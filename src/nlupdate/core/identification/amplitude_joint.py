@@ -44,7 +44,7 @@ import pandas as pd
 
 from nlupdate.core.identification.amplitude_inputs import Source
 from nlupdate.core.identification.amplitude_modal_fit import (
-    KINKED_BACKBONES, amplitude_model_from_frfs, fit_amplitude_model,
+    KINKED_BACKBONES, fit_amplitude_model, model_of_frf_samples,
 )
 from nlupdate.core.identification.modal_samples import ModalSamples, samples_from_frfs, samples_from_modal_table
 from nlupdate.core.identification.backbone_samples import (
@@ -138,7 +138,7 @@ def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: F
         raise ValueError(f"{name}: {error}") from None
     data = FRFLevels.from_table(table, response_dof, input_dof)
     samples = samples_from_frfs(data, shapes.get(input_dof))
-    model = amplitude_model_from_frfs(data, options.backbone, shapes.get(input_dof), options.order, mode=options.mode)
+    model = model_of_frf_samples(data, samples, options.backbone, options.order, options.mode)
     if samples.shape_free and model.joint is not None:  # the samples at the shape the fit found
         samples = samples.with_shape(model.shapes[0][1])
     unit = table_reference_unit(table)

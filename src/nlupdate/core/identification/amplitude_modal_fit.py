@@ -279,6 +279,55 @@ def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_sha
     tests/test_bolted_beam_example.py, 1 % noise: 2.77 against the FE shape's 2.79 1/√kg; the
     lowest level's one-mode fit, the *stuck* mode's shape, gave 2.63). The samples' warnings
     (the other modes' share on its box: :func:`~nlupdate.core.identification.level_residual.bound_warning`)
+    come first among the model's."""
+    samples = samples_from_frfs(data, input_shape, near_hz)
+    model = model_of_frf_samples(data, samples, backbone, order, mode)
+    return replace(model, warnings=samples.warnings + model.warnings)  # the samples' own first: they are in question
+
+
+def model_of_frf_samples(data: FRFLevels, samples: ModalSamples, backbone: str = "iwan", order: int = 2,
+                         mode: int = 1) -> AmplitudeModalModel:
+    """The model of :func:`amplitude_model_from_frfs` fitted to ``samples`` already read from
+    ``data`` (:func:`samples_from_frfs`), without the samples' warnings: ``nlupdate amplitude``
+    decides itself whether a band cut keeps them
+    (:func:`~nlupdate.core.identification.amplitude_joint.measured_source`)."""
+    shapes = ((data.input_dof, samples.input_shape),)
+    if data.response_dof != data.input_dof:
+        shapes += ((data.response_dof, samples.response_ratio * samples.input_shape),)
+    model = fit_amplitude_model(samples, shapes, backbone, order, frequency_std=1e-3, damping_std=0.05, mode=mode)
+    if data.response_dof == data.input_dof:
+        return model
+    split = ("the split taken equal, |φ_r| = |φ_f|, which sets the scale of the modal amplitude and of the joint's "
+             "F_S and φ_max, not any prediction of these FRFs" if samples.shape_free else
+             f"φ_f = {samples.input_shape:.4g} 1/√kg as given")
+    return replace(model, note=model.note + f"; from transfer FRFs ({data.response_dof}/{data.input_dof}), which fix only "
+                                            f"the product φ_rφ_f: {split}")
+
+
+def amplitude_model_from_modal_table(table: pd.DataFrame, shapes: Sequence[tuple[str, float]], input_dof: str,
+                                     backbone: str = "iwan", mode: int = 1, order: int = 2,
+                                     source: str = "<modal table>") -> AmplitudeModalModel:
+    """Fit the model of ``mode`` to a modal table measured with the force at ``input_dof``."""
+    shapes = tuple((str(n), float(v)) for n, v in shapes)
+    names = [n for n, _ in shapes]
+    if str(input_dof) not in names:
+        raise AmplitudeModelError(f"input_dof {input_dof!r}: give the mode shape there too (shapes at {names})")
+    samples = samples_from_modal_table(table, dict(shapes)[str(input_dof)], mode, source)
+    return fit_amplitude_model(samples, shapes, backbone, order, mode=mode)
+
+
+def amplitude_model_from_frfs(data: FRFLevels, backbone: str = "iwan", input_shape: float | None = None,
+                              order: int = 2, near_hz: float | None = None, mode: int = 1) -> AmplitudeModalModel:
+    """Fit the model of the mode near ``near_hz`` (default: the lowest level's peak) to
+    driving-point or transfer FRFs at several levels, one sample per level
+    (:func:`samples_from_frfs`); the model's shapes are at the input and, for a transfer, the
+    response.
+
+    Without ``input_shape`` an Iwan backbone fits the shape φ_f too; a polynomial one takes
+    the modal constant read with the other modes' share from every level (T-beam example,
+    tests/test_bolted_beam_example.py, 1 % noise: 2.77 against the FE shape's 2.79 1/√kg; the
+    lowest level's one-mode fit, the *stuck* mode's shape, gave 2.63). The samples' warnings
+    (the other modes' share on its box: :func:`~nlupdate.core.identification.level_residual.bound_warning`)
     come first among the model's, as ``nlupdate amplitude`` prints them."""
     samples = samples_from_frfs(data, input_shape, near_hz)
     shapes = ((data.input_dof, samples.input_shape),)
