@@ -70,3 +70,24 @@ def test_a_softening_joint_measured_with_noise_does_not_warn(kind):
         model = fit_amplitude_model(samples(a, f * (1 + 1e-3 * noise[0]), zeta * (1 + 0.02 * noise[1])),
                                     [("x", 1.0)], "polynomial")
         assert not stiffening(model), (seed, model.warnings)
+
+
+def test_a_rise_of_round_off_is_not_a_rise():
+    """A flat backbone's ends differ by the fit's round-off, whose sign depends on the CPU's
+    BLAS kernels (42.8 Hz → 42.8 + 5e-14 Hz on one, 5e-14 lower on another): below
+    ``RISE_RESOLUTION`` of the frequency it is no rise; a rise of 1e-6 of it, far below any
+    measured change yet far above round-off, still is (the samples flat: within their scatter)."""
+    from types import SimpleNamespace
+
+    from nlupdate.core.identification.linear_limit import RISE_RESOLUTION, stiffening_warning
+
+    a = np.linspace(1.0, 4.0, 4) * 1e-4
+    flat = samples(a, np.array([42.8, 42.81, 42.79, 42.8]), np.full(a.size, 2e-3))
+
+    def backbone(rise: float):
+        return SimpleNamespace(frequency_hz=lambda amplitude: 42.8 * (1 + rise * (np.asarray(amplitude) > a.min())))
+
+    assert stiffening_warning(backbone(1e-15), flat, 1e-3) == ()
+    assert stiffening_warning(backbone(0.5 * RISE_RESOLUTION), flat, 1e-3) == ()
+    said = stiffening_warning(backbone(1e-6), flat, 1e-3)
+    assert len(said) == 1 and "rises over the measured amplitudes" in said[0], said
