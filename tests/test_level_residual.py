@@ -80,3 +80,16 @@ def test_a_share_on_its_bound_is_said():
     assert model_fitter("lines")(data).note == warnings[0]  # validate's note on the lines model
     from nlupdate.core.identification.amplitude_modal_fit import amplitude_model_from_frfs
     assert amplitude_model_from_frfs(data, "polynomial").warnings[0] == warnings[0]  # the Python API's model too
+
+
+def test_a_share_written_about_another_centre_is_the_same_line():
+    """``LevelResidual.about``: R + S(f²/f_c² − 1) rewritten about f_c′ gives the same complex
+    receptance at every frequency (checked on lines away from both centres), so a warm start
+    from another fit's share starts where that fit ended."""
+    from nlupdate.core.identification.level_residual import LevelResidual
+
+    share = LevelResidual(2e-6 - 1e-6j, -3e-6 + 0.5e-6j, 80.2, 1.0, 0.0)
+    r, s = share.about(81.0)
+    moved = LevelResidual(r, s, 81.0, 1.0, 0.0)
+    f = np.array([70.0, 79.3, 80.2, 81.0, 95.0])
+    assert np.allclose(moved.receptance(f), share.receptance(f), rtol=1e-12, atol=0)

@@ -209,6 +209,9 @@ def covariance_band(model: AmplitudeModalModel, residual: Callable[[NDArray], ND
     if law_free:
         theta = np.append(theta, VISCOUS_SHARE[model.linear_damping])
     p = theta.size
+    if nuisance is not None and noisy_amplitudes is not None:  # the amplitude rows would not end the residual
+        raise ValueError("covariance_band: give the noisy amplitudes either as nuisance unknowns or as "
+                         "noisy_amplitudes, not both")
     extra = np.zeros(0) if nuisance is None else np.asarray(nuisance, float)
     full = np.concatenate([theta, extra])
     r0 = residual(full)

@@ -112,6 +112,11 @@ class LevelResidual:
         f = np.asarray(frequency_hz, dtype=float)
         return self.residual + self.slope * (f**2 / self.centre_hz**2 - 1) + 0j
 
+    def about(self, centre_hz: float) -> tuple[complex, complex]:
+        """(R′, S′): the same share written about another centre f_c′ (Hz), R′ + S′(f²/f_c′² − 1)
+        = R + S(f²/f_c² − 1) at every f: R′ the share at f_c′, S′ = S·f_c′²/f_c²."""
+        return complex(self.receptance(np.array([centre_hz]))[0]), self.slope * (centre_hz / self.centre_hz) ** 2
+
 
 def _level_misfits(amplitude: NDArray, stiffness: NDArray, omega: NDArray, order: int) -> NDArray[np.float64]:
     """One level's misfits of ``Re D + Ω²`` (= ω(a)²) and ``Im D`` (= 2ζ(a)ω(a)²) about their
@@ -161,8 +166,8 @@ def level_residual(data: FRFLevels, modal_constant: float, start_residual: compl
         for share_start, log_p in STARTS:
             r = complex(start_residual) if share_start == "one-mode" else 0j
             starts.append([r.real / unit, r.imag / unit, log_p, 0.0, 0.0])
-    else:  # the same share about this fit's centre: R + S·(c²/c₀² − 1) and S·c²/c₀²
-        r, s = complex(start.receptance(np.array([centre_hz]))[0]), start.slope * (centre_hz / start.centre_hz) ** 2
+    else:  # the same share written about this fit's centre
+        r, s = start.about(centre_hz)
         starts.append([r.real / unit, r.imag / unit, np.log(abs(start.modal_constant / modal_constant)),
                        s.real / unit, s.imag / unit])
     ends = []
