@@ -117,8 +117,8 @@ def test_noisy_ring_down_within_the_issue_bounds_over_twelve_seeds(dofs, kind):
 def test_the_stated_noise_holds_every_samples_error(dofs):
     """The Jenkins records, 2 % noise, seeds 0–7: the samples' errors against the truth, in the
     source's stated noise (``stated_noise``: one value for all its samples, as a joint fit weighs
-    a source), have an rms below 1.5 in frequency and in damping — a noise consistent with the
-    errors gives about 1. The median standard error gave 2.72 (SDOF) and 2.03 (2-DOF) in
+    a source), have an rms between 0.5 and 1.5 in frequency and in damping — a noise consistent
+    with the errors gives about 1. The median standard error gave 2.72 (SDOF) and 2.03 (2-DOF) in
     frequency, the record's low end, nearest the slip amplitude, weighted 3–4 × beyond its own
     error (docs/ring-down.md, "Efficient at the kink"); the largest gives 1.11 and 0.88
     (damping 0.94 and 0.73; median 1.36 and 1.10)."""
@@ -131,6 +131,7 @@ def test_the_stated_noise_holds_every_samples_error(dofs):
         in_noise.append(np.column_stack([ef / f_std, ez / z_std]))
     rms = np.sqrt(np.mean(np.vstack(in_noise) ** 2, axis=0))
     assert np.all(rms < 1.5), rms
+    assert np.all(rms > 0.5), rms  # nor far too large: a noise 2 × the errors would be 0.5 (measured 0.73–1.11)
 
 
 def test_the_fit_averages_where_segments_scatter():
