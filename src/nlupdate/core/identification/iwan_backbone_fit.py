@@ -24,7 +24,7 @@ from nlupdate.core.identification.modal_samples import ModalSamples
 from nlupdate.core.identification.sample_residuals import (
     Curves, noisy_residual, noisy_residual_jacobian, sample_residual, sample_residual_jacobian,
 )
-from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, joint_omega_zeta
+from nlupdate.core.model.amplitude_modal import AmplitudeModalModel
 from nlupdate.core.model.elements import IwanJoint
 from nlupdate.core.model.elements.iwan import slip_force_at
 
@@ -118,7 +118,7 @@ def iwan_curves(model: AmplitudeModalModel, theta: NDArray, fixed: dict[str, flo
     names = ("kt", "slip_force", "beta") + ("chi",) * ("chi" not in fixed)  # a fixed χ's row of d is 0
     nu, nu_a, gradient = joint.describing_function_gradient(a, names, None if known is None else known[:2])
     d_nu = np.column_stack([gradient[name] for name in names]) @ d[[2, 3, 5, 4][:len(names)]]
-    omega, zeta = (joint_omega_zeta(w0, z0, kt, nu, model.linear_damping) if known is None  # the model's own curves
+    omega, zeta = (model.joint_curves(nu) if known is None  # the model's own curves
                    else known[2:])
     power = 1 if model.linear_damping == "viscous" else 2
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -182,11 +182,11 @@ def iwan_problem(samples: ModalSamples, shapes: Sequence[tuple[str, float]], fre
         return last["model"]
 
     def omega_zeta(model: AmplitudeModalModel, amplitude: NDArray) -> tuple[NDArray, NDArray]:
-        """``model.omega_zeta(amplitude)`` (ω = √(ω₀² − K_T + Re ν), :func:`joint_omega_zeta`,
-        as :func:`iwan_curves` reads it), keeping the describing function and its pieces for the
+        """``model.omega_zeta(amplitude)`` (through the model's own
+        :meth:`~nlupdate.core.model.amplitude_modal.AmplitudeModalModel.joint_curves`), keeping the describing function and its pieces for the
         Jacobian at the same unknowns."""
         nu, parts = model.joint.describing_function_and_parts(np.asarray(amplitude, dtype=float))
-        omega, zeta = joint_omega_zeta(model.omega0, model.damping_ratio, model.joint.kt, nu, model.linear_damping)
+        omega, zeta = model.joint_curves(nu)
         last["df"] = (amplitude, nu, parts, omega, zeta)
         return omega, zeta
 

@@ -198,11 +198,19 @@ class AmplitudeModalModel:
         a = np.asarray(amplitude, dtype=float)
         w0, z0 = self.omega0, self.damping_ratio
         if self.joint is not None:
-            return joint_omega_zeta(w0, z0, self.joint.kt, self.joint.describing_function(a), self.linear_damping)
+            return self.joint_curves(self.joint.describing_function(a))
         x = a / self.reference_amplitude
         omega = w0 * (1 + _series(self.frequency_coefficients, x, self.frequency_exponent, self.beyond_reference))
         zeta = np.maximum(z0 + _series(self.damping_coefficients, x, self.damping_exponent, self.beyond_reference), 0.0)
         return np.asarray(omega + 0 * x, dtype=float), np.asarray(zeta + 0 * x, dtype=float)
+
+    def joint_curves(self, describing_function: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """ω (rad/s) and ζ of a joint's backbone from its describing function ν (N/m per modal
+        unit) at the amplitudes ν was evaluated at (:func:`joint_omega_zeta`): what
+        :meth:`omega_zeta` returns there, for a caller that has ν already (the Iwan fit keeps it
+        for its Jacobian)."""
+        return joint_omega_zeta(self.omega0, self.damping_ratio, self.joint.kt, describing_function,
+                                self.linear_damping)
 
     def frequency_hz(self, amplitude: ArrayLike) -> NDArray[np.float64]:
         """Natural frequency (Hz) at modal amplitudes a (m·√kg): the backbone."""
