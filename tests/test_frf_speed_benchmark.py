@@ -218,4 +218,7 @@ def test_interleaved_times_cpu_beside_wall(bench):
     assert sleep.times.size == sleep.cpu.size == 3
     assert sleep.median >= 0.05 and sleep.cpu_median < 0.5 * sleep.median  # waiting is not CPU time
     assert timing["own"].cpu_median == 0.123 and timing["own"].result == "r"  # a task's own CPU figure is kept
-    assert timing["child"].cpu_median >= timing["child"].result  # the children's CPU is counted
+    # the children's CPU is counted: each child spins 0.05 s of CPU (the parent's own share of a
+    # spawn is a few ms), and the last call's figure covers what its child reported of itself
+    assert timing["child"].cpu_best >= 0.05
+    assert timing["child"].cpu[-1] >= timing["child"].result
