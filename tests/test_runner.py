@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import stat
 import sys
@@ -11,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from patience import HANG_S, timed_out_once_ready, written
 
 from nlupdate.fe.adapters import runner as runner_module
 from nlupdate.fe.adapters.base import AdapterError
@@ -140,31 +142,29 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def ended(pid: int) -> bool:
+    """Whether process ``pid`` ends (polled for :data:`patience.HANG_S`: killed processes end at once;
+    the wait only lets a loaded machine reap them)."""
+    deadline = time.monotonic() + HANG_S
+    while _alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return not _alive(pid)
+
+
 def test_timeout_kills_the_whole_process_group(tmp_path: Path) -> None:
     exe = make_script(
         tmp_path / "hanging",
         f"""
         import subprocess, time
-        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
-        open("child.pid", "w").write(str(child.pid))
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(600)"])
         print("started child", flush=True)
-        time.sleep(60)
+        open("child.pid", "w").write(str(child.pid))
+        time.sleep(600)
         """,
     )
-    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
-    run_dir = runner.new_run_dir("slow")
-    start = time.perf_counter()
-    with pytest.raises(RunTimeoutError) as info:
-        runner.run([], run_dir)
-    elapsed = time.perf_counter() - start
-    assert elapsed < 10
-    message = str(info.value)
-    assert "timed out after 1.0 s" in message and str(run_dir) in message and "started child" in message
-    child = int((run_dir / "child.pid").read_text())
-    deadline = time.time() + 5
-    while _alive(child) and time.time() < deadline:
-        time.sleep(0.05)
-    assert not _alive(child), "the solver's child process survived the timeout"
+    run_dir, message = time_out(exe, tmp_path, "child.pid", "timed out after {timeout} s")
+    assert str(run_dir) in message and "started child" in message
+    assert ended(int((run_dir / "child.pid").read_text())), "the solver's child process survived the timeout"
 
 
 def test_timeout_kills_a_process_the_solver_started_in_a_session_of_its_own(tmp_path: Path) -> None:
@@ -174,18 +174,15 @@ def test_timeout_kills_a_process_the_solver_started_in_a_session_of_its_own(tmp_
         tmp_path / "daemonising",
         f"""
         import subprocess, time
-        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"], start_new_session=True)
-        open("helper.pid", "w").write(str(helper.pid))
+        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(600)"], start_new_session=True)
         print("started helper", flush=True)
-        time.sleep(60)
+        open("helper.pid", "w").write(str(helper.pid))
+        time.sleep(600)
         """,
     )
-    run_dir = time_out(exe, tmp_path, "timed out after 1.0 s; it was killed with the processes it started")
-    helper = int((run_dir / "helper.pid").read_text())
-    deadline = time.time() + 5
-    while _alive(helper) and time.time() < deadline:
-        time.sleep(0.05)
-    assert not _alive(helper), "the helper in its own session survived the timeout"
+    run_dir, _ = time_out(exe, tmp_path, "helper.pid",
+                          "timed out after {timeout} s; it was killed with the processes it started")
+    assert ended(int((run_dir / "helper.pid").read_text())), "the helper in its own session survived the timeout"
 
 
 def test_a_process_that_cannot_be_stopped_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -193,26 +190,28 @@ def test_a_process_that_cannot_be_stopped_is_named(tmp_path: Path, monkeypatch: 
 
     exe = make_script(tmp_path / "daemonising", f"""
         import subprocess, time
-        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(30)"], start_new_session=True)
+        helper = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(600)"], start_new_session=True)
         open("helper.pid", "w").write(str(helper.pid))
-        time.sleep(60)
+        time.sleep(600)
         """)
     real_kill = os.kill
 
+    def helpers() -> set[int]:  # of every run (a run killed before its helper started is run again)
+        return {int(path.read_text()) for path in (tmp_path / "runs").glob("*/helper.pid") if written(path)}
+
     def refuses_for_the_helper(pid: int, sig: int) -> None:
-        helper = Path(tmp_path / "runs" / "slow" / "helper.pid")
-        if helper.exists() and pid == int(helper.read_text()) and sig == signal.SIGKILL:
+        if sig == signal.SIGKILL and pid in helpers():
             raise PermissionError(1, "Operation not permitted")  # as for a process of another user
         real_kill(pid, sig)
 
     monkeypatch.setattr(runner_module.os, "kill", refuses_for_the_helper)
     monkeypatch.setattr(runner_module, "KILL_GRACE_S", 0.2)  # how long it waits for the helper to die
     try:
-        time_out(exe, tmp_path, r"could not be stopped \(pid \d+\): stop them yourself")
+        time_out(exe, tmp_path, "helper.pid", r"could not be stopped \(pid \d+\): stop them yourself")
     finally:
         monkeypatch.undo()
-        helper = int((tmp_path / "runs" / "slow" / "helper.pid").read_text())
-        real_kill(helper, signal.SIGKILL)
+        for helper in helpers():
+            real_kill(helper, signal.SIGKILL)
 
 
 FAKE_TASKKILL = """
@@ -249,16 +248,21 @@ for pid in tree:
 """
 
 
-def time_out(exe: Path, tmp_path: Path, message: str = "timed out after 1.0 s") -> Path:
-    """Run ``exe`` with a 1 s timeout; check it times out within 10 s saying ``message``;
-    return its run folder."""
-    runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=1.0)
-    run_dir = runner.new_run_dir("slow")
-    start = time.perf_counter()
-    with pytest.raises(RunTimeoutError, match=message):
-        runner.run([], run_dir)
-    assert time.perf_counter() - start < 10
-    return run_dir
+def time_out(exe: Path, tmp_path: Path, ready: str, message: str = "timed out after {timeout} s") -> tuple[Path, str]:
+    """Run ``exe`` (which sleeps 600 s once it has written ``ready`` in its run folder) with
+    a 1 s timeout, longer while it was killed before it wrote ``ready`` (a slow start-up:
+    patience.timed_out_once_ready); check that it timed out saying ``message`` (a regular
+    expression; ``{timeout}``: the timeout); (its run folder, the message)."""
+    def attempt(timeout_s: float) -> tuple[Path, str]:
+        runner = ProcessRunner(str(exe), tmp_path / "runs", timeout_s=timeout_s)
+        run_dir = runner.new_run_dir("slow")
+        with pytest.raises(RunTimeoutError) as info:  # the program would have ended with 0 after its sleep
+            runner.run([], run_dir)
+        return run_dir, str(info.value)
+
+    timeout_s, (run_dir, text) = timed_out_once_ready(attempt, lambda outcome: written(outcome[0] / ready), 1.0)
+    assert re.search(message.format(timeout=re.escape(str(timeout_s))), text), text
+    return run_dir, text
 
 
 def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -274,20 +278,19 @@ def test_timeout_on_windows_kills_the_process_tree_with_taskkill(tmp_path: Path,
         tmp_path / "hanging",
         f"""
         import os, subprocess, time
-        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
-        open("pids.txt", "w").write(f"{{os.getpid()}} {{child.pid}}")
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(600)"])
         print("started child", flush=True)
-        time.sleep(60)
+        open("pids.txt", "w").write(f"{{os.getpid()}} {{child.pid}}")
+        time.sleep(600)
         """,
     )
-    run_dir = time_out(exe, tmp_path, "timed out after 1.0 s; it was killed with the processes it started")
+    run_dir, _ = time_out(exe, tmp_path, "pids.txt", "timed out after {timeout} s; it was killed with the processes it started")
     program, child = (int(v) for v in (run_dir / "pids.txt").read_text().split())
-    assert log.read_text().splitlines() == [f"/F /T /PID {program}"]
+    calls = log.read_text().splitlines()  # one per run (one more run per start-up too slow for its timeout)
+    assert calls[-1] == f"/F /T /PID {program}" and len(calls) == len(list((tmp_path / "runs").iterdir())), calls
+    assert all(re.fullmatch(r"/F /T /PID \d+", call) for call in calls), calls
     assert not _alive(program)
-    deadline = time.time() + 5
-    while _alive(child) and time.time() < deadline:
-        time.sleep(0.05)
-    assert not _alive(child), "the program's child survived taskkill /T"
+    assert ended(child), "the program's child survived taskkill /T"
 
 
 def test_timeout_on_windows_without_taskkill_kills_the_program(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -300,23 +303,33 @@ def test_timeout_on_windows_without_taskkill_kills_the_program(tmp_path: Path, m
         """
         import os, time
         open("pid.txt", "w").write(str(os.getpid()))
-        time.sleep(30)
+        time.sleep(600)
         """,
     )
-    run_dir = time_out(exe, tmp_path)
+    run_dir, _ = time_out(exe, tmp_path, "pid.txt")
     assert not _alive(int((run_dir / "pid.txt").read_text()))
 
 
 def test_parallel_runs_use_separate_directories(tmp_path: Path) -> None:
+    """Four runs at once, each in its own directory: every run writes its scratch file and
+    then waits until all four have (they are in flight together: a runner that ran them in
+    turn fails them), then checks no other run overwrote it."""
+    started = tmp_path / "started"
+    started.mkdir()
     exe = make_script(
         tmp_path / "scratch_writer",
-        """
+        f"""
         import os, sys, time
         me = sys.argv[1]
         if os.path.exists("scratch.out"):
-            sys.exit(f"scratch.out already exists in {os.getcwd()}")
+            sys.exit(f"scratch.out already exists in {{os.getcwd()}}")
         open("scratch.out", "w").write(me)   # like ccx's spooles.out
-        time.sleep(0.5)
+        open(os.path.join({str(started)!r}, me), "w").close()
+        patience = time.monotonic() + {HANG_S}
+        while len(os.listdir({str(started)!r})) < 4:
+            if time.monotonic() > patience:
+                sys.exit("the four runs were not in flight together")
+            time.sleep(0.01)
         if open("scratch.out").read() != me:
             sys.exit("another run overwrote scratch.out")
         open("result.txt", "w").write(me)
@@ -329,14 +342,11 @@ def test_parallel_runs_use_separate_directories(tmp_path: Path) -> None:
         return runner.run([tag], run_dir)
 
     tags = [f"run{i}" for i in range(4)]
-    start = time.perf_counter()
     with ThreadPoolExecutor(max_workers=4) as pool:
         results = list(pool.map(one, tags))
-    elapsed = time.perf_counter() - start
     assert len({r.run_dir for r in results}) == 4
     for tag, result in zip(tags, results):
         assert (result.run_dir / "result.txt").read_text() == tag
-    assert elapsed < 4 * 0.5, f"runs did not overlap ({elapsed:.2f} s)"
 
 
 def test_write_text_atomic_leaves_no_temporary_files(tmp_path: Path) -> None:
@@ -408,17 +418,19 @@ def test_a_version_probe_that_times_out_kills_what_it_started(tmp_path: Path) ->
     three are stopped, and the message says so only because it is true."""
     exe = make_script(tmp_path / "hanging_solver", f"""
         import subprocess, sys, time
-        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(60)"])
-        helper = subprocess.Popen(["setsid", {sys.executable!r}, "-c", "import time; time.sleep(60)"],
+        child = subprocess.Popen([{sys.executable!r}, "-c", "import time; time.sleep(600)"])
+        helper = subprocess.Popen(["setsid", {sys.executable!r}, "-c", "import time; time.sleep(600)"],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        open({str(tmp_path / "pids")!r}, "w").write(f"{{child.pid}} {{helper.pid}}")
-        time.sleep(60)
+        open(sys.argv[2], "w").write(f"{{child.pid}} {{helper.pid}}")
+        time.sleep(600)
         """)
-    version = ProcessRunner(str(exe), tmp_path / "runs").version(timeout_s=2.0)
-    pids = [int(pid) for pid in (tmp_path / "pids").read_text().split()]
-    deadline = time.time() + 5
-    while any(_alive(pid) for pid in pids) and time.time() < deadline:
-        time.sleep(0.05)
-    assert not [pid for pid in pids if _alive(pid)], "a process the version probe started outlived its timeout"
-    assert version == (f"{exe}: version unknown (no answer to -v within 2 s; it was killed with the processes it "
-                       f"started)"), version
+
+    def probe(timeout_s: float) -> tuple[str, Path]:  # each probe writes its own pids
+        pids = tmp_path / f"pids-{timeout_s:g}"
+        return ProcessRunner(str(exe), tmp_path / "runs").version(("-v", str(pids)), timeout_s=timeout_s), pids
+
+    timeout_s, (version, pids) = timed_out_once_ready(probe, lambda outcome: written(outcome[1]), 2.0)
+    pids = [int(pid) for pid in pids.read_text().split()]
+    assert all(ended(pid) for pid in pids), "a process the version probe started outlived its timeout"
+    assert version == (f"{exe}: version unknown (no answer to -v {tmp_path / f'pids-{timeout_s:g}'} within "
+                       f"{timeout_s:g} s; it was killed with the processes it started)"), version
