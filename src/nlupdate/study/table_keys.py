@@ -70,12 +70,16 @@ class ParameterEntry:
                            meaning="lower bound of the updated value")
     upper: float = setting(kind="number", required=True, unit="parameter unit", meaning="upper bound, > lower")
     unit: str = setting("", kind="string", meaning="label for tables and reports")
+    description: str = setting("", kind="string",
+                               meaning='what the parameter is, in a few words (`"thickness of the two thin beams"`): '
+                                       "the progress line before the updating runs and the report's summary say it")
     relative_step: float = setting(
         Parameter.relative_step, kind="number", minimum=0, maximum=1, above_minimum=True, below_maximum=True,
         meaning="finite-difference step h = relative_step·|p| (relative_step·(upper − lower) when p = 0)")
 
     def parameter(self) -> Parameter:
-        return Parameter(self.name, self.unit, self.start, self.lower, self.upper, self.relative_step)
+        return Parameter(self.name, self.unit, self.start, self.lower, self.upper, self.relative_step,
+                         self.description)
 
 
 @dataclass(frozen=True)

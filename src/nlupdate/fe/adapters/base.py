@@ -30,7 +30,9 @@ class Parameter:
     """An updating parameter.
 
     ``relative_step`` is the finite-difference step as a fraction of the current value
-    (h = relative_step·|p|, or relative_step·(upper − lower) when p = 0).
+    (h = relative_step·|p|, or relative_step·(upper − lower) when p = 0). ``unit`` and
+    ``description`` (what the parameter is, in a few words: "thickness of the two thin
+    beams") are labels: progress lines and reports name the parameter with them.
     """
 
     name: str
@@ -39,6 +41,7 @@ class Parameter:
     lower: float
     upper: float
     relative_step: float = 1e-3
+    description: str = ""
 
     def __post_init__(self) -> None:
         if not (self.lower <= self.start <= self.upper):
@@ -48,6 +51,12 @@ class Parameter:
             )
         if not (0 < self.relative_step < 1):
             raise ValueError(f"parameter {self.name!r}: relative_step must be in (0, 1), got {self.relative_step}")
+
+    def described(self) -> str:
+        """The name with what it is and its unit, as a reader first meets it:
+        ``h2 (thickness of the two thin beams, m)``; ``k1 (N/m)`` without a description."""
+        said = ", ".join(part for part in (self.description, "" if self.unit in ("1", "-") else self.unit) if part)
+        return f"{self.name} ({said})" if said else self.name
 
 
 @dataclass(frozen=True, eq=False)
