@@ -101,17 +101,20 @@ def test_list_quotes_the_best_runs_own_frac_and_counts_the_warnings(archive, cap
     assert entry["min_frac"] == pytest.approx(correlation.loc[correlation["model"] == best, "frac"].min(), rel=1e-12)
     assert correlation.loc[correlation["model"] != "initial", "frac"].min() < entry["min_frac"]  # the case it was wrong
     manifest = json.loads((run / "manifest.json").read_text())
-    # the identification's two, the held-out top level's resonance band that tests nothing (±1.3 Hz, wider than
-    # twice the levels' spread) and its extrapolation (the manifest kept the study's warnings alone: a run whose
-    # held-out levels missed listed as 'complete')
-    assert [w["source"] for w in manifest["warnings"]] == ["identification", "identification", "validation",
-                                                            "validation"]
-    assert "they test nothing" in manifest["warnings"][2]["message"]
-    assert "held-out level 1.46 N lies above the highest kept level" in manifest["warnings"][3]["message"]
-    assert entry["warnings"] == 4
+    # the identification's two; each run's stop at the default frequency tolerance (1e-4), coarser than the
+    # resonance's 1.6e-6 (its ± was finer than where it stopped); the held-out top level's resonance band that tests
+    # nothing (±1.3 Hz, wider than twice the levels' spread) and its extrapolation (the manifest kept the study's
+    # warnings alone: a run whose held-out levels missed listed as 'complete')
+    assert [w["source"] for w in manifest["warnings"]] == [
+        "identification", "identification", "eigensensitivity forward O(h) {k1}", "eigensensitivity forward O(h) {m1}",
+        "validation", "validation"]
+    assert all("frequency_tolerance" in w["message"] for w in manifest["warnings"][2:4])
+    assert "they test nothing" in manifest["warnings"][4]["message"]
+    assert "held-out level 1.46 N lies above the highest kept level" in manifest["warnings"][5]["message"]
+    assert entry["warnings"] == 6
     code, out, _ = run_cli(capsys, "archive", "list", "--root", root)
     (line,) = out.strip().splitlines()
-    assert "complete, 4 warnings (archive show)" in line and f"min FRAC {entry['min_frac']:.3f}" in line
+    assert "complete, 6 warnings (archive show)" in line and f"min FRAC {entry['min_frac']:.3f}" in line
 
 
 def test_update_says_what_not_to_trust_before_the_numbers(archive):
@@ -168,7 +171,8 @@ def test_a_loss_factor_fitted_onto_its_bound_is_a_warning(tmp_path, capsys):
 def test_the_correctly_signed_beam_fits_its_loss_factor_inside_the_search(archive):
     _, run, _ = archive
     kinds = [w["kind"] for w in json.loads((run / "manifest.json").read_text())["warnings"]]
-    assert kinds == ["levels_disagree", "residual_above_noise", "validation", "validation"]
+    assert kinds == ["levels_disagree", "residual_above_noise", "stopped_short", "stopped_short", "validation",
+                     "validation"]
 
 
 def package_sources_sha256() -> str:

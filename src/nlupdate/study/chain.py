@@ -23,6 +23,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
+from nlupdate.core.identification.methods import spelled_out
 from nlupdate.core.identification.pipeline import Identification
 from nlupdate.core.identification.trust import TrustWarning
 from nlupdate.study.spec import Study
@@ -32,7 +33,7 @@ from nlupdate.study.steps.record import models_used
 from nlupdate.study.steps.trust import study_warnings
 from nlupdate.study.steps.updating import (
     CandidateFRFs, Comparison, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs, compare_runs, run_update,
-    run_verdict, study_targets, updating_model, updating_runs,
+    run_verdict, study_targets, updating_intro, updating_model, updating_runs,
 )
 from nlupdate.study.steps.amplitude import amplitude_step
 from nlupdate.study.steps.fe_validation import fe_validation_step
@@ -63,6 +64,8 @@ class Step:
         :class:`~nlupdate.study.steps.updating.RunFailure` and the others go on;
     label: fan-out: ``(job, outcome) -> str``, a computed job's progress detail (the line
         already names the job);
+    introduce: fan-out: ``(study, jobs) -> str``, the line said before the jobs' lines: what
+        their names say ('' for none);
     jobs_describe_themselves: fan-out: a job holds everything its result depends on (an
         updating run: its parameters with their bounds, targets, method and options), so
         its cache key is the job and its model alone — changing one run's bound recomputes
@@ -87,6 +90,7 @@ class Step:
     model: Callable[[Study], Any] | None = None
     keep_going: bool = False
     label: Callable[[Any, Any], str] = lambda job, outcome: ""
+    introduce: Callable[[Study, Sequence[Any]], str] = lambda study, jobs: ""
     jobs_describe_themselves: bool = False
     points: Callable[[Any], Sequence[Mapping[str, float]]] | None = None
 
@@ -106,7 +110,7 @@ CHAIN: tuple[Step, ...] = (
          describe=lambda study, table: measured_description(study)),
     Step("identification", identification_step, inputs=("measured data",), sections=("identification",),
          applies=lambda study, results: study.identification is not None,
-         describe=lambda study, identified: f"{study.identification.method.upper()}, "
+         describe=lambda study, identified: f"{spelled_out(study.identification.method)}, "
                                             f"{study.identification.samples} Monte-Carlo samples"),
     Step("targets", study_targets, inputs=("identification",), sections=("targets", "comparison"),
          applies=lambda study, results: study.adapter is not None),
@@ -114,7 +118,7 @@ CHAIN: tuple[Step, ...] = (
          sections=("adapter", "parameters", "fixed", "updating", "eigensensitivity", "optimisation", "candidates"),
          applies=lambda study, results: study.adapter is not None,
          jobs=updating_runs, each=run_update, model=updating_model, keep_going=True,
-         label=run_verdict, jobs_describe_themselves=True),
+         label=run_verdict, introduce=updating_intro, jobs_describe_themselves=True),
     Step("comparison", compare_runs, inputs=("targets", "updating"), sections=("comparison", "parameters"),
          applies=_has_runs),
     Step("candidate FRFs", candidate_frfs, inputs=("targets", "updating"), sections=("comparison", "targets"),
@@ -140,7 +144,7 @@ CHAIN: tuple[Step, ...] = (
          describe=lambda study, found: f"{len(found.table)} run prediction(s), {found.element} joint per bolt, "
                                        f"fit rms {found.fit['rms_residual']:.3f} after {found.fit['evaluations']} "
                                        "evaluation(s)"),
-    Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions"),
+    Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions", "targets"),
          sections=("parameters",),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
 )

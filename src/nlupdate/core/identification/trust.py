@@ -113,7 +113,8 @@ class TrustWarning:
     ``at_bound``, ``diverged``, ``uncertainty_exceeds_value``, ``uncertainty_unknown``,
     ``residual_above_noise``, ``not_converged`` (an updating run), ``prediction_worse``
     (the best model predicts worse than the initial one) or ``loss_factor_at_bound`` (the
-    predictions' low-force loss factor fit ended on its search's bound);
+    predictions' low-force loss factor fit ended on its search's bound) or ``targets_missed``
+    (a converged updating run's model misses target frequencies beyond their noise);
     message: one plain sentence with the numbers; source: where the result came from
     (``identification``, or an updating run's name).
     """

@@ -14,7 +14,7 @@ from nlupdate.core.updating.parameter_warnings import updating_warnings
 from nlupdate.core.updating.runs import best_ranked
 from nlupdate.study.spec import Study
 from nlupdate.study.steps.prediction import Prediction
-from nlupdate.study.steps.updating import Comparison, UpdatingOutcome
+from nlupdate.study.steps.updating import Comparison, TargetSet, UpdatingOutcome
 
 
 def best_run(updating: UpdatingOutcome | None, comparison: Comparison | None) -> UpdatingResult | None:
@@ -74,12 +74,13 @@ def _spread(values: pd.Series) -> str:
 
 def study_warnings(study: Study, identification: Identification | None, updating: UpdatingOutcome | None,
                    comparison: Comparison | None, predictions: Sequence[Prediction] | None = None,
-                   ) -> tuple[TrustWarning, ...]:
+                   targets: TargetSet | None = None) -> tuple[TrustWarning, ...]:
     """The warning that the best model predicts worse than the initial one
     (:func:`prediction_warning`) first, then the identification's warnings
     (:mod:`nlupdate.core.identification.trust`), then each updating run's
     (:mod:`nlupdate.core.updating.parameter_warnings`: not converged, parameters that ended on
-    a bound of the study, propagated uncertainty above the value), in run order."""
+    a bound of the study, propagated uncertainty above the value, targets missed beyond
+    their standard deviations ``targets.std_hz``), in run order."""
     out: list[TrustWarning] = []
     best = best_run(updating, comparison)
     worse = prediction_warning(predictions or (), best.name) if best is not None else None
@@ -93,6 +94,7 @@ def study_warnings(study: Study, identification: Identification | None, updating
     bounds = {p.name: (p.lower, p.upper) for p in study.parameters}
     uncertainties = {} if comparison is None else comparison.uncertainties
     for run in (updating.runs if updating is not None else ()):
-        out += updating_warnings(run, {**(run.bounds or {}), **bounds}, uncertainties.get(run.name))
+        out += updating_warnings(run, {**(run.bounds or {}), **bounds}, uncertainties.get(run.name),
+                                 target_std_hz=None if targets is None else targets.std_hz)
     return tuple(out)
 
