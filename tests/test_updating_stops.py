@@ -164,3 +164,22 @@ def test_a_trust_region_that_finds_no_lower_residual_stops_as_such():
     assert result.parameters["k"] == pytest.approx(1.0, abs=1e-4)
     assert np.all(np.diff(result.history["max_abs_error_pct"]) <= 0)
     assert result.iterations < 20
+
+
+def test_a_contracting_oscillation_is_not_a_cycle_and_a_repeating_one_is():
+    """Points x_n = x* + a(−c)^n, the path of a Gauss–Newton run on noisy targets (c = 0.65
+    on a 3-mass chain, test_target_miss_warnings): the point two back comes within the
+    tolerance before the step does, and was called a period-2 cycle; a path that returns
+    with repeating steps is one."""
+    from nlupdate.core.updating.stopping import cycle_period
+
+    tolerance, limit = 1e-6, np.array([1.19, 0.84])
+    direction = np.array([1.0, -0.7])
+    for c in (0.5, 0.65, 0.9):
+        path = [limit + 0.07 * (-c) ** n * direction for n in range(200)]
+        at_rest = next(n for n in range(1, 200) if np.max(np.abs(path[n] - path[n - 1])) <= tolerance)
+        assert all(cycle_period(path[:n + 1], tolerance) is None for n in range(at_rest + 1)), c
+    a, b = limit, limit + 0.01 * direction
+    assert cycle_period([limit + 0.03 * direction, a, b, a], tolerance) == 2
+    assert cycle_period([a, b, a, b, a + 2e-7], tolerance) == 2  # within the tolerance
+    assert cycle_period([a, b, limit + 0.02 * direction, a, b, limit + 0.02 * direction + 5e-7], tolerance) == 3
