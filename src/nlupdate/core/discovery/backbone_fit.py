@@ -142,14 +142,23 @@ class ModalContext:
         return w / (2 * np.pi), zeta
 
     def residual(self, effects: Sequence[Effect], values: Sequence[NDArray]) -> NDArray[np.float64]:
-        frequency, zeta = self.predict(effects, values)
-        return np.concatenate([
-            (frequency - self.frequency_hz) / (self.frequency_uncertainty * self.frequency_hz),
-            (zeta - self.damping_ratio) / (self.damping_uncertainty * self.damping_ratio),
-        ])
+        return modal_residual(self, *self.predict(effects, values))
 
     def fit(self, effect: Effect) -> CandidateFit:
         return fit_at_place(self, effect)
+
+
+def modal_residual(table, frequency_hz: NDArray, damping_ratio: NDArray) -> NDArray[np.float64]:
+    """The misfits of a model's natural frequencies (Hz) and damping ratios at a modal table's
+    points, each relative to the measured value over its uncertainty (the module docstring's
+    residual, ``Σ r² = χ²``): frequencies first. ``table``: the measured ``frequency_hz``,
+    ``damping_ratio`` and their relative ``frequency_uncertainty``, ``damping_uncertainty``
+    (a :class:`ModalContext`, or the joint problem's
+    :class:`~nlupdate.core.discovery.joint.ModalJoint`)."""
+    return np.concatenate([
+        (frequency_hz - table.frequency_hz) / (table.frequency_uncertainty * table.frequency_hz),
+        (damping_ratio - table.damping_ratio) / (table.damping_uncertainty * table.damping_ratio),
+    ])
 
 
 def element_terms(modal: ModalModel, mode: NDArray, elements: Sequence) -> list[Term]:

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from nlupdate.core.discovery.candidates import FoundEffect
 from nlupdate.core.discovery.fitting import fit_effects
-from nlupdate.core.discovery.backbone_fit import _participation, element_terms, phase_resonance
+from nlupdate.core.discovery.backbone_fit import _participation, element_terms, modal_residual, phase_resonance
 from nlupdate.core.model.linear import ModalModel
 from nlupdate.core.model.system import NonlinearSystem
 
@@ -291,7 +291,7 @@ def _solve_each(matrices: NDArray, rhs: NDArray) -> NDArray:
 @dataclass(frozen=True, eq=False)
 class ModalJoint(JointFit):
     """The joint problem against a modal table: the single-mode phase-resonance model with
-    the user's elements and every effect (residuals as in :class:`~nlupdate.core.discovery.backbone_fit.ModalContext`)."""
+    the user's elements and every effect (residuals: :func:`~nlupdate.core.discovery.backbone_fit.modal_residual`)."""
 
     modal: ModalModel
     mode: NDArray[np.int64]
@@ -309,8 +309,4 @@ class ModalJoint(JointFit):
         for dofs, nu in _terms((), effects, values):
             terms.append((_participation(self.modal, self.mode, dofs), nu))
         w, zeta, _ = phase_resonance(self.modal, self.mode, self.input_dof, self.force, terms)
-        frequency = w / (2 * np.pi)
-        return np.concatenate([
-            (frequency - self.frequency_hz) / (self.frequency_uncertainty * self.frequency_hz),
-            (zeta - self.damping_ratio) / (self.damping_uncertainty * self.damping_ratio),
-        ])
+        return modal_residual(self, w / (2 * np.pi), zeta)
