@@ -47,12 +47,11 @@ def at_noise_level(chi2: float, n_data: int) -> bool:
     return chi2 - n_data <= 3.0 * np.sqrt(2.0 * n_data)
 
 
-@dataclass(frozen=True, eq=False)
-class FoundEffect:
-    """An effect placed in the model: effect, model coordinate indices and SI values."""
+class _EffectAtValues:
+    """What an effect at SI values reads as (:class:`FoundEffect`, :class:`CandidateFit`): its
+    name, its parameters by name, and its variant in a JSON record."""
 
     effect: Effect
-    dofs: tuple[int, ...]
     values: tuple[float, ...]
 
     @property
@@ -63,11 +62,23 @@ class FoundEffect:
     def parameters(self) -> dict[str, float]:
         return self.effect.parameter_dict(self.values)
 
-    def to_dict(self) -> dict:
-        out = {"effect": self.name, "dofs": list(self.dofs), "parameters": self.parameters}
+    def _with_variant(self, out: dict) -> dict:
+        """``out`` with the effect's ``variant``, when it has one."""
         if self.effect.variant:
             out["variant"] = self.effect.variant
         return out
+
+
+@dataclass(frozen=True, eq=False)
+class FoundEffect(_EffectAtValues):
+    """An effect placed in the model: effect, model coordinate indices and SI values."""
+
+    effect: Effect
+    dofs: tuple[int, ...]
+    values: tuple[float, ...]
+
+    def to_dict(self) -> dict:
+        return self._with_variant({"effect": self.name, "dofs": list(self.dofs), "parameters": self.parameters})
 
 
 def augment(system: NonlinearSystem, effects: Sequence[FoundEffect]) -> NonlinearSystem:
@@ -78,7 +89,7 @@ def augment(system: NonlinearSystem, effects: Sequence[FoundEffect]) -> Nonlinea
 
 
 @dataclass(frozen=True, eq=False)
-class CandidateFit:
+class CandidateFit(_EffectAtValues):
     """One candidate fitted at one place.
 
     chi2 / baseline_chi2: misfit with and without the candidate (see module docstring);
@@ -101,14 +112,6 @@ class CandidateFit:
     equivalent: Any = None
 
     @property
-    def name(self) -> str:
-        return self.effect.name
-
-    @property
-    def parameters(self) -> dict[str, float]:
-        return self.effect.parameter_dict(self.values)
-
-    @property
     def explained(self) -> float:
         """Fraction of the misfit in excess of the noise that the candidate removes."""
         excess = self.baseline_chi2 - self.n_data
@@ -118,13 +121,11 @@ class CandidateFit:
         return FoundEffect(self.effect, self.dofs, self.values)
 
     def to_dict(self) -> dict:
-        out = {
+        out = self._with_variant({
             "effect": self.name, "dofs": list(self.dofs), "score": self.score, "parameters": self.parameters,
             "chi2": self.chi2, "baseline_chi2": self.baseline_chi2, "explained": self.explained,
             "iteration": self.iteration, "success": self.success,
-        }
-        if self.effect.variant:
-            out["variant"] = self.effect.variant
+        })
         if self.equivalent is not None:
             out["equivalent_to"] = self.equivalent.simpler.name
             out["equivalent_parameters"] = self.equivalent.simpler.parameter_dict(self.equivalent.simpler_values)
