@@ -46,8 +46,25 @@ def _model_index(model: LinearModel, name: str, column: str, source: str) -> int
     )
 
 
+class ForceLevels:
+    """The force levels of measured points with a force (N) each (:class:`FRFData`,
+    :class:`~nlupdate.core.discovery.modal_data.ModalData`)."""
+
+    force: NDArray[np.float64]
+
+    @property
+    def levels(self) -> NDArray[np.float64]:
+        """The distinct forces (N), ascending."""
+        return np.unique(self.force)
+
+    @property
+    def level_index(self) -> NDArray[np.int64]:
+        """Index into :attr:`levels` of every point."""
+        return np.searchsorted(self.levels, self.force)
+
+
 @dataclass(frozen=True, eq=False)
-class FRFData:
+class FRFData(ForceLevels):
     """Measured receptances at points (force level, frequency), all response coordinates.
 
     force: force amplitude (N) per point; omega: excitation frequency (rad/s) per point;
@@ -77,15 +94,6 @@ class FRFData:
     def x(self) -> NDArray[np.complex128]:
         """Measured complex response amplitudes (m), ``H·F``."""
         return self.h * self.force[:, None]
-
-    @property
-    def levels(self) -> NDArray[np.float64]:
-        return np.unique(self.force)
-
-    @property
-    def level_index(self) -> NDArray[np.int64]:
-        """Index into :attr:`levels` of every point."""
-        return np.searchsorted(self.levels, self.force)
 
     def noise_fraction(self) -> float:
         """Relative noise std of the measured values (docs/methods.md §8 form): the table's noise

@@ -8,7 +8,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nlupdate.core.discovery.errors import MeasuredDataError
-from nlupdate.core.discovery.frf_data import ONE_LEVEL_REASON
+from nlupdate.core.discovery.frf_data import ONE_LEVEL_REASON, ForceLevels
 from nlupdate.core.measurement.modal_table import ModalTableError, validate_modal_table
 from nlupdate.core.model.linear import LinearModel, LumpedModel, ModalModel
 
@@ -23,7 +23,7 @@ def as_modal(model: LinearModel) -> ModalModel:
 
 
 @dataclass(frozen=True, eq=False)
-class ModalData:
+class ModalData(ForceLevels):
     """Natural frequency (Hz) and damping ratio per point (force level, mode).
 
     mode: 0-based index of the model's mode (the table's mode number − 1); force in N;
@@ -40,14 +40,6 @@ class ModalData:
     @property
     def n_points(self) -> int:
         return self.force.size
-
-    @property
-    def levels(self) -> NDArray[np.float64]:
-        return np.unique(self.force)
-
-    @property
-    def level_index(self) -> NDArray[np.int64]:
-        return np.searchsorted(self.levels, self.force)
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, model: LinearModel, source: str = "measured") -> "ModalData":
