@@ -19,6 +19,7 @@ import pytest
 from nlupdate.orchestration.flows.status_lines import Progress
 from nlupdate.orchestration.flows.run import run_study_flow
 from nlupdate.orchestration.flows.runners import Execution, ExecutionError, task_runner
+from patience import HANG_S
 from prefect_settings import talking_to
 from studies import small_two_dof_study, two_dof_study, study_text, write_study
 from nlupdate.study import load_study, run_study, study_from_text
@@ -144,7 +145,7 @@ def test_a_run_talks_to_its_server_whatever_prefect_read_when_imported(prefect_s
     assert recorded.state_name == "Completed"
 
 
-async def recorded_task_runs(client, flow_run_id, count: int, patience_s: float = 60.0) -> list:
+async def recorded_task_runs(client, flow_run_id, count: int, patience_s: float = 300.0) -> list:
     """The task runs of ``flow_run_id`` once the server has recorded ``count`` of them in a
     final state: the run's server writes the states it receives as events once a second
     (``RUN_SERVER_SETTINGS``), after the run may have returned (``patience_s`` only ends a
@@ -193,7 +194,11 @@ def test_flow_and_task_runs_are_named_by_what_they_compute(first_run, prefect_se
     assert match, parent.name
     named_at = dt.datetime.strptime(match[1], "%Y-%m-%d %H:%M").replace(tzinfo=dt.timezone.utc)
     started = dt.datetime.fromisoformat(manifest["run"]["started_utc"])
-    assert 0 <= (started - named_at).total_seconds() < 61, (parent.name, started)  # named as it started
+    # named as it started: the minute of a moment between the run's creation and its start
+    # (a bound on the seconds between them failed when the minute turned while a loaded
+    # machine took more than 1 s from one to the other)
+    created = parent.created.astimezone(dt.timezone.utc).replace(second=0, microsecond=0)
+    assert created <= named_at <= started, (parent.name, parent.created, started)
 
     steps = {"measured data", "identification", "targets", "comparison", "candidate FRFs", "warnings"}
     names = [t.name for t in tasks]
@@ -347,12 +352,12 @@ def test_a_failing_branch_is_named_and_the_others_finish(prefect_server, tmp_pat
     assert (archive / "tables" / "correlation.parquet").exists()
 
 
-def test_an_unreachable_dask_address_fails_clearly_within_ten_seconds():
-    started = time.perf_counter()
-    with pytest.raises(ExecutionError, match="no Dask scheduler answers at tcp://127.0.0.1:9"):
+def test_an_unreachable_dask_address_fails_clearly_at_the_refused_connection():
+    """Refused at the address check, not after a Dask client's connection timeout (whose
+    message says "within 5 s"): the reason is the refused connection."""
+    with pytest.raises(ExecutionError, match=r"no Dask scheduler answers at tcp://127.0.0.1:9 \(connection refused\)"):
         with task_runner(Execution(dask_address="tcp://127.0.0.1:9"), connect_timeout_s=5):
             pass
-    assert time.perf_counter() - started < 10
 
 
 def own_server_folder(monkeypatch, tmp_path) -> Path:
@@ -368,7 +373,7 @@ def own_server_folder(monkeypatch, tmp_path) -> Path:
     return folder
 
 
-def ends(process, timeout_s: float = 30) -> bool:
+def ends(process, timeout_s: float = HANG_S) -> bool:
     """Whether ``process`` (a Popen) ends within ``timeout_s``."""
     import subprocess
 
@@ -473,19 +478,17 @@ def test_an_unreachable_dask_address_is_refused_before_any_server_starts(tmp_pat
 
     address = f"tcp://127.0.0.1:{closed_port()}"
     env = {key: value for key, value in os.environ.items() if key != "PREFECT_API_URL"}  # it would start a server
-    started = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "nlupdate", "run", str(two_dof_study_file), "--dask-address", address,
                              "--out", str(tmp_path / "results")], cwd=tmp_path, env=env, capture_output=True, text=True,
                             timeout=120)
-    seconds = time.perf_counter() - started
     assert result.returncode == 2, (result.returncode, result.stdout, result.stderr)
     assert result.stderr.splitlines() == [f"nlupdate run: error: --dask-address: no Dask scheduler answers at {address} "
                                           f"(connection refused); start one with `dask scheduler` and `dask worker "
                                           f"ADDRESS`"]
+    # no server started ("starting a Prefect server …" would be printed) and no Dask timeout
+    # waited out (the reason would be "no answer within"): what took 17.6 s before the fix,
+    # asserted as what happened, not as a time (about 2 s idle, 8 s on two loaded cores)
     assert "Prefect" not in result.stdout and not (tmp_path / "results").exists(), result.stdout
-    # the CLI's start and the study's loading (about 2 s idle, up to 8 s on two loaded cores);
-    # no 10-second Dask timeout and no server start waited out (17.6 s idle before the fix)
-    assert seconds < 15, seconds
 
 
 def test_a_run_ending_before_its_early_server_is_used_stops_only_that_server(prefect_server, monkeypatch, tmp_path):
