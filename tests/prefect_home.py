@@ -10,7 +10,7 @@ server first opens it.
 
 Only sessions with pytest-xdist workers make the template (a lone test file run alone migrates
 its one home itself rather than wait). A user's first run still meets an empty home; the slow demo test
-(``test_nlupdate_demo_runs_in_under_three_minutes_and_a_rerun_is_cached``) and the README's
+(``test_nlupdate_demo_runs_and_a_rerun_is_all_cached``) and the README's
 fresh-machine check run that path. Test scaffolding only; nothing in the package uses this.
 """
 from __future__ import annotations
