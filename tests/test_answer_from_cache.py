@@ -38,8 +38,13 @@ def tables(archive: Path) -> dict[str, pd.DataFrame]:
 
 
 def test_a_rerun_is_answered_from_the_cache_with_the_flow_runs_results(filled, tmp_path):
+    import io
+
+    from rich.console import Console
+
     folder, computed, manifest, study = filled
-    progress = Progress(quiet=True)
+    printed = io.StringIO()
+    progress = Progress(Console(file=printed, width=400))
     answered = answer_from_cache(load_study(study), tmp_path / "results", folder / "cache", progress)
     assert answered is not None and answered.parent.parent == tmp_path / "results"
     first, again = tables(computed), tables(answered)
@@ -55,6 +60,11 @@ def test_a_rerun_is_answered_from_the_cache_with_the_flow_runs_results(filled, t
     assert set(run["tasks"]) == expected
     assert all(counts == {"computed": 0, "cached": 1, "failed": 0} for counts in run["tasks"].values()), run["tasks"]
     assert (answered / "report.md").read_text().count("##") == (computed / "report.md").read_text().count("##")
+    # the line a flow says before the updating jobs (what their names say) is said here too
+    lines = printed.getvalue().splitlines()
+    first_job = next(i for i, line in enumerate(lines) if line.startswith("updating: eigensensitivity"))
+    assert lines[first_job - 1] == ("updating: 1 run; parameters k1 (N/m); O(h): error order of the finite-difference "
+                                    "sensitivities in their step h"), lines
 
 
 def test_answering_from_the_cache_imports_no_prefect(filled, tmp_path):

@@ -21,6 +21,9 @@ from nlupdate.core.updating.evaluation import MemoisedEvaluator
 def _fan_out(step: Step, study: Study, inputs: list, say: Callable[[str], None]) -> Any:
     evaluator = MemoisedEvaluator(build_adapter(step.model(study)))
     jobs = step.jobs(study, *inputs)
+    intro = step.introduce(study, jobs)
+    if intro:
+        say(f"{step.name}: {intro}")
     outcomes = []
     for i, job in enumerate(jobs, start=1):
         try:

@@ -25,6 +25,9 @@ from nlupdate.core.identification.prd import DEFAULT_HALF_WINDOW, ESTIMATORS, PR
 class Method(Protocol):
     """What an identification method supplies (see the module docstring)."""
 
+    #: What its abbreviation (the key in :data:`METHODS`, upper-cased) stands for, where a
+    #: reader first meets it (progress line, report summary).
+    long_name: str
     estimators: tuple[str, ...]
     default_estimator: str
     #: Does the fit take one excitation frequency (chosen by the program when not given)?
@@ -74,6 +77,7 @@ class Method(Protocol):
 class PRD:
     """Pseudo receptance difference at one excitation frequency."""
 
+    long_name = "pseudo-receptance difference"
     estimators = ESTIMATORS
     default_estimator = "improved"
     uses_excitation_frequency = True
@@ -208,6 +212,7 @@ class PRD:
 class DDF:
     """Direct describing function from two force levels over many frequencies."""
 
+    long_name = "direct describing function"
     estimators = DDF_ESTIMATORS
     default_estimator = "naive"
     uses_excitation_frequency = False
@@ -282,3 +287,9 @@ class DDF:
 
 #: The methods by name.
 METHODS: dict[str, Method] = {"prd": PRD(), "ddf": DDF()}
+
+
+def spelled_out(method: str) -> str:
+    """A method's abbreviation with what it stands for, as a reader first meets it:
+    ``PRD (pseudo-receptance difference)``."""
+    return f"{method.upper()} ({METHODS[method].long_name})"

@@ -61,6 +61,14 @@ FORMULA_LABELS: dict[str, str] = {
     "central2": "central O(h²)",
     "central4": "central O(h⁴)",
 }
+#: What the O(·) of a label says, for a reader who meets it in a run's name.
+ORDER_MEANING = "error order of the finite-difference sensitivities in their step h"
+
+
+def order_labels(formulas: Sequence[str]) -> list[str]:
+    """The distinct O(·) of the ``formulas``' labels, lowest order first: ``['O(h)', 'O(h²)']``."""
+    orders = sorted({stencil(formula).order: FORMULA_LABELS[formula].split()[-1] for formula in formulas}.items())
+    return [label for _, label in orders]
 
 Response = Callable[[Mapping[str, float]], NDArray[np.float64]]
 

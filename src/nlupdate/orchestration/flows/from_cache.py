@@ -40,7 +40,8 @@ def _job_name(job: Any) -> str:
 def cached_chain(study: Study, store: Path) -> tuple[StudyResult, dict[str, str], list[tuple]] | None:
     """The study's result from the records in ``store`` (a study whose input files are
     pinned, :func:`nlupdate.study.spec.inputs_read_once`), every step's key, and the
-    progress lines to print, ``(name, detail, position)``; None when a record is missing or a
+    progress lines to print, ``(name, detail, position)`` (a fan-out step's introduction:
+    ``(name, text)``, :attr:`~nlupdate.study.chain.Step.introduce`); None when a record is missing or a
     step fails (the flow then runs and reports the failure with a failed archive)."""
     from nlupdate.fe.adapters.registry import build_adapter
     from nlupdate.input_files import pinned
@@ -65,6 +66,8 @@ def cached_chain(study: Study, store: Path) -> tuple[StudyResult, dict[str, str]
                 jobs = step.jobs(study, *values)
                 job_keys = [keys.job_key(step, study, job, model, input_keys) for job in jobs]
                 outcomes = [read_result(store, key) for key in job_keys]
+                intro = step.introduce(study, jobs)
+                lines += [(step.name, intro)] if intro else []
                 lines += [(job_run_name(step.name, _job_name(job)), "", f"{i}/{len(jobs)}")
                           for i, job in enumerate(jobs, start=1)]
                 results[step.name] = step.compute(study, outcomes, *values)
@@ -95,8 +98,11 @@ def answer_from_cache(study: Study, results_root: str | Path, store: Path, progr
         result, step_keys, lines = answered
         progress.say(f"study [bold]{study.name}[/bold]: every result is in the cache {store}; answered from it "
                      f"without Prefect (no run recorded there; --no-cache computes it again)")
-        for name, detail, position in lines:
-            progress.finished(name, "Cached", detail, None, position)
+        for line in lines:
+            if len(line) == 2:  # a fan-out step's introduction
+                progress.introduce(*line)
+            else:
+                progress.finished(line[0], "Cached", line[1], None, line[2])
         progress.say("[bold]FE points[/bold]: none needed, every job came from the cache")
         progress.say(f"steps done in {time.perf_counter() - clock:.1f} s; writing the archive …")
         record = {"started_utc": started.isoformat(), "finished_utc": dt.datetime.now(dt.timezone.utc).isoformat(),

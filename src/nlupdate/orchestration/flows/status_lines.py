@@ -24,6 +24,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.text import Text
 
+from nlupdate.orchestration.tasks.names import ascii_name
+
 STATE_WORDS = {"Completed": "computed", "Cached": "cached", "Failed": "FAILED", "Crashed": "CRASHED"}
 
 
@@ -46,6 +48,12 @@ class Progress:
         """Count ``count`` task runs of ``step`` that ended in ``state``."""
         with self._lock:
             self.tally[step][state] += count
+
+    def introduce(self, step: str, text: str) -> None:
+        """Print the line before the jobs of fan-out step ``step``: what their names say
+        (:attr:`~nlupdate.study.chain.Step.introduce`), spelled as the jobs' lines name them
+        (``O(h^2)``, :func:`~nlupdate.orchestration.tasks.names.ascii_name`)."""
+        self.say(f"[bold]{escape(step)}[/bold]: {escape(ascii_name(text))}")
 
     def finished(self, step: str, state: str, detail: str = "", seconds: float | None = None,
                  position: str = "") -> None:

@@ -80,6 +80,9 @@ def _fan_out(step: Step, study: Study, values: list, input_keys: list, registry:
     spec = step.model(study)
     model = keys.model_identity(spec, adapter_for(spec).model_fingerprint())
     jobs = step.jobs(study, *values)
+    intro = step.introduce(study, jobs)
+    if intro:
+        progress.introduce(step.name, intro)
     count, finished, in_order = len(jobs), iter(range(1, len(jobs) + 1)), threading.Lock()
     shared = _opaque(values)
 

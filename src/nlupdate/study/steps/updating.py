@@ -18,9 +18,10 @@ from nlupdate.core.model.amplitude_modal import read_amplitude_model
 from nlupdate.core.updating.eigensensitivity import UpdatingResult
 from nlupdate.core.updating.evaluation import PointEvaluator
 from nlupdate.core.updating.runs import UpdatingRun, candidate_frf, compare_candidates, rank_candidates, update
-from nlupdate.core.updating.sensitivity import FORMULA_LABELS
+from nlupdate.core.updating.sensitivity import FORMULA_LABELS, ORDER_MEANING, order_labels
 from nlupdate.core.updating.target_uncertainty import ParameterUncertainty, propagate_target_uncertainty
 from nlupdate.core.updating.targets import UpdatingTargets, frf_natural_frequencies, read_linear_frf
+from nlupdate.fe.adapters.base import Parameter
 from nlupdate.fe.adapters.registry import AdapterSpec
 from nlupdate.study.spec import Study, StudyError
 from nlupdate.study.steps.measured import measured_pair, model_pair
@@ -163,6 +164,25 @@ def reference_fit_frac(identification: Identification, modes: Sequence[int], fre
 def run_name(method: str, formula: str, parameter_set: Sequence[str]) -> str:
     """Name of an eigensensitivity run: method, formula and parameter set."""
     return f"{method} {FORMULA_LABELS[formula]} {{{', '.join(parameter_set)}}}"
+
+
+def run_names_explained(parameters: Sequence[Parameter], formulas: Sequence[str]) -> str:
+    """What the runs' names say, for a reader who meets them first: each parameter they
+    update (:meth:`~nlupdate.fe.adapters.base.Parameter.described`) and the O(·) of the
+    eigensensitivity ``formulas`` (:data:`~nlupdate.core.updating.sensitivity.ORDER_MEANING`)."""
+    orders = order_labels(formulas)
+    return "; ".join(part for part in (
+        "parameters " + ", ".join(p.described() for p in parameters) if parameters else "",
+        f"{', '.join(orders)}: {ORDER_MEANING}" if orders else "") if part)
+
+
+def updating_intro(study: Study, runs: Sequence[UpdatingRun]) -> str:
+    """The line before the updating runs: how many, and what their names say
+    (:func:`run_names_explained`)."""
+    updated = {p.name: p for run in runs for p in run.parameters}
+    formulas = [run.options.formula for run in runs if run.method == "eigensensitivity"]
+    explained = run_names_explained(list(updated.values()), formulas)
+    return f"{len(runs)} run{'' if len(runs) == 1 else 's'}" + (f"; {explained}" if explained else "")
 
 
 def held_at_start(study: Study, updated: Sequence[str]) -> dict[str, float]:
