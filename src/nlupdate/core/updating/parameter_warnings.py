@@ -156,12 +156,12 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
         else:
             whose = "targets'" if plural else "target's"
             finest = min(np.asarray(target_std_hz, dtype=float)[i] / targets.frequencies_hz[i] for i in fitted)
+            tighten = (f"set [eigensensitivity] frequency_tolerance below {finest:.2g} (the targets' relative std)"
+                       if result.method == "eigensensitivity" else "tighten [optimisation] ftol and xtol")
             out.append(TrustWarning("targets", "stopped_short",
                                     f"stopped short of its target{plural}: {misses(fitted)}, within its stopping "
                                     f"tolerance but beyond the {whose} noise: one more step of {parameters} would "
-                                    f"meet {them}, and its ± is "
-                                    f"smaller than where it stopped; tighten its tolerance below {finest:.2g} (relative "
-                                    "frequency error, e.g. [eigensensitivity] frequency_tolerance)" + note, source))
+                                    f"meet {them}, and its ± is smaller than where it stopped; {tighten}" + note, source))
     if unfitted:
         plural = "s" if len(unfitted) > 1 else ""
         out.append(TrustWarning("targets", "unfitted_target_missed",
