@@ -289,8 +289,9 @@ def write_archive(result, final: str | Path, run: Mapping[str, Any], on_exists: 
                   figures: FigureKeeper | None = None) -> Path:
     """Write the archive of ``result`` to ``final`` (atomically); returns the folder.
 
-    ``run``: how the run went (``started_utc``, ``finished_utc``, ``wall_time_s``,
-    ``orchestration``, flow-run id, tasks computed vs cached, …) for the manifest.
+    ``run``: how the run went (``started_utc``, ``finished_utc``, ``wall_time_s`` — the wall time
+    of its steps, from the first to the last: not starting the Prefect server, not writing this
+    archive —, ``orchestration``, flow-run id, tasks computed vs cached, …) for the manifest.
     ``on_exists`` as for :func:`~nlupdate.files.atomic_directory`; ``figures``: the figures
     an earlier run of the same results drew (:class:`FigureKeeper`), else every one is drawn.
     """

@@ -5,15 +5,13 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from nlupdate.reporting.markdown import markdown_table, number
+from nlupdate.reporting.markdown import markdown_table, number, run_line
 
 
 def discovery_markdown(result, manifest: Mapping[str, Any]) -> str:
     """The report of a :class:`~nlupdate.core.discovery.workflow.DiscoveryResult`."""
-    run = manifest.get("run", {})
     lines = [f"# Discovery: `{manifest['inputs']['model']['file']}` against `{manifest['inputs']['measured']['file']}`", "",
-             f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
-             f"{number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", "", "## Summary", ""]
+             run_line(manifest), "", "## Summary", ""]
     if result.effects:
         for i, effect in enumerate(result.effects, start=1):
             values = ", ".join(f"{k} = {number(v)}" for k, v in effect.parameters.items())

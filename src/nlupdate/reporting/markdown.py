@@ -1,7 +1,9 @@
-"""Markdown building blocks of the reports: numbers to a few significant digits, tables."""
+"""Markdown building blocks of the reports: numbers to a few significant digits, tables,
+the line on the run."""
 from __future__ import annotations
 
-from typing import Any
+import datetime as dt
+from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
@@ -24,3 +26,19 @@ def markdown_table(frame: pd.DataFrame, digits: int = 4) -> str:
     rule = "|" + "---|" * len(frame.columns)
     rows = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
     return "\n".join([header, rule, *rows])
+
+
+def run_line(manifest: Mapping[str, Any]) -> str:
+    """The report's line on the run: its id, when it started (UTC), how long its steps took
+    and how it was run. The manifest's ``run.wall_time_s`` is the wall time from the first
+    step to the last, as the flows and ``nlupdate update`` measure it: starting the Prefect
+    server and writing the archive are not in it, and the line says so."""
+    run = manifest.get("run", {})
+    try:
+        started = dt.datetime.fromisoformat(run["started_utc"]).astimezone(dt.timezone.utc)
+        started_text = f"{started:%Y-%m-%d %H:%M:%S} UTC"
+    except (KeyError, TypeError, ValueError):
+        started_text = "?"
+    return (f"Run `{manifest['run_id']}`, started {started_text}; its steps took "
+            f"{number(run.get('wall_time_s', float('nan')), 3)} s (wall clock; not counting starting the Prefect "
+            f"server or writing this archive); {run.get('orchestration', '')}.")

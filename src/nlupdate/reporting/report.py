@@ -19,11 +19,14 @@ import pandas as pd
 from nlupdate.reporting.amplitude_report import amplitude_section, amplitude_summary, amplitude_warnings
 from nlupdate.reporting.fe_validation_report import fe_validation_section, fe_validation_summary
 from nlupdate.reporting.identification_report import identification_section
-from nlupdate.reporting.markdown import markdown_table, number
+from nlupdate.reporting.markdown import markdown_table, number, run_line
 from nlupdate.reporting.validation_text import (error_cells, held_type_section, held_type_summary, in_band_cell,
                                                 repeatability_line, said_markdown, summary_headline)
 from nlupdate.core.measurement.units import table_reference_unit
+from nlupdate.core.correlation.metrics import FRAC_MEANING
+from nlupdate.core.identification.methods import METHODS
 from nlupdate.core.response.method import describe
+from nlupdate.core.updating.sensitivity import FORMULA_LABELS, ORDER_MEANING, order_labels
 from nlupdate.core.updating.runs import best_ranked
 
 UNCERTAINTY_NOTE = ("± is one standard deviation (Monte Carlo over the measurement-noise model for identified values; "
@@ -39,6 +42,37 @@ def _plot_files(plots: Mapping[str, str]) -> list[str]:
 
 #: why an updated parameter has no ± (the table's note and the summary say it)
 NO_TARGET_STD = "no uncertainty: the targets state no std_hz"
+#: what the "Nσ off" beside a value and its truth says (:func:`_with_truth`)
+SIGMA_OFF_MEANING = "the truth lies N standard deviations (N times the ±) from the value"
+
+
+def formula_orders(names) -> list[str]:
+    """The O(·) of the difference formulas the run ``names`` mention, lowest order first."""
+    return order_labels([f for f, label in FORMULA_LABELS.items() if any(label in name for name in names)])
+
+
+def terms_line(result, text: str) -> str:
+    """``Terms: …``: what the words of ``text`` (the summary) that a new reader cannot know
+    stand for, each from its owner: the identification method's name
+    (:data:`~nlupdate.core.identification.methods.METHODS`), an updating parameter's
+    ``description`` (``[[parameters]]``), a difference formula's O(·)
+    (:data:`~nlupdate.core.updating.sensitivity.ORDER_MEANING`), "σ off" and FRAC; '' when
+    it uses none of them."""
+    terms = []
+    ident = result.identification
+    if ident is not None and ident.settings.method.upper() in text:
+        terms.append(f"{ident.settings.method.upper()} = {METHODS[ident.settings.method].long_name} "
+                     "(the identification method)")
+    terms += [f"{p.name} = {p.description}" for p in result.study.parameters
+              if p.description and f"{p.name} = " in text]
+    orders = formula_orders([text])
+    if orders:
+        terms.append(f"{', '.join(orders)} = {ORDER_MEANING}")
+    if "σ off" in text:
+        terms.append(f"Nσ off = {SIGMA_OFF_MEANING}")
+    if "FRAC" in text:
+        terms.append(f"FRAC = {FRAC_MEANING}")
+    return "Terms: " + "; ".join(terms) + "." if terms else ""
 
 
 def _with_truth(value: float, std: float | None, truth: float | None, scale: float = 1.0, unit: str = "",
@@ -61,19 +95,20 @@ def report_markdown(result, manifest: Mapping[str, Any], plots: Mapping[str, str
     maps plot keys to their paths relative to the archive."""
     study = result.study
     truth = study.hidden_truth
-    run = manifest.get("run", {})
     lines = [f"# Study `{study.name}`", ""]
     if study.description:
         lines += [study.description, ""]
-    lines += [f"Run `{manifest['run_id']}`, started {run.get('started_utc', '?')}, wall time "
-              f"{number(run.get('wall_time_s', float('nan')), 3)} s; {run.get('orchestration', '')}.", ""]
+    lines += [run_line(manifest), ""]
 
     lines += ["## Summary", ""]
     headline = none_converged_line(result.runs)
     lines += [f"**{headline[0]}**{headline[1]}", ""] if headline else []
-    lines += _warning_lines(result)
+    warned = _warning_lines(result)
+    lines += warned
     summary = _summary_lines(result, truth)
     lines += summary or ["(nothing was computed)"]
+    terms = terms_line(result, "\n".join(warned + summary))
+    lines += ["", terms] if terms else []
     lines += [""] + ([f"_{UNCERTAINTY_NOTE}._", ""] if result.identification is not None or result.runs else [])
     if result.failures:
         lines += ["**Failed updating runs** (the others finished):", ""]
@@ -278,6 +313,11 @@ def _targets_section(result) -> list[str]:
 
 def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, str]) -> list[str]:
     lines = ["## Updating", ""]
+    updated = [p for p in result.study.parameters if any(p.name in run.parameters for run in result.runs)]
+    orders = formula_orders([run.name for run in result.runs if run.method == "eigensensitivity"])
+    lines += [("An eigensensitivity run is named by its difference formula — " + ", ".join(orders)
+               + f" = {ORDER_MEANING} — and the parameters it updates, in braces. " if orders else "")
+              + "Parameters: " + ", ".join(p.described() for p in updated) + ".", ""]
     rows, without_std = [], False
     for run in result.runs:
         u = result.uncertainties.get(run.name)

@@ -23,6 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from nlupdate.core.measurement.noise import smooth_inverse_receptance
 
 
+#: What FRAC is, for a reader who meets the word.
+FRAC_MEANING = "frequency response assurance criterion (1 = identical curve shapes)"
+
+
 def frac(h_measured: ArrayLike, h_model: ArrayLike) -> float:
     """FRAC ``|H_Xᴴ H_A|² / ((H_Xᴴ H_X)(H_Aᴴ H_A))`` (0..1) of two FRFs on the same grid.
 
