@@ -31,6 +31,7 @@ import pytest
 from nlupdate.files import HOST, atomic_directory
 from nlupdate.orchestration.flows.liveness import owner
 from nlupdate.reporting.catalogue import find_runs
+from patience import HANG_S
 from prefect_settings import talking_to
 from studies import two_dof_study, write_study
 
@@ -83,7 +84,7 @@ class Run:
 
     def kill(self) -> None:
         os.killpg(self.process.pid, signal.SIGKILL)
-        self.process.wait(timeout=30)  # reaped: its pid names no process any more
+        self.process.wait(timeout=HANG_S)  # reaped: its pid names no process any more
         self._drain()
 
     def finish(self, timeout_s: float) -> tuple[int, str]:
@@ -152,7 +153,7 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     study, results, cache = study_file(tmp_path), tmp_path / "results", tmp_path / "cache"
     killed = Run(study, results, cache, prefect_server, tmp_path)
     # two updating runs finished (their i/N is the order they finished, not of their lines)
-    killed.wait_for(r"^updating: .* \(\d+/\d+\): .* — computed", timeout_s=90, count=2)
+    killed.wait_for(r"^updating: .* \(\d+/\d+\): .* — computed", timeout_s=300, count=2)
     killed.kill()
     finished_before = {step for step, state in outcomes(killed.lines).items() if state == "computed"}
     assert {"measured data", "identification", "targets"} <= finished_before and len(finished_before) >= 5, killed.lines
@@ -164,7 +165,7 @@ def test_a_run_killed_mid_sweep_resumes_from_the_cache_and_leaves_one_archive(tm
     assert_no_record_is_truncated(cache)
 
     again = Run(study, results, cache, prefect_server, tmp_path)
-    code, stderr = again.finish(timeout_s=180)
+    code, stderr = again.finish(timeout_s=600)
     assert code == 0, (stderr, again.lines)
     resumed = outcomes(again.lines)
     assert {step: resumed[step] for step in finished_before} == {step: "cached" for step in finished_before}, again.lines
@@ -199,7 +200,7 @@ def test_two_runs_of_one_study_at_once_both_finish_with_equal_results(tmp_path, 
     study, results, cache = study_file(tmp_path), tmp_path / "results", tmp_path / "cache"
     runs = [Run(study, results, cache, prefect_server, tmp_path) for _ in range(2)]
     for run in runs:
-        code, stderr = run.finish(timeout_s=240)
+        code, stderr = run.finish(timeout_s=600)
         assert code == 0, (stderr, run.lines)
     first, second = complete_archives(results)
     assert first.name != second.name
@@ -225,7 +226,7 @@ def test_two_archives_finishing_at_once_under_one_name_both_survive(tmp_path, mo
     next free name instead of failing (ENOTEMPTY) and losing its archive."""
     import nlupdate.files as files
 
-    original, barrier, seen = files._free_name, threading.Barrier(2, timeout=10), threading.local()
+    original, barrier, seen = files._free_name, threading.Barrier(2, timeout=HANG_S), threading.local()
 
     def both_look_first(final):
         name = original(final)
@@ -259,7 +260,9 @@ def test_two_archives_finishing_at_once_under_one_name_both_survive(tmp_path, mo
 RACING_WRITER = textwrap.dedent("""
     import sys, time
     from nlupdate.files import atomic_directory
-    final, start, index = sys.argv[1], float(sys.argv[2]), sys.argv[3]
+    final, index = sys.argv[1], sys.argv[2]
+    print("ready", flush=True)
+    start = float(sys.stdin.readline())  # one moment for all writers, told once all have started
     for round in range(15):
         with atomic_directory(f"{final}-round{round}") as archive:
             (archive.path / "manifest.json").write_text(index)
@@ -269,12 +272,26 @@ RACING_WRITER = textwrap.dedent("""
 
 
 def test_processes_racing_for_one_archive_name_all_succeed(tmp_path):
-    final, start = tmp_path / "study" / "20260101T000000Z-abcdef12", time.time() + 1.5
-    writers = [subprocess.Popen([sys.executable, "-c", RACING_WRITER, str(final), str(start), str(i)],
-                                stderr=subprocess.PIPE, text=True) for i in range(4)]
-    for writer in writers:
-        _, stderr = writer.communicate(timeout=60)
-        assert writer.returncode == 0, stderr
+    """Four processes write archives under the same names, round after round, from one
+    moment on (told once all four have started: a start-up slower than a fixed head start
+    on a loaded machine left a writer out of the race)."""
+    final = tmp_path / "study" / "20260101T000000Z-abcdef12"
+    writers = [subprocess.Popen([sys.executable, "-c", RACING_WRITER, str(final), str(i)], stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in range(4)]
+    try:
+        for writer in writers:
+            assert writer.stdout.readline().strip() == "ready", writer.communicate()
+        start = time.time() + 0.2
+        for writer in writers:
+            writer.stdin.write(f"{start!r}\n")
+            writer.stdin.flush()
+        for writer in writers:
+            _, stderr = writer.communicate(timeout=HANG_S)
+            assert writer.returncode == 0, stderr
+    finally:
+        for writer in writers:
+            writer.kill()
+            writer.wait()
     for round in range(15):
         base = f"{final.name}-round{round}"
         names = sorted(p.name for p in final.parent.iterdir() if p.name == base or p.name.startswith(base + "-"))
@@ -290,7 +307,7 @@ CACHE_WRITER = textwrap.dedent("""
     import sys
     from pathlib import Path
     from prefect import task
-    from prefect.results import ResultStore, resolve_result_storage
+    from prefect.results import ResultStore
     from nlupdate.orchestration.tasks.cached import configured
 
     @task
@@ -298,8 +315,8 @@ CACHE_WRITER = textwrap.dedent("""
         pass
 
     configured_step = configured(step, Path(sys.argv[1]))
-    store = ResultStore(result_storage=resolve_result_storage(configured_step.result_storage),
-                        serializer=configured_step.result_serializer, cache_result_in_memory=False)
+    store = ResultStore(result_storage=configured_step.result_storage, serializer=configured_step.result_serializer,
+                        cache_result_in_memory=False)
     print("writing", flush=True)
     for i in range(10**9):
         store.write(obj=b"x" * (300_000 if i % 2 else 1_000), key="record")
@@ -315,7 +332,7 @@ def test_a_record_rewritten_by_another_run_is_never_read_half_written(tmp_path):
     one checks and reads it, as Prefect does for a cached task: Prefect's own local storage
     truncates the file first, so the read fails now and then (a cached task run failing)."""
     from prefect import task
-    from prefect.results import ResultStore, resolve_result_storage
+    from prefect.results import ResultStore
 
     from nlupdate.orchestration.tasks.cached import configured
 
@@ -323,10 +340,13 @@ def test_a_record_rewritten_by_another_run_is_never_read_half_written(tmp_path):
     def step():
         pass
 
-    # the storage the study's tasks write their results with
+    # the storage the study's tasks write their results with: a block, which Prefect's
+    # resolve_result_storage returns as it is, after starting a client, and with no API
+    # named, an ephemeral Prefect server, which a loaded machine did not start within
+    # Prefect's 20 s (in this process and in the writer's)
     configured_step = configured(step, tmp_path)
-    store = ResultStore(result_storage=resolve_result_storage(configured_step.result_storage),
-                        serializer=configured_step.result_serializer, cache_result_in_memory=False)
+    store = ResultStore(result_storage=configured_step.result_storage, serializer=configured_step.result_serializer,
+                        cache_result_in_memory=False)
     store.write(obj=b"x" * 1_000, key="record")
     writer = subprocess.Popen([sys.executable, "-c", CACHE_WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True)
     try:
@@ -388,7 +408,7 @@ def test_a_writer_killed_mid_write_leaves_the_record_whole_and_its_leftover_is_c
     writer = subprocess.Popen([sys.executable, "-c", KILLED_CACHE_WRITER, str(tmp_path)], stdout=subprocess.PIPE, text=True)
     assert writer.stdout.readline().strip() == "written"
     writer.send_signal(signal.SIGKILL)
-    writer.wait(timeout=10)
+    writer.wait(timeout=HANG_S)
     leftovers = [p.name for p in records.iterdir() if p.name.startswith(".")]
     assert len(leftovers) == 1 and f"-{writer.pid}-" in leftovers[0], leftovers
     assert ResultStore(result_storage=storage, serializer=serializer).read("record").result == "old"
@@ -488,7 +508,8 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
     def a_task():
         pass
 
-    dead, live = dead_pid(), subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    # live and late are killed at the end; they must outlive the test's API calls on a loaded machine
+    dead, live = dead_pid(), subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
     late = None
     said: list[str] = []
     try:
@@ -510,7 +531,7 @@ def test_runs_of_a_dead_process_are_marked_crashed_and_live_ones_left_alone(pref
             # created (scheduled) long before the process that runs it started: not a reused pid
             scheduled = client.create_flow_run(a_flow, state=Pending())
             time.sleep(REUSED_PID_SLACK_S + 0.5)
-            late = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+            late = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
             client.set_flow_run_state(scheduled.id, Running())
             client.update_flow_run(scheduled.id, infrastructure_pid=owner(late.pid))
 
