@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 import prefect_home
+from patience import HANG_S
 from studies import two_dof_study, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -132,8 +133,8 @@ def test_ctrl_c_during_a_prefect_run_stops_within_seconds(tmp_path, prefect_serv
     env = {**os.environ, "PREFECT_API_URL": prefect_server}
     study = write_study(tmp_path / "study.toml", long_study())
     process = start("run", study, "--workers", "2", "--out", tmp_path / "results", cwd=tmp_path, env=env)
-    wait_for_line(process, "tasks on 2 threads", timeout_s=60)
-    time.sleep(1)
+    wait_for_line(process, "tasks on 2 threads", timeout_s=300)
+    wait_for_line(process, "computed in", timeout_s=300)  # a step has finished: the flow's tasks are running
     code, stderr, seconds = interrupt(process)
     assert code == 130, (code, seconds, stderr)
     assert stderr.strip().splitlines() == [f"nlupdate run: interrupted; no archive was written to "
@@ -176,15 +177,17 @@ def started_run(tmp_path: Path) -> tuple[subprocess.Popen, int, int]:
     process = subprocess.Popen([sys.executable, "-m", "nlupdate", "run", str(study), "--out", str(tmp_path / "results")],
                                cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                start_new_session=True)
-    lines = wait_for_line(process, "Prefect server: http://127.0.0.1:", timeout_s=120)
+    lines = wait_for_line(process, "Prefect server: http://127.0.0.1:", timeout_s=300)
     port = int(lines[-1].split("127.0.0.1:")[1].split("/")[0])
-    wait_for_line(process, "tasks on", timeout_s=60)
+    wait_for_line(process, "tasks on", timeout_s=300)
     servers = children(process.pid)
     assert len(servers) == 1 and listening(port), servers
     return process, servers[0], port
 
 
-def ends_soon(pid: int, port: int, timeout_s: float = 15) -> bool:
+def ends_soon(pid: int, port: int, timeout_s: float = HANG_S) -> bool:
+    """Whether the server ``pid`` on ``port`` ends (``timeout_s`` only ends a wait for what
+    will not happen)."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if gone(pid) and not listening(port):
@@ -213,13 +216,13 @@ def test_sigterm_to_the_process_group_of_a_run_ends_it(tmp_path, whom):
     the first SIGTERM starts the deadline whoever handles it. The run is bounded generously (60 s): the test
     asserts that it ends, with its one line and 143, not how fast."""
     process, server, port = started_run(tmp_path)
-    wait_for_line(process, "computed in", timeout_s=120)  # a step has finished: the flow is running
+    wait_for_line(process, "computed in", timeout_s=300)  # a step has finished: the flow is running
     if whom == "group":
         assert os.getpgid(server) != os.getpgid(process.pid), "the server is in the run's process group"
         os.killpg(process.pid, signal.SIGTERM)
     else:  # as a scheduler may, in any order: here the run's API is surely gone when it is told
         os.kill(server, signal.SIGTERM)
-        assert ends_soon(server, port, timeout_s=30)
+        assert ends_soon(server, port)
         process.send_signal(signal.SIGTERM)
     try:
         _, stderr = process.communicate(timeout=60)
@@ -333,7 +336,7 @@ def test_a_killed_run_leaves_no_server_running(tmp_path):
     process, and the server, used by no run, stops (after its keep time, 0 here)."""
     process, server, port = started_run(tmp_path)
     process.send_signal(signal.SIGKILL)
-    process.wait(timeout=30)
+    process.wait(timeout=HANG_S)
     assert ends_soon(server, port), "the temporary Prefect server outlived its killed run"
 
 
@@ -363,7 +366,7 @@ KILLED_WRITER = textwrap.dedent("""
         with atomic_directory(sys.argv[1] + "/ident") as folder:
             (folder.path / "identification.json").write_text("{")
             print("writing", flush=True)
-            time.sleep(60)
+            time.sleep(600)  # killed by the test: it must outlive the command run beside it
 """)
 
 
@@ -373,7 +376,7 @@ def test_leftovers_of_a_killed_run_are_removed_and_reported_by_the_next(tmp_path
     writer = subprocess.Popen([sys.executable, "-c", KILLED_WRITER, str(out)], stdout=subprocess.PIPE, text=True)
     assert writer.stdout.readline().strip() == "writing"
     writer.send_signal(signal.SIGKILL)
-    writer.wait(timeout=10)
+    writer.wait(timeout=HANG_S)
     leftovers = sorted(p.name for p in out.iterdir())
     assert len(leftovers) == 2 and all(name.startswith(".") and f"-{writer.pid}-" in name for name in leftovers)
 
