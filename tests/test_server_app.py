@@ -107,7 +107,9 @@ def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypat
     started = time.monotonic()
     with pytest.raises(sqlite3.OperationalError, match="database is locked") as refused:
         writer.execute("INSERT INTO runs VALUES ('COMPLETED')")
-    assert 1.5 < time.monotonic() - started < 10
+    # waited for the lock (not refused at once), and not Prefect's 60 s: the bound only tells the two
+    # apart (the PRAGMA above is the exact check), with room for a loaded machine
+    assert 1.5 < time.monotonic() - started < 30
     assert is_client_retryable_exception(sqlalchemy.exc.OperationalError("INSERT", {}, refused.value))
     holder.execute("COMMIT")
     writer.execute("INSERT INTO runs VALUES ('COMPLETED')")  # the retry gets through
