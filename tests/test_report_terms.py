@@ -16,6 +16,7 @@ from nlupdate.core.correlation.metrics import FRAC_MEANING
 from nlupdate.core.identification.methods import METHODS
 from nlupdate.core.updating.sensitivity import ORDER_MEANING
 from nlupdate.reporting.archive import write_archive
+from nlupdate.reporting.markdown import run_line
 from nlupdate.reporting.report import SIGMA_OFF_MEANING, summary_section, terms_line
 from nlupdate.study import run_study, study_from_text
 from studies import small_two_dof_study, study_text
@@ -43,8 +44,8 @@ def test_the_updating_runs_are_introduced_and_the_summary_explains_its_terms(ran
     folder = write_archive(result, tmp_path / "archive", {"started_utc": "2026-11-30T00:38:53.685259+00:00",
                                                           "wall_time_s": 23.43, "orchestration": "test"})
     report = (folder / "report.md").read_text()
-    assert ("started 2026-11-30 00:38:53 UTC; its steps took 23.4 s (wall clock; not counting starting the Prefect "
-            "server or writing this archive); test.") in report
+    assert "started 2026-11-30 00:38:53 UTC; its steps took 23.4 s (wall clock; not counting writing this archive); " \
+           "test." in report
     terminal = summary_section(report).splitlines()
     (terms,) = [line for line in terminal if line.startswith("Terms: ")]
     # the best run is an eigensensitivity run updating k1, identified by PRD; the
@@ -57,6 +58,17 @@ def test_the_updating_runs_are_introduced_and_the_summary_explains_its_terms(ran
     assert updating.lstrip().startswith(f"An eigensensitivity run is named by its difference formula — O(h) = "
                                         f"{ORDER_MEANING} — and the parameters it updates, in braces. "
                                         f"Parameters: k1 ({K1}, N/m).")
+
+
+def test_the_run_line_says_what_its_time_counts():
+    """The flows stop the clock before writing the archive, after the server started: a
+    flow run's line leaves both out, a run in one process (no flow run) the archive."""
+    run = {"started_utc": "2026-11-30T01:06:26.5+01:00", "wall_time_s": 71.34, "orchestration": "Prefect flow"}
+    assert run_line({"run_id": "r", "run": {**run, "flow_run_id": "abc"}}) == (
+        "Run `r`, started 2026-11-30 00:06:26 UTC; its steps took 71.3 s (wall clock; not counting starting the "
+        "Prefect server or writing this archive); Prefect flow.")
+    assert "(wall clock; not counting writing this archive)" in run_line({"run_id": "r", "run": run})
+    assert run_line({"run_id": "r", "run": {}}).startswith("Run `r`, started ?; its steps took – s")
 
 
 def test_a_term_the_text_does_not_use_is_not_explained(ran):

@@ -31,14 +31,17 @@ def markdown_table(frame: pd.DataFrame, digits: int = 4) -> str:
 def run_line(manifest: Mapping[str, Any]) -> str:
     """The report's line on the run: its id, when it started (UTC), how long its steps took
     and how it was run. The manifest's ``run.wall_time_s`` is the wall time from the first
-    step to the last, as the flows and ``nlupdate update`` measure it: starting the Prefect
-    server and writing the archive are not in it, and the line says so."""
+    step to the last, as the flows and ``nlupdate update`` measure it: writing the archive
+    is not in it, nor, for a Prefect flow run (one with a ``flow_run_id``), starting the
+    Prefect server; the line says so."""
     run = manifest.get("run", {})
     try:
         started = dt.datetime.fromisoformat(run["started_utc"]).astimezone(dt.timezone.utc)
         started_text = f"{started:%Y-%m-%d %H:%M:%S} UTC"
     except (KeyError, TypeError, ValueError):
         started_text = "?"
+    left_out = "starting the Prefect server or writing this archive" if run.get("flow_run_id") \
+        else "writing this archive"
     return (f"Run `{manifest['run_id']}`, started {started_text}; its steps took "
-            f"{number(run.get('wall_time_s', float('nan')), 3)} s (wall clock; not counting starting the Prefect "
-            f"server or writing this archive); {run.get('orchestration', '')}.")
+            f"{number(run.get('wall_time_s', float('nan')), 3)} s (wall clock; not counting {left_out}); "
+            f"{run.get('orchestration', '')}.")
