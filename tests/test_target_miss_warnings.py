@@ -118,3 +118,37 @@ def test_a_run_that_did_not_converge_is_not_said_to_miss_its_targets_as_well():
     run = update(["k1"], truth, max_iterations=1)
     assert not run.converged
     assert kinds(updating_warnings(run, target_std_hz=1e-4 * truth)) == ["not_converged"]
+
+
+def test_a_study_says_it_once_for_the_runs_that_miss_alike_in_its_summary_table_and_terminal(tmp_path, capsys):
+    """Two central difference formulas on {k1} miss the same targets by the same σ: the summary's
+    Warnings give one line naming both runs (the demo's four {E} runs made four identical
+    lines), the updating table marks both, and ``nlupdate update`` prints that line before
+    the numbers; the {k1, k2, k3} runs meet the targets and are not named."""
+    import json
+
+    from nlupdate.app.cli import main
+    from nlupdate.reporting.report import summary_section
+    from studies import write_study
+
+    truth = chain_frequencies_hz(TRUTH)
+    study = {"study": {"name": "chain-misses"},
+             "adapter": {"kind": "lumped", "options": {"masses": MASSES, "stiffnesses": list(NOMINAL.values())}},
+             "parameters": [{"name": n, "unit": "N/m", "start": 1e6, "lower": 3e5, "upper": 3e6} for n in ("k1", "k2", "k3")],
+             "targets": {"frequencies_hz": [float(f) for f in truth], "std_hz": [float(s) for s in 1e-4 * truth]},
+             "eigensensitivity": {"formulas": ["central2", "central4"], "parameter_sets": [["k1"], ["k1", "k2", "k3"]],
+                                  "frequency_tolerance": 1e-8}}
+    out = tmp_path / "run"
+    assert main(["update", str(write_study(tmp_path / "study.toml", study)), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    missing = ["eigensensitivity central O(h²) {k1}", "eigensensitivity central O(h⁴) {k1}"]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert [(w["source"], w["kind"]) for w in manifest["warnings"]] == [(name, "targets_missed") for name in missing]
+    assert manifest["warnings"][0]["message"] == manifest["warnings"][1]["message"]
+    line = f"{'; '.join(missing)}: {manifest['warnings'][0]['message']}"
+    assert printed[0] == f"warning: {line}" and not any(l.startswith("warning: ") for l in printed[1:])
+    report = (out / "report.md").read_text()
+    assert f"Warnings (1: results not to be trusted as they stand):\n\n* {line}" in summary_section(report)
+    for name in missing:
+        assert re.search(rf"^\| {re.escape(name)} \| yes, misses its targets \(Warnings\) \|", report, re.MULTILINE)
+    assert re.search(r"^\| eigensensitivity central O\(h²\) \{k1, k2, k3\} \| yes \|", report, re.MULTILINE)

@@ -179,7 +179,19 @@ def study_warning_lines(result) -> list[str]:
     study's (``result.warnings``), then the validation's and the amplitude model's
     (:func:`step_warnings`: every one — the validation's first alone, with how many more, hid an
     extrapolation behind the line saying which bands test nothing)."""
-    return [str(w) for w in result.warnings] + [f"{w['source']}: {w['message']}" for w in step_warnings(result)]
+    return warning_texts(result.warnings) + [f"{w['source']}: {w['message']}" for w in step_warnings(result)]
+
+
+def warning_texts(warnings) -> list[str]:
+    """One line per distinct warning message, the sources that share it named together
+    (the four difference formulas of one parameter set miss their targets alike), in the
+    order the warnings first appear."""
+    sources: dict[str, list[str]] = {}
+    for w in warnings:
+        sources.setdefault(w.message, [])
+        if w.source and w.source not in sources[w.message]:
+            sources[w.message].append(w.source)
+    return [f"{'; '.join(names)}: {message}" if names else message for message, names in sources.items()]
 
 
 def step_warnings(result) -> list[dict[str, str]]:
@@ -202,8 +214,9 @@ def _warning_lines(result) -> list[str]:
     warnings = result.warnings
     if not warnings:
         return []
-    lines = [f"**Warnings** ({len(warnings)}: results not to be trusted as they stand):", ""]
-    lines += [f"* {w.source}: {w.message}" if w.source else f"* {w.message}" for w in warnings]
+    texts = warning_texts(warnings)
+    lines = [f"**Warnings** ({len(texts)}: results not to be trusted as they stand):", ""]
+    lines += [f"* {text}" for text in texts]
     return lines + [""]
 
 
@@ -327,6 +340,9 @@ def _updating_section(result, truth: Mapping[str, float], plots: Mapping[str, st
         converged = "yes" if run.converged else f"no ({run.stop if on_bound else run.reason})"
         if on_bound:
             converged += f", on the bound of {', '.join(on_bound)}"
+        kinds = {w.kind for w in result.warnings if w.source == run.name}
+        converged += ", misses its targets (Warnings)" if "targets_missed" in kinds else ""
+        converged += ", stopped short of its targets (Warnings)" if "stopped_short" in kinds else ""
         rows.append({
             "run": run.name, "converged": converged, "iterations": run.iterations,
             "FE runs new/cached": f"{run.counts['new']}/{run.counts['cached']}",
