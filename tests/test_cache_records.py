@@ -20,6 +20,7 @@ from nlupdate.fe.adapters.base import ModalResult
 from nlupdate.notices import NlupdateWarning
 from nlupdate.orchestration.tasks import records
 from nlupdate.orchestration.tasks.store import RECORDS_FOLDER, sign, verified
+from patience import HANG_S
 from prefect_settings import talking_to
 
 
@@ -130,7 +131,7 @@ def test_a_fifo_as_the_cache_secret_is_refused_without_blocking(tmp_path, monkey
 
     reader = threading.Thread(target=read_secret, daemon=True)
     reader.start()
-    reader.join(timeout=20)
+    reader.join(timeout=HANG_S)  # a refusal returns at once; only a blocked open() waits this out
     if reader.is_alive():  # release the blocked open: a writer arrives, and closes at once
         os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
         reader.join(timeout=20)

@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 
 import pytest
+from patience import HANG_S
 
 from nlupdate.app.cli import main
 from nlupdate.input_files import MAX_INPUT_ENV, InputFileError, read_input_bytes, read_input_text
@@ -78,7 +79,7 @@ def test_a_fifo_is_refused_instead_of_waiting_for_a_writer(tmp_path):
     outcome: list[BaseException | bytes] = []
     reader = threading.Thread(target=lambda: outcome.append(_catch(read_input_bytes, fifo)), daemon=True)
     reader.start()
-    reader.join(5)
+    reader.join(HANG_S)  # a refusal returns at once; only a blocked open() waits this out
     if reader.is_alive():  # it blocked in open(): release it before failing
         with open(fifo, "wb"):
             pass
