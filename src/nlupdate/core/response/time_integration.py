@@ -37,7 +37,9 @@ from numpy.typing import ArrayLike, NDArray
 from nlupdate.core.model.system import NonlinearSystem
 from nlupdate.progress import ProgressCallback, no_progress
 from nlupdate.core.response.time_operators import Operators, TimeIntegrationError
-from nlupdate.core.response.time_stepping import Batch, check_omega, check_options, forcing_matrix, integrate, start_batch
+from nlupdate.core.response.time_stepping import (
+    DEFAULT_INTEGRATION, Batch, IntegrationOptions, check_omega, forcing_matrix, integrate, start_batch,
+)
 
 __all__ = ["SteadyStateResult", "TimeIntegrationError", "TimeSweepResult", "steady_state_response", "time_sweep"]
 
@@ -114,11 +116,11 @@ def steady_state_response(
     omega: ArrayLike,
     *,
     initial: ArrayLike | None = None,
-    tolerance: float = 1e-6,
-    max_periods: int = 2000,
-    steps_per_period: int = 64,
-    settle_periods: int = 3,
-    courant: float = 1.0,
+    tolerance: float = DEFAULT_INTEGRATION.tolerance,
+    max_periods: int = DEFAULT_INTEGRATION.max_periods,
+    steps_per_period: int = DEFAULT_INTEGRATION.steps_per_period,
+    settle_periods: int = DEFAULT_INTEGRATION.settle_periods,
+    courant: float = DEFAULT_INTEGRATION.courant,
     keep_history: bool = False,
 ) -> SteadyStateResult:
     """Steady-state first harmonics of many cases by time integration (all cases at once).
@@ -149,21 +151,12 @@ def steady_state_response(
     keep_history:
         Also return the displacement and velocity samples of the last period.
     """
-    check_options(tolerance, max_periods, steps_per_period, settle_periods, courant)
+    options = IntegrationOptions(tolerance, max_periods, steps_per_period, settle_periods, courant)
     omega = check_omega(omega, "omega")
     ops = Operators(system)
     forced, force = forcing_matrix(system, forcing, omega.size)
     batch = start_batch(system, ops, omega, forced, force, initial)
-    out, _ = integrate(
-        ops,
-        batch,
-        tolerance=tolerance,
-        max_periods=max_periods,
-        steps_per_period=steps_per_period,
-        settle_periods=settle_periods,
-        courant=courant,
-        keep_history=keep_history,
-    )
+    out, _ = integrate(ops, batch, options, keep_history)
     return SteadyStateResult(omega=omega, **out)
 
 
@@ -175,11 +168,11 @@ def time_sweep(
     *,
     initial: ArrayLike | None = None,
     jump_threshold: float = 0.25,
-    tolerance: float = 1e-6,
-    max_periods: int = 2000,
-    steps_per_period: int = 64,
-    settle_periods: int = 3,
-    courant: float = 1.0,
+    tolerance: float = DEFAULT_INTEGRATION.tolerance,
+    max_periods: int = DEFAULT_INTEGRATION.max_periods,
+    steps_per_period: int = DEFAULT_INTEGRATION.steps_per_period,
+    settle_periods: int = DEFAULT_INTEGRATION.settle_periods,
+    courant: float = DEFAULT_INTEGRATION.courant,
     progress: ProgressCallback = no_progress,
 ) -> TimeSweepResult:
     """Stepped-sine test in the time domain: one frequency after the other, state carried over.
@@ -210,7 +203,7 @@ def time_sweep(
         raise TimeIntegrationError(f"direction: expected 'up' or 'down', got {direction!r}")
     if not (0 < jump_threshold < 1):
         raise TimeIntegrationError(f"jump_threshold: expected a relative change in (0, 1), got {jump_threshold}")
-    check_options(tolerance, max_periods, steps_per_period, settle_periods, courant)
+    options = IntegrationOptions(tolerance, max_periods, steps_per_period, settle_periods, courant)
     grid = np.sort(check_omega(omega_grid, "omega_grid"))
     ops = Operators(system)
     forced, force = forcing_matrix(system, forcing, grid.size)
@@ -221,14 +214,6 @@ def time_sweep(
     periods = np.zeros(grid.size, np.int64)
     ratio = np.full((grid.size, ops.n_dof), np.nan)
     jumps: list[float] = []
-    options = dict(
-        tolerance=tolerance,
-        max_periods=max_periods,
-        steps_per_period=steps_per_period,
-        settle_periods=settle_periods,
-        courant=courant,
-        keep_history=False,
-    )
 
     def dwell(index: int, start: dict | None):
         w = grid[index : index + 1]
@@ -248,7 +233,7 @@ def time_sweep(
                 previous=None,
                 streak=np.zeros(1, np.int64),
             )
-        return integrate(ops, batch, **options)
+        return integrate(ops, batch, options, keep_history=False)
 
     def differ(a: NDArray, b: NDArray) -> bool:
         scale = max(np.linalg.norm(a), np.linalg.norm(b))

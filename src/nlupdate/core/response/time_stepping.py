@@ -236,21 +236,13 @@ def _harmonic_ratio(first: NDArray, mean: NDArray, square: NDArray) -> NDArray:
         return np.where(first_power > 0, np.sqrt(rest / first_power), np.where(rest > 0, np.inf, 0.0))
 
 
-def integrate(
-    ops: Operators,
-    batch: Batch,
-    *,
-    tolerance: float,
-    max_periods: int,
-    steps_per_period: int,
-    settle_periods: int,
-    courant: float,
-    keep_history: bool,
-):
+def integrate(ops: Operators, batch: Batch, options: IntegrationOptions, keep_history: bool):
     """Period-by-period integration of a batch until every case converged or stopped.
 
     Returns the result fields (without omega) and the final state of every case.
     """
+    tolerance, max_periods, settle_periods = options.tolerance, options.max_periods, options.settle_periods
+    steps_per_period, courant = options.steps_per_period, options.courant
     n_total, n_dof = batch.index.size, ops.n_dof
     out = {
         "x": np.full((n_total, n_dof), np.nan + 0j),
@@ -319,6 +311,23 @@ def integrate(
     return out, final
 
 
+@dataclass(frozen=True)
+class IntegrationOptions:
+    """How a case is integrated and when it counts as settled: the options of
+    :func:`~nlupdate.core.response.time_integration.steady_state_response` and
+    :func:`~nlupdate.core.response.time_integration.time_sweep` (meanings in the former's
+    docstring), with their defaults; checked on construction (:func:`check_options`)."""
+
+    tolerance: float = 1e-6
+    max_periods: int = 2000
+    steps_per_period: int = 64
+    settle_periods: int = 3
+    courant: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_options(self.tolerance, self.max_periods, self.steps_per_period, self.settle_periods, self.courant)
+
+
 def check_options(
     tolerance: float, max_periods: int, steps_per_period: int, settle_periods: int, courant: float
 ) -> None:
@@ -334,6 +343,10 @@ def check_options(
         )
     if not (0 < courant <= 2.5):
         raise TimeIntegrationError(f"courant: expected 0 < courant ≤ 2.5 (RK4 stability limit ≈ 2.8), got {courant}")
+
+
+#: the integration options' defaults (the keywords of steady_state_response and time_sweep)
+DEFAULT_INTEGRATION = IntegrationOptions()
 
 
 def start_batch(
