@@ -62,6 +62,7 @@ from nlupdate.core.identification.sample_residuals import (
 from nlupdate.core.measurement.frf_table import MeasurementTableError, measured_pair
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.model.amplitude_modal import AmplitudeModalModel, AmplitudeModelError, write_amplitude_model
+from nlupdate.core.run_cache import one_run
 from nlupdate.progress import ProgressCallback, no_progress
 
 #: rms relative misfits (frequency, damping ratio) of the samples about the model above which
@@ -107,6 +108,7 @@ class BandCut:
     whole: pd.DataFrame
 
 
+@one_run()  # band_changes reads the band's samples (its share and resonances) again: computed once
 def measured_source(table: pd.DataFrame, shapes: Mapping[str, float], options: FitOptions, name: str,
                     input_dof: str | None = None, response_dof: str | None = None,
                     cut: BandCut | None = None) -> MeasuredSource:
