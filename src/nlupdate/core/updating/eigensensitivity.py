@@ -194,6 +194,19 @@ def normalisation(parameters: Sequence[Parameter]) -> np.ndarray:
     return np.asarray(scales)
 
 
+def parameter_values(x: np.ndarray, scale: np.ndarray, parameters: Sequence[Parameter]) -> dict[str, float]:
+    """The parameters' values at the normalised vector ``x`` (``x_j = value_j / s_j``,
+    :func:`normalisation`), clipped to their bounds, by name: the point a method evaluates."""
+    values = np.clip(x * scale, [p.lower for p in parameters], [p.upper for p in parameters])
+    return dict(zip((p.name for p in parameters), (float(v) for v in values)))
+
+
+def parameter_bounds(parameters: Sequence[Parameter]) -> dict[str, tuple[float, float]]:
+    """Each parameter's (lower, upper) bound by name, as :class:`UpdatingResult` states them and
+    :func:`~nlupdate.core.updating.stopping.bound_reason` reads them."""
+    return {p.name: (float(p.lower), float(p.upper)) for p in parameters}
+
+
 def history_row(
     response: ModalResponse,
     result: ModalResult,
@@ -259,8 +272,7 @@ def inverse_eigensensitivity(
     x = np.array([p.start for p in parameters]) / scale
 
     def values_of(x_vector: np.ndarray) -> dict[str, float]:
-        p = np.clip(x_vector * scale, [q.lower for q in parameters], [q.upper for q in parameters])
-        return dict(zip(names, (float(v) for v in p)))
+        return parameter_values(x_vector, scale, parameters)
 
     def counts_since() -> tuple[int, int]:
         now = evaluate_points.counts()
@@ -340,7 +352,7 @@ def inverse_eigensensitivity(
         x, values, result, pairing, cost = trial_x, trial_values, trial, trial_pairing, trial_cost
         visited.append(x.copy())
     if stop == "converged" and reason != "frequency":
-        on_bound = bound_reason(values, {p.name: (float(p.lower), float(p.upper)) for p in parameters})
+        on_bound = bound_reason(values, parameter_bounds(parameters))
         if on_bound is not None:
             stop, reason = "parameter at bound", on_bound
 
@@ -362,7 +374,7 @@ def inverse_eigensensitivity(
         targets=targets,
         sensitivity=sensitivity,
         sensitivity_point=sensitivity_point,
-        bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
+        bounds=parameter_bounds(parameters),
         stop=stop,
     )
 

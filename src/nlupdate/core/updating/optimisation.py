@@ -24,7 +24,9 @@ import pandas as pd
 import scipy.optimize
 
 from nlupdate.fe.adapters.base import FEAdapter, Parameter
-from nlupdate.core.updating.eigensensitivity import UpdatingResult, history_columns, history_row, normalisation
+from nlupdate.core.updating.eigensensitivity import (
+    UpdatingResult, history_columns, history_row, normalisation, parameter_bounds, parameter_values,
+)
 from nlupdate.core.updating.residuals import ModalResponse, ResponseOptions
 from nlupdate.core.updating.evaluation import PointEvaluator, as_evaluator
 from nlupdate.core.updating.stopping import bound_reason
@@ -103,7 +105,7 @@ def optimise_frequencies(
     last_jacobian: dict[str, object] = {"sensitivity": None, "point": None}
 
     def values_of(x: np.ndarray) -> dict[str, float]:
-        return dict(zip(names, (float(v) for v in np.clip(x * scale, lower_p, upper_p))))
+        return parameter_values(x, scale, parameters)
 
     def residual(x: np.ndarray) -> np.ndarray:
         values = values_of(x)
@@ -146,7 +148,7 @@ def optimise_frequencies(
     elif solution.status < 0:
         stop = "no decrease"
     else:
-        on_bound = bound_reason(values, {p.name: (float(p.lower), float(p.upper)) for p in parameters})
+        on_bound = bound_reason(values, parameter_bounds(parameters))
         stop, reason = ("converged", reason) if on_bound is None else ("parameter at bound", f"{on_bound}; {reason}")
     return UpdatingResult(
         method="optimisation",
@@ -164,6 +166,6 @@ def optimise_frequencies(
         targets=targets,
         sensitivity=last_jacobian["sensitivity"],
         sensitivity_point=last_jacobian["point"],
-        bounds={p.name: (float(p.lower), float(p.upper)) for p in parameters},
+        bounds=parameter_bounds(parameters),
         stop=stop,
     )
