@@ -281,7 +281,7 @@ def inverse_eigensensitivity(
         return delta
 
     def cost_of(result: ModalResult, pairing: ModePairing) -> float:
-        return 0.5 * float(np.sum((weights * (target - response.vector(result, pairing))) ** 2))
+        return _cost(weights, target - response.vector(result, pairing))
 
     values = values_of(x)
     result = response.evaluate(values)
@@ -334,7 +334,7 @@ def inverse_eigensensitivity(
             trial = response.evaluate(trial_values)
             trial_pairing = response.pair(trial)
             trial_cost = cost_of(trial, trial_pairing)
-            predicted = cost - 0.5 * float(np.sum((weights * (residual - s_x @ step)) ** 2))
+            predicted = cost - _cost(weights, residual - s_x @ step)
             ratio = (cost - trial_cost) / predicted if predicted > 0 else -np.inf
             if not damped or (step_norm <= tolerance and not limited) or ratio > ACCEPT_RATIO:
                 break
@@ -383,6 +383,12 @@ def inverse_eigensensitivity(
 STATIONARY_FRACTION = 1e-2
 
 
+def _cost(weights: np.ndarray, residual: np.ndarray) -> float:
+    """The cost the steps lower, ``½‖W Δr‖²``, of a residual (targets minus model) — the model's
+    own, or the one the sensitivities predict after a step, ``Δr − SΔx``."""
+    return 0.5 * float(np.sum((weights * residual) ** 2))
+
+
 def _at_rest(
     sensitivity: np.ndarray,
     residual: np.ndarray,
@@ -398,7 +404,7 @@ def _at_rest(
     finite-difference sensitivity's own error points the last steps the wrong way — else
     ``"no decrease"``: the sensitivities promise a fall the model does not give."""
     step = _bounded_step(sensitivity, residual, weights, regularisation, lower, upper)
-    predicted = cost - 0.5 * float(np.sum((weights * (residual - sensitivity @ step)) ** 2))
+    predicted = cost - _cost(weights, residual - sensitivity @ step)
     if predicted <= STATIONARY_FRACTION * cost:
         return "converged", "parameter change"
     return "no decrease", (f"no decrease: no step longer than the parameter tolerance lowers the residual, though the "
