@@ -68,6 +68,18 @@ def _bisect_count(low: float, high: float) -> float:
     return 0.5 * (low + high)
 
 
+def assert_jacobian_is_central_differences(problem, y, linear, jac):
+    """``jac`` (points, rows, unknowns) against central differences (step 1e-6) of the batch's
+    residual at ``y`` (points, unknowns) with the points' ``linear`` parts."""
+    h = 1e-6
+    for i in range(problem.size):
+        step = np.zeros(problem.size)
+        step[i] = h
+        central = (problem.residual_batch(y + step, linear, jacobian=False)
+                   - problem.residual_batch(y - step, linear, jacobian=False)) / (2 * h)
+        np.testing.assert_allclose(jac[:, :, i], central, rtol=1e-5, atol=1e-6)
+
+
 @pytest.mark.parametrize("name", list(ELEMENTS))
 def test_batched_jacobians_match_central_differences(name):
     system = NonlinearSystem(TWO_DOF, (ELEMENTS[name]((0, 1)), ELEMENTS[name]((1,))))
@@ -81,13 +93,7 @@ def test_batched_jacobians_match_central_differences(name):
         r1, j1, jw1 = problem.residual_and_jacobians(y[p], w)
         np.testing.assert_allclose(r1, r[p], rtol=1e-13, atol=1e-15)
         np.testing.assert_allclose(j1, jac[p], rtol=1e-13, atol=1e-15)
-    h = 1e-6
-    for i in range(problem.size):
-        step = np.zeros(problem.size)
-        step[i] = h
-        central = (problem.residual_batch(y + step, linear, jacobian=False)
-                   - problem.residual_batch(y - step, linear, jacobian=False)) / (2 * h)
-        np.testing.assert_allclose(jac[:, :, i], central, rtol=1e-5, atol=1e-6)
+    assert_jacobian_is_central_differences(problem, y, linear, jac)
     dw = 1e-6
     central_w = (problem.residual_batch(y, problem.linear_batch(omega + dw), jacobian=False)
                  - problem.residual_batch(y, problem.linear_batch(omega - dw), jacobian=False)) / (2 * dw)
@@ -199,10 +205,4 @@ def test_multi_harmonic_batch_equals_points_and_central_differences(name):
         np.testing.assert_allclose(jac_w[p], jw1, rtol=1e-12, atol=1e-14)
     if name in ("coulomb", "jenkins", "iwan", "gap"):
         return  # non-smooth laws: their Jacobians are checked against differences in test_harmonic_balance.py
-    h = 1e-6
-    for i in range(problem.size):
-        step = np.zeros(problem.size)
-        step[i] = h
-        central = (problem.residual_batch(y + step, linear, jacobian=False)
-                   - problem.residual_batch(y - step, linear, jacobian=False)) / (2 * h)
-        np.testing.assert_allclose(jac[:, :, i], central, rtol=1e-5, atol=1e-6)
+    assert_jacobian_is_central_differences(problem, y, linear, jac)
