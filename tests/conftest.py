@@ -44,6 +44,9 @@ os.environ.pop("PREFECT_API_URL", None)
 # a run's Prefect server stops when no run of the session uses it (kept 300 s otherwise),
 # so none outlives the suite; tests of keeping set their own time
 os.environ["NLUPDATE_PREFECT_SERVER_KEEP_S"] = "0"
+# a Prefect client with no API named starts an ephemeral server and gives it 20 s to answer,
+# which a loaded machine overran (tests/test_crash_safety.py at load 7): a hang guard only
+os.environ["PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS"] = "600"
 
 import prefect_home  # noqa: E402
 from nlupdate.orchestration.flows.environment import prepare_environment  # noqa: E402
@@ -162,5 +165,6 @@ def prefect_server():
     """One Prefect server for the session; yields its API URL (also in PREFECT_API_URL)."""
     from nlupdate.orchestration.flows.server import prefect_api
 
-    with prefect_api(lambda message: None) as url:
+    # its set-up took 69 s at load 8 (test_crash_safety run alone; the limit was 120 s): a hang guard only
+    with prefect_api(lambda message: None, startup_timeout_s=600) as url:
         yield url
