@@ -37,6 +37,21 @@ def test_every_public_name_is_documented_with_units_and_type_hints():
         assert "Hz" in doc and ("m/N" in doc or "N/m" in doc), name
 
 
+def test_the_fronts_defaults_are_those_of_the_functions_they_call():
+    """A front imports its numerics inside (``import nlupdate`` stays light), so it declares its
+    keywords' defaults again instead of reading them from the function it calls; they must be
+    that function's. ``harmonic_balance=None`` on a front stands for the core's default settings."""
+    from nlupdate.core.prediction.predict import predict_measured
+    from nlupdate.core.response.simulate import simulate_frf_table
+
+    for front, core in ((nlupdate.simulate, simulate_frf_table), (nlupdate.predict, predict_measured)):
+        ours, theirs = inspect.signature(front).parameters, inspect.signature(core).parameters
+        shared = [name for name, p in ours.items() if name in theirs and name != "harmonic_balance"
+                  and inspect.Parameter.empty not in (p.default, theirs[name].default)]
+        assert shared, front.__name__
+        assert {n: ours[n].default for n in shared} == {n: theirs[n].default for n in shared}, front.__name__
+
+
 def test_names_for_type_checkers_are_the_exported_names():
     tree = ast.parse(Path(nlupdate.__file__).read_text())
     block = next(node for node in tree.body if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING")
