@@ -11,8 +11,10 @@ import ast
 import functools
 from pathlib import Path
 
+import pytest
+
 import nlupdate
-from nlupdate.core.model.elements import ELEMENT_TYPES, ElementBase
+from nlupdate.core.model.elements import ELEMENT_TYPES, ElementBase, ElementParameter
 
 PACKAGE = Path(nlupdate.__file__).parent
 ELEMENTS = PACKAGE / "core" / "model" / "elements"
@@ -81,3 +83,17 @@ def test_every_module_of_the_package_defines_one_registered_element():
     owners = {cls.__module__.rsplit(".", 1)[1]: cls for cls in ELEMENT_TYPES.values()}
     assert set(owners) == modules
     assert all(issubclass(cls, ElementBase) and cls.parameters for cls in ELEMENT_TYPES.values())
+
+
+def test_every_parameter_of_every_element_says_what_it_is():
+    """A report explains an identified parameter (``kf``, ``slip_force``) by its element's
+    declaration (``ElementParameter.meaning``): a new element cannot leave it out, and the
+    text is one ``Terms:`` entry (no ';', which separates them there)."""
+    for name, cls in ELEMENT_TYPES.items():
+        for parameter in cls.parameters:
+            assert parameter.meaning.strip() and ";" not in parameter.meaning, (name, parameter.name)
+    with pytest.raises(TypeError, match="meaning"):
+        ElementParameter("k5", "N/m^5")  # type: ignore[call-arg]
+    for meaning in ("", "  ", "stiffness; of a spring"):
+        with pytest.raises(ValueError, match="meaning"):
+            ElementParameter("k5", "N/m^5", meaning=meaning)

@@ -12,7 +12,7 @@ An element class (a frozen dataclass of plain floats and tuples, subclass of
 :class:`ElementBase`) states, in one module:
 
 * ``type_name`` (the model-file and identification name), ``parameters``
-  (:class:`ElementParameter`: unit, sign, interval), ``order`` (its place in listings);
+  (:class:`ElementParameter`: unit, meaning, sign, interval), ``order`` (its place in listings);
   defining a subclass with a ``type_name`` registers it in :data:`ELEMENT_TYPES`;
 * the describing function and its derivatives ``(∂ν/∂A, ∂ν/∂ω)`` (Newton of the DF solvers,
   identification, discovery);
@@ -32,7 +32,7 @@ An element class (a frozen dataclass of plain floats and tuples, subclass of
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable, ClassVar, Mapping, Protocol, Sequence
 
 import numpy as np
@@ -52,7 +52,10 @@ class ElementParameter:
     """One parameter of an element type, as model files write it.
 
     ``name``: the constructor keyword and model-file key; ``unit``: its SI unit;
-    ``positive``: it must be > 0 (identification fits its logarithm), otherwise signed;
+    ``meaning``: what it is, in a few words a new reader understands (the report's ``Terms:``
+    line explains an identified parameter with it; required, non-empty, no ';', which
+    separates the terms there); ``positive``: it must be > 0 (identification fits its
+    logarithm), otherwise signed;
     ``interval``: the open interval it lies in (identification maps it there), if any;
     ``fitted``: False for a setting of the realisation rather than a physical parameter
     (Iwan's slider count, a polynomial's coefficients); ``optional``: a model file may omit it;
@@ -66,6 +69,12 @@ class ElementParameter:
     fitted: bool = True
     optional: bool = False
     sequence: bool = False
+    meaning: str = field(kw_only=True)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.meaning, str) or not self.meaning.strip() or ";" in self.meaning:
+            raise ValueError(f"element parameter {self.name!r}: its meaning must be a non-empty text without ';', "
+                             f"got {self.meaning!r}")
 
 
 @dataclass(frozen=True)

@@ -61,7 +61,9 @@ class CoulombFriction(CycleElement):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "coulomb"
     order: ClassVar[int] = 30
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("slip_force", "N"),)
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("slip_force", "N", meaning="Coulomb friction force, force = slip_force·sign(ẋ)"),
+    )
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("coulomb_friction", order=30),)
     slip_force: float
 

@@ -16,7 +16,10 @@ class CubicStiffness(ElementBase):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "cubic"
     order: ClassVar[int] = 10
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("k3", "N/m^3", positive=False),)
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("k3", "N/m^3", positive=False,
+                         meaning="cubic stiffness coefficient, force = k3·x³ (negative: softening)"),
+    )
     effects: ClassVar[tuple[EffectForm, ...]] = (
         EffectForm("cubic_stiffness", order=10), EffectForm("softening_stiffness", -1, signs=(("k3", -1),), order=11),
     )

@@ -24,7 +24,10 @@ class SymmetricGap(ElementBase):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "gap"
     order: ClassVar[int] = 50
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("gap", "m"), ElementParameter("kc", "N/m"))
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("gap", "m", meaning="clearance of the gap element: no force while |x| ≤ gap"),
+        ElementParameter("kc", "N/m", meaning="contact stiffness beyond the clearance, force = kc·(x − gap·sign x)"),
+    )
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("gap", order=50),)
     gap: float
     kc: float

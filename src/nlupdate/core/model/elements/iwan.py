@@ -209,9 +209,15 @@ class IwanJoint(CycleElement):
     type_name: ClassVar[str] = "iwan"
     order: ClassVar[int] = 60
     parameters: ClassVar[tuple[ElementParameter, ...]] = (
-        ElementParameter("slip_force", "N"), ElementParameter("kt", "N/m"),
-        ElementParameter("chi", "1", positive=False, interval=(-1.0, 0.0)), ElementParameter("beta", "1"),
-        ElementParameter("sliders", "1", fitted=False, optional=True),
+        ElementParameter("slip_force", "N", meaning="force at which the whole Iwan joint slips (macroslip)"),
+        ElementParameter("kt", "N/m", meaning="tangential stiffness of the stuck Iwan joint"),
+        ElementParameter("chi", "1", positive=False, interval=(-1.0, 0.0),
+                         meaning="exponent of the distribution of the Iwan joint's sliders over slip displacement "
+                                 "(microslip dissipation per cycle grows as amplitude^(chi+3))"),
+        ElementParameter("beta", "1", meaning="stiffness of the part of the Iwan joint that slips all at once "
+                                              "over that of the rest"),
+        ElementParameter("sliders", "1", fitted=False, optional=True,
+                         meaning="number of Jenkins sliders of the Iwan joint's time-domain realisation"),
     )
     alternatives: ClassVar[dict[str, str]] = {"phi_max": "slip_force"}
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("microslip", joint=True, signs=(("chi", -1),), order=25),)

@@ -34,7 +34,10 @@ class JenkinsFriction(CycleElement):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "jenkins"
     order: ClassVar[int] = 20
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("kf", "N/m"), ElementParameter("slip_force", "N"))
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("kf", "N/m", meaning="stuck stiffness of the Jenkins element (spring in series with the slider)"),
+        ElementParameter("slip_force", "N", meaning="force at which the Jenkins slider slips"),
+    )
     stick_slip: ClassVar[tuple[str, str]] = ("kf", "slip_force")
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("dry_friction", joint=True, order=20),)
     kf: float

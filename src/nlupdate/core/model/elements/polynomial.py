@@ -33,8 +33,11 @@ class PolynomialDF(ElementBase):
     type_name: ClassVar[str] = "polynomial"
     order: ClassVar[int] = 70
     parameters: ClassVar[tuple[ElementParameter, ...]] = (
-        ElementParameter("real", "N/m^(k+1)", positive=False, fitted=False, sequence=True),
-        ElementParameter("imag", "N/m^(k+1)", positive=False, fitted=False, optional=True, sequence=True),
+        ElementParameter("real", "N/m^(k+1)", positive=False, fitted=False, sequence=True,
+                         meaning="coefficients of the describing function's real part (stiffness), highest power first"),
+        ElementParameter("imag", "N/m^(k+1)", positive=False, fitted=False, optional=True, sequence=True,
+                         meaning="coefficients of the describing function's imaginary part (damping), highest power "
+                                 "first"),
     )
     real: tuple[float, ...]
     imag: tuple[float, ...] = (0.0,)

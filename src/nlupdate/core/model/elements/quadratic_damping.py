@@ -17,7 +17,9 @@ class QuadraticDamping(ElementBase):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "quadratic_damping"
     order: ClassVar[int] = 40
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("cq", "N s^2/m^2"),)
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("cq", "N s^2/m^2", meaning="quadratic damping coefficient, force = cq·ẋ·|ẋ|"),
+    )
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("quadratic_damping", order=40),)
     cq: float
 

@@ -67,8 +67,13 @@ class TanhFriction(ElementBase):
     dofs: tuple[int, ...]
     type_name: ClassVar[str] = "tanh_friction"
     order: ClassVar[int] = 35
-    parameters: ClassVar[tuple[ElementParameter, ...]] = (ElementParameter("slip_force", "N"),
-                                                          ElementParameter("epsilon", "m/s"))
+    parameters: ClassVar[tuple[ElementParameter, ...]] = (
+        ElementParameter("slip_force", "N", meaning="friction force of the smooth slider at high velocity, "
+                                                    "force = slip_force·tanh(ẋ/epsilon)"),
+        ElementParameter("epsilon", "m/s", meaning="regularisation velocity of the smooth friction: well below "
+                                                   "it the slider acts as a viscous damper of coefficient "
+                                                   "slip_force/epsilon"),
+    )
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("smooth_friction", order=35, default=False),)
     slip_force: float
     epsilon: float
