@@ -22,6 +22,10 @@ from nlupdate.study import run_study, study_from_text
 from studies import small_two_dof_study, study_text
 
 K1 = "stiffness of the spring from m1 to the ground"
+#: what the identified cubic + Jenkins parameters are (docs/methods.md §2, the elements' docstrings)
+K3_MEANING = "cubic stiffness coefficient, force = k3·x³ (negative: softening)"
+KF_MEANING = "stuck stiffness of the Jenkins element (spring in series with the slider)"
+SLIP_MEANING = "force at which the Jenkins slider slips"
 
 
 @pytest.fixture(scope="module")
@@ -48,10 +52,13 @@ def test_the_updating_runs_are_introduced_and_the_summary_explains_its_terms(ran
            "test." in report
     terminal = summary_section(report).splitlines()
     (terms,) = [line for line in terminal if line.startswith("Terms: ")]
-    # the best run is an eigensensitivity run updating k1, identified by PRD; the
-    # prediction's FRAC; no truth beside the values (a truth model file), so no "σ off"
-    assert terms == (f"Terms: PRD = {METHODS['prd'].long_name} (the identification method); k1 = {K1}; "
-                     f"O(h) = {ORDER_MEANING}; FRAC = {FRAC_MEANING}."), terms
+    # the best run is an eigensensitivity run updating k1, identified by PRD (cubic + Jenkins,
+    # as the demo: k3, kf, slip_force); the prediction's FRAC; no truth beside the values (a
+    # truth model file), so no "σ off"
+    assert "* **Identified** (physical elements: cubic + jenkins, PRD): k3 = " in report
+    assert terms == (f"Terms: PRD = {METHODS['prd'].long_name} (the identification method); k3 = {K3_MEANING}; "
+                     f"kf = {KF_MEANING}; slip_force = {SLIP_MEANING}; k1 = {K1}; O(h) = {ORDER_MEANING}; "
+                     f"FRAC = {FRAC_MEANING}."), terms
     assert terminal.index(terms) > max(i for i, line in enumerate(terminal) if line.startswith("* "))
     # the Updating section names the runs' parts before its table
     updating = report.split("## Updating\n", 1)[1]
@@ -79,3 +86,21 @@ def test_a_term_the_text_does_not_use_is_not_explained(ran):
     assert terms_line(result, "k1 = 9e+05 N/m (truth 1e+06 N/m; 2.1σ off)") == f"Terms: Nσ off = {SIGMA_OFF_MEANING}."
     # a parameter without a description is not a term; DDF is not the method this study used
     assert terms_line(result, "k1 = 9e+05, DDF, FRAC 0.9") == f"Terms: FRAC = {FRAC_MEANING}."
+
+
+def test_identified_element_parameters_are_explained_by_their_reported_names(ran):
+    """A repeated element's parameters are reported numbered (``kf_1``, ``kf_2``): the Terms
+    line explains the numbers the text uses in one term, also where a number stands in
+    words (a diverged parameter), and leaves out a parameter the text does not name."""
+    from nlupdate.core.identification.dfmodels import PhysicalModel
+
+    result, _ = ran
+    ident = result.identification
+    model = PhysicalModel(("jenkins", "cubic", "jenkins"))
+    two = dataclasses.replace(ident, result=dataclasses.replace(ident.result, model=model))
+    result = dataclasses.replace(result, identification=two)
+    text = "Identified (PRD): kf_1 = 3e+04 N/m; kf_2 diverged (1e+40 N/m): the data support no finite value of it"
+    assert terms_line(result, text) == (f"Terms: PRD = {METHODS['prd'].long_name} (the identification method); "
+                                        f"kf_1, kf_2 = {KF_MEANING} — _1, _2: the jenkins elements in the order listed.")
+    # k3 inside another word (k3x) or a longer name (slip_force_12) is not the parameter
+    assert terms_line(result, "k3x = 1; slip_force_12 = 2") == ""

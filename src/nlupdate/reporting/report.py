@@ -11,6 +11,7 @@ simulated study the hidden truth is printed beside every estimate.
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping
 
 import numpy as np
@@ -54,7 +55,9 @@ def formula_orders(names) -> list[str]:
 def terms_line(result, text: str) -> str:
     """``Terms: …``: what the words of ``text`` (the summary) that a new reader cannot know
     stand for, each from its owner: the identification method's name
-    (:data:`~nlupdate.core.identification.methods.METHODS`), an updating parameter's
+    (:data:`~nlupdate.core.identification.methods.METHODS`), an identified element parameter's
+    meaning (its element's declaration: ``Identification.parameter_meanings``; the numbered copies
+    of a repeated element, ``kf_1, kf_2``, in one term), an updating parameter's
     ``description`` (``[[parameters]]``), a difference formula's O(·)
     (:data:`~nlupdate.core.updating.sensitivity.ORDER_MEANING`), "σ off" and FRAC; '' when
     it uses none of them."""
@@ -63,6 +66,11 @@ def terms_line(result, text: str) -> str:
     if ident is not None and ident.settings.method.upper() in text:
         terms.append(f"{ident.settings.method.upper()} = {METHODS[ident.settings.method].long_name} "
                      "(the identification method)")
+    if ident is not None:
+        for names, meaning in ident.parameter_meanings():
+            used = [name for name in names if re.search(rf"(?<!\w){re.escape(name)}(?!\w)", text)]
+            if used:
+                terms.append(f"{', '.join(used)} = {meaning}")
     terms += [f"{p.name} = {p.description}" for p in result.study.parameters
               if p.description and f"{p.name} = " in text]
     orders = formula_orders([text])

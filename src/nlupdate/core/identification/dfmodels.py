@@ -259,6 +259,25 @@ class PhysicalModel:
     def n_params(self) -> int:
         return len(self._slots)
 
+    def parameter_meanings(self) -> list[tuple[tuple[str, ...], str]]:
+        """What each fitted element parameter is, as its element declares it
+        (:attr:`~nlupdate.core.model.elements.base.ElementParameter.meaning`): (the reported
+        names of its copies, meaning) per parameter of each element type, in model order; the
+        copies of a repeated element (``kf_1``, ``kf_2``) share one entry, whose meaning says
+        what the number counts."""
+        copies: dict[tuple[str, str], list[str]] = {}
+        for element, suffix in self._suffixes():
+            for parameter in ELEMENT_TYPES[element].parameters:
+                if parameter.fitted:
+                    copies.setdefault((element, parameter.name), []).append(parameter.name + suffix)
+        out = []
+        for (element, name), names in copies.items():
+            meaning = next(p.meaning for p in ELEMENT_TYPES[element].parameters if p.name == name)
+            if len(names) > 1:
+                meaning += f" — {', '.join(n[len(name):] for n in names)}: the {element} elements in the order listed"
+            out.append((tuple(names), meaning))
+        return out
+
     def description(self) -> str:
         text = "physical elements: " + " + ".join(self.element_names)
         if self.fixed:

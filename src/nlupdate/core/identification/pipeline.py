@@ -204,6 +204,13 @@ class Identification:
         """Forward-model elements at model coordinate(s) ``dofs``."""
         return self.result.elements(dofs)
 
+    def parameter_meanings(self) -> list[tuple[tuple[str, ...], str]]:
+        """(reported names, meaning) of each identified element parameter
+        (:meth:`~nlupdate.core.identification.dfmodels.PhysicalModel.parameter_meanings`);
+        none for a polynomial describing function."""
+        model = getattr(self.result, "physical", None) or getattr(self.result, "model", None)
+        return model.parameter_meanings() if isinstance(model, PhysicalModel) else []
+
     def misfit_in_noise_units(self) -> NDArray[np.float64]:
         """Each PRD/DDF point's misfit over the noise it carries — about 1 where the model
         fits (:func:`nlupdate.core.identification.summary.residual_in_noise_units`)."""
