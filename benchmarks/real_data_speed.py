@@ -54,6 +54,9 @@ def commands() -> list[tuple[str, list[str]]]:
     for backbone in ("polynomial", "iwan"):
         rows.append((f"amplitude --backbone {backbone}", ["amplitude", *measured, "--backbone", backbone,
                                                            "--out", "{out}"]))
+        if backbone == "polynomial":  # a band cut into the file: each level read again on the whole band, 30 noisy copies
+            rows.append(("amplitude --backbone polynomial --band 80:80.6",
+                         ["amplitude", *measured, "--band", "80:80.6", "--backbone", backbone, "--out", "{out}"]))
         rows.append((f"amplitude --backbone {backbone} --response-controlled",
                      ["amplitude", "--response-controlled", str(BRB), *measured[2:], "--backbone", backbone,
                       "--out", "{out}"]))
