@@ -232,12 +232,28 @@ class PhysicalModel:
             raise ModelError(f"fixed parameter(s) {unknown} are not parameters of {' + '.join(names)}")
 
     def _suffixes(self) -> list[tuple[str, str]]:
-        """(element, suffix of its parameter names) per element; the suffix numbers repeated elements."""
+        """(element, suffix of its parameter names) per element: the copies of a repeated
+        element type are numbered (``kf_1``, ``kf_2``), and an element whose parameter name
+        another element type of the model also has carries its type's name too
+        (``slip_force_jenkins``, ``slip_force_coulomb``; ``kf_jenkins1`` for a numbered copy),
+        so that every reported name is one parameter — Jenkins + Coulomb reported one
+        ``slip_force`` for the two and dropped the other."""
         out, seen = [], {}
         for element in self.element_names:
             seen[element] = seen.get(element, 0) + 1
             out.append((element, "" if self.element_names.count(element) == 1 else f"_{seen[element]}"))
-        return out
+        def names_of(element: str) -> set[str]:
+            return {p.name for p in ELEMENT_TYPES[element].parameters} | set(ELEMENT_TYPES[element].alternatives)
+
+        types = sorted(set(self.element_names))
+        shared = {name for i, a in enumerate(types) for b in types[i + 1:] for name in names_of(a) & names_of(b)}
+        return [(element, f"_{element}{suffix[1:]}" if shared & names_of(element) else suffix)
+                for element, suffix in out]
+
+    def _base_names(self) -> dict[str, str]:
+        """Each reported parameter name → the name its element type declares (``kf_2`` → ``kf``,
+        ``epsilon_tanh_friction`` → ``epsilon``)."""
+        return {name + suffix: name for element, suffix in self._suffixes() for name, _ in ELEMENT_PARAMETERS[element]}
 
     def _all_slots(self) -> list[tuple[str, str, bool]]:
         return [(element, name + suffix, positive) for element, suffix in self._suffixes()
@@ -286,8 +302,8 @@ class PhysicalModel:
 
     def _intervals(self) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
         """Which entries are interval parameters, and their lower and upper ends."""
-        ends = [INTERVAL_PARAMETERS.get(name.rsplit("_", 1)[0] if name not in INTERVAL_PARAMETERS else name)
-                for _, name, _ in self._slots]
+        base = self._base_names()
+        ends = [INTERVAL_PARAMETERS.get(base[name]) for _, name, _ in self._slots]
         inside = np.array([e is not None for e in ends])
         low = np.array([e[0] if e else 0.0 for e in ends])
         high = np.array([e[1] if e else 1.0 for e in ends])
@@ -312,7 +328,7 @@ class PhysicalModel:
         outside = inside & ((v <= low) | (v > high))
         if np.any(outside):
             raise ModelError(f"parameters {[n for n, x in zip(self.names, outside) if x]} must lie in their intervals "
-                             f"{[INTERVAL_PARAMETERS.get(n.rsplit('_', 1)[0], INTERVAL_PARAMETERS.get(n)) for n, x in zip(self.names, outside) if x]}")
+                             f"{[INTERVAL_PARAMETERS.get(self._base_names()[n]) for n, x in zip(self.names, outside) if x]}")
         share = np.clip((v - low) / (high - low), _INTERVAL_MARGIN, 1 - _INTERVAL_MARGIN)
         return np.where(positive, np.log(np.where(positive, v, 1.0)), np.where(inside, scipy.special.logit(share), v))
 
@@ -379,11 +395,10 @@ class PhysicalModel:
         if not any(ELEMENT_TYPES[name].stick_slip for name in self.element_names):  # no element stuck at the low force
             guess["slip_force"] = [max(damping_force, 1e-6 * scale * a_min)]
         own = {name: {**guess, **ELEMENT_TYPES[name].start_values(a, y, omega, scale)} for name in set(self.element_names)}
-        starts = [[]]
+        starts, base = [[]], self._base_names()
         for element, name, _ in self._slots:
             options = own[element]
-            base = name if name in options else name.rsplit("_", 1)[0]
-            starts = [s + [o] for s in starts for o in options.get(base, [1.0])]
+            starts = [s + [o] for s in starts for o in options.get(base[name], [1.0])]
         return [self.vector(s) for s in starts]
 
 
