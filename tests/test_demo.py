@@ -80,5 +80,5 @@ def test_nlupdate_demo_runs_and_a_rerun_is_all_cached(tmp_path):
     assert second.returncode == 0, second.stderr[-3000:]
     again = Path(second.stdout.split("archive:")[1].split()[0])
     manifests = [json.loads((a / "manifest.json").read_text())["run"] for a in (archive, again)]
-    assert all(c["computed"] == 0 for c in manifests[1]["tasks"].values())
+    assert all(c["computed"] == 0 for c in manifests[1]["tasks"].values()), manifests[1]["tasks"]
     assert sum(c["cached"] for c in manifests[1]["tasks"].values()) > 0  # none computed: read from the cache
