@@ -62,7 +62,10 @@ HELP = ("start one with `prefect server start` (UI at http://127.0.0.1:4200; wit
         "PREFECT_API_URL=http://127.0.0.1:4200/api, or unset PREFECT_API_URL to let nlupdate start its own")
 
 
-def _check(url: str, timeout_s: float = 10.0) -> None:
+def _check(url: str, timeout_s: float = 30.0) -> None:
+    """Fail with the help unless the API at ``url`` answers its health check within
+    ``timeout_s`` (30 s: a server busy with another run's writes on a loaded machine answers
+    late, not never)."""
     try:
         response = httpx.get(f"{url.rstrip('/')}/health", timeout=timeout_s)
         response.raise_for_status()
@@ -278,8 +281,10 @@ def start_server_early() -> None:
 
 
 @contextlib.contextmanager
-def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 120) -> Iterator[str]:
-    """Yield the API URL the run uses (see the module docstring)."""
+def prefect_api(say: Callable[[str], None], startup_timeout_s: int = 300) -> Iterator[str]:
+    """Yield the API URL the run uses (see the module docstring). A server this run starts
+    may take ``startup_timeout_s`` to answer (10.6 s on an idle machine with a new home, 69 s
+    at load 8; one that exits is reported at once, so the limit only ends a hang)."""
     url = os.environ.get("PREFECT_API_URL")
     if url:
         _check(url)
