@@ -42,6 +42,10 @@ REPORTING_MAY_CALL = {
     ("nlupdate.core.updating.runs", "best_ranked"): "which run the study's ranking put first: one owner of 'best'",
     ("nlupdate.core.identification.linear_limit", "zeta_text"): "the wording of a damping ratio at its bound 0: one "
                                                                  "owner with the fit's warnings",
+    ("nlupdate.core.updating.sensitivity", "order_labels"): "the O(·) labels of the difference formulas the runs "
+                                                            "are named by: one owner with the formulas' stencils",
+    ("nlupdate.core.identification.trust", "warning_texts"): "the wording of the warnings, a line per distinct "
+                                                             "message: one owner with the warnings step's line",
 }
 
 
