@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import json
+import logging
 import time
 from pathlib import Path
 
@@ -105,6 +106,35 @@ def test_the_run_is_recorded_by_the_server(first_run, prefect_server):
         source = "targets" if name.startswith("updating: ") else "identification"
         assert ids[f"{source}: two-dof"] in fed_by[name], (name, fed_by[name])
     assert fed_by["identification: two-dof"] == {ids["measured data: two-dof"]}
+
+
+def test_a_runs_warnings_are_logged_as_warnings_where_its_page_in_the_ui_shows_them(prefect_server, tmp_path):
+    """The run's page in the Prefect UI read "Completed" with INFO lines only, though its
+    summary opened with results not to be trusted: each line of the summary's Warnings is
+    now a WARNING of the flow run (the {k1} runs of the 3-mass chain miss their targets)."""
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import LogFilter, LogFilterFlowRunId
+    from test_target_miss_warnings import chain_misses_study
+
+    from nlupdate.core.identification.trust import TrustWarning, warning_texts
+
+    archive, manifest = flow_run(study_from_text(study_text(chain_misses_study()), tmp_path / "study.toml"), tmp_path)
+    expected = warning_texts([TrustWarning(**w) for w in manifest["warnings"]])
+    assert len(expected) == 1 and "misses its weighted targets" in expected[0]
+
+    async def warned() -> list[str]:
+        async with get_client() as client:
+            deadline = time.monotonic() + HANG_S
+            while True:
+                logs = await client.read_logs(LogFilter(flow_run_id=LogFilterFlowRunId(
+                    any_=[manifest["run"]["flow_run_id"]])))
+                found = [log.message for log in logs if log.level == logging.WARNING]
+                if found or time.monotonic() > deadline:
+                    return found
+                await asyncio.sleep(0.2)
+
+    with talking_to(prefect_server):
+        assert asyncio.run(warned()) == expected
 
 
 def test_the_run_server_runs_only_what_a_run_needs(prefect_server):

@@ -50,6 +50,18 @@ def update(names, frequencies_hz, weights=None, **options):
                                     EigensensitivityOptions(formula="central2", **options), fixed=fixed)
 
 
+def chain_misses_study() -> dict:
+    """The chain's three modes as targets (std 1e-4 of each) for {k1} and {k1, k2, k3}, each by
+    central O(h²) and O(h⁴) differences: the two {k1} runs miss the targets alike."""
+    truth = chain_frequencies_hz(TRUTH)
+    return {"study": {"name": "chain-misses"},
+            "adapter": {"kind": "lumped", "options": {"masses": MASSES, "stiffnesses": list(NOMINAL.values())}},
+            "parameters": [{"name": n, "unit": "N/m", "start": 1e6, "lower": 3e5, "upper": 3e6} for n in ("k1", "k2", "k3")],
+            "targets": {"frequencies_hz": [float(f) for f in truth], "std_hz": [float(s) for s in 1e-4 * truth]},
+            "eigensensitivity": {"formulas": ["central2", "central4"], "parameter_sets": [["k1"], ["k1", "k2", "k3"]],
+                                 "frequency_tolerance": 1e-8}}
+
+
 def kinds(warnings) -> list[str]:
     return [w.kind for w in warnings]
 
@@ -131,15 +143,9 @@ def test_a_study_says_it_once_for_the_runs_that_miss_alike_in_its_summary_table_
     from nlupdate.reporting.report import summary_section
     from studies import write_study
 
-    truth = chain_frequencies_hz(TRUTH)
-    study = {"study": {"name": "chain-misses"},
-             "adapter": {"kind": "lumped", "options": {"masses": MASSES, "stiffnesses": list(NOMINAL.values())}},
-             "parameters": [{"name": n, "unit": "N/m", "start": 1e6, "lower": 3e5, "upper": 3e6} for n in ("k1", "k2", "k3")],
-             "targets": {"frequencies_hz": [float(f) for f in truth], "std_hz": [float(s) for s in 1e-4 * truth]},
-             "eigensensitivity": {"formulas": ["central2", "central4"], "parameter_sets": [["k1"], ["k1", "k2", "k3"]],
-                                  "frequency_tolerance": 1e-8}}
     out = tmp_path / "run"
-    assert main(["update", str(write_study(tmp_path / "study.toml", study)), "--out", str(out), "--quiet"]) == 0
+    assert main(["update", str(write_study(tmp_path / "study.toml", chain_misses_study())), "--out", str(out),
+                 "--quiet"]) == 0
     printed = capsys.readouterr().out.splitlines()
     missing = ["eigensensitivity central O(h²) {k1}", "eigensensitivity central O(h⁴) {k1}"]
     manifest = json.loads((out / "manifest.json").read_text())

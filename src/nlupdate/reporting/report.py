@@ -26,6 +26,7 @@ from nlupdate.reporting.validation_text import (error_cells, held_type_section, 
 from nlupdate.core.measurement.units import table_reference_unit
 from nlupdate.core.correlation.metrics import FRAC_MEANING
 from nlupdate.core.identification.methods import METHODS
+from nlupdate.core.identification.trust import warning_texts
 from nlupdate.core.response.method import describe
 from nlupdate.core.updating.sensitivity import FORMULA_LABELS, ORDER_MEANING, order_labels
 from nlupdate.core.updating.runs import best_ranked
@@ -189,17 +190,6 @@ def study_warning_lines(result) -> list[str]:
     extrapolation behind the line saying which bands test nothing)."""
     return warning_texts(result.warnings) + [f"{w['source']}: {w['message']}" for w in step_warnings(result)]
 
-
-def warning_texts(warnings) -> list[str]:
-    """One line per distinct warning message, the sources that share it named together
-    (the four difference formulas of one parameter set miss their targets alike), in the
-    order the warnings first appear."""
-    sources: dict[str, list[str]] = {}
-    for w in warnings:
-        sources.setdefault(w.message, [])
-        if w.source and w.source not in sources[w.message]:
-            sources[w.message].append(w.source)
-    return [f"{'; '.join(names)}: {message}" if names else message for message, names in sources.items()]
 
 
 def step_warnings(result) -> list[dict[str, str]]:

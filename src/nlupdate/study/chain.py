@@ -30,6 +30,7 @@ from nlupdate.study.spec import Study
 from nlupdate.study.steps.measured import identification_step, measured_description, measured_table
 from nlupdate.study.steps.prediction import Prediction, PredictionJob, predict_job, prediction_adapter, prediction_jobs
 from nlupdate.study.steps.record import models_used
+from nlupdate.core.identification.trust import warning_texts
 from nlupdate.study.steps.trust import study_warnings
 from nlupdate.study.steps.updating import (
     CandidateFRFs, Comparison, RunFailure, TargetSet, UpdatingOutcome, candidate_frfs, compare_runs, run_update,
@@ -146,6 +147,8 @@ CHAIN: tuple[Step, ...] = (
                                        "evaluation(s)"),
     Step("warnings", study_warnings, inputs=("identification", "updating", "comparison", "predictions", "targets"),
          sections=("parameters",),
+         describe=lambda study, warnings: (f"{len(warning_texts(warnings))} on results not to be trusted as they "
+                                           "stand (the summary's Warnings)" if warnings else "none"),
          applies=lambda study, results: results.get("identification") is not None or _has_runs(study, results)),
 )
 STEPS: dict[str, Step] = {step.name: step for step in CHAIN}

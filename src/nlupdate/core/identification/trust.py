@@ -131,6 +131,18 @@ class TrustWarning:
         return f"{self.source}: {self.message}" if self.source else self.message
 
 
+def warning_texts(warnings: Sequence[TrustWarning]) -> list[str]:
+    """One line per distinct warning message, the sources that share it named together
+    (the four difference formulas of one parameter set miss their targets alike), in the
+    order the warnings first appear."""
+    sources: dict[str, list[str]] = {}
+    for w in warnings:
+        sources.setdefault(w.message, [])
+        if w.source and w.source not in sources[w.message]:
+            sources[w.message].append(w.source)
+    return [f"{'; '.join(names)}: {message}" if names else message for message, names in sources.items()]
+
+
 def uncertainty_warnings(values: dict[str, float], std: dict[str, float], what: str, source: str = "") -> list[TrustWarning]:
     """``uncertainty_exceeds_value`` for every value whose std exceeds its magnitude."""
     out = []

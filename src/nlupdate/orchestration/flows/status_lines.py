@@ -44,6 +44,12 @@ class Progress:
                 self.console.print(message)
         _log_to_flow_run(Text.from_markup(message).plain)
 
+    def warn_run(self, message: str) -> None:
+        """Log ``message`` as a warning of the flow run — the Prefect UI's run page shows it
+        beside a run that otherwise reads "Completed" — and not on the terminal, whose
+        summary prints it."""
+        _log_to_flow_run(message, logging.WARNING)
+
     def record(self, step: str, state: str, count: int = 1) -> None:
         """Count ``count`` task runs of ``step`` that ended in ``state``."""
         with self._lock:
@@ -112,9 +118,9 @@ def _run_log() -> logging.Logger:
     return logger
 
 
-def _log_to_flow_run(message: str) -> None:
-    """Send ``message`` to the current flow run's log, if there is one (none while Prefect
-    is not imported: a run answered from the cache, :mod:`nlupdate.orchestration.flows.from_cache`)."""
+def _log_to_flow_run(message: str, level: int = logging.INFO) -> None:
+    """Send ``message`` to the current flow run's log at ``level``, if there is one (none while
+    Prefect is not imported: a run answered from the cache, :mod:`nlupdate.orchestration.flows.from_cache`)."""
     if "prefect.context" not in sys.modules:
         return
     from prefect.context import FlowRunContext
@@ -126,4 +132,4 @@ def _log_to_flow_run(message: str) -> None:
 
     extra = {"flow_run_id": str(context.flow_run.id), "flow_run_name": context.flow_run.name,
              "flow_name": context.flow.name}
-    PrefectLogAdapter(_run_log(), extra=extra).info(message)
+    PrefectLogAdapter(_run_log(), extra=extra).log(level, message)

@@ -38,6 +38,7 @@ from nlupdate.orchestration.flows.handles import Handle, study_handle
 from nlupdate.orchestration.flows.liveness import claim_flow_run
 from nlupdate.orchestration.flows.status_lines import current_progress
 from nlupdate.reporting.archive import inputs_hash, run_folder, write_archive, write_failed_archive
+from nlupdate.reporting.report import study_warning_lines
 from nlupdate.study.chain import CHAIN, Step, StudyResult, study_result
 from nlupdate.study.spec import Study
 from nlupdate.study.steps.updating import RunFailure
@@ -237,6 +238,8 @@ def study_flow(study_handle: Handle, cache: Cache, results_root: str, orchestrat
                      f"archive {escape(str(folder))}")
         raise
     progress.say(f"steps done in {time.perf_counter() - clock:.1f} s; writing the archive …")
+    for line in study_warning_lines(result):  # what not to trust, where the run's page shows it
+        progress.warn_run(line)
     figures = FigureStore(cache.store, keys.figures_key(study, step_keys), refresh=cache.refresh)
     folder = write_archive(result, run_folder(results_root, study.name, started, inputs_hash(result)), run_record(),
                            figures=figures)
