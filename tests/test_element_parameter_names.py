@@ -56,3 +56,20 @@ def test_names_that_clash_across_types_carry_the_type_and_others_keep_their_shor
     assert PhysicalModel(("cubic", "jenkins", "jenkins")).names == ("k3", "kf_1", "slip_force_1", "kf_2",
                                                                      "slip_force_2")
     assert PhysicalModel(("cubic", "jenkins")).names == ("k3", "kf", "slip_force")
+
+
+@pytest.mark.parametrize("elements", list(itertools.combinations_with_replacement(FITTED, 2))
+                         + [("jenkins", "jenkins", "coulomb", "coulomb")], ids="+".join)
+def test_each_reported_name_has_the_unit_its_element_declares(elements):
+    """``slip_force_coulomb``, ``kf_jenkins1``, ``epsilon_tanh_friction`` are printed and written
+    to identification.json with the unit of ``slip_force``, ``kf``, ``epsilon`` (they had none:
+    the units looked up only a copy's number), also with volts for newtons."""
+    from nlupdate.core.measurement.units import parameter_unit
+
+    model = PhysicalModel(elements)
+    for element, suffix in model._suffixes():
+        for parameter in ELEMENT_TYPES[element].parameters:
+            if parameter.fitted:
+                for reference in ("N", "V"):
+                    assert parameter_unit(parameter.name + suffix, reference) == parameter_unit(parameter.name, reference), \
+                        (parameter.name + suffix, reference)

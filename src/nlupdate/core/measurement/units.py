@@ -216,6 +216,8 @@ _PARAMETER_UNITS = {
     "delta_f1_imag": "N/m",
 }
 _COEFFICIENT = re.compile(r"^(re|im)_c(\d+)$")
+#: the suffix a physical model's reported name carries: a copy's number, its element type, or both
+_ELEMENT_SUFFIX = re.compile(rf"_(?:{'|'.join(sorted(map(re.escape, ELEMENT_TYPES), key=len, reverse=True))})?\d*$")
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
@@ -229,9 +231,11 @@ def per_reference(unit: str, reference_unit: str) -> str:
 
 def parameter_unit(name: str, reference_unit: str = "N") -> str:
     """Unit of an identified parameter (``k3``, ``kf``, ``slip_force``, ``re_c2`` …,
-    a numbered copy ``kf_2``), with volts for newtons when the reference is V; ``""``
-    for a dimensionless or unknown name."""
-    base = re.sub(r"_\d+$", "", name)
+    a numbered copy ``kf_2``, a name that carries its element type because another type
+    of the model has it too, ``slip_force_coulomb``, ``kf_jenkins1``:
+    :meth:`~nlupdate.core.identification.dfmodels.PhysicalModel.names`), with volts for
+    newtons when the reference is V; ``""`` for a dimensionless or unknown name."""
+    base = _ELEMENT_SUFFIX.sub("", name)
     match = _COEFFICIENT.match(name)
     if match:  # the DF ν(A) in N/m: the coefficient of A^k is in N/m^(k+1)
         power = int(match.group(2)) + 1
