@@ -179,3 +179,22 @@ def test_a_run_stopped_short_of_one_target_is_said_to_miss_them_when_the_step_to
                      for k1 in np.linspace(1.2e6, 1.3e6, 20001)])
     assert not np.any(np.all(np.abs(scan) <= MISS_LIMIT_SIGMA, axis=1))  # no k1 meets both (step 5 N/m)
     assert kinds(updating_warnings(run, target_std_hz=sigma)) == ["targets_missed"]
+
+
+def test_a_run_that_met_its_tolerance_at_its_start_is_not_said_to_be_unable_to_meet_its_target():
+    """k1 starts 0.01 % off the value that meets mode 1 (known to 1e-7): within the default
+    frequency tolerance, so the run stops at its start with no sensitivity, 141σ off. It
+    was said to miss a target no k1 meets (``targets_missed``), though k1 = 1.25e6 meets it
+    exactly (the eigen-solution written out here): it stopped short."""
+    target = chain_frequencies_hz({**NOMINAL, "k1": TRUTH["k1"]})[:1]
+    sigma = 1e-7 * target
+    run = inverse_eigensensitivity(LumpedAdapter(MASSES, list(NOMINAL.values())),
+                                   [Parameter("k1", "N/m", 0.9999 * TRUTH["k1"], 3e5, 3e6, 1e-4)], UpdatingTargets(target),
+                                   EigensensitivityOptions(formula="central2"),
+                                   fixed={n: v for n, v in NOMINAL.items() if n != "k1"})
+    assert run.converged and run.iterations == 0 and run.sensitivity is None
+    assert abs(run.frequencies_hz()[0] - target[0]) > 100 * sigma[0]
+    assert abs(chain_frequencies_hz({**NOMINAL, "k1": TRUTH["k1"]})[0] - target[0]) <= sigma[0]  # k1 can meet it
+    (warning,) = updating_warnings(run, target_std_hz=sigma)
+    assert warning.kind == "stopped_short" and "frequency_tolerance" in warning.message
+    assert "not known" in warning.message and "would meet" not in warning.message

@@ -27,6 +27,8 @@ optimisation candidate, :class:`~nlupdate.core.updating.eigensensitivity.Updatin
 * ``stopped_short`` — the same miss, but one more step would meet every weighted target: the run stopped
   within its own tolerance, which is coarser than the targets' noise (the public
   Brake–Reuss beam's resonance is known to 1.6e-6; the default frequency tolerance is 1e-4).
+  Also a run that met its tolerance at its start: it computed no sensitivity, so whether
+  its parameters can meet the targets is not known, only that its tolerance is too coarse.
 * ``unfitted_target_missed`` — a target of weight 0 missed beyond 3σ: the updated model
   does not hold where it was not fitted.
 
@@ -108,7 +110,7 @@ def misses_left_by_a_step(result: UpdatingResult, target_std_hz: ArrayLike) -> N
     the run's last sensitivity: the part of the miss no change of the run's parameters can
     remove — the model's own error. The mode-shape terms are left out, so a run that also
     weighs shapes is credited with reaching frequencies it trades against them. Without a
-    sensitivity (the start met the targets), the misses as they are."""
+    sensitivity (the start met the run's tolerance), the misses as they are: no step is known."""
     z = target_misses_sigma(result, target_std_hz)
     if result.sensitivity is None:
         return z
@@ -151,7 +153,7 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
         plural, them = ("s", "them") if len(fitted) > 1 else ("", "it")
         weighted = [i for i in range(targets.n_modes) if targets.weights[i] > 0]
         # every weighted target, not only those missed now: the step that meets these may move another past its noise
-        if any(np.abs(left[i]) > limit for i in weighted):
+        if result.sensitivity is not None and any(np.abs(left[i]) > limit for i in weighted):
             out.append(TrustWarning("targets", "targets_missed",
                                     f"misses its weighted target{plural}: {misses(fitted)}; no change of {parameters} "
                                     f"meets {them}, and the ± propagated from the targets' uncertainty leaves out this "
@@ -163,8 +165,11 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
                        if result.method == "eigensensitivity" else "tighten [optimisation] ftol and xtol")
             out.append(TrustWarning("targets", "stopped_short",
                                     f"stopped short of its target{plural}: {misses(fitted)}, within its stopping "
-                                    f"tolerance but beyond the {whose} noise: one more step of {parameters} would "
-                                    f"meet {them}, and its ± is smaller than where it stopped; {tighten}" + note, source))
+                                    f"tolerance but beyond the {whose} noise: " + (
+                                        f"one more step of {parameters} would meet {them}, and its ± is smaller than "
+                                        "where it stopped" if result.sensitivity is not None else
+                                        f"it met its tolerance at its start, before any step, so whether a change of "
+                                        f"{parameters} meets {them} is not known") + f"; {tighten}" + note, source))
     if unfitted:
         plural = "s" if len(unfitted) > 1 else ""
         out.append(TrustWarning("targets", "unfitted_target_missed",
