@@ -30,7 +30,9 @@ where the backbone falls steeply, was 1.1–2.4e-3 high on average. Where the fi
 :data:`MIN_LINES` lines, fails, or puts its vertex outside them, that parabola is taken.
 
 A fit that has not converged after :data:`MAX_EVALUATIONS` evaluations of its residual fails
-(scipy's default, 100 per coefficient, was 400). A top the tilted parabola cannot hold — the
+(scipy's ``max_nfev``, whose default, 100 per coefficient, was 400; like ``nfev`` it leaves out
+the four more evaluations of each finite-difference Jacobian, so a fit calls the residual up
+to five times as often). A top the tilted parabola cannot hold — the
 Brake–Reuss beam's 0.4886 N level, whose six lines above 0.8 of its largest zig-zag
 (0.93, 1, 0.87, 0.91, 0.88, 0.82) — sends it down a valley towards K → 0 (a kink, not a
 parabola) that it follows for all 400 evaluations before failing: 63 such fits were half the
@@ -53,8 +55,8 @@ from numpy.typing import NDArray
 TOP_SHARE = 0.8
 #: fewest lines the tilted parabola is fitted to (it has four coefficients)
 MIN_LINES = 6
-#: residual evaluations after which the tilted parabola's fit fails (module docstring: every
-#: fit whose vertex was taken needed at most 36)
+#: residual evaluations (scipy's ``max_nfev``: Jacobian evaluations not counted) after which the
+#: tilted parabola's fit fails (module docstring: every fit whose vertex was taken needed at most 36)
 MAX_EVALUATIONS = 100
 
 
