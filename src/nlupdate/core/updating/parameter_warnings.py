@@ -18,12 +18,14 @@ optimisation candidate, :class:`~nlupdate.core.updating.eigensensitivity.Updatin
   uncertainty (:mod:`nlupdate.core.updating.target_uncertainty`) exceeds the value's magnitude.
 * ``targets_missed`` — a converged run whose model misses a weighted target frequency by
   more than ``MISS_LIMIT_SIGMA`` (3) of that target's standard deviation, and would still
-  miss a weighted target (that one or another) after one more step
-  (:func:`misses_left_by_a_step`): the parameter set cannot
-  meet its targets — a model error the ± propagated from the targets leaves out. A model
-  that can meet its targets leaves residuals of the order of their noise, smaller still
-  with as many parameters as targets, so 3σ is exceeded by chance less than 0.3 % of the
-  time per target; the demo's one-parameter {E} runs miss by 323σ.
+  miss a weighted target (that one or another) after the step that minimises the misses
+  in σ (:func:`misses_left_by_a_step` weighted by 1/σ²): the parameter set cannot
+  meet its targets — a model error the ± propagated from the targets leaves out. When that
+  step meets them but the run's own weights (not ∝ 1/σ²) leave one beyond its noise, it
+  says so: the weights trade a target known finely against noisier ones. A model
+  that can meet its targets leaves, at weights 1/σ², residuals of the order of their noise,
+  smaller still with as many parameters as targets, so 3σ is exceeded by chance less than
+  0.3 % of the time per target; the demo's one-parameter {E} runs miss by 323σ.
 * ``stopped_short`` — the same miss, but one more step would meet every weighted target: the run stopped
   within its own tolerance, which is coarser than the targets' noise (the public
   Brake–Reuss beam's resonance is known to 1.6e-6; the default frequency tolerance is 1e-4).
@@ -104,13 +106,15 @@ def target_misses_sigma(result: UpdatingResult, target_std_hz: ArrayLike) -> NDA
         return np.where(sigma > 0, miss / sigma, np.nan)
 
 
-def misses_left_by_a_step(result: UpdatingResult, target_std_hz: ArrayLike) -> NDArray[np.float64]:
+def misses_left_by_a_step(result: UpdatingResult, target_std_hz: ArrayLike,
+                          weights: ArrayLike | None = None) -> NDArray[np.float64]:
     """Per target, what :func:`target_misses_sigma` would be after one more Gauss–Newton
     step on the run's weighted frequency residual (``w_i (f_i/f_t,i − 1)²``), linearised with
     the run's last sensitivity: the part of the miss no change of the run's parameters can
     remove — the model's own error. The mode-shape terms are left out, so a run that also
     weighs shapes is credited with reaching frequencies it trades against them. Without a
-    sensitivity (the start met the run's tolerance), the misses as they are: no step is known."""
+    sensitivity (the start met the run's tolerance), the misses as they are: no step is known.
+    ``weights``: the step's weights instead of the run's ``w`` (the same length)."""
     z = target_misses_sigma(result, target_std_hz)
     if result.sensitivity is None:
         return z
@@ -118,7 +122,7 @@ def misses_left_by_a_step(result: UpdatingResult, target_std_hz: ArrayLike) -> N
     n = targets.n_modes
     scale = np.array([abs(v) if v != 0 else 1.0 for v in result.parameters.values()])  # like with like
     s = np.asarray(result.sensitivity, dtype=float)[:n] * scale[None, :]
-    root_w = np.sqrt(targets.weights)
+    root_w = np.sqrt(np.asarray(targets.weights if weights is None else weights, dtype=float))
     relative = result.frequencies_hz("final") / targets.frequencies_hz - 1.0
     step = np.linalg.lstsq(s * root_w[:, None], -root_w * relative, rcond=None)[0]
     sigma = np.asarray(target_std_hz, dtype=float)
@@ -152,12 +156,23 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
         left = misses_left_by_a_step(result, target_std_hz)
         plural, them = ("s", "them") if len(fitted) > 1 else ("", "it")
         weighted = [i for i in range(targets.n_modes) if targets.weights[i] > 0]
+        # whether any change meets them: the step that minimises the misses in σ over the weighted targets
+        sigma = np.asarray(target_std_hz, dtype=float)
+        by_noise = np.array([1.0 / (sigma[i] / targets.frequencies_hz[i]) ** 2 if i in weighted and sigma[i] > 0
+                             else 0.0 for i in range(targets.n_modes)])
+        best = misses_left_by_a_step(result, target_std_hz, by_noise)
         # every weighted target, not only those missed now: the step that meets these may move another past its noise
-        if result.sensitivity is not None and any(np.abs(left[i]) > limit for i in weighted):
+        if result.sensitivity is not None and any(np.abs(best[i]) > limit for i in weighted):
             out.append(TrustWarning("targets", "targets_missed",
                                     f"misses its weighted target{plural}: {misses(fitted)}; no change of {parameters} "
                                     f"meets {them}, and the ± propagated from the targets' uncertainty leaves out this "
                                     "model error" + note, source))
+        elif result.sensitivity is not None and any(np.abs(left[i]) > limit for i in weighted):
+            out.append(TrustWarning("targets", "targets_missed",
+                                    f"misses its weighted target{plural}: {misses(fitted)}; a change of {parameters} "
+                                    f"meets every weighted target within its noise, but not at the run's weights, which "
+                                    f"trade a target known finely against others beyond its noise: weigh each target by "
+                                    f"1/(its relative std)² ([targets] weights)" + note, source))
         else:
             whose = "targets'" if plural else "target's"
             finest = min(np.asarray(target_std_hz, dtype=float)[i] / targets.frequencies_hz[i] for i in fitted)
