@@ -216,8 +216,7 @@ class IwanJoint(CycleElement):
                                  "(microslip dissipation per cycle grows as amplitude^(chi+3))"),
         ElementParameter("beta", "1", meaning="stiffness of the part of the Iwan joint that slips all at once "
                                               "over that of the rest"),
-        ElementParameter("sliders", "1", fitted=False, optional=True,
-                         meaning="number of Jenkins sliders of the Iwan joint's time-domain realisation"),
+        ElementParameter("sliders", "1", fitted=False, optional=True, meaning="sliders of its time-domain form"),
     )
     alternatives: ClassVar[dict[str, str]] = {"phi_max": "slip_force"}
     effects: ClassVar[tuple[EffectForm, ...]] = (EffectForm("microslip", joint=True, signs=(("chi", -1),), order=25),)
