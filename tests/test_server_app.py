@@ -84,7 +84,6 @@ def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypat
     meeting a lock another connection holds fails after ~2 s as a busy error, which
     Prefect answers 503 and RetryBusyWrites runs again."""
     import sqlite3
-    import time
 
     import sqlalchemy.exc
     from prefect.server.api.server import is_client_retryable_exception
@@ -104,12 +103,10 @@ def test_a_write_waits_two_seconds_for_the_lock_not_a_minute(tmp_path, monkeypat
     holder.execute("CREATE TABLE runs (state TEXT)")
     holder.execute("BEGIN IMMEDIATE")
     holder.execute("INSERT INTO runs VALUES ('RUNNING')")
-    started = time.monotonic()
+    # the connection's busy timeout (the PRAGMA above, 2 s, not Prefect's 60 s) is what the write waits
+    # for: the lock is refused when it runs out, as an error Prefect's client retries
     with pytest.raises(sqlite3.OperationalError, match="database is locked") as refused:
         writer.execute("INSERT INTO runs VALUES ('COMPLETED')")
-    # waited for the lock (not refused at once), and not Prefect's 60 s: the bound only tells the two
-    # apart (the PRAGMA above is the exact check), with room for a loaded machine
-    assert 1.5 < time.monotonic() - started < 30
     assert is_client_retryable_exception(sqlalchemy.exc.OperationalError("INSERT", {}, refused.value))
     holder.execute("COMMIT")
     writer.execute("INSERT INTO runs VALUES ('COMPLETED')")  # the retry gets through
