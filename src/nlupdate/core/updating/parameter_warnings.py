@@ -157,9 +157,9 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
         plural, them = ("s", "them") if len(fitted) > 1 else ("", "it")
         weighted = [i for i in range(targets.n_modes) if targets.weights[i] > 0]
         # whether any change meets them: the step that minimises the misses in σ over the weighted targets
-        sigma = np.asarray(target_std_hz, dtype=float)
-        by_noise = np.array([1.0 / (sigma[i] / targets.frequencies_hz[i]) ** 2 if i in weighted and sigma[i] > 0
-                             else 0.0 for i in range(targets.n_modes)])
+        relative_std = np.asarray(target_std_hz, dtype=float) / targets.frequencies_hz
+        with np.errstate(divide="ignore"):
+            by_noise = np.where((targets.weights > 0) & (relative_std > 0), 1.0 / relative_std**2, 0.0)
         best = misses_left_by_a_step(result, target_std_hz, by_noise)
         # every weighted target, not only those missed now: the step that meets these may move another past its noise
         if result.sensitivity is not None and any(np.abs(best[i]) > limit for i in weighted):
@@ -175,7 +175,7 @@ def target_miss_warnings(result: UpdatingResult, target_std_hz: ArrayLike,
                                     f"1/(its relative std)² ([targets] weights)" + note, source))
         else:
             whose = "targets'" if plural else "target's"
-            finest = min(np.asarray(target_std_hz, dtype=float)[i] / targets.frequencies_hz[i] for i in fitted)
+            finest = min(relative_std[i] for i in fitted)
             tighten = (f"set [eigensensitivity] frequency_tolerance below {finest:.2g} (the targets' relative std)"
                        if result.method == "eigensensitivity" else "tighten [optimisation] ftol and xtol")
             out.append(TrustWarning("targets", "stopped_short",
